@@ -1,0 +1,88 @@
+"""The ``sim2real`` command line: a thin layer over the library functions.
+
+Each command group lives in its own private module (``_logs``, ``_robots``, ``_sysid``,
+``_agree``, ``_envs``, ``_demo``) that exposes ``register(subparsers)``. Handlers return an
+exit code. Bad input raises one of the packages' error types; :func:`main` prints its one-line
+message to stderr and returns 2 (``--debug`` shows the traceback instead).
+
+Example
+-------
+>>> from sim2real.cli import main
+>>> main(["robots", "list"])  # doctest: +SKIP
+0
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+
+from randomizers.errors import RandomizerError
+from robots.errors import RobotsError
+from sim2real import __version__
+from sim2real.cli import _agree, _demo, _envs, _logs, _robots, _sysid
+from sim2real.cli._common import EPILOG_MAIN, HelpFormatter
+from sim2real.errors import Sim2RealError
+from sysid.errors import SysidError
+
+__all__ = ["USER_ERRORS", "build_parser", "main"]
+
+#: Exceptions that mean "bad input": printed as one sentence, exit code 2.
+USER_ERRORS: tuple[type[BaseException], ...] = (
+    Sim2RealError,
+    RobotsError,
+    SysidError,
+    RandomizerError,
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``sim2real`` command with every subcommand registered."""
+    parser = argparse.ArgumentParser(
+        prog="sim2real",
+        description="Close the sim-to-real gap of mobile-robot navigation policies.",
+        epilog=EPILOG_MAIN,
+        formatter_class=HelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"sim2real {__version__}")
+    parser.add_argument(
+        "--debug", action="store_true", help="show the full traceback on errors"
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for module in (_logs, _robots, _sysid, _agree, _envs, _demo):
+        module.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit code (0 ok, 1 gate failed, 2 bad input)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    handler: Callable[[argparse.Namespace], int] = args.handler
+    try:
+        return int(handler(args))
+    except USER_ERRORS as exc:
+        if args.debug:
+            raise
+        print(f"sim2real: error: {exc}", file=sys.stderr)
+        return 2
+    except (FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError) as exc:
+        if args.debug:
+            raise
+        name = getattr(exc, "filename", None)
+        where = f" '{name}'" if name else ""
+        print(
+            f"sim2real: error: cannot use path{where}: {exc.strerror or exc}; "
+            "check that it exists and is writable",
+            file=sys.stderr,
+        )
+        return 2
+    except KeyboardInterrupt:
+        print("sim2real: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,11 @@
+"""`sim2real robots` commands (not written yet)."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Register the `robots` command group (placeholder until its issue lands)."""

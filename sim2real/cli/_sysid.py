@@ -1,0 +1,11 @@
+"""`sim2real sysid` commands (not written yet)."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Register the `sysid` command group (placeholder until its issue lands)."""
