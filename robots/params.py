@@ -289,7 +289,9 @@ def read_params_file(path: str | Path) -> ParamsFile:
     try:
         doc = yaml.safe_load(p.read_text(encoding="utf-8"))
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise ParamsFileError(f"params file '{p}' is not valid YAML ({exc}); regenerate it") from None
+        raise ParamsFileError(
+            f"params file '{p}' is not valid YAML ({exc}); regenerate it"
+        ) from None
     if not isinstance(doc, dict) or not isinstance(doc.get("parameters"), dict):
         raise ParamsFileError(
             f"params file '{p}' has no 'parameters' mapping; it must be a file written by "
@@ -304,8 +306,7 @@ def read_params_file(path: str | Path) -> ParamsFile:
     for name, entry in doc["parameters"].items():
         if name not in known:
             raise ParamsFileError(
-                f"params file '{p}' has unknown parameter '{name}'; known ones are "
-                f"{sorted(known)}"
+                f"params file '{p}' has unknown parameter '{name}'; known ones are {sorted(known)}"
             )
         raw = entry.get("value") if isinstance(entry, dict) else entry
         values[name] = _as_float(name, raw, f"params file '{p}'")

@@ -267,7 +267,12 @@ def _check_inputs(
         raise RobotsValueError("cmd_t_s is empty; the model needs at least one command")
     if t_out_s.ndim != 1 or t_out_s.size == 0:
         raise RobotsValueError(f"t_out_s must be a non-empty 1-D array, got shape {t_out_s.shape}")
-    for name, arr in (("cmd_t_s", cmd_t_s), ("cmd_v", cmd_v), ("cmd_w", cmd_w), ("t_out_s", t_out_s)):
+    for name, arr in (
+        ("cmd_t_s", cmd_t_s),
+        ("cmd_v", cmd_v),
+        ("cmd_w", cmd_w),
+        ("t_out_s", t_out_s),
+    ):
         if not np.all(np.isfinite(arr)):
             raise RobotsValueError(f"{name} contains NaN or inf; clean the log first")
     if np.any(np.diff(cmd_t_s) < 0) or np.any(np.diff(t_out_s) < 0):

@@ -1,0 +1,182 @@
+r"""Scores that compare a simulated velocity trace with a measured one.
+
+Used by sysid (validation scores) and by :mod:`sim2real.agreement` (the agreement report).
+
+- :func:`fit_percent` — MATLAB ``compare`` FIT %:
+  :math:`100\,(1 - \lVert y - \hat y\rVert / \lVert y - \bar y\rVert)`.
+- :func:`active_mask` and :func:`agreement_fraction` — the share of *active* samples where the
+  simulated (v, w) are within tolerance of the real ones (seed paper 000 reports "over 80 %").
+- :func:`xcorr_lag_s` — the lag of the simulated trace behind the real one by cross-correlation.
+
+Example
+-------
+>>> import numpy as np
+>>> y = np.array([0.0, 1.0, 2.0, 3.0])
+>>> fit_percent(y, y)
+100.0
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sysid.errors import SysidValueError
+
+__all__ = [
+    "DEFAULT_TOL_V",
+    "DEFAULT_TOL_W",
+    "active_mask",
+    "agreement_fraction",
+    "fit_percent",
+    "rmse",
+    "xcorr_lag_s",
+]
+
+#: Default agreement tolerance on forward velocity, m/s.
+DEFAULT_TOL_V = 0.02
+#: Default agreement tolerance on yaw rate, rad/s.
+DEFAULT_TOL_W = 0.1
+#: A command is "held" (non-zero) above this magnitude (m/s or rad/s).
+CMD_EPS = 1e-3
+
+
+def _pair(y: ArrayLike, y_hat: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    a = np.asarray(y, dtype=np.float64)
+    b = np.asarray(y_hat, dtype=np.float64)
+    if a.shape != b.shape:
+        raise SysidValueError(
+            f"measured and simulated traces differ in shape: {a.shape} vs {b.shape}"
+        )
+    return a, b
+
+
+def fit_percent(y: ArrayLike, y_hat: ArrayLike) -> float:
+    r"""MATLAB ``compare`` fit: :math:`100 (1 - \lVert y-\hat y\rVert / \lVert y-\bar y\rVert)`.
+
+    100 is a perfect fit, 0 is no better than the mean, negative is worse than the mean.
+    Returns NaN when ``y`` is constant (the score is undefined).
+
+    Examples
+    --------
+    >>> fit_percent([0.0, 2.0], [0.0, 1.0])
+    29.28932188134524
+    """
+    a, b = _pair(y, y_hat)
+    denom = float(np.linalg.norm(a - a.mean())) if a.size else 0.0
+    if denom == 0.0:
+        return math.nan
+    return 100.0 * (1.0 - float(np.linalg.norm(a - b)) / denom)
+
+
+def rmse(y: ArrayLike, y_hat: ArrayLike) -> float:
+    """Root-mean-square error (same unit as the inputs); NaN for empty inputs."""
+    a, b = _pair(y, y_hat)
+    return float(np.sqrt(np.mean((a - b) ** 2))) if a.size else math.nan
+
+
+def _check_tol(name: str, tol: float) -> None:
+    if not (math.isfinite(tol) and tol > 0):
+        raise SysidValueError(f"{name} must be a finite number > 0, got {tol!r}; e.g. {name}=0.02")
+
+
+def active_mask(
+    cmd_v: ArrayLike,
+    cmd_w: ArrayLike,
+    meas_v: ArrayLike,
+    meas_w: ArrayLike,
+    *,
+    tol_v: float = DEFAULT_TOL_V,
+    tol_w: float = DEFAULT_TOL_W,
+) -> NDArray[np.bool_]:
+    """Samples where the robot is commanded to move or is moving.
+
+    A sample is active when ``|cmd_v| > 1e-3`` or ``|cmd_w| > 1e-3`` (the command held at that
+    time) or ``|meas_v| > tol_v`` or ``|meas_w| > tol_w``. Idle samples are excluded from the
+    agreement so that parked time cannot inflate it.
+    """
+    _check_tol("tol_v", tol_v)
+    _check_tol("tol_w", tol_w)
+    cv, cw = np.asarray(cmd_v, float), np.asarray(cmd_w, float)
+    mv, mw = np.asarray(meas_v, float), np.asarray(meas_w, float)
+    mask: NDArray[np.bool_] = (
+        (np.abs(cv) > CMD_EPS)
+        | (np.abs(cw) > CMD_EPS)
+        | (np.abs(mv) > tol_v)
+        | (np.abs(mw) > tol_w)
+    )
+    return mask
+
+
+def agreement_fraction(
+    err_v: ArrayLike,
+    err_w: ArrayLike,
+    active: ArrayLike,
+    *,
+    tol_v: float = DEFAULT_TOL_V,
+    tol_w: float = DEFAULT_TOL_W,
+) -> tuple[float, float, float]:
+    """Fractions of active samples within tolerance: (both axes, v only, w only).
+
+    ``err_v = v_sim - v_real`` and ``err_w = w_sim - w_real`` at the measurement times.
+    Returns NaNs when no sample is active.
+
+    Examples
+    --------
+    >>> agreement_fraction([0.0, 0.5], [0.0, 0.0], [True, True])
+    (0.5, 0.5, 1.0)
+    """
+    _check_tol("tol_v", tol_v)
+    _check_tol("tol_w", tol_w)
+    ev, ew = _pair(err_v, err_w)
+    act = np.asarray(active, dtype=bool)
+    if act.shape != ev.shape:
+        raise SysidValueError(f"active mask shape {act.shape} differs from errors {ev.shape}")
+    n = int(act.sum())
+    if n == 0:
+        return math.nan, math.nan, math.nan
+    ok_v = np.abs(ev[act]) <= tol_v
+    ok_w = np.abs(ew[act]) <= tol_w
+    return float(np.mean(ok_v & ok_w)), float(np.mean(ok_v)), float(np.mean(ok_w))
+
+
+def xcorr_lag_s(
+    t_s: ArrayLike, real: ArrayLike, sim: ArrayLike, *, max_lag_s: float = 1.0, dt_s: float = 0.01
+) -> float:
+    """Lag of ``sim`` behind ``real`` (s, positive = sim late) by cross-correlation.
+
+    Both signals are resampled on a uniform grid of step ``dt_s``, mean-removed, and the peak of
+    their cross-correlation within ``±max_lag_s`` is refined by a parabola through its
+    neighbours (sub-sample). Returns NaN when either signal is constant.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    a, b = _pair(real, sim)
+    if t.size < 3 or t[-1] - t[0] < 4 * dt_s:
+        return math.nan
+    grid = np.arange(t[0], t[-1], dt_s)
+    ra = np.interp(grid, t, a)
+    sb = np.interp(grid, t, b)
+    ra -= ra.mean()
+    sb -= sb.mean()
+    if not (np.any(ra) and np.any(sb)):
+        return math.nan
+    max_k = min(round(max_lag_s / dt_s), int(grid.size) - 2)
+    lag_list = list(range(-max_k, max_k + 1))
+    lags = np.asarray(lag_list, dtype=np.float64)
+    n = int(grid.size)
+    corr = np.array(
+        [
+            float(np.dot(ra[max(0, -k) : n - max(0, k)], sb[max(0, k) : n - max(0, -k)]))
+            for k in lag_list
+        ]
+    )
+    i = int(np.argmax(corr))
+    shift = 0.0
+    if 0 < i < lags.size - 1:
+        c0, c1, c2 = corr[i - 1], corr[i], corr[i + 1]
+        denom = c0 - 2 * c1 + c2
+        if denom != 0:
+            shift = 0.5 * (c0 - c2) / denom
+    return float((lags[i] + shift) * dt_s)
