@@ -1,0 +1,36 @@
+"""Fixtures shared by the whole test suite."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+#: ``../shared/realdata`` beside the checkout: real third-party logs, never copied into the repo.
+REALDATA_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
+
+
+@pytest.fixture(scope="session")
+def realdata_dir() -> Path:
+    """The folder of real robot logs; skips the test when it is absent."""
+    if not REALDATA_DIR.is_dir():
+        pytest.skip(f"real robot logs not found at {REALDATA_DIR} (shared/ is not beside the repo)")
+    return REALDATA_DIR
+
+
+@pytest.fixture(scope="session")
+def drexel_log(realdata_dir: Path) -> Path:
+    """TurtleBot3 Waffle Pi go-to-goal log (real, ROS 2 CDR MCAP)."""
+    path = realdata_dir / "tb3wp_drexel_goal.mcap"
+    if not path.is_file():
+        pytest.skip(f"{path} is absent")
+    return path
+
+
+@pytest.fixture(scope="session")
+def neato_log(realdata_dir: Path) -> Path:
+    """Neato teleop log (real, ROS 2 CDR MCAP)."""
+    path = realdata_dir / "neato_olin2018_teleop.mcap"
+    if not path.is_file():
+        pytest.skip(f"{path} is absent")
+    return path
