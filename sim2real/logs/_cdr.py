@@ -1,0 +1,270 @@
+"""Bulk ROS 2 CDR decoding and encoding with numpy (private).
+
+A ROS 2 message in an MCAP file is an XCDR1 "plain CDR" payload: a 4-byte encapsulation
+header (``00 01 00 00`` for little endian) followed by the fields in declaration order, each
+aligned to its own size counted from the end of that header (OMG DDS-XTypes 1.3, section
+7.4.1 and the rmw_fastrtps serializer ROS 2 uses). Strings are ``uint32`` length (including the
+terminating NUL) then the bytes.
+
+``Twist`` is a fixed 48-byte body. ``TwistStamped`` and ``Odometry`` start with a
+``std_msgs/Header`` whose ``frame_id`` string (and Odometry's ``child_frame_id``) has a
+variable length, so the offsets of the doubles behind them are computed per message with
+vectorised integer arithmetic and the doubles are then gathered in one numpy indexing step.
+The decoders read the payloads of many messages at once: ``u8`` is the buffer as uint8,
+``off`` the payload start of each message in it and ``ln`` the payload lengths.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = [
+    "CdrLayoutError",
+    "decode_odometry",
+    "decode_twist",
+    "decode_twist_stamped",
+    "encode_joint_state",
+    "encode_odometry",
+    "encode_twist",
+    "encode_twist_stamped",
+    "gather",
+    "is_little_endian",
+    "stamp_ns",
+]
+
+_LE_HEADER = b"\x00\x01\x00\x00"
+_TWIST_BYTES = 48  # 2 x Vector3 of 3 float64
+_POSE_COV_BYTES = 7 * 8 + 36 * 8  # Pose (Point + Quaternion) + float64[36]
+_TWIST_COV_BYTES = _TWIST_BYTES + 36 * 8
+_NS = 1_000_000_000
+
+
+class CdrLayoutError(Exception):
+    """Internal: message ``index`` of a batch does not fit its declared layout."""
+
+    def __init__(self, index: int, reason: str) -> None:
+        super().__init__(f"message {index} {reason}")
+        self.index = index
+        self.reason = reason
+
+
+def gather(u8: np.ndarray, offsets: np.ndarray, dtype: str) -> np.ndarray:
+    """Read one little-endian scalar of ``dtype`` at each byte offset of ``u8``.
+
+    Examples
+    --------
+    >>> u8 = np.frombuffer(np.array([1.5, 2.5]).tobytes(), dtype=np.uint8)
+    >>> gather(u8, np.array([8, 0]), "<f8")
+    array([2.5, 1.5])
+    """
+    dt = np.dtype(dtype)
+    if offsets.size == 0:
+        return np.zeros(0, dtype=dt)
+    idx = offsets[:, None] + np.arange(dt.itemsize)
+    return np.ascontiguousarray(u8[idx]).view(dt).reshape(-1).astype(dt.newbyteorder("="))
+
+
+def _need(ok: np.ndarray, reason: str) -> None:
+    if not bool(np.all(ok)):
+        raise CdrLayoutError(int(np.argmin(ok)), reason)
+
+
+def _align(rel: np.ndarray, size: int) -> np.ndarray:
+    return (rel + (size - 1)) & ~(size - 1)
+
+
+def is_little_endian(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> bool:
+    """True when every payload carries the little-endian plain-CDR header ``00 01``."""
+    _need(ln >= 4, "is shorter than the 4-byte CDR header")
+    if off.size == 0:
+        return True
+    return bool(np.all((u8[off] == 0) & (u8[off + 1] == 1)))
+
+
+def stamp_ns(sec: np.ndarray, nanosec: np.ndarray) -> np.ndarray:
+    """Nanoseconds since the epoch from ``builtin_interfaces/Time`` fields (int64)."""
+    return sec.astype(np.int64) * _NS + nanosec.astype(np.int64)
+
+
+def decode_twist(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dict[str, np.ndarray]:
+    """``geometry_msgs/msg/Twist`` payloads -> ``v`` (linear.x, m/s), ``w`` (angular.z, rad/s)."""
+    body = off + 4
+    _need(ln - 4 >= _TWIST_BYTES, "is shorter than a Twist (48 bytes after the header)")
+    return {"v": gather(u8, body, "<f8"), "w": gather(u8, body + 40, "<f8")}
+
+
+def _header(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Stamp (ns) and the body-relative offset just past ``header.frame_id``."""
+    body, size = off + 4, ln - 4
+    _need(size >= 12, "is shorter than a std_msgs/Header")
+    stamp = stamp_ns(gather(u8, body, "<i4"), gather(u8, body + 4, "<u4"))
+    rel = 12 + gather(u8, body + 8, "<u4").astype(np.int64)
+    _need(rel <= size, "has a header.frame_id longer than the message")
+    return stamp, rel
+
+
+def decode_twist_stamped(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dict[str, np.ndarray]:
+    """``geometry_msgs/msg/TwistStamped`` payloads -> ``stamp_ns``, ``v``, ``w``."""
+    stamp, rel = _header(u8, off, ln)
+    rel = _align(rel, 8)
+    _need(rel + _TWIST_BYTES <= ln - 4, "is cut short inside its twist")
+    at = off + 4 + rel
+    return {"stamp_ns": stamp, "v": gather(u8, at, "<f8"), "w": gather(u8, at + 40, "<f8")}
+
+
+def decode_odometry(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dict[str, np.ndarray]:
+    """``nav_msgs/msg/Odometry`` payloads -> ``stamp_ns``, ``v``, ``w``, ``x``, ``y``, ``qx..qw``.
+
+    ``v``/``w`` are ``twist.twist.linear.x`` / ``angular.z`` (child frame, m/s and rad/s);
+    ``x``/``y`` and the quaternion are ``pose.pose`` (header frame, m).
+    """
+    stamp, rel = _header(u8, off, ln)
+    size, body = ln - 4, off + 4
+    rel = _align(rel, 4)
+    _need(rel + 4 <= size, "is cut short before child_frame_id")
+    rel = rel + 4 + gather(u8, body + rel, "<u4").astype(np.int64)
+    pose = _align(rel, 8)
+    twist = pose + _POSE_COV_BYTES
+    _need(twist + _TWIST_COV_BYTES <= size, "is cut short inside its pose or twist")
+    p, t = body + pose, body + twist
+    out = {"stamp_ns": stamp, "v": gather(u8, t, "<f8"), "w": gather(u8, t + 40, "<f8")}
+    for i, key in enumerate(("x", "y", "z", "qx", "qy", "qz", "qw")):
+        if key != "z":
+            out[key] = gather(u8, p + 8 * i, "<f8")
+    return out
+
+
+# ---------------------------------------------------------------------------------- encoding
+
+
+def _rows(parts: Sequence[np.ndarray]) -> list[bytes]:
+    """Join per-message byte columns ``(n, k_i)`` into one payload per message."""
+    table = np.concatenate([np.ascontiguousarray(p, dtype=np.uint8) for p in parts], axis=1)
+    width = table.shape[1]
+    flat = table.tobytes()
+    return [flat[i : i + width] for i in range(0, len(flat), width)]
+
+
+def _const(n: int, raw: bytes) -> np.ndarray:
+    return np.broadcast_to(np.frombuffer(raw, dtype=np.uint8), (n, len(raw)))
+
+
+def _f64_cols(*cols: np.ndarray) -> np.ndarray:
+    mat = np.stack([np.asarray(c, dtype="<f8") for c in cols], axis=1)
+    return np.ascontiguousarray(mat).view(np.uint8).reshape(mat.shape[0], -1)
+
+
+def _stamp_cols(t_ns: np.ndarray) -> np.ndarray:
+    t = np.asarray(t_ns, dtype=np.int64)
+    sec, nsec = np.divmod(t, _NS)
+    if np.any(sec < -(2**31)) or np.any(sec >= 2**31):
+        raise OverflowError("a stamp does not fit builtin_interfaces/Time (int32 seconds)")
+    out = np.empty((t.size, 8), dtype=np.uint8)
+    out[:, :4] = sec.astype("<i4").view(np.uint8).reshape(-1, 4)
+    out[:, 4:] = nsec.astype("<u4").view(np.uint8).reshape(-1, 4)
+    return out
+
+
+def _string(text: str, rel: int, align_to: int = 4) -> tuple[bytes, int]:
+    """Padding + CDR string at body-relative offset ``rel``; returns bytes and new offset."""
+    raw = text.encode("utf-8") + b"\x00"
+    pad = (-rel) % align_to
+    blob = b"\x00" * pad + struct.pack("<I", len(raw)) + raw
+    return blob, rel + len(blob)
+
+
+def encode_twist(v: np.ndarray, w: np.ndarray) -> list[bytes]:
+    """``geometry_msgs/msg/Twist`` payloads with linear.x = v and angular.z = w (rest 0)."""
+    n = np.size(v)
+    zero = np.zeros(n)
+    return _rows([_const(n, _LE_HEADER), _f64_cols(v, zero, zero, zero, zero, w)])
+
+
+def encode_twist_stamped(
+    t_ns: np.ndarray, v: np.ndarray, w: np.ndarray, *, frame_id: str
+) -> list[bytes]:
+    """``geometry_msgs/msg/TwistStamped`` payloads stamped ``t_ns`` in frame ``frame_id``."""
+    n = np.size(v)
+    frame, rel = _string(frame_id, 8)
+    pad = b"\x00" * ((-rel) % 8)
+    zero = np.zeros(n)
+    return _rows(
+        [
+            _const(n, _LE_HEADER),
+            _stamp_cols(t_ns),
+            _const(n, frame + pad),
+            _f64_cols(v, zero, zero, zero, zero, w),
+        ]
+    )
+
+
+def encode_odometry(
+    t_ns: np.ndarray,
+    v: np.ndarray,
+    w: np.ndarray,
+    *,
+    x: np.ndarray,
+    y: np.ndarray,
+    yaw: np.ndarray,
+    frame_id: str,
+    child_frame_id: str,
+) -> list[bytes]:
+    """``nav_msgs/msg/Odometry`` payloads: planar pose (x, y, yaw) and twist (v, w).
+
+    The yaw becomes the quaternion ``(0, 0, sin(yaw/2), cos(yaw/2))``; covariances are 0.
+    """
+    n = np.size(v)
+    frame, rel = _string(frame_id, 8)
+    child, rel = _string(child_frame_id, rel)
+    pad = b"\x00" * ((-rel) % 8)
+    zero = np.zeros(n)
+    half = 0.5 * np.asarray(yaw, dtype=np.float64)
+    cov = np.zeros((n, 36 * 8), dtype=np.uint8)
+    return _rows(
+        [
+            _const(n, _LE_HEADER),
+            _stamp_cols(t_ns),
+            _const(n, frame + child + pad),
+            _f64_cols(x, y, zero, zero, zero, np.sin(half), np.cos(half)),
+            cov,
+            _f64_cols(v, zero, zero, zero, zero, w),
+            cov,
+        ]
+    )
+
+
+def encode_joint_state(
+    t_ns: int,
+    *,
+    frame_id: str,
+    names: Sequence[str],
+    position: Sequence[float],
+    velocity: Sequence[float],
+    effort: Sequence[float],
+) -> bytes:
+    """One ``sensor_msgs/msg/JointState`` payload (a plain loop: used for test logs)."""
+    sec, nsec = divmod(int(t_ns), _NS)
+    out = bytearray(_LE_HEADER + struct.pack("<iI", sec, nsec))
+    blob, rel = _string(frame_id, 8)
+    out += blob
+    blob, rel = _u32(len(names), rel)
+    out += blob
+    for name in names:
+        blob, rel = _string(name, rel)
+        out += blob
+    for values in (position, velocity, effort):
+        blob, rel = _u32(len(values), rel)
+        out += blob
+        if len(values):
+            pad = (-rel) % 8
+            out += b"\x00" * pad + struct.pack(f"<{len(values)}d", *values)
+            rel += pad + 8 * len(values)
+    return bytes(out)
+
+
+def _u32(value: int, rel: int) -> tuple[bytes, int]:
+    pad = (-rel) % 4
+    return b"\x00" * pad + struct.pack("<I", value), rel + pad + 4

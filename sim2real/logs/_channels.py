@@ -1,0 +1,116 @@
+"""Channel table and topic auto-detection (private)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim2real.errors import MissingTopicError
+from sim2real.logs._mcap import ChannelRecord, Container, SchemaRecord
+from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED, normalize_type
+
+__all__ = ["CMD_TYPES", "MEAS_TYPES", "Chan", "channel_table", "choose_topic"]
+
+#: Message types usable as commands / measurements, in order of preference.
+CMD_TYPES = (TWIST_STAMPED, TWIST)
+MEAS_TYPES = (ODOMETRY, JOINT_STATE)
+_PREFERRED = {"command": ("/cmd_vel",), "measurement": ("/odom", "/joint_states")}
+_FLAG = {
+    "command": "--cmd-topic (cmd_topic= in Python)",
+    "measurement": "--odom-topic (odom_topic= in Python)",
+}
+
+
+@dataclass(frozen=True)
+class Chan:
+    """One channel of a log with its message type and log times."""
+
+    record: ChannelRecord
+    schema: SchemaRecord | None
+    type: str
+    log_time_ns: np.ndarray
+
+    @property
+    def topic(self) -> str:
+        """The channel's topic name."""
+        return self.record.topic
+
+    @property
+    def count(self) -> int:
+        """Number of messages on the channel."""
+        return int(self.log_time_ns.size)
+
+    @property
+    def encoding(self) -> str:
+        """Message encoding (``cdr``, ``json``, ...)."""
+        return self.record.message_encoding
+
+    def describe(self) -> str:
+        """``/topic (type, N msgs)`` for messages."""
+        return f"{self.topic} ({self.type or 'no schema'}, {self.count} msgs)"
+
+
+def channel_table(container: Container) -> list[Chan]:
+    """Every channel of the container with its type and sorted log times."""
+    times: dict[int, list[np.ndarray]] = {cid: [] for cid in container.channels}
+    for seg in container.segments:
+        for cid in np.unique(seg.channel_id):
+            if int(cid) in times:
+                times[int(cid)].append(seg.log_time_ns[seg.channel_id == cid])
+    out = []
+    for cid, rec in sorted(container.channels.items()):
+        schema = container.schemas.get(rec.schema_id)
+        t = np.sort(np.concatenate(times[cid])) if times[cid] else np.zeros(0, np.int64)
+        type_name = normalize_type(schema.name) if schema is not None else ""
+        out.append(Chan(record=rec, schema=schema, type=type_name, log_time_ns=t))
+    return out
+
+
+def _listing(chans: list[Chan]) -> str:
+    return ", ".join(c.describe() for c in chans) or "none"
+
+
+def choose_topic(chans: list[Chan], role: str, explicit: str | None, *, name: str) -> Chan:
+    """Pick the command (``role="command"``) or measurement channel of a log.
+
+    An explicit topic must exist and have a usable type. Otherwise the candidates are the
+    channels of a usable type (earlier types in ``CMD_TYPES``/``MEAS_TYPES`` first), non-empty
+    ones first; a conventional name (``/cmd_vel``, ``/odom``, ``/joint_states``) wins, else the
+    only candidate; several equal candidates are an error asking for the flag.
+    """
+    types = CMD_TYPES if role == "command" else MEAS_TYPES
+    wanted = " or ".join(types)
+    flag = _FLAG[role]
+    if explicit is not None:
+        found = [c for c in chans if c.topic == explicit]
+        if not found:
+            raise MissingTopicError(
+                f"log file '{name}' has no topic '{explicit}' (asked for as the {role} topic); "
+                f"topics present: {_listing(chans)}; pick one with {flag}"
+            )
+        chan = found[0]
+        if chan.type not in types and not (chan.type == "" and chan.encoding == "json"):
+            raise MissingTopicError(
+                f"topic '{explicit}' of log file '{name}' has type '{chan.type}', but the "
+                f"{role} topic needs {wanted}; pick another with {flag}"
+            )
+        return chan
+    for type_name in types:
+        cands = [c for c in chans if c.type == type_name]
+        if not cands:
+            continue
+        full = [c for c in cands if c.count > 0] or cands
+        named = [c for c in full if c.topic in _PREFERRED[role]]
+        if named:
+            return named[0]
+        if len(full) == 1:
+            return full[0]
+        raise MissingTopicError(
+            f"log file '{name}' has several possible {role} topics ({_listing(full)}); "
+            f"choose one with {flag}"
+        )
+    raise MissingTopicError(
+        f"log file '{name}' has no {role} topic of type {wanted}; topics present: "
+        f"{_listing(chans)}; choose one with {flag}"
+    )

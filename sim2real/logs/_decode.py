@@ -1,0 +1,219 @@
+"""Decode the messages of one channel into arrays (private).
+
+CDR messages of the fixed-layout types go through the numpy bulk decoders of
+:mod:`sim2real.logs._cdr`; every other case (big-endian CDR, ``JointState``) goes through
+mcap-ros2-support's generic decoder, and JSON messages through :func:`json.loads`. All paths
+return the same keys: ``log_ns``, ``v``, ``w``, plus ``stamp_ns`` for stamped types, pose
+fields ``x``, ``y``, ``qx``, ``qy``, ``qz``, ``qw`` for Odometry, and ``left``/``right`` wheel
+speeds (rad/s) for JointState.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from sim2real.errors import LogFormatError, LogValueError
+from sim2real.logs import _cdr
+from sim2real.logs._channels import Chan
+from sim2real.logs._mcap import Container, Segment
+from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED
+
+__all__ = ["decode_channel", "infer_json_type"]
+
+_BULK: dict[str, Callable[[np.ndarray, np.ndarray, np.ndarray], dict[str, np.ndarray]]] = {
+    TWIST: _cdr.decode_twist,
+    TWIST_STAMPED: _cdr.decode_twist_stamped,
+    ODOMETRY: _cdr.decode_odometry,
+}
+_POSE_KEYS = ("x", "y", "qx", "qy", "qz", "qw")
+
+
+def decode_channel(
+    container: Container,
+    chan: Chan,
+    *,
+    name: str,
+    type_name: str,
+    wheel_joints: tuple[str, str] | None = None,
+) -> dict[str, np.ndarray]:
+    """All messages of ``chan`` as arrays (in file order, not yet sorted)."""
+    parts: list[dict[str, np.ndarray]] = []
+    for seg in container.segments:
+        mask = seg.channel_id == chan.record.id
+        if not np.any(mask):
+            continue
+        off, ln = seg.payload_off[mask], seg.payload_len[mask]
+        try:
+            part = _decode_part(seg, off, ln, chan, type_name, wheel_joints)
+        except _cdr.CdrLayoutError as exc:
+            raise LogFormatError(
+                f"message {exc.index} of topic '{chan.topic}' in log file '{name}' does not "
+                f"fit the {type_name} layout (it {exc.reason}); the file is corrupt or its "
+                "schema is wrong"
+            ) from None
+        except _BadMessage as exc:
+            raise LogFormatError(
+                f"a message of topic '{chan.topic}' in log file '{name}' cannot be decoded as "
+                f"{type_name} ({exc}); the file is corrupt or its schema is wrong"
+            ) from None
+        part["log_ns"] = seg.log_time_ns[mask]
+        parts.append(part)
+    if not parts:
+        return {"log_ns": np.zeros(0, np.int64)}
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+class _BadMessage(Exception):
+    """Internal: one message failed generic decoding."""
+
+
+def _decode_part(
+    seg: Segment,
+    off: np.ndarray,
+    ln: np.ndarray,
+    chan: Chan,
+    type_name: str,
+    wheel_joints: tuple[str, str] | None,
+) -> dict[str, np.ndarray]:
+    if chan.encoding == "cdr":
+        u8 = seg.u8
+        if type_name in _BULK and _cdr.is_little_endian(u8, off, ln):
+            return _BULK[type_name](u8, off, ln)
+        decode = _generic_cdr(chan)
+    elif chan.encoding == "json":
+        decode = _json_loads
+    else:
+        raise _BadMessage(f"message encoding '{chan.encoding}' is neither cdr nor json")
+    msgs = []
+    for o, n in zip(off.tolist(), ln.tolist(), strict=True):
+        try:
+            msgs.append(decode(seg.buf[o : o + n]))
+        except Exception as exc:  # third-party decoders raise many types on corrupt bytes
+            raise _BadMessage(f"{type(exc).__name__}: {exc}") from None
+    return _fields(msgs, type_name, wheel_joints, topic=chan.topic)
+
+
+def _generic_cdr(chan: Chan) -> Callable[[bytes], Any]:
+    from mcap.records import Schema
+    from mcap_ros2.decoder import DecoderFactory
+
+    schema = chan.schema
+    if schema is None or schema.encoding != "ros2msg":
+        raise _BadMessage("CDR messages need a ros2msg schema")
+    rec = Schema(id=schema.id, name=schema.name, encoding=schema.encoding, data=schema.data)
+    try:
+        decoder = DecoderFactory().decoder_for("cdr", rec)
+    except Exception as exc:  # schema text that mcap_ros2 cannot parse
+        raise _BadMessage(f"schema parse failed: {exc}") from None
+    if decoder is None:
+        raise _BadMessage("no decoder for this schema")
+    return decoder
+
+
+def _json_loads(raw: bytes) -> Any:
+    return json.loads(raw)
+
+
+def _get(obj: Any, *path: str) -> Any:
+    for key in path:
+        obj = obj[key] if isinstance(obj, dict) else getattr(obj, key)
+    return obj
+
+
+def _stamp(obj: Any) -> int:
+    stamp = _get(obj, "header", "stamp")
+    if isinstance(stamp, dict):
+        sec = stamp.get("sec", stamp.get("secs"))
+        nsec = stamp.get("nanosec", stamp.get("nsec", stamp.get("nsecs")))
+        if sec is None or nsec is None:
+            raise KeyError("header.stamp.sec/nanosec")
+        return int(sec) * 1_000_000_000 + int(nsec)
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def _floats(msgs: Sequence[Any], *path: str) -> np.ndarray:
+    return np.array([float(_get(m, *path)) for m in msgs], dtype=np.float64)
+
+
+def _fields(
+    msgs: Sequence[Any], type_name: str, wheel_joints: tuple[str, str] | None, *, topic: str
+) -> dict[str, np.ndarray]:
+    try:
+        if type_name == TWIST:
+            return {"v": _floats(msgs, "linear", "x"), "w": _floats(msgs, "angular", "z")}
+        stamps = np.array([_stamp(m) for m in msgs], dtype=np.int64)
+        if type_name == TWIST_STAMPED:
+            return {
+                "stamp_ns": stamps,
+                "v": _floats(msgs, "twist", "linear", "x"),
+                "w": _floats(msgs, "twist", "angular", "z"),
+            }
+        if type_name == ODOMETRY:
+            out = {
+                "stamp_ns": stamps,
+                "v": _floats(msgs, "twist", "twist", "linear", "x"),
+                "w": _floats(msgs, "twist", "twist", "angular", "z"),
+            }
+            for key, leaf in zip(_POSE_KEYS, ("x", "y", "x", "y", "z", "w"), strict=True):
+                part = "position" if key in ("x", "y") else "orientation"
+                out[key] = _floats(msgs, "pose", "pose", part, leaf)
+            return out
+        if type_name == JOINT_STATE:
+            left, right = _wheel_speeds(msgs, wheel_joints, topic)
+            return {"stamp_ns": stamps, "left": left, "right": right}
+    except (KeyError, AttributeError, TypeError, ValueError, OverflowError) as exc:
+        raise _BadMessage(f"missing or non-numeric field: {exc}") from None
+    raise _BadMessage(f"type '{type_name}' is not supported")
+
+
+def _pick_joint(names: Sequence[str], side: str) -> str | None:
+    hits = [n for n in names if side in n.lower()]
+    wheels = [n for n in hits if "wheel" in n.lower()]
+    for group in (wheels, hits):
+        if len(group) == 1:
+            return group[0]
+    return None
+
+
+def _wheel_speeds(
+    msgs: Sequence[Any], wheel_joints: tuple[str, str] | None, topic: str
+) -> tuple[np.ndarray, np.ndarray]:
+    left = np.empty(len(msgs))
+    right = np.empty(len(msgs))
+    for i, m in enumerate(msgs):
+        names = [str(n) for n in _get(m, "name")]
+        vel = [float(x) for x in _get(m, "velocity")]
+        lname, rname = wheel_joints or (_pick_joint(names, "left"), _pick_joint(names, "right"))
+        if lname not in names or rname not in names or len(vel) != len(names):
+            raise LogValueError(
+                f"JointState message {i} of topic '{topic}' has joints {names} with "
+                f"{len(vel)} velocities, so the left/right wheel speeds ({lname}, {rname}) "
+                "cannot be read; pass wheel_joints=(left, right) naming two joints with "
+                "velocities"
+            )
+        left[i], right[i] = vel[names.index(lname)], vel[names.index(rname)]
+    return left, right
+
+
+def infer_json_type(raw: bytes) -> str:
+    """Guess the ROS type of a schema-less JSON message from its keys ("" when unknown)."""
+    try:
+        obj = json.loads(raw)
+    except ValueError:
+        return ""
+    if not isinstance(obj, dict):
+        return ""
+    keys = set(obj)
+    if {"header", "pose", "twist"} <= keys:
+        return ODOMETRY
+    if {"header", "twist"} <= keys:
+        return TWIST_STAMPED
+    if {"linear", "angular"} <= keys:
+        return TWIST
+    if {"name", "velocity"} <= keys:
+        return JOINT_STATE
+    return ""

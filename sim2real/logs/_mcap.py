@@ -1,0 +1,318 @@
+"""Low-level MCAP container scan (private): records, chunks and message offsets.
+
+The scan walks the records of the file itself (``opcode u8, length u64, body``, MCAP spec
+"Records") instead of going through :class:`mcap.reader.McapReader`, for two reasons: message
+records are located with one light loop per chunk and their fields gathered with numpy (no
+Python object per message), and every length is checked against the bytes that are really
+there, so a truncated or corrupt file gives a precise error instead of a short read.
+
+Integrity: chunk CRCs (``uncompressed_crc``) and the data-section CRC (``DataEnd``) are checked
+when the writer filled them in (non-zero). Without a data CRC the message count is checked
+against the ``Statistics`` record of the summary when there is one.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sim2real.errors import LogFormatError
+from sim2real.logs._cdr import gather
+
+__all__ = ["MAGIC", "ChannelRecord", "Container", "SchemaRecord", "Segment", "scan_mcap"]
+
+MAGIC = b"\x89MCAP0\r\n"
+
+_HEADER, _FOOTER, _SCHEMA, _CHANNEL, _MESSAGE, _CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
+_STATISTICS, _DATA_END = 0x0B, 0x0F
+_MESSAGE_FIXED = 22  # channel_id u16, sequence u32, log_time u64, publish_time u64
+_OP_LEN = struct.Struct("<BQ")
+
+
+@dataclass(frozen=True)
+class SchemaRecord:
+    """One MCAP Schema record."""
+
+    id: int
+    name: str
+    encoding: str
+    data: bytes
+
+
+@dataclass(frozen=True)
+class ChannelRecord:
+    """One MCAP Channel record."""
+
+    id: int
+    schema_id: int
+    topic: str
+    message_encoding: str
+
+
+@dataclass
+class Segment:
+    """Message records found in one buffer (a chunk's records or the file's data section).
+
+    ``payload_off`` and ``payload_len`` locate each message's payload inside ``buf``.
+    """
+
+    buf: bytes
+    channel_id: np.ndarray
+    log_time_ns: np.ndarray
+    payload_off: np.ndarray
+    payload_len: np.ndarray
+
+    @property
+    def u8(self) -> np.ndarray:
+        """The buffer as a read-only uint8 array (no copy)."""
+        return np.frombuffer(self.buf, dtype=np.uint8)
+
+
+@dataclass
+class Container:
+    """What a scan of an MCAP file found."""
+
+    profile: str = ""
+    library: str = ""
+    schemas: dict[int, SchemaRecord] = field(default_factory=dict)
+    channels: dict[int, ChannelRecord] = field(default_factory=dict)
+    segments: list[Segment] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    def message_count(self) -> int:
+        """Total number of message records found."""
+        return int(sum(s.channel_id.size for s in self.segments))
+
+
+class _Corrupt(Exception):
+    """Internal: a record breaks the format rules (turned into LogFormatError by the caller)."""
+
+
+class _Cursor:
+    """Bounded little-endian reader over ``buf[pos:end]``; overruns raise ``_Corrupt``."""
+
+    def __init__(self, buf: bytes, pos: int, end: int) -> None:
+        self.buf, self.pos, self.end = buf, pos, end
+
+    def take(self, n: int) -> bytes:
+        if n < 0 or self.pos + n > self.end:
+            raise _Corrupt(f"a field of {n} bytes runs past its record end")
+        out = self.buf[self.pos : self.pos + n]
+        self.pos += n
+        return out
+
+    def u16(self) -> int:
+        return int(struct.unpack("<H", self.take(2))[0])
+
+    def u32(self) -> int:
+        return int(struct.unpack("<I", self.take(4))[0])
+
+    def u64(self) -> int:
+        return int(struct.unpack("<Q", self.take(8))[0])
+
+    def string(self) -> str:
+        raw = self.take(self.u32())
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise _Corrupt("a string field is not valid UTF-8") from exc
+
+
+def _schema(buf: bytes, pos: int, end: int) -> SchemaRecord:
+    c = _Cursor(buf, pos, end)
+    sid, name, enc = c.u16(), c.string(), c.string()
+    return SchemaRecord(id=sid, name=name, encoding=enc, data=c.take(c.u32()))
+
+
+def _channel(buf: bytes, pos: int, end: int) -> ChannelRecord:
+    c = _Cursor(buf, pos, end)
+    cid, sid, topic, enc = c.u16(), c.u16(), c.string(), c.string()
+    return ChannelRecord(id=cid, schema_id=sid, topic=topic, message_encoding=enc)
+
+
+def _decompress(compression: str, data: bytes, size: int) -> bytes:
+    if compression == "":
+        return data
+    try:
+        if compression == "zstd":
+            import zstandard
+
+            return bytes(zstandard.ZstdDecompressor().decompress(data, max_output_size=size))
+        if compression == "lz4":
+            import lz4.frame  # type: ignore[import-untyped]
+
+            return bytes(lz4.frame.decompress(data))
+    except Exception as exc:  # the codecs raise their own error types on corrupt input
+        raise _Corrupt(f"its {compression} data does not decompress ({exc})") from exc
+    raise _Corrupt(f"it uses compression '{compression}', which is not zstd, lz4 or none")
+
+
+def _chunk_records(buf: bytes, pos: int, end: int) -> bytes:
+    c = _Cursor(buf, pos, end)
+    c.take(16)  # message start/end time
+    size, crc = c.u64(), c.u32()
+    compression = c.string()
+    data = _decompress(compression, c.take(c.u64()), size)
+    if len(data) != size:
+        raise _Corrupt(f"it holds {len(data)} bytes of records but says {size}")
+    if crc != 0 and zlib.crc32(data) != crc:
+        raise _Corrupt("its CRC does not match its records")
+    return data
+
+
+def _segment(buf: bytes, starts: list[int]) -> Segment:
+    """Gather the fixed message fields of the message records starting at ``starts``."""
+    u8 = np.frombuffer(buf, dtype=np.uint8)
+    pos = np.asarray(starts, dtype=np.int64)
+    length = gather(u8, pos + 1, "<u8").astype(np.int64)
+    if np.any(length < _MESSAGE_FIXED):
+        raise _Corrupt("a message record is shorter than its fixed fields")
+    body = pos + 9
+    return Segment(
+        buf=buf,
+        channel_id=gather(u8, body, "<u2").astype(np.int64),
+        log_time_ns=gather(u8, body + 6, "<u8").astype(np.int64),
+        payload_off=body + _MESSAGE_FIXED,
+        payload_len=length - _MESSAGE_FIXED,
+    )
+
+
+def _scan_chunk(buf: bytes, out: Container) -> None:
+    """Walk the records inside one decompressed chunk."""
+    pos, n, starts = 0, len(buf), []
+    unpack = _OP_LEN.unpack_from
+    while pos < n:
+        if pos + 9 > n:
+            raise _Corrupt("a record inside it is cut short")
+        op, length = unpack(buf, pos)
+        end = pos + 9 + length
+        if end > n:
+            raise _Corrupt("a record inside it runs past the chunk end")
+        if op == _MESSAGE:
+            starts.append(pos)
+        elif op == _SCHEMA:
+            _add_schema(out, _schema(buf, pos + 9, end))
+        elif op == _CHANNEL:
+            _add_channel(out, _channel(buf, pos + 9, end))
+        pos = end
+    if starts:
+        out.segments.append(_segment(buf, starts))
+
+
+def _add_schema(out: Container, rec: SchemaRecord) -> None:
+    old = out.schemas.get(rec.id)
+    if old is not None and old != rec:
+        raise _Corrupt(f"schema id {rec.id} is defined twice with different content")
+    out.schemas[rec.id] = rec
+
+
+def _add_channel(out: Container, rec: ChannelRecord) -> None:
+    old = out.channels.get(rec.id)
+    if old is not None and old != rec:
+        raise _Corrupt(f"channel id {rec.id} is defined twice with different content")
+    out.channels[rec.id] = rec
+
+
+def scan_mcap(data: bytes, *, name: str) -> Container:
+    """Scan the bytes of an MCAP file; raise :class:`LogFormatError` when they are not safe.
+
+    A file cut short (a recorder killed mid-write) keeps every complete record before the cut,
+    with a warning; any other broken record makes the whole file unusable.
+    """
+    if len(data) == 0:
+        raise LogFormatError(
+            f"log file '{name}' is empty (0 bytes); record a log or pick another file"
+        )
+    if data[: len(MAGIC)] != MAGIC:
+        raise LogFormatError(
+            f"log file '{name}' is not an MCAP file (its first bytes are {data[:8]!r}, an MCAP "
+            f"file starts with {MAGIC!r}); convert it with `ros2 bag convert` or "
+            "`rosbags-convert --dst-storage mcap`"
+        )
+    out, pos, n = Container(), len(MAGIC), len(data)
+    top_starts: list[int] = []
+    data_end: int | None = None
+    data_crc = 0
+    stats_count: int | None = None
+    while True:
+        if pos + 9 > n:
+            _truncated(out, name, pos, n, data_end)
+            break
+        op, length = _OP_LEN.unpack_from(data, pos)
+        end = pos + 9 + length
+        if end > n:
+            _truncated(out, name, pos, n, data_end)
+            break
+        try:
+            if data_end is None:
+                data_crc = _data_record(data, op, pos, end, out, top_starts)
+            elif op == _STATISTICS:
+                stats_count = _Cursor(data, pos + 9, end).u64()
+        except _Corrupt as exc:
+            raise LogFormatError(
+                f"log file '{name}' is corrupt: the record at byte {pos} is broken ({exc}); "
+                "the file cannot be read safely, re-export or re-record it"
+            ) from None
+        if op == _DATA_END and data_end is None:
+            data_end = pos
+            if data_crc != 0 and zlib.crc32(data[:pos]) != data_crc:
+                raise LogFormatError(
+                    f"log file '{name}' is corrupt: its data section does not match its CRC; "
+                    "the file cannot be read safely, re-export or re-record it"
+                )
+        if op == _FOOTER:
+            break
+        pos = end
+    if top_starts:
+        out.segments.append(_segment_safe(data, top_starts, name))
+    if data_end is not None and data_crc == 0 and stats_count is not None:
+        found = out.message_count()
+        if found != stats_count:
+            raise LogFormatError(
+                f"log file '{name}' is corrupt: its summary counts {stats_count} messages but "
+                f"its data section holds {found}; re-export or re-record it"
+            )
+    return out
+
+
+def _segment_safe(data: bytes, starts: list[int], name: str) -> Segment:
+    try:
+        return _segment(data, starts)
+    except _Corrupt as exc:
+        raise LogFormatError(f"log file '{name}' is corrupt ({exc}); re-export it") from None
+
+
+def _data_record(
+    data: bytes, op: int, pos: int, end: int, out: Container, top_starts: list[int]
+) -> int:
+    """Handle one record of the data section; return the data CRC when it is DataEnd."""
+    if op == _MESSAGE:
+        top_starts.append(pos)
+    elif op == _CHUNK:
+        _scan_chunk(_chunk_records(data, pos + 9, end), out)
+    elif op == _SCHEMA:
+        _add_schema(out, _schema(data, pos + 9, end))
+    elif op == _CHANNEL:
+        _add_channel(out, _channel(data, pos + 9, end))
+    elif op == _HEADER:
+        c = _Cursor(data, pos + 9, end)
+        out.profile, out.library = c.string(), c.string()
+    elif op == _DATA_END:
+        return _Cursor(data, pos + 9, end).u32()
+    return 0
+
+
+def _truncated(out: Container, name: str, pos: int, n: int, data_end: int | None) -> None:
+    if data_end is not None:
+        out.warnings.append(
+            f"log file '{name}' ends inside its summary section (byte {pos} of {n}); "
+            "every message was read, only the index is missing"
+        )
+        return
+    out.warnings.append(
+        f"log file '{name}' is truncated at byte {n} (the recording stopped mid-write); "
+        f"read the complete records before byte {pos} and dropped the rest"
+    )

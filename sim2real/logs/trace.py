@@ -1,0 +1,234 @@
+"""The :class:`Trace` of a velocity log: commands and measured velocities as numpy arrays.
+
+Times are integer nanoseconds (``int64``) so no precision is lost on epoch stamps; the
+``*_t_s`` views are float64 seconds since :attr:`Trace.t0_ns`.
+
+Example
+-------
+>>> import numpy as np
+>>> tr = Trace(
+...     cmd_t_ns=np.array([0, 100_000_000]), cmd_v=np.array([0.2, 0.0]), cmd_w=np.zeros(2),
+...     meas_t_ns=np.array([50_000_000, 150_000_000]), meas_v=np.array([0.1, 0.2]),
+...     meas_w=np.zeros(2), meta=TraceMeta(path="x.mcap"),
+... )
+>>> tr.cmd_at_meas()[0]
+array([0.2, 0. ])
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from sim2real.errors import Sim2RealValueError
+
+__all__ = ["Trace", "TraceMeta"]
+
+_NS = 1e9
+
+
+@dataclass(frozen=True, kw_only=True)
+class TraceMeta:
+    """Where a :class:`Trace` came from and how it was read.
+
+    Attributes
+    ----------
+    path : str
+        The log file ("" for a trace built in memory).
+    sha256 : str
+        Hex SHA-256 of the file bytes.
+    cmd_topic, cmd_type, meas_topic, meas_type : str
+        Topics used for commands and measurements and their ROS 2 message types.
+    cmd_count, meas_count : int
+        Samples kept after cleaning (NaN drop, de-duplication).
+    cmd_rate_hz, meas_rate_hz : float
+        Mean sample rates, ``(n - 1) / (t_last - t_first)`` (0 with fewer than 2 samples).
+    time_source : str
+        The requested time base, ``"header"`` or ``"log"``.
+    cmd_time_source, meas_time_source : str
+        What each stream really uses (a ``Twist`` has no header, so always ``"log"``).
+    encoding : str
+        Message encoding of the measurement channel (``"cdr"`` or ``"json"``).
+    warnings : tuple of str
+        Repairs made while reading (dropped NaN samples, re-sorted or duplicate stamps, ...).
+    """
+
+    path: str = ""
+    sha256: str = ""
+    cmd_topic: str = ""
+    cmd_type: str = ""
+    meas_topic: str = ""
+    meas_type: str = ""
+    cmd_count: int = 0
+    meas_count: int = 0
+    cmd_rate_hz: float = 0.0
+    meas_rate_hz: float = 0.0
+    time_source: str = "header"
+    cmd_time_source: str = "log"
+    meas_time_source: str = "header"
+    encoding: str = "cdr"
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+
+def _frozen(a: np.ndarray | None, dtype: type, name: str) -> np.ndarray | None:
+    if a is None:
+        return None
+    arr: np.ndarray = np.array(a, dtype=dtype)  # always a private copy
+    if arr.ndim != 1:
+        raise Sim2RealValueError(f"Trace field {name} must be 1-D, got shape {arr.shape}")
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, kw_only=True)
+class Trace:
+    """Commanded and measured planar velocities of one log.
+
+    Attributes
+    ----------
+    cmd_t_ns : ndarray of int64
+        Command times (ns, sorted, unique).
+    cmd_v, cmd_w : ndarray of float64
+        Commanded forward speed (m/s) and yaw rate (rad/s).
+    meas_t_ns : ndarray of int64
+        Measurement times (ns, sorted, unique).
+    meas_v, meas_w : ndarray of float64
+        Measured forward speed (m/s) and yaw rate (rad/s).
+    pose_x, pose_y, pose_yaw : ndarray of float64 or None
+        Odometry pose at the measurement times (m, m, rad); None when the source has no pose.
+    meta : TraceMeta
+        Provenance and the warnings raised while reading.
+
+    Arrays are copied and made read-only on construction.
+    """
+
+    cmd_t_ns: np.ndarray
+    cmd_v: np.ndarray
+    cmd_w: np.ndarray
+    meas_t_ns: np.ndarray
+    meas_v: np.ndarray
+    meas_w: np.ndarray
+    pose_x: np.ndarray | None = None
+    pose_y: np.ndarray | None = None
+    pose_yaw: np.ndarray | None = None
+    meta: TraceMeta = field(default_factory=TraceMeta)
+
+    def __post_init__(self) -> None:
+        for name in ("cmd_t_ns", "meas_t_ns"):
+            object.__setattr__(self, name, _frozen(getattr(self, name), np.int64, name))
+        for name in ("cmd_v", "cmd_w", "meas_v", "meas_w", "pose_x", "pose_y", "pose_yaw"):
+            object.__setattr__(self, name, _frozen(getattr(self, name), np.float64, name))
+        self._check_lengths()
+
+    def _check_lengths(self) -> None:
+        n_cmd, n_meas = self.cmd_t_ns.size, self.meas_t_ns.size
+        for name, n in (("cmd_v", n_cmd), ("cmd_w", n_cmd), ("meas_v", n_meas), ("meas_w", n_meas)):
+            if getattr(self, name).size != n:
+                raise Sim2RealValueError(
+                    f"Trace field {name} has {getattr(self, name).size} samples but its time "
+                    f"array has {n}; give arrays of equal length"
+                )
+        poses = [self.pose_x, self.pose_y, self.pose_yaw]
+        if any(p is not None for p in poses) and not all(
+            p is not None and p.size == n_meas for p in poses
+        ):
+            raise Sim2RealValueError(
+                "Trace pose_x, pose_y and pose_yaw must all be given with one value per "
+                "measurement, or all be None"
+            )
+
+    # ------------------------------------------------------------------------ time views
+    @property
+    def t0_ns(self) -> int:
+        """Time origin: the earlier of the first command and the first measurement (ns)."""
+        firsts = [int(a[0]) for a in (self.cmd_t_ns, self.meas_t_ns) if a.size]
+        return min(firsts) if firsts else 0
+
+    @property
+    def cmd_t_s(self) -> np.ndarray:
+        """Command times in seconds since :attr:`t0_ns` (float64)."""
+        return (self.cmd_t_ns - self.t0_ns).astype(np.float64) / _NS
+
+    @property
+    def meas_t_s(self) -> np.ndarray:
+        """Measurement times in seconds since :attr:`t0_ns` (float64)."""
+        return (self.meas_t_ns - self.t0_ns).astype(np.float64) / _NS
+
+    @property
+    def duration_s(self) -> float:
+        """Seconds from :attr:`t0_ns` to the last command or measurement."""
+        lasts = [int(a[-1]) for a in (self.cmd_t_ns, self.meas_t_ns) if a.size]
+        return (max(lasts) - self.t0_ns) / _NS if lasts else 0.0
+
+    @property
+    def has_pose(self) -> bool:
+        """True when the measurement source carried a pose."""
+        return self.pose_x is not None
+
+    # ------------------------------------------------------------------------ operations
+    def cmd_at_meas(self) -> tuple[np.ndarray, np.ndarray]:
+        """Zero-order hold of the commands onto the measurement times.
+
+        The value at a measurement time ``t`` is the last command with time ``<= t``; before
+        the first command it is 0 (the robot is assumed idle).
+
+        Returns
+        -------
+        v, w : ndarray of float64
+            Held commanded speed (m/s) and yaw rate (rad/s), one per measurement.
+        """
+        idx = np.searchsorted(self.cmd_t_ns, self.meas_t_ns, side="right") - 1
+        valid = idx >= 0
+        safe = np.where(valid, idx, 0)
+        if self.cmd_t_ns.size == 0:
+            zeros = np.zeros(self.meas_t_ns.size)
+            return zeros, zeros.copy()
+        v = np.where(valid, self.cmd_v[safe], 0.0)
+        w = np.where(valid, self.cmd_w[safe], 0.0)
+        return v, w
+
+    def window(self, start_s: float, end_s: float) -> Trace:
+        """The part of the trace with times in ``[start_s, end_s)`` seconds since :attr:`t0_ns`.
+
+        The command in force at ``start_s`` (the last one before it) is kept at its own time,
+        so the zero-order hold inside the window is unchanged; the window's own ``t0_ns`` is
+        therefore that command's time when it is earlier than the first kept measurement.
+
+        Raises
+        ------
+        Sim2RealValueError
+            When the bounds are not finite, not increasing, or hold no measurement.
+        """
+        if not (np.isfinite(start_s) and np.isfinite(end_s) and end_s > start_s):
+            raise Sim2RealValueError(
+                f"window bounds must be finite with end_s > start_s, got start_s={start_s} "
+                f"and end_s={end_s}; pick seconds in [0, {self.duration_s:.3f}]"
+            )
+        t0 = self.t0_ns
+        lo, hi = t0 + round(start_s * _NS), t0 + round(end_s * _NS)
+        m0, m1 = np.searchsorted(self.meas_t_ns, [lo, hi], side="left")
+        if m1 <= m0:
+            raise Sim2RealValueError(
+                f"window [{start_s}, {end_s}) s holds no measurement (the trace spans "
+                f"0 to {self.duration_s:.3f} s); pick a window that overlaps the data"
+            )
+        c0 = max(int(np.searchsorted(self.cmd_t_ns, lo, side="right")) - 1, 0)
+        c1 = int(np.searchsorted(self.cmd_t_ns, hi, side="left"))
+        meas = slice(int(m0), int(m1))
+        cmd = slice(int(c0), int(c1))
+        pose = {
+            k: (None if getattr(self, k) is None else getattr(self, k)[meas])
+            for k in ("pose_x", "pose_y", "pose_yaw")
+        }
+        return replace(
+            self,
+            cmd_t_ns=self.cmd_t_ns[cmd],
+            cmd_v=self.cmd_v[cmd],
+            cmd_w=self.cmd_w[cmd],
+            meas_t_ns=self.meas_t_ns[meas],
+            meas_v=self.meas_v[meas],
+            meas_w=self.meas_w[meas],
+            meta=replace(self.meta, cmd_count=max(c1 - c0, 0), meas_count=int(m1 - m0)),
+            **pose,
+        )
