@@ -1,0 +1,54 @@
+"""Reference training envs from the literature, registered with gymnasium on import.
+
+- ``sim2real/CrowdNav-v0`` (:class:`CrowdNavEnv`): a TurtleBot 2 with a 2-D lidar and a depth
+  camera among pedestrians whose walking speed follows paper 000, eq. (1); three scenario
+  families and a complexity factor.
+- ``sim2real/RandomMap-v0`` (:class:`RandomMapEnv`): a TurtleBot 3 Burger crossing random maps
+  of walls and cylinders (paper 001, Table I presets).
+
+Both take ``dynamics="reduced"`` (the identified drive model in numba, pose integrated
+kinematically, exact 2-D world) or ``dynamics="pybullet"`` (the rigid-body robot of
+:mod:`robots`), expose ``control_dt`` and the drive-parameter protocol, and CrowdNav the
+camera-pose protocol of ``docs/ARCHITECTURE.md``.
+
+Example
+-------
+>>> import gymnasium as gym
+>>> import sim2real.envs
+>>> env = gym.make("sim2real/RandomMap-v0", preset="TEST2", dynamics="reduced")
+>>> obs, info = env.reset(seed=1)
+>>> env.unwrapped.control_dt
+0.1
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+from sim2real.envs.crowd_nav import SCENARIOS, CrowdNavEnv, CrowdNavReward
+from sim2real.envs.maps import PAPER_RHO_OBS, PRESETS, MapConfig, generate_map
+from sim2real.envs.metrics import EpisodeMetrics
+from sim2real.envs.random_map import RandomMapEnv, RandomMapReward
+
+__all__ = [
+    "ENV_IDS",
+    "PAPER_RHO_OBS",
+    "PRESETS",
+    "SCENARIOS",
+    "CrowdNavEnv",
+    "CrowdNavReward",
+    "EpisodeMetrics",
+    "MapConfig",
+    "RandomMapEnv",
+    "RandomMapReward",
+    "generate_map",
+]
+
+#: The registered env ids.
+ENV_IDS = ("sim2real/CrowdNav-v0", "sim2real/RandomMap-v0")
+
+# The envs end episodes themselves (metrics need the outcome), so no TimeLimit wrapper.
+if "sim2real/CrowdNav-v0" not in gym.registry:
+    gym.register(id="sim2real/CrowdNav-v0", entry_point="sim2real.envs.crowd_nav:CrowdNavEnv")
+if "sim2real/RandomMap-v0" not in gym.registry:
+    gym.register(id="sim2real/RandomMap-v0", entry_point="sim2real.envs.random_map:RandomMapEnv")

@@ -1,0 +1,240 @@
+"""Shared machinery of the navigation envs: robot back-end, lidar, goal, outcome and metrics.
+
+Subclasses build the world in :meth:`NavEnvBase._build` (called from ``reset``), may move
+things in :meth:`NavEnvBase._advance` (pedestrians), and define the observation and reward.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from robots.params import DriveParams
+from sim2real.envs._robot import DYNAMICS, RobotBackend, footprint_radius_m, make_backend
+from sim2real.envs._world import PybulletWorld
+from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, disc_clearance
+from sim2real.envs.metrics import EpisodeMetrics, MetricsTracker
+from sim2real.errors import Sim2RealValueError
+
+__all__ = ["NavEnvBase", "StepInfo", "wrap_angle"]
+
+
+def wrap_angle(a: float) -> float:
+    """Angle wrapped to (-pi, pi], rad."""
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def _load_spec(robot: str) -> Any:
+    from robots.spec import load_spec
+
+    return load_spec(robot)
+
+
+class StepInfo:
+    """Per-step quantities the subclasses' reward functions use (plain attributes)."""
+
+    __slots__ = ("clearance_m", "goal_dist_m", "outcome", "prev_goal_dist_m", "v", "w")
+
+    def __init__(
+        self,
+        *,
+        goal_dist_m: float,
+        prev_goal_dist_m: float,
+        clearance_m: float,
+        outcome: str | None,
+        v: float,
+        w: float,
+    ) -> None:
+        self.goal_dist_m = goal_dist_m
+        self.prev_goal_dist_m = prev_goal_dist_m
+        self.clearance_m = clearance_m
+        self.outcome = outcome
+        self.v = v
+        self.w = w
+
+
+class NavEnvBase(gym.Env):  # type: ignore[type-arg]
+    """Base of :class:`~sim2real.envs.RandomMapEnv` and :class:`~sim2real.envs.CrowdNavEnv`."""
+
+    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
+
+    def __init__(
+        self,
+        *,
+        robot: str,
+        dynamics: str,
+        control_dt: float,
+        max_episode_steps: int,
+        goal_tolerance_m: float,
+        drive_params: DriveParams | None,
+        needs_world: bool,
+    ) -> None:
+        super().__init__()
+        if dynamics not in DYNAMICS:
+            raise Sim2RealValueError(
+                f"dynamics must be one of {', '.join(DYNAMICS)}, got {dynamics!r}; "
+                "use 'reduced' (fast) or 'pybullet' (full rigid-body robot)"
+            )
+        if not (
+            isinstance(control_dt, int | float) and math.isfinite(control_dt) and control_dt > 0
+        ):
+            raise Sim2RealValueError(
+                f"control_dt must be a finite number of seconds > 0, got {control_dt!r}; "
+                "the default is 0.1"
+            )
+        if not (isinstance(max_episode_steps, int) and max_episode_steps >= 1):
+            raise Sim2RealValueError(
+                f"max_episode_steps must be an integer >= 1, got {max_episode_steps!r}"
+            )
+        if drive_params is not None and not isinstance(drive_params, DriveParams):
+            raise Sim2RealValueError(
+                f"drive_params must be a robots.DriveParams, got {type(drive_params).__name__}"
+            )
+        self.robot_spec = _load_spec(robot)
+        self.dynamics = dynamics
+        #: Control period, s (the randomizers read ``env.unwrapped.control_dt``).
+        self.control_dt = float(control_dt)
+        self.max_episode_steps = int(max_episode_steps)
+        self.goal_tolerance_m = float(goal_tolerance_m)
+        self.robot_radius_m = footprint_radius_m(self.robot_spec)
+        self._world = PybulletWorld() if (needs_world or dynamics == "pybullet") else None
+        params = drive_params if drive_params is not None else self.robot_spec.drive
+        self._backend: RobotBackend = make_backend(
+            dynamics,
+            self.robot_spec,
+            params,
+            client=None if self._world is None else self._world.client,
+        )
+        self._tracker = MetricsTracker(control_dt_s=self.control_dt)
+        self._scene = Scene2D.build()
+        self._goal = np.zeros(2)
+        self._prev_goal_dist = 0.0
+        self._done = False
+        self._last_action = np.zeros(2)
+
+    # ------------------------------------------------------------------ protocols
+    def get_drive_params(self) -> DriveParams:
+        """The drive parameters the robot uses now (``robots.DriveParams``)."""
+        return self._backend.get_drive_params()
+
+    def set_drive_params(self, params: DriveParams) -> None:
+        """Use ``params`` from the next step on (e.g. a randomizer's draw)."""
+        if not isinstance(params, DriveParams):
+            raise Sim2RealValueError(
+                f"set_drive_params needs a robots.DriveParams, got {type(params).__name__}"
+            )
+        self._backend.set_drive_params(params)
+
+    # ------------------------------------------------------------------ hooks
+    def _build(self, options: dict[str, Any]) -> tuple[float, float, float]:
+        """Build the world for a new episode; return the start pose (x, y, yaw)."""
+        raise NotImplementedError
+
+    def _advance(self, dt_s: float) -> None:
+        """Move the dynamic parts of the world by ``dt_s`` (after the robot moved)."""
+
+    def _dynamic_scene(self) -> Scene2D:
+        """Static scene plus whatever moves (pedestrians)."""
+        return self._scene
+
+    def _observation(self) -> Any:
+        raise NotImplementedError
+
+    def _reward(self, s: StepInfo) -> float:
+        raise NotImplementedError
+
+    def _extra_info(self) -> dict[str, Any]:
+        return {}
+
+    # ------------------------------------------------------------------ helpers
+    def _lidar_ranges(self, scene: Scene2D, angles_body_rad: FloatArray) -> FloatArray:
+        """Ranges from the lidar mount along body-frame angles; outside [min, max] -> max."""
+        x, y, yaw = self._backend.pose
+        lid = self.robot_spec.lidar
+        c, s = math.cos(yaw), math.sin(yaw)
+        origin = np.array(
+            [x + c * lid.xyz_m[0] - s * lid.xyz_m[1], y + s * lid.xyz_m[0] + c * lid.xyz_m[1]]
+        )
+        r = cast_rays(scene, origin, angles_body_rad + yaw, lid.range_max_m)
+        return np.where(r < lid.range_min_m, lid.range_max_m, r)
+
+    def _goal_polar(self) -> tuple[float, float]:
+        """Goal distance (m) and bearing in the base frame (rad)."""
+        x, y, yaw = self._backend.pose
+        dx, dy = self._goal[0] - x, self._goal[1] - y
+        return math.hypot(dx, dy), wrap_angle(math.atan2(dy, dx) - yaw)
+
+    def _clearance(self) -> float:
+        x, y, _ = self._backend.pose
+        return disc_clearance(self._dynamic_scene(), np.array([x, y]), self.robot_radius_m)
+
+    # ------------------------------------------------------------------ gym API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        super().reset(seed=seed)
+        x, y, yaw = self._build(dict(options or {}))
+        self._backend.reset(x, y, yaw)
+        self._tracker.reset(x, y)
+        self._prev_goal_dist = self._goal_polar()[0]
+        self._done = False
+        self._last_action = np.zeros(2)
+        info = {"outcome": None, **self._extra_info()}
+        return self._observation(), info
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != (2,) or not np.all(np.isfinite(a)):
+            raise Sim2RealValueError(
+                f"action must be 2 finite numbers (v [m/s], w [rad/s]), got {action!r}"
+            )
+        if self._done:
+            raise Sim2RealValueError("step() called after the episode ended; call reset() first")
+        space = self.action_space
+        a = np.clip(a, space.low, space.high)  # type: ignore[attr-defined]
+        v, w = self._backend.step(float(a[0]), float(a[1]), self.control_dt)
+        self._advance(self.control_dt)
+        x, y, _ = self._backend.pose
+        self._tracker.record(x=x, y=y, v=v, w=w)
+        obs = self._observation()
+        d_goal, _ = self._goal_polar()
+        clearance = self._clearance()
+        outcome: str | None = None
+        if clearance <= 0.0:
+            outcome = "collision"
+        elif d_goal < self.goal_tolerance_m:
+            outcome = "success"
+        elif self._tracker.steps >= self.max_episode_steps:
+            outcome = "timeout"
+        s = StepInfo(
+            goal_dist_m=d_goal,
+            prev_goal_dist_m=self._prev_goal_dist,
+            clearance_m=clearance,
+            outcome=outcome,
+            v=v,
+            w=w,
+        )
+        reward = float(self._reward(s))
+        self._prev_goal_dist = d_goal
+        self._last_action = a
+        info: dict[str, Any] = {"outcome": None, "clearance_m": clearance, **self._extra_info()}
+        if outcome is not None:
+            self._done = True
+            metrics: EpisodeMetrics = self._tracker.finish(outcome)
+            info["outcome"] = self._outcome_name(outcome)
+            info["metrics"] = metrics.to_dict()
+        terminated = outcome in ("collision", "success")
+        truncated = outcome == "timeout"
+        return obs, reward, terminated, truncated, info
+
+    def _outcome_name(self, outcome: str) -> str:
+        return outcome
+
+    def close(self) -> None:
+        if self._world is not None:
+            self._world.close()
+            self._world = None
+        super().close()

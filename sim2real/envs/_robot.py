@@ -1,0 +1,181 @@
+"""The two robot back-ends of the envs: the reduced drive model or the full pybullet robot.
+
+Both take a :class:`robots.spec.RobotSpec` and expose the same small interface: ``reset``,
+``step(cmd_v, cmd_w, duration_s) -> (v, w)``, ``pose`` (x, y, yaw), ``velocity`` (v, w) and the
+drive-parameter protocol. ``"reduced"`` integrates the pose kinematically from the drive
+model's velocity (exact circular arcs over sub-steps of at most ``substep_s``); ``"pybullet"``
+steps the rigid-body robot of :mod:`robots` and reads its pose.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Protocol
+
+from robots.params import DriveParams
+from robots.reduced import ReducedDrive
+from sim2real.errors import Sim2RealValueError
+
+__all__ = ["DYNAMICS", "RobotBackend", "footprint_radius_m", "make_backend"]
+
+#: The dynamics back-ends an env accepts.
+DYNAMICS = ("reduced", "pybullet")
+
+
+def footprint_radius_m(spec: Any) -> float:
+    """Radius of the disc about the base origin that contains the base body and the wheels, m."""
+    body = spec.body
+    if body.shape == "cylinder":
+        r_body = math.hypot(body.xyz_m[0], body.xyz_m[1]) + 0.5 * body.size_m[0]
+    else:
+        hx, hy = 0.5 * body.size_m[0], 0.5 * body.size_m[1]
+        r_body = max(
+            math.hypot(body.xyz_m[0] + sx * hx, body.xyz_m[1] + sy * hy)
+            for sx in (-1, 1)
+            for sy in (-1, 1)
+        )
+    w = spec.wheels
+    r_wheel = math.hypot(w.radius_m, 0.5 * (w.separation_m + w.width_m))
+    return max(r_body, r_wheel)
+
+
+class RobotBackend(Protocol):
+    """What the envs need from a robot back-end."""
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """(x [m], y [m], yaw [rad]) in the world frame."""
+        ...
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        """Measured (v [m/s], w [rad/s]) in the base frame."""
+        ...
+
+    def reset(self, x: float, y: float, yaw: float) -> None:
+        """Place the robot at rest."""
+
+    def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
+        """Apply the command for ``duration_s``; return the measured (v, w)."""
+        ...
+
+    def get_drive_params(self) -> DriveParams:
+        """The drive parameters in use."""
+        ...
+
+    def set_drive_params(self, params: DriveParams) -> None:
+        """Replace the drive parameters (takes effect at the next step)."""
+
+    def close(self) -> None:
+        """Release resources."""
+
+
+class ReducedBackend:
+    """Reduced drive model (numba) + kinematic pose integration."""
+
+    def __init__(self, spec: Any, params: DriveParams, *, substep_s: float = 0.02) -> None:
+        self._drive = ReducedDrive(params, spec.geometry)
+        self._substep_s = substep_s
+        self._pose = (0.0, 0.0, 0.0)
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        return self._pose
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        return self._drive.velocity
+
+    def reset(self, x: float, y: float, yaw: float) -> None:
+        self._drive.reset()
+        self._pose = (float(x), float(y), float(yaw))
+
+    def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
+        n = max(1, math.ceil(duration_s / self._substep_s - 1e-9))
+        h = duration_s / n
+        x, y, yaw = self._pose
+        v0, w0 = self._drive.velocity
+        for _ in range(n):
+            v1, w1 = self._drive.step(cmd_v, cmd_w, h)
+            v, w = 0.5 * (v0 + v1), 0.5 * (w0 + w1)
+            dth = w * h
+            if abs(dth) < 1e-9:
+                x += v * h * math.cos(yaw + 0.5 * dth)
+                y += v * h * math.sin(yaw + 0.5 * dth)
+            else:
+                x += v / w * (math.sin(yaw + dth) - math.sin(yaw))
+                y -= v / w * (math.cos(yaw + dth) - math.cos(yaw))
+            yaw = math.atan2(math.sin(yaw + dth), math.cos(yaw + dth))
+            v0, w0 = v1, w1
+        self._pose = (x, y, yaw)
+        return self._drive.velocity
+
+    def get_drive_params(self) -> DriveParams:
+        return self._drive.params
+
+    def set_drive_params(self, params: DriveParams) -> None:
+        self._drive.params = params
+
+    def close(self) -> None:
+        pass
+
+
+class PybulletBackend:
+    """The rigid-body pybullet robot of :mod:`robots` (``robots.PybulletRobot``)."""
+
+    def __init__(
+        self, spec: Any, params: DriveParams, *, client: int, physics_hz: float = 240.0
+    ) -> None:
+        from robots import PybulletRobot  # type: ignore[attr-defined]
+
+        self._robot = PybulletRobot(
+            spec, client=client, params=params, physics_hz=physics_hz, start_pose=(0.0, 0.0, 0.0)
+        )
+
+    @property
+    def body_id(self) -> int:
+        """pybullet body id of the robot."""
+        return int(self._robot.body_id)
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        x, y, yaw = self._robot.pose
+        return float(x), float(y), float(yaw)
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        v, w = self._robot.velocity
+        return float(v), float(w)
+
+    def reset(self, x: float, y: float, yaw: float) -> None:
+        self._robot.reset(x, y, yaw)
+
+    def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
+        v, w = self._robot.step(cmd_v, cmd_w, duration_s)
+        return float(v), float(w)
+
+    def get_drive_params(self) -> DriveParams:
+        params: DriveParams = self._robot.get_drive_params()
+        return params
+
+    def set_drive_params(self, params: DriveParams) -> None:
+        self._robot.set_drive_params(params)
+
+    def close(self) -> None:
+        pass
+
+
+def make_backend(
+    dynamics: str, spec: Any, params: DriveParams, *, client: int | None = None
+) -> RobotBackend:
+    """The back-end called ``dynamics`` (one of :data:`DYNAMICS`)."""
+    if dynamics == "reduced":
+        return ReducedBackend(spec, params)
+    if dynamics == "pybullet":
+        if client is None:
+            raise Sim2RealValueError("dynamics='pybullet' needs a pybullet client")
+        return PybulletBackend(spec, params, client=client)
+    raise Sim2RealValueError(
+        f"dynamics must be one of {', '.join(DYNAMICS)}, got {dynamics!r}; "
+        "use 'reduced' (fast) or 'pybullet' (full rigid-body robot)"
+    )

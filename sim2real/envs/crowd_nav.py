@@ -1,0 +1,9 @@
+SCENARIOS = ("static",)
+
+
+class CrowdNavEnv:
+    pass
+
+
+class CrowdNavReward:
+    pass

@@ -1,0 +1,172 @@
+r"""Exact 2-D geometry of the env worlds: ray casting and distances against discs and segments.
+
+The worlds of :mod:`sim2real.envs` are vertical extrusions (cylinders, walls, pedestrian discs)
+on a flat floor, so a horizontal 2-D lidar sees exactly the 2-D cross-section: casting rays
+against circles and line segments in the plane is exact, and vectorised numpy does it about
+two orders of magnitude faster than pybullet's ``rayTestBatch`` (see
+``benchmarks/bench_envs.py``).
+
+A ray :math:`p + t\,d` (:math:`|d| = 1`) meets the circle :math:`|x - c| = r` at the smaller
+root :math:`t = -b - \sqrt{b^2 - q}` with :math:`b = (p - c)\cdot d`,
+:math:`q = |p - c|^2 - r^2`, and the segment :math:`a + s\,e` (:math:`s \in [0, 1]`) at
+:math:`t = ((a - p)\times e)/(d \times e)`, :math:`s = ((a - p)\times d)/(d \times e)`.
+
+Example
+-------
+>>> import numpy as np
+>>> from sim2real.envs.geometry import Scene2D, cast_rays
+>>> scene = Scene2D.build(circles=[(2.0, 0.0, 0.5)])
+>>> cast_rays(scene, np.zeros(2), np.array([0.0, np.pi]), max_range_m=5.0).round(3)
+array([1.5, 5. ])
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "FloatArray",
+    "Scene2D",
+    "cast_rays",
+    "cast_rays_multi",
+    "disc_clearance",
+    "point_segment_distance",
+    "rectangle_segments",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scene2D:
+    """Obstacles of a 2-D world: circles and line segments (walls are 4 segments each).
+
+    Attributes
+    ----------
+    circles_xy : ndarray, shape (C, 2)
+        Circle centres, m.
+    circles_r : ndarray, shape (C,)
+        Circle radii, m.
+    seg_a, seg_b : ndarray, shape (S, 2)
+        Segment end points, m.
+    """
+
+    circles_xy: FloatArray
+    circles_r: FloatArray
+    seg_a: FloatArray
+    seg_b: FloatArray
+
+    @classmethod
+    def build(
+        cls,
+        *,
+        circles: Sequence[tuple[float, float, float]] = (),
+        segments: Sequence[tuple[float, float, float, float]] = (),
+    ) -> Scene2D:
+        """Scene from ``(x, y, r)`` circles and ``(ax, ay, bx, by)`` segments."""
+        c = np.asarray(circles, dtype=np.float64).reshape(-1, 3)
+        s = np.asarray(segments, dtype=np.float64).reshape(-1, 4)
+        return cls(
+            circles_xy=c[:, :2].copy(), circles_r=c[:, 2].copy(), seg_a=s[:, :2], seg_b=s[:, 2:]
+        )
+
+    def with_circles(self, xy: FloatArray, r: FloatArray) -> Scene2D:
+        """The same segments plus extra circles (e.g. pedestrians at the current step)."""
+        return Scene2D(
+            circles_xy=np.concatenate([self.circles_xy, np.asarray(xy).reshape(-1, 2)]),
+            circles_r=np.concatenate([self.circles_r, np.asarray(r).reshape(-1)]),
+            seg_a=self.seg_a,
+            seg_b=self.seg_b,
+        )
+
+
+def rectangle_segments(
+    cx: float, cy: float, length_m: float, width_m: float, yaw_rad: float
+) -> FloatArray:
+    """The four sides ``(ax, ay, bx, by)`` of a rectangle centred at (cx, cy), shape (4, 4)."""
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    hl, hw = 0.5 * length_m, 0.5 * width_m
+    local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
+    corners = local @ np.array([[c, s], [-s, c]]) + np.array([cx, cy])
+    return np.hstack([corners, np.roll(corners, -1, axis=0)])
+
+
+def cast_rays_multi(
+    scene: Scene2D, origins: FloatArray, directions: FloatArray, max_range_m: float
+) -> FloatArray:
+    """Distance along each ray ``origins[i] + t * directions[i]`` to the first obstacle.
+
+    Parameters
+    ----------
+    scene : Scene2D
+        The obstacles.
+    origins, directions : ndarray, shape (R, 2)
+        Ray origins (m) and unit directions.
+    max_range_m : float
+        Returned where a ray hits nothing closer.
+
+    Returns
+    -------
+    ndarray, shape (R,)
+        Hit distances in m, ``0`` for an origin inside a circle.
+    """
+    best = np.full(origins.shape[0], float(max_range_m))
+    if scene.circles_r.size:
+        f = origins[:, None, :] - scene.circles_xy[None, :, :]  # (R, C, 2)
+        b = np.einsum("rck,rk->rc", f, directions)
+        q = np.einsum("rck,rck->rc", f, f) - scene.circles_r[None, :] ** 2
+        disc = b * b - q
+        with np.errstate(invalid="ignore"):
+            t = -b - np.sqrt(disc)
+        t = np.where(q <= 0.0, 0.0, t)  # origin inside the circle
+        ok = (disc >= 0.0) & (t >= 0.0)
+        best = np.minimum(best, np.where(ok, t, np.inf).min(axis=1))
+    if scene.seg_a.shape[0]:
+        e = scene.seg_b - scene.seg_a  # (S, 2)
+        ap = scene.seg_a[None, :, :] - origins[:, None, :]  # (R, S, 2)
+        denom = directions[:, None, 0] * e[None, :, 1] - directions[:, None, 1] * e[None, :, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (ap[..., 0] * e[None, :, 1] - ap[..., 1] * e[None, :, 0]) / denom
+            s = (ap[..., 0] * directions[:, None, 1] - ap[..., 1] * directions[:, None, 0]) / denom
+        ok = (denom != 0.0) & (t >= 0.0) & (s >= 0.0) & (s <= 1.0)
+        best = np.minimum(best, np.where(ok, t, np.inf).min(axis=1))
+    return best
+
+
+def cast_rays(
+    scene: Scene2D, origin: FloatArray, angles_rad: FloatArray, max_range_m: float
+) -> FloatArray:
+    """Distances from one ``origin`` along world-frame ``angles_rad`` (a lidar scan), m."""
+    dirs = np.stack([np.cos(angles_rad), np.sin(angles_rad)], axis=1)
+    origins = np.broadcast_to(np.asarray(origin, dtype=np.float64), dirs.shape)
+    return cast_rays_multi(scene, origins, dirs, max_range_m)
+
+
+def point_segment_distance(p: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:
+    """Distance from points ``p`` (P, 2) to segments ``a``-``b`` (S, 2); shape (P, S), m."""
+    e = b - a
+    ee = np.maximum(np.einsum("sk,sk->s", e, e), 1e-300)
+    ap = p[:, None, :] - a[None, :, :]
+    s = np.clip(np.einsum("psk,sk->ps", ap, e) / ee, 0.0, 1.0)
+    d = ap - s[..., None] * e[None, :, :]
+    result: FloatArray = np.sqrt(np.einsum("psk,psk->ps", d, d))
+    return result
+
+
+def disc_clearance(scene: Scene2D, xy: FloatArray, radius_m: float) -> float:
+    """Gap between a disc (centre ``xy``, ``radius_m``) and the nearest obstacle, m.
+
+    Negative when they overlap; ``inf`` for an empty scene.
+    """
+    p = np.asarray(xy, dtype=np.float64).reshape(1, 2)
+    gap = np.inf
+    if scene.circles_r.size:
+        d = np.hypot(*(scene.circles_xy - p).T) - scene.circles_r
+        gap = min(gap, float(d.min()))
+    if scene.seg_a.shape[0]:
+        gap = min(gap, float(point_segment_distance(p, scene.seg_a, scene.seg_b).min()))
+    return gap - radius_m

@@ -1,0 +1,318 @@
+r"""Randomised maps of walls and cylinders (paper 001, Sec. III-E, Table I).
+
+The generator is the paper's :math:`Env(d_{target}, r_{wall}, n_{min}, n_{max})`: four walls,
+each spawned with probability :math:`r_{wall}` and moved and rotated at random so that they
+form corridors of varying width and inclination, plus :math:`n \sim U[n_{min}, n_{max}]`
+cylinders placed uniformly at random (they may overlap and form larger shapes). Cylinders and
+walls keep out of a safe disc around the start and the goal.
+
+Facts taken from the paper (001) and its code: cylinders of radius 0.15 m in a 20 m x 20 m
+area, start at the origin with a random yaw, goal at :math:`(d_{target}, 0)` reached within
+0.3 m, walls 10 m x 0.15 m. Table I lists ``n_max`` before ``n_min`` and its numbers are in
+that order swapped (TRAIN "n_max 70, n_min 100"); we read each row as the range
+:math:`[\min, \max]` of the two numbers.
+
+Wall placement (our choice; the paper only says "move and rotate randomly within a certain
+range"): the four wall slots are two near walls, one on each side of the start-goal line at a
+lateral offset :math:`U[1.0, 2.5]` m, and two far walls at :math:`U[3.0, 5.0]` m; each is
+shifted along the line by :math:`U[-1.5, 1.5]` m and rotated by :math:`U[-20, 20]` degrees.
+Walls that would cut a safe disc are resampled (up to 20 times, then dropped).
+
+The obstacle density :math:`\rho_{obs}` is the fraction of the 20 m x 20 m area covered by the
+union of all obstacles (rasterised on a 2.5 cm grid, so overlapping cylinders count once).
+
+Example
+-------
+>>> import numpy as np
+>>> from sim2real.envs.maps import PRESETS, generate_map
+>>> layout = generate_map(PRESETS["TEST1"], np.random.default_rng(0))
+>>> layout.goal_xy.tolist()
+[8.0, 0.0]
+>>> 0.0 <= layout.rho_obs < 0.1
+True
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sim2real.envs.geometry import FloatArray, Scene2D, disc_clearance, rectangle_segments
+from sim2real.errors import Sim2RealValueError
+
+__all__ = [
+    "PAPER_RHO_OBS",
+    "PRESETS",
+    "MapConfig",
+    "MapLayout",
+    "generate_map",
+    "get_preset",
+    "obstacle_density",
+]
+
+_RASTER_M = 0.025
+
+BoolArray = NDArray[np.bool_]
+
+
+@dataclass(frozen=True, kw_only=True)
+class MapConfig:
+    """Parameters of the map generator :math:`Env(d_{target}, r_{wall}, n_{min}, n_{max})`.
+
+    Parameters
+    ----------
+    d_target_m : float
+        Distance from the start (origin) to the goal on the +x axis, m.
+    r_wall : float
+        Probability that each of the four walls is spawned, in [0, 1].
+    n_min, n_max : int
+        Range of the uniformly drawn number of cylinders (inclusive).
+    area_m : float
+        Side of the square area (centred on the start-goal midpoint) where cylinders go, m.
+    cylinder_radius_m : float
+        Radius of every cylinder, m.
+    wall_length_m, wall_thickness_m : float
+        Wall size, m.
+    goal_tolerance_m : float
+        The goal counts as reached within this distance, m.
+    safe_radius_m : float
+        No obstacle reaches into this disc around the start and the goal, m.
+    """
+
+    d_target_m: float = 8.0
+    r_wall: float = 0.8
+    n_min: int = 70
+    n_max: int = 100
+    area_m: float = 20.0
+    cylinder_radius_m: float = 0.15
+    wall_length_m: float = 10.0
+    wall_thickness_m: float = 0.15
+    goal_tolerance_m: float = 0.3
+    safe_radius_m: float = 0.6
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.r_wall <= 1.0:
+            raise Sim2RealValueError(
+                f"map r_wall must be in [0, 1], got {self.r_wall!r}; give a probability"
+            )
+        if not (0 <= self.n_min <= self.n_max):
+            raise Sim2RealValueError(
+                f"map cylinder counts must satisfy 0 <= n_min <= n_max, got n_min={self.n_min}, "
+                f"n_max={self.n_max}; swap or fix them"
+            )
+        for name in ("d_target_m", "area_m", "cylinder_radius_m", "goal_tolerance_m"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise Sim2RealValueError(f"map {name} must be a finite number > 0, got {value!r}")
+
+
+#: Table I of paper 001 (d_target 8 m, r_wall 0.8; the n ranges as [min, max]).
+PRESETS: dict[str, MapConfig] = {
+    "TRAIN": MapConfig(n_min=70, n_max=100),
+    "TEST1": MapConfig(n_min=5, n_max=50),
+    "TEST2": MapConfig(n_min=50, n_max=100),
+    "TEST3": MapConfig(n_min=100, n_max=150),
+    "TEST4": MapConfig(n_min=150, n_max=200),
+}
+
+#: The rho_obs column of Table I (fractions), for comparison with :attr:`MapLayout.rho_obs`.
+PAPER_RHO_OBS: dict[str, tuple[float, float]] = {
+    "TRAIN": (0.06, 0.10),
+    "TEST1": (0.01, 0.05),
+    "TEST2": (0.05, 0.10),
+    "TEST3": (0.10, 0.15),
+    "TEST4": (0.15, 0.20),
+}
+
+
+def get_preset(name: str) -> MapConfig:
+    """The preset called ``name`` (case-insensitive); unknown names raise with the known ones."""
+    key = name.upper()
+    if key not in PRESETS:
+        raise Sim2RealValueError(
+            f"unknown map preset '{name}'; known presets are {', '.join(PRESETS)}"
+        )
+    return PRESETS[key]
+
+
+@dataclass(frozen=True, kw_only=True)
+class MapLayout:
+    """One generated map.
+
+    Attributes
+    ----------
+    start_xy, goal_xy : ndarray, shape (2,)
+        Start and goal positions, m.
+    start_yaw_rad : float
+        Initial heading of the robot, rad.
+    cylinders : ndarray, shape (N, 3)
+        ``(x, y, r)`` of each cylinder, m.
+    walls : ndarray, shape (K, 5)
+        ``(cx, cy, length, thickness, yaw)`` of each spawned wall (m, rad).
+    scene : Scene2D
+        The obstacles for ray casting and collision checks.
+    rho_obs : float
+        Fraction of the area covered by obstacles (union), in [0, 1].
+    """
+
+    start_xy: FloatArray
+    goal_xy: FloatArray
+    start_yaw_rad: float
+    cylinders: FloatArray
+    walls: FloatArray
+    scene: Scene2D
+    rho_obs: float
+
+
+def _wall_segments(walls: FloatArray) -> FloatArray:
+    if walls.shape[0] == 0:
+        return np.zeros((0, 4))
+    return np.vstack([rectangle_segments(*w) for w in walls])
+
+
+def _sample_walls(config: MapConfig, rng: np.random.Generator, keep_out: FloatArray) -> FloatArray:
+    mid_x = 0.5 * config.d_target_m
+    slots = ((1.0, 2.5, 1.0), (1.0, 2.5, -1.0), (3.0, 5.0, 1.0), (3.0, 5.0, -1.0))
+    walls = []
+    for lo, hi, side in slots:
+        if rng.random() >= config.r_wall:
+            continue
+        for _ in range(20):
+            wall = np.array(
+                [
+                    mid_x + rng.uniform(-1.5, 1.5),
+                    side * rng.uniform(lo, hi),
+                    config.wall_length_m,
+                    config.wall_thickness_m,
+                    math.radians(rng.uniform(-20.0, 20.0)),
+                ]
+            )
+            seg = rectangle_segments(*wall)
+            scene = Scene2D(
+                circles_xy=np.zeros((0, 2)),
+                circles_r=np.zeros(0),
+                seg_a=seg[:, :2],
+                seg_b=seg[:, 2:],
+            )
+            if all(disc_clearance(scene, p, config.safe_radius_m) > 0 for p in keep_out):
+                walls.append(wall)
+                break
+    return np.array(walls, dtype=np.float64).reshape(-1, 5)
+
+
+def _sample_cylinders(
+    config: MapConfig, rng: np.random.Generator, keep_out: FloatArray
+) -> FloatArray:
+    n = int(rng.integers(config.n_min, config.n_max + 1))
+    half = 0.5 * config.area_m
+    centre = np.array([0.5 * config.d_target_m, 0.0])
+    r = config.cylinder_radius_m
+    out = np.empty((0, 2))
+    while out.shape[0] < n:
+        need = n - out.shape[0]
+        xy = centre + rng.uniform(-half + r, half - r, size=(2 * need + 8, 2))
+        d = np.min(np.linalg.norm(xy[:, None, :] - keep_out[None, :, :], axis=2), axis=1)
+        out = np.vstack([out, xy[d > config.safe_radius_m + r]])
+    return np.hstack([out[:n], np.full((n, 1), r)])
+
+
+def obstacle_density(
+    cylinders: FloatArray, walls: FloatArray, *, centre_xy: FloatArray, area_m: float
+) -> float:
+    """Fraction of the square area covered by the union of cylinders and walls.
+
+    Rasterised on a 2.5 cm grid (cell centres), so the error is well under 1 % of the value for
+    the presets.
+    """
+    n = round(area_m / _RASTER_M)
+    grid = np.zeros((n, n), dtype=bool)
+    origin = np.asarray(centre_xy) - 0.5 * area_m
+    for x, y, r in cylinders:
+
+        def in_disc(
+            px: FloatArray, py: FloatArray, x: float = x, y: float = y, r: float = r
+        ) -> BoolArray:
+            return np.asarray((px - x) ** 2 + (py - y) ** 2 <= r * r)
+
+        _paint(grid, origin, (x - r, y - r, x + r, y + r), in_disc)
+    for cx, cy, length, width, yaw in walls:
+        c, s = math.cos(yaw), math.sin(yaw)
+        ext = 0.5 * (abs(length * c) + abs(width * s)), 0.5 * (abs(length * s) + abs(width * c))
+
+        def inside(
+            px: FloatArray,
+            py: FloatArray,
+            cx: float = cx,
+            cy: float = cy,
+            c: float = c,
+            s: float = s,
+            hl: float = 0.5 * length,
+            hw: float = 0.5 * width,
+        ) -> BoolArray:
+            u = (px - cx) * c + (py - cy) * s
+            v = -(px - cx) * s + (py - cy) * c
+            return np.asarray((np.abs(u) <= hl) & (np.abs(v) <= hw))
+
+        _paint(grid, origin, (cx - ext[0], cy - ext[1], cx + ext[0], cy + ext[1]), inside)
+    return float(grid.mean())
+
+
+def _paint(
+    grid: BoolArray,
+    origin: FloatArray,
+    box: tuple[float, float, float, float],
+    inside: Callable[[FloatArray, FloatArray], BoolArray],
+) -> None:
+    n = grid.shape[0]
+    i0 = max(0, int((box[0] - origin[0]) / _RASTER_M))
+    i1 = min(n, int((box[2] - origin[0]) / _RASTER_M) + 1)
+    j0 = max(0, int((box[1] - origin[1]) / _RASTER_M))
+    j1 = min(n, int((box[3] - origin[1]) / _RASTER_M) + 1)
+    if i0 >= i1 or j0 >= j1:
+        return
+    px = origin[0] + (np.arange(i0, i1) + 0.5) * _RASTER_M
+    py = origin[1] + (np.arange(j0, j1) + 0.5) * _RASTER_M
+    mask = inside(px[:, None], py[None, :])
+    grid[i0:i1, j0:j1] |= mask
+
+
+def generate_map(config: MapConfig, rng: np.random.Generator) -> MapLayout:
+    """Draw one map from ``config`` with the generator ``rng`` (same seed, same map).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = generate_map(PRESETS["TRAIN"], np.random.default_rng(3))
+    >>> b = generate_map(PRESETS["TRAIN"], np.random.default_rng(3))
+    >>> bool(np.array_equal(a.cylinders, b.cylinders))
+    True
+    """
+    start = np.zeros(2)
+    goal = np.array([config.d_target_m, 0.0])
+    keep_out = np.stack([start, goal])
+    yaw = float(rng.uniform(-math.pi, math.pi))
+    walls = _sample_walls(config, rng, keep_out)
+    cylinders = _sample_cylinders(config, rng, keep_out)
+    seg = _wall_segments(walls)
+    scene = Scene2D(
+        circles_xy=cylinders[:, :2].copy(),
+        circles_r=cylinders[:, 2].copy(),
+        seg_a=seg[:, :2].copy(),
+        seg_b=seg[:, 2:].copy(),
+    )
+    rho = obstacle_density(
+        cylinders, walls, centre_xy=np.array([0.5 * config.d_target_m, 0.0]), area_m=config.area_m
+    )
+    return MapLayout(
+        start_xy=start,
+        goal_xy=goal,
+        start_yaw_rad=yaw,
+        cylinders=cylinders,
+        walls=walls,
+        scene=scene,
+        rho_obs=rho,
+    )

@@ -1,0 +1,332 @@
+r"""Pedestrians as discs walking at the density-dependent speed of paper 000, eq. (1).
+
+Each pedestrian is a disc with state :math:`[r, \vec p, \vec v^{curr}, \vec v^{pref}] \in
+\mathbb{R}^7` (radius, position, current and preferred velocity; paper 000, Sec. I-A-2). Its
+natural walking speed is
+
+.. math::
+
+    V = \min\left(\|\vec v^{pref}\|, \left(\frac{S\,\alpha}{H\,(1 + \beta)}\right)^2\right)
+    \qquad (1)
+
+with :math:`S` the free space in front of it, :math:`H` = height / 1.72 m, and the stride
+constants :math:`\alpha, \beta`.
+
+Choice of S, alpha and beta
+---------------------------
+We take :math:`S` = the distance the pedestrian's centre can travel along its walking
+direction before its disc touches another body, plus its own diameter; for two equal discs
+head-on this is their centre spacing. The constants only enter through
+:math:`k = \alpha / (1 + \beta)`. On a square lattice of density :math:`\rho` the spacing is
+:math:`\rho^{-1/2}`, and with :math:`k = 1.037` eq. (1) gives 1.08, 0.54 and 0.36 m/s at 1, 2
+and 3 pedestrians/m^2 for a 1.72 m pedestrian — within 0.07 m/s of Weidmann's fundamental
+diagram :math:`v = 1.34\,[1 - e^{-1.913(1/\rho - 1/5.4)}]` (U. Weidmann, *Transporttechnik
+der Fussgänger*, ETH Zürich IVT report 90, 1993: 1.06, 0.61, 0.33 m/s), the empirical
+speed-density relation that paper 000 cites as "the fundamental diagram [12]". We split
+:math:`k` as :math:`\alpha = 1.4, \beta = 0.35`: :math:`\beta` is the personal-space buffer
+(Narang et al., "Generating pedestrian trajectories consistent with the fundamental diagram
+based on physiological and psychological factors", PLoS ONE 10(4), 2015 — the source of
+eq. (1)), a 35 % margin over the stride length. "Higher than average constants" (scenario b of
+paper 000) scale :math:`\alpha` up.
+
+Steering (our choice; the paper does not specify it): each step every walking pedestrian
+tries seven headings within 60 degrees of the direction to its goal, evaluates eq. (1) along
+each, and takes the one with the best progress :math:`V\cos(\Delta\theta)` — the velocity
+sampling along an arc of Narang et al. Bodies never move into contact within a step; residual
+overlaps are pushed apart.
+
+Example
+-------
+>>> from sim2real.envs.pedestrians import walking_speed
+>>> round(float(walking_speed(1.34, 1.0, 1.72)), 3)
+1.076
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays_multi, point_segment_distance
+from sim2real.errors import Sim2RealValueError
+
+__all__ = [
+    "ALPHA",
+    "BETA",
+    "Crowd",
+    "CrowdState",
+    "spawn_positions",
+    "walking_speed",
+    "weidmann_speed",
+]
+
+#: Stride constant alpha of eq. (1) (see the module docstring for the derivation).
+ALPHA = 1.4
+#: Personal-space buffer beta of eq. (1).
+BETA = 0.35
+_HEADING_OFFSETS = np.radians([0.0, -20.0, 20.0, -40.0, 40.0, -60.0, 60.0])
+_GOAL_REACHED_M = 0.3
+
+
+def walking_speed(
+    v_pref_mps: FloatArray | float,
+    free_space_m: FloatArray | float,
+    height_m: FloatArray | float,
+    *,
+    alpha: FloatArray | float = ALPHA,
+    beta: float = BETA,
+) -> FloatArray:
+    """Eq. (1) of paper 000: natural walking speed, m/s.
+
+    Parameters
+    ----------
+    v_pref_mps : float or ndarray
+        Preferred speed :math:`\\|\\vec v^{pref}\\|`, m/s.
+    free_space_m : float or ndarray
+        Free space :math:`S` in front of the pedestrian, m.
+    height_m : float or ndarray
+        Body height, m (normalised by 1.72 m).
+    alpha, beta : float
+        Stride constants.
+    """
+    h = np.asarray(height_m, dtype=np.float64) / 1.72
+    s = np.maximum(np.asarray(free_space_m, dtype=np.float64), 0.0)
+    return np.asarray(np.minimum(v_pref_mps, (s * alpha / (h * (1.0 + beta))) ** 2))
+
+
+def weidmann_speed(density_per_m2: FloatArray | float) -> FloatArray:
+    """Weidmann's (1993) fundamental diagram, m/s: the reference eq. (1) is calibrated to."""
+    rho = np.asarray(density_per_m2, dtype=np.float64)
+    return np.asarray(1.34 * (1.0 - np.exp(-1.913 * (1.0 / rho - 1.0 / 5.4))))
+
+
+@dataclass(frozen=True, kw_only=True)
+class CrowdState:
+    """Snapshot of the crowd (arrays of length N).
+
+    Attributes
+    ----------
+    radius_m : ndarray, shape (N,)
+    position_m : ndarray, shape (N, 2)
+    velocity_mps : ndarray, shape (N, 2)
+        Current velocity.
+    preferred_velocity_mps : ndarray, shape (N, 2)
+        Preferred velocity (towards the goal at the preferred speed).
+    """
+
+    radius_m: FloatArray
+    position_m: FloatArray
+    velocity_mps: FloatArray
+    preferred_velocity_mps: FloatArray
+
+    def as_array(self) -> FloatArray:
+        """The paper's per-pedestrian state ``[r, px, py, vx, vy, vpx, vpy]``, shape (N, 7)."""
+        return np.hstack(
+            [
+                self.radius_m[:, None],
+                self.position_m,
+                self.velocity_mps,
+                self.preferred_velocity_mps,
+            ]
+        )
+
+
+def spawn_positions(
+    rng: np.random.Generator,
+    n: int,
+    *,
+    bounds: tuple[float, float, float, float],
+    radius_m: float,
+    scene: Scene2D,
+    keep_out: FloatArray,
+    keep_out_radius_m: float,
+) -> FloatArray:
+    """``n`` non-overlapping disc centres in ``bounds`` (xmin, xmax, ymin, ymax).
+
+    A jittered grid of cell size >= ``2 * radius_m`` guarantees no overlap even at 3
+    pedestrians/m^2; cells that touch the scene or a keep-out disc are dropped.
+    """
+    if n == 0:
+        return np.zeros((0, 2))
+    xmin, xmax, ymin, ymax = bounds
+    area = (xmax - xmin) * (ymax - ymin)
+    cell = max(2.0 * radius_m + 0.02, min(1.0, math.sqrt(area / (2.0 * n))))
+    gx = np.arange(xmin + 0.5 * cell, xmax - 0.5 * cell + 1e-9, cell)
+    gy = np.arange(ymin + 0.5 * cell, ymax - 0.5 * cell + 1e-9, cell)
+    pts = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
+    jitter = 0.5 * (cell - 2.0 * radius_m - 0.01)
+    pts = pts + rng.uniform(-jitter, jitter, size=pts.shape)
+    ok = np.ones(len(pts), dtype=bool)
+    if keep_out.size:
+        d = np.linalg.norm(pts[:, None, :] - keep_out[None, :, :], axis=2)
+        ok &= d.min(axis=1) > keep_out_radius_m + radius_m
+    if scene.circles_r.size:
+        d = np.linalg.norm(pts[:, None, :] - scene.circles_xy[None, :, :], axis=2)
+        ok &= (d - scene.circles_r[None, :]).min(axis=1) > radius_m + 0.05
+    if scene.seg_a.shape[0]:
+        ok &= point_segment_distance(pts, scene.seg_a, scene.seg_b).min(axis=1) > radius_m + 0.05
+    pts = pts[ok]
+    if len(pts) < n:
+        raise Sim2RealValueError(
+            f"cannot place {n} pedestrians of radius {radius_m} m in the free part of "
+            f"{bounds} (room for {len(pts)}); lower the number or density of pedestrians"
+        )
+    return np.asarray(pts[rng.permutation(len(pts))[:n]])
+
+
+class Crowd:
+    """A crowd of disc pedestrians walking to random goals at the speed of eq. (1).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Draws goals (use the env's ``np_random``).
+    position_m : ndarray, shape (N, 2)
+        Initial positions.
+    radius_m, height_m, pref_speed_mps : ndarray, shape (N,)
+        Disc radius, body height and preferred speed (0 = standing pedestrian).
+    bounds : tuple
+        (xmin, xmax, ymin, ymax) where goals are drawn, m.
+    alpha : float or ndarray
+        Stride constant(s) of eq. (1); ``beta`` is :data:`BETA`.
+    start_time_s : ndarray, optional
+        Pedestrians stand still until this time (pedestrians that appear "at random
+        intervals" in the occluded scenario).
+    goals : ndarray, optional
+        First goals; random points in ``bounds`` by default.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> crowd = Crowd(rng, position_m=np.array([[0.0, 0.0]]), radius_m=np.array([0.2]),
+    ...               height_m=np.array([1.72]), pref_speed_mps=np.array([1.3]),
+    ...               bounds=(-5.0, 5.0, -5.0, 5.0))
+    >>> crowd.step(0.1, Scene2D.build(), robot_xy=np.array([9.0, 9.0]), robot_radius_m=0.2)
+    >>> round(float(np.linalg.norm(crowd.velocity_mps[0])), 2)
+    1.3
+    """
+
+    def __init__(
+        self,
+        rng: np.random.Generator,
+        *,
+        position_m: FloatArray,
+        radius_m: FloatArray,
+        height_m: FloatArray,
+        pref_speed_mps: FloatArray,
+        bounds: tuple[float, float, float, float],
+        alpha: FloatArray | float = ALPHA,
+        start_time_s: FloatArray | None = None,
+        goals: FloatArray | None = None,
+    ) -> None:
+        n = len(position_m)
+        self._rng = rng
+        self.bounds = bounds
+        self.position_m = np.array(position_m, dtype=np.float64).reshape(n, 2)
+        self.radius_m = np.asarray(radius_m, dtype=np.float64)
+        self.height_m = np.asarray(height_m, dtype=np.float64)
+        self.pref_speed_mps = np.asarray(pref_speed_mps, dtype=np.float64)
+        self.alpha = np.broadcast_to(np.asarray(alpha, dtype=np.float64), (n,)).copy()
+        self.start_time_s = np.zeros(n) if start_time_s is None else np.asarray(start_time_s)
+        self.velocity_mps = np.zeros((n, 2))
+        self.goals = self._random_goals(n) if goals is None else np.array(goals, dtype=float)
+        self.time_s = 0.0
+
+    def __len__(self) -> int:
+        return int(self.position_m.shape[0])
+
+    def _random_goals(self, n: int) -> FloatArray:
+        xmin, xmax, ymin, ymax = self.bounds
+        return np.column_stack([self._rng.uniform(xmin, xmax, n), self._rng.uniform(ymin, ymax, n)])
+
+    @property
+    def preferred_velocity_mps(self) -> FloatArray:
+        """Preferred velocity: towards the goal at the preferred speed (0 before start)."""
+        to_goal = self.goals - self.position_m
+        dist = np.maximum(np.linalg.norm(to_goal, axis=1), 1e-9)
+        speed = np.where(self.time_s >= self.start_time_s, self.pref_speed_mps, 0.0)
+        return np.asarray(to_goal * (speed / dist)[:, None])
+
+    def state(self) -> CrowdState:
+        """Copy of the current state."""
+        return CrowdState(
+            radius_m=self.radius_m.copy(),
+            position_m=self.position_m.copy(),
+            velocity_mps=self.velocity_mps.copy(),
+            preferred_velocity_mps=self.preferred_velocity_mps.copy(),
+        )
+
+    def free_space(
+        self, headings_rad: FloatArray, scene: Scene2D, robot_xy: FloatArray, robot_radius_m: float
+    ) -> FloatArray:
+        """Gap (m) each pedestrian's centre can travel along each heading, shape (N, K)."""
+        n, k = headings_rad.shape
+        origins = np.repeat(self.position_m, k, axis=0)
+        dirs = np.stack([np.cos(headings_rad), np.sin(headings_rad)], axis=-1).reshape(-1, 2)
+        r_self = np.repeat(self.radius_m, k)
+        others_xy = np.vstack([self.position_m, np.asarray(robot_xy).reshape(1, 2)])
+        others_r = np.concatenate([self.radius_m, [robot_radius_m]])
+        f = origins[:, None, :] - others_xy[None, :, :]
+        b = np.einsum("rck,rk->rc", f, dirs)
+        rr = others_r[None, :] + r_self[:, None]
+        q = np.einsum("rck,rck->rc", f, f) - rr**2
+        disc = b * b - q
+        with np.errstate(invalid="ignore"):
+            t = np.where(q <= 0.0, np.where(b < 0.0, 0.0, np.inf), -b - np.sqrt(disc))
+        t = np.where((disc >= 0.0) | (q <= 0.0), t, np.inf)
+        t = np.where(t >= 0.0, t, np.inf)
+        own = np.repeat(np.arange(n), k)
+        t[np.arange(n * k), own] = np.inf
+        gap = t.min(axis=1)
+        # static obstacles: the centre ray's hit distance minus the own radius (exact head-on,
+        # slightly optimistic for grazing rays; the overlap push-out catches the rest)
+        static = cast_rays_multi(scene, origins, dirs, 50.0)
+        gap = np.minimum(gap, np.maximum(static - r_self, 0.0))
+        return np.asarray(gap.reshape(n, k))
+
+    def step(
+        self, dt_s: float, scene: Scene2D, *, robot_xy: FloatArray, robot_radius_m: float
+    ) -> None:
+        """Advance every pedestrian by ``dt_s`` around the static ``scene`` and the robot."""
+        n = len(self)
+        self.time_s += dt_s
+        if n == 0:
+            return
+        to_goal = self.goals - self.position_m
+        reached = np.linalg.norm(to_goal, axis=1) < _GOAL_REACHED_M
+        if reached.any():
+            self.goals[reached] = self._random_goals(int(reached.sum()))
+            to_goal = self.goals - self.position_m
+        walking = (self.time_s >= self.start_time_s) & (self.pref_speed_mps > 0)
+        goal_dir = np.arctan2(to_goal[:, 1], to_goal[:, 0])
+        headings = goal_dir[:, None] + _HEADING_OFFSETS[None, :]
+        gap = self.free_space(headings, scene, robot_xy, robot_radius_m)
+        s = gap + 2.0 * self.radius_m[:, None]
+        speed = walking_speed(
+            self.pref_speed_mps[:, None], s, self.height_m[:, None], alpha=self.alpha[:, None]
+        )
+        speed = np.minimum(speed, gap / dt_s)
+        score = speed * np.cos(_HEADING_OFFSETS)[None, :] - 1e-3 * np.abs(_HEADING_OFFSETS)
+        best = np.argmax(score, axis=1)
+        idx = np.arange(n)
+        v = np.where(walking, speed[idx, best], 0.0)
+        h = headings[idx, best]
+        self.velocity_mps = np.column_stack([v * np.cos(h), v * np.sin(h)])
+        self.position_m = self.position_m + self.velocity_mps * dt_s
+        self._separate()
+
+    def _separate(self) -> None:
+        """Push overlapping pedestrian pairs apart (half each)."""
+        d = self.position_m[:, None, :] - self.position_m[None, :, :]
+        dist = np.linalg.norm(d, axis=2)
+        np.fill_diagonal(dist, np.inf)
+        overlap = self.radius_m[:, None] + self.radius_m[None, :] - dist
+        if not (overlap > 0).any():
+            return
+        hit = overlap > 0
+        push = np.zeros_like(dist)
+        push[hit] = 0.5 * overlap[hit] / np.maximum(dist[hit], 1e-9)
+        self.position_m = self.position_m + np.einsum("ij,ijk->ik", push, d)

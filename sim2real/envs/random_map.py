@@ -1,0 +1,198 @@
+r"""``sim2real/RandomMap-v0``: mapless navigation through random walls and cylinders (paper 001).
+
+A TurtleBot 3 Burger starts at the origin with a random heading and must reach the goal
+:math:`(d_{target}, 0)` (within 0.3 m) through a map drawn by :mod:`sim2real.envs.maps`.
+
+Observation (40 float32 values, paper 001 Sec. III-B)
+    36 lidar ranges (m, LDS-01 limits 0.12-3.5 m; beams every 10 degrees counter-clockwise from
+    straight ahead; readings outside the limits read 3.5), goal distance (m) and bearing (rad,
+    counter-clockwise from the heading), measured v (m/s) and w (rad/s).
+Action
+    (v, w) with v in [0, 0.21] m/s and w in [-1, 1] rad/s (paper 001 Sec. III-B).
+Reward (paper 001 eqs. 2-5; the constants are ours, in :class:`RandomMapReward`)
+    .. math::
+
+        r = r_{goal} + r_{crash} + r_{free} + r_{step}
+
+    - :math:`r_{goal} = r_{reach}` (100) on reaching the goal, else
+      :math:`k_{goal}\,\Delta d_{goal}` (20 per metre of progress, potential-based shaping);
+    - :math:`r_{crash} = -r_{crash,i}` for the clearance (gap between the robot's footprint
+      disc and the nearest obstacle) in band *i*: contact (<= 0 m, 100, ends the episode),
+      (0, 0.05] m (2), (0.05, 0.15] m (0.5);
+    - :math:`r_{free} = -w_{free}\sum_i (1 - d_i / d_{max})^4` over the 36 ranges
+      (:math:`w_{free}` = 0.1: the paper's weight is 1, which with 36 beams dominates the sum);
+    - :math:`r_{step} = -T` per step (T = 0.05), so the accumulated penalty grows with time.
+Outcome (``info["outcome"]`` at the end)
+    ``"success"``, ``"crash"`` (contact) or ``"trap"`` (``max_episode_steps`` reached). The
+    generic metrics are in ``info["metrics"]``; ``info["rho_obs"]`` is the map's obstacle
+    density.
+
+Example
+-------
+>>> import gymnasium as gym
+>>> import sim2real.envs
+>>> env = gym.make("sim2real/RandomMap-v0", preset="TEST1")
+>>> obs, info = env.reset(seed=0)
+>>> obs.shape
+(40,)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from robots.params import DriveParams
+from sim2real.envs._nav import NavEnvBase, StepInfo
+from sim2real.envs.geometry import FloatArray
+from sim2real.envs.maps import MapConfig, MapLayout, generate_map, get_preset
+from sim2real.errors import Sim2RealValueError
+
+__all__ = ["RandomMapEnv", "RandomMapReward"]
+
+_N_BEAMS = 36
+_GOAL_DIST_MAX_M = 30.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class RandomMapReward:
+    """Constants of the RandomMap-v0 reward (see the module docstring)."""
+
+    reach: float = 100.0
+    progress_per_m: float = 20.0
+    crash_bands_m: tuple[float, float, float] = (0.0, 0.05, 0.15)
+    crash_penalties: tuple[float, float, float] = (100.0, 2.0, 0.5)
+    free_weight: float = 0.1
+    step_penalty: float = 0.05
+
+
+class RandomMapEnv(NavEnvBase):
+    """Mapless navigation of a TurtleBot 3 Burger through random maps (paper 001).
+
+    Parameters
+    ----------
+    preset : str
+        ``"TRAIN"``, ``"TEST1"`` ... ``"TEST4"`` (Table I of paper 001).
+    map_config : MapConfig, optional
+        A custom generator configuration (overrides ``preset``).
+    dynamics : str
+        ``"reduced"`` (drive model in numba, exact 2-D world) or ``"pybullet"``.
+    control_dt : float
+        Control period, s.
+    max_episode_steps : int
+        Steps before the episode ends as a trap (default 1000 = 100 s: 2.6 times the straight
+        8 m at 0.21 m/s).
+    reward : RandomMapReward
+        Reward constants.
+    drive_params : DriveParams, optional
+        Drive parameters (default: the robot spec's).
+    robot : str
+        Robot spec name.
+
+    Notes
+    -----
+    ``reset(options={"preset": "TEST3"})`` switches the preset for that episode onwards.
+    """
+
+    def __init__(
+        self,
+        *,
+        preset: str = "TRAIN",
+        map_config: MapConfig | None = None,
+        dynamics: str = "reduced",
+        control_dt: float = 0.1,
+        max_episode_steps: int = 1000,
+        reward: RandomMapReward | None = None,
+        drive_params: DriveParams | None = None,
+        robot: str = "turtlebot3_burger",
+    ) -> None:
+        self.map_config = map_config if map_config is not None else get_preset(preset)
+        self.preset = preset.upper() if map_config is None else "custom"
+        super().__init__(
+            robot=robot,
+            dynamics=dynamics,
+            control_dt=control_dt,
+            max_episode_steps=max_episode_steps,
+            goal_tolerance_m=self.map_config.goal_tolerance_m,
+            drive_params=drive_params,
+            needs_world=False,
+        )
+        self.reward_config = reward if reward is not None else RandomMapReward()
+        lid = self.robot_spec.lidar
+        self.range_min_m, self.range_max_m = float(lid.range_min_m), float(lid.range_max_m)
+        # 36 equidistant beams over the full circle, from the lidar's first angle
+        self.beam_angles_rad = lid.angle_min_rad + 2.0 * math.pi * np.arange(_N_BEAMS) / _N_BEAMS
+        vmax, wmax = float(self.robot_spec.max_v_mps), float(self.robot_spec.max_w_radps)
+        low = np.concatenate(
+            [np.full(_N_BEAMS, self.range_min_m), [0.0, -math.pi, -vmax, -wmax]]
+        ).astype(np.float32)
+        high = np.concatenate(
+            [np.full(_N_BEAMS, self.range_max_m), [_GOAL_DIST_MAX_M, math.pi, vmax, wmax]]
+        ).astype(np.float32)
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.action_space = spaces.Box(
+            np.array([0.0, -1.0], dtype=np.float32),
+            np.array([0.21, 1.0], dtype=np.float32),
+            dtype=np.float32,
+        )
+        self.layout: MapLayout | None = None
+        self._ranges = np.full(_N_BEAMS, self.range_max_m)
+
+    def _build(self, options: dict[str, Any]) -> tuple[float, float, float]:
+        unknown = sorted(set(options) - {"preset", "map_config"})
+        if unknown:
+            raise Sim2RealValueError(
+                f"unknown reset option(s) {unknown} for RandomMap-v0; known: preset, map_config"
+            )
+        if "map_config" in options:
+            self.map_config = options["map_config"]
+            self.preset = "custom"
+        elif "preset" in options:
+            self.map_config = get_preset(str(options["preset"]))
+            self.preset = str(options["preset"]).upper()
+        layout = generate_map(self.map_config, self.np_random)
+        self.layout = layout
+        self._scene = layout.scene
+        self._goal = layout.goal_xy.copy()
+        if self._world is not None:
+            self._world.set_static(
+                cylinders=layout.cylinders,
+                cylinder_height_m=0.5,
+                boxes=layout.walls,
+                box_height_m=0.5,
+            )
+        return float(layout.start_xy[0]), float(layout.start_xy[1]), layout.start_yaw_rad
+
+    def _observation(self) -> FloatArray:
+        self._ranges = self._lidar_ranges(self._scene, self.beam_angles_rad)
+        d, bearing = self._goal_polar()
+        v, w = self._backend.velocity
+        obs = np.concatenate([self._ranges, [min(d, _GOAL_DIST_MAX_M), bearing, v, w]])
+        space = self.observation_space
+        return np.clip(obs, space.low, space.high).astype(np.float32)  # type: ignore[attr-defined]
+
+    def _reward(self, s: StepInfo) -> float:
+        cfg = self.reward_config
+        if s.outcome == "success":
+            r_goal = cfg.reach
+        else:
+            r_goal = cfg.progress_per_m * (s.prev_goal_dist_m - s.goal_dist_m)
+        r_crash = 0.0
+        for edge, penalty in zip(cfg.crash_bands_m, cfg.crash_penalties, strict=True):
+            if s.clearance_m <= edge:
+                r_crash = -penalty
+                break
+        # the ranges of the observation just computed for this step
+        r_free = -cfg.free_weight * float(np.sum((1.0 - self._ranges / self.range_max_m) ** 4))
+        return r_goal + r_crash + r_free - cfg.step_penalty
+
+    def _extra_info(self) -> dict[str, Any]:
+        rho = math.nan if self.layout is None else self.layout.rho_obs
+        return {"rho_obs": rho, "preset": self.preset}
+
+    def _outcome_name(self, outcome: str) -> str:
+        return {"success": "success", "collision": "crash", "timeout": "trap"}[outcome]
