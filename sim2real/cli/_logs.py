@@ -1,11 +1,92 @@
-"""`sim2real logs` commands (not written yet)."""
+"""`sim2real logs` commands: inspect MCAP velocity logs."""
 
 from __future__ import annotations
 
 import argparse
+import json
+from datetime import datetime, timezone
+from typing import TYPE_CHECKING
+
+from sim2real.cli._common import add_command
+
+if TYPE_CHECKING:
+    from sim2real.logs import LogInfo
 
 __all__ = ["register"]
 
+_INFO_EXAMPLES = """\
+  sim2real logs info run.mcap                       # topics, counts, rates, chosen topics
+  sim2real logs info run.mcap --json                # the same as JSON
+  sim2real logs info run.mcap --cmd-topic /cmd_vel_nav --odom-topic /odometry/wheel
+"""
+
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Register the `logs` command group (placeholder until its issue lands)."""
+    """Register the ``logs`` command group (``logs info``)."""
+    group = add_command(
+        sub,
+        "logs",
+        help="inspect MCAP velocity logs",
+        description="Inspect robot velocity logs recorded as MCAP (ROS 2 CDR or JSON).",
+        examples=_INFO_EXAMPLES,
+    )
+    group_sub = group.add_subparsers(dest="logs_command", metavar="SUBCOMMAND")
+    group_sub.required = True
+    info = add_command(
+        group_sub,
+        "info",
+        help="topics, types, counts, rates and the command/measurement topics of a log",
+        description=(
+            "Print the topics of an MCAP log with their message types, encodings, message "
+            "counts and mean rates (by log time), the log's duration, and which topics "
+            "`read_trace` would use as command (Twist/TwistStamped) and measurement "
+            "(Odometry/JointState)."
+        ),
+        examples=_INFO_EXAMPLES,
+    )
+    info.add_argument("log", metavar="LOG.mcap", help="the MCAP log file")
+    info.add_argument("--cmd-topic", metavar="TOPIC", help="command topic (default: detect)")
+    info.add_argument("--odom-topic", metavar="TOPIC", help="measurement topic (default: detect)")
+    info.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    info.set_defaults(handler=_info)
+
+
+def _info(args: argparse.Namespace) -> int:
+    from sim2real.logs import inspect_log
+
+    info = inspect_log(args.log, cmd_topic=args.cmd_topic, odom_topic=args.odom_topic)
+    print(json.dumps(info.to_dict(), indent=2) if args.json else _table(info))
+    return 0
+
+
+def _when(t_ns: int) -> str:
+    return datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
+
+
+def _table(info: LogInfo) -> str:
+    lines = [
+        f"file:      {info.path} ({info.size_bytes / 1e6:.2f} MB, sha256 {info.sha256[:12]})",
+        f"profile:   {info.profile or '-'} (written by {info.library or 'unknown'})",
+        f"duration:  {info.duration_s:.1f} s from {_when(info.start_ns)}, "
+        f"{info.message_count} messages",
+        "",
+    ]
+    w_topic = max([len("topic"), *(len(t.topic) for t in info.topics)])
+    w_type = max([len("type"), *(len(t.type) for t in info.topics)])
+    lines.append(f"{'topic':<{w_topic}}  {'type':<{w_type}}  encoding  {'count':>7}  rate_hz")
+    for t in info.topics:
+        lines.append(
+            f"{t.topic:<{w_topic}}  {t.type:<{w_type}}  {t.message_encoding:<8}  "
+            f"{t.count:>7}  {t.rate_hz:7.2f}"
+        )
+    lines.append("")
+    for label, topic, note in (
+        ("command topic:    ", info.cmd_topic, info.cmd_note),
+        ("measurement topic:", info.meas_topic, info.meas_note),
+    ):
+        if topic is None:
+            lines.append(f"{label} none ({note})")
+        else:
+            lines.append(f"{label} {topic} ({info.topic(topic).type})")
+    lines.extend(f"warning: {w}" for w in info.warnings)
+    return "\n".join(lines)
