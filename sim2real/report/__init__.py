@@ -1,0 +1,435 @@
+"""The agreement report: one self-contained HTML page plus the same figures as PNG files.
+
+The page shows, for one real log, the headline agreement with the spec defaults and with the
+sysid parameters side by side, time plots of v and w (real, each simulation, the ensemble
+band), error histograms, rolling agreement, a table of step-like segments (rise time,
+overshoot, steady-state error, real vs sim), the parameter table with intervals, and the
+provenance (files with SHA-256, versions, seed, command line). Plots are drawn by
+:mod:`sim2real.report._plots`, the page by :mod:`sim2real.report._html`.
+
+Example
+-------
+>>> from sim2real.report import ReportInput, ReportRun, write_report
+>>> files = write_report("report.html", ReportInput(trace=trace, runs=(  # doctest: +SKIP
+...     ReportRun(label="spec defaults", replay=sim0, agreement=rep0),
+...     ReportRun(label="sysid params", replay=sim1, agreement=rep1))))
+>>> files.html.name  # doctest: +SKIP
+'report.html'
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from robots.params import DriveParams
+from sim2real._io import atomic_write, check_output_path
+from sim2real.agreement import AgreementReport, EnsembleResult
+from sim2real.replay import ReplayResult, TraceLike
+from sim2real.report._html import Figure, HeadlineCard, Table, render_page
+from sim2real.report._plots import (
+    Band,
+    SimSeries,
+    error_histograms_png,
+    rolling_agreement,
+    rolling_agreement_png,
+    time_series_png,
+)
+from sim2real.report._steps import find_steps, step_response
+from sysid.metrics import active_mask
+
+__all__ = [
+    "ParamRow",
+    "ReportFiles",
+    "ReportInput",
+    "ReportRun",
+    "param_rows",
+    "write_report",
+]
+
+#: Window of the rolling-agreement plot, s.
+ROLLING_WINDOW_S = 5.0
+
+_UNIT_SUFFIXES = (
+    ("_nms_per_rad", "N m s/rad"),
+    ("_ns_per_m", "N s/m"),
+    ("_radps2", "rad/s^2"),
+    ("_mps2", "m/s^2"),
+    ("_radps", "rad/s"),
+    ("_mps", "m/s"),
+    ("_kgm2", "kg m^2"),
+    ("_kg", "kg"),
+    ("_nm", "N m"),
+    ("_n", "N"),
+    ("_s", "s"),
+)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReportRun:
+    """One replay of the log and its agreement (e.g. "spec defaults" or "sysid params")."""
+
+    label: str
+    replay: ReplayResult
+    agreement: AgreementReport
+
+
+@dataclass(frozen=True, kw_only=True)
+class ParamRow:
+    """One drive parameter: spec default, value used, and the sysid uncertainty if any."""
+
+    name: str
+    unit: str
+    default: float
+    value: float
+    std: float | None
+    ci95: tuple[float, float] | None
+    status: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReportInput:
+    """Everything the report shows.
+
+    Attributes
+    ----------
+    trace : Trace
+        The real log.
+    runs : sequence of ReportRun
+        One or more replays; by convention spec defaults first, sysid parameters second.
+    ensemble : EnsembleResult, optional
+        Ensemble band and coverage (drawn around the last run).
+    params : sequence of ParamRow
+        The parameter table.
+    provenance : sequence of (str, str)
+        Key/value lines (files, sha256, versions, seed, command line).
+    title : str
+        Page title.
+    """
+
+    trace: TraceLike
+    runs: Sequence[ReportRun]
+    ensemble: EnsembleResult | None = None
+    params: Sequence[ParamRow] = ()
+    provenance: Sequence[tuple[str, str]] = ()
+    title: str = "sim2real agreement report"
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReportFiles:
+    """Files written by :func:`write_report`."""
+
+    html: Path
+    images: tuple[Path, ...]
+
+
+def _unit(name: str) -> str:
+    for suffix, unit in _UNIT_SUFFIXES:
+        if name.endswith(suffix):
+            return unit
+    return ""
+
+
+def _float_or_none(x: Any) -> float | None:
+    if isinstance(x, bool) or not isinstance(x, int | float):
+        return None
+    return float(x)
+
+
+def param_rows(
+    defaults: DriveParams, used: DriveParams, params_file: str | Path | None = None
+) -> tuple[ParamRow, ...]:
+    """Rows of the parameter table: defaults, values used, std/ci95/status from the file.
+
+    Examples
+    --------
+    >>> rows = param_rows(DriveParams(), DriveParams(delay_s=0.1))
+    >>> rows[0].name, rows[0].value, rows[0].status
+    ('delay_s', 0.1, 'spec')
+    """
+    entries: Mapping[str, Any] = {}
+    if params_file is not None:
+        doc = yaml.safe_load(Path(params_file).read_text(encoding="utf-8"))
+        if isinstance(doc, dict) and isinstance(doc.get("parameters"), dict):
+            entries = doc["parameters"]
+    rows = []
+    for name in DriveParams.names():
+        entry = entries.get(name)
+        entry = entry if isinstance(entry, dict) else {}
+        ci = entry.get("ci95")
+        ci95 = None
+        if isinstance(ci, list | tuple) and len(ci) == 2:
+            lo, hi = _float_or_none(ci[0]), _float_or_none(ci[1])
+            ci95 = (lo, hi) if lo is not None and hi is not None else None
+        rows.append(
+            ParamRow(
+                name=name,
+                unit=str(entry.get("unit") or _unit(name)),
+                default=float(getattr(defaults, name)),
+                value=float(getattr(used, name)),
+                std=_float_or_none(entry.get("std")),
+                ci95=ci95,
+                status=str(entry.get("status") or ("file" if entry else "spec")),
+            )
+        )
+    return tuple(rows)
+
+
+def _fmt(x: float | None, spec: str = ".4g") -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "n/a"
+    if isinstance(x, float) and math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return format(x, spec)
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"
+
+
+def _summary_table(data: ReportInput) -> Table:
+    rows: list[list[str]] = []
+    metrics = (
+        ("agreement (both axes)", "agreement", _pct),
+        ("agreement v", "agreement_v", _pct),
+        ("agreement w", "agreement_w", _pct),
+        ("FIT % v", "fit_percent_v", lambda x: _fmt(x, ".1f")),
+        ("FIT % w", "fit_percent_w", lambda x: _fmt(x, ".1f")),
+        ("RMSE v [m/s]", "rmse_v", lambda x: _fmt(x, ".4f")),
+        ("RMSE w [rad/s]", "rmse_w", lambda x: _fmt(x, ".4f")),
+        ("lag v [s] (sim behind real)", "lag_s_v", lambda x: _fmt(x, "+.3f")),
+        ("lag w [s] (sim behind real)", "lag_s_w", lambda x: _fmt(x, "+.3f")),
+        ("active / all samples", "n_active", None),
+    )
+    for label, key, fmt in metrics:
+        row = [label]
+        for run in data.runs:
+            a = run.agreement
+            row.append(f"{a.n_active} / {a.n_samples}" if fmt is None else fmt(getattr(a, key)))
+        rows.append(row)
+    first = data.runs[0].agreement
+    note = (
+        f"Tolerances: |v_sim - v_real| <= {first.tol_v:g} m/s and |w_sim - w_real| <= "
+        f"{first.tol_w:g} rad/s; only active samples count (see the definitions at the end)."
+    )
+    return Table(
+        title="Agreement figures",
+        header=["figure", *(r.label for r in data.runs)],
+        rows=rows,
+        note=note,
+    )
+
+
+def _cards(data: ReportInput) -> list[HeadlineCard]:
+    cards = []
+    for run in data.runs:
+        a = run.agreement
+        cards.append(
+            HeadlineCard(
+                label=f"agreement — {run.label}",
+                fraction=a.agreement,
+                detail=f"v {_pct(a.agreement_v)} · w {_pct(a.agreement_w)} · "
+                f"{a.n_active} active samples",
+            )
+        )
+    if len(data.runs) >= 2:
+        gain = data.runs[-1].agreement.agreement - data.runs[0].agreement.agreement
+        if math.isfinite(gain):
+            cards.append(
+                HeadlineCard(
+                    label="change",
+                    fraction=data.runs[-1].agreement.agreement,
+                    detail=f"agreement points from {data.runs[0].label} to {data.runs[-1].label}",
+                    text=f"{100 * gain:+.1f} pts",
+                )
+            )
+    if data.ensemble is not None:
+        e = data.ensemble
+        cards.append(
+            HeadlineCard(
+                label=f"ensemble coverage (N={e.n})",
+                fraction=e.coverage,
+                detail=f"real inside 5-95 % band: v {_pct(e.coverage_v)} · w {_pct(e.coverage_w)}",
+            )
+        )
+    return cards
+
+
+def _steps_table(data: ReportInput) -> Table:
+    trace = data.trace
+    t = np.asarray(trace.meas_t_s, dtype=np.float64)
+    steps = find_steps(
+        np.asarray(trace.cmd_t_s, dtype=np.float64),
+        np.asarray(trace.cmd_v, dtype=np.float64),
+        np.asarray(trace.cmd_w, dtype=np.float64),
+    )
+    header = ["t [s]", "axis", "command"]
+    for who in ["real", *(r.label for r in data.runs)]:
+        header += [f"rise [s] {who}", f"overshoot {who}", f"ss error {who}"]
+    rows = []
+    for step in steps:
+        row = [f"{step.t_start_s:.2f}", step.axis, f"{step.before:+.3g} → {step.after:+.3g}"]
+        ys = [trace.meas_v if step.axis == "v" else trace.meas_w]
+        ys += [r.replay.v if step.axis == "v" else r.replay.w for r in data.runs]
+        for y in ys:
+            resp = step_response(t, np.asarray(y, dtype=np.float64), step)
+            row += [
+                _fmt(resp.rise_time_s, ".3f"),
+                _fmt(resp.overshoot_pct, ".1f") + " %",
+                _fmt(resp.ss_error, "+.4f"),
+            ]
+        rows.append(row)
+    return Table(
+        title="Step-like segments",
+        header=header,
+        rows=rows,
+        note="Held command changes (>= 0.05 m/s or 0.3 rad/s, held >= 1 s; first 12). Rise time "
+        "10-90 % of the commanded change; overshoot in % of the change; steady-state error = "
+        "mean of the last 30 % of the hold minus the command (m/s or rad/s)."
+        + ("" if rows else " No step-like segment found in this log."),
+    )
+
+
+def _params_table(rows: Sequence[ParamRow]) -> Table:
+    body = []
+    for r in rows:
+        ci = f"[{_fmt(r.ci95[0])}, {_fmt(r.ci95[1])}]" if r.ci95 else ""
+        std = _fmt(r.std) if r.std else ""
+        body.append([r.name, r.unit, _fmt(r.default), _fmt(r.value), std, ci, r.status])
+    return Table(
+        title="Drive parameters",
+        header=["parameter", "unit", "spec default", "used", "std", "95 % interval", "status"],
+        rows=body,
+        note="'used' is the value of the last simulation column; std and interval come from "
+        "the sysid result (fitted parameters only).",
+    )
+
+
+_DEFINITIONS = {
+    "active sample": "a measurement sample where the held command is non-zero (|cmd| > 1e-3) "
+    "or the real robot moves (|v| > tol_v or |w| > tol_w); idle samples are excluded",
+    "agreement": "fraction of active samples where both |v_sim - v_real| <= tol_v and "
+    "|w_sim - w_real| <= tol_w (agreement v / w: one axis each)",
+    "FIT %": "MATLAB compare fit over active samples, 100 (1 - ||y - y_sim|| / ||y - mean(y)||)",
+    "lag": "shift of the simulated trace behind the real one at the cross-correlation peak",
+    "coverage": "fraction of active real samples inside the 5-95 % band of the ensemble of "
+    "simulations drawn from the sysid uncertainty (both axes)",
+}
+
+
+def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
+    trace = data.trace
+    t = np.asarray(trace.meas_t_s, dtype=np.float64)
+    rv = np.asarray(trace.meas_v, dtype=np.float64)
+    rw = np.asarray(trace.meas_w, dtype=np.float64)
+    sims = [SimSeries(label=r.label, v=r.replay.v, w=r.replay.w) for r in data.runs]
+    band = None
+    if data.ensemble is not None:
+        e = data.ensemble
+        band = Band(lo_v=e.lo_v, hi_v=e.hi_v, lo_w=e.lo_w, hi_w=e.hi_w, label="ensemble 5-95 %")
+    first = data.runs[0].agreement
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    active = active_mask(cmd_v, cmd_w, rv, rw, tol_v=first.tol_v, tol_w=first.tol_w)
+    rolling = []
+    for r in data.runs:
+        ok = (np.abs(r.replay.v - rv) <= first.tol_v) & (np.abs(r.replay.w - rw) <= first.tol_w)
+        rolling.append((r.label, rolling_agreement(t, ok, active, window_s=ROLLING_WINDOW_S)))
+    return [
+        (
+            "timeseries",
+            Figure(
+                title="Velocity over time",
+                png=time_series_png(
+                    t,
+                    rv,
+                    rw,
+                    sims,
+                    cmd_t_s=np.asarray(trace.cmd_t_s, dtype=np.float64),
+                    cmd_v=np.asarray(trace.cmd_v, dtype=np.float64),
+                    cmd_w=np.asarray(trace.cmd_w, dtype=np.float64),
+                    band=band,
+                ),
+                caption="Forward velocity v and yaw rate w: real odometry, each simulation, the "
+                "command (dashed) and, when present, the ensemble's 5-95 % band.",
+            ),
+        ),
+        (
+            "errors",
+            Figure(
+                title="Error histograms",
+                png=error_histograms_png(
+                    rv, rw, sims, active, tol_v=first.tol_v, tol_w=first.tol_w
+                ),
+                caption="sim - real on active samples; dashed lines mark the tolerances.",
+            ),
+        ),
+        (
+            "rolling",
+            Figure(
+                title="Rolling agreement",
+                png=rolling_agreement_png(t, rolling, window_s=ROLLING_WINDOW_S, active=active),
+                caption=f"Share of agreeing active samples in a centred {ROLLING_WINDOW_S:g} s "
+                "window; grey: idle time (excluded from the score).",
+            ),
+        ),
+    ]
+
+
+def write_report(path: str | Path, data: ReportInput, *, write_pngs: bool = True) -> ReportFiles:
+    """Write the HTML report to ``path`` and the plots as ``<stem>_<name>.png`` beside it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The HTML file to write (its folder must exist).
+    data : ReportInput
+        What to show.
+    write_pngs : bool
+        Also write each figure as a PNG file next to the HTML file.
+
+    Returns
+    -------
+    ReportFiles
+        The paths written.
+    """
+    target = check_output_path(path, what="report file")
+    if not data.runs:
+        raise ValueError("ReportInput.runs is empty; give at least one replay")
+    figures = _figures(data)
+    first = data.runs[0].agreement
+    subtitle = (
+        f"log {first.log_file or '?'} · robot {first.robot} · engine {data.runs[0].replay.engine}"
+        f" · {first.n_samples} samples, {first.n_active} active"
+    )
+    tables = [_steps_table(data)]
+    if data.params:
+        tables.append(_params_table(data.params))
+    if data.provenance:
+        tables.append(
+            Table(title="Provenance", header=["item", "value"], rows=list(data.provenance))
+        )
+    page = render_page(
+        title=data.title,
+        subtitle=subtitle,
+        cards=_cards(data),
+        summary=_summary_table(data),
+        figures=[f for _, f in figures],
+        tables=tables,
+        definitions=_DEFINITIONS,
+    )
+    images: list[Path] = []
+    if write_pngs:
+        for name, fig in figures:
+            png_path = target.with_name(f"{target.stem}_{name}.png")
+            with atomic_write(png_path, "wb", what="report image") as fh:
+                fh.write(fig.png)
+            images.append(png_path)
+    with atomic_write(target, "wb", what="report file") as fh:
+        fh.write(page.encode("utf-8"))
+    return ReportFiles(html=target, images=tuple(images))

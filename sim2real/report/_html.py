@@ -1,0 +1,137 @@
+"""HTML rendering of the agreement report: one self-contained page (inline CSS, base64 PNGs).
+
+The page carries a Content-Security-Policy that forbids every network fetch (only ``data:``
+images and inline styles are allowed), so it renders identically offline and never phones
+home. All text is HTML-escaped.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+__all__ = ["Figure", "HeadlineCard", "Table", "render_page"]
+
+_CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0;color:#1d1d1f;
+background:#f6f7f9;line-height:1.45}
+main{max-width:1140px;margin:0 auto;padding:24px}
+h1{font-size:1.6rem;margin:0 0 4px}h2{font-size:1.2rem;margin:28px 0 8px;border-bottom:1px solid
+#ddd;padding-bottom:4px}.sub{color:#555;margin:0 0 16px}
+.cards{display:flex;gap:16px;flex-wrap:wrap}.card{background:#fff;border-radius:10px;
+padding:14px 18px;box-shadow:0 1px 3px rgba(0,0,0,.12);min-width:200px;flex:1}
+.card .label{font-size:.85rem;color:#555;text-transform:uppercase;letter-spacing:.04em}
+.card .big{font-size:2.4rem;font-weight:700}.card .small{font-size:.9rem;color:#444}
+.good{color:#1b7e3c}.mid{color:#b36b00}.bad{color:#b3261e}
+table{border-collapse:collapse;background:#fff;width:100%;font-size:.88rem;
+box-shadow:0 1px 3px rgba(0,0,0,.08)}th,td{padding:5px 9px;border-bottom:1px solid #eee;
+text-align:right}th:first-child,td:first-child{text-align:left}th{background:#eef0f3}
+figure{margin:12px 0;background:#fff;padding:8px;border-radius:8px;
+box-shadow:0 1px 3px rgba(0,0,0,.08)}figure img{width:100%;height:auto;display:block}
+figcaption{font-size:.85rem;color:#444;margin-top:4px}.note{font-size:.85rem;color:#555}
+code{background:#eef0f3;padding:1px 4px;border-radius:3px;word-break:break-all}
+"""
+
+_CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
+
+
+@dataclass(frozen=True, kw_only=True)
+class HeadlineCard:
+    """A big-number card: label, value in 0..1 (shown in %, or ``text``), a line of detail."""
+
+    label: str
+    fraction: float
+    detail: str
+    text: str = ""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Table:
+    """A titled table of already-formatted cells."""
+
+    title: str
+    header: Sequence[str]
+    rows: Sequence[Sequence[str]]
+    note: str = ""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Figure:
+    """A PNG figure with its caption."""
+
+    title: str
+    png: bytes
+    caption: str
+
+
+def _e(text: object) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _grade(fraction: float) -> str:
+    if not math.isfinite(fraction):
+        return ""
+    return "good" if fraction >= 0.9 else "mid" if fraction >= 0.7 else "bad"
+
+
+def _card(card: HeadlineCard) -> str:
+    value = f"{100 * card.fraction:.1f} %" if math.isfinite(card.fraction) else "n/a"
+    value = card.text or value
+    return (
+        f'<div class="card"><div class="label">{_e(card.label)}</div>'
+        f'<div class="big {_grade(card.fraction)}">{_e(value)}</div>'
+        f'<div class="small">{_e(card.detail)}</div></div>'
+    )
+
+
+def _table(table: Table) -> str:
+    head = "".join(f"<th>{_e(h)}</th>" for h in table.header)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{_e(c)}</td>" for c in row) + "</tr>" for row in table.rows
+    )
+    note = f'<p class="note">{_e(table.note)}</p>' if table.note else ""
+    return (
+        f"<h2>{_e(table.title)}</h2>{note}<table><thead><tr>{head}</tr></thead>"
+        f"<tbody>{body}</tbody></table>"
+    )
+
+
+def _figure(fig: Figure) -> str:
+    data = base64.b64encode(fig.png).decode("ascii")
+    return (
+        f"<h2>{_e(fig.title)}</h2><figure>"
+        f'<img alt="{_e(fig.title)}" src="data:image/png;base64,{data}">'
+        f"<figcaption>{_e(fig.caption)}</figcaption></figure>"
+    )
+
+
+def render_page(
+    *,
+    title: str,
+    subtitle: str,
+    cards: Sequence[HeadlineCard],
+    summary: Table,
+    figures: Sequence[Figure],
+    tables: Sequence[Table],
+    definitions: Mapping[str, str],
+) -> str:
+    """The whole report page as one HTML string (no external resources)."""
+    defs = "".join(f"<li><b>{_e(k)}</b>: {_e(v)}</li>" for k, v in definitions.items())
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f'<meta http-equiv="Content-Security-Policy" content="{_CSP}">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f"<title>{_e(title)}</title><style>{_CSS}</style></head><body><main>",
+        f'<h1>{_e(title)}</h1><p class="sub">{_e(subtitle)}</p>',
+        '<div class="cards">' + "".join(_card(c) for c in cards) + "</div>",
+        _table(summary),
+        *(_figure(f) for f in figures),
+        *(_table(t) for t in tables),
+        f'<h2>How to read this report</h2><ul class="note">{defs}</ul>',
+        "</main></body></html>",
+    ]
+    return "\n".join(parts) + "\n"

@@ -1,0 +1,191 @@
+"""Figures of the agreement report, drawn with matplotlib's Agg backend into PNG bytes.
+
+Every function builds its own :class:`matplotlib.figure.Figure` (no pyplot global state), so
+they are safe to call from tests and threads and never open a window.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "Band",
+    "SimSeries",
+    "error_histograms_png",
+    "rolling_agreement",
+    "rolling_agreement_png",
+    "time_series_png",
+]
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+_REAL_COLOR = "#222222"
+_SIM_COLORS = ("#d95f02", "#1b9e77", "#7570b3")
+_BAND_COLOR = "#1b9e77"
+_DPI = 100
+
+
+@dataclass(frozen=True, kw_only=True)
+class SimSeries:
+    """One simulated trace to draw: a label and v (m/s), w (rad/s) at the measurement times."""
+
+    label: str
+    v: FloatArray
+    w: FloatArray
+
+
+@dataclass(frozen=True, kw_only=True)
+class Band:
+    """An ensemble's 5-95 % band at the measurement times."""
+
+    lo_v: FloatArray
+    hi_v: FloatArray
+    lo_w: FloatArray
+    hi_w: FloatArray
+    label: str
+
+
+def _figure(width_in: float, height_in: float, rows: int = 1, cols: int = 1):  # type: ignore[no-untyped-def]
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width_in, height_in), dpi=_DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(rows, cols, squeeze=False)
+    return fig, axes
+
+
+def _png(fig) -> bytes:  # type: ignore[no-untyped-def]
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=_DPI)
+    return buf.getvalue()
+
+
+def time_series_png(
+    t_s: FloatArray,
+    real_v: FloatArray,
+    real_w: FloatArray,
+    sims: Sequence[SimSeries],
+    *,
+    cmd_t_s: FloatArray | None = None,
+    cmd_v: FloatArray | None = None,
+    cmd_w: FloatArray | None = None,
+    band: Band | None = None,
+) -> bytes:
+    """v and w over time: real, each simulation, the command and the ensemble band."""
+    fig, axes = _figure(11.0, 5.6, rows=2)
+    for row, (name, unit, real, cmd) in enumerate(
+        (("v", "m/s", real_v, cmd_v), ("w", "rad/s", real_w, cmd_w))
+    ):
+        ax = axes[row, 0]
+        if band is not None:
+            lo, hi = (band.lo_v, band.hi_v) if name == "v" else (band.lo_w, band.hi_w)
+            ax.fill_between(t_s, lo, hi, color=_BAND_COLOR, alpha=0.2, lw=0, label=band.label)
+        if cmd_t_s is not None and cmd is not None:
+            ax.step(cmd_t_s, cmd, where="post", color="#999999", lw=0.8, ls="--", label="command")
+        ax.plot(t_s, real, color=_REAL_COLOR, lw=1.0, label="real")
+        for k, sim in enumerate(sims):
+            y = sim.v if name == "v" else sim.w
+            ax.plot(t_s, y, color=_SIM_COLORS[k % len(_SIM_COLORS)], lw=1.0, label=sim.label)
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(loc="upper right", fontsize=8, ncols=3)
+    axes[1, 0].set_xlabel("time since log start [s]")
+    return _png(fig)
+
+
+def error_histograms_png(
+    real_v: FloatArray,
+    real_w: FloatArray,
+    sims: Sequence[SimSeries],
+    active: BoolArray,
+    *,
+    tol_v: float,
+    tol_w: float,
+) -> bytes:
+    """Histograms of sim - real on the active samples, with the tolerance marked."""
+    fig, axes = _figure(11.0, 3.4, cols=2)
+    for col, (name, unit, real, tol) in enumerate(
+        (("v", "m/s", real_v, tol_v), ("w", "rad/s", real_w, tol_w))
+    ):
+        ax = axes[0, col]
+        errs = [((s.v if name == "v" else s.w) - real)[active] for s in sims]
+        span = max([4.0 * tol] + [float(np.percentile(np.abs(e), 99)) for e in errs if e.size])
+        bins = np.linspace(-span, span, 61)
+        for k, (sim, e) in enumerate(zip(sims, errs, strict=True)):
+            ax.hist(
+                np.clip(e, -span, span),
+                bins=bins,
+                histtype="stepfilled",
+                alpha=0.45,
+                color=_SIM_COLORS[k % len(_SIM_COLORS)],
+                label=sim.label,
+            )
+        for x in (-tol, tol):
+            ax.axvline(x, color=_REAL_COLOR, lw=0.8, ls="--")
+        ax.set_xlabel(f"{name}_sim - {name}_real [{unit}]  (dashed: ±tol)")
+        ax.set_ylabel("active samples")
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=8)
+    return _png(fig)
+
+
+def rolling_agreement(
+    t_s: FloatArray,
+    ok: BoolArray,
+    active: BoolArray,
+    *,
+    window_s: float,
+) -> FloatArray:
+    """Fraction of active samples that agree within a centred window of ``window_s`` seconds.
+
+    NaN where the window holds no active sample.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(5.0)
+    >>> rolling_agreement(t, np.array([1, 1, 0, 0, 0], bool), np.ones(5, bool), window_s=2.0)
+    array([1.        , 0.66666667, 0.33333333, 0.        , 0.        ])
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    good = np.concatenate(([0], np.cumsum(ok & active)))
+    act = np.concatenate(([0], np.cumsum(active)))
+    lo = np.searchsorted(t, t - 0.5 * window_s, side="left")
+    hi = np.searchsorted(t, t + 0.5 * window_s, side="right")
+    n_act = act[hi] - act[lo]
+    n_good = good[hi] - good[lo]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac: FloatArray = np.where(n_act > 0, n_good / np.maximum(n_act, 1), np.nan)
+    return frac
+
+
+def rolling_agreement_png(
+    t_s: FloatArray,
+    series: Sequence[tuple[str, FloatArray]],
+    *,
+    window_s: float,
+    active: BoolArray,
+) -> bytes:
+    """Rolling agreement over time for each simulation, with idle time shaded."""
+    fig, axes = _figure(11.0, 3.0)
+    ax = axes[0, 0]
+    idle = ~active
+    if idle.any():
+        ax.fill_between(
+            t_s, 0, 100, where=idle, color="#cccccc", alpha=0.5, lw=0, label="idle (excluded)"
+        )
+    for k, (label, frac) in enumerate(series):
+        ax.plot(t_s, 100.0 * frac, color=_SIM_COLORS[k % len(_SIM_COLORS)], lw=1.2, label=label)
+    ax.set_ylim(0, 102)
+    ax.set_ylabel(f"agreement in {window_s:g} s window [%]")
+    ax.set_xlabel("time since log start [s]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="lower right", fontsize=8)
+    return _png(fig)
