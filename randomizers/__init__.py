@@ -1,5 +1,66 @@
-"""Gymnasium wrappers for domain randomisation (sensor noise, delays, camera pose, dynamics)."""
+"""Gymnasium wrappers for domain randomisation (sensor noise, delays, camera pose, dynamics).
+
+Each wrapper is one concept, works on any gymnasium env whose observation has the entry it
+needs (a ``Box``, or a ``Dict`` entry chosen with ``key``, optionally an ``index`` range of the
+last axis), draws from its own seeded generator, records what it drew in
+``info["randomization"][name]`` and has a curriculum ``scale`` in [0, 1]:
+
+- :class:`DepthNoise`, :class:`LidarNoise`, :class:`ObservationNoise`, :class:`GoalNoise`
+  (observation level);
+- :class:`OdometryDelay`, :class:`ActionDelay` (delays in seconds or steps);
+- :class:`CameraPoseJitter`, :class:`DynamicsRandomizer` (physics level; they need the camera or
+  drive protocol on ``env.unwrapped``, see docs/ARCHITECTURE.md).
+
+Stacks are built from and saved to YAML with :func:`from_config` / :func:`save_config`, and
+:class:`SuccessRateCurriculum` raises every scale as the policy improves.
+
+Example
+-------
+>>> import gymnasium as gym
+>>> import randomizers as dr
+>>> env = dr.ActionDelay(dr.ObservationNoise(gym.make("CartPole-v1"), std=0.01), delay_steps=1)
+>>> obs, info = env.reset(seed=0)
+>>> sorted(info["randomization"])
+['ActionDelay', 'ObservationNoise']
+"""
 
 from __future__ import annotations
 
-__all__: list[str] = []
+from randomizers._base import Randomizer, iter_randomizers, set_scale
+from randomizers._camera import CameraPoseJitter
+from randomizers._config import CONFIG_FORMAT, RANDOMIZERS, from_config, save_config, to_config
+from randomizers._curriculum import CurriculumUpdate, SuccessRateCurriculum
+from randomizers._delay import ActionDelay, OdometryDelay, steps_from_seconds
+from randomizers._dynamics import DynamicsRandomizer, default_bounds
+from randomizers._gauss import fill_standard_normal
+from randomizers._goal import GoalNoise
+from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
+
+__all__ = [
+    "CONFIG_FORMAT",
+    "RANDOMIZERS",
+    "ActionDelay",
+    "CameraPoseJitter",
+    "CurriculumUpdate",
+    "DepthNoise",
+    "DynamicsRandomizer",
+    "GoalNoise",
+    "LidarNoise",
+    "ObservationNoise",
+    "OdometryDelay",
+    "Randomizer",
+    "SuccessRateCurriculum",
+    "default_bounds",
+    "fill_standard_normal",
+    "from_config",
+    "iter_randomizers",
+    "save_config",
+    "set_scale",
+    "steps_from_seconds",
+    "to_config",
+]
+
+# Public entry points (env.spec, pickling for async vector envs): randomizers:<Class>.
+for _cls in (*RANDOMIZERS.values(), Randomizer, SuccessRateCurriculum, CurriculumUpdate):
+    _cls.__module__ = __name__
+del _cls

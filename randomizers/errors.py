@@ -9,6 +9,8 @@ from __future__ import annotations
 __all__ = [
     "MissingObservationKeyError",
     "MissingProtocolError",
+    "RandomizationNotAppliedError",
+    "RandomizerConfigError",
     "RandomizerError",
     "RandomizerTypeError",
     "RandomizerValueError",
@@ -36,3 +38,11 @@ class MissingObservationKeyError(RandomizerError, KeyError):
 
 class MissingProtocolError(RandomizerError, AttributeError):
     """A physics-level wrapper needs a method (e.g. ``set_drive_params``) the env lacks."""
+
+
+class RandomizationNotAppliedError(RandomizerError, RuntimeError):
+    """The env accepted a protocol call (``set_camera_pose``, ``set_drive_params``) without effect."""
+
+
+class RandomizerConfigError(RandomizerValueError):
+    """A randomizer config (YAML file or dict) is missing, malformed or names an unknown wrapper."""

@@ -1,0 +1,172 @@
+"""Build a randomizer stack from YAML and write the stack in use back, so it ships with a policy.
+
+File format (``format: sim2real.randomizers/1``); the list is innermost first, i.e. the first
+entry wraps the env directly::
+
+    format: sim2real.randomizers/1
+    randomizers:
+      - {type: DepthNoise, key: depth, std_m: 0.2, near_m: 0.05, far_m: 8.0}
+      - {type: OdometryDelay, key: velocity, delay_s: [0.05, 0.15]}
+      - {type: DynamicsRandomizer, uniform: {coulomb_v_fwd_n: [0.5, 1.5]}, scale: 0.5}
+
+Each entry's other keys are the wrapper's keyword arguments. :func:`to_config` writes every
+argument (including the current ``scale`` and ``name``), so ``from_config(env, to_config(w))``
+rebuilds the same stack with the same random streams.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import yaml
+
+from randomizers._base import iter_randomizers
+from randomizers._camera import CameraPoseJitter
+from randomizers._delay import ActionDelay, OdometryDelay
+from randomizers._dynamics import DynamicsRandomizer
+from randomizers._goal import GoalNoise
+from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
+from randomizers.errors import RandomizerConfigError, RandomizerError
+
+__all__ = ["CONFIG_FORMAT", "RANDOMIZERS", "from_config", "save_config", "to_config"]
+
+#: ``format:`` key of a randomizer config file.
+CONFIG_FORMAT = "sim2real.randomizers/1"
+
+#: Wrapper classes a config may name, by ``type``.
+RANDOMIZERS: dict[str, type[gym.Wrapper[Any, Any, Any, Any]]] = {
+    cls.__name__: cls
+    for cls in (
+        ActionDelay,
+        CameraPoseJitter,
+        DepthNoise,
+        DynamicsRandomizer,
+        GoalNoise,
+        LidarNoise,
+        ObservationNoise,
+        OdometryDelay,
+    )
+}
+
+
+def _load(config: str | Path | Mapping[str, Any]) -> tuple[str, Mapping[str, Any]]:
+    if isinstance(config, Mapping):
+        return "config", config
+    path = Path(config)
+    if not path.is_file():
+        raise RandomizerConfigError(
+            f"randomizer config '{path}' does not exist; give the path of a YAML file written "
+            "by randomizers.save_config or by hand (see randomizers.from_config)"
+        )
+    try:
+        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        raise RandomizerConfigError(
+            f"randomizer config '{path}' is not valid YAML ({exc})"
+        ) from None
+    if not isinstance(doc, Mapping):
+        raise RandomizerConfigError(
+            f"randomizer config '{path}' must be a mapping with 'format' and 'randomizers', got "
+            f"{type(doc).__name__}"
+        )
+    return f"randomizer config '{path}'", doc
+
+
+def from_config(env: gym.Env[Any, Any], config: str | Path | Mapping[str, Any]) -> Any:
+    """Wrap ``env`` in the randomizers a YAML file (or an equivalent dict) lists.
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> import randomizers
+    >>> cfg = {"format": "sim2real.randomizers/1", "randomizers": [
+    ...     {"type": "ObservationNoise", "std": 0.01},
+    ...     {"type": "ActionDelay", "delay_steps": 1}]}
+    >>> env = randomizers.from_config(gym.make("CartPole-v1"), cfg)
+    >>> [r.name for r in randomizers.iter_randomizers(env)]
+    ['ActionDelay', 'ObservationNoise']
+    """
+    where, doc = _load(config)
+    fmt = doc.get("format", CONFIG_FORMAT)
+    if fmt != CONFIG_FORMAT:
+        raise RandomizerConfigError(f"{where}: key 'format' must be '{CONFIG_FORMAT}', got {fmt!r}")
+    entries = doc.get("randomizers")
+    if not isinstance(entries, list):
+        raise RandomizerConfigError(
+            f"{where}: key 'randomizers' must be a list of {{type: ..., <arguments>}}, got "
+            f"{entries!r}"
+        )
+    wrapped: Any = env
+    for i, entry in enumerate(entries):
+        if not isinstance(entry, Mapping) or "type" not in entry:
+            raise RandomizerConfigError(
+                f"{where}: randomizers[{i}] must be a mapping with a 'type' key, got {entry!r}"
+            )
+        kind = entry["type"]
+        cls = RANDOMIZERS.get(kind)
+        if cls is None:
+            raise RandomizerConfigError(
+                f"{where}: randomizers[{i}] has unknown type {kind!r}; known types are "
+                f"{sorted(RANDOMIZERS)}"
+            )
+        kwargs = {k: v for k, v in entry.items() if k != "type"}
+        try:
+            wrapped = cls(wrapped, **kwargs)
+        except RandomizerError as exc:
+            raise type(exc)(f"{where}: randomizers[{i}] ({kind}): {exc}") from None
+        except TypeError as exc:  # unknown or missing keyword
+            raise RandomizerConfigError(f"{where}: randomizers[{i}] ({kind}): {exc}") from None
+    return wrapped
+
+
+def to_config(env: Any) -> dict[str, Any]:
+    """Describe the randomizers of a stack (innermost first) as a YAML-ready dict.
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> from randomizers import ActionDelay
+    >>> to_config(ActionDelay(gym.make("CartPole-v1"), delay_steps=2))["randomizers"][0]["type"]
+    'ActionDelay'
+    """
+    entries = []
+    for randomizer in reversed(list(iter_randomizers(env))):
+        entries.append({"type": type(randomizer).__name__, **_plain(randomizer._saved_kwargs)})
+    return {"format": CONFIG_FORMAT, "randomizers": entries}
+
+
+def save_config(env: Any, path: str | Path) -> Path:
+    """Write :func:`to_config` of ``env`` to ``path`` (temp file in the folder, then rename)."""
+    target = Path(path)
+    folder = target.parent if str(target.parent) else Path(".")
+    if not folder.is_dir():
+        raise RandomizerConfigError(
+            f"cannot write randomizer config '{target}': folder '{folder}' does not exist; "
+            "create it first"
+        )
+    text = yaml.safe_dump(to_config(env), sort_keys=False)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
+
+
+def _plain(value: Any) -> Any:
+    """Recursively turn tuples into lists and numpy scalars into Python numbers."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if hasattr(value, "item") and callable(value.item):
+        return value.item()
+    return value

@@ -1,0 +1,316 @@
+"""Per-episode randomisation of the drive-model parameters (friction, mass, delay, limits)."""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+
+from randomizers._base import Randomizer, check_name, check_number, check_scale
+from randomizers._protocol import DRIVE_PROTOCOL, require_protocol
+from randomizers.errors import RandomizationNotAppliedError, RandomizerValueError
+from robots.params import DriveParams, read_params_file
+
+__all__ = ["DynamicsRandomizer", "default_bounds"]
+
+# Same rules as robots.params: these must stay > 0, these may be negative, the rest >= 0.
+_POSITIVE = frozenset(
+    {
+        "cmd_timeout_s",
+        "speed_lim_v_mps",
+        "speed_lim_w_radps",
+        "accel_lim_v_mps2",
+        "accel_lim_w_radps2",
+        "wheel_speed_max_radps",
+        "motor_gain_nms_per_rad",
+        "wheel_torque_max_nm",
+    }
+)
+_SIGNED = frozenset({"added_mass_kg", "added_yaw_inertia_kgm2"})
+#: Floor of a must-be-positive parameter, as a fraction of its range centre / fitted value.
+POSITIVE_FLOOR_FRACTION = 0.01
+
+
+def default_bounds(name: str, centre: float) -> tuple[float, float]:
+    """Physical clip range of a drive parameter when no ``bounds`` entry is given.
+
+    ``>= 0`` for friction, delay and the like; ``>= 1 %`` of the centre for parameters that must
+    be positive (gains, limits); unbounded for ``added_mass_kg`` / ``added_yaw_inertia_kgm2``
+    (the env's geometry decides; pass ``bounds`` to keep the total mass positive).
+
+    Examples
+    --------
+    >>> default_bounds("coulomb_v_fwd_n", 2.0), default_bounds("motor_gain_nms_per_rad", 0.5)
+    ((0.0, inf), (0.005, inf))
+    """
+    if name in _SIGNED:
+        return -math.inf, math.inf
+    if name in _POSITIVE:
+        return POSITIVE_FLOOR_FRACTION * abs(centre), math.inf
+    return 0.0, math.inf
+
+
+def _number(value: Any, argument: str, *, allow_inf: bool) -> float:
+    if allow_inf and isinstance(value, float) and math.isinf(value):
+        return value
+    return check_number(value, argument=argument)
+
+
+def _check_field(name: Any, argument: str) -> str:
+    if name not in DriveParams.names():
+        raise RandomizerValueError(
+            f"DynamicsRandomizer: argument '{argument}' names unknown drive parameter {name!r}; "
+            f"known ones are {list(DriveParams.names())}"
+        )
+    return str(name)
+
+
+def _pairs(
+    table: Mapping[str, Sequence[float]] | None,
+    argument: str,
+    what: str,
+    *,
+    allow_inf: bool = False,
+) -> dict[str, tuple[float, float]]:
+    out: dict[str, tuple[float, float]] = {}
+    for field, pair in (table or {}).items():
+        _check_field(field, argument)
+        if not (isinstance(pair, Sequence) and not isinstance(pair, str) and len(pair) == 2):
+            raise RandomizerValueError(
+                f"DynamicsRandomizer: argument '{argument}' entry '{field}' must be {what}, got "
+                f"{pair!r}"
+            )
+        a, b = (
+            _number(v, f"{argument}['{field}'][{i}]", allow_inf=allow_inf)
+            for i, v in enumerate(pair)
+        )
+        out[field] = (a, b)
+    return out
+
+
+class DynamicsRandomizer(
+    gym.Wrapper[Any, Any, Any, Any], Randomizer, gym.utils.RecordConstructorArgs
+):
+    r"""Draw drive-model parameters (:class:`robots.params.DriveParams`) once per episode.
+
+    Seed 000 identifies extra motor friction and inertia of the real robot; randomising them
+    around the identified values makes a policy robust to what identification missed. Each
+    listed field is drawn as
+
+    - ``uniform={name: [low, high]}``: :math:`m + c\,(u - m)` with :math:`u \sim U(low, high)`
+      and centre :math:`m = (low + high)/2`, i.e. the range shrinks about its centre with the
+      curriculum scale c;
+    - ``normal={name: [mean, std]}``: :math:`\mathrm{mean} + c\,\mathrm{std}\,z`,
+      :math:`z \sim \mathcal N(0, 1)` (see :meth:`from_sysid`);
+
+    then clipped to ``bounds[name]`` or :func:`default_bounds` so it stays physical. Fields are
+    drawn in :class:`~robots.params.DriveParams` declaration order; the others keep the env's
+    values (read with ``get_drive_params`` at the first reset).
+
+    The parameters are applied with ``env.unwrapped.set_drive_params`` *before* the env's reset
+    (so the whole episode uses them) and read back with ``get_drive_params`` after the set and
+    after the reset; a mismatch raises
+    :class:`~randomizers.errors.RandomizationNotAppliedError`.
+
+    Parameters
+    ----------
+    env : gymnasium.Env
+        Env implementing the drive protocol.
+    uniform : mapping of str to [low, high], optional
+        Uniform ranges, in each parameter's unit.
+    normal : mapping of str to [mean, std], optional
+        Gaussian distributions (std >= 0).
+    bounds : mapping of str to [low, high], optional
+        Hard clip ranges overriding :func:`default_bounds`.
+    scale : float
+        Curriculum scale c in [0, 1].
+    name : str, optional
+        Unique name in the stack; default ``DynamicsRandomizer``.
+
+    Example
+    -------
+    >>> env = DynamicsRandomizer(
+    ...     make_drive_env(), uniform={"coulomb_v_fwd_n": [0.5, 1.5]})  # doctest: +SKIP
+    >>> _, info = env.reset(seed=0)  # doctest: +SKIP
+    >>> info["randomization"]["DynamicsRandomizer"]["coulomb_v_fwd_n"]  # doctest: +SKIP
+    0.8186
+    """
+
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        *,
+        uniform: Mapping[str, Sequence[float]] | None = None,
+        normal: Mapping[str, Sequence[float]] | None = None,
+        bounds: Mapping[str, Sequence[float]] | None = None,
+        scale: float = 1.0,
+        name: str | None = None,
+    ) -> None:
+        uni = _pairs(uniform, "uniform", "[low, high]")
+        nor = _pairs(normal, "normal", "[mean, std]")
+        lim = _pairs(bounds, "bounds", "[low, high]", allow_inf=True)
+        _check_distributions(uni, nor, lim)
+        scale = check_scale(scale)
+        require_protocol(env, DRIVE_PROTOCOL, "DynamicsRandomizer")
+        name = check_name(name, env, "DynamicsRandomizer")
+        gym.utils.RecordConstructorArgs.__init__(
+            self,
+            uniform={k: list(v) for k, v in uni.items()} or None,
+            normal={k: list(v) for k, v in nor.items()} or None,
+            bounds={k: list(v) for k, v in lim.items()} or None,
+            scale=scale,
+            name=name,
+        )
+        gym.Wrapper.__init__(self, env)
+        self._init_randomizer(name, scale)
+        self._uniform = uni
+        self._normal = nor
+        self._bounds = lim
+        self._order = [f for f in DriveParams.names() if f in uni or f in nor]
+        self.nominal: DriveParams | None = None
+        self.params: DriveParams | None = None
+        self.sampled: dict[str, float] = {}
+
+    @classmethod
+    def from_sysid(
+        cls,
+        path: str | Path,
+        *,
+        env: gym.Env[Any, Any] | None = None,
+        scale: float = 1.0,
+        fields: Iterable[str] | None = None,
+        bounds: Mapping[str, Sequence[float]] | None = None,
+        name: str | None = None,
+    ) -> Any:
+        """Randomise around a sysid result: each fitted parameter ~ N(value, (c·std)^2).
+
+        Reads the file with :func:`robots.params.read_params_file`; the parameters that carry a
+        ``std`` (status ``fitted``) are randomised, or only ``fields`` when given. Without
+        ``env`` it returns a picklable ``env -> wrapper`` callable for
+        ``gymnasium.make_vec(..., wrappers=[...])``; with ``env`` it returns the wrapper.
+
+        Examples
+        --------
+        >>> make = DynamicsRandomizer.from_sysid("params.yaml", scale=1.0)  # doctest: +SKIP
+        >>> env = make(base_env)  # doctest: +SKIP
+        """
+        pf = read_params_file(path)
+        wanted = list(pf.stds) if fields is None else [_check_field(f, "fields") for f in fields]
+        normal: dict[str, list[float]] = {}
+        for field in wanted:
+            if field not in pf.stds:
+                raise RandomizerValueError(
+                    f"DynamicsRandomizer.from_sysid: argument 'fields' names '{field}', which "
+                    f"has no std in '{pf.path}' (not fitted); fitted ones: {sorted(pf.stds)}"
+                )
+            value, std = pf.values[field], pf.stds[field]
+            if math.isfinite(value) and math.isfinite(std) and std >= 0:
+                normal[field] = [value, std]
+        if not normal:
+            raise RandomizerValueError(
+                f"DynamicsRandomizer.from_sysid: '{pf.path}' has no fitted parameter with a "
+                "finite value and std; fit one with 'sim2real sysid fit' or use uniform ranges"
+            )
+        factory = functools.partial(
+            cls, normal=normal, bounds=bounds, scale=check_scale(scale), name=name
+        )
+        return factory if env is None else factory(env)
+
+    def _draw(self) -> dict[str, float]:
+        values: dict[str, float] = {}
+        c = self.scale
+        for field in self._order:
+            if field in self._uniform:
+                low, high = self._uniform[field]
+                centre = 0.5 * (low + high)
+                value = centre + c * (float(self.rng.uniform(low, high)) - centre)
+            else:
+                centre, std = self._normal[field]
+                value = centre + c * std * float(self.rng.standard_normal())
+            lo, hi = self._bounds.get(field, default_bounds(field, centre))
+            values[field] = float(np.clip(value, lo, hi))
+        return values
+
+    def _check_applied(self, when: str) -> None:
+        base = self.env.unwrapped
+        got = base.get_drive_params()  # type: ignore[attr-defined]
+        assert self.params is not None
+        wrong = {
+            f: (getattr(got, f), v)
+            for f, v in self.sampled.items()
+            if not math.isclose(getattr(got, f), v, rel_tol=1e-9, abs_tol=1e-12)
+        }
+        if wrong:
+            raise RandomizationNotAppliedError(
+                f"DynamicsRandomizer: {when}, {type(base).__name__}.get_drive_params() reports "
+                f"(got, set) = {wrong}; set_drive_params must take effect and persist across "
+                "reset()"
+            )
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        """Draw and apply the episode's drive parameters, then reset the env."""
+        self._begin_episode(seed)
+        base = self.env.unwrapped
+        if self.nominal is None:
+            self.nominal = base.get_drive_params()  # type: ignore[attr-defined]
+        assert self.nominal is not None
+        self.sampled = self._draw()
+        try:
+            self.params = self.nominal.replace(**self.sampled)
+        except ValueError as exc:
+            raise RandomizerValueError(
+                f"DynamicsRandomizer: the drawn parameters are not valid ({exc}); narrow the "
+                "distributions or pass 'bounds'"
+            ) from None
+        base.set_drive_params(self.params)  # type: ignore[attr-defined]
+        self._check_applied("right after set_drive_params")
+        obs, info = self.env.reset(seed=seed, options=options)
+        self._check_applied("after reset")
+        return obs, self._record(info, {**self.sampled, "scale": self.scale})
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        """Step the env (the parameters stay fixed within an episode)."""
+        return self.env.step(action)
+
+
+def _check_distributions(
+    uni: dict[str, tuple[float, float]],
+    nor: dict[str, tuple[float, float]],
+    lim: dict[str, tuple[float, float]],
+) -> None:
+    if not uni and not nor:
+        raise RandomizerValueError(
+            "DynamicsRandomizer: give at least one parameter in 'uniform' or 'normal' (or use "
+            "DynamicsRandomizer.from_sysid); got neither"
+        )
+    both = sorted(set(uni) & set(nor))
+    if both:
+        raise RandomizerValueError(
+            f"DynamicsRandomizer: parameter(s) {both} appear in both 'uniform' and 'normal'; "
+            "give each parameter one distribution"
+        )
+    for field, (low, high) in uni.items():
+        if low > high:
+            raise RandomizerValueError(
+                f"DynamicsRandomizer: argument 'uniform' entry '{field}' must have low <= high, "
+                f"got [{low}, {high}]"
+            )
+    for field, (_, std) in nor.items():
+        if std < 0:
+            raise RandomizerValueError(
+                f"DynamicsRandomizer: argument 'normal' entry '{field}' has std {std} < 0; the "
+                "standard deviation must be >= 0"
+            )
+    for field, (low, high) in lim.items():
+        if low > high:
+            raise RandomizerValueError(
+                f"DynamicsRandomizer: argument 'bounds' entry '{field}' must have low <= high, "
+                f"got [{low}, {high}]"
+            )

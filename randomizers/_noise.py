@@ -1,0 +1,388 @@
+"""Additive sensor noise: any Box entry, depth images and lidar scans.
+
+The dense noise (one draw per element and step) comes from
+:func:`randomizers._gauss.fill_standard_normal` on the wrapper's own generator; it is not copied
+into ``info`` (that would double the observation's memory) but is reproducible from the seed.
+``info["randomization"][name]`` holds the effective standard deviation (and the number of
+dropped lidar beams).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numba
+import numpy as np
+
+from randomizers._base import check_name, check_nonnegative, check_number, check_scale
+from randomizers._gauss import fill_standard_normal
+from randomizers._observation import ObservationRandomizer
+from randomizers._select import index_kwarg, index_label, select
+from randomizers.errors import RandomizerValueError
+
+__all__ = ["DepthNoise", "LidarNoise", "ObservationNoise"]
+
+
+class ObservationNoise(ObservationRandomizer):
+    r"""Add i.i.d. Gaussian noise :math:`\mathcal N(0, (c\,\sigma)^2)` to a Box observation entry.
+
+    The generic sensor-noise wrapper: one std for the entry, or one per element of the last
+    axis. Values are clipped to the entry's Box bounds when ``clip`` is True (default), so
+    the observation stays in its space.
+
+    Parameters
+    ----------
+    env : gymnasium.Env
+        Env with a float ``Box`` observation, or a ``Dict`` holding one.
+    std : float or sequence of float
+        Noise standard deviation σ in the entry's units (>= 0); a sequence gives one per element
+        of the selected last axis.
+    key : str, optional
+        Dict key of the entry (required for Dict spaces).
+    index : int, slice or [start, stop], optional
+        Range of the last axis to perturb (default: all of it).
+    clip : bool
+        Clip to the entry's bounds after adding the noise.
+    scale : float
+        Curriculum scale c in [0, 1] multiplying σ.
+    name : str, optional
+        Unique name in the stack (random stream and info key); default ``ObservationNoise`` plus
+        the key/index, e.g. ``ObservationNoise[2:4]``.
+
+    Example
+    -------
+    >>> import gymnasium as gym
+    >>> from randomizers import ObservationNoise
+    >>> env = ObservationNoise(gym.make("CartPole-v1"), std=0.01, index=[2, 4])
+    >>> obs, info = env.reset(seed=0)
+    >>> info["randomization"]["ObservationNoise[2:4]"]
+    {'std': 0.01, 'scale': 1.0}
+    """
+
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        std: float | Sequence[float] = 0.1,
+        *,
+        key: str | None = None,
+        index: Any = None,
+        clip: bool = True,
+        scale: float = 1.0,
+        name: str | None = None,
+    ) -> None:
+        sel = select(env.observation_space, key=key, index=index, wrapper="ObservationNoise")
+        std_value = _check_std(std, sel.shape[-1] if sel.shape else 1, argument="std")
+        scale = check_scale(scale)
+        name = check_name(name, env, "ObservationNoise" + index_label(key, sel.index))
+        gym.utils.RecordConstructorArgs.__init__(
+            self,
+            std=std_value if isinstance(std_value, float) else std_value.tolist(),
+            key=key,
+            index=index_kwarg(sel.index),
+            clip=bool(clip),
+            scale=scale,
+            name=name,
+        )
+        gym.ObservationWrapper.__init__(self, env)
+        self._init_randomizer(name, scale)
+        self._sel = sel
+        self._std = std_value
+        self._clip = bool(clip)
+
+    def _effective_std(self) -> float | np.ndarray:
+        return self.scale * self._std
+
+    def observation(self, observation: Any) -> Any:
+        """Return ``observation`` with noise added to the selected entry (a new object)."""
+        part = self._sel.get(observation)
+        out = np.empty(part.shape, dtype=self._sel.dtype)
+        fill_standard_normal(self.rng, out)
+        out *= self._effective_std()
+        out += part
+        if self._clip:
+            self._sel.clip(out)
+        return self._sel.put(observation, out)
+
+    def episode_record(self) -> dict[str, Any]:
+        """Effective std and scale."""
+        return self.step_record()
+
+    def step_record(self) -> dict[str, Any]:
+        """Effective std and scale (the per-element noise is reproducible from the seed)."""
+        std = self._effective_std()
+        return {"std": std if isinstance(std, float) else std.tolist(), "scale": self.scale}
+
+
+@numba.njit(cache=True, nogil=True)
+def _noisy_depth(
+    img: np.ndarray, out: np.ndarray, std: float, near: float, far: float
+) -> None:  # pragma: no cover - compiled
+    """``out`` holds N(0, 1) draws on entry; valid pixels become clip(img + std*z, near, far)."""
+    for i in range(img.size):
+        d = img[i]
+        if d > 0.0 and d < far:  # NaN and +-inf fail one of the two tests
+            v = d + std * out[i]
+            out[i] = min(max(v, near), far)
+        else:
+            out[i] = d
+
+
+class DepthNoise(ObservationRandomizer):
+    r"""Gaussian range noise on a depth image, N(0, 0.2 m) by default (seed paper 000).
+
+    Seed 000 adds :math:`\mathcal N(0, 0.2)` to the depth images; we read 0.2 as the standard
+    deviation in metres. Each valid pixel :math:`d` becomes
+    :math:`\mathrm{clip}(d + c\,\sigma z, \mathit{near}, \mathit{far})` with i.i.d.
+    :math:`z \sim \mathcal N(0, 1)` per pixel and step. Invalid pixels are returned unchanged:
+    NaN or ±inf (REP 118 float depth), ``<= 0`` (no return in 0-coded images) and
+    ``>= far_m`` (a max-range reading). Valid pixels closer than ``near_m`` are clipped up to
+    it. With an effective std of 0 (``scale=0``) the image passes through untouched.
+
+    Parameters
+    ----------
+    env : gymnasium.Env
+        Env whose observation is (or holds, under ``key``) a float depth image in metres.
+    std_m : float
+        Noise standard deviation σ, m (>= 0).
+    near_m, far_m : float
+        The camera's clip range, m (``0 <= near_m < far_m``), e.g. 0.05 and 8.0 for the
+        TurtleBot 2 Kinect model in robot-specs.md.
+    key : str, optional
+        Dict key of the depth image (required for Dict spaces).
+    index : int, slice or [start, stop], optional
+        Range of the last axis (rarely needed for images).
+    scale : float
+        Curriculum scale c in [0, 1] multiplying σ.
+    name : str, optional
+        Unique name in the stack; default ``DepthNoise[<key>]``.
+
+    Example
+    -------
+    >>> import gymnasium as gym
+    >>> import numpy as np
+    >>> from randomizers import DepthNoise
+    >>> class Cam(gym.Env):
+    ...     observation_space = gym.spaces.Box(0.0, 8.0, (4, 4), np.float32)
+    ...     action_space = gym.spaces.Discrete(1)
+    ...     def reset(self, *, seed=None, options=None):
+    ...         super().reset(seed=seed)
+    ...         return np.full((4, 4), 2.0, np.float32), {}
+    ...     def step(self, action):
+    ...         return np.full((4, 4), 2.0, np.float32), 0.0, False, False, {}
+    >>> env = DepthNoise(Cam(), std_m=0.2, near_m=0.05, far_m=8.0)
+    >>> obs, _ = env.reset(seed=0)
+    >>> bool(np.all((obs > 1.0) & (obs < 3.0)) and obs.dtype == np.float32)
+    True
+    """
+
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        std_m: float = 0.2,
+        *,
+        near_m: float,
+        far_m: float,
+        key: str | None = None,
+        index: Any = None,
+        scale: float = 1.0,
+        name: str | None = None,
+    ) -> None:
+        sel = select(env.observation_space, key=key, index=index, wrapper="DepthNoise")
+        std_m = check_nonnegative(std_m, argument="std_m", unit="m")
+        near_m = check_nonnegative(near_m, argument="near_m", unit="m")
+        far_m = check_number(far_m, argument="far_m")
+        if not far_m > near_m:
+            raise RandomizerValueError(
+                f"DepthNoise: argument 'far_m' must be > near_m={near_m} m, got {far_m!r}; "
+                "pass the camera's clip range"
+            )
+        scale = check_scale(scale)
+        name = check_name(name, env, "DepthNoise" + index_label(key, sel.index))
+        gym.utils.RecordConstructorArgs.__init__(
+            self,
+            std_m=std_m,
+            near_m=near_m,
+            far_m=far_m,
+            key=key,
+            index=index_kwarg(sel.index),
+            scale=scale,
+            name=name,
+        )
+        gym.ObservationWrapper.__init__(self, env)
+        self._init_randomizer(name, scale)
+        self._sel = sel
+        self.std_m = std_m
+        self.near_m = near_m
+        self.far_m = far_m
+
+    def observation(self, observation: Any) -> Any:
+        """Return ``observation`` with noise on the depth image (a new object)."""
+        std = self.scale * self.std_m
+        if std == 0.0:
+            return observation
+        part = np.ascontiguousarray(self._sel.get(observation))
+        out = np.empty(part.shape, dtype=self._sel.dtype)
+        fill_standard_normal(self.rng, out)
+        _noisy_depth(part.reshape(-1), out.reshape(-1), std, self.near_m, self.far_m)
+        return self._sel.put(observation, out)
+
+    def episode_record(self) -> dict[str, Any]:
+        """Effective std (m) and scale."""
+        return self.step_record()
+
+    def step_record(self) -> dict[str, Any]:
+        """Effective std (m) and scale."""
+        return {"std_m": self.scale * self.std_m, "scale": self.scale}
+
+
+class LidarNoise(ObservationRandomizer):
+    r"""Gaussian range noise plus random beam dropout on a lidar scan.
+
+    Each valid beam :math:`r` (finite and ``< range_max_m``) becomes
+    :math:`\mathrm{clip}(r + c\,\sigma z, r_{min}, r_{max})`, and with probability
+    :math:`c\,p` it is dropped: set to ``range_max_m`` (no return). Invalid beams (NaN, inf,
+    ``>= range_max_m``) are kept. The default σ = 0.01 m is the LDS-01 noise of the TurtleBot3
+    Gazebo model (robot-specs.md).
+
+    Parameters
+    ----------
+    env : gymnasium.Env
+        Env whose observation is (or holds, under ``key``) a Box of ranges in metres.
+    std_m : float
+        Range noise standard deviation σ, m (>= 0).
+    dropout : float
+        Probability p in [0, 1] that a valid beam returns nothing, per beam and step.
+    key : str, optional
+        Dict key of the scan (required for Dict spaces).
+    index : int, slice or [start, stop], optional
+        Range of the last axis holding the beams.
+    range_min_m, range_max_m : float, optional
+        Sensor range, m (default: the Box bounds, which must then be finite).
+    scale : float
+        Curriculum scale c in [0, 1] multiplying σ and p.
+    name : str, optional
+        Unique name in the stack; default ``LidarNoise[<key>]``.
+
+    Example
+    -------
+    >>> import gymnasium as gym
+    >>> import numpy as np
+    >>> from randomizers import LidarNoise
+    >>> class Scan(gym.Env):
+    ...     observation_space = gym.spaces.Box(0.12, 3.5, (36,), np.float32)
+    ...     action_space = gym.spaces.Discrete(1)
+    ...     def reset(self, *, seed=None, options=None):
+    ...         super().reset(seed=seed)
+    ...         return np.full(36, 1.0, np.float32), {}
+    ...     def step(self, action):
+    ...         return np.full(36, 1.0, np.float32), 0.0, False, False, {}
+    >>> env = LidarNoise(Scan(), std_m=0.01, dropout=0.5)
+    >>> obs, info = env.reset(seed=0)
+    >>> 0 < info["randomization"]["LidarNoise"]["dropped"] < 36
+    True
+    """
+
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        std_m: float = 0.01,
+        dropout: float = 0.0,
+        *,
+        key: str | None = None,
+        index: Any = None,
+        range_min_m: float | None = None,
+        range_max_m: float | None = None,
+        scale: float = 1.0,
+        name: str | None = None,
+    ) -> None:
+        sel = select(env.observation_space, key=key, index=index, wrapper="LidarNoise")
+        std_m = check_nonnegative(std_m, argument="std_m", unit="m")
+        dropout = check_nonnegative(dropout, argument="dropout")
+        if dropout > 1.0:
+            raise RandomizerValueError(
+                f"LidarNoise: argument 'dropout' is a probability and must be in [0, 1], got "
+                f"{dropout!r}"
+            )
+        lo = _bound(range_min_m, float(np.min(sel.low)), "range_min_m")
+        hi = _bound(range_max_m, float(np.max(sel.high)), "range_max_m")
+        if lo < 0 or not hi > lo:
+            raise RandomizerValueError(
+                f"LidarNoise: the range must satisfy 0 <= range_min_m < range_max_m, got "
+                f"[{lo}, {hi}] m; pass the sensor's range_min_m and range_max_m"
+            )
+        scale = check_scale(scale)
+        name = check_name(name, env, "LidarNoise" + index_label(key, sel.index))
+        gym.utils.RecordConstructorArgs.__init__(
+            self,
+            std_m=std_m,
+            dropout=dropout,
+            key=key,
+            index=index_kwarg(sel.index),
+            range_min_m=lo,
+            range_max_m=hi,
+            scale=scale,
+            name=name,
+        )
+        gym.ObservationWrapper.__init__(self, env)
+        self._init_randomizer(name, scale)
+        self._sel = sel
+        self.std_m = std_m
+        self.dropout = dropout
+        self.range_min_m = lo
+        self.range_max_m = hi
+        self._dropped = 0
+
+    def observation(self, observation: Any) -> Any:
+        """Return ``observation`` with a noisy scan (a new object)."""
+        ranges = self._sel.get(observation)
+        z = np.empty(ranges.shape, dtype=self._sel.dtype)
+        fill_standard_normal(self.rng, z)
+        u = self.rng.random(ranges.shape, dtype=np.float64)
+        valid = np.isfinite(ranges) & (ranges < self.range_max_m)
+        z *= self.scale * self.std_m
+        z += ranges
+        np.clip(z, self.range_min_m, self.range_max_m, out=z)
+        drop = valid & (u < self.scale * self.dropout)
+        z[drop] = self.range_max_m
+        np.copyto(z, ranges, where=~valid)
+        self._dropped = int(np.count_nonzero(drop))
+        return self._sel.put(observation, z)
+
+    def episode_record(self) -> dict[str, Any]:
+        """Effective std, dropout probability, beams dropped in the first scan, scale."""
+        return self.step_record()
+
+    def step_record(self) -> dict[str, Any]:
+        """Effective std, dropout probability, beams dropped in this scan, scale."""
+        return {
+            "std_m": self.scale * self.std_m,
+            "dropout": self.scale * self.dropout,
+            "dropped": self._dropped,
+            "scale": self.scale,
+        }
+
+
+def _bound(value: float | None, from_space: float, argument: str) -> float:
+    if value is None:
+        if not np.isfinite(from_space):
+            raise RandomizerValueError(
+                f"LidarNoise: argument '{argument}' is required because the scan's Box bound is "
+                f"{from_space}; pass the sensor's range in metres"
+            )
+        return from_space
+    return check_number(value, argument=argument)
+
+
+def _check_std(std: Any, width: int, *, argument: str) -> float | np.ndarray:
+    """A scalar std >= 0, or one per element of the selected last axis."""
+    if isinstance(std, Sequence | np.ndarray) and not isinstance(std, str):
+        values = [check_nonnegative(s, argument=argument) for s in std]
+        if len(values) != width:
+            raise RandomizerValueError(
+                f"argument '{argument}' has {len(values)} entries but the selected part has "
+                f"{width} elements on its last axis; give one std per element or a single float"
+            )
+        return np.asarray(values, dtype=np.float64)
+    return check_nonnegative(std, argument=argument)
