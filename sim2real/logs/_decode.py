@@ -165,6 +165,8 @@ def _fields(
         if type_name == JOINT_STATE:
             left, right = _wheel_speeds(msgs, wheel_joints, topic)
             return {"stamp_ns": stamps, "left": left, "right": right}
+    except LogValueError:
+        raise
     except (KeyError, AttributeError, TypeError, ValueError, OverflowError) as exc:
         raise _BadMessage(f"missing or non-numeric field: {exc}") from None
     raise _BadMessage(f"type '{type_name}' is not supported")

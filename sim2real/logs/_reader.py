@@ -8,7 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
-from sim2real.errors import LogValueError, Sim2RealFileNotFoundError, Sim2RealValueError
+from sim2real.errors import (
+    LogFormatError,
+    LogValueError,
+    Sim2RealFileNotFoundError,
+    Sim2RealValueError,
+)
 from sim2real.logs._channels import Chan, channel_table, choose_topic
 from sim2real.logs._decode import decode_channel, infer_json_type
 from sim2real.logs._mcap import Container, scan_mcap
@@ -44,6 +49,11 @@ def load_log(path: str | Path) -> LoadedLog:
         raise Sim2RealFileNotFoundError(f"log file '{p}' is a folder; give an .mcap file")
     data = p.read_bytes()
     container = scan_mcap(data, name=str(p))
+    if container.warnings and container.message_count() == 0:
+        raise LogFormatError(
+            f"{container.warnings[-1]}, and no complete message remains before the cut; "
+            "the file holds no usable data"
+        )
     chans = channel_table(container)
     chans = [_with_json_type(c, container) for c in chans]
     return LoadedLog(

@@ -25,6 +25,7 @@ __all__ = ["integrate_pose", "write_joint_state_log", "write_trace", "write_velo
 
 _NS = 1_000_000_000
 _ENCODINGS = ("cdr", "json")
+_T_MIN_NS, _T_MAX_NS = -(2**31) * _NS, 2**31 * _NS
 
 
 @dataclass
@@ -42,7 +43,13 @@ def _ints(name: str, a: Any) -> np.ndarray:
             f"{name} must be a 1-D array of integer nanoseconds, got dtype {arr.dtype} and "
             f"shape {arr.shape}; convert seconds with (t_s * 1e9).astype(np.int64)"
         )
-    return arr.astype(np.int64)
+    out = arr.astype(np.int64)
+    if out.size and (out.min() < _T_MIN_NS or out.max() >= _T_MAX_NS):
+        raise Sim2RealValueError(
+            f"{name} holds {int(out.min())}..{int(out.max())} ns, outside the range of "
+            "builtin_interfaces/Time (int32 seconds, years 1901-2038); give epoch nanoseconds"
+        )
+    return out
 
 
 def _floats(name: str, a: Any, n: int) -> np.ndarray:
