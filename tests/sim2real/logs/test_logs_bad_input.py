@@ -23,11 +23,11 @@ from sim2real.logs import (
     ODOMETRY,
     SCHEMA_TEXT,
     TWIST,
+    _cdr,
     read_trace,
     write_joint_state_log,
     write_velocity_log,
 )
-from sim2real.logs import _cdr
 
 MS = 1_000_000
 
@@ -78,7 +78,7 @@ def test_missing_file(tmp_path: Path):
 
 
 def test_folder_instead_of_file(tmp_path: Path):
-    with pytest.raises(Sim2RealFileNotFoundError, match="is a folder"):
+    with pytest.raises(Sim2RealFileNotFoundError, match=r"is a folder"):
         read_trace(tmp_path)
 
 
@@ -90,7 +90,7 @@ def test_empty_file(tmp_path: Path):
 
 def test_not_an_mcap(tmp_path: Path):
     (tmp_path / "bag.db3").write_bytes(b"SQLite format 3\x00" + bytes(100))
-    with pytest.raises(LogFormatError, match="is not an MCAP file") as info:
+    with pytest.raises(LogFormatError, match=r"is not an MCAP file") as info:
         read_trace(tmp_path / "bag.db3")
     assert isinstance(info.value, ValueError) and "\n" not in str(info.value)
 
@@ -118,7 +118,7 @@ def test_truncated_chunk_without_complete_messages(tmp_path: Path, small_log: Pa
     data = small_log.read_bytes()
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(data[:200])
-    with pytest.raises(LogFormatError, match="truncated.*no complete message remains"):
+    with pytest.raises(LogFormatError, match=r"truncated.*no complete message remains"):
         read_trace(cut)
 
 
@@ -127,7 +127,7 @@ def test_flipped_byte_in_chunk_fails_crc(tmp_path: Path, small_log: Path):
     data[len(data) // 3] ^= 0x40
     bad = tmp_path / "flip.mcap"
     bad.write_bytes(bytes(data))
-    with pytest.raises(LogFormatError, match="corrupt"):
+    with pytest.raises(LogFormatError, match=r"corrupt"):
         read_trace(bad)
 
 
@@ -137,7 +137,7 @@ def test_record_length_past_end_of_file_is_truncation_not_crash(tmp_path: Path, 
     data[9:17] = struct.pack("<Q", 2**62)
     bad = tmp_path / "len.mcap"
     bad.write_bytes(bytes(data))
-    with pytest.raises(LogFormatError, match="truncated"):
+    with pytest.raises(LogFormatError, match=r"truncated"):
         read_trace(bad)
 
 
@@ -153,14 +153,14 @@ def test_no_command_topic_lists_topics_and_flag(tmp_path: Path):
 
 def test_no_measurement_topic(tmp_path: Path):
     path = _custom_log(tmp_path / "n.mcap", [("/cmd_vel", TWIST, "cdr", _twists(T, ONES, ZEROS))])
-    with pytest.raises(MissingTopicError, match="no measurement topic.*--odom-topic"):
+    with pytest.raises(MissingTopicError, match=r"no measurement topic.*--odom-topic"):
         read_trace(path)
 
 
 def test_explicit_topic_must_exist_and_have_a_usable_type(small_log: Path):
-    with pytest.raises(MissingTopicError, match="no topic '/cmd'.*/cmd_vel"):
+    with pytest.raises(MissingTopicError, match=r"no topic '/cmd'.*/cmd_vel"):
         read_trace(small_log, cmd_topic="/cmd")
-    with pytest.raises(MissingTopicError, match="has type 'nav_msgs/msg/Odometry'"):
+    with pytest.raises(MissingTopicError, match=r"has type 'nav_msgs/msg/Odometry'"):
         read_trace(small_log, cmd_topic="/odom")
 
 
@@ -174,7 +174,7 @@ def test_several_candidates_need_a_choice(tmp_path: Path):
         ],
     )
     with pytest.raises(
-        MissingTopicError, match="several possible command topics.*/nav/cmd.*/teleop/cmd"
+        MissingTopicError, match=r"several possible command topics.*/nav/cmd.*/teleop/cmd"
     ):
         read_trace(path)
     tr = read_trace(path, cmd_topic="/teleop/cmd")
@@ -186,7 +186,7 @@ def test_empty_topic(tmp_path: Path):
         tmp_path / "e.mcap",
         [("/cmd_vel", TWIST, "cdr", []), ("/odom", ODOMETRY, "cdr", _odoms(T, ONES, ZEROS))],
     )
-    with pytest.raises(LogValueError, match="command topic '/cmd_vel'.*has no messages"):
+    with pytest.raises(LogValueError, match=r"command topic '/cmd_vel'.*has no messages"):
         read_trace(path)
 
 
@@ -211,7 +211,7 @@ def test_all_nan_is_refused(tmp_path: Path, arrays: Arrays, encoding: str):
     kw = arrays.kwargs()
     kw["meas_w"] = np.full(100, np.nan)
     path = write_velocity_log(tmp_path / "nan.mcap", encoding=encoding, **kw)
-    with pytest.raises(LogValueError, match="every one of the 100 samples of topic '/odom'"):
+    with pytest.raises(LogValueError, match=r"every one of the 100 samples of topic '/odom'"):
         read_trace(path)
 
 
@@ -266,7 +266,7 @@ def test_header_clock_far_from_log_clock_is_warned(tmp_path: Path):
 
 def test_bad_time_source(small_log: Path):
     with pytest.raises(
-        Sim2RealValueError, match="time_source must be 'header' or 'log', got 'ros'"
+        Sim2RealValueError, match=r"time_source must be 'header' or 'log', got 'ros'"
     ):
         read_trace(small_log, time_source="ros")
 
@@ -281,9 +281,9 @@ def test_joint_state_needs_wheel_geometry(tmp_path: Path):
         left_radps=ONES,
         right_radps=ONES,
     )
-    with pytest.raises(Sim2RealValueError, match="wheel_radius_m must be a positive number"):
+    with pytest.raises(Sim2RealValueError, match=r"wheel_radius_m must be a positive number"):
         read_trace(path)
-    with pytest.raises(Sim2RealValueError, match="wheel_separation_m"):
+    with pytest.raises(Sim2RealValueError, match=r"wheel_separation_m"):
         read_trace(path, wheel_radius_m=0.05, wheel_separation_m=-1.0)
 
 
@@ -354,7 +354,7 @@ def test_garbage_json_message_is_a_format_error(tmp_path: Path):
             ("/odom", ODOMETRY, "cdr", _odoms(T, ONES, ZEROS)),
         ],
     )
-    with pytest.raises(LogFormatError, match="topic '/cmd_vel'.*cannot be decoded"):
+    with pytest.raises(LogFormatError, match=r"topic '/cmd_vel'.*cannot be decoded"):
         read_trace(path)
 
 
@@ -365,7 +365,7 @@ def test_cut_cdr_payload_is_a_format_error(tmp_path: Path):
         tmp_path / "cut.mcap",
         [("/cmd_vel", TWIST, "cdr", _twists(T, ONES, ZEROS)), ("/odom", ODOMETRY, "cdr", odoms)],
     )
-    with pytest.raises(LogFormatError, match="message 4 of topic '/odom'.*Odometry layout"):
+    with pytest.raises(LogFormatError, match=r"message 4 of topic '/odom'.*Odometry layout"):
         read_trace(path)
 
 

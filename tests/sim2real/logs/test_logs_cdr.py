@@ -8,8 +8,7 @@ from hypothesis import strategies as st
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
 
-from sim2real.logs import JOINT_STATE, ODOMETRY, SCHEMA_TEXT, TWIST, TWIST_STAMPED
-from sim2real.logs import _cdr
+from sim2real.logs import JOINT_STATE, ODOMETRY, SCHEMA_TEXT, TWIST, TWIST_STAMPED, _cdr
 
 _FACTORY = DecoderFactory()
 

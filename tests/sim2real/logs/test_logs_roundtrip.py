@@ -184,6 +184,6 @@ def test_write_is_atomic_and_rejects_float_times(tmp_path: Path, arrays: Arrays)
 
     kw = arrays.kwargs()
     kw["cmd_t_ns"] = kw["cmd_t_ns"] / 1e9
-    with pytest.raises(Sim2RealValueError, match="cmd_t_ns must be a 1-D array of integer"):
+    with pytest.raises(Sim2RealValueError, match=r"cmd_t_ns must be a 1-D array of integer"):
         write_velocity_log(tmp_path / "bad.mcap", **kw)
     assert list(tmp_path.iterdir()) == []

@@ -57,11 +57,11 @@ def test_window_keeps_the_command_in_force_at_its_start():
 
 def test_window_bounds_are_checked():
     tr = _trace()
-    with pytest.raises(Sim2RealValueError, match="end_s > start_s"):
+    with pytest.raises(Sim2RealValueError, match=r"end_s > start_s"):
         tr.window(0.5, 0.5)
-    with pytest.raises(Sim2RealValueError, match="no measurement"):
+    with pytest.raises(Sim2RealValueError, match=r"no measurement"):
         tr.window(10.0, 11.0)
-    with pytest.raises(Sim2RealValueError, match="finite"):
+    with pytest.raises(Sim2RealValueError, match=r"finite"):
         tr.window(float("nan"), 1.0)
 
 
@@ -79,9 +79,9 @@ def test_arrays_are_read_only_copies_and_dataclass_is_frozen():
 
 
 def test_length_mismatch_and_partial_pose_are_rejected():
-    with pytest.raises(Sim2RealValueError, match="cmd_v has 2 samples"):
+    with pytest.raises(Sim2RealValueError, match=r"cmd_v has 2 samples"):
         _trace(cmd_v=np.zeros(2))
-    with pytest.raises(Sim2RealValueError, match="pose_x, pose_y and pose_yaw"):
+    with pytest.raises(Sim2RealValueError, match=r"pose_x, pose_y and pose_yaw"):
         _trace(pose_x=np.zeros(6))
 
 
