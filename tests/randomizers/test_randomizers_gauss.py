@@ -1,0 +1,72 @@
+"""The ziggurat normal generator: exact N(0, 1) statistics, reproducibility, tables."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from randomizers._gauss import ZIGGURAT_LAYERS, fill_standard_normal, ziggurat_tables
+
+
+@pytest.fixture(scope="module")
+def draws() -> np.ndarray:
+    return fill_standard_normal(np.random.default_rng(20260), np.empty(4_000_000))
+
+
+def test_tables_close_at_the_top() -> None:
+    _, _, fx, edge = ziggurat_tables()
+    area = edge[0] * fx[0]  # base strip: width v / f(r) times height f(r)
+    # The top layer (right edge x_255, from f(x_255) up to f(0) = 1) must also have area v.
+    assert edge[ZIGGURAT_LAYERS - 1] * (1.0 - fx[ZIGGURAT_LAYERS - 1]) == pytest.approx(
+        area, rel=1e-6
+    )
+    assert np.all(np.diff(edge[1:]) < 0)
+
+
+def test_moments_match_standard_normal(draws: np.ndarray) -> None:
+    n = draws.size
+    assert abs(draws.mean()) < 4 / math.sqrt(n)
+    assert abs(draws.std() - 1.0) < 4 / math.sqrt(2 * n)
+    assert abs(stats.skew(draws)) < 4 * math.sqrt(6 / n)
+    assert abs(stats.kurtosis(draws)) < 4 * math.sqrt(24 / n)
+
+
+@pytest.mark.parametrize("threshold", [0.5, 1.0, 2.0, 3.0, 3.6541528853610088, 4.0])
+def test_tail_frequencies(draws: np.ndarray, threshold: float) -> None:
+    """Counts beyond |x| > t within 4.5 sigma of the binomial expectation (checks the tail path)."""
+    p = 2 * stats.norm.sf(threshold)
+    expected = p * draws.size
+    observed = np.count_nonzero(np.abs(draws) > threshold)
+    assert abs(observed - expected) < 4.5 * math.sqrt(expected * (1 - p))
+
+
+def test_kolmogorov_smirnov(draws: np.ndarray) -> None:
+    assert stats.kstest(draws[:500_000], "norm").pvalue > 1e-3
+
+
+def test_same_seed_same_samples_float32_and_float64() -> None:
+    a = fill_standard_normal(np.random.default_rng(7), np.empty((64, 64), np.float32))
+    b = fill_standard_normal(np.random.default_rng(7), np.empty((64, 64), np.float32))
+    c = fill_standard_normal(np.random.default_rng(7), np.empty((64, 64), np.float64))
+    assert a.dtype == np.float32 and np.array_equal(a, b)
+    np.testing.assert_allclose(a, c, rtol=1e-6, atol=1e-6)
+    d = fill_standard_normal(np.random.default_rng(8), np.empty((64, 64), np.float32))
+    assert not np.array_equal(a, d)
+
+
+def test_successive_calls_are_uncorrelated() -> None:
+    rng = np.random.default_rng(3)
+    a = fill_standard_normal(rng, np.empty(200_000))
+    b = fill_standard_normal(rng, np.empty(200_000))
+    assert abs(np.corrcoef(a, b)[0, 1]) < 4 / math.sqrt(a.size)
+    assert abs(np.corrcoef(a[:-1], a[1:])[0, 1]) < 4 / math.sqrt(a.size)
+
+
+def test_empty_and_odd_sizes() -> None:
+    rng = np.random.default_rng(0)
+    assert fill_standard_normal(rng, np.empty(0)).size == 0
+    out = fill_standard_normal(rng, np.full(7, np.nan))
+    assert np.all(np.isfinite(out))
