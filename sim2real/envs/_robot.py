@@ -126,7 +126,7 @@ class PybulletBackend:
     def __init__(
         self, spec: Any, params: DriveParams, *, client: int, physics_hz: float = 240.0
     ) -> None:
-        from robots import PybulletRobot  # type: ignore[attr-defined]
+        from robots.pybullet_robot import PybulletRobot
 
         self._robot = PybulletRobot(
             spec, client=client, params=params, physics_hz=physics_hz, start_pose=(0.0, 0.0, 0.0)

@@ -2,58 +2,35 @@
 
 pybullet runs in DIRECT mode, one client per env. Static obstacles (cylinders, boxes, walls)
 are rebuilt at each reset; pedestrians are upright cylinders moved kinematically every step.
-The depth camera renders with pybullet's software (TinyRenderer) rasteriser.
+The envs render depth with :mod:`sim2real.envs.depth`; pybullet's TinyRenderer\n(:func:`render_pybullet_depth`) is the reference it is tested and benchmarked against.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numpy as np
 
 from sim2real.envs.geometry import FloatArray
 
-__all__ = ["DepthCameraRig", "PybulletWorld", "rpy_matrix"]
-
-
-def rpy_matrix(roll: float, pitch: float, yaw: float) -> FloatArray:
-    """Rotation matrix R = Rz(yaw) Ry(pitch) Rx(roll) (fixed-axis roll-pitch-yaw)."""
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
+__all__ = ["PybulletWorld", "render_pybullet_depth"]
 
 
 class PybulletWorld:
-    """Bodies of one env in its own DIRECT pybullet client."""
+    """Bodies of one env in its own DIRECT pybullet client (ground from :mod:`robots.world`)."""
 
     def __init__(self) -> None:
         import pybullet as p
 
+        from robots.world import add_ground
+
         self.p = p
         self.client: int = p.connect(p.DIRECT)
         p.setGravity(0.0, 0.0, -9.81, physicsClientId=self.client)
+        self.ground = add_ground(self.client)
         self._static: list[int] = []
         self._peds: list[int] = []
         self._ped_key: tuple[float, ...] = ()
-        col = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=self.client)
-        # a thin visual box whose top face is the collision plane z = 0
-        vis = p.createVisualShape(
-            p.GEOM_BOX,
-            halfExtents=[50.0, 50.0, 0.005],
-            visualFramePosition=[0.0, 0.0, -0.005],
-            physicsClientId=self.client,
-        )
-        self.floor = p.createMultiBody(
-            0.0, col, vis, basePosition=[0.0, 0.0, 0.0], physicsClientId=self.client
-        )
 
     def close(self) -> None:
         """Disconnect the client (idempotent)."""
@@ -65,9 +42,9 @@ class PybulletWorld:
         self,
         *,
         cylinders: FloatArray,
-        cylinder_height_m: float | Sequence[float],
+        cylinder_height_m: float | FloatArray,
         boxes: FloatArray,
-        box_height_m: float | Sequence[float],
+        box_height_m: float | FloatArray,
     ) -> None:
         """Replace the static obstacles.
 
@@ -77,39 +54,25 @@ class PybulletWorld:
             ``(x, y, r)`` of upright cylinders, m.
         boxes : ndarray, shape (K, 5)
             ``(cx, cy, length, width, yaw)`` of upright boxes (walls), m and rad.
-        cylinder_height_m, box_height_m : float or sequence
+        cylinder_height_m, box_height_m : float or ndarray
             Heights, m (one value or one per obstacle).
         """
-        p, c = self.p, self.client
+        from robots.world import add_box, add_cylinder
+
         for body in self._static:
-            p.removeBody(body, physicsClientId=c)
-        self._static = []
+            self.p.removeBody(body, physicsClientId=self.client)
         ch = np.broadcast_to(np.asarray(cylinder_height_m, dtype=float), (len(cylinders),))
-        for (x, y, r), h in zip(cylinders, ch, strict=True):
-            col = p.createCollisionShape(p.GEOM_CYLINDER, radius=r, height=h, physicsClientId=c)
-            vis = p.createVisualShape(p.GEOM_CYLINDER, radius=r, length=h, physicsClientId=c)
-            self._static.append(
-                p.createMultiBody(0.0, col, vis, basePosition=[x, y, 0.5 * h], physicsClientId=c)
-            )
         bh = np.broadcast_to(np.asarray(box_height_m, dtype=float), (len(boxes),))
-        for (cx, cy, length, width, yaw), h in zip(boxes, bh, strict=True):
-            half = [0.5 * length, 0.5 * width, 0.5 * h]
-            col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
-            vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
-            orn = p.getQuaternionFromEuler([0.0, 0.0, yaw])
-            self._static.append(
-                p.createMultiBody(
-                    0.0,
-                    col,
-                    vis,
-                    basePosition=[cx, cy, 0.5 * h],
-                    baseOrientation=orn,
-                    physicsClientId=c,
-                )
-            )
+        self._static = [
+            add_cylinder(self.client, (x, y, 0.5 * h), r, h)
+            for (x, y, r), h in zip(cylinders, ch, strict=True)
+        ] + [
+            add_box(self.client, (cx, cy, 0.5 * h), (0.5 * ln, 0.5 * wd, 0.5 * h), yaw=yaw)
+            for (cx, cy, ln, wd, yaw), h in zip(boxes, bh, strict=True)
+        ]
 
     def set_pedestrians(self, xy: FloatArray, radius_m: FloatArray, height_m: FloatArray) -> None:
-        """Place the pedestrian bodies (rebuilt when their number or sizes change)."""
+        """Place visual-only pedestrian cylinders (rebuilt when their number or sizes change)."""
         p, c = self.p, self.client
         key = tuple(np.round(np.concatenate([radius_m, height_m]), 6).tolist())
         if key != self._ped_key:
@@ -126,85 +89,32 @@ class PybulletWorld:
             )
 
 
-class DepthCameraRig:
-    """A depth camera mounted on the base (pose in the base frame, changeable at run time).
+def render_pybullet_depth(
+    world: PybulletWorld,
+    view_matrix: FloatArray,
+    *,
+    width: int,
+    height: int,
+    hfov_deg: float,
+    near_m: float,
+    far_m: float,
+) -> FloatArray:
+    """Depth image rendered by pybullet's TinyRenderer (the reference for the numba renderer).
 
-    Parameters
-    ----------
-    world : PybulletWorld
-        Where to render.
-    width, height : int
-        Image size, pixels.
-    hfov_deg : float
-        Horizontal field of view, degrees.
-    near_m, far_m : float
-        Clip planes, m; pixels with no return read ``far_m``.
-    xyz_m, rpy_rad : sequence
-        Mount pose of the camera body frame (x along the optical axis, z up) in the base frame.
-    base_height_m : float
-        Height of the base frame above the floor, m.
+    Returns metres along the optical axis, shape (height, width), clipped to [near, far].
     """
-
-    def __init__(
-        self,
-        world: PybulletWorld,
-        *,
-        width: int,
-        height: int,
-        hfov_deg: float,
-        near_m: float,
-        far_m: float,
-        xyz_m: Sequence[float],
-        rpy_rad: Sequence[float],
-        base_height_m: float,
-    ) -> None:
-        self.world = world
-        self.width, self.height = int(width), int(height)
-        self.hfov_deg = float(hfov_deg)
-        self.near_m, self.far_m = float(near_m), float(far_m)
-        self.base_height_m = float(base_height_m)
-        vfov = math.degrees(
-            2.0 * math.atan(math.tan(math.radians(hfov_deg) / 2.0) * self.height / self.width)
-        )
-        self.projection = world.p.computeProjectionMatrixFOV(
-            vfov, self.width / self.height, self.near_m, self.far_m
-        )
-        self.set_pose(xyz_m, rpy_rad)
-        self.view_matrix: FloatArray = np.eye(4).reshape(-1)
-
-    def set_pose(self, xyz_m: Sequence[float], rpy_rad: Sequence[float]) -> None:
-        """Mount pose in the base frame (m, rad)."""
-        self.xyz_m = np.asarray(xyz_m, dtype=np.float64).reshape(3).copy()
-        self.rpy_rad = np.asarray(rpy_rad, dtype=np.float64).reshape(3).copy()
-        self._r_mount = rpy_matrix(*self.rpy_rad)
-
-    def update_view(self, x: float, y: float, yaw: float) -> FloatArray:
-        """pybullet's column-major view matrix for the base at planar pose (x, y, yaw)."""
-        r_base = rpy_matrix(0.0, 0.0, yaw)
-        eye = np.array([x, y, self.base_height_m]) + r_base @ self.xyz_m
-        rot = r_base @ self._r_mount
-        target = eye + rot[:, 0]
-        up = rot[:, 2]
-        self.view_matrix = np.asarray(
-            self.world.p.computeViewMatrix(eye.tolist(), target.tolist(), up.tolist()),
-            dtype=np.float64,
-        )
-        return self.view_matrix
-
-    def render(self, x: float, y: float, yaw: float) -> FloatArray:
-        """Metric depth image (z along the optical axis), shape (height, width), m."""
-        p = self.world.p
-        view = self.update_view(x, y, yaw)
-        _, _, _, buf, _ = p.getCameraImage(
-            self.width,
-            self.height,
-            view.tolist(),
-            self.projection,
-            renderer=p.ER_TINY_RENDERER,
-            flags=p.ER_NO_SEGMENTATION_MASK,
-            physicsClientId=self.world.client,
-        )
-        d = np.asarray(buf, dtype=np.float64).reshape(self.height, self.width)
-        n, f = self.near_m, self.far_m
-        depth = f * n / (f - (f - n) * d)
-        return np.asarray(np.clip(depth, n, f))
+    p = world.p
+    vfov = math.degrees(2.0 * math.atan(math.tan(math.radians(hfov_deg) / 2.0) * height / width))
+    proj = p.computeProjectionMatrixFOV(vfov, width / height, near_m, far_m)
+    _, _, _, buf, _ = p.getCameraImage(
+        width,
+        height,
+        [float(v) for v in view_matrix],
+        proj,
+        renderer=p.ER_TINY_RENDERER,
+        flags=p.ER_NO_SEGMENTATION_MASK,
+        physicsClientId=world.client,
+    )
+    d = np.asarray(buf, dtype=np.float64).reshape(height, width)
+    depth = far_m * near_m / (far_m - (far_m - near_m) * d)
+    return np.asarray(np.clip(depth, near_m, far_m))

@@ -25,6 +25,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -33,6 +34,7 @@ __all__ = [
     "Scene2D",
     "cast_rays",
     "cast_rays_multi",
+    "cast_rays_numpy",
     "disc_clearance",
     "point_segment_distance",
     "rectangle_segments",
@@ -137,13 +139,103 @@ def cast_rays_multi(
     return best
 
 
+@numba.njit(cache=True)
+def _cast_kernel(
+    ox: float,
+    oy: float,
+    angles: FloatArray,
+    cxy: FloatArray,
+    cr: FloatArray,
+    sa: FloatArray,
+    sb: FloatArray,
+    max_range: float,
+    out: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    for i in range(angles.shape[0]):
+        dx, dy = np.cos(angles[i]), np.sin(angles[i])
+        best = max_range
+        for c in range(cr.shape[0]):
+            fx, fy = ox - cxy[c, 0], oy - cxy[c, 1]
+            q = fx * fx + fy * fy - cr[c] * cr[c]
+            if q <= 0.0:
+                best = 0.0
+                break
+            b = dx * fx + dy * fy
+            if b >= 0.0:
+                continue
+            disc = b * b - q
+            if disc >= 0.0:
+                t = -b - np.sqrt(disc)
+                best = min(best, t)
+        for k in range(sa.shape[0]):
+            ex, ey = sb[k, 0] - sa[k, 0], sb[k, 1] - sa[k, 1]
+            denom = dx * ey - dy * ex
+            if denom == 0.0:
+                continue
+            apx, apy = sa[k, 0] - ox, sa[k, 1] - oy
+            t = (apx * ey - apy * ex) / denom
+            s = (apx * dy - apy * dx) / denom
+            if 0.0 <= t < best and 0.0 <= s <= 1.0:
+                best = t
+        out[i] = best
+
+
 def cast_rays(
     scene: Scene2D, origin: FloatArray, angles_rad: FloatArray, max_range_m: float
 ) -> FloatArray:
-    """Distances from one ``origin`` along world-frame ``angles_rad`` (a lidar scan), m."""
-    dirs = np.stack([np.cos(angles_rad), np.sin(angles_rad)], axis=1)
-    origins = np.broadcast_to(np.asarray(origin, dtype=np.float64), dirs.shape)
-    return cast_rays_multi(scene, origins, dirs, max_range_m)
+    """Distances from one ``origin`` along world-frame ``angles_rad`` (a lidar scan), m.
+
+    A compiled loop with early rejection (numba); :func:`cast_rays_numpy` is the same
+    computation vectorised in numpy, and the tests check that they agree.
+    """
+    o = np.asarray(origin, dtype=np.float64).reshape(2)
+    ang = np.ascontiguousarray(angles_rad, dtype=np.float64)
+    out = np.empty(ang.shape[0])
+    _cast_kernel(
+        float(o[0]),
+        float(o[1]),
+        ang,
+        np.ascontiguousarray(scene.circles_xy, dtype=np.float64).reshape(-1, 2),
+        np.ascontiguousarray(scene.circles_r, dtype=np.float64),
+        np.ascontiguousarray(scene.seg_a, dtype=np.float64).reshape(-1, 2),
+        np.ascontiguousarray(scene.seg_b, dtype=np.float64).reshape(-1, 2),
+        float(max_range_m),
+        out,
+    )
+    return out
+
+
+def cast_rays_numpy(
+    scene: Scene2D, origin: FloatArray, angles_rad: FloatArray, max_range_m: float
+) -> FloatArray:
+    """:func:`cast_rays` vectorised in numpy (outer products over rays x obstacles)."""
+    dx, dy = np.cos(angles_rad), np.sin(angles_rad)
+    o = np.asarray(origin, dtype=np.float64).reshape(2)
+    best = np.full(dx.shape[0], float(max_range_m))
+    if scene.circles_r.size:
+        fx, fy = o[0] - scene.circles_xy[:, 0], o[1] - scene.circles_xy[:, 1]
+        q = fx * fx + fy * fy - scene.circles_r**2
+        near = np.sqrt(np.maximum(q, 0.0)) < max_range_m  # cull circles out of range
+        fx, fy, q = fx[near], fy[near], q[near]
+        b = np.outer(dx, fx) + np.outer(dy, fy)
+        disc = b * b - q
+        with np.errstate(invalid="ignore"):
+            t = np.where(q <= 0.0, 0.0, -b - np.sqrt(disc))
+        t = np.where((disc >= 0.0) & (t >= 0.0), t, np.inf)
+        if t.shape[1]:
+            best = np.minimum(best, t.min(axis=1))
+    if scene.seg_a.shape[0]:
+        ex, ey = (scene.seg_b - scene.seg_a).T
+        apx, apy = (scene.seg_a - o).T
+        denom = np.outer(dx, ey) - np.outer(dy, ex)
+        num_t = apx * ey - apy * ex
+        num_s = np.outer(dy, apx) - np.outer(dx, apy)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = num_t / denom
+            s = num_s / denom
+        ok = (denom != 0.0) & (t >= 0.0) & (s >= 0.0) & (s <= 1.0)
+        best = np.minimum(best, np.where(ok, t, np.inf).min(axis=1))
+    return best
 
 
 def point_segment_distance(p: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:
