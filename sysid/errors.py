@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
-__all__ = ["ExcitationError", "SysidError", "SysidValueError"]
+__all__ = [
+    "ExcitationError",
+    "ResultFileError",
+    "SysidError",
+    "SysidFileError",
+    "SysidValueError",
+]
 
 
 class SysidError(Exception):
@@ -15,3 +21,11 @@ class SysidValueError(SysidError, ValueError):
 
 class ExcitationError(SysidError, ValueError):
     """The log does not excite the model enough to identify anything (no motion, flat command)."""
+
+
+class SysidFileError(SysidError, FileNotFoundError):
+    """An output file cannot be written where asked (missing folder, path is a folder)."""
+
+
+class ResultFileError(SysidError, ValueError):
+    """A sysid result file is missing, not YAML, or not in the ``sim2real.sysid/1`` format."""

@@ -1,0 +1,252 @@
+"""What a set of logs can identify: refuse empty ones, choose free parameters, say why."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robots.params import BaseGeometry, DriveParams
+from sysid._coords import COORDS, NOT_FITTABLE
+from sysid._logs import LogArrays
+from sysid.errors import ExcitationError, SysidValueError
+
+__all__ = ["Excitation", "analyse", "held_command"]
+
+FloatArray = NDArray[np.float64]
+
+#: Minimum total measured span and number of measurement samples for a fit.
+MIN_SPAN_S = 3.0
+MIN_SAMPLES = 30
+#: Command ranges below these are "flat" on that axis (m/s, rad/s).
+MIN_RANGE_V, MIN_RANGE_W = 0.02, 0.1
+#: A command jump at least this large can reveal an acceleration limit (m/s, rad/s).
+STEP_V, STEP_W = 0.1, 0.5
+#: Motion thresholds on the measurement (m/s, rad/s).
+MOVE_V, MOVE_W = 0.01, 0.05
+
+
+@dataclass(frozen=True, kw_only=True)
+class Excitation:
+    """Outcome of the excitation analysis.
+
+    Attributes
+    ----------
+    free : tuple of str
+        DriveParams fields to fit.
+    ties : dict
+        ``{field: source field}`` for parameters set equal to another (e.g. backward friction).
+    warnings : tuple of str
+        Plain sentences naming what the logs did not excite and what was done instead.
+    coupled : bool
+        True when a wheel-speed or torque cap can couple the two axes (dense Jacobian).
+    """
+
+    free: tuple[str, ...]
+    ties: dict[str, str]
+    warnings: tuple[str, ...]
+    coupled: bool
+
+
+def held_command(cmd_t_s: FloatArray, cmd: FloatArray, t_s: FloatArray) -> FloatArray:
+    """The zero-order-held command at times ``t_s`` (0 before the first command)."""
+    idx = np.searchsorted(cmd_t_s, t_s, side="right") - 1
+    out = np.where(idx >= 0, cmd[np.clip(idx, 0, None)], 0.0)
+    return np.asarray(out, dtype=np.float64)
+
+
+def _cmd_with_rest(log: LogArrays, cmd: FloatArray) -> FloatArray:
+    """Commands, preceded by the implicit 0 when odometry starts before the first command."""
+    if log.meas_t_s[0] < log.cmd_t_s[0] - 0.5:
+        return np.concatenate(([0.0], cmd))
+    return cmd
+
+
+def _spread(values: FloatArray, floor: float) -> float:
+    """Relative spread (p90 - p10) / p90 of |values| where |values| > floor (0 if none)."""
+    a = np.abs(values[np.abs(values) > floor])
+    if a.size < 10:
+        return 0.0
+    hi, lo = np.percentile(a, [90, 10])
+    return float((hi - lo) / hi) if hi > 0 else 0.0
+
+
+def _refuse_empty(logs: Sequence[LogArrays]) -> None:
+    span = sum(float(g.meas_t_s[-1] - g.meas_t_s[0]) for g in logs)
+    n = sum(int(g.meas_t_s.size) for g in logs)
+    names = ", ".join(g.name for g in logs)
+    if span < MIN_SPAN_S or n < MIN_SAMPLES:
+        raise ExcitationError(
+            f"{names} is too short to fit: {span:.2f} s with {n} odometry samples; sysid needs "
+            f"at least {MIN_SPAN_S:g} s and {MIN_SAMPLES} samples, so record a longer log"
+        )
+    flat = all(
+        np.ptp(_cmd_with_rest(g, g.cmd_v)) == 0 and np.ptp(_cmd_with_rest(g, g.cmd_w)) == 0
+        for g in logs
+    )
+    if flat:
+        g = logs[0]
+        raise ExcitationError(
+            f"the commands in {names} never change (cmd_v = {g.cmd_v[0]:g} m/s, cmd_w = "
+            f"{g.cmd_w[0]:g} rad/s throughout), so there is nothing to identify; record a log "
+            "with steps or varying commands"
+        )
+    moving = any(
+        np.percentile(np.abs(g.meas_v), 95) > MOVE_V or np.percentile(np.abs(g.meas_w), 95) > MOVE_W
+        for g in logs
+    )
+    if not moving:
+        raise ExcitationError(
+            f"the robot never moves in {names} (95th percentile of |v| <= {MOVE_V} m/s and of "
+            f"|w| <= {MOVE_W} rad/s); check the odometry topic or record a log with motion"
+        )
+
+
+def _axis_excited(logs: Sequence[LogArrays], axis: str) -> bool:
+    cmd_rng, mv, thr_c, thr_m = (
+        ("cmd_v", "meas_v", MIN_RANGE_V, MOVE_V)
+        if axis == "v"
+        else ("cmd_w", "meas_w", MIN_RANGE_W, MOVE_W)
+    )
+    return any(
+        np.ptp(_cmd_with_rest(g, getattr(g, cmd_rng))) >= thr_c
+        and np.percentile(np.abs(getattr(g, mv)), 95) > thr_m
+        for g in logs
+    )
+
+
+def _peak_wheel_cmd(logs: Sequence[LogArrays], geometry: BaseGeometry) -> float:
+    half = 0.5 * geometry.wheel_separation_m
+    return max(
+        float(np.max(np.abs(g.cmd_v) + np.abs(g.cmd_w) * half)) / geometry.wheel_radius_m
+        for g in logs
+    )
+
+
+def _peak_wheel_meas(logs: Sequence[LogArrays], geometry: BaseGeometry) -> float:
+    half = 0.5 * geometry.wheel_separation_m
+    return max(
+        float(np.percentile(np.abs(g.meas_v) + np.abs(g.meas_w) * half, 98))
+        / geometry.wheel_radius_m
+        for g in logs
+    )
+
+
+def _auto_free(
+    logs: Sequence[LogArrays], geometry: BaseGeometry, base: DriveParams
+) -> tuple[list[str], dict[str, str], list[str]]:
+    free: list[str] = ["delay_s"]
+    ties: dict[str, str] = {}
+    notes: list[str] = []
+    cat = {k: np.concatenate([getattr(g, k) for g in logs]) for k in ("cmd_v", "cmd_w")}
+    for axis in ("v", "w"):
+        if not _axis_excited(logs, axis):
+            what = "forward" if axis == "v" else "yaw"
+            fields = [f for f, c in COORDS.items() if c.axis == axis]
+            notes.append(
+                f"the {what} axis is not excited (its command never changes or the robot never "
+                f"moves along it): {', '.join(fields)} kept at the spec prior"
+            )
+            continue
+        if axis == "v":
+            free += ["added_mass_kg", "coulomb_v_fwd_n"]
+            neg = np.sum(cat["cmd_v"] < -MIN_RANGE_V)
+            pos = np.sum(cat["cmd_v"] > MIN_RANGE_V)
+            if neg >= 3 and pos >= 3:
+                free.append("coulomb_v_bwd_n")
+            else:
+                ties["coulomb_v_bwd_n"] = "coulomb_v_fwd_n"
+                notes.append(
+                    "no reversal in the log (cmd_v never changes sign): backward Coulomb "
+                    "friction is not identifiable; tied to forward (coulomb_v_bwd_n = "
+                    "coulomb_v_fwd_n)"
+                )
+        else:
+            free += ["added_yaw_inertia_kgm2", "coulomb_w_nm"]
+        cmd = cat["cmd_v" if axis == "v" else "cmd_w"]
+        floor = MIN_RANGE_V if axis == "v" else MIN_RANGE_W
+        visc = "viscous_v_ns_per_m" if axis == "v" else "viscous_w_nms_per_rad"
+        if _spread(cmd, floor) >= 0.3:
+            free.append(visc)
+        else:
+            lvl = (
+                float(np.median(np.abs(cmd[np.abs(cmd) > floor])))
+                if np.any(np.abs(cmd) > floor)
+                else 0.0
+            )
+            notes.append(
+                f"the log holds essentially one {'forward speed' if axis == 'v' else 'yaw rate'}"
+                f" level ({lvl:.2f} {'m/s' if axis == 'v' else 'rad/s'}): viscous and Coulomb "
+                f"friction trade off; {visc} kept at the spec prior"
+            )
+        acc = "accel_lim_v_mps2" if axis == "v" else "accel_lim_w_radps2"
+        step = STEP_V if axis == "v" else STEP_W
+        jumps = max(
+            float(np.max(np.abs(np.diff(_cmd_with_rest(g, getattr(g, f"cmd_{axis}")))), initial=0))
+            for g in logs
+        )
+        if jumps >= step:
+            free.append(acc)
+        else:
+            notes.append(
+                f"no command step of {step:g} {'m/s' if axis == 'v' else 'rad/s'} or more on "
+                f"the {axis} axis (largest {jumps:.3g}): {acc} kept at the spec prior"
+            )
+    cap = base.wheel_speed_max_radps
+    peak_cmd = _peak_wheel_cmd(logs, geometry)
+    peak_meas = _peak_wheel_meas(logs, geometry)
+    if (math.isfinite(cap) and peak_cmd >= 0.9 * cap) or (
+        not math.isfinite(cap) and peak_meas < 0.75 * peak_cmd
+    ):
+        free.append("wheel_speed_max_radps")
+    else:
+        notes.append(
+            f"no wheel near its speed cap (peak commanded wheel speed {peak_cmd:.1f} rad/s): "
+            "wheel_speed_max_radps kept at the spec prior"
+        )
+    return free, ties, notes
+
+
+def analyse(
+    logs: Sequence[LogArrays],
+    geometry: BaseGeometry,
+    base: DriveParams,
+    free: str | Sequence[str] | None,
+) -> Excitation:
+    """Refuse logs with nothing to identify, then choose the free parameters.
+
+    ``free`` is ``None``/``"auto"`` (choose from the excitation) or a list of DriveParams
+    fields. Raises :class:`~sysid.errors.ExcitationError` (too short, no motion, flat commands)
+    or :class:`~sysid.errors.SysidValueError` (unknown or unidentifiable names).
+    """
+    _refuse_empty(logs)
+    notes: list[str] = []
+    if free is None or free == "auto":
+        names, ties, notes = _auto_free(logs, geometry, base)
+    elif isinstance(free, str):
+        raise SysidValueError(
+            f"free must be None, 'auto' or a list of parameter names, got {free!r}; "
+            "e.g. free=['delay_s', 'added_mass_kg']"
+        )
+    else:
+        names, ties = list(dict.fromkeys(free)), {}
+        for name in names:
+            if name in NOT_FITTABLE:
+                raise SysidValueError(f"parameter '{name}' cannot be fitted: {NOT_FITTABLE[name]}")
+            if name not in COORDS:
+                raise SysidValueError(
+                    f"unknown free parameter '{name}'; choose from {sorted(COORDS)}"
+                )
+        if not names:
+            raise SysidValueError("free is an empty list; name at least one parameter to fit")
+    cap = base.wheel_speed_max_radps
+    coupled = (
+        "wheel_speed_max_radps" in names
+        or "wheel_torque_max_nm" in names
+        or math.isfinite(base.wheel_torque_max_nm)
+        or (math.isfinite(cap) and _peak_wheel_cmd(logs, geometry) >= cap)
+    )
+    return Excitation(free=tuple(names), ties=ties, warnings=tuple(notes), coupled=coupled)

@@ -1,0 +1,182 @@
+"""The output-error least-squares problem: residuals and a structured finite-difference Jacobian."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robots.params import DriveParams
+from robots.reduced import ReducedResponse, simulate
+from sysid._coords import COORDS, Mapper
+from sysid._logs import LogArrays
+
+__all__ = ["Problem", "initial_state"]
+
+FloatArray = NDArray[np.float64]
+
+
+def initial_state(log: LogArrays) -> tuple[float, float]:
+    """Robust (v, w) at the first measurement: median of the first three samples."""
+    return float(np.median(log.meas_v[:3])), float(np.median(log.meas_w[:3]))
+
+
+class Problem:
+    """Residuals ``(sim - meas) * weight / scale`` of v and w at every measurement time.
+
+    Parameters
+    ----------
+    logs : sequence of LogArrays
+        Fitting logs (each simulated from its own commands, starting at its first sample).
+    mapper : Mapper
+        Coordinate <-> DriveParams map (geometry and motor-gain prior).
+    free : sequence of str
+        Fields whose coordinates form the vector ``x``.
+    ties : dict
+        ``{field: source field}`` equalities.
+    scale_v, scale_w : float
+        Residual scales, m/s and rad/s (e.g. the agreement tolerances).
+    weight_v, weight_w : float
+        Extra channel weights.
+    dt_s : float
+        Integration step of the reduced model, s.
+    python : bool
+        Use the plain-Python model loop (benchmark baseline).
+    """
+
+    def __init__(
+        self,
+        logs: Sequence[LogArrays],
+        mapper: Mapper,
+        free: Sequence[str],
+        ties: dict[str, str],
+        *,
+        scale_v: float,
+        scale_w: float,
+        weight_v: float = 1.0,
+        weight_w: float = 1.0,
+        dt_s: float,
+        python: bool = False,
+        on_eval: Callable[[int], None] | None = None,
+    ) -> None:
+        self.logs = list(logs)
+        self.mapper = mapper
+        self.free = tuple(free)
+        self.ties = dict(ties)
+        self.gain_v = weight_v / scale_v
+        self.gain_w = weight_w / scale_w
+        self.dt_s = dt_s
+        self.python = python
+        self.on_eval = on_eval
+        self.n_evals = 0
+        self._starts = [initial_state(g) for g in self.logs]
+        rows_v, rows_w, offset = [], [], 0
+        for g in self.logs:
+            n = g.meas_t_s.size
+            rows_v.append(np.arange(offset, offset + n))
+            rows_w.append(np.arange(offset + n, offset + 2 * n))
+            offset += 2 * n
+        self.n_rows = offset
+        self.rows = {
+            "v": np.concatenate(rows_v),
+            "w": np.concatenate(rows_w),
+            "vw": np.arange(offset),
+        }
+        self.meas = np.concatenate(
+            [np.concatenate([g.meas_v * self.gain_v, g.meas_w * self.gain_w]) for g in self.logs]
+        )
+        self._cache_x: FloatArray | None = None
+        self._cache_f: FloatArray | None = None
+
+    @property
+    def lower(self) -> FloatArray:
+        """Lower bounds of the coordinates."""
+        return np.array([COORDS[f].lower for f in self.free])
+
+    @property
+    def upper(self) -> FloatArray:
+        """Upper bounds of the coordinates."""
+        return np.array([COORDS[f].upper for f in self.free])
+
+    def params(self, x: FloatArray) -> DriveParams:
+        """DriveParams at coordinate vector ``x``."""
+        return self.mapper.from_coords(dict(zip(self.free, map(float, x), strict=True)), self.ties)
+
+    def simulate(self, params: DriveParams) -> list[ReducedResponse]:
+        """Model response on every log."""
+        return [
+            simulate(
+                params,
+                self.mapper.geometry,
+                cmd_t_s=g.cmd_t_s,
+                cmd_v=g.cmd_v,
+                cmd_w=g.cmd_w,
+                t_out_s=g.meas_t_s,
+                dt_s=self.dt_s,
+                v0=v0,
+                w0=w0,
+                python=self.python,
+            )
+            for g, (v0, w0) in zip(self.logs, self._starts, strict=True)
+        ]
+
+    def scaled_sim(self, params: DriveParams) -> FloatArray:
+        """Scaled model outputs stacked like the residuals."""
+        sims = self.simulate(params)
+        return np.concatenate(
+            [np.concatenate([s.v * self.gain_v, s.w * self.gain_w]) for s in sims]
+        )
+
+    def residuals(self, x: FloatArray) -> FloatArray:
+        """Scaled residual vector at ``x`` (cached for the Jacobian)."""
+        if (
+            self._cache_f is not None
+            and self._cache_x is not None
+            and np.array_equal(x, self._cache_x)
+        ):
+            return self._cache_f
+        f = self.scaled_sim(self.params(x)) - self.meas
+        self._cache_x, self._cache_f = np.array(x, dtype=np.float64), f
+        self.n_evals += 1
+        if self.on_eval is not None:
+            self.on_eval(self.n_evals)
+        return f
+
+    def groups(self, coupled: bool) -> list[list[int]]:
+        """Columns perturbed together: a forward-axis and a yaw-axis coordinate share one
+        simulation when the axes are decoupled (no active wheel-speed or torque cap), because
+        each then only moves its own channel's residuals."""
+        if coupled:
+            return [[j] for j in range(len(self.free))]
+        v = [j for j, f in enumerate(self.free) if COORDS[f].axis == "v"]
+        w = [j for j, f in enumerate(self.free) if COORDS[f].axis == "w"]
+        shared = [[j] for j, f in enumerate(self.free) if COORDS[f].axis == "vw"]
+        pairs = [[a, b] for a, b in zip(v, w, strict=False)]
+        rest = [[j] for j in (v[len(w) :] if len(v) > len(w) else w[len(v) :])]
+        return shared + pairs + rest
+
+    def jacobian(self, x: FloatArray, coupled: bool) -> FloatArray:
+        """Forward-difference Jacobian with grouped columns (see :meth:`groups`)."""
+        f0 = self.residuals(x)
+        jac = np.zeros((self.n_rows, len(self.free)))
+        lo, hi = self.lower, self.upper
+        for group in self.groups(coupled):
+            xp = np.array(x, dtype=np.float64)
+            steps = {}
+            for j in group:
+                h = COORDS[self.free[j]].step
+                if xp[j] + h > hi[j]:
+                    h = -h
+                if xp[j] + h < lo[j]:
+                    h = 0.5 * (hi[j] - lo[j]) * 1e-3
+                xp[j] += h
+                steps[j] = h
+            fp = self.scaled_sim(self.params(xp)) - self.meas
+            self.n_evals += 1
+            if self.on_eval is not None:
+                self.on_eval(self.n_evals)
+            for j, h in steps.items():
+                rows = self.rows[COORDS[self.free[j]].axis] if len(group) > 1 else self.rows["vw"]
+                jac[rows, j] = (fp[rows] - f0[rows]) / h
+        return jac

@@ -1,0 +1,598 @@
+r"""Fit the drive-model parameters to logged velocity traces (output-error, robust).
+
+The reduced drive model (:func:`robots.reduced.simulate`) is driven by the logged commands
+and its v and w are compared with the measured ones at every measurement time. The scaled
+residuals :math:`(\hat y - y)\,w_c / s_c` (scale :math:`s_c` = agreement tolerance of the
+channel by default) are minimised with ``scipy.optimize.least_squares`` (trust-region
+reflective, bounds from physics) under a robust loss (``soft_l1``): real odometry carries
+spikes and bursts that a squared loss would chase.
+
+Identifiability
+---------------
+Velocity data fix the *response* of each axis, not the split between motor gain and mass:
+:math:`T_v = (m+\Delta m)/(k_v + b_v)` with :math:`k_v = 2K/r^2`. So the wheel-loop gain
+:math:`K` stays at the spec prior and the fit runs in normalised coordinates
+(:mod:`sysid._coords`); ``added_mass_kg`` and ``added_yaw_inertia_kgm2`` are *derived*
+relative to that prior. The quantities the data identify whatever :math:`K` is (time constants,
+steady-state gains, friction per unit mass/inertia, Coulomb speed loss, delay, limits) are
+reported in :attr:`SysidResult.identifiable`.
+
+Example
+-------
+>>> from sysid import fit_drive
+>>> res = fit_drive([trace], geometry=spec.geometry, base_params=spec.drive,
+...                 robot="turtlebot3_burger")  # doctest: +SKIP
+>>> res.estimate("delay_s").ci95_low  # doctest: +SKIP
+0.112
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from importlib.metadata import PackageNotFoundError, version
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
+
+from robots.params import BaseGeometry, DriveParams
+from robots.reduced import DEFAULT_DT_S
+from sysid import metrics
+from sysid._coords import COORDS, UNITS, Mapper
+from sysid._excitation import analyse, held_command
+from sysid._initial import busiest_window, initial_coords
+from sysid._linear import first_order_stats
+from sysid._logs import LogArrays, as_log_arrays, crop_log
+from sysid._problem import Problem
+from sysid.errors import SysidValueError
+from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
+
+__all__ = ["Progress", "fit_drive", "score_logs"]
+
+FloatArray = NDArray[np.float64]
+
+#: ``progress(stage, fraction)`` callback: stage text and overall fraction done in [0, 1].
+Progress = Callable[[str, float], None]
+
+_LIMITS = (
+    "accel_lim_v_mps2",
+    "accel_lim_w_radps2",
+    "wheel_speed_max_radps",
+    "speed_lim_v_mps",
+    "speed_lim_w_radps",
+    "wheel_torque_max_nm",
+)
+_DERIVED = ("added_mass_kg", "added_yaw_inertia_kgm2")
+_Z95 = 1.959963984540054
+
+
+#: Logs longer than this (s, in total) are first fitted on their busiest windows.
+_COARSE_SPAN_S = 150.0
+#: Residual-evaluation cap of the polishing pass on all the data.
+_POLISH_NFEV = 6
+
+
+def _span(log: LogArrays) -> float:
+    return float(log.meas_t_s[-1] - log.meas_t_s[0])
+
+
+def _window_samples(log: LogArrays, span_s: float) -> int:
+    rate = log.meas_t_s.size / max(_span(log), 1e-9)
+    return max(int(rate * span_s), 10)
+
+
+def _solve(
+    prob: Problem, x0: FloatArray, coupled: bool, loss: str, f_scale: float, max_nfev: int
+) -> Any:
+    """One trust-region-reflective robust least-squares run (single-threaded BLAS: the
+    Jacobian is tall and thin, where threads only add contention)."""
+    with threadpool_limits(limits=1):
+        return least_squares(
+            prob.residuals,
+            x0,
+            jac=lambda x: prob.jacobian(x, coupled),
+            bounds=(prob.lower, prob.upper),
+            loss=loss,
+            f_scale=f_scale,
+            x_scale="jac",
+            method="trf",
+            ftol=1e-6,
+            xtol=1e-6,
+            gtol=1e-8,
+            max_nfev=max_nfev,
+        )
+
+
+def _tool_version() -> str:
+    try:
+        return version("sim2real")
+    except PackageNotFoundError:  # pragma: no cover - source tree without install
+        return "unknown"
+
+
+def _check_args(loss: str, scale: str | tuple[float, float], weights: tuple[float, float]) -> None:
+    allowed = ("linear", "soft_l1", "huber", "cauchy", "arctan")
+    if loss not in allowed:
+        raise SysidValueError(f"loss must be one of {list(allowed)}, got {loss!r}")
+    if isinstance(scale, str):
+        if scale not in ("tol", "std"):
+            raise SysidValueError(
+                f"scale must be 'tol', 'std' or a pair (s_v, s_w) > 0, got {scale!r}"
+            )
+    elif not (len(scale) == 2 and all(math.isfinite(s) and s > 0 for s in scale)):
+        raise SysidValueError(f"scale must be a pair of numbers > 0, got {scale!r}")
+    if not all(math.isfinite(w) and w >= 0 for w in weights) or not any(weights):
+        raise SysidValueError(
+            f"channel weights must be >= 0 and not both 0, got {weights!r}; e.g. (1.0, 1.0)"
+        )
+
+
+def _scales(
+    logs: Sequence[LogArrays], scale: str | tuple[float, float], tol_v: float, tol_w: float
+) -> tuple[float, float]:
+    if scale == "tol":
+        return tol_v, tol_w
+    if scale == "std":
+        sv = float(np.std(np.concatenate([g.meas_v for g in logs])))
+        sw = float(np.std(np.concatenate([g.meas_w for g in logs])))
+        return max(sv, 1e-3), max(sw, 1e-2)
+    return float(scale[0]), float(scale[1])
+
+
+def score_logs(
+    logs: Sequence[LogArrays],
+    params: DriveParams,
+    geometry: BaseGeometry,
+    *,
+    dt_s: float = DEFAULT_DT_S,
+    tol_v: float = metrics.DEFAULT_TOL_V,
+    tol_w: float = metrics.DEFAULT_TOL_W,
+) -> tuple[FitScores, ...]:
+    """FIT %, agreement and RMSE of ``params`` on each log (model started at the first sample).
+
+    Examples
+    --------
+    >>> scores = score_logs([log], params, geometry)  # doctest: +SKIP
+    >>> scores[0].fit_percent_v  # doctest: +SKIP
+    93.1
+    """
+    mapper = Mapper(geometry, params)
+    prob = Problem(
+        [as_log_arrays(g, i) for i, g in enumerate(logs)],
+        mapper,
+        (),
+        {},
+        scale_v=1.0,
+        scale_w=1.0,
+        dt_s=dt_s,
+    )
+    out = []
+    for log, sim in zip(prob.logs, prob.simulate(params), strict=True):
+        cv = held_command(log.cmd_t_s, log.cmd_v, log.meas_t_s)
+        cw = held_command(log.cmd_t_s, log.cmd_w, log.meas_t_s)
+        act = metrics.active_mask(cv, cw, log.meas_v, log.meas_w, tol_v=tol_v, tol_w=tol_w)
+        both, av, aw = metrics.agreement_fraction(
+            sim.v - log.meas_v, sim.w - log.meas_w, act, tol_v=tol_v, tol_w=tol_w
+        )
+        out.append(
+            FitScores(
+                log=log.name,
+                n_samples=int(log.meas_t_s.size),
+                n_active=int(act.sum()),
+                fit_percent_v=metrics.fit_percent(log.meas_v, sim.v),
+                fit_percent_w=metrics.fit_percent(log.meas_w, sim.w),
+                agreement=both,
+                agreement_v=av,
+                agreement_w=aw,
+                rmse_v=metrics.rmse(log.meas_v, sim.v),
+                rmse_w=metrics.rmse(log.meas_w, sim.w),
+            )
+        )
+    return tuple(out)
+
+
+def _covariance(res: Any, prob: Problem, keep: list[int]) -> tuple[FloatArray, float, list[int]]:
+    """Parameter covariance from the Jacobian at the solution, the inflation used, and the
+    (kept) columns the data do not determine.
+
+    :math:`\\Sigma = s^2 (J^T J)^{-1}` with the loss-modified Jacobian of ``least_squares``,
+    :math:`s` the robust (MAD) residual scale, and a factor :math:`(1+\\rho_1)/(1-\\rho_1)`
+    for the lag-1 autocorrelation :math:`\\rho_1` of the residuals (correlated residuals carry
+    less information than independent ones; without it the intervals would be far too
+    narrow). Directions of the column-normalised Jacobian with singular value below 1e-4 are
+    not identified: parameters with weight on them get an infinite variance.
+    """
+    jac = np.asarray(res.jac)[:, keep]
+    f = np.asarray(res.fun)
+    n, p = f.size, len(keep)
+    s2 = (1.4826 * float(np.median(np.abs(f - np.median(f))))) ** 2 * n / max(n - p, 1)
+    rho = []
+    for rows in (prob.rows["v"], prob.rows["w"]):
+        r = f[rows] - np.mean(f[rows])
+        den = float(np.dot(r, r))
+        if den > 0:
+            rho.append(float(np.dot(r[1:], r[:-1]) / den))
+    rho1 = float(np.clip(np.mean(rho) if rho else 0.0, 0.0, 0.98))
+    inflation = (1.0 + rho1) / (1.0 - rho1)
+    norms = np.linalg.norm(jac, axis=0)
+    safe = np.where(norms > 0, norms, 1.0)
+    _, sv, vt = np.linalg.svd(jac / safe, full_matrices=False)
+    good = sv > 1e-4 * max(float(sv[0]) if sv.size else 0.0, 1e-300)
+    inv = (vt[good].T / sv[good] ** 2) @ vt[good]
+    cov = s2 * inflation * inv / np.outer(safe, safe)
+    null = vt[~good]
+    weak = [j for j in range(p) if norms[j] == 0 or float(np.sum(null[:, j] ** 2)) > 1e-3]
+    for j in weak:
+        cov[j, j] = math.inf
+    return cov, inflation, weak
+
+
+def _ci(
+    field: str, x: float, sd: float, mapper: Mapper, ties: dict[str, str]
+) -> tuple[float, float]:
+    c = COORDS[field]
+    lo = float(np.clip(x - _Z95 * sd, c.lower, c.upper))
+    hi = float(np.clip(x + _Z95 * sd, c.lower, c.upper))
+    a = float(getattr(mapper.from_coords({field: lo}, {}), field))
+    b = float(getattr(mapper.from_coords({field: hi}, {}), field))
+    return min(a, b), max(a, b)
+
+
+def _param_estimates(
+    params: DriveParams,
+    free: list[str],
+    x: FloatArray,
+    sd: FloatArray,
+    mapper: Mapper,
+    ties: dict[str, str],
+) -> tuple[ParameterEstimate, ...]:
+    out = []
+    for name in DriveParams.names():
+        value = float(getattr(params, name))
+        source = ties.get(name)
+        j = free.index(source if source else name) if (source or name) in free else None
+        if j is None:
+            status = "tied" if source else "fixed"
+            out.append(
+                ParameterEstimate(
+                    name=name,
+                    value=value,
+                    std=None,
+                    ci95_low=None,
+                    ci95_high=None,
+                    unit=UNITS[name],
+                    status=status,
+                )
+            )
+            continue
+        field = free[j]
+        lo, hi = _ci(field, float(x[j]), float(sd[j]), mapper, ties)
+        dx = COORDS[field].step
+        v2 = float(getattr(mapper.from_coords({field: float(x[j]) + dx}, {}), field))
+        v1 = float(getattr(mapper.from_coords({field: float(x[j])}, {}), field))
+        std = abs(v2 - v1) / dx * float(sd[j])
+        status = "tied" if source else ("derived" if name in _DERIVED else "fitted")
+        out.append(
+            ParameterEstimate(
+                name=name,
+                value=value,
+                std=std,
+                ci95_low=lo,
+                ci95_high=hi,
+                unit=UNITS[name],
+                status=status,
+            )
+        )
+    return tuple(out)
+
+
+def _identifiable(
+    prob: Problem, x: FloatArray, cov: FloatArray, mapper: Mapper, weak: list[int]
+) -> tuple[ParameterEstimate, ...]:
+    """Delta-method uncertainty of the identifiable combinations (no simulation needed)."""
+    cov = np.where(np.isfinite(cov), cov, 0.0)
+    base = mapper.identifiable(prob.params(x))
+    grads = np.zeros((len(base), x.size))
+    keys = list(base)
+    for j in range(x.size):
+        h = 1e-6 * max(1.0, abs(float(x[j])))
+        xp, xm = x.copy(), x.copy()
+        xp[j] += h
+        xm[j] -= h
+        vp = mapper.identifiable(prob.params(xp))
+        vm = mapper.identifiable(prob.params(xm))
+        for i, k in enumerate(keys):
+            a, b = vp[k][0], vm[k][0]
+            grads[i, j] = (a - b) / (2 * h) if math.isfinite(a) and math.isfinite(b) else 0.0
+    out = []
+    for i, k in enumerate(keys):
+        value, unit = base[k]
+        g = grads[i]
+        if not np.any(g) or not math.isfinite(value):
+            out.append(
+                ParameterEstimate(
+                    name=k,
+                    value=value,
+                    std=None,
+                    ci95_low=None,
+                    ci95_high=None,
+                    unit=unit,
+                    status="fixed",
+                )
+            )
+            continue
+        std = float(math.sqrt(max(float(g @ cov @ g), 0.0)))
+        if any(g[j] != 0 for j in weak):
+            std = math.inf
+        if value > 0 and std < value:
+            # positive quantity: interval symmetric in log space
+            lo, hi = value * math.exp(-_Z95 * std / value), value * math.exp(_Z95 * std / value)
+        else:
+            lo, hi = value - _Z95 * std, value + _Z95 * std
+        out.append(
+            ParameterEstimate(
+                name=k,
+                value=value,
+                std=std,
+                ci95_low=lo,
+                ci95_high=hi,
+                unit=unit,
+                status="fitted" if k == "delay_s" else "derived",
+            )
+        )
+    return tuple(out)
+
+
+def _drop_inactive_limits(
+    prob: Problem, x: FloatArray, base: DriveParams, notes: list[str]
+) -> FloatArray:
+    """Limits that never shape the response are not identified: restore their prior."""
+    params = prob.params(x)
+    ref = prob.scaled_sim(params)
+    x = x.copy()
+    for j, field in enumerate(prob.free):
+        if field not in _LIMITS:
+            continue
+        unlimited = prob.scaled_sim(params.replace(**{field: math.inf}))
+        if float(np.max(np.abs(unlimited - ref))) < 0.1:
+            prior = float(getattr(base, field))
+            x[j] = prob.mapper.to_coord(base, field)
+            notes.append(
+                f"{field} never limited the response in the log (fitted {getattr(params, field):.3g} "
+                f"is not identifiable): kept at the spec prior ({prior:g})"
+            )
+    return x
+
+
+def _linear_stats(identifiable: tuple[ParameterEstimate, ...]) -> dict[str, Any]:
+    get = {e.name: e.value for e in identifiable}
+    return {
+        axis: first_order_stats(get[f"gain_{axis}"], get[f"time_constant_{axis}_s"], get["delay_s"])
+        for axis in ("v", "w")
+    }
+
+
+def fit_drive(
+    logs: Sequence[object],
+    *,
+    geometry: BaseGeometry,
+    base_params: DriveParams,
+    free: str | Sequence[str] | None = "auto",
+    validate: Sequence[object] = (),
+    robot: str = "unknown",
+    loss: str = "soft_l1",
+    f_scale: float = 1.0,
+    scale: str | tuple[float, float] = "tol",
+    weights: tuple[float, float] = (1.0, 1.0),
+    tol_v: float = metrics.DEFAULT_TOL_V,
+    tol_w: float = metrics.DEFAULT_TOL_W,
+    dt_s: float = DEFAULT_DT_S,
+    max_nfev: int = 60,
+    python: bool = False,
+    progress: Progress | None = None,
+) -> SysidResult:
+    r"""Fit the drive parameters of ``base_params`` to velocity logs.
+
+    Parameters
+    ----------
+    logs : sequence of VelocityLog
+        Fitting logs (``cmd_t_s, cmd_v, cmd_w, meas_t_s, meas_v, meas_w``; e.g.
+        ``sim2real.logs.Trace``), each simulated from its first measurement.
+    geometry : BaseGeometry
+        The robot's spec geometry (mass, yaw inertia, wheel radius and separation).
+    base_params : DriveParams
+        Spec defaults: the prior for every parameter not fitted, and the motor gain.
+    free : "auto", None or list of str
+        Fields to fit. ``"auto"``/None chooses from the excitation of the logs and explains
+        every parameter it leaves at the prior in :attr:`SysidResult.warnings`.
+    validate : sequence of VelocityLog
+        Logs only scored (FIT %, agreement) with the fitted parameters.
+    robot : str
+        Robot name written in the result.
+    loss, f_scale : str, float
+        Robust loss of ``least_squares`` and its inlier scale (in units of ``scale``).
+    scale : "tol", "std" or (s_v, s_w)
+        Residual scale per channel: the agreement tolerances (default), the channels' standard
+        deviations, or explicit values (m/s, rad/s).
+    weights : (float, float)
+        Extra weight of the v and w channels.
+    tol_v, tol_w : float
+        Agreement tolerances (m/s, rad/s) for the scores.
+    dt_s : float
+        Integration step of the reduced model, s (use the step the params will be used with).
+    max_nfev : int
+        Cap on residual evaluations of the optimiser.
+    python : bool
+        Run the plain-Python model loop (benchmark baseline; identical numbers, much slower).
+    progress : callable, optional
+        ``progress(stage, fraction)``, called as the fit advances.
+
+    Returns
+    -------
+    SysidResult
+
+    Raises
+    ------
+    SysidValueError
+        NaN/inf in a log, mismatched or unsorted arrays, bad arguments.
+    ExcitationError
+        Too short a log, no motion, commands that never change.
+    """
+    started = time.perf_counter()
+    _check_args(loss, scale, weights)
+    if not logs:
+        raise SysidValueError("no fitting log given; pass at least one VelocityLog")
+    if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
+        raise SysidValueError(f"dt_s must be in (0, 0.05] s, got {dt_s!r}; e.g. dt_s=0.005")
+    report = progress or (lambda stage, frac: None)
+    fit_logs = [as_log_arrays(g, i) for i, g in enumerate(logs)]
+    val_logs = [as_log_arrays(g, len(fit_logs) + i) for i, g in enumerate(validate)]
+    report("checking excitation", 0.0)
+    exc = analyse(fit_logs, geometry, base_params, free)
+    notes = list(exc.warnings)
+    mapper = Mapper(geometry, base_params)
+    report("initial estimates", 0.05)
+    x0_map, spike_notes = initial_coords(fit_logs, geometry, base_params, exc.free, exc.ties)
+    notes += spike_notes
+    free_list = list(exc.free)
+    sv, sw = _scales(fit_logs, scale, tol_v, tol_w)
+    budget = max_nfev * 4
+
+    def on_eval(n: int) -> None:
+        report("fitting", 0.1 + 0.8 * min(n / budget, 1.0))
+
+    prob = Problem(
+        fit_logs,
+        mapper,
+        free_list,
+        exc.ties,
+        scale_v=sv,
+        scale_w=sw,
+        weight_v=weights[0],
+        weight_w=weights[1],
+        dt_s=dt_s,
+        python=python,
+        on_eval=on_eval,
+    )
+    x0 = np.array([x0_map[f] for f in free_list])
+    total_s = sum(float(g.meas_t_s[-1] - g.meas_t_s[0]) for g in fit_logs)
+    if total_s > _COARSE_SPAN_S:
+        # long logs: converge on the busiest ~2 minutes first, then polish on all the data
+        windows = [
+            crop_log(g, *busiest_window(g, _window_samples(g, _COARSE_SPAN_S * _span(g) / total_s)))
+            for g in fit_logs
+        ]
+        coarse = Problem(
+            windows,
+            mapper,
+            free_list,
+            exc.ties,
+            scale_v=sv,
+            scale_w=sw,
+            weight_v=weights[0],
+            weight_w=weights[1],
+            dt_s=dt_s,
+            python=python,
+            on_eval=on_eval,
+        )
+        x0 = np.asarray(_solve(coarse, x0, exc.coupled, loss, f_scale, max_nfev).x)
+        prob.n_evals = coarse.n_evals
+        polish = min(max_nfev, _POLISH_NFEV)
+    else:
+        polish = max_nfev
+    res = _solve(prob, x0, exc.coupled, loss, f_scale, polish)
+    report("uncertainty", 0.92)
+    x = _drop_inactive_limits(prob, np.asarray(res.x), base_params, notes)
+    keep = [j for j, f in enumerate(free_list) if f not in _LIMITS or x[j] == res.x[j]]
+    cov_k, inflation, weak = _covariance(res, prob, keep)
+    for j in weak:
+        notes.append(
+            f"{free_list[keep[j]]} is not determined by the log (flat or degenerate direction of "
+            "the fit): its interval is unbounded; fix it (--free) or record a richer log"
+        )
+    cov = np.zeros((len(free_list), len(free_list)))
+    cov[np.ix_(keep, keep)] = cov_k
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    kept_free = [free_list[j] for j in keep]
+    prob_kept = Problem(fit_logs, mapper, kept_free, exc.ties, scale_v=sv, scale_w=sw, dt_s=dt_s)
+    params = prob_kept.params(x[keep])
+    for j, f in enumerate(free_list):
+        c = COORDS[f]
+        if j in keep and (
+            x[j] - c.lower < 1e-3 * (c.upper - c.lower)
+            or c.upper - x[j] < 1e-3 * (c.upper - c.lower)
+        ):
+            notes.append(
+                f"{f} ended at its physical bound ({getattr(params, f):.4g}); treat it with care"
+            )
+    sub_cov = cov[np.ix_(keep, keep)]
+    d = np.sqrt(np.clip(np.diag(sub_cov), 1e-300, None))
+    corr = np.where(np.isfinite(np.outer(d, d)), sub_cov / np.outer(d, d), math.nan)
+    for j in weak:
+        corr[j, :] = corr[:, j] = math.nan
+    for a in range(len(keep)):
+        for b in range(a + 1, len(keep)):
+            if abs(corr[a, b]) > 0.95:
+                notes.append(
+                    f"{kept_free[a]} and {kept_free[b]} are strongly correlated ({corr[a, b]:+.2f}):"
+                    " the log barely separates them"
+                )
+    estimates = _param_estimates(
+        params,
+        kept_free,
+        x[keep],
+        sd[keep],
+        mapper,
+        {k: v for k, v in exc.ties.items() if v in kept_free},
+    )
+    identifiable = _identifiable(prob_kept, x[keep], sub_cov, mapper, weak)
+    report("scoring", 0.95)
+    scores_fit = score_logs(fit_logs, params, geometry, dt_s=dt_s, tol_v=tol_v, tol_w=tol_w)
+    scores_val = (
+        score_logs(val_logs, params, geometry, dt_s=dt_s, tol_v=tol_v, tol_w=tol_w)
+        if val_logs
+        else ()
+    )
+    data = tuple(DataFile(file=g.name, sha256=g.sha256, role="fit") for g in fit_logs) + tuple(
+        DataFile(file=g.name, sha256=g.sha256, role="validation") for g in val_logs
+    )
+    settings = {
+        "loss": loss,
+        "f_scale": f_scale,
+        "scale_v": sv,
+        "scale_w": sw,
+        "weights": list(weights),
+        "dt_s": dt_s,
+        "free": kept_free,
+        "ties": dict(exc.ties),
+        "motor_gain_prior_nms_per_rad": base_params.motor_gain_nms_per_rad,
+        "model_evaluations": prob.n_evals,
+        "optimizer_status": str(res.message),
+        "cost": float(res.cost),
+        "std_inflation_autocorr": inflation,
+        "seconds": time.perf_counter() - started,
+        "note": (
+            "added_mass_kg and added_yaw_inertia_kgm2 are derived relative to the spec motor "
+            "gain (velocity data only identify mass/gain ratios); see 'identifiable'"
+        ),
+    }
+    report("done", 1.0)
+    return SysidResult(
+        robot=robot,
+        params=params,
+        estimates=estimates,
+        identifiable=identifiable,
+        correlation_names=tuple(kept_free),
+        correlation=tuple(tuple(float(c) for c in row) for row in corr),
+        linear=_linear_stats(identifiable),
+        scores_fit=scores_fit,
+        scores_validation=scores_val,
+        data=data,
+        tool_version=_tool_version(),
+        warnings=tuple(notes),
+        settings=settings,
+    )
