@@ -183,6 +183,8 @@ class Sample:
         Recorded commands (ns, m/s, rad/s).
     meas_t_ns, meas_v, meas_w : ndarray
         Recorded odometry header stamps (ns) and velocities (m/s, rad/s).
+    meas_log_t_ns : ndarray
+        When the recorder received each odometry message (stamp + 2-12 ms transport), ns.
     pose_x, pose_y, pose_yaw : ndarray
         Odometry pose (m, m, rad) integrated from the measured velocities.
     true_v, true_w : ndarray
@@ -192,6 +194,7 @@ class Sample:
     kind: str
     engine: str
     params: DriveParams
+    meas_log_t_ns: NDArray[np.int64]
     cmd_t_ns: NDArray[np.int64]
     cmd_v: FloatArray
     cmd_w: FloatArray
@@ -215,7 +218,7 @@ def _make_stepper(engine: str, params: DriveParams) -> Callable[[float, float, f
 
     spec = load_spec(ROBOT)
     if engine == "pybullet":
-        from robots import PybulletRobot  # type: ignore[attr-defined]
+        from robots.pybullet_robot import PybulletRobot
 
         robot = PybulletRobot(spec, params=params, physics_hz=240.0)
         robot.reset()
@@ -280,7 +283,7 @@ def _integrate_pose(
 def default_engine() -> str:
     """``"pybullet"`` when the pybullet robot is available, else ``"reduced"``."""
     try:
-        from robots import PybulletRobot  # type: ignore[attr-defined]  # noqa: F401
+        from robots.pybullet_robot import PybulletRobot  # noqa: F401
     except ImportError:
         return "reduced"
     return "pybullet"
@@ -311,10 +314,12 @@ def build_sample(kind: str, *, engine: str | None = None) -> Sample:
     cmd = np.asarray(commands, dtype=np.float64)
     cmd_keep = rng.random(cmd_t.size) >= _CMD_DROP
     cmd_keep[0] = True
+    latency_ns = np.rint(rng.uniform(0.002, 0.012, t.size) * 1e9).astype(np.int64)
     return Sample(
         kind=kind,
         engine=engine,
         params=params,
+        meas_log_t_ns=(meas_t_ns + latency_ns)[keep],
         cmd_t_ns=_T0_NS + np.rint(cmd_t[cmd_keep] * 1e9).astype(np.int64),
         cmd_v=cmd[cmd_keep, 0],
         cmd_w=cmd[cmd_keep, 1],
@@ -350,6 +355,7 @@ def write_samples(out_dir: str | Path, *, engine: str | None = None) -> list[Pat
             pose_x=s.pose_x,
             pose_y=s.pose_y,
             pose_yaw=s.pose_yaw,
+            meas_log_t_ns=s.meas_log_t_ns,
         )
         paths.append(path)
         print(f"wrote {path} ({s.engine}, {s.duration_s:.0f} s, {path.stat().st_size} bytes)")

@@ -296,9 +296,35 @@ def plan_events(
 
 
 def _make_pybullet_robot(spec: RobotSpecLike, params: DriveParams, physics_hz: float) -> Any:
-    from robots import PybulletRobot  # heavy import (pybullet) only when needed
+    from robots.pybullet_robot import PybulletRobot  # heavy import (pybullet) only when needed
 
-    return PybulletRobot(spec, params=params, physics_hz=physics_hz)
+    return PybulletRobot(spec, params=params, physics_hz=physics_hz)  # type: ignore[arg-type]
+
+
+def _start_moving(robot: Any, v0: float, w0: float) -> None:
+    """Give the robot (at rest after ``reset``) the base velocity of the first measurement.
+
+    The base gets (v0, w0) and each wheel the matching rolling speed; the wheel-speed loop and
+    the contacts keep them consistent from the first physics step on.
+    """
+    import pybullet as pb
+
+    if v0 == 0.0 and w0 == 0.0:
+        return
+    c, body = robot.client, robot.body_id
+    _, orn = pb.getBasePositionAndOrientation(body, physicsClientId=c)
+    yaw = pb.getEulerFromQuaternion(orn)[2]
+    pb.resetBaseVelocity(
+        body, [v0 * math.cos(yaw), v0 * math.sin(yaw), 0.0], [0.0, 0.0, w0], physicsClientId=c
+    )
+    r, half = robot.spec.wheels.radius_m, 0.5 * robot.spec.wheels.separation_m
+    for j in range(pb.getNumJoints(body, physicsClientId=c)):
+        name = pb.getJointInfo(body, j, physicsClientId=c)[1].decode()
+        if "wheel" in name and ("left" in name or "right" in name):
+            side = 1.0 if "right" in name else -1.0
+            pos = pb.getJointState(body, j, physicsClientId=c)[0]
+            speed = (v0 + side * w0 * half) / r
+            pb.resetJointState(body, j, pos, speed, physicsClientId=c)
 
 
 def _replay_pybullet(
@@ -316,7 +342,7 @@ def _replay_pybullet(
     )
     robot = _make_pybullet_robot(spec, params, physics_hz)
     try:
-        robot.reset(v=initial[0], w=initial[1])
+        _start_moving(robot, *initial)
         n_events = plan.n_steps.size + 1
         ev_v = np.empty(n_events)
         ev_w = np.empty(n_events)

@@ -225,19 +225,12 @@ def run_agree(
 
 
 def _write_sim_log(path: str | Path, trace: Any, sim: Any) -> None:
-    """The replayed commands and the simulated velocities (at the real stamps) as MCAP."""
-    import numpy as np
+    """The replayed commands and the simulated velocities (at the real stamps) as MCAP.
 
+    The odometry pose is dead-reckoned from the simulated (v, w) by the writer.
+    """
     from sim2real.logs import write_velocity_log
 
-    # planar pose by integrating the simulated (v, w) (trapezoid), for Foxglove's 3-D view
-    t = sim.t_s
-    dt = np.diff(t)
-    yaw = np.concatenate(([0.0], np.cumsum(0.5 * (sim.w[1:] + sim.w[:-1]) * dt)))
-    vx = sim.v * np.cos(yaw)
-    vy = sim.v * np.sin(yaw)
-    x = np.concatenate(([0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) * dt)))
-    y = np.concatenate(([0.0], np.cumsum(0.5 * (vy[1:] + vy[:-1]) * dt)))
     write_velocity_log(
         path,
         cmd_t_ns=trace.cmd_t_ns,
@@ -246,9 +239,6 @@ def _write_sim_log(path: str | Path, trace: Any, sim: Any) -> None:
         meas_t_ns=sim.t_ns,
         meas_v=sim.v,
         meas_w=sim.w,
-        pose_x=x,
-        pose_y=y,
-        pose_yaw=yaw,
     )
 
 

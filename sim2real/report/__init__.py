@@ -269,29 +269,32 @@ def _steps_table(data: ReportInput) -> Table:
         np.asarray(trace.cmd_v, dtype=np.float64),
         np.asarray(trace.cmd_w, dtype=np.float64),
     )
-    header = ["t [s]", "axis", "command"]
-    for who in ["real", *(r.label for r in data.runs)]:
-        header += [f"rise [s] {who}", f"overshoot {who}", f"ss error {who}"]
+    who = " | ".join(["real", *(r.label for r in data.runs)])
+    header = ["t [s]", "axis", "command", f"rise time [s] ({who})"]
+    header += [f"overshoot [%] ({who})", f"steady-state error ({who})"]
     rows = []
     for step in steps:
-        row = [f"{step.t_start_s:.2f}", step.axis, f"{step.before:+.3g} → {step.after:+.3g}"]
         ys = [trace.meas_v if step.axis == "v" else trace.meas_w]
         ys += [r.replay.v if step.axis == "v" else r.replay.w for r in data.runs]
-        for y in ys:
-            resp = step_response(t, np.asarray(y, dtype=np.float64), step)
-            row += [
-                _fmt(resp.rise_time_s, ".3f"),
-                _fmt(resp.overshoot_pct, ".1f") + " %",
-                _fmt(resp.ss_error, "+.4f"),
+        resp = [step_response(t, np.asarray(y, dtype=np.float64), step) for y in ys]
+        unit = "m/s" if step.axis == "v" else "rad/s"
+        rows.append(
+            [
+                f"{step.t_start_s:.2f}",
+                step.axis,
+                f"{step.before:+.3g} → {step.after:+.3g} {unit}",
+                " | ".join(_fmt(r.rise_time_s, ".2f") for r in resp),
+                " | ".join(_fmt(r.overshoot_pct, ".1f") for r in resp),
+                " | ".join(_fmt(r.ss_error, "+.3f") for r in resp),
             ]
-        rows.append(row)
+        )
     return Table(
         title="Step-like segments",
         header=header,
         rows=rows,
-        note="Held command changes (>= 0.05 m/s or 0.3 rad/s, held >= 1 s; first 12). Rise time "
-        "10-90 % of the commanded change; overshoot in % of the change; steady-state error = "
-        "mean of the last 30 % of the hold minus the command (m/s or rad/s)."
+        note="Held command changes (>= 0.05 m/s or 0.3 rad/s, held >= 1 s; first 12). Rise "
+        "time: 10-90 % of the response's own change; overshoot in % of the commanded change; "
+        "steady-state error: mean of the last 30 % of the hold minus the command."
         + ("" if rows else " No step-like segment found in this log."),
     )
 

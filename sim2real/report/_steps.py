@@ -4,11 +4,13 @@ A *step* is a command change of at least ``min_jump_v`` (m/s) or ``min_jump_w`` 
 axis that is then held (within ``hold_tol`` of the new value) for at least ``min_hold_s``. For
 a step from command :math:`u_0` to :math:`u_1` on an axis with response :math:`y(t)`:
 
-- rise time: time from 10 % to 90 % of the commanded change
-  :math:`\Delta u = u_1 - u_0` (measured from the response level at the step,
-  :math:`y_0`, towards :math:`y_0 + \Delta u`), linearly interpolated between samples;
-- overshoot: :math:`\max(0, \max_t \mathrm{sgn}(\Delta u)(y - y_{ss})) / |\Delta u|`, in %,
-  with :math:`y_{ss}` the mean over the last 30 % of the hold;
+- settled value :math:`y_{ss}`: the mean over the last 30 % of the hold; :math:`y_0` is the
+  response at the step time;
+- rise time: time from 10 % to 90 % of the response's own change :math:`y_{ss} - y_0`
+  (classical definition, so a base that settles under the command still has one), linearly
+  interpolated between samples;
+- overshoot: :math:`\max(0, \max_t \mathrm{sgn}(\Delta u)(y - y_{ss})) / |\Delta u|`, in %
+  of the commanded change :math:`\Delta u = u_1 - u_0`;
 - steady-state error: :math:`y_{ss} - u_1` (m/s or rad/s).
 """
 
@@ -147,8 +149,12 @@ def step_response(t_s: FloatArray, y: FloatArray, step: Step) -> StepResponse:
     y0 = float(np.interp(step.t_start_s, t, yy))
     tail = ts >= step.t_start_s + 0.7 * (step.t_end_s - step.t_start_s)
     y_ss = float(np.mean(ys[tail])) if tail.any() else float(ys[-1])
-    t10 = _crossing_time(ts, ys, y0 + 0.1 * delta, sign)
-    t90 = _crossing_time(ts, ys, y0 + 0.9 * delta, sign)
+    change = y_ss - y0
+    if sign * change <= 0.1 * abs(delta):  # the response did not follow the step
+        t10 = t90 = math.nan
+    else:
+        t10 = _crossing_time(ts, ys, y0 + 0.1 * change, sign)
+        t90 = _crossing_time(ts, ys, y0 + 0.9 * change, sign)
     peak = float(np.max(sign * (ys - y_ss)))
     return StepResponse(
         rise_time_s=t90 - t10 if math.isfinite(t10) and math.isfinite(t90) else math.nan,
