@@ -372,3 +372,40 @@ def test_cut_cdr_payload_is_a_format_error(tmp_path: Path):
 def test_every_error_is_a_sim2real_error():
     for cls in (LogFormatError, LogValueError, MissingTopicError, Sim2RealFileNotFoundError):
         assert issubclass(cls, Sim2RealError)
+
+
+def _record_starts(data: bytes) -> list[tuple[int, int]]:
+    """(offset, opcode) of the top-level records of an MCAP file."""
+    pos, out = 8, []
+    while pos + 9 <= len(data):
+        op, length = struct.unpack_from("<BQ", data, pos)
+        out.append((pos, op))
+        if op == 0x02:
+            break
+        pos += 9 + length
+    return out
+
+
+def test_skipped_chunk_without_crcs_is_caught_by_the_statistics(tmp_path: Path):
+    """A chunk whose opcode was damaged vanishes silently unless the summary count is checked."""
+    path = _custom_log(
+        tmp_path / "nocrc.mcap",
+        [
+            ("/cmd_vel", TWIST, "cdr", _twists(T, ONES, ZEROS)),
+            ("/odom", ODOMETRY, "cdr", _odoms(T + 1, ONES, ZEROS)),
+        ],
+        compression=CompressionType.NONE,
+        enable_crcs=False,
+        chunk_size=500,
+    )
+    data = bytearray(path.read_bytes())
+    chunks = [pos for pos, op in _record_starts(bytes(data)) if op == 0x06]
+    assert len(chunks) > 3
+    assert read_trace(path).meta.meas_count == 20
+    data[chunks[2]] = 0x0C + 0x10  # an opcode no reader knows: the record is skipped
+    bad = tmp_path / "skipped.mcap"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(
+        LogFormatError, match=r"summary counts 40 messages but its data section holds \d+"
+    ):
+        read_trace(bad)

@@ -16,6 +16,7 @@ from sim2real.logs import (
     TWIST,
     TWIST_STAMPED,
     Trace,
+    integrate_pose,
     read_trace,
     write_joint_state_log,
     write_trace,
@@ -187,3 +188,20 @@ def test_write_is_atomic_and_rejects_float_times(tmp_path: Path, arrays: Arrays)
     with pytest.raises(Sim2RealValueError, match=r"cmd_t_ns must be a 1-D array of integer"):
         write_velocity_log(tmp_path / "bad.mcap", **kw)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_integrate_pose_drives_a_quarter_circle():
+    # v = 1 m/s, w = pi/2 rad/s for 1 s in 10 000 steps: quarter circle of radius 2/pi.
+    n = 10_001
+    t = np.arange(n, dtype=np.int64) * 100_000
+    x, y, yaw = integrate_pose(t, np.ones(n), np.full(n, np.pi / 2))
+    r = 2 / np.pi
+    assert yaw[-1] == pytest.approx(np.pi / 2, abs=1e-9)
+    assert x[-1] == pytest.approx(r, abs=1e-3) and y[-1] == pytest.approx(r, abs=1e-3)
+
+
+def test_writing_into_a_missing_folder_is_a_clear_error(tmp_path: Path, arrays: Arrays):
+    from sim2real.errors import Sim2RealFileNotFoundError
+
+    with pytest.raises(Sim2RealFileNotFoundError, match="which does not exist"):
+        write_velocity_log(tmp_path / "no" / "x.mcap", **arrays.kwargs())
