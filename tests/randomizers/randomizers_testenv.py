@@ -44,9 +44,11 @@ LIDAR_MIN_M, LIDAR_MAX_M = 0.12, 3.5  # LDS-01 (robot-specs.md)
 GOAL_XY = np.array([3.0, 4.0])
 
 
-def depth_image(size: int = 64) -> np.ndarray:
-    """The fixed depth image: a ramp with NaN, 0 and max-range pixels in the first row."""
+def depth_image(size: int = 64, invalid_pixels: bool = True) -> np.ndarray:
+    """The fixed depth image: a ramp with NaN, 0, max-range and inf pixels in the first row."""
     img = np.linspace(0.5, 7.5, size * size, dtype=np.float32).reshape(size, size)
+    if not invalid_pixels:  # stays inside the Box (for gymnasium's env checkers)
+        return img
     img[0, 0] = np.nan
     img[0, 1] = 0.0
     img[0, 2] = DEPTH_FAR_M
@@ -82,7 +84,9 @@ class NavDouble(gym.Env[dict[str, np.ndarray], np.ndarray]):
     metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
     control_dt = 0.1
 
-    def __init__(self, size: int = 64, polar_goal: bool = False) -> None:
+    def __init__(
+        self, size: int = 64, polar_goal: bool = False, invalid_pixels: bool = True
+    ) -> None:
         self.size = size
         self.polar_goal = polar_goal
         goal_low = np.array([0.0, -math.pi] if polar_goal else [-20.0, -20.0], np.float32)
@@ -102,7 +106,7 @@ class NavDouble(gym.Env[dict[str, np.ndarray], np.ndarray]):
         # TurtleBot 2 camera_rgb_frame from base_link (robot-specs.md): x -0.087, y -0.0125, z 0.287.
         self.camera_xyz = np.array([-0.087, -0.0125, 0.287])
         self.camera_rpy = np.zeros(3)
-        self._depth = depth_image(size)
+        self._depth = depth_image(size, invalid_pixels)
         self._lidar = np.linspace(0.5, 2.25, 36).astype(np.float32)
         self._lidar[[5, 20]] = LIDAR_MAX_M
         self.pose = np.zeros(3)
@@ -198,7 +202,9 @@ class ForgetfulDriveEnv(NavDouble):
 
 ENV_ID = "sim2real-tests/NavDouble-v0"
 if ENV_ID not in gym.registry:
-    gym.register(id=ENV_ID, entry_point=NavDouble, max_episode_steps=50)
+    gym.register(
+        id=ENV_ID, entry_point=NavDouble, max_episode_steps=50, kwargs={"invalid_pixels": False}
+    )
 
 #: Every randomizer once, innermost first (the stack the vector, checker and config tests use).
 FULL_STACK: dict[str, Any] = {

@@ -1,0 +1,200 @@
+"""CameraPoseJitter and DynamicsRandomizer through the env protocols (and their absence)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+from randomizers_testenv import ForgetfulDriveEnv, IgnoringCameraEnv, NavDouble, StaticViewEnv
+
+from randomizers import CameraPoseJitter, DynamicsRandomizer, default_bounds
+from randomizers.errors import MissingProtocolError, RandomizationNotAppliedError
+from robots.params import DriveParams
+
+NOMINAL_XYZ = np.array([-0.087, -0.0125, 0.287])
+
+
+def test_camera_jitter_statistics_per_episode() -> None:
+    env = CameraPoseJitter(NavDouble(), position_std_m=0.02, orientation_std_deg=3.0)
+    dp, dr = [], []
+    for seed in range(300):
+        _, info = env.reset(seed=seed)
+        rec = info["randomization"]["CameraPoseJitter"]
+        xyz, rpy = env.unwrapped.get_camera_pose()
+        np.testing.assert_allclose(xyz, rec["xyz_m"])
+        np.testing.assert_allclose(xyz - NOMINAL_XYZ, rec["position_offset_m"], atol=1e-12)
+        dp.append(rec["position_offset_m"])
+        dr.append(rpy)
+    dp, dr = np.asarray(dp), np.asarray(dr)
+    bound = 4 / math.sqrt(2 * dp.size)
+    assert abs(dp.std() / 0.02 - 1) < bound
+    assert abs(dr.std() / math.radians(3.0) - 1) < bound
+    assert abs(dp.mean()) < 4 * 0.02 / math.sqrt(dp.size)
+
+
+def test_camera_jitter_does_not_accumulate_and_view_changes() -> None:
+    env = CameraPoseJitter(NavDouble(), position_std_m=0.05, orientation_std_deg=5.0)
+    env.reset(seed=0)
+    view_a = env.unwrapped.get_camera_view_matrix()
+    for seed in range(1, 50):
+        env.reset(seed=seed)
+    env.reset(seed=0)
+    np.testing.assert_allclose(env.unwrapped.get_camera_view_matrix(), view_a)
+    # around the nominal pose, never a random walk
+    assert np.linalg.norm(env.unwrapped.camera_xyz - NOMINAL_XYZ) < 0.5
+
+
+def test_camera_jitter_per_step_sets_a_new_pose_each_step() -> None:
+    env = CameraPoseJitter(NavDouble(), position_std_m=0.02, resample="step")
+    env.reset(seed=0)
+    poses = set()
+    for _ in range(5):
+        info = env.step(np.zeros(2, np.float32))[4]
+        xyz = tuple(info["randomization"]["CameraPoseJitter"]["xyz_m"])
+        assert np.allclose(env.unwrapped.camera_xyz, xyz)
+        poses.add(xyz)
+    assert len(poses) == 5
+
+
+def test_camera_jitter_scale_zero_keeps_nominal_pose() -> None:
+    env = CameraPoseJitter(NavDouble(), scale=0.0)
+    env.reset(seed=0)
+    np.testing.assert_array_equal(env.unwrapped.camera_xyz, NOMINAL_XYZ)
+
+
+def test_camera_jitter_detects_an_ignored_set_pose() -> None:
+    env = CameraPoseJitter(IgnoringCameraEnv())
+    with pytest.raises(RandomizationNotAppliedError, match="get_camera_pose\\(\\) returned"):
+        env.reset(seed=0)
+
+
+def test_camera_jitter_detects_a_view_matrix_that_does_not_change() -> None:
+    env = CameraPoseJitter(StaticViewEnv())
+    with pytest.raises(RandomizationNotAppliedError, match="view_matrix\\(\\) did not change"):
+        env.reset(seed=0)
+
+
+@pytest.mark.parametrize(
+    ("wrapper", "kwargs", "method"),
+    [
+        (CameraPoseJitter, {}, "get_camera_pose"),
+        (DynamicsRandomizer, {"uniform": {"delay_s": [0.0, 0.1]}}, "get_drive_params"),
+    ],
+)
+def test_missing_protocol_names_method_and_env_class(wrapper, kwargs, method) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(MissingProtocolError) as err:
+        wrapper(gym.make("CartPole-v1"), **kwargs)
+    text = str(err.value)
+    assert method in text and "CartPoleEnv" in text
+    assert isinstance(err.value, AttributeError)
+
+
+def test_dynamics_uniform_ranges_and_readback() -> None:
+    env = DynamicsRandomizer(
+        NavDouble(), uniform={"coulomb_v_fwd_n": [0.5, 1.5], "delay_s": [0.05, 0.15]}
+    )
+    values = []
+    for seed in range(400):
+        _, info = env.reset(seed=seed)
+        rec = info["randomization"]["DynamicsRandomizer"]
+        params = env.unwrapped.get_drive_params()
+        assert params.coulomb_v_fwd_n == rec["coulomb_v_fwd_n"]
+        assert params.delay_s == rec["delay_s"]
+        assert params.motor_gain_nms_per_rad == 0.5  # untouched fields keep the env's value
+        values.append(rec["coulomb_v_fwd_n"])
+    v = np.asarray(values)
+    assert 0.5 <= v.min() < 0.52 and 1.48 < v.max() <= 1.5
+    assert abs(v.mean() - 1.0) < 4 * (1 / math.sqrt(12)) / math.sqrt(v.size)
+
+
+def test_dynamics_scale_shrinks_range_about_its_centre() -> None:
+    env = DynamicsRandomizer(NavDouble(), uniform={"coulomb_v_fwd_n": [0.5, 1.5]}, scale=0.2)
+    v = [env.reset(seed=s)[1]["randomization"]["DynamicsRandomizer"]["coulomb_v_fwd_n"]
+         for s in range(200)]
+    assert 0.9 <= min(v) and max(v) <= 1.1
+    env.set_scale(0.0)
+    _, info = env.reset(seed=1)
+    assert info["randomization"]["DynamicsRandomizer"]["coulomb_v_fwd_n"] == 1.0
+
+
+def test_dynamics_normal_is_clipped_to_physical_values() -> None:
+    env = DynamicsRandomizer(
+        NavDouble(),
+        normal={"coulomb_w_nm": [0.01, 0.05], "motor_gain_nms_per_rad": [0.5, 1.0]},
+        bounds={"added_mass_kg": [-1.0, 1.0]},
+    )
+    w, k = [], []
+    for seed in range(300):
+        rec = env.reset(seed=seed)[1]["randomization"]["DynamicsRandomizer"]
+        w.append(rec["coulomb_w_nm"])
+        k.append(rec["motor_gain_nms_per_rad"])
+    assert min(w) == 0.0 and sum(x == 0.0 for x in w) > 100  # ~42 % below zero, clipped
+    assert min(k) == pytest.approx(0.005)  # 1 % of the mean for must-be-positive gains
+    assert default_bounds("added_mass_kg", 0.0) == (-math.inf, math.inf)
+
+
+def test_dynamics_detects_an_env_that_forgets_params_on_reset() -> None:
+    env = DynamicsRandomizer(ForgetfulDriveEnv(), uniform={"coulomb_v_fwd_n": [0.5, 1.5]})
+    with pytest.raises(RandomizationNotAppliedError, match="after reset"):
+        env.reset(seed=0)
+
+
+def _params_file(tmp_path: Path) -> Path:
+    doc = {
+        "format": "sim2real.sysid/1",
+        "robot": "turtlebot2_kobuki",
+        "tool_version": "0.1.0",
+        "parameters": {
+            "delay_s": {"value": 0.118, "std": 0.003, "ci95": [0.112, 0.124], "unit": "s",
+                        "status": "fitted"},
+            "coulomb_v_fwd_n": {"value": 2.0, "std": 0.4, "unit": "N", "status": "fitted"},
+            "added_mass_kg": {"value": 1.5, "std": 0.1, "unit": "kg", "status": "fitted"},
+            "accel_lim_v_mps2": {"value": float("inf"), "std": None, "unit": "m/s^2",
+                                 "status": "fixed"},
+        },
+    }
+    path = tmp_path / "params.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    return path
+
+
+def test_from_sysid_uses_fitted_value_and_std(tmp_path: Path) -> None:
+    factory = DynamicsRandomizer.from_sysid(_params_file(tmp_path), scale=1.0)
+    env = factory(NavDouble())
+    recs = [env.reset(seed=s)[1]["randomization"]["DynamicsRandomizer"] for s in range(400)]
+    delay = np.array([r["delay_s"] for r in recs])
+    friction = np.array([r["coulomb_v_fwd_n"] for r in recs])
+    assert set(recs[0]) == {"delay_s", "coulomb_v_fwd_n", "added_mass_kg", "scale"}
+    assert abs(delay.mean() - 0.118) < 4 * 0.003 / 20
+    assert abs(delay.std() / 0.003 - 1) < 4 / math.sqrt(800)
+    assert abs(friction.std() / 0.4 - 1) < 4 / math.sqrt(800)
+    assert np.isinf(env.unwrapped.get_drive_params().accel_lim_v_mps2)
+
+
+def test_from_sysid_with_env_fields_and_scale(tmp_path: Path) -> None:
+    env = DynamicsRandomizer.from_sysid(
+        _params_file(tmp_path), env=NavDouble(), scale=0.0, fields=["delay_s"]
+    )
+    rec = env.reset(seed=0)[1]["randomization"]["DynamicsRandomizer"]
+    assert rec == {"delay_s": 0.118, "scale": 0.0}
+
+
+def test_from_sysid_refuses_unfitted_field(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="accel_lim_v_mps2.*no std"):
+        DynamicsRandomizer.from_sysid(_params_file(tmp_path), fields=["accel_lim_v_mps2"])
+
+
+def test_from_sysid_missing_file_is_a_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="does not exist"):
+        DynamicsRandomizer.from_sysid(tmp_path / "nope.yaml")
+
+
+def test_drive_params_stay_valid_dataclass() -> None:
+    env = DynamicsRandomizer(NavDouble(), uniform={"motor_gain_nms_per_rad": [0.0, 0.2]})
+    for seed in range(50):
+        env.reset(seed=seed)
+        assert isinstance(env.unwrapped.get_drive_params(), DriveParams)
