@@ -46,6 +46,8 @@ Repairs
 
 Fixed-layout CDR payloads (Twist, TwistStamped, Odometry) are decoded in bulk with numpy;
 other types and encodings fall back to mcap-ros2-support's generic decoder or ``json``.
+A log is read into memory whole (fine for velocity logs up to a few hundred MB); chunks
+may be uncompressed, zstd or lz4.
 
 Examples
 --------

@@ -74,7 +74,14 @@ class TraceMeta:
 def _frozen(a: np.ndarray | None, dtype: type, name: str) -> np.ndarray | None:
     if a is None:
         return None
-    arr: np.ndarray = np.array(a, dtype=dtype)  # always a private copy
+    raw = np.asarray(a)
+    if dtype is np.int64 and raw.dtype.kind == "f" and not np.all(np.mod(raw, 1) == 0):
+        raise Sim2RealValueError(
+            f"Trace field {name} must hold integer nanoseconds, got fractional values such as "
+            f"{raw.ravel()[np.argmax(np.mod(raw.ravel(), 1) != 0)]}; convert seconds with "
+            "np.round(t_s * 1e9).astype(np.int64)"
+        )
+    arr: np.ndarray = np.array(raw, dtype=dtype)  # always a private copy
     if arr.ndim != 1:
         raise Sim2RealValueError(f"Trace field {name} must be 1-D, got shape {arr.shape}")
     arr.setflags(write=False)

@@ -115,3 +115,10 @@ def test_window_hold_equals_full_hold(cmd, meas, lo, span):
     v, w = part.cmd_at_meas()
     np.testing.assert_array_equal(v, full_v[keep])
     np.testing.assert_array_equal(w, full_w[keep])
+
+
+def test_fractional_nanoseconds_are_rejected():
+    with pytest.raises(Sim2RealValueError, match="cmd_t_ns must hold integer nanoseconds"):
+        _trace(cmd_t_ns=np.array([0.1, 0.3, 0.5]))
+    ok = _trace(cmd_t_ns=(BASE + np.array([100, 300, 500]) * MS).astype(np.float64))
+    assert ok.cmd_t_ns.dtype == np.int64
