@@ -27,10 +27,10 @@ from gymnasium import spaces
 from robots.params import DriveParams
 
 __all__ = [
-    "ENV_ID",
-    "FULL_STACK",
     "DEPTH_FAR_M",
     "DEPTH_NEAR_M",
+    "ENV_ID",
+    "FULL_STACK",
     "ForgetfulDriveEnv",
     "IgnoringCameraEnv",
     "NavDouble",

@@ -30,9 +30,7 @@ def test_yaml_round_trip_preserves_stack_scale_and_streams(tmp_path: Path) -> No
     saved = randomizers.save_config(env, tmp_path / "out.yaml")
     doc = yaml.safe_load(saved.read_text(encoding="utf-8"))
     assert doc["format"] == "sim2real.randomizers/1"
-    assert [e["type"] for e in doc["randomizers"]] == [
-        e["type"] for e in FULL_STACK["randomizers"]
-    ]
+    assert [e["type"] for e in doc["randomizers"]] == [e["type"] for e in FULL_STACK["randomizers"]]
     assert all(e["scale"] == 0.5 for e in doc["randomizers"])
     rebuilt = randomizers.from_config(NavDouble(), saved)
     assert randomizers.to_config(rebuilt) == doc

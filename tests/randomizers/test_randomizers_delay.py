@@ -70,7 +70,7 @@ def test_odometry_delay_fill_zeros_and_first() -> None:
 def test_odometry_delay_holds_first_value_not_zeros() -> None:
     class Moving(NavDouble):
         def reset(self, *, seed=None, options=None):  # type: ignore[no-untyped-def]
-            obs, info = super().reset(seed=seed, options=options)
+            _obs, info = super().reset(seed=seed, options=options)
             self.velocity = np.array([0.7, -0.2], np.float32)
             return self._obs(), info
 
@@ -112,8 +112,10 @@ def test_random_delay_range_covers_all_steps_uniformly() -> None:
 
 def test_random_delay_in_seconds_and_scale() -> None:
     env = OdometryDelay(NavDouble(), delay_s=[0.0, 0.4], key="velocity", scale=0.5)
-    delays = {env.reset(seed=s)[1]["randomization"]["OdometryDelay[velocity]"]["delay_steps"]
-              for s in range(200)}
+    delays = {
+        env.reset(seed=s)[1]["randomization"]["OdometryDelay[velocity]"]["delay_steps"]
+        for s in range(200)
+    }
     assert delays == {0, 1, 2}  # 0.5 * U(0, 0.4) s = U(0, 0.2) s -> 0, 1 or 2 steps of 0.1 s
 
 

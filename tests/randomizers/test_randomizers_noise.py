@@ -141,7 +141,7 @@ def test_observation_noise_on_cartpole_index_range() -> None:
         np.testing.assert_array_equal(obs[:2], ref[:2])
         diffs.append(obs[2:] - ref[2:])
         obs, _, term, trunc, _ = env.step(0)
-        ref, _, rterm, rtrunc, _ = bare.step(0)
+        ref, _, _rterm, _rtrunc, _ = bare.step(0)
         if term or trunc:
             obs, _ = env.reset(seed=6)
             ref, _ = bare.reset(seed=6)

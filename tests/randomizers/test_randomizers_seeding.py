@@ -68,9 +68,7 @@ def _depth(env: Any) -> DepthNoise:
 
 def test_adding_or_removing_other_wrappers_never_changes_a_wrappers_draws() -> None:
     alone = _depth(NavDouble())
-    below = _depth(
-        LidarNoise(GoalNoise(NavDouble(), key="goal"), key="lidar", dropout=0.1)
-    )
+    below = _depth(LidarNoise(GoalNoise(NavDouble(), key="goal"), key="lidar", dropout=0.1))
     above = ObservationNoise(
         OdometryDelay(_depth(NavDouble()), key="velocity", delay_steps=2), key="lidar", std=0.1
     )
