@@ -34,10 +34,11 @@ Zero-order hold
     time, the last command at or before it (0 before the first command), and
     :meth:`Trace.window` keeps the command in force at the window start.
 Topic detection
-    Commands: ``geometry_msgs/msg/TwistStamped`` or ``Twist``; measurements:
-    ``nav_msgs/msg/Odometry`` or else ``sensor_msgs/msg/JointState``. Among several channels
-    of a type the non-empty ``/cmd_vel``, ``/odom`` or ``/joint_states`` wins, else the only
-    one; otherwise pass ``cmd_topic=`` / ``odom_topic=`` (CLI ``--cmd-topic``/``--odom-topic``).
+    Commands: ``geometry_msgs/msg/Twist`` or ``TwistStamped``; measurements:
+    ``nav_msgs/msg/Odometry`` or else ``sensor_msgs/msg/JointState``. Among the non-empty
+    candidates ``/cmd_vel``, ``/odom`` or ``/joint_states`` wins, else the only command
+    channel / the only Odometry channel (JointState only when there is no Odometry);
+    otherwise pass ``cmd_topic=`` / ``odom_topic=`` (CLI ``--cmd-topic``/``--odom-topic``).
 Repairs
     Samples with NaN/inf values are dropped; samples are sorted by time and of equal stamps
     the last is kept. Each repair adds a sentence to ``Trace.meta.warnings``. A truncated

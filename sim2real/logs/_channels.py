@@ -75,9 +75,10 @@ def choose_topic(chans: list[Chan], role: str, explicit: str | None, *, name: st
     """Pick the command (``role="command"``) or measurement channel of a log.
 
     An explicit topic must exist and have a usable type. Otherwise the candidates are the
-    channels of a usable type (earlier types in ``CMD_TYPES``/``MEAS_TYPES`` first), non-empty
-    ones first; a conventional name (``/cmd_vel``, ``/odom``, ``/joint_states``) wins, else the
-    only candidate; several equal candidates are an error asking for the flag.
+    channels of a usable type, non-empty ones first: a conventional name (``/cmd_vel``,
+    ``/odom``, ``/joint_states``) wins, else the only candidate (for measurements the only
+    Odometry channel, JointState only when there is no Odometry); several equal candidates
+    are an error asking for the flag.
     """
     types = CMD_TYPES if role == "command" else MEAS_TYPES
     wanted = " or ".join(types)
@@ -89,27 +90,25 @@ def choose_topic(chans: list[Chan], role: str, explicit: str | None, *, name: st
                 f"log file '{name}' has no topic '{explicit}' (asked for as the {role} topic); "
                 f"topics present: {_listing(chans)}; pick one with {flag}"
             )
-        chan = found[0]
-        if chan.type not in types and not (chan.type == "" and chan.encoding == "json"):
+        if found[0].type not in types:
             raise MissingTopicError(
-                f"topic '{explicit}' of log file '{name}' has type '{chan.type}', but the "
-                f"{role} topic needs {wanted}; pick another with {flag}"
+                f"topic '{explicit}' of log file '{name}' has type "
+                f"'{found[0].type or 'unknown (no schema)'}', but the {role} topic needs "
+                f"{wanted}; pick another with {flag}"
             )
-        return chan
-    for type_name in types:
-        cands = [c for c in chans if c.type == type_name]
-        if not cands:
-            continue
-        full = [c for c in cands if c.count > 0] or cands
-        named = [c for c in full if c.topic in _PREFERRED[role]]
-        if named:
-            return named[0]
-        if len(full) == 1:
-            return full[0]
-        raise MissingTopicError(
-            f"log file '{name}' has several possible {role} topics ({_listing(full)}); "
-            f"choose one with {flag}"
-        )
+        return found[0]
+    cands = [c for c in chans if c.type in types]
+    full = [c for c in cands if c.count > 0] or cands
+    groups = [full] if role == "command" else [[c for c in full if c.type == t] for t in types]
+    for group in groups:
+        named = [c for c in group if c.topic in _PREFERRED[role]]
+        if named or len(group) == 1:
+            return (named or group)[0]
+        if len(group) > 1:
+            raise MissingTopicError(
+                f"log file '{name}' has several possible {role} topics ({_listing(group)}); "
+                f"choose one with {flag}"
+            )
     raise MissingTopicError(
         f"log file '{name}' has no {role} topic of type {wanted}; topics present: "
         f"{_listing(chans)}; choose one with {flag}"

@@ -409,3 +409,62 @@ def test_skipped_chunk_without_crcs_is_caught_by_the_statistics(tmp_path: Path):
         LogFormatError, match=r"summary counts 40 messages but its data section holds \d+"
     ):
         read_trace(bad)
+
+
+def test_detection_prefers_conventional_names_and_odometry(tmp_path: Path):
+    from sim2real.logs import JOINT_STATE, TWIST_STAMPED
+
+    stamped = list(
+        zip(T.tolist(), _cdr.encode_twist_stamped(T, ONES, ZEROS, frame_id="b"), strict=True)
+    )
+    js = [
+        (
+            t,
+            _cdr.encode_joint_state(
+                t,
+                frame_id="",
+                names=["left_wheel", "right_wheel"],
+                position=[0, 0],
+                velocity=[1.0, 1.0],
+                effort=[],
+            ),
+        )
+        for t in T.tolist()
+    ]
+    path = _custom_log(
+        tmp_path / "pick.mcap",
+        [
+            ("/cmd_vel", TWIST, "cdr", _twists(T, ONES, ZEROS)),
+            ("/nav/cmd_stamped", TWIST_STAMPED, "cdr", stamped),
+            ("/joint_states", JOINT_STATE, "cdr", js),
+            ("/wheel/odometry", ODOMETRY, "cdr", _odoms(T, ONES, ZEROS)),
+        ],
+    )
+    tr = read_trace(path)
+    assert (tr.meta.cmd_topic, tr.meta.meas_topic) == ("/cmd_vel", "/wheel/odometry")
+    tr = read_trace(
+        path,
+        cmd_topic="/nav/cmd_stamped",
+        odom_topic="/joint_states",
+        wheel_radius_m=0.1,
+        wheel_separation_m=0.2,
+    )
+    assert tr.meta.cmd_time_source == "header" and np.allclose(tr.meas_v, 0.1)
+
+
+def test_twist_and_twist_stamped_without_cmd_vel_is_ambiguous(tmp_path: Path):
+    from sim2real.logs import TWIST_STAMPED
+
+    stamped = list(
+        zip(T.tolist(), _cdr.encode_twist_stamped(T, ONES, ZEROS, frame_id="b"), strict=True)
+    )
+    path = _custom_log(
+        tmp_path / "amb.mcap",
+        [
+            ("/a", TWIST, "cdr", _twists(T, ONES, ZEROS)),
+            ("/b", TWIST_STAMPED, "cdr", stamped),
+            ("/odom", ODOMETRY, "cdr", _odoms(T, ONES, ZEROS)),
+        ],
+    )
+    with pytest.raises(MissingTopicError, match=r"several possible command topics \(/a .*, /b "):
+        read_trace(path)
