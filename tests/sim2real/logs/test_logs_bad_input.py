@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import T0_NS, Arrays
+from logs_helpers import T0_NS, Arrays
 from mcap.writer import CompressionType, Writer
 
 from sim2real.errors import (

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import T0_NS, make_arrays
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from logs_helpers import T0_NS, make_arrays
 from mcap.writer import CompressionType, Writer
 
 from sim2real.errors import Sim2RealError

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import T0_NS, Arrays
+from logs_helpers import T0_NS, Arrays
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
