@@ -340,8 +340,9 @@ def sample_drive_params(
     r"""Draw ``n`` parameter sets around ``base`` from the sysid uncertainty.
 
     Each parameter named in ``stds`` (finite value, std > 0) is drawn independently from
-    :math:`\mathcal N(\text{value}, (\text{spread}\cdot\sigma)^2)` and clipped to its physical
-    range; the others keep their ``base`` value.
+    :math:`\mathcal N(\text{value}, (\text{spread}\cdot\sigma)^2)`, truncated at
+    :math:`\pm 3` spread σ and clipped to its physical range; the others keep their ``base``
+    value.
 
     Examples
     --------
@@ -371,7 +372,8 @@ def sample_drive_params(
         changes: dict[str, float] = {}
         for name, z in zip(names, draws, strict=True):
             nominal = float(getattr(base, name))
-            x = nominal + spread * float(stds[name]) * float(z)
+            # truncated at 3 sigma so a rare draw cannot leave the fitted region entirely
+            x = nominal + spread * float(stds[name]) * float(np.clip(z, -3.0, 3.0))
             changes[name] = _clip_physical(name, x, nominal, geometry)
         out.append(base.replace(**changes))
     return out

@@ -10,14 +10,17 @@ Timing
 The simulation starts at the first measurement time :math:`t_0` in the measured state
 (:math:`v(t_0), \omega(t_0)` = first odometry sample). Commands are a zero-order hold: each
 holds until the next one or until ``cmd_timeout_s`` after it (then 0, as the base firmware
-does); the command held at :math:`t_0` is the last one at or before :math:`t_0`.
+does). What was commanded before the log began is unknown; when no logged command covers
+:math:`t_0 - \text{delay}`, the replay assumes the measured state was being commanded (a
+synthetic command :math:`(v(t_0), \omega(t_0))` at :math:`t_0 - \text{delay}`), so a log that
+starts in motion does not begin with a spurious stop.
 
 - ``pybullet``: the robot is stepped between consecutive *events* (command times, timeout
   times and measurement times merged), each time with the command held at the start of the
   interval, for a whole number of physics steps (240 Hz by default). Step counts come from the
   event times rounded to the physics grid, so time never drifts (error <= half a physics step).
-  The transport delay is the robot's own (``DriveParams.delay_s``); commands sent before
-  :math:`t_0` are not in the robot's delay line.
+  The transport delay is the robot's own (``DriveParams.delay_s``); the robot's delay line
+  and velocity smoother are preloaded with the synthetic start command.
 - ``reduced``: :func:`robots.reduced.simulate` over the whole command history.
 
 Example
@@ -218,6 +221,9 @@ def replay(
     spec = resolve_robot(robot)
     p = spec.drive if params is None else params
     cmd_t, cmd_v, cmd_w, meas_t, meas_v, meas_w = _check_trace(trace)
+    cmd_t, cmd_v, cmd_w = _with_start_command(
+        cmd_t, cmd_v, cmd_w, float(meas_t[0]) - p.delay_s, float(meas_v[0]), float(meas_w[0])
+    )
     start = time.perf_counter()
     if engine == "reduced":
         from robots.reduced import DEFAULT_DT_S, simulate
@@ -251,6 +257,19 @@ def replay(
     )
 
 
+def _with_start_command(
+    cmd_t: FloatArray, cmd_v: FloatArray, cmd_w: FloatArray, t_pre: float, v0: float, w0: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Prepend the synthetic start command (v0, w0) at ``t_pre`` unless a command covers it."""
+    if cmd_t[0] <= t_pre:
+        return cmd_t, cmd_v, cmd_w
+    return (
+        np.concatenate(([t_pre], cmd_t)),
+        np.concatenate(([v0], cmd_v)),
+        np.concatenate(([w0], cmd_w)),
+    )
+
+
 @dataclass(frozen=True, kw_only=True)
 class _EventPlan:
     """The merged event grid of a pybullet replay."""
@@ -278,7 +297,7 @@ def plan_events(
         nxt = np.append(cmd_t[1:], np.inf)
         parts.append(ends[ends < nxt])
     events = np.unique(np.concatenate(parts))
-    events = events[events >= t0]
+    events = events[(events >= t0) & (events <= meas_t[-1])]
     idx = np.searchsorted(cmd_t, events, side="right") - 1
     held = idx >= 0
     safe = np.clip(idx, 0, None)
@@ -299,6 +318,28 @@ def _make_pybullet_robot(spec: RobotSpecLike, params: DriveParams, physics_hz: f
     from robots.pybullet_robot import PybulletRobot  # heavy import (pybullet) only when needed
 
     return PybulletRobot(spec, params=params, physics_hz=physics_hz)  # type: ignore[arg-type]
+
+
+def _preload_commands(
+    robot: Any,
+    cmd_t: FloatArray,
+    cmd_v: FloatArray,
+    cmd_w: FloatArray,
+    t_start: float,
+    initial: tuple[float, float],
+) -> None:
+    """Put the commands sent shortly before ``t_start`` into the robot's delay line.
+
+    Uses the robot's command history (times relative to its own clock, which starts at 0 at
+    ``t_start``) and sets its velocity smoother's reference to the initial state.
+    """
+    if not all(hasattr(robot, a) for a in ("_cmd_t", "_cmd_v", "_cmd_w", "_shaper")):
+        return  # a robot without these internals starts with an empty delay line
+    before = cmd_t < t_start
+    robot._cmd_t[:0] = (cmd_t[before] - t_start).tolist()
+    robot._cmd_v[:0] = cmd_v[before].tolist()
+    robot._cmd_w[:0] = cmd_w[before].tolist()
+    robot._shaper.reset(*initial)
 
 
 def _start_moving(robot: Any, v0: float, w0: float) -> None:
@@ -343,6 +384,7 @@ def _replay_pybullet(
     robot = _make_pybullet_robot(spec, params, physics_hz)
     try:
         _start_moving(robot, *initial)
+        _preload_commands(robot, cmd_t, cmd_v, cmd_w, float(meas_t[0]), initial)
         n_events = plan.n_steps.size + 1
         ev_v = np.empty(n_events)
         ev_w = np.empty(n_events)
