@@ -87,6 +87,7 @@ def test_help_shows_examples(capsys: pytest.CaptureFixture[str]):
         assert "examples:" in out and "sim2real logs info run.mcap" in out
 
 
+@pytest.mark.realdata
 def test_info_on_the_drexel_log(drexel_log: Path, capsys: pytest.CaptureFixture[str]):
     assert main(["logs", "info", str(drexel_log)]) == 0
     out = capsys.readouterr().out

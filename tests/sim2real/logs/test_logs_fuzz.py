@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import atexit
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -17,6 +19,7 @@ from sim2real.logs import ODOMETRY, SCHEMA_TEXT, TWIST, Trace, _cdr, read_trace,
 
 _ARR = make_arrays(n_cmd=12, n_meas=30, seed=3)
 _TMP = Path(tempfile.mkdtemp(prefix="logs-fuzz-"))
+atexit.register(shutil.rmtree, _TMP, ignore_errors=True)
 _VALID = write_velocity_log(_TMP / "valid.mcap", **_ARR.kwargs()).read_bytes()
 
 
