@@ -301,13 +301,15 @@ def _identifiable(
     for j in range(x.size):
         h = 1e-6 * max(1.0, abs(float(x[j])))
         xp, xm = x.copy(), x.copy()
-        xp[j] += h
-        xm[j] -= h
+        xp[j] = min(float(x[j]) + h, float(prob.upper[j]))
+        xm[j] = max(float(x[j]) - h, float(prob.lower[j]))
         vp = mapper.identifiable(prob.params(xp))
         vm = mapper.identifiable(prob.params(xm))
+        span = float(xp[j] - xm[j])
         for i, k in enumerate(keys):
             a, b = vp[k][0], vm[k][0]
-            grads[i, j] = (a - b) / (2 * h) if math.isfinite(a) and math.isfinite(b) else 0.0
+            ok = math.isfinite(a) and math.isfinite(b) and span > 0
+            grads[i, j] = (a - b) / span if ok else 0.0
     out = []
     for i, k in enumerate(keys):
         value, unit = base[k]
@@ -333,6 +335,7 @@ def _identifiable(
             lo, hi = value * math.exp(-_Z95 * std / value), value * math.exp(_Z95 * std / value)
         else:
             lo, hi = value - _Z95 * std, value + _Z95 * std
+            lo = max(lo, 0.0) if value >= 0 else lo  # these combinations are non-negative
         out.append(
             ParameterEstimate(
                 name=k,
@@ -523,8 +526,8 @@ def fit_drive(
     for j, f in enumerate(free_list):
         c = COORDS[f]
         if j in keep and (
-            x[j] - c.lower < 1e-3 * (c.upper - c.lower)
-            or c.upper - x[j] < 1e-3 * (c.upper - c.lower)
+            x[j] - c.lower < 1e-5 * (c.upper - c.lower)
+            or c.upper - x[j] < 1e-5 * (c.upper - c.lower)
         ):
             notes.append(
                 f"{f} ended at its physical bound ({getattr(params, f):.4g}); treat it with care"

@@ -1,11 +1,265 @@
-"""`sim2real sysid` commands (not written yet)."""
+"""`sim2real sysid` commands: fit drive parameters to logs, show a result file."""
 
 from __future__ import annotations
 
 import argparse
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from sim2real.cli._common import add_command
+from sim2real.errors import Sim2RealValueError
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from sysid.result import ParameterEstimate, SysidResult
 
 __all__ = ["register"]
 
+_GROUP_EXAMPLES = """\
+  sim2real sysid fit run.mcap --robot turtlebot3_burger -o params.yaml
+  sim2real sysid show params.yaml
+"""
+_FIT_EXAMPLES = """\
+  sim2real sysid fit run.mcap --robot turtlebot3_burger -o params.yaml
+  sim2real sysid fit a.mcap b.mcap --robot turtlebot2 -o p.yaml --validate c.mcap
+  sim2real sysid fit goal.mcap --robot turtlebot3_waffle_pi -o p.yaml \\
+      --window 0:20 --validate goal.mcap --validate-window 20:40   # fit one part, check another
+  sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --free delay_s,added_mass_kg
+  sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --cmd-topic /mobile_base/cmd_vel
+"""
+_SHOW_EXAMPLES = """\
+  sim2real sysid show params.yaml
+"""
+
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Register the `sysid` command group (placeholder until its issue lands)."""
+    """Register the ``sysid`` command group (``sysid fit``, ``sysid show``)."""
+    group = add_command(
+        sub,
+        "sysid",
+        help="fit drive-model parameters to logs, show a result",
+        description=(
+            "System identification: fit the drive-model parameters (delay, friction, inertia, "
+            "limits) of a robot to logs of commanded and measured velocity."
+        ),
+        examples=_GROUP_EXAMPLES,
+    )
+    group_sub = group.add_subparsers(dest="sysid_command", metavar="SUBCOMMAND")
+    group_sub.required = True
+    fit = add_command(
+        group_sub,
+        "fit",
+        help="fit the drive parameters to one or more logs",
+        description=(
+            "Simulate the reduced drive model from the logged commands and fit its parameters "
+            "to the measured velocities (robust output-error least squares). Prints the "
+            "parameters with 95 % intervals, what the logs could not identify, and FIT % / "
+            "agreement on the fitting and validation logs; writes a params file that "
+            "'sim2real agree --params' and the envs read."
+        ),
+        examples=_FIT_EXAMPLES,
+    )
+    fit.add_argument("logs", nargs="+", metavar="LOG.mcap", help="fitting log(s)")
+    fit.add_argument("--robot", required=True, help="robot spec name (see 'sim2real robots list')")
+    fit.add_argument("-o", "--output", required=True, metavar="PARAMS.yaml", help="result file")
+    fit.add_argument(
+        "--validate", action="append", default=[], metavar="VAL.mcap", help="validation log(s)"
+    )
+    fit.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
+    fit.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
+    fit.add_argument(
+        "--time-source", choices=("header", "log"), default="header", help="message timing"
+    )
+    fit.add_argument("--window", metavar="START:END", help="use only this part of the fit logs (s)")
+    fit.add_argument(
+        "--validate-window", metavar="START:END", help="use only this part of the validation logs"
+    )
+    fit.add_argument(
+        "--free",
+        default="auto",
+        help="comma-separated parameters to fit, or 'auto' (chosen from the excitation)",
+    )
+    fit.add_argument(
+        "--loss",
+        default="soft_l1",
+        choices=("linear", "soft_l1", "huber", "cauchy", "arctan"),
+        help="robust loss (default: soft_l1)",
+    )
+    fit.add_argument("--dt", type=float, default=0.005, help="model integration step, s")
+    fit.set_defaults(handler=_fit)
+    show = add_command(
+        group_sub,
+        "show",
+        help="print a sysid result file",
+        description="Print the parameters, intervals, scores and warnings of a sysid result file.",
+        examples=_SHOW_EXAMPLES,
+    )
+    show.add_argument("params", metavar="PARAMS.yaml", help="file written by 'sysid fit'")
+    show.set_defaults(handler=_show)
+
+
+def _window(text: str | None, option: str) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    parts = text.split(":")
+    try:
+        start, end = (float(p) for p in parts) if len(parts) == 2 else (math.nan, math.nan)
+    except ValueError:
+        start, end = math.nan, math.nan
+    if not (math.isfinite(start) and math.isfinite(end) and end > start >= 0):
+        raise Sim2RealValueError(
+            f"{option} must be START:END in seconds with 0 <= START < END, got {text!r}; "
+            "e.g. --window 0:30"
+        )
+    return start, end
+
+
+def _free(text: str) -> str | list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise Sim2RealValueError(
+            f"--free must be 'auto' or comma-separated parameter names, got {text!r}"
+        )
+    return "auto" if names == ["auto"] else names
+
+
+def _read(paths: list[str], args: argparse.Namespace, window: tuple[float, float] | None) -> list:  # type: ignore[type-arg]
+    from sim2real.logs import read_trace
+    from sysid import crop_log
+
+    logs = []
+    for path in paths:
+        trace = read_trace(
+            path,
+            cmd_topic=args.cmd_topic,
+            odom_topic=args.odom_topic,
+            time_source=args.time_source,
+        )
+        logs.append(trace if window is None else crop_log(trace, *window))
+    return logs
+
+
+def _fit(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from robots.spec import load_spec
+    from sim2real._io import atomic_write, check_output_path
+    from sysid import fit_drive
+
+    out = check_output_path(args.output, what="params file")
+    spec = load_spec(args.robot)
+    window = _window(args.window, "--window")
+    val_window = _window(args.validate_window, "--validate-window")
+    free = _free(args.free)
+    logs = _read(args.logs, args, window)
+    val = _read(args.validate, args, val_window)
+    console = Console()
+    err = Console(stderr=True)
+    with Progress(
+        TextColumn("[bold]sysid[/] {task.description:<18}"),
+        BarColumn(),
+        TimeElapsedColumn(),
+        console=err,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("starting", total=1.0)
+
+        def progress(stage: str, fraction: float) -> None:
+            bar.update(task, completed=fraction, description=stage)
+
+        result = fit_drive(
+            logs,
+            geometry=spec.geometry,
+            base_params=spec.drive,
+            free=free,
+            validate=val,
+            robot=spec.name,
+            loss=args.loss,
+            dt_s=args.dt,
+            progress=progress,
+        )
+    with atomic_write(out, "w", what="params file") as fh:
+        fh.write(result.to_yaml())
+    _print_result(console, result)
+    console.print(f"wrote [bold]{out}[/]")
+    return 0
+
+
+def _show(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from sysid import SysidResult
+
+    _print_result(Console(), SysidResult.load(args.params))
+    return 0
+
+
+def _fmt(x: float | None) -> str:
+    if x is None:
+        return "-"
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    if math.isnan(x):
+        return "nan"
+    return f"{x:.4g}"
+
+
+def _estimate_rows(estimates: tuple[ParameterEstimate, ...]) -> list[tuple[str, ...]]:
+    rows: list[tuple[str, ...]] = []
+    for e in estimates:
+        ci = "-" if e.ci95_low is None else f"[{_fmt(e.ci95_low)}, {_fmt(e.ci95_high)}]"
+        rows.append((e.name, _fmt(e.value), _fmt(e.std), ci, e.unit, e.status))
+    return rows
+
+
+def _print_result(console: Console, result: SysidResult) -> None:
+    from rich.table import Table
+
+    for title, estimates in (
+        (f"drive parameters of {result.robot}", result.estimates),
+        ("identifiable combinations (independent of the motor-gain prior)", result.identifiable),
+    ):
+        table = Table(title=title, title_justify="left")
+        for col in ("parameter", "value", "std", "95 % interval", "unit", "status"):
+            table.add_column(col, justify="right" if col in ("value", "std") else "left")
+        for row in _estimate_rows(estimates):
+            table.add_row(*row)
+        console.print(table)
+    scores = Table(title="scores", title_justify="left")
+    for col in (
+        "log",
+        "role",
+        "FIT % v",
+        "FIT % w",
+        "agreement",
+        "agr. v",
+        "agr. w",
+        "RMSE v",
+        "RMSE w",
+    ):
+        scores.add_column(col)
+    for role, items in (("fit", result.scores_fit), ("validation", result.scores_validation)):
+        for s in items:
+            scores.add_row(
+                Path(s.log).name,
+                role,
+                f"{s.fit_percent_v:.1f}",
+                f"{s.fit_percent_w:.1f}",
+                f"{100 * s.agreement:.1f} %",
+                f"{100 * s.agreement_v:.1f} %",
+                f"{100 * s.agreement_w:.1f} %",
+                f"{s.rmse_v:.4f}",
+                f"{s.rmse_w:.4f}",
+            )
+    console.print(scores)
+    for axis, stats in result.linear.items():
+        if stats:
+            console.print(
+                f"linear {axis}: {stats['tf']}  rise {stats['rise_time_s']:.3f} s, settling "
+                f"{stats['settling_time_s']:.3f} s, bandwidth {stats['bandwidth_radps']:.2f} rad/s"
+            )
+    for warning in result.warnings:
+        console.print(f"[yellow]note:[/] {warning}", highlight=False)

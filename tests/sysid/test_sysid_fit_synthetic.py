@@ -1,0 +1,161 @@
+"""Accuracy of the drive fit on synthetic ground truth (reduced model, realistic odometry)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from robots.params import BaseGeometry, DriveParams
+from sysid import SysidResult, fit_drive
+from sysid._coords import Mapper
+from sysid.synthetic import step_commands, synthetic_log
+
+# Waffle-Pi-like geometry; the truth has non-default values for every parameter the fit frees.
+GEO = BaseGeometry(
+    mass_kg=1.55, yaw_inertia_kgm2=0.0146, wheel_radius_m=0.033, wheel_separation_m=0.287
+)
+BASE = DriveParams(motor_gain_nms_per_rad=0.01, speed_lim_v_mps=0.26, speed_lim_w_radps=1.82)
+TRUTH = BASE.replace(
+    delay_s=0.12,
+    added_mass_kg=0.6,
+    added_yaw_inertia_kgm2=0.02,
+    viscous_v_ns_per_m=2.0,
+    viscous_w_nms_per_rad=0.05,
+    coulomb_v_fwd_n=0.4,
+    coulomb_v_bwd_n=0.5,
+    coulomb_w_nm=0.03,
+    accel_lim_v_mps2=1.0,
+    accel_lim_w_radps2=6.0,
+    wheel_speed_max_radps=7.0,
+)
+# what the fit must recover within 10 % (the combinations velocity data identify)
+IDENTIFIABLE = (
+    "time_constant_v_s",
+    "time_constant_w_s",
+    "gain_v",
+    "gain_w",
+    "coulomb_v_fwd_per_mass_mps2",
+    "coulomb_v_bwd_per_mass_mps2",
+    "coulomb_w_per_inertia_radps2",
+    "viscous_v_per_mass_1ps",
+    "viscous_w_per_inertia_1ps",
+    "accel_lim_v_mps2",
+    "accel_lim_w_radps2",
+    "wheel_speed_max_radps",
+    "mass_per_motor_gain_kg_per_nms",
+)
+
+
+@pytest.fixture(scope="module")
+def fitted() -> SysidResult:
+    t, v, w = step_commands(120.0, seed=3)
+    log = synthetic_log(TRUTH, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=4)
+    tv, vv, wv = step_commands(60.0, seed=10)  # a different command sequence
+    val = synthetic_log(
+        TRUTH, GEO, cmd_t_s=tv, cmd_v=vv, cmd_w=wv, seed=11, spike_mps=None, name="val"
+    )
+    return fit_drive([log], geometry=GEO, base_params=BASE, validate=[val], robot="synthetic")
+
+
+@pytest.mark.slow
+def test_delay_within_10_ms(fitted: SysidResult) -> None:
+    assert abs(fitted.params.delay_s - TRUTH.delay_s) <= 0.010
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", IDENTIFIABLE)
+def test_identifiable_within_10_percent(fitted: SysidResult, name: str) -> None:
+    truth = Mapper(GEO, BASE).identifiable(TRUTH)[name][0]
+    est = fitted.estimate(name)
+    assert est.status in ("fitted", "derived")
+    assert est.value == pytest.approx(truth, rel=0.10)
+
+
+@pytest.mark.slow
+def test_every_free_parameter_fitted_and_spike_reported(fitted: SysidResult) -> None:
+    statuses = {e.name: e.status for e in fitted.estimates}
+    for name in ("delay_s", "coulomb_v_bwd_n", "viscous_w_nms_per_rad", "wheel_speed_max_radps"):
+        assert statuses[name] == "fitted"
+    assert statuses["added_mass_kg"] == "derived"
+    assert statuses["motor_gain_nms_per_rad"] == "fixed"
+    assert any("spike" in w and "1.35" in w for w in fitted.warnings)
+
+
+@pytest.mark.slow
+def test_validation_fit_percent_at_least_90(fitted: SysidResult) -> None:
+    (val,) = fitted.scores_validation
+    assert val.fit_percent_v >= 90.0
+    assert val.fit_percent_w >= 90.0
+    assert val.agreement >= 0.95
+
+
+@pytest.mark.slow
+def test_intervals_are_finite_and_contain_estimate(fitted: SysidResult) -> None:
+    for est in fitted.estimates:
+        if est.status in ("fitted", "derived"):
+            assert est.std is not None and math.isfinite(est.std) and est.std > 0
+            assert est.ci95_low is not None and est.ci95_high is not None
+            assert est.ci95_low <= est.value <= est.ci95_high
+    corr = np.array(fitted.correlation)
+    assert corr.shape == (len(fitted.correlation_names),) * 2
+    assert np.allclose(np.diag(corr), 1.0)
+    assert np.all(np.abs(corr) <= 1.0 + 1e-9)
+
+
+@pytest.mark.slow
+def test_linear_model_figures_match_first_order_theory(fitted: SysidResult) -> None:
+    lin = fitted.linear["v"]
+    tau = fitted.estimate("time_constant_v_s").value
+    # first order + dead time: 10-90 % rise time ln(9) T; -3 dB bandwidth ~ 1/T
+    assert lin["rise_time_s"] == pytest.approx(math.log(9.0) * tau, rel=0.05)
+    assert lin["bandwidth_radps"] == pytest.approx(1.0 / tau, rel=0.05)
+
+
+# a prior that is right except for the delay and the payload
+NEAR = TRUTH.replace(delay_s=0.05, added_mass_kg=0.0, added_yaw_inertia_kgm2=0.0)
+
+
+def test_fit_is_reproducible_and_reports_progress() -> None:
+    t, v, w = step_commands(30.0, seed=5)
+    log = synthetic_log(TRUTH, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=6, spike_mps=None)
+    seen: list[tuple[str, float]] = []
+    a = fit_drive(
+        [log],
+        geometry=GEO,
+        base_params=NEAR,
+        free=["delay_s", "added_mass_kg", "added_yaw_inertia_kgm2"],
+        progress=lambda stage, frac: seen.append((stage, frac)),
+    )
+    b = fit_drive(
+        [log],
+        geometry=GEO,
+        base_params=NEAR,
+        free=["delay_s", "added_mass_kg", "added_yaw_inertia_kgm2"],
+    )
+    assert a.params == b.params
+    fractions = [f for _, f in seen]
+    assert fractions[0] == 0.0 and fractions[-1] == 1.0
+    assert fractions == sorted(fractions)
+    assert {"fitting", "done"} <= {s for s, _ in seen}
+    # only the listed parameters move; the rest keep the prior
+    assert a.params.coulomb_v_fwd_n == NEAR.coulomb_v_fwd_n
+    assert abs(a.params.delay_s - TRUTH.delay_s) < 0.01
+    assert a.params.total_mass_kg(GEO) == pytest.approx(TRUTH.total_mass_kg(GEO), rel=0.1)
+
+
+def test_two_logs_fit_jointly() -> None:
+    logs = []
+    for seed in (21, 22):
+        t, v, w = step_commands(25.0, seed=seed)
+        logs.append(
+            synthetic_log(TRUTH, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed, spike_mps=None)
+        )
+    free = ["delay_s", "added_mass_kg", "added_yaw_inertia_kgm2"]
+    res = fit_drive(logs, geometry=GEO, base_params=NEAR, free=free)
+    assert len(res.scores_fit) == 2
+    assert [d.role for d in res.data] == ["fit", "fit"]
+    # 2 x 25 s only; the encoder's half-period averaging lag biases v by ~10 ms
+    assert abs(res.params.delay_s - TRUTH.delay_s) < 0.02
+    assert all(s.fit_percent_v > 85 for s in res.scores_fit)
