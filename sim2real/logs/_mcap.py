@@ -181,25 +181,38 @@ def _segment(buf: bytes, starts: list[int]) -> Segment:
 
 
 def _scan_chunk(buf: bytes, out: Container) -> None:
-    """Walk the records inside one decompressed chunk."""
-    pos, n, starts = 0, len(buf), []
-    unpack = _OP_LEN.unpack_from
-    while pos < n:
-        if pos + 9 > n:
-            raise _Corrupt("a record inside it is cut short")
-        op, length = unpack(buf, pos)
-        end = pos + 9 + length
-        if end > n:
-            raise _Corrupt("a record inside it runs past the chunk end")
-        if op == _MESSAGE:
-            starts.append(pos)
-        elif op == _SCHEMA:
-            _add_schema(out, _schema(buf, pos + 9, end))
-        elif op == _CHANNEL:
-            _add_channel(out, _channel(buf, pos + 9, end))
-        pos = end
+    """Walk the records inside one decompressed chunk.
+
+    The hot loop only records where message records start; a record running past the chunk
+    end can only be the last one, so one check after the loop covers every length.
+    """
+    pos, n = 0, len(buf)
+    starts: list[int] = []
+    append, unpack = starts.append, _OP_LEN.unpack_from
+    try:
+        while pos < n:
+            op, length = unpack(buf, pos)
+            if op == 5:  # Message
+                append(pos)
+            elif op in (_SCHEMA, _CHANNEL):
+                _chunk_meta(buf, op, pos, out)
+            pos += 9 + length
+    except struct.error:
+        raise _Corrupt("a record inside it is cut short") from None
+    if pos != n:
+        raise _Corrupt("a record inside it runs past the chunk end")
     if starts:
         out.segments.append(_segment(buf, starts))
+
+
+def _chunk_meta(buf: bytes, op: int, pos: int, out: Container) -> None:
+    end = pos + 9 + _OP_LEN.unpack_from(buf, pos)[1]
+    if end > len(buf):
+        raise _Corrupt("a record inside it runs past the chunk end")
+    if op == _SCHEMA:
+        _add_schema(out, _schema(buf, pos + 9, end))
+    else:
+        _add_channel(out, _channel(buf, pos + 9, end))
 
 
 def _add_schema(out: Container, rec: SchemaRecord) -> None:
