@@ -6,9 +6,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from sim2real.errors import Sim2RealError
 from sim2real.logs import ODOMETRY, TWIST, inspect_log, read_trace
 
 pytestmark = pytest.mark.realdata
@@ -115,3 +118,26 @@ def test_inspect_real_logs(drexel_log: Path, neato_log: Path):
     assert (neato.topic("/cmd_vel").count, neato.topic("/odom").count) == (190, 537)
     assert neato.topic("/scan").type == "sensor_msgs/msg/LaserScan"
     assert neato.duration_s == pytest.approx(75.9, abs=0.1)
+
+
+@settings(
+    max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    flips=st.lists(st.tuples(st.integers(0, 2_095_601), st.integers(1, 255)), max_size=3),
+    keep=st.none() | st.floats(0.0, 1.0),
+)
+def test_damaged_real_log_gives_trace_or_our_error(drexel_log: Path, tmp_path: Path, flips, keep):
+    """The real log has no CRCs: damage may go unnoticed, but never as a foreign exception."""
+    buf = bytearray(drexel_log.read_bytes())
+    for pos, mask in flips:
+        buf[pos % len(buf)] ^= mask
+    if keep is not None:
+        buf = buf[: int(len(buf) * keep)]
+    path = tmp_path / "damaged.mcap"
+    path.write_bytes(bytes(buf))
+    for fn in (read_trace, inspect_log):
+        try:
+            fn(path)
+        except Sim2RealError as exc:
+            assert "\n" not in str(exc)
