@@ -30,6 +30,7 @@ Example
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -284,11 +285,55 @@ class RobotSpec:
         """Sum of all rigid-body masses (without the wheels' apparent spin mass), kg."""
         return lumped_base_mass_kg(self) + 2.0 * self.wheels.mass_kg
 
+    def to_dict(self) -> dict[str, Any]:
+        """The spec in the layout of a spec file (``load_spec`` reads it back unchanged).
+
+        Examples
+        --------
+        >>> load_spec("turtlebot2").to_dict()["wheels"]["radius_m"]
+        0.035
+        """
+        body: dict[str, Any] = {"shape": self.body.shape, "xyz_m": list(self.body.xyz_m)}
+        if self.body.shape == "box":
+            body["size_m"] = list(self.body.size_m)
+        else:
+            body["radius_m"] = 0.5 * self.body.size_m[0]
+            body["height_m"] = self.body.size_m[2]
+        cam = self.depth_camera
+        return {
+            "name": self.name,
+            "description": self.description,
+            "sources": list(self.sources),
+            "base": {
+                "mass_kg": self.base_mass_kg,
+                "inertia_diag_kgm2": list(self.base_inertia_diag_kgm2),
+                "link_height_m": self.base_link_height_m,
+                "body": body,
+            },
+            "wheels": dataclasses.asdict(self.wheels),
+            "casters": [
+                {"x_m": c.xyz_m[0], "y_m": c.xyz_m[1], "radius_m": c.radius_m, "mass_kg": c.mass_kg}
+                for c in self.casters
+            ],
+            "point_masses": [
+                {"name": m.name, "mass_kg": m.mass_kg, "xyz_m": list(m.xyz_m)}
+                for m in self.point_masses
+            ],
+            "limits": {"max_v_mps": self.max_v_mps, "max_w_radps": self.max_w_radps},
+            "drive": self.drive.to_dict(),
+            "lidar": _plain(dataclasses.asdict(self.lidar)),
+            "depth_camera": None if cam is None else _plain(dataclasses.asdict(cam)),
+            "odometry": dataclasses.asdict(self.odometry),
+        }
+
     def with_params(self, params: DriveParams) -> RobotSpec:
         """A copy of this spec whose default drive parameters are ``params``."""
-        import dataclasses
-
         return dataclasses.replace(self, drive=params)
+
+
+def _plain(d: dict[str, Any]) -> dict[str, Any]:
+    """Tuples -> lists, so ``yaml.safe_dump`` writes plain sequences."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
 
 
 def lumped_base_mass_kg(spec: RobotSpec) -> float:
@@ -386,6 +431,12 @@ def _parse(top: Section, path: Path) -> RobotSpec:
     base = top.section("base")
     base_mass = base.number("mass_kg", positive=True)
     inertia = base.vector("inertia_diag_kgm2", positive=True)
+    if 2.0 * max(inertia) > sum(inertia):
+        raise base.fail(
+            "inertia_diag_kgm2",
+            "must obey the triangle inequality ixx + iyy >= izz etc. (a rigid body)",
+            list(inertia),
+        )
     height = base.number("link_height_m", nonneg=True)
     body = _body(base.section("body"))
     base.finish()
@@ -452,6 +503,13 @@ def _wheels(s: Section) -> WheelSpec:
         cross_inertia_kgm2=s.number("cross_inertia_kgm2", positive=True),
     )
     s.finish()
+    if w.spin_inertia_kgm2 > 2.0 * w.cross_inertia_kgm2:
+        # a rigid body's principal moments obey the triangle inequality (pybullet zeroes them)
+        raise s.fail(
+            "spin_inertia_kgm2",
+            "must be <= 2 x cross_inertia_kgm2 (a rigid wheel)",
+            w.spin_inertia_kgm2,
+        )
     return w
 
 
@@ -533,8 +591,3 @@ def _odometry(s: Section) -> OdometrySpec:
     )
     s.finish()
     return odo
-
-
-def spec_error_for(key: str, message: str) -> SpecError:
-    """A :class:`SpecError` about ``key`` (helper for callers validating derived values)."""
-    return SpecError(f"robot spec key '{key}': {message}")
