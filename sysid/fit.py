@@ -352,23 +352,25 @@ def _identifiable(
 
 def _drop_inactive_limits(
     prob: Problem, x: FloatArray, base: DriveParams, notes: list[str]
-) -> FloatArray:
-    """Limits that never shape the response are not identified: restore their prior."""
+) -> list[int]:
+    """Limits that never shape the response are not identified: their prior is kept.
+
+    Returns the indices of the coordinates to drop from the fit result."""
     params = prob.params(x)
     ref = prob.scaled_sim(params)
-    x = x.copy()
+    dropped = []
     for j, field in enumerate(prob.free):
         if field not in _LIMITS:
             continue
         unlimited = prob.scaled_sim(params.replace(**{field: math.inf}))
         if float(np.max(np.abs(unlimited - ref))) < 0.1:
             prior = float(getattr(base, field))
-            x[j] = prob.mapper.to_coord(base, field)
+            dropped.append(j)
             notes.append(
                 f"{field} never limited the response in the log (fitted {getattr(params, field):.3g} "
                 f"is not identifiable): kept at the spec prior ({prior:g})"
             )
-    return x
+    return dropped
 
 
 def _linear_stats(identifiable: tuple[ParameterEstimate, ...]) -> dict[str, Any]:
@@ -509,8 +511,9 @@ def fit_drive(
         polish = max_nfev
     res = _solve(prob, x0, exc.coupled, loss, f_scale, polish)
     report("uncertainty", 0.92)
-    x = _drop_inactive_limits(prob, np.asarray(res.x), base_params, notes)
-    keep = [j for j, f in enumerate(free_list) if f not in _LIMITS or x[j] == res.x[j]]
+    x = np.asarray(res.x)
+    dropped = _drop_inactive_limits(prob, x, base_params, notes)
+    keep = [j for j in range(len(free_list)) if j not in dropped]
     cov_k, inflation, weak = _covariance(res, prob, keep)
     for j in weak:
         notes.append(
@@ -534,7 +537,8 @@ def fit_drive(
             )
     sub_cov = cov[np.ix_(keep, keep)]
     d = np.sqrt(np.clip(np.diag(sub_cov), 1e-300, None))
-    corr = np.where(np.isfinite(np.outer(d, d)), sub_cov / np.outer(d, d), math.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = np.where(np.isfinite(np.outer(d, d)), sub_cov / np.outer(d, d), math.nan)
     for j in weak:
         corr[j, :] = corr[:, j] = math.nan
     for a in range(len(keep)):

@@ -156,7 +156,7 @@ def _fit(args: argparse.Namespace) -> int:
     free = _free(args.free)
     logs = _read(args.logs, args, window)
     val = _read(args.validate, args, val_window)
-    console = Console()
+    console = _console()
     err = Console(stderr=True)
     with Progress(
         TextColumn("[bold]sysid[/] {task.description:<18}"),
@@ -164,6 +164,7 @@ def _fit(args: argparse.Namespace) -> int:
         TimeElapsedColumn(),
         console=err,
         transient=True,
+        disable=not err.is_terminal,
     ) as bar:
         task = bar.add_task("starting", total=1.0)
 
@@ -189,12 +190,18 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _show(args: argparse.Namespace) -> int:
-    from rich.console import Console
-
     from sysid import SysidResult
 
-    _print_result(Console(), SysidResult.load(args.params))
+    _print_result(_console(), SysidResult.load(args.params))
     return 0
+
+
+def _console() -> Console:
+    """stdout console; wide when not a terminal so piped tables keep one row per line."""
+    from rich.console import Console
+
+    probe = Console()
+    return probe if probe.is_terminal else Console(width=160)
 
 
 def _fmt(x: float | None) -> str:
