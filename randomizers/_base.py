@@ -31,6 +31,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from randomizers._gauss import NormalPool
 from randomizers.errors import RandomizerTypeError, RandomizerValueError
 
 __all__ = [
@@ -133,13 +134,19 @@ class Randomizer:
     rng: np.random.Generator
     _scale: float
     _next_scale: float
+    _normals: NormalPool
     _saved_kwargs: dict[str, Any]
 
-    def _init_randomizer(self, name: str, scale: float) -> None:
+    def _init_randomizer(self, name: str, scale: float, dtype: Any = np.float64) -> None:
         self.name = name
         self._scale = scale
         self._next_scale = scale
         self.rng = np.random.Generator(np.random.PCG64(self._seed_sequence(None)))
+        self._normals = NormalPool(dtype)
+
+    def _standard_normal(self, n: int) -> np.ndarray:
+        """``n`` i.i.d. N(0, 1) samples from this randomizer's stream (a short-lived view)."""
+        return self._normals.take(self.rng, n)
 
     def _seed_sequence(self, seed: int | None) -> np.random.SeedSequence:
         return np.random.SeedSequence(entropy=seed, spawn_key=stream_key(self.name))
@@ -183,6 +190,7 @@ class Randomizer:
         """Reseed (when ``seed`` is given) and apply a pending :meth:`set_scale`."""
         if seed is not None:
             self.rng = np.random.Generator(np.random.PCG64(self._seed_sequence(seed)))
+            self._normals.clear()
         self._scale = self._next_scale
 
     def _record(self, info: dict[str, Any], values: Mapping[str, Any]) -> dict[str, Any]:

@@ -27,7 +27,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["ZIGGURAT_LAYERS", "fill_standard_normal", "ziggurat_tables"]
+__all__ = ["ZIGGURAT_LAYERS", "NormalPool", "fill_standard_normal", "ziggurat_tables"]
 
 #: Number of ziggurat layers (8 bits of each word select one).
 ZIGGURAT_LAYERS = 256
@@ -78,22 +78,27 @@ def ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 
 _WIDTH, _ACCEPT, _FX, _EDGE = ziggurat_tables()
 _ACCEPT_I64 = _ACCEPT.astype(np.int64)
+# Index 0..255: layer with a + sign, 256..511: the same layer with a - sign (bit 8 of a word).
+_SIGNED_WIDTH = np.concatenate([_WIDTH, -_WIDTH])
 _INV_2_32 = 1.0 / 4294967296.0
+_CHUNK = 1 << 14  # samples per fast pass
 
 
 @numba.njit(cache=True, nogil=True)
 def _fast_pass(
     words: np.ndarray, out: np.ndarray, rejected: np.ndarray, width: np.ndarray, accept: np.ndarray
 ) -> int:  # pragma: no cover - compiled
-    """Turn word ``i`` into ``out[i]`` branch-free; list the indices that need the slow test."""
+    """Turn word ``i`` into ``out[i]`` branch-free; list the indices that need the slow test.
+
+    ``width`` is the signed table (512 entries: layer and sign bit).
+    """
     k = 0
     for i in range(out.size):
         u = np.int64(words[i])
-        layer = u & 255
         mag = u >> 9
-        out[i] = float(mag) * width[layer] * (1.0 - 2.0 * float((u >> 8) & 1))
+        out[i] = float(mag) * width[u & 511]
         rejected[k] = i
-        k += mag >= accept[layer]
+        k += mag >= accept[u & 255]
     return k
 
 
@@ -168,16 +173,59 @@ def fill_standard_normal(rng: np.random.Generator, out: np.ndarray) -> np.ndarra
     True
     """
     flat = out.reshape(-1)
-    n = flat.size
-    if n == 0:
-        return out
     bits = rng.bit_generator
-    words = bits.random_raw((n + 1) // 2).view(np.uint32)
-    rejected = np.empty(n, dtype=np.int64)
-    k = _fast_pass(words, flat, rejected, _WIDTH, _ACCEPT_I64)
-    rejected = rejected[:k]
-    done = 0
-    while done < k:
-        extra = bits.random_raw(2 * (k - done) + 8).view(np.uint32)
-        done = _slow_pass(words, rejected, done, flat, extra, _WIDTH, _ACCEPT_I64, _FX, _R)
+    rejected = np.empty(min(flat.size, _CHUNK), dtype=np.int64)
+    # Chunks keep the raw words and the output in cache (and allocations small).
+    for start in range(0, flat.size, _CHUNK):
+        chunk = flat[start : start + _CHUNK]
+        n = chunk.size
+        words = bits.random_raw((n + 1) // 2).view(np.uint32)
+        k = _fast_pass(words, chunk, rejected, _SIGNED_WIDTH, _ACCEPT_I64)
+        todo = rejected[:k]
+        done = 0
+        while done < k:
+            extra = bits.random_raw(2 * (k - done) + 8).view(np.uint32)
+            done = _slow_pass(words, todo, done, chunk, extra, _WIDTH, _ACCEPT_I64, _FX, _R)
     return out
+
+
+class NormalPool:
+    """Serve i.i.d. N(0, 1) samples from a block refilled from a generator.
+
+    Per-step noise on small arrays is dominated by call overhead; drawing a block of
+    ``block`` samples at a time and handing out consecutive slices keeps every sample used
+    once, in order, so the stream stays i.i.d. and reproducible. The block grows to four times
+    the largest request. :meth:`clear` drops the block (call it on reseeding).
+
+    Examples
+    --------
+    >>> pool = NormalPool(np.float32, block=1024)
+    >>> rng = np.random.default_rng(0)
+    >>> a = pool.take(rng, 10).copy()
+    >>> pool.clear()
+    >>> bool((a == pool.take(np.random.default_rng(0), 10)).all())
+    True
+    """
+
+    def __init__(self, dtype: type[np.floating] | np.dtype, block: int = 1 << 16) -> None:  # type: ignore[type-arg]
+        self.dtype = np.dtype(dtype)
+        self.block = block
+        self._buf = np.empty(0, dtype=self.dtype)  # allocated at the first take
+        self._pos = 0
+
+    def clear(self) -> None:
+        """Forget the samples left in the block."""
+        self._pos = self._buf.size
+
+    def take(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """Return ``n`` fresh samples (a view valid until the next call; do not keep it)."""
+        if 4 * n > self.block:
+            self.block = 4 * n
+        if self._pos + n > self._buf.size:
+            if self._buf.size != self.block:
+                self._buf = np.empty(self.block, dtype=self.dtype)
+            fill_standard_normal(rng, self._buf)
+            self._pos = 0
+        view = self._buf[self._pos : self._pos + n]
+        self._pos += n
+        return view

@@ -123,9 +123,11 @@ class GoalNoise(ObservationRandomizer):
         self._clip = bool(clip)
         self._width = 2 if coords == "polar" else width
         self.offset_m = np.zeros(self._width)
+        self._offset_cast = self.offset_m.astype(sel.dtype)
 
     def _draw(self) -> None:
         self.offset_m = self.scale * self.std_m * self.rng.standard_normal(self._width)
+        self._offset_cast = self.offset_m.astype(self._sel.dtype)
 
     def sample_episode(self) -> None:
         """Draw the episode's offset (also the first one in per-step mode)."""
@@ -133,14 +135,14 @@ class GoalNoise(ObservationRandomizer):
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with the offset goal (a new object)."""
-        goal = self._sel.get(observation).astype(np.float64)
+        goal = self._sel.get(observation)
         if self.coords == "polar":
+            goal = goal.astype(np.float64)
             x = goal[..., 0] * np.cos(goal[..., 1]) + self.offset_m[0]
             y = goal[..., 0] * np.sin(goal[..., 1]) + self.offset_m[1]
-            noisy = np.stack([np.hypot(x, y), np.arctan2(y, x)], axis=-1)
+            out = np.stack([np.hypot(x, y), np.arctan2(y, x)], axis=-1).astype(self._sel.dtype)
         else:
-            noisy = goal + self.offset_m
-        out = noisy.astype(self._sel.dtype)
+            out = np.add(goal, self._offset_cast, dtype=self._sel.dtype)
         if self._clip:
             self._sel.clip(out)
         return self._sel.put(observation, out)

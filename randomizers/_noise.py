@@ -17,7 +17,6 @@ import numba
 import numpy as np
 
 from randomizers._base import check_name, check_nonnegative, check_number, check_scale
-from randomizers._gauss import fill_standard_normal
 from randomizers._observation import ObservationRandomizer
 from randomizers._select import index_kwarg, index_label, select
 from randomizers.errors import RandomizerValueError
@@ -86,7 +85,7 @@ class ObservationNoise(ObservationRandomizer):
             name=name,
         )
         gym.ObservationWrapper.__init__(self, env)
-        self._init_randomizer(name, scale)
+        self._init_randomizer(name, scale, sel.dtype)
         self._sel = sel
         self._std = std_value
         self._clip = bool(clip)
@@ -97,9 +96,9 @@ class ObservationNoise(ObservationRandomizer):
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with noise added to the selected entry (a new object)."""
         part = self._sel.get(observation)
+        z = self._standard_normal(part.size).reshape(part.shape)
         out = np.empty(part.shape, dtype=self._sel.dtype)
-        fill_standard_normal(self.rng, out)
-        out *= self._effective_std()
+        np.multiply(z, self._effective_std(), out=out, casting="unsafe")
         out += part
         if self._clip:
             self._sel.clip(out)
@@ -117,16 +116,42 @@ class ObservationNoise(ObservationRandomizer):
 
 @numba.njit(cache=True, nogil=True)
 def _noisy_depth(
-    img: np.ndarray, out: np.ndarray, std: float, near: float, far: float
+    img: np.ndarray, z: np.ndarray, out: np.ndarray, std: float, near: float, far: float
 ) -> None:  # pragma: no cover - compiled
-    """``out`` holds N(0, 1) draws on entry; valid pixels become clip(img + std*z, near, far)."""
+    """Valid pixels: ``out = clip(img + std * z, near, far)``; invalid ones are copied."""
     for i in range(img.size):
         d = img[i]
         if d > 0.0 and d < far:  # NaN and +-inf fail one of the two tests
-            v = d + std * out[i]
+            v = d + std * z[i]
             out[i] = min(max(v, near), far)
         else:
             out[i] = d
+
+
+@numba.njit(cache=True, nogil=True)
+def _noisy_ranges(
+    ranges: np.ndarray,
+    z: np.ndarray,
+    u: np.ndarray,
+    out: np.ndarray,
+    std: float,
+    dropout: float,
+    rmin: float,
+    rmax: float,
+) -> int:  # pragma: no cover - compiled
+    """Valid beams (finite, < rmax): noise and clip, or rmax when ``u < dropout``."""
+    dropped = 0
+    for i in range(ranges.size):
+        r = ranges[i]
+        if r < rmax and r > -np.inf:  # NaN fails both, +-inf fails one
+            if u[i] < dropout:
+                out[i] = rmax
+                dropped += 1
+            else:
+                out[i] = min(max(r + std * z[i], rmin), rmax)
+        else:
+            out[i] = r
+    return dropped
 
 
 class DepthNoise(ObservationRandomizer):
@@ -211,7 +236,7 @@ class DepthNoise(ObservationRandomizer):
             name=name,
         )
         gym.ObservationWrapper.__init__(self, env)
-        self._init_randomizer(name, scale)
+        self._init_randomizer(name, scale, sel.dtype)
         self._sel = sel
         self.std_m = std_m
         self.near_m = near_m
@@ -223,9 +248,9 @@ class DepthNoise(ObservationRandomizer):
         if std == 0.0:
             return observation
         part = np.ascontiguousarray(self._sel.get(observation))
+        z = self._standard_normal(part.size)
         out = np.empty(part.shape, dtype=self._sel.dtype)
-        fill_standard_normal(self.rng, out)
-        _noisy_depth(part.reshape(-1), out.reshape(-1), std, self.near_m, self.far_m)
+        _noisy_depth(part.reshape(-1), z, out.reshape(-1), std, self.near_m, self.far_m)
         return self._sel.put(observation, out)
 
     def episode_record(self) -> dict[str, Any]:
@@ -326,7 +351,7 @@ class LidarNoise(ObservationRandomizer):
             name=name,
         )
         gym.ObservationWrapper.__init__(self, env)
-        self._init_randomizer(name, scale)
+        self._init_randomizer(name, scale, sel.dtype)
         self._sel = sel
         self.std_m = std_m
         self.dropout = dropout
@@ -336,19 +361,21 @@ class LidarNoise(ObservationRandomizer):
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with a noisy scan (a new object)."""
-        ranges = self._sel.get(observation)
-        z = np.empty(ranges.shape, dtype=self._sel.dtype)
-        fill_standard_normal(self.rng, z)
-        u = self.rng.random(ranges.shape, dtype=np.float64)
-        valid = np.isfinite(ranges) & (ranges < self.range_max_m)
-        z *= self.scale * self.std_m
-        z += ranges
-        np.clip(z, self.range_min_m, self.range_max_m, out=z)
-        drop = valid & (u < self.scale * self.dropout)
-        z[drop] = self.range_max_m
-        np.copyto(z, ranges, where=~valid)
-        self._dropped = int(np.count_nonzero(drop))
-        return self._sel.put(observation, z)
+        ranges = np.ascontiguousarray(self._sel.get(observation))
+        z = self._standard_normal(ranges.size)
+        u = self.rng.random(ranges.size)
+        out = np.empty(ranges.shape, dtype=self._sel.dtype)
+        self._dropped = _noisy_ranges(
+            ranges.reshape(-1),
+            z,
+            u,
+            out.reshape(-1),
+            self.scale * self.std_m,
+            self.scale * self.dropout,
+            self.range_min_m,
+            self.range_max_m,
+        )
+        return self._sel.put(observation, out)
 
     def episode_record(self) -> dict[str, Any]:
         """Effective std, dropout probability, beams dropped in the first scan, scale."""
