@@ -1,11 +1,234 @@
-"""`sim2real envs` commands (not written yet)."""
+"""`sim2real envs` commands: list the reference envs, evaluate the DWA baseline on one."""
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
+from typing import Any
+
+from sim2real.cli._common import add_command
+from sim2real.errors import Sim2RealValueError
 
 __all__ = ["register"]
 
+_GROUP_EXAMPLES = """\
+  sim2real envs list                                   # env ids, presets, scenarios
+  sim2real envs eval RandomMap-v0 --episodes 20 --preset TEST3
+  sim2real envs eval CrowdNav-v0 --episodes 10 --scenario occluded --complexity 0.8
+"""
+_LIST_EXAMPLES = """\
+  sim2real envs list
+"""
+_EVAL_EXAMPLES = """\
+  sim2real envs eval RandomMap-v0 --episodes 20                     # TRAIN preset, seeds 0..19
+  sim2real envs eval RandomMap-v0 --episodes 50 --preset TEST4 --seed 100
+  sim2real envs eval sim2real/RandomMap-v0 --episodes 5 --dynamics pybullet
+  sim2real envs eval CrowdNav-v0 --episodes 10 --scenario dynamic --complexity 1.0
+  sim2real envs eval CrowdNav-v0 --episodes 10 --json crowd.json    # also write the numbers
+"""
+
+_KNOWN = ("sim2real/CrowdNav-v0", "sim2real/RandomMap-v0")
+
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Register the `envs` command group (placeholder until its issue lands)."""
+    """Register the ``envs`` command group (``envs list``, ``envs eval``)."""
+    group = add_command(
+        sub,
+        "envs",
+        help="reference training envs: list them, evaluate the baseline controller",
+        description=(
+            "The gymnasium envs of sim2real.envs (registered on import): CrowdNav-v0 (dense "
+            "crowds, paper 000) and RandomMap-v0 (random walls and cylinders, paper 001)."
+        ),
+        examples=_GROUP_EXAMPLES,
+    )
+    group_sub = group.add_subparsers(dest="envs_command", metavar="SUBCOMMAND")
+    group_sub.required = True
+    lst = add_command(
+        group_sub,
+        "list",
+        help="the env ids, RandomMap presets and CrowdNav scenarios",
+        description="List the registered env ids with their presets or scenario families.",
+        examples=_LIST_EXAMPLES,
+    )
+    lst.set_defaults(handler=_list)
+    ev = add_command(
+        group_sub,
+        "eval",
+        help="run the DWA baseline for N episodes and print the outcome rates and metrics",
+        description=(
+            "Run the non-learned dynamic-window controller (sim2real.envs.baselines) on an env "
+            "for N seeded episodes and print success / collision / timeout rates and the mean "
+            "path length, time to goal and smoothness: a reference number per preset."
+        ),
+        examples=_EVAL_EXAMPLES,
+    )
+    ev.add_argument("env", metavar="ENV", help="env id, e.g. RandomMap-v0 or sim2real/CrowdNav-v0")
+    ev.add_argument("--episodes", type=int, default=10, help="number of episodes")
+    ev.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    ev.add_argument("--preset", help="RandomMap-v0 map preset (TRAIN, TEST1..TEST4)")
+    ev.add_argument("--scenario", help="CrowdNav-v0 scenario (static, dynamic, occluded)")
+    ev.add_argument("--complexity", type=float, help="CrowdNav-v0 complexity factor in [0, 1]")
+    ev.add_argument(
+        "--dynamics", default="reduced", help="robot back-end: reduced (fast) or pybullet"
+    )
+    ev.add_argument("--json", metavar="FILE", help="also write the summary and episodes as JSON")
+    ev.set_defaults(handler=_eval)
+
+
+def _env_id(name: str) -> str:
+    key = name.lower().removeprefix("sim2real/")
+    for env_id in _KNOWN:
+        if env_id.lower().removeprefix("sim2real/") == key:
+            return env_id
+    raise Sim2RealValueError(
+        f"unknown env '{name}'; known envs are {', '.join(_KNOWN)} (see `sim2real envs list`)"
+    )
+
+
+def _list(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from sim2real.envs import PAPER_RHO_OBS, PRESETS, SCENARIOS
+
+    console = Console()
+    table = Table(title="sim2real envs")
+    for col in ("id", "robot", "observation", "options"):
+        table.add_column(col)
+    table.add_row(
+        "sim2real/CrowdNav-v0",
+        "turtlebot2",
+        "Dict(lidar, depth 64x48, goal, velocity)",
+        f"scenario: {', '.join(SCENARIOS)}; complexity in [0, 1]",
+    )
+    table.add_row(
+        "sim2real/RandomMap-v0",
+        "turtlebot3_burger",
+        "Box(40): 36 ranges, goal d/bearing, v, w",
+        f"preset: {', '.join(PRESETS)}",
+    )
+    console.print(table)
+    presets = Table(title="RandomMap-v0 presets (paper 001, Table I)")
+    for col in ("preset", "d_target m", "r_wall", "n cylinders", "paper rho_obs"):
+        presets.add_column(col)
+    for name, cfg in PRESETS.items():
+        lo, hi = PAPER_RHO_OBS[name]
+        presets.add_row(
+            name,
+            f"{cfg.d_target_m:g}",
+            f"{cfg.r_wall:g}",
+            f"{cfg.n_min}-{cfg.n_max}",
+            f"{100 * lo:.0f}-{100 * hi:.0f} %",
+        )
+    console.print(presets)
+    return 0
+
+
+def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
+    import gymnasium as gym
+
+    import sim2real.envs  # noqa: F401  (registers the ids)
+
+    env_id = _env_id(args.env)
+    if args.episodes < 1:
+        raise Sim2RealValueError(f"--episodes must be >= 1, got {args.episodes}")
+    if env_id.endswith("RandomMap-v0"):
+        if args.scenario is not None or args.complexity is not None:
+            raise Sim2RealValueError(
+                "--scenario and --complexity apply to CrowdNav-v0 only; use --preset for "
+                "RandomMap-v0"
+            )
+        kw: dict[str, Any] = {"preset": args.preset or "TRAIN"}
+        return gym.make(env_id, dynamics=args.dynamics, **kw), None
+    if args.preset is not None:
+        raise Sim2RealValueError(
+            "--preset applies to RandomMap-v0 only; use --scenario and --complexity for CrowdNav-v0"
+        )
+    options: dict[str, Any] = {}
+    if args.scenario is not None:
+        options["scenario"] = args.scenario
+    if args.complexity is not None:
+        options["complexity"] = args.complexity
+    return gym.make(env_id, dynamics=args.dynamics), options or None
+
+
+def _plain(value: Any) -> Any:
+    """JSON-safe copy: NaN becomes null, numpy scalars become Python numbers."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, bool | str | int) or value is None:
+        return value
+    f = float(value)
+    return None if math.isnan(f) else f
+
+
+def _fmt(value: float, digits: int = 3) -> str:
+    return "n/a" if math.isnan(value) else f"{value:.{digits}f}"
+
+
+def _eval(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.progress import Progress
+    from rich.table import Table
+
+    from sim2real._io import atomic_write, check_output_path
+    from sim2real.envs.baselines import DWAController, evaluate
+
+    if args.json:
+        check_output_path(args.json, what="--json file")
+    env, options = _make_env(args)
+    console = Console()
+    try:
+        ctrl = DWAController.for_env(env)
+        with Progress(console=console, transient=True) as progress:
+            task = progress.add_task(f"{env.spec.id} episodes", total=args.episodes)
+            summary = evaluate(
+                env,
+                ctrl,
+                episodes=args.episodes,
+                seed=args.seed,
+                options=options,
+                on_episode=lambda i, row: progress.advance(task),
+            )
+    finally:
+        env.close()
+    what = args.preset.upper() if args.preset else (args.scenario or "")
+    last = args.seed + summary.episodes - 1
+    table = Table(
+        title=f"DWA baseline on {env.spec.id} {what} ({summary.episodes} episodes, "
+        f"seeds {args.seed}..{last}, dynamics {args.dynamics})"
+    )
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    table.add_row("success rate", f"{summary.success_rate:.2f}")
+    table.add_row("collision rate", f"{summary.collision_rate:.2f}")
+    table.add_row("timeout rate", f"{summary.timeout_rate:.2f}")
+    m = summary.means
+    table.add_row("path length m", _fmt(m["path_length_m"], 2))
+    table.add_row("time to goal s (successes)", _fmt(m["time_to_goal_s"], 2))
+    table.add_row("mean |dv| per step m/s", _fmt(m["mean_abs_dv_mps"], 4))
+    table.add_row("mean |dw| per step rad/s", _fmt(m["mean_abs_dw_radps"], 4))
+    table.add_row("mean |jerk v| m/s^3", _fmt(m["mean_abs_jerk_v_mps3"], 3))
+    table.add_row("mean |jerk w| rad/s^3", _fmt(m["mean_abs_jerk_w_radps3"], 3))
+    table.add_row("mean return", _fmt(m["return"], 2))
+    console.print(table)
+    if args.json:
+        doc = {
+            "env": env.spec.id,
+            "preset": args.preset,
+            "options": options,
+            "dynamics": args.dynamics,
+            "seed": args.seed,
+            "success_rate": summary.success_rate,
+            "collision_rate": summary.collision_rate,
+            "timeout_rate": summary.timeout_rate,
+            "means": summary.means,
+            "episodes": list(summary.per_episode),
+        }
+        with atomic_write(args.json, "w", what="--json file") as fh:
+            json.dump(_plain(doc), fh, indent=2)
+    return 0

@@ -16,7 +16,8 @@ Wall placement (our choice; the paper only says "move and rotate randomly within
 range"): the four wall slots are two near walls, one on each side of the start-goal line at a
 lateral offset :math:`U[1.0, 2.5]` m, and two far walls at :math:`U[3.0, 5.0]` m; each is
 shifted along the line by :math:`U[-1.5, 1.5]` m and rotated by :math:`U[-20, 20]` degrees.
-Walls that would cut a safe disc are resampled (up to 20 times, then dropped).
+Walls that would cut a safe disc or cross the straight start-goal line (the walls form
+corridors, they do not block them) are resampled (up to 20 times, then dropped).
 
 The obstacle density :math:`\rho_{obs}` is the fraction of the 20 m x 20 m area covered by the
 union of all obstacles (rasterised on a 2.5 cm grid, so overlapping cylinders count once).
@@ -174,6 +175,19 @@ def _wall_segments(walls: FloatArray) -> FloatArray:
     return np.vstack([rectangle_segments(*w) for w in walls])
 
 
+def _crosses_path(seg: FloatArray, ends: FloatArray) -> bool:
+    """Whether any of the segments crosses the straight start-goal line."""
+    (ax, ay), (bx, by) = ends
+    for x1, y1, x2, y2 in seg:
+        d1 = (bx - ax) * (y1 - ay) - (by - ay) * (x1 - ax)
+        d2 = (bx - ax) * (y2 - ay) - (by - ay) * (x2 - ax)
+        d3 = (x2 - x1) * (ay - y1) - (y2 - y1) * (ax - x1)
+        d4 = (x2 - x1) * (by - y1) - (y2 - y1) * (bx - x1)
+        if d1 * d2 < 0 and d3 * d4 < 0:
+            return True
+    return False
+
+
 def _sample_walls(config: MapConfig, rng: np.random.Generator, keep_out: FloatArray) -> FloatArray:
     mid_x = 0.5 * config.d_target_m
     slots = ((1.0, 2.5, 1.0), (1.0, 2.5, -1.0), (3.0, 5.0, 1.0), (3.0, 5.0, -1.0))
@@ -198,7 +212,8 @@ def _sample_walls(config: MapConfig, rng: np.random.Generator, keep_out: FloatAr
                 seg_a=seg[:, :2],
                 seg_b=seg[:, 2:],
             )
-            if all(disc_clearance(scene, p, config.safe_radius_m) > 0 for p in keep_out):
+            clear = all(disc_clearance(scene, p, config.safe_radius_m) > 0 for p in keep_out)
+            if clear and not _crosses_path(seg, keep_out):
                 walls.append(wall)
                 break
     return np.array(walls, dtype=np.float64).reshape(-1, 5)
