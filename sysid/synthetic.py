@@ -29,7 +29,7 @@ from robots.params import BaseGeometry, DriveParams
 from robots.reduced import simulate
 from sysid._logs import LogArrays
 
-__all__ = ["step_commands", "synthetic_log"]
+__all__ = ["degrade_odometry", "step_commands", "synthetic_log"]
 
 FloatArray = NDArray[np.float64]
 
@@ -151,3 +151,46 @@ def synthetic_log(
         meas_w=meas_w[keep][order],
         name=name,
     )
+
+
+def degrade_odometry(
+    t_s: FloatArray,
+    v: FloatArray,
+    w: FloatArray,
+    *,
+    seed: int,
+    quantum_v_mps: float = 0.0,
+    noise_v_mps: float = 0.004,
+    noise_w_radps: float = 0.02,
+    jitter_s: float = 0.002,
+    drop_fraction: float = 0.05,
+    spike_mps: float | None = 1.35,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Make clean velocity samples look like real odometry (e.g. from the pybullet robot).
+
+    v is rounded to ``quantum_v_mps`` (one encoder tick per odometry period) and both channels
+    get white noise; stamps get Gaussian jitter; ``drop_fraction`` of the messages are dropped;
+    one sample in the middle becomes a ``spike_mps`` glitch. Returns sorted (t, v, w).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t, v, w = degrade_odometry(np.arange(100) * 0.02, np.zeros(100), np.zeros(100), seed=0)
+    >>> bool(t.size < 100 and v.max() == 1.35)
+    True
+    """
+    rng = np.random.default_rng(seed)
+    n = t_s.size
+    v = np.asarray(v, dtype=np.float64).copy()
+    if quantum_v_mps > 0:
+        v = np.round(v / quantum_v_mps) * quantum_v_mps
+    v = v + rng.normal(0.0, noise_v_mps, n)
+    w = np.asarray(w, dtype=np.float64) + rng.normal(0.0, noise_w_radps, n)
+    stamps = np.asarray(t_s, dtype=np.float64) + rng.normal(0.0, jitter_s, n)
+    keep = rng.random(n) >= drop_fraction
+    keep[:3] = True
+    if spike_mps is not None:
+        v[n // 2] = spike_mps
+        keep[n // 2] = True
+    order = np.argsort(stamps[keep], kind="stable")
+    return stamps[keep][order], v[keep][order], w[keep][order]
