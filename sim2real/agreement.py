@@ -87,6 +87,7 @@ __all__ = [
     "measure_agreement",
     "run_ensemble",
     "sample_drive_params",
+    "sampled_parameters",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -328,6 +329,28 @@ def _clip_physical(name: str, x: float, nominal: float, geometry: BaseGeometry) 
     return max(x, 0.0)
 
 
+#: A std above this multiple of the value's magnitude means "not identified": not sampled.
+MAX_REL_STD = 10.0
+
+
+def sampled_parameters(base: DriveParams, stds: Mapping[str, float]) -> list[str]:
+    """Names of the parameters an ensemble draws (sorted).
+
+    A parameter is drawn when it is a :class:`DriveParams` field with a finite value and a
+    finite std > 0 that is at most :data:`MAX_REL_STD` times the value's magnitude (a wider
+    std carries no information and would only produce absurd robots).
+    """
+    known = set(DriveParams.names())
+    out = []
+    for name, std in stds.items():
+        if name not in known or not (math.isfinite(std) and std > 0):
+            continue
+        value = float(getattr(base, name))
+        if math.isfinite(value) and std <= MAX_REL_STD * abs(value):
+            out.append(name)
+    return sorted(out)
+
+
 def sample_drive_params(
     base: DriveParams,
     stds: Mapping[str, float],
@@ -339,7 +362,7 @@ def sample_drive_params(
 ) -> list[DriveParams]:
     r"""Draw ``n`` parameter sets around ``base`` from the sysid uncertainty.
 
-    Each parameter named in ``stds`` (finite value, std > 0) is drawn independently from
+    Each parameter of :func:`sampled_parameters` is drawn independently from
     :math:`\mathcal N(\text{value}, (\text{spread}\cdot\sigma)^2)`, truncated at
     :math:`\pm 3` spread σ and clipped to its physical range; the others keep their ``base``
     value.
@@ -360,12 +383,7 @@ def sample_drive_params(
         )
     if not (math.isfinite(spread) and spread >= 0):
         raise Sim2RealValueError(f"ensemble spread must be a finite number >= 0, got {spread!r}")
-    known = set(DriveParams.names())
-    names = sorted(
-        k
-        for k, s in stds.items()
-        if k in known and math.isfinite(s) and s > 0 and math.isfinite(getattr(base, k))
-    )
+    names = sampled_parameters(base, stds)
     out: list[DriveParams] = []
     for _ in range(n):
         draws = rng.standard_normal(len(names))
@@ -399,6 +417,11 @@ class EnsembleResult:
         The same per axis.
     params : tuple of DriveParams
         The drawn parameter sets.
+    sampled : tuple of str
+        Parameters that were drawn.
+    skipped : tuple of str
+        Parameters with a std in the params file that were not drawn (std too wide to mean
+        anything, see :func:`sampled_parameters`).
     """
 
     n: int
@@ -413,6 +436,8 @@ class EnsembleResult:
     coverage_v: float
     coverage_w: float
     params: tuple[DriveParams, ...]
+    sampled: tuple[str, ...] = ()
+    skipped: tuple[str, ...] = ()
 
 
 def _coverage(
@@ -490,11 +515,14 @@ def run_ensemble(
     from sim2real.replay import resolve_robot
 
     spec = resolve_robot(robot)
-    if not any(k in DriveParams.names() and s > 0 for k, s in stds.items()):
+    sampled = sampled_parameters(params, stds)
+    if not sampled:
         raise Sim2RealValueError(
             "the ensemble needs parameter uncertainties, but the params file lists no "
-            "parameter with a std > 0; pass a params file written by 'sim2real sysid fit'"
+            f"parameter with a usable std (> 0 and <= {MAX_REL_STD:g} x its value); pass a "
+            "params file written by 'sim2real sysid fit'"
         )
+    skipped = sorted(k for k, s in stds.items() if k in DriveParams.names() and k not in sampled)
     rng = np.random.default_rng(seed)
     drawn = sample_drive_params(params, stds, n=n, rng=rng, geometry=spec.geometry, spread=spread)
     sims = [replay(trace, robot=spec, params=p, engine=engine) for p in drawn]
@@ -514,4 +542,6 @@ def run_ensemble(
         coverage_v=cov_v,
         coverage_w=cov_w,
         params=tuple(drawn),
+        sampled=tuple(sampled),
+        skipped=tuple(k for k in skipped if stds[k] != 0),
     )

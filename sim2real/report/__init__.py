@@ -255,10 +255,25 @@ def _cards(data: ReportInput) -> list[HeadlineCard]:
             HeadlineCard(
                 label=f"ensemble coverage (N={e.n})",
                 fraction=e.coverage,
-                detail=f"real inside 5-95 % band: v {_pct(e.coverage_v)} · w {_pct(e.coverage_w)}",
+                detail=f"real inside 5-95 % band: v {_pct(e.coverage_v)} · w {_pct(e.coverage_w)}"
+                + _coverage_hint(e.coverage)
+                + (f"; not sampled (std too wide): {', '.join(e.skipped)}" if e.skipped else ""),
             )
         )
     return cards
+
+
+def _coverage_hint(coverage: float) -> str:
+    if not math.isfinite(coverage):
+        return ""
+    if coverage < 0.5:
+        return (
+            " — band too narrow: the parameter uncertainty alone does not span the real "
+            "spread (noise, unmodelled effects); widen the randomisation"
+        )
+    if coverage < 0.85:
+        return " — band somewhat narrow for a 5-95 % band"
+    return " — band about as wide as the real spread"
 
 
 def _steps_table(data: ReportInput) -> Table:
@@ -343,7 +358,8 @@ def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
     for r in data.runs:
         ok = (np.abs(r.replay.v - rv) <= first.tol_v) & (np.abs(r.replay.w - rw) <= first.tol_w)
         rolling.append((r.label, rolling_agreement(t, ok, active, window_s=ROLLING_WINDOW_S)))
-    return [
+    zoom = _zoom_figure(data, sims, band)
+    figures = [
         (
             "timeseries",
             Figure(
@@ -362,6 +378,7 @@ def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
                 "command (dashed) and, when present, the ensemble's 5-95 % band.",
             ),
         ),
+        *([("zoom", zoom)] if zoom is not None else []),
         (
             "errors",
             Figure(
@@ -382,6 +399,55 @@ def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
             ),
         ),
     ]
+    return figures
+
+
+#: Length of the close-up window, s.
+ZOOM_WINDOW_S = 12.0
+
+
+def _zoom_figure(data: ReportInput, sims: list[SimSeries], band: Band | None) -> Figure | None:
+    """A close-up of the first step-like segment (or the first command), both axes."""
+    trace = data.trace
+    t = np.asarray(trace.meas_t_s, dtype=np.float64)
+    cmd_t = np.asarray(trace.cmd_t_s, dtype=np.float64)
+    cmd_v = np.asarray(trace.cmd_v, dtype=np.float64)
+    cmd_w = np.asarray(trace.cmd_w, dtype=np.float64)
+    steps = find_steps(cmd_t, cmd_v, cmd_w, max_steps=1)
+    moving = np.flatnonzero((np.abs(cmd_v) > 1e-3) | (np.abs(cmd_w) > 1e-3))
+    if steps:
+        start = steps[0].t_start_s - 1.0
+    elif moving.size:
+        start = float(cmd_t[moving[0]]) - 1.0
+    else:
+        return None
+    sel = (t >= start) & (t <= start + ZOOM_WINDOW_S)
+    csel = (cmd_t >= start) & (cmd_t <= start + ZOOM_WINDOW_S)
+    if sel.sum() < 4:
+        return None
+    z_sims = [SimSeries(label=s.label, v=s.v[sel], w=s.w[sel]) for s in sims]
+    z_band = None
+    if band is not None:
+        z_band = Band(
+            lo_v=band.lo_v[sel], hi_v=band.hi_v[sel], lo_w=band.lo_w[sel], hi_w=band.hi_w[sel],
+            label=band.label,
+        )  # fmt: skip
+    png = time_series_png(
+        t[sel],
+        np.asarray(trace.meas_v, dtype=np.float64)[sel],
+        np.asarray(trace.meas_w, dtype=np.float64)[sel],
+        z_sims,
+        cmd_t_s=cmd_t[csel],
+        cmd_v=cmd_v[csel],
+        cmd_w=cmd_w[csel],
+        band=z_band,
+    )
+    return Figure(
+        title="Close-up",
+        png=png,
+        caption=f"{ZOOM_WINDOW_S:g} s from {start:.1f} s: delay, acceleration and settling "
+        "of the real base against each simulation.",
+    )
 
 
 def write_report(path: str | Path, data: ReportInput, *, write_pngs: bool = True) -> ReportFiles:

@@ -8,7 +8,7 @@ from _agreement_fixtures import ROBOT, hidden_params, spec, write_log
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim2real.agreement import run_ensemble, sample_drive_params
+from sim2real.agreement import run_ensemble, sample_drive_params, sampled_parameters
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import read_trace
 
@@ -51,10 +51,10 @@ def test_draw_statistics_match_the_std() -> None:
 
 def test_draws_are_clipped_to_physical_ranges() -> None:
     geo = spec().geometry
-    base = hidden_params().replace(coulomb_v_bwd_n=0.01)
+    base = hidden_params().replace(coulomb_v_bwd_n=0.2)
     draws = sample_drive_params(
         base,
-        {"coulomb_v_bwd_n": 1.0, "added_mass_kg": 10.0, "accel_lim_v_mps2": 5.0},
+        {"coulomb_v_bwd_n": 1.0, "added_mass_kg": 3.0, "accel_lim_v_mps2": 5.0},
         n=200,
         rng=np.random.default_rng(2),
         geometry=geo,
@@ -109,3 +109,12 @@ def test_ensemble_is_reproducible_and_needs_stds(trace) -> None:  # type: ignore
     assert a.params == b.params and a.params != c.params
     with pytest.raises(Sim2RealValueError, match="std"):
         run_ensemble(trace, stds={"delay_s": 0.0}, seed=0, **kw)
+
+
+def test_meaningless_std_is_not_sampled(trace) -> None:  # type: ignore[no-untyped-def]
+    base = hidden_params()
+    stds = {"delay_s": 3e6, "added_mass_kg": 0.1, "coulomb_w_nm": 0.0, "no_such": 1.0}
+    assert sampled_parameters(base, stds) == ["added_mass_kg"]
+    ens = run_ensemble(trace, robot=ROBOT, params=base, stds=stds, n=3, seed=0, engine="reduced")
+    assert ens.sampled == ("added_mass_kg",) and ens.skipped == ("delay_s",)
+    assert {p.delay_s for p in ens.params} == {base.delay_s}

@@ -58,7 +58,7 @@ def test_report_renders_with_all_images_and_no_errors(browser: Browser, report: 
     state = json.loads(browser.evaluate(_IMAGES_JS))
     assert browser.errors() == []
     assert state["title"] == "sim2real agreement report"
-    assert len(state["images"]) == 3
+    assert len(state["images"]) == 4
     for complete, width, height in state["images"]:
         assert complete and width >= 800 and height >= 200
     assert state["resources"] == []  # nothing fetched: self-contained
@@ -92,6 +92,11 @@ def test_the_check_catches_a_broken_page(browser: Browser, tmp_path: Path) -> No
 
 def test_pngs_are_written_next_to_the_report(report: Path) -> None:
     names = sorted(p.name for p in report.parent.glob("report_*.png"))
-    assert names == ["report_errors.png", "report_rolling.png", "report_timeseries.png"]
+    assert names == [
+        "report_errors.png",
+        "report_rolling.png",
+        "report_timeseries.png",
+        "report_zoom.png",
+    ]
     for p in report.parent.glob("report_*.png"):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
