@@ -184,6 +184,42 @@ def _integrate_python(
     return out_v, out_w
 
 
+@numba.njit(cache=True)
+def _advance_held(
+    state: FloatArray,
+    cmd_t: FloatArray,
+    cmd_v: FloatArray,
+    cmd_w: FloatArray,
+    t0: float,
+    dt: float,
+    n: int,
+    delay: float,
+    timeout: float,
+    p: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """``n`` steps from time ``t0`` with the delayed zero-order-hold command history.
+
+    The same numbers as :func:`delayed_step_average` followed by ``n`` calls of :func:`_step`
+    (up to rounding), in one compiled call: the mean command over each step is the overlap of
+    ``[t - delay, t - delay + dt)`` with each held segment ``[t_i, min(t_{i+1}, t_i + timeout))``.
+    """
+    m = cmd_t.shape[0]
+    for k in range(n):
+        a = t0 + k * dt - delay
+        b = a + dt
+        u_v = 0.0
+        u_w = 0.0
+        for i in range(m):
+            end = cmd_t[i + 1] if i + 1 < m else math.inf
+            end = min(end, cmd_t[i] + timeout)
+            lo = max(a, cmd_t[i])
+            hi = min(b, end)
+            if hi > lo:
+                u_v += cmd_v[i] * (hi - lo)
+                u_w += cmd_w[i] * (hi - lo)
+        _step(state, u_v / dt, u_w / dt, dt, p)
+
+
 def _zoh_breakpoints(
     cmd_t_s: FloatArray, values: FloatArray, timeout_s: float
 ) -> tuple[FloatArray, FloatArray]:
@@ -395,17 +431,23 @@ class ReducedDrive:
         self._cmd_v.append(float(cmd_v))
         self._cmd_w.append(float(cmd_w))
         # forget commands that can no longer take effect (keep one before the delay horizon)
-        horizon = self.time_s - self._params.delay_s - 1.0
+        # a command ending before the delayed window [t - delay, ...) no longer contributes
+        horizon = self.time_s - self._params.delay_s - duration_s
         while len(self._cmd_t) > 2 and self._cmd_t[1] < horizon:
             del self._cmd_t[0], self._cmd_v[0], self._cmd_w[0]
         n = max(1, round(duration_s / self.dt_s))
         dt = duration_s / n
-        grid = self.time_s + dt * np.arange(n, dtype=np.float64)
-        t = np.asarray(self._cmd_t)
-        kw = {"delay_s": self._params.delay_s, "timeout_s": self._params.cmd_timeout_s}
-        u_v = delayed_step_average(t, np.asarray(self._cmd_v), grid, dt, **kw)
-        u_w = delayed_step_average(t, np.asarray(self._cmd_w), grid, dt, **kw)
-        for i in range(n):
-            _step(self._state, float(u_v[i]), float(u_w[i]), dt, self._packed)
+        _advance_held(
+            self._state,
+            np.asarray(self._cmd_t),
+            np.asarray(self._cmd_v),
+            np.asarray(self._cmd_w),
+            self.time_s,
+            dt,
+            n,
+            self._params.delay_s,
+            self._params.cmd_timeout_s,
+            self._packed,
+        )
         self.time_s += duration_s
         return self.velocity

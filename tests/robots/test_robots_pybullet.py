@@ -51,7 +51,9 @@ def test_loads_in_direct_mode_at_rest_on_its_wheels(robot: PybulletRobot) -> Non
     pos, _ = p.getBasePositionAndOrientation(robot.body_id, physicsClientId=robot.client)
     assert pos[2] == pytest.approx(robot.spec.base_link_height_m, abs=1e-3)
     wheel_contacts = [
-        c for c in p.getContactPoints(bodyA=robot.body_id, physicsClientId=robot.client) if c[3] >= 0
+        c
+        for c in p.getContactPoints(bodyA=robot.body_id, physicsClientId=robot.client)
+        if c[3] >= 0
     ]
     load = sum(c[9] for c in wheel_contacts)
     # the wheels carry most of the weight (the casters, touching the ground, take the rest)
@@ -67,7 +69,7 @@ def test_drives_straight_at_the_spec_speed_cap(robot: PybulletRobot) -> None:
     assert v == pytest.approx(v_ss, rel=5e-3)  # golden: P loop + friction steady state
     assert v == pytest.approx(spec.max_v_mps, rel=0.05)  # Coulomb droop < 5 % by design
     assert abs(w) < 0.01
-    x, y, yaw = robot.pose
+    _, y, yaw = robot.pose
     assert abs(y) < 0.01 and abs(yaw) < 0.01
     odom_v, odom_w = robot.odometry()
     assert odom_v == pytest.approx(v, rel=0.01) and abs(odom_w - w) < 1e-9
@@ -145,8 +147,12 @@ def test_transport_delay_holds_the_response_back(robot: PybulletRobot) -> None:
     assert np.max(np.abs(out.v[before])) < 1e-4
     assert out.v[-1] > 0.1 * spec.max_v_mps
     ref = simulate(
-        spec.drive, spec.geometry, cmd_t_s=np.array([0.0]), cmd_v=np.array([spec.max_v_mps]),
-        cmd_w=np.array([0.0]), t_out_s=t,
+        spec.drive,
+        spec.geometry,
+        cmd_t_s=np.array([0.0]),
+        cmd_v=np.array([spec.max_v_mps]),
+        cmd_w=np.array([0.0]),
+        t_out_s=t,
     )
     assert np.max(np.abs(out.v - ref.v)) < 2e-3
 

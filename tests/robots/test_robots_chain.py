@@ -1,0 +1,95 @@
+"""The pybullet robot's per-step drive arithmetic equals the reduced model's kernel."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from robots import ReducedDrive, load_spec, simulate
+from robots._chain import CommandShaper, drive_step, friction_of
+from robots.reduced import _step, pack_params
+
+SPEC = load_spec("turtlebot3_burger")
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    v=st.floats(-0.4, 0.4),
+    w=st.floats(-4.0, 4.0),
+    ref_v=st.floats(-0.3, 0.3),
+    ref_w=st.floats(-3.0, 3.0),
+    u_v=st.floats(-1.0, 1.0),
+    u_w=st.floats(-5.0, 5.0),
+    dt=st.floats(1e-3, 0.02),
+    added=st.floats(0.0, 2.0),
+    tmax=st.sampled_from([0.02, 0.081, math.inf]),
+)
+def test_shaper_and_drive_step_match_the_reduced_kernel(
+    v: float,
+    w: float,
+    ref_v: float,
+    ref_w: float,
+    u_v: float,
+    u_w: float,
+    dt: float,
+    added: float,
+    tmax: float,
+) -> None:
+    params = SPEC.drive.replace(
+        added_mass_kg=added, wheel_torque_max_nm=tmax, accel_lim_v_mps2=2.0, accel_lim_w_radps2=9.0
+    )
+    geo = SPEC.geometry
+    state = np.array([v, w, ref_v, ref_w])
+    _step.py_func(state, u_v, u_w, dt, pack_params(params, geo))
+    shaper = CommandShaper(params, geo)
+    shaper.reset(ref_v, ref_w)
+    wr, wl = shaper.wheel_targets(u_v, u_w, dt)
+    out = drive_step(v, w, wr, wl, dt, params, geo)
+    assert math.isclose(out.v1, state[0], rel_tol=1e-12, abs_tol=1e-12)
+    assert math.isclose(out.w1, state[1], rel_tol=1e-12, abs_tol=1e-12)
+    assert math.isclose(shaper.ref_v, state[2], rel_tol=1e-12, abs_tol=1e-12)
+    assert math.isclose(shaper.ref_w, state[3], rel_tol=1e-12, abs_tol=1e-12)
+    assert abs(out.torque_l) <= tmax + 1e-12 and abs(out.torque_r) <= tmax + 1e-12
+
+
+@settings(max_examples=200, deadline=None)
+@given(v=st.floats(-0.3, 0.3), w=st.floats(-3.0, 3.0), u=st.floats(-0.3, 0.3))
+def test_friction_never_exceeds_coulomb_plus_viscous(v: float, w: float, u: float) -> None:
+    params, geo = SPEC.drive, SPEC.geometry
+    r = geo.wheel_radius_m
+    dt = 1.0 / 240.0
+    wheel = u / r
+    out = drive_step(v, w, wheel, wheel, dt, params, geo)
+    force, torque = friction_of(out, v, w, dt, geo.mass_kg, geo.yaw_inertia_kgm2, geo)
+    limit_v = params.coulomb_v_fwd_n + params.viscous_v_ns_per_m * abs(out.v1)
+    limit_w = params.coulomb_w_nm + params.viscous_w_nms_per_rad * abs(out.w1)
+    assert abs(force) <= limit_v * (1 + 1e-9) + 1e-12
+    assert abs(torque) <= limit_w * (1 + 1e-9) + 1e-12
+    # friction opposes the motion it ends with (or holds the base when it stops)
+    if out.v1 != 0.0:
+        assert force * out.v1 <= 1e-12
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    delay=st.floats(0.0, 0.35),
+    period=st.sampled_from([0.1, 1.0 / 30.0, 0.2]),
+)
+def test_reduced_drive_steps_like_simulate(seed: int, delay: float, period: float) -> None:
+    """ReducedDrive's compiled history kernel gives simulate()'s numbers on the same grid."""
+    rng = np.random.default_rng(seed)
+    params = SPEC.drive.replace(delay_s=delay, cmd_timeout_s=0.15)  # < 0.2 s: timeouts fire
+    n = 40
+    v = rng.uniform(-0.3, 0.3, n)
+    w = rng.uniform(-3.0, 3.0, n)
+    dt = period / round(period / 0.005)
+    drive = ReducedDrive(params, SPEC.geometry, dt_s=dt)
+    got = np.array([drive.step(float(a), float(b), period) for a, b in zip(v, w, strict=True)])
+    t = period * np.arange(n + 1)
+    ref = simulate(params, SPEC.geometry, cmd_t_s=t[:-1], cmd_v=v, cmd_w=w, t_out_s=t, dt_s=dt)
+    assert np.max(np.abs(got[:, 0] - ref.v[1:])) < 1e-9
+    assert np.max(np.abs(got[:, 1] - ref.w[1:])) < 1e-9
