@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -70,6 +71,10 @@ class Problem:
         self.python = python
         self.on_eval = on_eval
         self.n_evals = 0
+        self.n_steps = 0  # model integration steps run (for the benchmark's accounting)
+        self._steps_per_sim = sum(
+            max(1, math.ceil(float(g.meas_t_s[-1] - g.meas_t_s[0]) / dt_s)) for g in logs
+        )
         self._starts = [initial_state(g) for g in self.logs]
         rows_v, rows_w, offset = [], [], 0
         for g in self.logs:
@@ -105,6 +110,7 @@ class Problem:
 
     def simulate(self, params: DriveParams) -> list[ReducedResponse]:
         """Model response on every log."""
+        self.n_steps += self._steps_per_sim
         return [
             simulate(
                 params,

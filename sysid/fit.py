@@ -506,6 +506,7 @@ def fit_drive(
         )
         x0 = np.asarray(_solve(coarse, x0, exc.coupled, loss, f_scale, max_nfev).x)
         prob.n_evals = coarse.n_evals
+        prob.n_steps = coarse.n_steps
         polish = min(max_nfev, _POLISH_NFEV)
     else:
         polish = max_nfev
@@ -578,6 +579,7 @@ def fit_drive(
         "ties": dict(exc.ties),
         "motor_gain_prior_nms_per_rad": base_params.motor_gain_nms_per_rad,
         "model_evaluations": prob.n_evals,
+        "model_steps": prob.n_steps,
         "optimizer_status": str(res.message),
         "cost": float(res.cost),
         "std_inflation_autocorr": inflation,

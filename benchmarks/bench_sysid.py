@@ -1,0 +1,104 @@
+"""Benchmark: fit the drive model to a 10-minute, 50 Hz odometry log (target <= 2 s, one core).
+
+Baseline, measured in the same run: the same output-error fit with the plain-Python model loop
+(``robots.reduced.simulate(..., python=True)``). A full Python fit would take minutes, so the
+script times a fixed number of model evaluations of each loop on the full log, and extrapolates
+the Python fit as
+
+    fit time (numba) - model steps x numba time/step + model steps x Python time/step
+
+with the number of model integration steps the numba fit actually ran (its coarse pass on the
+busiest windows plus the polishing pass on the whole log). Everything but the model loop
+(initial estimates, least-squares algebra, scoring) is counted once, as measured.
+
+Run: ``.venv/bin/python benchmarks/bench_sysid.py``
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+from robots.params import BaseGeometry, DriveParams
+from robots.reduced import simulate
+from sysid import fit_drive
+from sysid.synthetic import step_commands, synthetic_log
+
+GEO = BaseGeometry(
+    mass_kg=1.55, yaw_inertia_kgm2=0.0146, wheel_radius_m=0.033, wheel_separation_m=0.287
+)
+BASE = DriveParams(motor_gain_nms_per_rad=0.01, speed_lim_v_mps=0.26, speed_lim_w_radps=1.82)
+TRUTH = BASE.replace(
+    delay_s=0.12,
+    added_mass_kg=0.6,
+    added_yaw_inertia_kgm2=0.02,
+    viscous_v_ns_per_m=2.0,
+    viscous_w_nms_per_rad=0.05,
+    coulomb_v_fwd_n=0.4,
+    coulomb_v_bwd_n=0.5,
+    coulomb_w_nm=0.03,
+    accel_lim_v_mps2=1.0,
+    accel_lim_w_radps2=6.0,
+    wheel_speed_max_radps=7.0,
+)
+DURATION_S = 600.0
+REPEATS = 3
+PY_EVALS = 2
+
+
+def _per_step_time(log: object, python: bool, n: int) -> float:
+    kw = {
+        "cmd_t_s": log.cmd_t_s,  # type: ignore[attr-defined]
+        "cmd_v": log.cmd_v,  # type: ignore[attr-defined]
+        "cmd_w": log.cmd_w,  # type: ignore[attr-defined]
+        "t_out_s": log.meas_t_s,  # type: ignore[attr-defined]
+    }
+    steps = int(np.ceil((log.meas_t_s[-1] - log.meas_t_s[0]) / 0.005))  # type: ignore[attr-defined]
+    simulate(TRUTH, GEO, **kw, python=python)
+    start = time.perf_counter()
+    for _ in range(n):
+        simulate(TRUTH, GEO, **kw, python=python)
+    return (time.perf_counter() - start) / (n * steps)
+
+
+def main() -> None:
+    if hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})  # one core
+    t, v, w = step_commands(DURATION_S, seed=3)
+    log = synthetic_log(TRUTH, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=4, dt_s=0.005)
+    print(f"log: {DURATION_S:.0f} s, {log.meas_t_s.size} odometry samples (~50 Hz), one core")
+    fit_drive([log], geometry=GEO, base_params=BASE)  # warm-up: numba caches, imports
+    times = []
+    for _ in range(REPEATS):
+        start = time.perf_counter()
+        res = fit_drive([log], geometry=GEO, base_params=BASE)
+        times.append(time.perf_counter() - start)
+    fit_s = min(times)
+    steps = int(res.settings["model_steps"])
+    evals = int(res.settings["model_evaluations"])
+    numba_step = _per_step_time(log, python=False, n=10)
+    python_step = _per_step_time(log, python=True, n=PY_EVALS)
+    python_fit_s = fit_s - steps * numba_step + steps * python_step
+    print(f"numba fit       : {fit_s:8.3f} s  (best of {REPEATS}; target <= 2 s)")
+    print(
+        f"  {evals} model evaluations, {steps} integration steps, "
+        f"{1e9 * numba_step:.1f} ns/step -> {steps * numba_step:.3f} s in the model loop"
+    )
+    print(
+        f"python-loop fit : {python_fit_s:8.1f} s  (extrapolated: {PY_EVALS} full-log Python "
+        f"evaluations timed, {1e6 * python_step:.2f} us/step x {steps} steps + the "
+        f"{fit_s - steps * numba_step:.3f} s outside the model loop)"
+    )
+    print(f"speed-up        : {python_fit_s / fit_s:8.1f}x")
+    print(
+        f"fit quality     : delay {res.params.delay_s:.4f} s (truth {TRUTH.delay_s}), "
+        f"FIT % v {res.scores_fit[0].fit_percent_v:.1f} (1.35 m/s spike included), "
+        f"FIT % w {res.scores_fit[0].fit_percent_w:.1f}, agreement "
+        f"{100 * res.scores_fit[0].agreement:.1f} %"
+    )
+
+
+if __name__ == "__main__":
+    main()
