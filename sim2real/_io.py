@@ -41,6 +41,9 @@ def atomic_write(path: str | Path, mode: str = "wb", *, what: str = "output file
     """
     target = check_output_path(path, what=what)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent or ".")
+    umask = os.umask(0o022)  # mkstemp makes 0600 files; give the usual 0666 & ~umask instead
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
     try:
         with os.fdopen(fd, mode) as fh:
             yield fh

@@ -31,6 +31,7 @@ import yaml
 from robots.params import DriveParams
 from sim2real._io import atomic_write, check_output_path
 from sim2real.agreement import AgreementReport, EnsembleResult
+from sim2real.errors import Sim2RealValueError
 from sim2real.replay import ReplayResult, TraceLike
 from sim2real.report._html import Figure, HeadlineCard, Table, render_page
 from sim2real.report._plots import (
@@ -469,7 +470,9 @@ def write_report(path: str | Path, data: ReportInput, *, write_pngs: bool = True
     """
     target = check_output_path(path, what="report file")
     if not data.runs:
-        raise ValueError("ReportInput.runs is empty; give at least one replay")
+        raise Sim2RealValueError(
+            "ReportInput.runs is empty; give at least one ReportRun (a replay and its agreement)"
+        )
     figures = _figures(data)
     first = data.runs[0].agreement
     subtitle = (
