@@ -202,6 +202,17 @@ def _auto_free(
         not math.isfinite(cap) and peak_meas < 0.75 * peak_cmd
     ):
         free.append("wheel_speed_max_radps")
+        if "added_mass_kg" in free and "viscous_v_ns_per_m" not in free:
+            # one forward level and a cap: the speed deficit is either friction or saturation
+            for name in ("coulomb_v_fwd_n", "coulomb_v_bwd_n"):
+                if name in free:
+                    free.remove(name)
+            ties.pop("coulomb_v_bwd_n", None)
+            notes.append(
+                "the forward command holds one level and drives the wheels into their speed "
+                "cap: Coulomb friction and the cap both explain the speed deficit; the cap is "
+                "fitted and coulomb_v_fwd_n / coulomb_v_bwd_n are kept at the spec prior"
+            )
     else:
         notes.append(
             f"no wheel near its speed cap (peak commanded wheel speed {peak_cmd:.1f} rad/s): "
