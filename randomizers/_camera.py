@@ -38,10 +38,12 @@ class CameraPoseJitter(
     Uses the camera protocol on ``env.unwrapped`` (``get_camera_pose``, ``set_camera_pose``,
     ``get_camera_view_matrix``). The pose is set *before* the env's reset (per-episode mode)
     or step (per-step mode) so the observation returned already uses it; the env must keep a
-    set pose across reset. After each reset the wrapper checks that the env reports the new
-    pose and that the view matrix differs from the nominal pose's, and raises
-    :class:`~randomizers.errors.RandomizationNotAppliedError` otherwise. In per-step mode each
-    step checks the reported pose.
+    set pose across reset. After each reset (and each step in per-step mode) the wrapper checks
+    that the env reports the new pose. Once, at the first seeded reset with a non-zero jitter,
+    it also checks that the rendered view matrix differs from the one of a probe reset of
+    ``env.unwrapped`` with the same seed and the nominal pose (so envs whose view matrix is
+    that of the last rendered frame are covered). Failures raise
+    :class:`~randomizers.errors.RandomizationNotAppliedError`.
 
     Parameters
     ----------
@@ -99,6 +101,7 @@ class CameraPoseJitter(
         self.resample = resample
         self.nominal_pose: tuple[np.ndarray, np.ndarray] | None = None
         self.offset = (np.zeros(3), np.zeros(3))
+        self._view_checked = False
 
     def _draw_and_set(self) -> None:
         assert self.nominal_pose is not None  # read in reset() before the first draw
@@ -129,22 +132,40 @@ class CameraPoseJitter(
                 "also across reset()"
             )
 
-    def _check_view(self) -> None:
-        """The rendered view must change when the pose moves away from the nominal one."""
+    def _view_with_nominal_pose(
+        self, seed: int | None, options: dict[str, Any] | None
+    ) -> np.ndarray | None:
+        """View matrix of a probe reset of the base env with the nominal pose (or None).
+
+        Done once, at the first seeded reset with a non-zero jitter: the same seed gives the
+        same base pose, so the two renders differ only by the mount pose. Envs whose view
+        matrix is "the last rendered frame" need such a render to compare with.
+        """
+        if self._view_checked or seed is None:
+            return None
         if not (np.any(self.offset[0]) or np.any(self.offset[1])):
-            return
+            return None
         assert self.nominal_pose is not None
         base = self.env.unwrapped
-        jittered = np.asarray(base.get_camera_view_matrix(), dtype=np.float64)  # type: ignore[attr-defined]
         base.set_camera_pose(*self.nominal_pose)  # type: ignore[attr-defined]
-        nominal = np.asarray(base.get_camera_view_matrix(), dtype=np.float64)  # type: ignore[attr-defined]
+        base.reset(seed=seed, options=options)
+        nominal = np.array(base.get_camera_view_matrix(), dtype=np.float64)  # type: ignore[attr-defined]
         base.set_camera_pose(*self._target())  # type: ignore[attr-defined]
+        return nominal
+
+    def _check_view(self, nominal: np.ndarray | None) -> None:
+        """The rendered view must differ from the nominal pose's render at the same base pose."""
+        if nominal is None:
+            return
+        base = self.env.unwrapped
+        jittered = np.asarray(base.get_camera_view_matrix(), dtype=np.float64)  # type: ignore[attr-defined]
         if np.array_equal(jittered, nominal):
             raise RandomizationNotAppliedError(
                 f"CameraPoseJitter: {type(base).__name__}.set_camera_pose() took the jittered "
                 f"pose (offset {self.offset[0].tolist()} m, {self.offset[1].tolist()} rad) but "
                 "get_camera_view_matrix() did not change; the renderer must use the pose set"
             )
+        self._view_checked = True
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -158,9 +179,10 @@ class CameraPoseJitter(
                 np.array(rpy, dtype=np.float64, copy=True),
             )
         self._draw_and_set()
+        nominal_view = self._view_with_nominal_pose(seed, options)
         obs, info = self.env.reset(seed=seed, options=options)
         self._check_pose()
-        self._check_view()
+        self._check_view(nominal_view)
         return obs, self._record(info, self._values())
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:

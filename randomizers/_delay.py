@@ -52,12 +52,6 @@ class _DelaySpec:
     in_seconds: bool
     dt_s: float | None
 
-    def max_steps(self) -> int:
-        if self.in_seconds:
-            assert self.dt_s is not None  # guaranteed by _delay_spec
-            return steps_from_seconds(self.high, self.dt_s)
-        return int(self.high)
-
     def draw(self, rng: np.random.Generator, scale: float) -> int:
         """The episode's delay in steps (a draw only when low < high)."""
         if self.in_seconds:
@@ -109,7 +103,9 @@ def _delay_spec(
         )
     if delay_steps is not None:
         low, high = _bounds(delay_steps, "delay_steps", integer=True)
-        return _DelaySpec(low=low, high=high, in_seconds=False, dt_s=None)
+        known = dt_s if dt_s is not None else getattr(env.unwrapped, "control_dt", None)
+        period = _period(known) if known is not None else None  # only to report seconds
+        return _DelaySpec(low=low, high=high, in_seconds=False, dt_s=period)
     low, high = _bounds(delay_s, "delay_s", integer=False)
     if dt_s is None:
         dt_s = getattr(env.unwrapped, "control_dt", None)
@@ -119,10 +115,14 @@ def _delay_spec(
                 f"{type(env.unwrapped).__name__} has no 'control_dt' attribute; pass dt_s=... "
                 "(seconds per step) or give the delay in steps with delay_steps"
             )
+    return _DelaySpec(low=low, high=high, in_seconds=True, dt_s=_period(dt_s))
+
+
+def _period(dt_s: Any) -> float:
     dt = check_number(dt_s, argument="dt_s")
     if dt <= 0:
         raise RandomizerValueError(f"argument 'dt_s' must be > 0 s, got {dt_s!r}")
-    return _DelaySpec(low=low, high=high, in_seconds=True, dt_s=dt)
+    return dt
 
 
 def _delay_kwargs(spec: _DelaySpec, delay_s: Any, delay_steps: Any) -> dict[str, Any]:
@@ -208,7 +208,7 @@ class OdometryDelay(ObservationRandomizer):
             key=key,
             index=index_kwarg(sel.index),
             fill=fill,
-            dt_s=None if dt_s is None else spec.dt_s,
+            dt_s=None if dt_s is None else float(dt_s),
             scale=scale,
             name=name,
         )
@@ -292,7 +292,7 @@ class ActionDelay(gym.ActionWrapper[Any, Any, Any], Randomizer, gym.utils.Record
             self,
             **_delay_kwargs(spec, delay_s, delay_steps),
             fill=fill,
-            dt_s=None if dt_s is None else spec.dt_s,
+            dt_s=None if dt_s is None else float(dt_s),
             scale=scale,
             name=name,
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -136,7 +137,11 @@ class GoalNoise(ObservationRandomizer):
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with the offset goal (a new object)."""
         goal = self._sel.get(observation)
-        if self.coords == "polar":
+        if self.coords == "polar" and goal.ndim == 1:  # one goal: scalar maths is ~10x faster
+            x = float(goal[0]) * math.cos(goal[1]) + self.offset_m[0]
+            y = float(goal[0]) * math.sin(goal[1]) + self.offset_m[1]
+            out = np.array([math.hypot(x, y), math.atan2(y, x)], dtype=self._sel.dtype)
+        elif self.coords == "polar":
             goal = goal.astype(np.float64)
             x = goal[..., 0] * np.cos(goal[..., 1]) + self.offset_m[0]
             y = goal[..., 0] * np.sin(goal[..., 1]) + self.offset_m[1]

@@ -33,6 +33,7 @@ __all__ = [
     "FULL_STACK",
     "ForgetfulDriveEnv",
     "IgnoringCameraEnv",
+    "LastFrameViewEnv",
     "NavDouble",
     "StaticViewEnv",
     "depth_image",
@@ -198,6 +199,32 @@ class ForgetfulDriveEnv(NavDouble):
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         self.drive_params = DriveParams()
         return super().reset(seed=seed, options=options)
+
+
+class LastFrameViewEnv(NavDouble):
+    """Reports the view matrix of the last rendered frame (updated in reset/step), as a
+    renderer that caches it does; ``use_pose=False`` breaks it (renders the default mount)."""
+
+    def __init__(self, use_pose: bool = True) -> None:
+        super().__init__()
+        self.use_pose = use_pose
+        self._last_view = np.eye(4).reshape(16)
+
+    def _render(self) -> None:
+        if self.use_pose:
+            self._last_view = super().get_camera_view_matrix()
+        else:
+            saved = self.camera_xyz, self.camera_rpy
+            self.camera_xyz, self.camera_rpy = np.array([-0.087, -0.0125, 0.287]), np.zeros(3)
+            self._last_view = super().get_camera_view_matrix()
+            self.camera_xyz, self.camera_rpy = saved
+
+    def get_camera_view_matrix(self) -> np.ndarray:
+        return self._last_view.copy()
+
+    def _obs(self) -> dict[str, np.ndarray]:
+        self._render()
+        return super()._obs()
 
 
 ENV_ID = "sim2real-tests/NavDouble-v0"

@@ -9,7 +9,13 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import yaml
-from randomizers_testenv import ForgetfulDriveEnv, IgnoringCameraEnv, NavDouble, StaticViewEnv
+from randomizers_testenv import (
+    ForgetfulDriveEnv,
+    IgnoringCameraEnv,
+    LastFrameViewEnv,
+    NavDouble,
+    StaticViewEnv,
+)
 
 from randomizers import CameraPoseJitter, DynamicsRandomizer, default_bounds
 from randomizers.errors import MissingProtocolError, RandomizationNotAppliedError
@@ -76,6 +82,28 @@ def test_camera_jitter_detects_a_view_matrix_that_does_not_change() -> None:
     env = CameraPoseJitter(StaticViewEnv())
     with pytest.raises(RandomizationNotAppliedError, match="view_matrix\\(\\) did not change"):
         env.reset(seed=0)
+
+
+def test_camera_jitter_verifies_envs_whose_view_is_the_last_rendered_frame() -> None:
+    env = CameraPoseJitter(LastFrameViewEnv(), position_std_m=0.02)
+    _obs, _ = env.reset(seed=0)
+    assert env._view_checked
+    rendered = env.unwrapped.get_camera_view_matrix()
+    np.testing.assert_allclose(rendered, NavDouble.get_camera_view_matrix(env.unwrapped))
+    broken = CameraPoseJitter(LastFrameViewEnv(use_pose=False), position_std_m=0.02)
+    broken.reset()  # unseeded: no probe, nothing to compare with yet
+    with pytest.raises(RandomizationNotAppliedError, match="did not change"):
+        broken.reset(seed=1)
+
+
+def test_camera_jitter_probe_is_done_once() -> None:
+    env = CameraPoseJitter(LastFrameViewEnv(), position_std_m=0.02)
+    calls = []
+    original = env.unwrapped.reset
+    env.unwrapped.reset = lambda **kw: calls.append(kw) or original(**kw)  # type: ignore[method-assign]
+    for seed in range(3):
+        env.reset(seed=seed)
+    assert len(calls) == 4  # one probe + three resets
 
 
 @pytest.mark.parametrize(
