@@ -333,12 +333,16 @@ def _clip_physical(name: str, x: float, nominal: float, geometry: BaseGeometry) 
 MAX_REL_STD = 10.0
 
 
-def sampled_parameters(base: DriveParams, stds: Mapping[str, float]) -> list[str]:
+def sampled_parameters(
+    base: DriveParams, stds: Mapping[str, float], *, reference: DriveParams | None = None
+) -> list[str]:
     """Names of the parameters an ensemble draws (sorted).
 
     A parameter is drawn when it is a :class:`DriveParams` field with a finite value and a
-    finite std > 0 that is at most :data:`MAX_REL_STD` times the value's magnitude (a wider
-    std carries no information and would only produce absurd robots).
+    finite std > 0 of at most :data:`MAX_REL_STD` times its scale, the larger magnitude of its
+    value and its ``reference`` value (the spec default); a wider std carries no information
+    and would only produce absurd robots. The reference keeps a parameter fitted at 0 (e.g. a
+    friction at its bound) in the ensemble.
     """
     known = set(DriveParams.names())
     out = []
@@ -346,7 +350,9 @@ def sampled_parameters(base: DriveParams, stds: Mapping[str, float]) -> list[str
         if name not in known or not (math.isfinite(std) and std > 0):
             continue
         value = float(getattr(base, name))
-        if math.isfinite(value) and std <= MAX_REL_STD * abs(value):
+        ref = float(getattr(reference, name)) if reference is not None else 0.0
+        scale = max(abs(value), abs(ref) if math.isfinite(ref) else 0.0)
+        if math.isfinite(value) and std <= MAX_REL_STD * scale:
             out.append(name)
     return sorted(out)
 
@@ -359,10 +365,12 @@ def sample_drive_params(
     rng: np.random.Generator,
     geometry: BaseGeometry,
     spread: float = 1.0,
+    reference: DriveParams | None = None,
 ) -> list[DriveParams]:
     r"""Draw ``n`` parameter sets around ``base`` from the sysid uncertainty.
 
-    Each parameter of :func:`sampled_parameters` is drawn independently from
+    Each parameter of :func:`sampled_parameters` (with ``reference``, e.g. the spec defaults)
+    is drawn independently from
     :math:`\mathcal N(\text{value}, (\text{spread}\cdot\sigma)^2)`, truncated at
     :math:`\pm 3` spread σ and clipped to its physical range; the others keep their ``base``
     value.
@@ -383,7 +391,7 @@ def sample_drive_params(
         )
     if not (math.isfinite(spread) and spread >= 0):
         raise Sim2RealValueError(f"ensemble spread must be a finite number >= 0, got {spread!r}")
-    names = sampled_parameters(base, stds)
+    names = sampled_parameters(base, stds, reference=reference)
     out: list[DriveParams] = []
     for _ in range(n):
         draws = rng.standard_normal(len(names))
@@ -515,7 +523,7 @@ def run_ensemble(
     from sim2real.replay import resolve_robot
 
     spec = resolve_robot(robot)
-    sampled = sampled_parameters(params, stds)
+    sampled = sampled_parameters(params, stds, reference=spec.drive)
     if not sampled:
         raise Sim2RealValueError(
             "the ensemble needs parameter uncertainties, but the params file lists no "
@@ -524,7 +532,9 @@ def run_ensemble(
         )
     skipped = sorted(k for k, s in stds.items() if k in DriveParams.names() and k not in sampled)
     rng = np.random.default_rng(seed)
-    drawn = sample_drive_params(params, stds, n=n, rng=rng, geometry=spec.geometry, spread=spread)
+    drawn = sample_drive_params(
+        params, stds, n=n, rng=rng, geometry=spec.geometry, spread=spread, reference=spec.drive
+    )
     sims = [replay(trace, robot=spec, params=p, engine=engine) for p in drawn]
     lo_v, hi_v, lo_w, hi_w, (cov, cov_v, cov_w) = ensemble_band(
         trace, sims, tol_v=tol_v, tol_w=tol_w

@@ -118,3 +118,10 @@ def test_meaningless_std_is_not_sampled(trace) -> None:  # type: ignore[no-untyp
     ens = run_ensemble(trace, robot=ROBOT, params=base, stds=stds, n=3, seed=0, engine="reduced")
     assert ens.sampled == ("added_mass_kg",) and ens.skipped == ("delay_s",)
     assert {p.delay_s for p in ens.params} == {base.delay_s}
+
+
+def test_parameter_fitted_at_zero_is_sampled_relative_to_the_spec_default() -> None:
+    base = hidden_params().replace(coulomb_v_fwd_n=1e-10)
+    stds = {"coulomb_v_fwd_n": 0.003}
+    assert sampled_parameters(base, stds) == []
+    assert sampled_parameters(base, stds, reference=spec().drive) == ["coulomb_v_fwd_n"]
