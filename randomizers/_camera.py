@@ -62,10 +62,31 @@ class CameraPoseJitter(
 
     Example
     -------
-    >>> env = CameraPoseJitter(make_camera_env(), position_std_m=0.01)  # doctest: +SKIP
-    >>> _, info = env.reset(seed=0)  # doctest: +SKIP
-    >>> info["randomization"]["CameraPoseJitter"]["position_offset_m"]  # doctest: +SKIP
-    [0.0013, -0.0132, 0.0064]
+    >>> import gymnasium as gym
+    >>> import numpy as np
+    >>> from randomizers import CameraPoseJitter
+    >>> class Cam(gym.Env):  # a toy env with the camera protocol
+    ...     observation_space = gym.spaces.Box(-1.0, 1.0, (1,))
+    ...     action_space = gym.spaces.Discrete(1)
+    ...     xyz, rpy = np.array([0.1, 0.0, 0.3]), np.zeros(3)
+    ...     def get_camera_pose(self):
+    ...         return self.xyz.copy(), self.rpy.copy()
+    ...     def set_camera_pose(self, xyz, rpy):
+    ...         self.xyz, self.rpy = np.array(xyz), np.array(rpy)
+    ...     def get_camera_view_matrix(self):  # a real env returns its renderer's matrix
+    ...         return np.concatenate([self.xyz, self.rpy])
+    ...     def reset(self, *, seed=None, options=None):
+    ...         super().reset(seed=seed)
+    ...         return np.zeros(1, np.float32), {}
+    ...     def step(self, action):
+    ...         return np.zeros(1, np.float32), 0.0, False, False, {}
+    >>> env = CameraPoseJitter(Cam(), position_std_m=0.01, orientation_std_deg=1.0)
+    >>> _, info = env.reset(seed=0)
+    >>> record = info["randomization"]["CameraPoseJitter"]
+    >>> bool(np.allclose(env.unwrapped.xyz, record["xyz_m"]))
+    True
+    >>> bool(np.allclose(env.unwrapped.xyz - [0.1, 0.0, 0.3], record["position_offset_m"]))
+    True
     """
 
     def __init__(

@@ -134,11 +134,28 @@ class DynamicsRandomizer(
 
     Example
     -------
-    >>> env = DynamicsRandomizer(
-    ...     make_drive_env(), uniform={"coulomb_v_fwd_n": [0.5, 1.5]})  # doctest: +SKIP
-    >>> _, info = env.reset(seed=0)  # doctest: +SKIP
-    >>> info["randomization"]["DynamicsRandomizer"]["coulomb_v_fwd_n"]  # doctest: +SKIP
-    0.8186
+    >>> import gymnasium as gym
+    >>> import numpy as np
+    >>> from randomizers import DynamicsRandomizer
+    >>> from robots.params import DriveParams
+    >>> class Base(gym.Env):  # a toy env with the drive protocol
+    ...     observation_space = gym.spaces.Box(-1.0, 1.0, (1,))
+    ...     action_space = gym.spaces.Discrete(1)
+    ...     params = DriveParams(coulomb_v_fwd_n=1.0)
+    ...     def get_drive_params(self):
+    ...         return self.params
+    ...     def set_drive_params(self, params):
+    ...         self.params = params
+    ...     def reset(self, *, seed=None, options=None):
+    ...         super().reset(seed=seed)
+    ...         return np.zeros(1, np.float32), {}
+    ...     def step(self, action):
+    ...         return np.zeros(1, np.float32), 0.0, False, False, {}
+    >>> env = DynamicsRandomizer(Base(), uniform={"coulomb_v_fwd_n": [0.5, 1.5]})
+    >>> _, info = env.reset(seed=0)
+    >>> drawn = info["randomization"]["DynamicsRandomizer"]["coulomb_v_fwd_n"]
+    >>> env.unwrapped.params.coulomb_v_fwd_n == drawn and 0.5 <= drawn <= 1.5
+    True
     """
 
     def __init__(
