@@ -363,11 +363,15 @@ class CrowdNavEnv(NavEnvBase):
         panels = []
         # left panel (y > 0 side): covers the FOV angles [half - a_left, half] and beyond
         x_l = eye[0] + _PANEL_D_M[0]
-        y0 = eye[1] + _PANEL_D_M[0] * math.tan(half - a_left)
+        # the panel's corner nearest to the optical axis bounds the hidden angle: the back
+        # corner when the panel end lies off the axis' side, else the front corner
+        tan_l = math.tan(half - a_left)
+        y0 = eye[1] + (_PANEL_D_M[0] + (_WALL_T_M if tan_l > 0 else 0.0)) * tan_l
         panels.append([x_l + 0.5 * _WALL_T_M, 0.5 * (y0 + top), top - y0, _WALL_T_M, 0.5 * math.pi])
         # right panel (y < 0 side): covers [-half, -half + a_right] and beyond
         x_r = eye[0] + _PANEL_D_M[1]
-        y1 = eye[1] + _PANEL_D_M[1] * math.tan(-half + a_right)
+        tan_r = math.tan(-half + a_right)
+        y1 = eye[1] + (_PANEL_D_M[1] + (_WALL_T_M if tan_r < 0 else 0.0)) * tan_r
         panels.append([x_r + 0.5 * _WALL_T_M, 0.5 * (y1 - top), y1 + top, _WALL_T_M, 0.5 * math.pi])
         return np.array(panels)
 

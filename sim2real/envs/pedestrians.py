@@ -32,8 +32,8 @@ paper 000) scale :math:`\alpha` up.
 Steering (our choice; the paper does not specify it): each step every walking pedestrian
 tries seven headings within 60 degrees of the direction to its goal, evaluates eq. (1) along
 each, and takes the one with the best progress :math:`V\cos(\Delta\theta)` — the velocity
-sampling along an arc of Narang et al. Bodies never move into contact within a step; residual
-overlaps are pushed apart.
+sampling along an arc of Narang et al. No one moves further than the free gap along its
+heading; residual overlaps (simultaneous moves, grazing contacts with walls) are pushed apart.
 
 Example
 -------
@@ -317,6 +317,25 @@ class Crowd:
         self.velocity_mps = np.column_stack([v * np.cos(h), v * np.sin(h)])
         self.position_m = self.position_m + self.velocity_mps * dt_s
         self._separate()
+        self._push_out(scene)
+
+    def _push_out(self, scene: Scene2D) -> None:
+        """Move pedestrians that touch a static obstacle out along its normal."""
+        p, r = self.position_m, self.radius_m
+        if scene.circles_r.size:
+            d = p[:, None, :] - scene.circles_xy[None, :, :]
+            dist = np.maximum(np.linalg.norm(d, axis=2), 1e-9)
+            depth = np.maximum(r[:, None] + scene.circles_r[None, :] - dist, 0.0)
+            p = p + np.einsum("ij,ijk->ik", depth / dist, d)
+        if scene.seg_a.shape[0]:
+            e = scene.seg_b - scene.seg_a
+            ap = p[:, None, :] - scene.seg_a[None, :, :]
+            s = np.einsum("psk,sk->ps", ap, e) / np.maximum(np.einsum("sk,sk->s", e, e), 1e-12)
+            d = ap - np.clip(s, 0.0, 1.0)[..., None] * e[None, :, :]
+            dist = np.maximum(np.linalg.norm(d, axis=2), 1e-9)
+            depth = np.maximum(r[:, None] - dist, 0.0)
+            p = p + np.einsum("ij,ijk->ik", depth / dist, d)
+        self.position_m = p
 
     def _separate(self) -> None:
         """Push overlapping pedestrian pairs apart (half each)."""

@@ -1,0 +1,176 @@
+"""RandomMap-v0: gymnasium contract, observation, outcomes, reward terms, protocols, vector envs."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import sim2real.envs  # noqa: F401  (registers the ids)
+from robots.spec import load_spec
+from sim2real.envs import RandomMapEnv, RandomMapReward
+from sim2real.envs.maps import MapConfig
+from sim2real.errors import Sim2RealValueError
+
+EMPTY = MapConfig(n_min=0, n_max=0, r_wall=0.0)
+
+
+def test_check_env_passes_and_spaces_match_the_paper() -> None:
+    env = gym.make("sim2real/RandomMap-v0")
+    check_env(env.unwrapped, skip_render_check=True)
+    assert env.observation_space.shape == (40,)
+    np.testing.assert_allclose(env.action_space.low, [0.0, -1.0])
+    np.testing.assert_allclose(env.action_space.high, [0.21, 1.0])
+    assert env.unwrapped.control_dt == 0.1
+    env.close()
+
+
+def test_observation_layout() -> None:
+    env = RandomMapEnv(preset="TEST1")
+    obs, info = env.reset(seed=4)
+    assert obs.dtype == np.float32
+    assert np.all((obs[:36] >= 0.12) & (obs[:36] <= 3.5))
+    layout = env.layout
+    assert layout is not None
+    yaw = layout.start_yaw_rad
+    assert obs[36] == pytest.approx(8.0)
+    assert obs[37] == pytest.approx(math.atan2(math.sin(-yaw), math.cos(-yaw)), abs=1e-6)
+    assert obs[38] == 0.0 and obs[39] == 0.0
+    assert info["rho_obs"] == layout.rho_obs and info["preset"] == "TEST1"
+
+
+def test_seeded_resets_reproduce_the_scene_and_the_rollout() -> None:
+    a, b = RandomMapEnv(), RandomMapEnv()
+    oa, _ = a.reset(seed=11)
+    ob, _ = b.reset(seed=11)
+    np.testing.assert_array_equal(oa, ob)
+    assert a.layout is not None and b.layout is not None
+    np.testing.assert_array_equal(a.layout.cylinders, b.layout.cylinders)
+    for _ in range(20):
+        sa = a.step(np.array([0.2, 0.3]))
+        sb = b.step(np.array([0.2, 0.3]))
+        np.testing.assert_array_equal(sa[0], sb[0])
+        assert sa[1] == sb[1]
+    oc, _ = a.reset(seed=12)
+    assert not np.array_equal(oa, oc)
+
+
+def test_straight_drive_on_an_empty_map_succeeds() -> None:
+    env = RandomMapEnv(map_config=MapConfig(n_min=0, n_max=0, r_wall=0.0, d_target_m=1.0))
+    obs, _ = env.reset(seed=0)
+    total = 0.0
+    for _ in range(400):
+        bearing = float(obs[37])
+        obs, r, term, trunc, info = env.step(np.array([0.21 if abs(bearing) < 0.3 else 0.0,
+                                                       np.clip(2 * bearing, -1, 1)]))
+        total += r
+        if term or trunc:
+            break
+    assert info["outcome"] == "success" and term and not trunc
+    m = info["metrics"]
+    assert m["success"] and not m["collision"]
+    assert m["time_to_goal_s"] == pytest.approx(m["steps"] * 0.1)
+    assert 0.7 - 1e-6 <= m["path_length_m"] < 1.3
+    assert r > 90.0  # r_reach = 100 dominates the final step
+    with pytest.raises(Sim2RealValueError, match="reset"):
+        env.step(np.array([0.1, 0.0]))
+
+
+def test_driving_into_a_cylinder_is_a_crash_with_the_band_penalty() -> None:
+    cfg = MapConfig(n_min=0, n_max=0, r_wall=0.0)
+    env = RandomMapEnv(map_config=cfg)
+    env.reset(seed=0)
+    # put one cylinder right ahead of the robot
+    x, y, yaw = env._backend.pose
+    from sim2real.envs.geometry import Scene2D
+
+    env._scene = Scene2D.build(circles=[(x + 0.6 * math.cos(yaw), y + 0.6 * math.sin(yaw), 0.15)])
+    rewards = []
+    for _ in range(100):
+        _, r, term, trunc, info = env.step(np.array([0.21, 0.0]))
+        rewards.append(r)
+        if term or trunc:
+            break
+    assert info["outcome"] == "crash" and term
+    assert info["metrics"]["collision"]
+    assert rewards[-1] < -99.0  # -r_crash,1
+
+
+def test_trap_is_a_truncation_after_max_steps() -> None:
+    env = RandomMapEnv(map_config=EMPTY, max_episode_steps=5)
+    env.reset(seed=0)
+    for _ in range(5):
+        _, _, term, trunc, info = env.step(np.array([0.0, 0.0]))
+    assert trunc and not term and info["outcome"] == "trap"
+    assert info["metrics"]["timeout"] and math.isnan(info["metrics"]["time_to_goal_s"])
+
+
+def test_reward_terms_match_the_paper_formulas() -> None:
+    cfg = RandomMapReward(free_weight=1.0, step_penalty=0.05)
+    env = RandomMapEnv(map_config=EMPTY, reward=cfg)
+    obs, _ = env.reset(seed=0)
+    obs, r, *_ = env.step(np.array([0.0, 0.0]))
+    # at rest in free space: r_goal = 0, r_crash = 0, r_free = -sum(1 - 3.5/3.5)^4 = 0
+    assert r == pytest.approx(-0.05)
+    from sim2real.envs.geometry import Scene2D
+
+    x, y, _ = env._backend.pose
+    env._scene = Scene2D.build(circles=[(x + 0.5, y, 0.3)])  # clearance ~0.2 - r_robot
+    obs, r, *_ = env.step(np.array([0.0, 0.0]))
+    d = obs[:36].astype(float)
+    r_free = -np.sum((1.0 - d / 3.5) ** 4)
+    clearance = env._clearance()
+    bands = cfg.crash_bands_m
+    r_crash = next((-p for e, p in zip(bands, cfg.crash_penalties) if clearance <= e), 0.0)
+    assert r == pytest.approx(r_free + r_crash - 0.05, abs=1e-5)
+
+
+def test_drive_params_protocol_changes_the_motion() -> None:
+    env = RandomMapEnv(map_config=EMPTY)
+    spec_drive = load_spec("turtlebot3_burger").drive
+    assert env.get_drive_params() == spec_drive
+    env.reset(seed=0)
+    for _ in range(10):
+        v_default = env.step(np.array([0.2, 0.0]))[0][38]
+    env.set_drive_params(spec_drive.replace(coulomb_v_fwd_n=1.0))
+    env.reset(seed=0)
+    for _ in range(10):
+        v_friction = env.step(np.array([0.2, 0.0]))[0][38]
+    assert env.get_drive_params().coulomb_v_fwd_n == 1.0
+    assert v_friction < v_default - 0.01
+    with pytest.raises(Sim2RealValueError, match="DriveParams"):
+        env.set_drive_params({"delay_s": 0.1})  # type: ignore[arg-type]
+
+
+def test_bad_arguments_are_refused() -> None:
+    with pytest.raises(Sim2RealValueError, match="dynamics"):
+        RandomMapEnv(dynamics="mujoco")
+    with pytest.raises(Sim2RealValueError, match="control_dt"):
+        RandomMapEnv(control_dt=0.0)
+    with pytest.raises(Sim2RealValueError, match="preset"):
+        RandomMapEnv(preset="HARD")
+    env = RandomMapEnv()
+    with pytest.raises(Sim2RealValueError, match="unknown reset option"):
+        env.reset(options={"complexity": 1.0})
+    env.reset(seed=0, options={"preset": "TEST4"})
+    assert env.preset == "TEST4"
+    with pytest.raises(Sim2RealValueError, match="action"):
+        env.step(np.array([np.nan, 0.0]))
+
+
+def test_async_vector_env_runs() -> None:
+    envs = gym.make_vec(
+        "sim2real/RandomMap-v0", num_envs=2, vectorization_mode="async", preset="TEST1"
+    )
+    try:
+        obs, _ = envs.reset(seed=[0, 1])
+        assert obs.shape == (2, 40)
+        assert not np.array_equal(obs[0], obs[1])
+        for _ in range(3):
+            obs, r, term, trunc, _ = envs.step(np.tile([0.1, 0.0], (2, 1)).astype(np.float32))
+        assert obs.shape == (2, 40) and r.shape == (2,)
+    finally:
+        envs.close()
