@@ -179,12 +179,7 @@ class Randomizer:
 
         Vector envs reach it with ``envs.call("set_randomization_scale", s)``.
         """
-        check_scale(scale)
-        count = 0
-        for randomizer in iter_randomizers(self):
-            randomizer.set_scale(scale)
-            count += 1
-        return count
+        return _set_stack_scale(self, check_scale(scale))
 
     def _begin_episode(self, seed: int | None) -> None:
         """Reseed (when ``seed`` is given) and apply a pending :meth:`set_scale`."""
@@ -239,8 +234,16 @@ def set_scale(env: Any, scale: float) -> int:
         vector: Any = env
         counts = vector.call("set_randomization_scale", value)
         return int(counts[0]) if len(counts) else 0
+    return _set_stack_scale(env, value)
+
+
+def _set_stack_scale(env: Any, scale: float) -> int:
     count = 0
     for randomizer in iter_randomizers(env):
-        randomizer.set_scale(value)
+        randomizer.set_scale(scale)
         count += 1
+    current = env
+    while isinstance(current, gym.Wrapper):  # outer wrappers cache specs with inner kwargs
+        current.__dict__["_cached_spec"] = None
+        current = current.env
     return count

@@ -150,7 +150,7 @@ class OdometryDelay(ObservationRandomizer):
     Parameters
     ----------
     env : gymnasium.Env
-        Env with a float Box entry to delay.
+        Env with a Box entry (any dtype) to delay.
     delay_s : float or [low, high], optional
         Delay in seconds (a range: uniform per episode). Needs ``dt_s`` or
         ``env.unwrapped.control_dt``.

@@ -70,6 +70,8 @@ def test_stack_rebuilds_from_env_spec() -> None:
     assert spec.additional_wrappers[-1].kwargs["scale"] == 0.25
     again = gym.make(spec)
     assert randomizers.to_config(again) == randomizers.to_config(env)
+    randomizers.set_scale(env, 0.75)  # stack-level: outer wrappers' cached specs are dropped
+    assert {w.kwargs["scale"] for w in env.spec.additional_wrappers} == {0.75}
 
 
 def test_registered_test_env_with_make_and_config() -> None:
