@@ -137,8 +137,11 @@ class PybulletRobot:
     spec : RobotSpec or str
         The robot (a spec, a shipped robot name or a spec file path).
     client : int, optional
-        A pybullet client id to add the robot to. ``None`` creates an own ``DIRECT`` client with
-        gravity and a generated ground plane (closed by :meth:`close`).
+        A pybullet client id to add the robot to (it must have gravity and a ground, e.g.
+        :func:`robots.world.add_ground`). ``None`` creates an own ``DIRECT`` client with
+        gravity and a generated ground plane (closed by :meth:`close`). The robot sets the
+        client's fixed time step, solver iterations and pyramid friction, so robots sharing a
+        client must use the same ``physics_hz``.
     params : DriveParams, optional
         Drive parameters; default ``spec.drive``.
     physics_hz : float
@@ -178,6 +181,12 @@ class PybulletRobot:
             p.setGravity(0.0, 0.0, -9.81, physicsClientId=client)
             add_ground(client)
         self.client = client
+        gravity = p.getPhysicsEngineParameters(physicsClientId=client)["gravityAccelerationZ"]
+        if not gravity < -1.0:
+            raise RobotsValueError(
+                f"pybullet client {client} has gravity z = {gravity} m/s^2; the wheels need "
+                "weight to grip: call pybullet.setGravity(0, 0, -9.81) before adding the robot"
+            )
         p.setPhysicsEngineParameter(
             fixedTimeStep=self.dt_s,
             numSolverIterations=SOLVER_ITERATIONS,

@@ -97,6 +97,23 @@ def _list(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sensor_lines(spec: RobotSpec) -> list[str]:
+    lid, cam = spec.lidar, spec.depth_camera
+    lines = [
+        f"lidar:          {lid.beams} beams {lid.angle_min_rad:.4f}..{lid.angle_max_rad:.4f} rad, "
+        f"{lid.range_min_m:g}-{lid.range_max_m:g} m, {lid.rate_hz:g} Hz, at {list(lid.xyz_m)} m",
+    ]
+    if cam is None:
+        lines.append("depth camera:   none")
+    else:
+        lines.append(
+            f"depth camera:   {cam.width}x{cam.height}, hfov {cam.hfov_deg:g} deg, "
+            f"{cam.near_m:g}-{cam.far_m:g} m, {cam.rate_hz:g} Hz, at {list(cam.xyz_m)} m "
+            f"rpy {list(cam.rpy_rad)} rad"
+        )
+    return lines
+
+
 def _num(x: float) -> str:
     return "inf" if math.isinf(x) else f"{x:.6g}"
 
@@ -121,7 +138,7 @@ def _show(args: argparse.Namespace) -> int:
         f"body:           {spec.body.shape} {list(spec.body.size_m)} m at {list(spec.body.xyz_m)}",
         f"casters:        {[list(c.xyz_m) for c in spec.casters]}",
         f"speed caps:     {spec.max_v_mps:g} m/s, {spec.max_w_radps:g} rad/s",
-        f"sensors:        {_sensors(spec)}",
+        *_sensor_lines(spec),
         f"odometry:       v from {spec.odometry.v_source}, w from {spec.odometry.w_source}, "
         f"{spec.odometry.rate_hz:g} Hz",
         "drive defaults:",

@@ -295,6 +295,12 @@ def test_two_robots_share_a_client() -> None:
 
 
 def test_bad_arguments_are_refused() -> None:
+    client = p.connect(p.DIRECT)
+    try:
+        with pytest.raises(RobotsValueError, match="setGravity"):
+            PybulletRobot("turtlebot2", client=client)
+    finally:
+        p.disconnect(client)
     with pytest.raises(RobotsValueError, match="physics_hz"):
         PybulletRobot("turtlebot3_burger", physics_hz=0.0)
     with PybulletRobot("turtlebot3_burger") as bot:

@@ -8,6 +8,8 @@ from collections.abc import Iterator
 import numpy as np
 import pybullet as p
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robots import DepthCamera, Lidar, PybulletRobot, load_spec
 from robots.errors import RobotsValueError
@@ -169,3 +171,21 @@ def test_bad_camera_arguments() -> None:
             cam.set_pose((0.0, 0.0, 0.3), (0.0, float("nan"), 0.0))
         with pytest.raises(RobotsValueError, match="camera size"):
             DepthCamera(spec, bot, width=-1, height=6)
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    bearing_deg=st.floats(-179.0, 179.0),
+    dist=st.floats(0.2, 3.3),
+    yaw=st.floats(-math.pi, math.pi),
+)
+def test_lidar_range_of_a_wall_anywhere(bearing_deg: float, dist: float, yaw: float) -> None:
+    """A wall facing the lidar at any bearing/distance is read within 1 cm in its beam."""
+    with PybulletRobot("turtlebot3_burger", start_pose=(0.0, 0.0, yaw)) as bot:
+        lidar = Lidar(bot.spec.lidar, bot)
+        lx, ly, _ = _lidar_world_xy(bot)
+        i = round(bearing_deg) % 360  # the beam pointing there (1 deg beams from 0)
+        world = yaw + float(lidar.angles_rad[i])
+        centre = (lx + (dist + 0.05) * math.cos(world), ly + (dist + 0.05) * math.sin(world), 0.5)
+        add_box(bot.client, centre, (0.05, 0.6, 0.5), yaw=world)
+        assert lidar.scan()[i] == pytest.approx(dist, abs=0.01)
