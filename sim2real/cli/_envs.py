@@ -95,8 +95,9 @@ def _list(args: argparse.Namespace) -> int:
 
     console = Console()
     table = Table(title="sim2real envs")
-    for col in ("id", "robot", "observation", "options"):
-        table.add_column(col)
+    table.add_column("id", no_wrap=True)
+    for col in ("robot", "observation", "options"):
+        table.add_column(col, overflow="fold")
     table.add_row(
         "sim2real/CrowdNav-v0",
         "turtlebot2",

@@ -90,7 +90,7 @@ def test_camera_pose_protocol(env: CrowdNavEnv) -> None:
     obs_a, *_ = env.step(np.array([0.0, 0.0]))
     view_a = env.get_camera_view_matrix()
     assert view_a.shape == (16,)
-    env.set_camera_pose(xyz + [0.0, 0.0, 0.2], [0.0, 0.3, 0.0])  # higher, pitched down
+    env.set_camera_pose(xyz + np.array([0.0, 0.0, 0.2]), [0.0, 0.3, 0.0])  # higher, pitched down
     obs_b, *_ = env.step(np.array([0.0, 0.0]))
     view_b = env.get_camera_view_matrix()
     assert not np.allclose(view_a, view_b)

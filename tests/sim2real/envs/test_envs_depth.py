@@ -13,7 +13,13 @@ from sim2real.envs.depth import DepthCamera, DepthScene, camera_rays, render_dep
 
 def _cam(xyz: tuple[float, float, float], rpy: tuple[float, float, float]) -> DepthCamera:
     return DepthCamera(
-        width=64, height=48, hfov_deg=60.0, near_m=0.05, far_m=8.0, xyz_m=xyz, rpy_rad=rpy,
+        width=64,
+        height=48,
+        hfov_deg=60.0,
+        near_m=0.05,
+        far_m=8.0,
+        xyz_m=xyz,
+        rpy_rad=rpy,
         base_height_m=0.0,
     )
 
@@ -56,14 +62,20 @@ def test_agrees_with_pybullet_tiny_renderer(
 ) -> None:
     rng = np.random.default_rng(0)
     cyl = np.column_stack(
-        [rng.uniform(0.8, 5, 15), rng.uniform(-2, 2, 15), rng.uniform(0.15, 0.3, 15),
-         rng.uniform(0.5, 1.8, 15)]
+        [
+            rng.uniform(0.8, 5, 15),
+            rng.uniform(-2, 2, 15),
+            rng.uniform(0.15, 0.3, 15),
+            rng.uniform(0.5, 1.8, 15),
+        ]
     )
     box = np.array([[3.0, 1.0, 1.0, 0.3, 0.4, 0.6], [6.0, 0.0, 0.1, 8.0, 0.0, 1.5]])
     world = PybulletWorld()
     try:
         world.set_static(
-            cylinders=cyl[:, :3], cylinder_height_m=cyl[:, 3], boxes=box[:, :5],
+            cylinders=cyl[:, :3],
+            cylinder_height_m=cyl[:, 3],
+            boxes=box[:, :5],
             box_height_m=box[:, 5],
         )
         cam = _cam(xyz, rpy)
@@ -88,8 +100,15 @@ def test_rpy_matrix_is_a_rotation() -> None:
 
 def test_render_depth_without_cached_rays_equals_cached() -> None:
     scene = DepthScene.build(cylinders=[(2.0, 0.5, 0.3, 1.0)])
-    kw = dict(eye=np.array([0.0, 0.0, 0.3]), rotation=np.eye(3), width=16, height=12,
-              hfov_deg=60.0, near_m=0.05, far_m=8.0)
+    kw = dict(
+        eye=np.array([0.0, 0.0, 0.3]),
+        rotation=np.eye(3),
+        width=16,
+        height=12,
+        hfov_deg=60.0,
+        near_m=0.05,
+        far_m=8.0,
+    )
     a = render_depth(scene, **kw)  # type: ignore[arg-type]
     b = render_depth(scene, rays=camera_rays(16, 12, 60.0), **kw)  # type: ignore[arg-type]
     np.testing.assert_array_equal(a, b)

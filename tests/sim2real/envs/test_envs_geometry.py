@@ -63,11 +63,11 @@ def test_caster_matches_pybullet_ray_test_batch() -> None:
         for x, y, r in cyl:
             col = p.createCollisionShape(p.GEOM_CYLINDER, radius=r, height=1.0, physicsClientId=cid)
             p.createMultiBody(0, col, basePosition=[x, y, 0.5], physicsClientId=cid)
-        col = p.createCollisionShape(
-            p.GEOM_BOX, halfExtents=[3.0, 0.075, 0.5], physicsClientId=cid
-        )
+        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[3.0, 0.075, 0.5], physicsClientId=cid)
         orn = p.getQuaternionFromEuler([0, 0, 0.3])
-        p.createMultiBody(0, col, basePosition=[0, 3, 0.5], baseOrientation=orn, physicsClientId=cid)
+        p.createMultiBody(
+            0, col, basePosition=[0, 3, 0.5], baseOrientation=orn, physicsClientId=cid
+        )
         angles = np.linspace(-math.pi, math.pi, 360, endpoint=False)
         ends = np.column_stack([8 * np.cos(angles), 8 * np.sin(angles), np.full(360, 0.2)])
         res = p.rayTestBatch([[0, 0, 0.2]] * 360, ends.tolist(), physicsClientId=cid)

@@ -35,9 +35,7 @@ def test_calibration_follows_the_fundamental_diagram_at_1_to_3_per_m2() -> None:
 
 
 @settings(max_examples=30, deadline=None)
-@given(
-    s=st.floats(0.0, 3.0), h=st.floats(1.4, 2.0), vp=st.floats(0.0, 2.0), a=st.floats(1.0, 3.0)
-)
+@given(s=st.floats(0.0, 3.0), h=st.floats(1.4, 2.0), vp=st.floats(0.0, 2.0), a=st.floats(1.0, 3.0))
 def test_speed_is_bounded_and_monotone_in_space(s: float, h: float, vp: float, a: float) -> None:
     v = float(walking_speed(vp, s, h, alpha=a))
     assert 0.0 <= v <= vp + 1e-12
@@ -48,16 +46,26 @@ def test_speed_is_bounded_and_monotone_in_space(s: float, h: float, vp: float, a
 def test_spawn_three_per_m2_without_overlap() -> None:
     rng = np.random.default_rng(0)
     pos = spawn_positions(
-        rng, 164, bounds=(-3.7, 3.7, -3.7, 3.7), radius_m=0.24, scene=Scene2D.build(),
-        keep_out=np.array([[-3.0, 0.0]]), keep_out_radius_m=0.6,
+        rng,
+        164,
+        bounds=(-3.7, 3.7, -3.7, 3.7),
+        radius_m=0.24,
+        scene=Scene2D.build(),
+        keep_out=np.array([[-3.0, 0.0]]),
+        keep_out_radius_m=0.6,
     )
     d = np.linalg.norm(pos[:, None] - pos[None], axis=2) + np.eye(len(pos)) * 10
     assert d.min() >= 0.48
     assert np.min(np.linalg.norm(pos - [-3.0, 0.0], axis=1)) > 0.84
     with pytest.raises(Sim2RealValueError, match="lower the number"):
         spawn_positions(
-            rng, 500, bounds=(-3.7, 3.7, -3.7, 3.7), radius_m=0.24, scene=Scene2D.build(),
-            keep_out=np.zeros((0, 2)), keep_out_radius_m=0.0,
+            rng,
+            500,
+            bounds=(-3.7, 3.7, -3.7, 3.7),
+            radius_m=0.24,
+            scene=Scene2D.build(),
+            keep_out=np.zeros((0, 2)),
+            keep_out_radius_m=0.0,
         )
 
 
@@ -99,13 +107,22 @@ def test_walker_slows_down_and_never_enters_a_wall() -> None:
 def test_dense_crowd_steps_without_overlap() -> None:
     rng = np.random.default_rng(3)
     pos = spawn_positions(
-        rng, 120, bounds=(-3.0, 3.0, -3.0, 3.0), radius_m=0.22, scene=Scene2D.build(),
-        keep_out=np.zeros((0, 2)), keep_out_radius_m=0.0,
+        rng,
+        120,
+        bounds=(-3.0, 3.0, -3.0, 3.0),
+        radius_m=0.22,
+        scene=Scene2D.build(),
+        keep_out=np.zeros((0, 2)),
+        keep_out_radius_m=0.0,
     )
     n = len(pos)
     crowd = Crowd(
-        rng, position_m=pos, radius_m=np.full(n, 0.2), height_m=np.full(n, 1.72),
-        pref_speed_mps=np.full(n, 1.3), bounds=(-3.0, 3.0, -3.0, 3.0),
+        rng,
+        position_m=pos,
+        radius_m=np.full(n, 0.2),
+        height_m=np.full(n, 1.72),
+        pref_speed_mps=np.full(n, 1.3),
+        bounds=(-3.0, 3.0, -3.0, 3.0),
     )
     for _ in range(20):
         crowd.step(0.1, Scene2D.build(), robot_xy=np.array([9.0, 9.0]), robot_radius_m=0.2)

@@ -64,8 +64,9 @@ def test_straight_drive_on_an_empty_map_succeeds() -> None:
     total = 0.0
     for _ in range(400):
         bearing = float(obs[37])
-        obs, r, term, trunc, info = env.step(np.array([0.21 if abs(bearing) < 0.3 else 0.0,
-                                                       np.clip(2 * bearing, -1, 1)]))
+        obs, r, term, trunc, info = env.step(
+            np.array([0.21 if abs(bearing) < 0.3 else 0.0, np.clip(2 * bearing, -1, 1)])
+        )
         total += r
         if term or trunc:
             break
@@ -124,7 +125,9 @@ def test_reward_terms_match_the_paper_formulas() -> None:
     r_free = -np.sum((1.0 - d / 3.5) ** 4)
     clearance = env._clearance()
     bands = cfg.crash_bands_m
-    r_crash = next((-p for e, p in zip(bands, cfg.crash_penalties) if clearance <= e), 0.0)
+    r_crash = next(
+        (-p for e, p in zip(bands, cfg.crash_penalties, strict=True) if clearance <= e), 0.0
+    )
     assert r == pytest.approx(r_free + r_crash - 0.05, abs=1e-5)
 
 
@@ -170,7 +173,7 @@ def test_async_vector_env_runs() -> None:
         assert obs.shape == (2, 40)
         assert not np.array_equal(obs[0], obs[1])
         for _ in range(3):
-            obs, r, term, trunc, _ = envs.step(np.tile([0.1, 0.0], (2, 1)).astype(np.float32))
+            obs, r, _, _, _ = envs.step(np.tile([0.1, 0.0], (2, 1)).astype(np.float32))
         assert obs.shape == (2, 40) and r.shape == (2,)
     finally:
         envs.close()
