@@ -359,6 +359,26 @@ class PybulletRobot:
         self._cmd_w: list[float] = []
         self._last_torques = (0.0, 0.0)
 
+    def set_velocity(self, v: float, w: float) -> None:
+        """Give the base forward speed ``v`` (m/s) and yaw rate ``w`` (rad/s) now.
+
+        The wheels get the matching rolling speeds and the velocity smoother's reference is set
+        to (v, w), as the reduced model's ``v0``/``w0`` do; the command history is kept.
+        """
+        if not (math.isfinite(v) and math.isfinite(w)):
+            raise RobotsValueError(f"velocity must be finite, got ({v!r}, {w!r})")
+        c, body = self.client, self.body_id
+        _, orn = p.getBasePositionAndOrientation(body, physicsClientId=c)
+        yaw = _yaw_of(orn)
+        p.resetBaseVelocity(
+            body, [v * math.cos(yaw), v * math.sin(yaw), 0.0], [0.0, 0.0, w], physicsClientId=c
+        )
+        r, half = self.spec.wheels.radius_m, 0.5 * self.spec.wheels.separation_m
+        for j, side in ((LEFT_WHEEL_JOINT, -1.0), (RIGHT_WHEEL_JOINT, 1.0)):
+            angle = p.getJointState(body, j, physicsClientId=c)[0]
+            p.resetJointState(body, j, angle, (v + side * w * half) / r, physicsClientId=c)
+        self._shaper.reset(v, w)
+
     @property
     def pose(self) -> tuple[float, float, float]:
         """(x [m], y [m], yaw [rad]) of base_link projected on the ground."""
@@ -454,12 +474,15 @@ class PybulletRobot:
         cmd_v: FloatArray,
         cmd_w: FloatArray,
         t_out_s: FloatArray,
+        v0: float = 0.0,
+        w0: float = 0.0,
     ) -> PybulletResponse:
         """Drive a logged command sequence, like :func:`robots.reduced.simulate` does.
 
-        The robot is first put at rest at its current pose (:meth:`reset`); the run starts at
-        ``t_out_s[0]`` (same clock as ``cmd_t_s``) and the outputs are linearly interpolated from
-        the physics steps at ``t_out_s``.
+        The robot is first reset at its current pose (:meth:`reset`) and given the velocity
+        (``v0``, ``w0``) (:meth:`set_velocity`); the run starts at ``t_out_s[0]`` (same clock as
+        ``cmd_t_s``; commands sent before it act through the delay as in ``simulate``) and the
+        outputs are linearly interpolated from the physics steps at ``t_out_s``.
 
         Examples
         --------
@@ -477,6 +500,7 @@ class PybulletRobot:
         )
         _check_inputs(cmd_t_s, cmd_v, cmd_w, t_out_s, self.dt_s)
         self.reset(*self.pose)
+        self.set_velocity(float(v0), float(w0))
         t0 = float(t_out_s[0])
         n = max(1, math.ceil((float(t_out_s[-1]) - t0) / self.dt_s))
         grid = t0 + self.dt_s * np.arange(n + 1, dtype=np.float64)

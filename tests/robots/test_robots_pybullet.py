@@ -366,3 +366,26 @@ def test_reduced_model_fitted_to_a_pybullet_log_recovers_the_parameters(name: st
     fit = least_squares(residual, x0 / scale, bounds=(lower / scale, np.inf), diff_step=1e-3)
     err = np.abs(fit.x * scale - truth) / truth
     assert np.all(err < 0.03), dict(zip(names, err.round(4), strict=True))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_replay_from_a_moving_start_with_earlier_commands(name: str) -> None:
+    """Mid-log start: initial velocity and commands sent before t0 act as in simulate()."""
+    spec = load_spec(name)
+    v0, w0 = 0.5 * spec.max_v_mps, -0.4 * spec.max_w_radps
+    cmd_t = np.arange(-1.0, 3.0, 0.1)
+    cmd_v = np.where(cmd_t < 1.0, v0, -0.5 * spec.max_v_mps)
+    cmd_w = np.where(cmd_t < 1.5, w0, 0.3 * spec.max_w_radps)
+    t_out = np.arange(0.0, 3.0, 0.05)
+    kw = {"cmd_t_s": cmd_t, "cmd_v": cmd_v, "cmd_w": cmd_w, "t_out_s": t_out, "v0": v0, "w0": w0}
+    with PybulletRobot(spec) as bot:
+        got = bot.replay(**kw)
+    ref = simulate(spec.drive, spec.geometry, **kw)
+    assert got.v[0] == pytest.approx(v0, abs=1e-6) and got.w[0] == pytest.approx(w0, abs=1e-6)
+    # no start-up transient: until the new commands act, only the friction droop shows
+    early = t_out < 0.5
+    assert np.max(np.abs(got.v[early] - ref.v[early])) < 1e-3
+    assert np.max(np.abs(got.w[early] - ref.w[early])) < 5e-3
+    assert np.max(np.abs(got.v - ref.v)) < 0.01 and np.max(np.abs(got.w - ref.w)) < 0.05
+    with pytest.raises(RobotsValueError, match="velocity"):
+        PybulletRobot(spec).set_velocity(float("nan"), 0.0)
