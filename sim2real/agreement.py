@@ -79,6 +79,7 @@ __all__ = [
     "AGREEMENT_KEYS",
     "DEFAULT_TOL_V",
     "DEFAULT_TOL_W",
+    "MAX_REL_STD",
     "AgreementReport",
     "EnsembleResult",
     "agreement_from_arrays",
@@ -258,7 +259,7 @@ def _trace_file(trace: TraceLike) -> tuple[str | None, str | None]:
     meta = getattr(trace, "meta", None)
     path = getattr(meta, "path", None)
     sha = getattr(meta, "sha256", None)
-    return (str(path) if path is not None else None, str(sha) if sha is not None else None)
+    return (str(path) if path else None, str(sha) if sha else None)
 
 
 def measure_agreement(
