@@ -9,24 +9,26 @@ model (:mod:`robots.reduced`):
    command timeout;
 2. firmware speed clamp, velocity-smoother rate limits, per-wheel speed cap (both wheels
    scaled together) -> wheel speed targets;
-3. per-wheel proportional speed loop :math:`\tau = \mathrm{clip}(K(\omega_{ref}-\omega),
-   \pm\tau_{max})` from the wheel joint's speed, applied with ``TORQUE_CONTROL`` (the default
-   velocity motors are disabled);
-4. Coulomb and viscous friction of the forward and yaw axes, applied as an external force along
-   the base's heading and an external yaw torque at the centre of mass, computed with the
-   reduced model's proximal rule (:func:`robots._chain.axis_friction`): it opposes motion,
-   stops the base without reversing it, and holds it against a drive below breakaway.
-   (Wheel-joint friction could not give independent forward and yaw Coulomb terms.)
+3. per-wheel proportional speed loops :math:`\tau = \mathrm{clip}(K(\omega_{ref}-\omega),
+   \pm\tau_{max})`, discretised exactly as the reduced model does (:func:`robots._chain.
+   drive_step`: backward Euler while unsaturated, torques of the current wheel speeds when
+   saturated), applied with ``TORQUE_CONTROL`` (the default velocity motors are disabled).
+   The loops see the measured wheel speeds: while the tyres grip these equal the speeds implied
+   by the base motion; a slipping wheel adds :math:`-K' s` for its slip :math:`s` (rad/s), with
+   :math:`K' = K/(1 + dt\,K/J_w)` the gain of a free wheel of spin inertia :math:`J_w`;
+4. Coulomb and viscous friction of the forward and yaw axes, applied as an external force
+   along the heading and a yaw torque at the centre of mass (:func:`robots._chain.
+   friction_of`): :math:`-b v - c\,\mathrm{sgn}(v)` while moving, and while stuck just what
+   holds the base (at most the Coulomb level), so it stops the base without reversing it and a
+   drive below breakaway does not move it. (Friction in the wheel joints could not give
+   independent forward and yaw Coulomb terms.)
 5. added mass and yaw inertia by ``changeDynamics`` on the base link (mass and
    ``localInertiaDiagonal``), read back with ``getDynamicsInfo``.
 
-Contacts: wheel/ground friction 1.5 x 1.0 (far above the accelerations of the specs' torque
-caps, so the wheels do not slip), casters frictionless (the base link has zero friction),
-link damping set to zero (pybullet's default 0.04 would add unmodelled drag), pyramid friction
-and 150 solver iterations (see :data:`SOLVER_ITERATIONS`). The wheel loops see the measured wheel
-speeds: while the tyres grip they equal the wheel speeds implied by the base motion, and the
-torques are the reduced model's (the same backward-Euler step); a slipping wheel adds
-``-K' * slip`` with :math:`K' = K/(1 + dt K/J_w)`, the loop gain of a free wheel.
+Contacts: tyre friction 1.5 x ground 1.0 (the specs' torque caps need at most 0.5, so the tyres
+grip), casters frictionless (the base link has zero friction), link damping zero (pybullet's
+default 0.04 would add unmodelled drag), pyramid friction and 150 solver iterations
+(:data:`SOLVER_ITERATIONS`), and only touching contact points act.
 
 Every physics step thus applies the reduced model's forces to a rigid multibody with real
 contacts; on flat ground the two agree to ~2e-4 m/s and ~3e-3 rad/s RMS (tests), and they part
@@ -45,8 +47,8 @@ Example
 >>> robot = PybulletRobot(load_spec("turtlebot3_burger"))
 >>> for _ in range(20):
 ...     v, w = robot.step(0.2, 0.0, 0.1)
->>> round(v, 2)
-0.2
+>>> round(v, 3)  # 0.2 m/s less the Coulomb and viscous droop of the P loops
+0.194
 >>> robot.close()
 """
 
@@ -81,13 +83,12 @@ FloatArray = NDArray[np.float64]
 
 #: Lateral friction coefficient of the wheel tyres (times the ground's 1.0).
 WHEEL_FRICTION = 1.5
-#: Constraint-solver settings (set on the client). pybullet's cone friction (its default) lets a
-#: wheel slide for ~10 physics steps when its torque jumps to saturation (a reversal), so the
-#: pyramid approximation is used (``enableConeFriction=0``: RMS yaw-rate error 0.025 -> 0.001
-#: rad/s on the agreement sequence, and 3x faster).
-#: Constraint-solver iterations per physics step. pybullet's default 50 leaves the wheel
-#: contacts unconverged (yaw rate off by ~1 % and rippling at the wheel revolution rate);
-#: 150 brings it to ~0.01 % at almost no cost (the solver stops early when converged).
+#: Constraint-solver iterations per physics step (set on the client, with pyramid friction).
+#: pybullet's default 50 leaves the wheel contacts unconverged (yaw rate off by ~1 % and
+#: rippling at the wheel revolution rate); 150 converges at almost no cost (the solver stops
+#: early). Its default cone friction lets a wheel slide for ~10 physics steps when its torque
+#: jumps to saturation (a reversal); ``enableConeFriction=0`` cut the RMS yaw-rate error of the
+#: agreement sequence from 0.025 to 0.001 rad/s and runs 3x faster.
 SOLVER_ITERATIONS = 150
 
 _WHEELS = [LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT]

@@ -1,0 +1,23 @@
+"""The examples in the robots modules' docstrings run and print what they claim."""
+
+from __future__ import annotations
+
+import doctest
+import importlib
+
+import pytest
+
+MODULES = [
+    "robots",
+    "robots.spec",
+    "robots.world",
+    "robots.sensors",
+    "robots.pybullet_robot",
+    "robots._chain",
+]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_docstring_examples(name: str) -> None:
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
+    assert result.failed == 0
