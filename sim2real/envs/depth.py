@@ -111,6 +111,8 @@ def _render_kernel(
             fx, fy = ex - cyl[c, 0], ey - cyl[c, 1]
             b = dx * fx + dy * fy
             q = fx * fx + fy * fy - cyl[c, 2] * cyl[c, 2]
+            if b >= 0.0 and q > 0.0:  # outside and heading away
+                continue
             disc = b * b - a * q
             if disc < 0.0:
                 continue
@@ -124,6 +126,11 @@ def _render_kernel(
         for k in range(boxes.shape[0]):
             # slab test in the box frame: boxes[k] = (cx, cy, half_l, half_w, cos, sin, h)
             px, py = ex - boxes[k, 0], ey - boxes[k, 1]
+            # cheap reject with the bounding circle (radius boxes[k, 7])
+            b = dx * px + dy * py
+            q = px * px + py * py - boxes[k, 7] * boxes[k, 7]
+            if q > 0.0 and (b >= 0.0 or b * b < a * q):
+                continue
             co, si = boxes[k, 4], boxes[k, 5]
             lx, ly = co * px + si * py, -si * px + co * py
             ldx, ldy = co * dx + si * dy, -si * dx + co * dy
@@ -146,7 +153,16 @@ def _render_kernel(
 def _packed_boxes(boxes: FloatArray) -> FloatArray:
     b = np.asarray(boxes, dtype=np.float64).reshape(-1, 6)
     return np.column_stack(
-        [b[:, 0], b[:, 1], 0.5 * b[:, 2], 0.5 * b[:, 3], np.cos(b[:, 4]), np.sin(b[:, 4]), b[:, 5]]
+        [
+            b[:, 0],
+            b[:, 1],
+            0.5 * b[:, 2],
+            0.5 * b[:, 3],
+            np.cos(b[:, 4]),
+            np.sin(b[:, 4]),
+            b[:, 5],
+            0.5 * np.hypot(b[:, 2], b[:, 3]),
+        ]
     )
 
 
