@@ -4,6 +4,18 @@ The same arithmetic as the reduced model's kernel (:mod:`robots.reduced`): firmw
 velocity-smoother rate limit, wheel targets with the per-wheel speed cap (both wheels scaled
 together), per-wheel proportional speed loop with torque saturation, and the axis friction
 applied as a proximal step (Coulomb friction stops the base but never reverses it).
+
+Example
+-------
+>>> from robots import load_spec
+>>> spec = load_spec("turtlebot3_burger")
+>>> shaper = CommandShaper(spec.drive, spec.geometry)
+>>> wr, wl = shaper.wheel_targets(0.22, 0.0, 0.005)  # no smoother limits: the full command
+>>> round(wr, 3), round(wl, 3)
+(6.667, 6.667)
+>>> step = drive_step(0.0, 0.0, wr, wl, 0.005, spec.drive, spec.geometry)
+>>> round(step.v1, 4), round(step.torque_r, 4)  # 5 ms later: m/s, N m (cap 0.081)
+(0.0196, 0.0688)
 """
 
 from __future__ import annotations
