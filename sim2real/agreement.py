@@ -391,7 +391,9 @@ def sample_drive_params(
             f"ensemble size (--ensemble) must be an integer >= 2, got {n!r}; e.g. --ensemble 20"
         )
     if not (math.isfinite(spread) and spread >= 0):
-        raise Sim2RealValueError(f"ensemble spread must be a finite number >= 0, got {spread!r}")
+        raise Sim2RealValueError(
+            f"ensemble spread (--spread) must be a finite number >= 0, got {spread!r}; e.g. 1"
+        )
     names = sampled_parameters(base, stds, reference=reference)
     out: list[DriveParams] = []
     for _ in range(n):

@@ -27,6 +27,8 @@ _EXAMPLES = """\
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml --json agree.json \\
       --min-agreement 0.9          # CI gate: exit 1 below 90 %
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml --ensemble 20 --seed 1
+  sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml --ensemble 20 \
+      --spread 5                   # is a 5x wider randomisation wide enough? (coverage)
   sim2real agree val.mcap --robot turtlebot3_burger --engine reduced --sim-out sim.mcap
 """
 
@@ -71,6 +73,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--ensemble", type=int, metavar="N", help="also run N sims sampled from the params' std"
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the ensemble draws")
+    p.add_argument(
+        "--spread",
+        type=float,
+        default=1.0,
+        help="multiply every std of the ensemble draws (1 = the sysid uncertainty)",
+    )
     p.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
     p.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
     p.set_defaults(handler=_handle)
@@ -145,6 +153,7 @@ def run_agree(
     tol_w: float = 0.1,
     ensemble_n: int | None = None,
     seed: int = 0,
+    spread: float = 1.0,
     cmd_topic: str | None = None,
     odom_topic: str | None = None,
     report_path: str | Path | None = None,
@@ -194,6 +203,7 @@ def run_agree(
             stds=stds,
             n=ensemble_n,
             seed=seed,
+            spread=spread,
             engine=engine,
             tol_v=tol_v,
             tol_w=tol_w,
@@ -289,6 +299,7 @@ def _command_line(args: argparse.Namespace) -> str:
         ("--min-agreement", args.min_agreement),
         ("--ensemble", args.ensemble),
         ("--seed", args.seed if args.ensemble is not None else None),
+        ("--spread", args.spread if args.ensemble is not None else None),
         ("--cmd-topic", args.cmd_topic),
         ("--odom-topic", args.odom_topic),
     ):
@@ -330,6 +341,7 @@ def _handle(args: argparse.Namespace) -> int:
         tol_w=args.tol_w,
         ensemble_n=args.ensemble,
         seed=args.seed,
+        spread=args.spread,
         cmd_topic=args.cmd_topic,
         odom_topic=args.odom_topic,
         report_path=args.report,

@@ -155,6 +155,8 @@ def test_other_bad_arguments_exit_2(
     assert "--params" in _err(capsys)
     assert _agree(log, "--params", params, "--ensemble", "1") == 2
     assert "--ensemble" in _err(capsys)
+    assert _agree(log, "--params", params, "--ensemble", "3", "--spread", "-1") == 2
+    assert "--spread" in _err(capsys)
     assert main(["agree", str(log), "--robot", "no_such_robot"]) == 2
     assert "no_such_robot" in _err(capsys)
 
