@@ -326,46 +326,19 @@ def _preload_commands(
     cmd_v: FloatArray,
     cmd_w: FloatArray,
     t_start: float,
-    initial: tuple[float, float],
 ) -> None:
-    """Put the commands sent shortly before ``t_start`` into the robot's delay line.
+    """Put the commands sent before ``t_start`` into the robot's delay line.
 
-    Uses the robot's command history (times relative to its own clock, which starts at 0 at
-    ``t_start``) and sets its velocity smoother's reference to the initial state.
+    ``PybulletRobot`` has no public way to preload its command history (times on its own clock,
+    which is 0 at ``t_start``), so this writes it directly; a robot without that history
+    starts with an empty delay line.
     """
-    if not all(hasattr(robot, a) for a in ("_cmd_t", "_cmd_v", "_cmd_w", "_shaper")):
-        return  # a robot without these internals starts with an empty delay line
+    if not all(hasattr(robot, a) for a in ("_cmd_t", "_cmd_v", "_cmd_w")):
+        return
     before = cmd_t < t_start
     robot._cmd_t[:0] = (cmd_t[before] - t_start).tolist()
     robot._cmd_v[:0] = cmd_v[before].tolist()
     robot._cmd_w[:0] = cmd_w[before].tolist()
-    robot._shaper.reset(*initial)
-
-
-def _start_moving(robot: Any, v0: float, w0: float) -> None:
-    """Give the robot (at rest after ``reset``) the base velocity of the first measurement.
-
-    The base gets (v0, w0) and each wheel the matching rolling speed; the wheel-speed loop and
-    the contacts keep them consistent from the first physics step on.
-    """
-    import pybullet as pb
-
-    if v0 == 0.0 and w0 == 0.0:
-        return
-    c, body = robot.client, robot.body_id
-    _, orn = pb.getBasePositionAndOrientation(body, physicsClientId=c)
-    yaw = pb.getEulerFromQuaternion(orn)[2]
-    pb.resetBaseVelocity(
-        body, [v0 * math.cos(yaw), v0 * math.sin(yaw), 0.0], [0.0, 0.0, w0], physicsClientId=c
-    )
-    r, half = robot.spec.wheels.radius_m, 0.5 * robot.spec.wheels.separation_m
-    for j in range(pb.getNumJoints(body, physicsClientId=c)):
-        name = pb.getJointInfo(body, j, physicsClientId=c)[1].decode()
-        if "wheel" in name and ("left" in name or "right" in name):
-            side = 1.0 if "right" in name else -1.0
-            pos = pb.getJointState(body, j, physicsClientId=c)[0]
-            speed = (v0 + side * w0 * half) / r
-            pb.resetJointState(body, j, pos, speed, physicsClientId=c)
 
 
 def _replay_pybullet(
@@ -383,8 +356,8 @@ def _replay_pybullet(
     )
     robot = _make_pybullet_robot(spec, params, physics_hz)
     try:
-        _start_moving(robot, *initial)
-        _preload_commands(robot, cmd_t, cmd_v, cmd_w, float(meas_t[0]), initial)
+        robot.set_velocity(*initial)
+        _preload_commands(robot, cmd_t, cmd_v, cmd_w, float(meas_t[0]))
         n_events = plan.n_steps.size + 1
         ev_v = np.empty(n_events)
         ev_w = np.empty(n_events)
