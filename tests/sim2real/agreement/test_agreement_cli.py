@@ -179,3 +179,12 @@ def test_help_ends_with_examples(capsys: pytest.CaptureFixture[str]) -> None:
     text = capsys.readouterr().out
     assert "examples:" in text and "--min-agreement 0.9" in text
     assert text.rstrip().splitlines()[-1].strip().startswith("sim2real agree")
+
+
+def test_report_without_params_shows_the_defaults_only(log: Path, tmp_path: Path) -> None:
+    out = tmp_path / "r.html"
+    assert _agree(log, "--report", out) == 0
+    page = out.read_text(encoding="utf-8")
+    assert page.count('<div class="card">') == 1 and "agreement — spec defaults" in page
+    assert "sysid params" not in page
+    assert len(list(tmp_path.glob("r_*.png"))) == 4
