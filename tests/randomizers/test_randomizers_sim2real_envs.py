@@ -40,7 +40,6 @@ def _stack(env: gym.Env[Any, Any]) -> dict[str, Any]:
     return {"randomizers": entries}
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize(
     ("env_id", "kwargs"),
     [
@@ -77,7 +76,6 @@ def test_full_stack_on_crowdnav(env_id: str, kwargs: dict[str, Any]) -> None:
     assert set(info_a["randomization"]) >= {"CameraPoseJitter", "DepthNoise[depth]"}
 
 
-@pytest.mark.slow
 def test_index_selected_stack_on_randommap_box_observation() -> None:
     """RandomMap-v0 observes one Box: 36 ranges, goal (distance, bearing), velocity (v, w)."""
     config = {
