@@ -31,3 +31,21 @@ def test_drexel_fit_on_first_part_validates_on_the_rest(drexel_log: Path) -> Non
     assert after.agreement >= 0.95
     assert after.agreement >= before.agreement - 0.01
     assert after.fit_percent_w >= before.fit_percent_w + 5.0
+
+
+def test_neato_teleop_log_runs_through_agree(neato_log: Path, tmp_path: Path) -> None:
+    """Spiky 7 Hz odometry, a 0.30 m/s wheel cap and no Neato spec: robust, honest figures."""
+    import json
+
+    from sim2real.cli import main
+
+    out = tmp_path / "neato.json"
+    code = main(
+        ["agree", str(neato_log), "--robot", "turtlebot2", "--engine", "reduced",
+         "--json", str(out), "--min-agreement", "0.9"]
+    )  # fmt: skip
+    figures = json.loads(out.read_text())
+    assert code == 1  # a TurtleBot 2 spec does not describe a Neato: the gate fails
+    assert figures["n_active"] > 300 and figures["n_samples"] == 537
+    assert 0.0 <= figures["agreement"] < 0.5
+    assert all(isinstance(figures[k], float) for k in ("rmse_v", "rmse_w", "lag_s_v"))

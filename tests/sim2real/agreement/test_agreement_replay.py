@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _agreement_fixtures import ROBOT, T0_NS, hidden_params, spec, write_log
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robots.reduced import simulate
 from sim2real.agreement import measure_agreement
@@ -110,3 +112,55 @@ def test_bad_engine_and_trace_without_commands_are_refused(trace: Trace) -> None
     )  # fmt: skip
     with pytest.raises(Sim2RealValueError, match="no velocity commands"):
         replay(empty, robot=ROBOT, engine="reduced")
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.lists(st.floats(0.01, 0.5), min_size=2, max_size=30),
+    st.lists(st.floats(0.005, 0.2), min_size=3, max_size=60),
+    st.floats(0.1, 2.0),
+)
+def test_event_plan_holds_the_logged_command(
+    cmd_gaps: list[float], meas_gaps: list[float], timeout_s: float
+) -> None:
+    cmd_t = np.cumsum(cmd_gaps)
+    meas_t = np.cumsum(meas_gaps)
+    cmd_v = np.arange(1.0, cmd_t.size + 1.0)
+    plan = plan_events(cmd_t, cmd_v, -cmd_v, meas_t, timeout_s=timeout_s, physics_hz=240.0)
+    ends = cmd_t + timeout_s  # a timeout is an event unless the next command comes first
+    ends = ends[ends < np.append(cmd_t[1:], np.inf)]
+    events = np.unique(np.concatenate([cmd_t, meas_t, ends]))
+    events = events[(events >= meas_t[0]) & (events <= meas_t[-1])]
+    for k, e in enumerate(events[:-1]):
+        i = np.searchsorted(cmd_t, e, side="right") - 1
+        held = cmd_v[i] if i >= 0 and e - cmd_t[i] < timeout_s else 0.0
+        assert plan.cmd_v[k] == held and plan.cmd_w[k] == -held
+    assert plan.n_steps.sum() == round((events[-1] - meas_t[0]) * 240.0)
+    assert np.all(plan.n_steps >= 0)
+
+
+@pytest.mark.slow
+def test_commands_before_the_first_odometry_are_in_the_delay_line(tmp_path: Path) -> None:
+    """Commands start 1 s before odometry is recorded; both engines agree from the start."""
+    cmd_t = np.arange(0.0, 4.0, 0.1)
+    meas_t = np.arange(1.0, 4.0, 1 / 30)
+    p = hidden_params()
+    true = simulate(
+        p, spec().geometry, cmd_t_s=cmd_t, cmd_v=np.full(cmd_t.size, 0.2),
+        cmd_w=np.full(cmd_t.size, 0.8), t_out_s=np.concatenate(([0.0], meas_t)),
+    )  # fmt: skip
+    path = tmp_path / "late_odom.mcap"
+    write_velocity_log(
+        path,
+        cmd_t_ns=T0_NS + np.rint(cmd_t * 1e9).astype(np.int64),
+        cmd_v=np.full(cmd_t.size, 0.2),
+        cmd_w=np.full(cmd_t.size, 0.8),
+        meas_t_ns=T0_NS + np.rint(meas_t * 1e9).astype(np.int64),
+        meas_v=true.v[1:],
+        meas_w=true.w[1:],
+    )
+    trace = read_trace(path)
+    for engine in ("reduced", "pybullet"):
+        sim = replay(trace, robot=ROBOT, params=p, engine=engine)
+        np.testing.assert_allclose(sim.v, true.v[1:], atol=0.01)
+        np.testing.assert_allclose(sim.w, true.w[1:], atol=0.05)
