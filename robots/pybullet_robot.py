@@ -438,8 +438,9 @@ class PybulletRobot:
         The last command holds until ``cmd_timeout_s`` after it was issued, then the base stops.
         """
         self._check_duration(duration_s)
-        # a command ending before the delayed window [t - delay, ...) no longer contributes
-        horizon = self.time_s - self._params.delay_s - duration_s
+        # forget commands that can no longer take effect (1 s of margin, as ReducedDrive keeps,
+        # so raising the delay by up to 1 s later still finds the commands it needs)
+        horizon = self.time_s - self._params.delay_s - 1.0
         while len(self._cmd_t) > 2 and self._cmd_t[1] < horizon:
             del self._cmd_t[0], self._cmd_v[0], self._cmd_w[0]
         n = max(1, round(duration_s * self.physics_hz))

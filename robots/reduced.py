@@ -30,6 +30,7 @@ Example
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -430,18 +431,20 @@ class ReducedDrive:
         self._cmd_t.append(self.time_s)
         self._cmd_v.append(float(cmd_v))
         self._cmd_w.append(float(cmd_w))
-        # forget commands that can no longer take effect (keep one before the delay horizon)
-        # a command ending before the delayed window [t - delay, ...) no longer contributes
-        horizon = self.time_s - self._params.delay_s - duration_s
+        # forget commands that can no longer take effect (keep one before the delay horizon;
+        # the 1 s margin keeps the history right if the delay is raised by up to 1 s later)
+        horizon = self.time_s - self._params.delay_s - 1.0
         while len(self._cmd_t) > 2 and self._cmd_t[1] < horizon:
             del self._cmd_t[0], self._cmd_v[0], self._cmd_w[0]
         n = max(1, round(duration_s / self.dt_s))
         dt = duration_s / n
+        # only commands from the one held at the start of the delayed window on contribute
+        i0 = max(bisect.bisect_right(self._cmd_t, self.time_s - self._params.delay_s) - 1, 0)
         _advance_held(
             self._state,
-            np.asarray(self._cmd_t),
-            np.asarray(self._cmd_v),
-            np.asarray(self._cmd_w),
+            np.asarray(self._cmd_t[i0:]),
+            np.asarray(self._cmd_v[i0:]),
+            np.asarray(self._cmd_w[i0:]),
             self.time_s,
             dt,
             n,
