@@ -69,7 +69,9 @@ def main() -> int:
     print(f"log: {span:.0f} s simulated ({trace.cmd_t_ns.size} commands, "
           f"{trace.meas_t_ns.size} odometry samples)")  # fmt: skip
     print(f"pybullet replay (240 Hz physics): {pybullet_s:8.3f} s  = {speedup:7.1f}x real time")
-    print(f"reduced  replay (200 Hz, numba):  {reduced_s:8.3f} s  = {span / reduced_s:7.0f}x real time")
+    print(
+        f"reduced  replay (200 Hz, numba):  {reduced_s:8.3f} s  = {span / reduced_s:7.0f}x real time"
+    )
     print(f"pybullet / reduced wall time: {pybullet_s / reduced_s:.0f}x")
     ok = speedup >= TARGET_SPEEDUP
     print(f"target >= {TARGET_SPEEDUP:.0f}x real time in pybullet: {'PASS' if ok else 'FAIL'}")
