@@ -192,14 +192,15 @@ def fill_standard_normal(rng: np.random.Generator, out: np.ndarray) -> np.ndarra
 class NormalPool:
     """Serve i.i.d. N(0, 1) samples from a block refilled from a generator.
 
-    Per-step noise on small arrays is dominated by call overhead; drawing a block of
-    ``block`` samples at a time and handing out consecutive slices keeps every sample used
-    once, in order, so the stream stays i.i.d. and reproducible. The block grows to four times
-    the largest request. :meth:`clear` drops the block (call it on reseeding).
+    Per-step noise on small arrays is dominated by call overhead; drawing a block at a time
+    and handing out consecutive slices keeps every sample used once, in order, so the stream
+    stays i.i.d. and reproducible. The block holds 64 requests of the first size asked for
+    (between 1024 and 65536 samples) and grows to four times any larger request.
+    :meth:`clear` drops the block (call it on reseeding).
 
     Examples
     --------
-    >>> pool = NormalPool(np.float32, block=1024)
+    >>> pool = NormalPool(np.float32)
     >>> rng = np.random.default_rng(0)
     >>> a = pool.take(rng, 10).copy()
     >>> pool.clear()
@@ -207,9 +208,8 @@ class NormalPool:
     True
     """
 
-    def __init__(self, dtype: type[np.floating] | np.dtype, block: int = 1 << 16) -> None:  # type: ignore[type-arg]
+    def __init__(self, dtype: type[np.floating] | np.dtype) -> None:  # type: ignore[type-arg]
         self.dtype = np.dtype(dtype)
-        self.block = block
         self._buf = np.empty(0, dtype=self.dtype)  # allocated at the first take
         self._pos = 0
 
@@ -219,11 +219,10 @@ class NormalPool:
 
     def take(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """Return ``n`` fresh samples (a view valid until the next call; do not keep it)."""
-        if 4 * n > self.block:
-            self.block = 4 * n
         if self._pos + n > self._buf.size:
-            if self._buf.size != self.block:
-                self._buf = np.empty(self.block, dtype=self.dtype)
+            if self._buf.size < n:
+                size = max(1024, min(1 << 16, 64 * n)) if self._buf.size == 0 else 4 * n
+                self._buf = np.empty(max(size, n), dtype=self.dtype)
             fill_standard_normal(rng, self._buf)
             self._pos = 0
         view = self._buf[self._pos : self._pos + n]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from randomizers._gauss import ZIGGURAT_LAYERS, fill_standard_normal, ziggurat_tables
+from randomizers._gauss import ZIGGURAT_LAYERS, NormalPool, fill_standard_normal, ziggurat_tables
 
 
 @pytest.fixture(scope="module")
@@ -70,3 +70,21 @@ def test_empty_and_odd_sizes() -> None:
     assert fill_standard_normal(rng, np.empty(0)).size == 0
     out = fill_standard_normal(rng, np.full(7, np.nan))
     assert np.all(np.isfinite(out))
+
+
+def test_pool_hands_out_consecutive_slices_of_the_stream() -> None:
+    pool = NormalPool(np.float64)
+    rng = np.random.default_rng(4)
+    taken = np.concatenate([pool.take(rng, 8).copy() for _ in range(256)])  # two 1024 blocks
+    direct = np.random.default_rng(4)
+    expected = np.concatenate([fill_standard_normal(direct, np.empty(1024)) for _ in range(2)])
+    np.testing.assert_array_equal(taken, expected)
+
+
+def test_pool_grows_for_large_requests_and_clear_restarts() -> None:
+    pool = NormalPool(np.float32)
+    pool.take(np.random.default_rng(1), 2)
+    big = pool.take(np.random.default_rng(1), 100_000).copy()  # needs a new, larger block
+    assert big.size == 100_000 and big.dtype == np.float32
+    pool.clear()  # as on reset(seed=...): the same seed gives the same samples again
+    np.testing.assert_array_equal(pool.take(np.random.default_rng(1), 100_000), big)
