@@ -130,3 +130,47 @@ def test_set_scale_takes_effect_at_next_reset() -> None:
     assert info["randomization"]["GoalNoise[goal]"]["std_m"] == 0.2
     _, info = env.reset()
     assert env.scale == 0.0 and info["randomization"]["GoalNoise[goal]"]["offset_m"] == [0.0, 0.0]
+
+
+def _entry_name(env: Any) -> str:
+    return next(iter(randomizers.iter_randomizers(env))).name
+
+
+@pytest.mark.parametrize("position", range(len(FULL_STACK["randomizers"])))
+def test_each_wrapper_draws_the_same_alone_and_in_the_full_stack(position: int) -> None:
+    entry = FULL_STACK["randomizers"][position]
+    alone = randomizers.from_config(NavDouble(), {"randomizers": [entry]})
+    name = _entry_name(alone)
+    full = randomizers.from_config(NavDouble(), FULL_STACK)
+    records = []
+    for env in (alone, full):
+        _, info = env.reset(seed=21)
+        seen = [info["randomization"][name]]
+        for _ in range(3):
+            info = env.step(np.array([0.2, 0.1], np.float32))[4]
+            seen.append(info.get("randomization", {}).get(name))
+        records.append(seen)
+    assert records[0] == records[1]
+
+
+def test_scale_zero_everywhere_gives_the_bare_envs_observations() -> None:
+    env = randomizers.from_config(NavDouble(), FULL_STACK)
+    randomizers.set_scale(env, 0.0)
+    bare = NavDouble()
+    acts = [np.array([0.1 * i, -0.1], np.float32) for i in range(6)]
+    got = _rollout_actions(env, acts)
+    want = _rollout_actions(bare, acts)
+    for a, b in zip(got, want, strict=True):
+        for key in a:
+            np.testing.assert_array_equal(a[key], b[key])
+    record = env.reset(seed=0)[1]["randomization"]
+    assert record["DynamicsRandomizer"]["coulomb_v_fwd_n"] == 1.0  # centre of [0.5, 1.5]
+    assert record["ActionDelay"]["delay_steps"] == 0
+    assert record["CameraPoseJitter"]["position_offset_m"] == [0.0, 0.0, 0.0]
+
+
+def _rollout_actions(env: Any, actions: list[np.ndarray]) -> list[dict[str, np.ndarray]]:
+    obs, _ = env.reset(seed=8)
+    out = [obs]
+    out.extend(env.step(a)[0] for a in actions)
+    return out
