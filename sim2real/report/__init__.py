@@ -484,7 +484,9 @@ def write_report(path: str | Path, data: ReportInput, *, write_pngs: bool = True
         tables.append(_params_table(data.params))
     if data.provenance:
         tables.append(
-            Table(title="Provenance", header=["item", "value"], rows=list(data.provenance))
+            Table(
+                title="Provenance", header=["item", "value"], rows=list(data.provenance), wrap=True
+            )
         )
     page = render_page(
         title=data.title,

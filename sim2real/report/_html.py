@@ -28,7 +28,8 @@ padding:14px 18px;box-shadow:0 1px 3px rgba(0,0,0,.12);min-width:200px;flex:1}
 .good{color:#1b7e3c}.mid{color:#b36b00}.bad{color:#b3261e}
 table{border-collapse:collapse;background:#fff;width:100%;font-size:.88rem;
 box-shadow:0 1px 3px rgba(0,0,0,.08)}th,td{padding:5px 9px;border-bottom:1px solid #eee;
-text-align:right}th:first-child,td:first-child{text-align:left}th{background:#eef0f3}
+text-align:right}.nowrap td{white-space:nowrap}.wrap td{word-break:break-all;text-align:left}
+.wrap td:first-child{white-space:nowrap;word-break:normal}th:first-child,td:first-child{text-align:left}th{background:#eef0f3}
 figure{margin:12px 0;background:#fff;padding:8px;border-radius:8px;
 box-shadow:0 1px 3px rgba(0,0,0,.08)}figure img{width:100%;height:auto;display:block}
 figcaption{font-size:.85rem;color:#444;margin-top:4px}.note{font-size:.85rem;color:#555}
@@ -56,6 +57,7 @@ class Table:
     header: Sequence[str]
     rows: Sequence[Sequence[str]]
     note: str = ""
+    wrap: bool = False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -93,8 +95,10 @@ def _table(table: Table) -> str:
         "<tr>" + "".join(f"<td>{_e(c)}</td>" for c in row) + "</tr>" for row in table.rows
     )
     note = f'<p class="note">{_e(table.note)}</p>' if table.note else ""
+    cls = "wrap" if table.wrap else "nowrap"
     return (
-        f"<h2>{_e(table.title)}</h2>{note}<table><thead><tr>{head}</tr></thead>"
+        f"<h2>{_e(table.title)}</h2>{note}"
+        f'<table class="{cls}"><thead><tr>{head}</tr></thead>'
         f"<tbody>{body}</tbody></table>"
     )
 
