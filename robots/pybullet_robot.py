@@ -34,12 +34,12 @@ Every physics step thus applies the reduced model's forces to a rigid multibody 
 contacts; on flat ground the two agree to ~2e-4 m/s and ~3e-3 rad/s RMS (tests), and they part
 where the reduced model has no say: collisions, slopes, wheels leaving the ground.
 
-Synthetic ground truth for sysid: run at ``physics_hz=200`` (``1 / robots.reduced.DEFAULT_DT_S``)
-so both models step on the same 5 ms grid: they then agree to ~5e-5 m/s and ~5e-4 rad/s RMS and a
-least-squares fit of the reduced model recovers the parameters within ~1 % (tests). At 240 Hz the
-remaining difference is the reduced model's own 5 ms discretisation (the TurtleBot3 yaw loop has a
-~20 ms time constant), which biases a fitted yaw inertia by 10-30 %; or fit with
-``simulate(..., dt_s=1 / physics_hz)``.
+Synthetic ground truth for sysid: the default ``physics_hz=240`` equals
+``1 / robots.reduced.DEFAULT_DT_S``, so both models step on the same grid: they then agree to
+~5e-5 m/s and ~5e-4 rad/s RMS and a least-squares fit of the reduced model recovers the parameters
+within ~1 % (tests). With another physics rate, fit with ``simulate(..., dt_s=1 / physics_hz)``:
+the TurtleBot3 yaw loop has a ~20 ms time constant, so a mismatched step biases a fitted yaw
+inertia by 10-30 %.
 
 Example
 -------

@@ -50,8 +50,9 @@ __all__ = [
     "simulate",
 ]
 
-#: Default integration step of the reduced model, s (200 Hz: 1/20 of the fastest loop we fit).
-DEFAULT_DT_S = 0.005
+#: Default integration step of the reduced model, s: pybullet's default 240 Hz physics step, so
+#: the reduced model and :class:`robots.PybulletRobot` step on the same grid by default.
+DEFAULT_DT_S = 1.0 / 240.0
 
 FloatArray = NDArray[np.float64]
 

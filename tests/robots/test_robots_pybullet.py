@@ -319,9 +319,9 @@ def test_bad_arguments_are_refused() -> None:
 def test_reduced_model_fitted_to_a_pybullet_log_recovers_the_parameters(name: str) -> None:
     """What sysid does with synthetic ground truth: the fit lands within 3 % of the truth.
 
-    The robot runs at 200 Hz physics, the reduced model's own step (``DEFAULT_DT_S``), so the
-    two discretisations match (at 240 Hz the reduced model's 5 ms step biases the fitted yaw
-    inertia of the TurtleBot3s, whose yaw loop has a ~20 ms time constant).
+    The robot runs at the reduced model's own step (``1 / DEFAULT_DT_S``, pybullet's default
+    240 Hz), so the two discretisations match (a mismatched step biases the fitted yaw inertia
+    of the TurtleBot3s, whose yaw loop has a ~20 ms time constant).
     """
     from scipy.optimize import least_squares
 
