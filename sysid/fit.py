@@ -73,7 +73,7 @@ _Z95 = 1.959963984540054
 #: Logs longer than this (s, in total) are first fitted on their busiest windows.
 _COARSE_SPAN_S = 150.0
 #: Residual-evaluation cap of the polishing pass on all the data.
-_POLISH_NFEV = 6
+_POLISH_NFEV = 3
 
 
 def _span(log: LogArrays) -> float:
@@ -151,6 +151,7 @@ def score_logs(
     dt_s: float = DEFAULT_DT_S,
     tol_v: float = metrics.DEFAULT_TOL_V,
     tol_w: float = metrics.DEFAULT_TOL_W,
+    odom_v_window_s: float = 0.0,
 ) -> tuple[FitScores, ...]:
     """FIT %, agreement and RMSE of ``params`` on each log (model started at the first sample).
 
@@ -169,6 +170,7 @@ def score_logs(
         scale_v=1.0,
         scale_w=1.0,
         dt_s=dt_s,
+        v_window_s=odom_v_window_s,
     )
     out = []
     for log, sim in zip(prob.logs, prob.simulate(params), strict=True):
@@ -396,6 +398,7 @@ def fit_drive(
     tol_v: float = metrics.DEFAULT_TOL_V,
     tol_w: float = metrics.DEFAULT_TOL_W,
     dt_s: float = DEFAULT_DT_S,
+    odom_v_window_s: float = 0.0,
     max_nfev: int = 60,
     python: bool = False,
     progress: Progress | None = None,
@@ -429,6 +432,11 @@ def fit_drive(
         Agreement tolerances (m/s, rad/s) for the scores.
     dt_s : float
         Integration step of the reduced model, s (use the step the params will be used with).
+    odom_v_window_s : float
+        Measurement model of v: the odometry's v is the mean over this preceding window, s
+        (wheel-encoder tick differences over one odometry period, e.g. 1/30 s on a
+        TurtleBot3); 0 (default) compares the instantaneous model v. Without it, encoder
+        odometry looks half a period late and the fitted delay absorbs that.
     max_nfev : int
         Cap on residual evaluations of the optimiser.
     python : bool
@@ -453,6 +461,11 @@ def fit_drive(
         raise SysidValueError("no fitting log given; pass at least one VelocityLog")
     if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
         raise SysidValueError(f"dt_s must be in (0, 0.05] s, got {dt_s!r}; e.g. dt_s=0.005")
+    if not (math.isfinite(odom_v_window_s) and 0 <= odom_v_window_s <= 1.0):
+        raise SysidValueError(
+            f"odom_v_window_s must be in [0, 1] s, got {odom_v_window_s!r}; e.g. 1/30 for a "
+            "30 Hz encoder odometry, 0 for instantaneous velocity"
+        )
     report = progress or (lambda stage, frac: None)
     fit_logs = [as_log_arrays(g, i) for i, g in enumerate(logs)]
     val_logs = [as_log_arrays(g, len(fit_logs) + i) for i, g in enumerate(validate)]
@@ -481,6 +494,7 @@ def fit_drive(
         weight_w=weights[1],
         dt_s=dt_s,
         python=python,
+        v_window_s=odom_v_window_s,
         on_eval=on_eval,
     )
     x0 = np.array([x0_map[f] for f in free_list])
@@ -502,6 +516,7 @@ def fit_drive(
             weight_w=weights[1],
             dt_s=dt_s,
             python=python,
+            v_window_s=odom_v_window_s,
             on_eval=on_eval,
         )
         x0 = np.asarray(_solve(coarse, x0, exc.coupled, loss, f_scale, max_nfev).x)
@@ -515,7 +530,8 @@ def fit_drive(
     x = np.asarray(res.x)
     dropped = _drop_inactive_limits(prob, x, base_params, notes)
     keep = [j for j in range(len(free_list)) if j not in dropped]
-    cov_k, inflation, weak = _covariance(res, prob, keep)
+    with threadpool_limits(limits=1):
+        cov_k, inflation, weak = _covariance(res, prob, keep)
     for j in weak:
         notes.append(
             f"{free_list[keep[j]]} is not determined by the log (flat or degenerate direction of "
@@ -525,7 +541,16 @@ def fit_drive(
     cov[np.ix_(keep, keep)] = cov_k
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     kept_free = [free_list[j] for j in keep]
-    prob_kept = Problem(fit_logs, mapper, kept_free, exc.ties, scale_v=sv, scale_w=sw, dt_s=dt_s)
+    prob_kept = Problem(
+        fit_logs,
+        mapper,
+        kept_free,
+        exc.ties,
+        scale_v=sv,
+        scale_w=sw,
+        dt_s=dt_s,
+        v_window_s=odom_v_window_s,
+    )
     params = prob_kept.params(x[keep])
     for j, f in enumerate(free_list):
         c = COORDS[f]
@@ -559,12 +584,9 @@ def fit_drive(
     )
     identifiable = _identifiable(prob_kept, x[keep], sub_cov, mapper, weak)
     report("scoring", 0.95)
-    scores_fit = score_logs(fit_logs, params, geometry, dt_s=dt_s, tol_v=tol_v, tol_w=tol_w)
-    scores_val = (
-        score_logs(val_logs, params, geometry, dt_s=dt_s, tol_v=tol_v, tol_w=tol_w)
-        if val_logs
-        else ()
-    )
+    kw_scores = {"dt_s": dt_s, "tol_v": tol_v, "tol_w": tol_w, "odom_v_window_s": odom_v_window_s}
+    scores_fit = score_logs(fit_logs, params, geometry, **kw_scores)
+    scores_val = score_logs(val_logs, params, geometry, **kw_scores) if val_logs else ()
     data = tuple(DataFile(file=g.name, sha256=g.sha256, role="fit") for g in fit_logs) + tuple(
         DataFile(file=g.name, sha256=g.sha256, role="validation") for g in val_logs
     )
@@ -575,6 +597,7 @@ def fit_drive(
         "scale_w": sw,
         "weights": list(weights),
         "dt_s": dt_s,
+        "odom_v_window_s": odom_v_window_s,
         "free": kept_free,
         "ties": dict(exc.ties),
         "motor_gain_prior_nms_per_rad": base_params.motor_gain_nms_per_rad,
