@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 
+from sim2real.envs.baselines import DWAController, EvalSummary, evaluate
 from sim2real.envs.crowd_nav import SCENARIOS, CrowdNavEnv, CrowdNavReward
 from sim2real.envs.maps import PAPER_RHO_OBS, PRESETS, MapConfig, generate_map
 from sim2real.envs.metrics import EpisodeMetrics
@@ -37,10 +38,13 @@ __all__ = [
     "SCENARIOS",
     "CrowdNavEnv",
     "CrowdNavReward",
+    "DWAController",
     "EpisodeMetrics",
+    "EvalSummary",
     "MapConfig",
     "RandomMapEnv",
     "RandomMapReward",
+    "evaluate",
     "generate_map",
 ]
 
