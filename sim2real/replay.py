@@ -15,13 +15,12 @@ does). What was commanded before the log began is unknown; when no logged comman
 synthetic command :math:`(v(t_0), \omega(t_0))` at :math:`t_0 - \text{delay}`), so a log that
 starts in motion does not begin with a spurious stop.
 
-- ``pybullet``: the robot is stepped between consecutive *events* (command times, timeout
-  times and measurement times merged), each time with the command held at the start of the
-  interval, for a whole number of physics steps (240 Hz by default). Step counts come from the
-  event times rounded to the physics grid, so time never drifts (error <= half a physics step).
-  The transport delay is the robot's own (``DriveParams.delay_s``); the robot's delay line
-  and velocity smoother are preloaded with the synthetic start command.
-- ``reduced``: :func:`robots.reduced.simulate` over the whole command history.
+- ``pybullet``: :meth:`robots.pybullet_robot.PybulletRobot.replay` steps the rigid-body robot
+  on its physics grid (240 Hz by default) from :math:`t_0`; each physics step gets the delayed,
+  zero-order-hold command averaged over the step (with the command timeout), from the whole
+  command history, so commands sent before :math:`t_0` act through the delay; the base
+  velocity is interpolated linearly at each measurement time.
+- ``reduced``: :func:`robots.reduced.simulate` over the whole command history, the same way.
 
 Example
 -------
@@ -37,7 +36,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -270,77 +269,6 @@ def _with_start_command(
     )
 
 
-@dataclass(frozen=True, kw_only=True)
-class _EventPlan:
-    """The merged event grid of a pybullet replay."""
-
-    n_steps: IntArray  # physics steps from event i to event i+1
-    cmd_v: FloatArray  # command held during interval i
-    cmd_w: FloatArray
-    meas_event: IntArray  # event index of each measurement
-
-
-def plan_events(
-    cmd_t: FloatArray,
-    cmd_v: FloatArray,
-    cmd_w: FloatArray,
-    meas_t: FloatArray,
-    *,
-    timeout_s: float,
-    physics_hz: float,
-) -> _EventPlan:
-    """Merge command, timeout and measurement times from ``meas_t[0]`` on into one grid."""
-    t0 = float(meas_t[0])
-    parts = [cmd_t, meas_t]
-    if math.isfinite(timeout_s):
-        ends = cmd_t + timeout_s
-        nxt = np.append(cmd_t[1:], np.inf)
-        parts.append(ends[ends < nxt])
-    events = np.unique(np.concatenate(parts))
-    events = events[(events >= t0) & (events <= meas_t[-1])]
-    idx = np.searchsorted(cmd_t, events, side="right") - 1
-    held = idx >= 0
-    safe = np.clip(idx, 0, None)
-    if math.isfinite(timeout_s):
-        held &= events - cmd_t[safe] < timeout_s
-    ev_v = np.where(held, cmd_v[safe], 0.0)
-    ev_w = np.where(held, cmd_w[safe], 0.0)
-    ticks = np.rint((events - t0) * physics_hz).astype(np.int64)
-    return _EventPlan(
-        n_steps=np.diff(ticks),
-        cmd_v=ev_v[:-1],
-        cmd_w=ev_w[:-1],
-        meas_event=np.searchsorted(events, meas_t).astype(np.int64),
-    )
-
-
-def _make_pybullet_robot(spec: RobotSpecLike, params: DriveParams, physics_hz: float) -> Any:
-    from robots.pybullet_robot import PybulletRobot  # heavy import (pybullet) only when needed
-
-    return PybulletRobot(spec, params=params, physics_hz=physics_hz)  # type: ignore[arg-type]
-
-
-def _preload_commands(
-    robot: Any,
-    cmd_t: FloatArray,
-    cmd_v: FloatArray,
-    cmd_w: FloatArray,
-    t_start: float,
-) -> None:
-    """Put the commands sent before ``t_start`` into the robot's delay line.
-
-    ``PybulletRobot`` has no public way to preload its command history (times on its own clock,
-    which is 0 at ``t_start``), so this writes it directly; a robot without that history
-    starts with an empty delay line.
-    """
-    if not all(hasattr(robot, a) for a in ("_cmd_t", "_cmd_v", "_cmd_w")):
-        return
-    before = cmd_t < t_start
-    robot._cmd_t[:0] = (cmd_t[before] - t_start).tolist()
-    robot._cmd_v[:0] = cmd_v[before].tolist()
-    robot._cmd_w[:0] = cmd_w[before].tolist()
-
-
 def _replay_pybullet(
     spec: RobotSpecLike,
     params: DriveParams,
@@ -351,26 +279,13 @@ def _replay_pybullet(
     initial: tuple[float, float],
     physics_hz: float,
 ) -> tuple[FloatArray, FloatArray]:
-    plan = plan_events(
-        cmd_t, cmd_v, cmd_w, meas_t, timeout_s=params.cmd_timeout_s, physics_hz=physics_hz
-    )
-    robot = _make_pybullet_robot(spec, params, physics_hz)
+    from robots.pybullet_robot import PybulletRobot  # heavy import (pybullet) only when needed
+
+    robot = PybulletRobot(spec, params=params, physics_hz=physics_hz)  # type: ignore[arg-type]
     try:
-        robot.set_velocity(*initial)
-        _preload_commands(robot, cmd_t, cmd_v, cmd_w, float(meas_t[0]))
-        n_events = plan.n_steps.size + 1
-        ev_v = np.empty(n_events)
-        ev_w = np.empty(n_events)
-        v, w = initial
-        ev_v[0], ev_w[0] = v, w
-        dt = 1.0 / physics_hz
-        steps, uv, uw = plan.n_steps.tolist(), plan.cmd_v.tolist(), plan.cmd_w.tolist()
-        for i in range(n_events - 1):
-            if steps[i] > 0:
-                v, w = robot.step(uv[i], uw[i], steps[i] * dt)
-            ev_v[i + 1], ev_w[i + 1] = v, w
+        out = robot.replay(
+            cmd_t_s=cmd_t, cmd_v=cmd_v, cmd_w=cmd_w, t_out_s=meas_t, v0=initial[0], w0=initial[1]
+        )
     finally:
-        close = getattr(robot, "close", None)
-        if callable(close):
-            close()
-    return ev_v[plan.meas_event], ev_w[plan.meas_event]
+        robot.close()
+    return np.asarray(out.v, dtype=np.float64), np.asarray(out.w, dtype=np.float64)

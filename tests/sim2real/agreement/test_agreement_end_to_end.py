@@ -65,8 +65,12 @@ def test_generator_is_seeded_and_its_noise_is_as_documented() -> None:
     gyro = a.meas_w - a.true_w
     assert gyro.mean() == pytest.approx(0.003, abs=0.001)
     assert gyro.std() == pytest.approx(0.012, rel=0.08)
-    # encoder v: quantisation + slip noise stay far inside the 0.02 m/s tolerance
-    assert np.percentile(np.abs(a.meas_v - a.true_v), 99) < 0.01
+    # encoder v (ticks differenced over each 1/30 s period) vs the instantaneous true v:
+    # quantisation + slip noise + the period average (<= 0.6 m/s^2 * 1/60 s = 0.01 m/s while
+    # accelerating) stay inside the 0.02 m/s tolerance
+    err_v = np.abs(a.meas_v - a.true_v)
+    assert np.median(err_v) < 0.003
+    assert np.percentile(err_v, 99) < 0.013
     assert 0.97 < a.meas_t_ns.size / (a.duration_s * 30.0) < 0.99
     assert np.all(np.diff(a.meas_t_ns) > 0)
     c = build_sample("train", engine="reduced")

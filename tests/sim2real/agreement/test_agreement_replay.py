@@ -2,20 +2,17 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 from _agreement_fixtures import ROBOT, T0_NS, hidden_params, spec, write_log
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from robots.reduced import simulate
 from sim2real.agreement import measure_agreement
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import Trace, read_trace, write_velocity_log
-from sim2real.replay import plan_events, replay
+from sim2real.replay import replay
 
 
 @pytest.fixture(scope="module")
@@ -59,27 +56,6 @@ def test_pybullet_replay_matches_the_reduced_model(trace: Trace) -> None:
     assert bullet.elapsed_s < bullet.duration_s  # faster than real time even on a busy machine
 
 
-def test_event_plan_merges_commands_timeouts_and_measurements() -> None:
-    cmd_t = np.array([0.0, 0.1, 1.0])
-    plan = plan_events(
-        cmd_t, np.array([0.2, 0.3, 0.1]), np.zeros(3), np.array([0.05, 0.5, 1.2]),
-        timeout_s=0.5, physics_hz=100.0,
-    )  # fmt: skip
-    # events: 0.05 (meas), 0.1 (cmd), 0.5 (meas), 0.6 (timeout of cmd 0.1), 1.0 (cmd), 1.2 (meas)
-    np.testing.assert_array_equal(plan.n_steps, [5, 40, 10, 40, 20])
-    np.testing.assert_allclose(plan.cmd_v, [0.2, 0.3, 0.3, 0.0, 0.1])
-    np.testing.assert_array_equal(plan.meas_event, [0, 2, 5])
-
-
-def test_event_plan_never_drifts_from_the_physics_grid() -> None:
-    rng = np.random.default_rng(0)
-    meas = np.cumsum(rng.uniform(0.02, 0.05, 2000))
-    cmd = np.cumsum(rng.uniform(0.05, 0.15, 600))
-    plan = plan_events(cmd, np.ones(600), np.zeros(600), meas, timeout_s=math.inf, physics_hz=240.0)
-    steps_to_last = int(plan.n_steps[: plan.meas_event[-1]].sum())
-    assert abs(steps_to_last / 240.0 - (meas[-1] - meas[0])) <= 0.5 / 240.0 + 1e-12
-
-
 @pytest.mark.parametrize("engine", ["reduced", pytest.param("pybullet", marks=pytest.mark.slow)])
 def test_initial_state_is_the_first_measurement(tmp_path: Path, engine: str) -> None:
     """A log that starts while the robot cruises at 0.15 m/s, 0.5 rad/s."""
@@ -114,31 +90,6 @@ def test_bad_engine_and_trace_without_commands_are_refused(trace: Trace) -> None
         replay(empty, robot=ROBOT, engine="reduced")
 
 
-@settings(max_examples=40, deadline=None)
-@given(
-    st.lists(st.floats(0.01, 0.5), min_size=2, max_size=30),
-    st.lists(st.floats(0.005, 0.2), min_size=3, max_size=60),
-    st.floats(0.1, 2.0),
-)
-def test_event_plan_holds_the_logged_command(
-    cmd_gaps: list[float], meas_gaps: list[float], timeout_s: float
-) -> None:
-    cmd_t = np.cumsum(cmd_gaps)
-    meas_t = np.cumsum(meas_gaps)
-    cmd_v = np.arange(1.0, cmd_t.size + 1.0)
-    plan = plan_events(cmd_t, cmd_v, -cmd_v, meas_t, timeout_s=timeout_s, physics_hz=240.0)
-    ends = cmd_t + timeout_s  # a timeout is an event unless the next command comes first
-    ends = ends[ends < np.append(cmd_t[1:], np.inf)]
-    events = np.unique(np.concatenate([cmd_t, meas_t, ends]))
-    events = events[(events >= meas_t[0]) & (events <= meas_t[-1])]
-    for k, e in enumerate(events[:-1]):
-        i = np.searchsorted(cmd_t, e, side="right") - 1
-        held = cmd_v[i] if i >= 0 and e - cmd_t[i] < timeout_s else 0.0
-        assert plan.cmd_v[k] == held and plan.cmd_w[k] == -held
-    assert plan.n_steps.sum() == round((events[-1] - meas_t[0]) * 240.0)
-    assert np.all(plan.n_steps >= 0)
-
-
 @pytest.mark.slow
 def test_commands_before_the_first_odometry_are_in_the_delay_line(tmp_path: Path) -> None:
     """Commands start 1 s before odometry is recorded; both engines agree from the start."""
@@ -164,3 +115,26 @@ def test_commands_before_the_first_odometry_are_in_the_delay_line(tmp_path: Path
         sim = replay(trace, robot=ROBOT, params=p, engine=engine)
         np.testing.assert_allclose(sim.v, true.v[1:], atol=0.01)
         np.testing.assert_allclose(sim.w, true.w[1:], atol=0.05)
+
+
+@pytest.mark.parametrize("engine", ["reduced", pytest.param("pybullet", marks=pytest.mark.slow)])
+def test_the_base_stops_after_the_command_timeout(tmp_path: Path, engine: str) -> None:
+    """Commands stop at 1 s; the spec's 0.5 s timeout stops the base, as the firmware does."""
+    cmd_t = np.arange(0.0, 1.05, 0.1)
+    meas_t = np.arange(0.0, 4.0, 1 / 30)
+    path = tmp_path / "stop.mcap"
+    write_velocity_log(
+        path,
+        cmd_t_ns=T0_NS + np.rint(cmd_t * 1e9).astype(np.int64),
+        cmd_v=np.full(cmd_t.size, 0.15),
+        cmd_w=np.zeros(cmd_t.size),
+        meas_t_ns=T0_NS + np.rint(meas_t * 1e9).astype(np.int64),
+        meas_v=np.zeros(meas_t.size),
+        meas_w=np.zeros(meas_t.size),
+    )
+    p = spec().drive
+    assert p.cmd_timeout_s == 0.5
+    sim = replay(read_trace(path), robot=ROBOT, params=p, engine=engine)
+    t = sim.t_s
+    assert sim.v[(t > 0.8) & (t < 1.4)].min() > 0.12  # still driving until the timeout
+    np.testing.assert_allclose(sim.v[t > 2.5], 0.0, atol=0.005)  # stopped
