@@ -28,6 +28,7 @@ _FIT_EXAMPLES = """\
       --window 0:20 --validate goal.mcap --validate-window 20:40   # fit one part, check another
   sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --free delay_s,added_mass_kg
   sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --cmd-topic /mobile_base/cmd_vel
+  sim2real sysid fit real.mcap --robot turtlebot3_burger -o p.yaml --odom-v-window auto
 """
 _SHOW_EXAMPLES = """\
   sim2real sysid show params.yaml
@@ -88,6 +89,16 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="robust loss (default: soft_l1)",
     )
     fit.add_argument("--dt", type=float, default=0.005, help="model integration step, s")
+    fit.add_argument(
+        "--odom-v-window",
+        default="0",
+        metavar="S|auto",
+        help=(
+            "odometry v is a wheel-encoder tick difference over this window, s ('auto': one "
+            "period of the spec's odometry rate, e.g. 1/30 s on a TurtleBot3); 0 = compare the "
+            "instantaneous model v (default, as the pybullet robot reports it)"
+        ),
+    )
     fit.set_defaults(handler=_fit)
     show = add_command(
         group_sub,
@@ -114,6 +125,20 @@ def _window(text: str | None, option: str) -> tuple[float, float] | None:
             "e.g. --window 0:30"
         )
     return start, end
+
+
+def _v_window(text: str, rate_hz: float) -> float:
+    if text == "auto":
+        return 1.0 / rate_hz
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0.0 <= value <= 1.0):
+        raise Sim2RealValueError(
+            f"--odom-v-window must be 'auto' or seconds in [0, 1], got {text!r}; e.g. 0.0333"
+        )
+    return value
 
 
 def _free(text: str) -> str | list[str]:
@@ -180,6 +205,7 @@ def _fit(args: argparse.Namespace) -> int:
             robot=spec.name,
             loss=args.loss,
             dt_s=args.dt,
+            odom_v_window_s=_v_window(args.odom_v_window, spec.odometry.rate_hz),
             progress=progress,
         )
     with atomic_write(out, "w", what="params file") as fh:

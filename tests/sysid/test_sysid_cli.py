@@ -73,7 +73,7 @@ def test_window_and_free(logs: tuple[Path, Path], tmp_path: Path) -> None:
     code = main(
         [
             *("sysid", "fit", str(train), "--robot", "turtlebot3_burger", "-o", str(out)),
-            *("--window", "0:20", "--free", "delay_s,added_mass_kg"),
+            *("--window", "0:20", "--free", "delay_s,added_mass_kg", "--odom-v-window", "auto"),
         ]
     )
     assert code == 0
@@ -81,6 +81,7 @@ def test_window_and_free(logs: tuple[Path, Path], tmp_path: Path) -> None:
     fitted = {k for k, v in doc["parameters"].items() if v["status"] in ("fitted", "derived")}
     assert fitted == {"delay_s", "added_mass_kg"}
     assert doc["data"][0]["file"].endswith("train.mcap[0:20]")
+    assert doc["settings"]["odom_v_window_s"] == pytest.approx(1 / 30)  # Burger odometry 30 Hz
 
 
 @pytest.mark.parametrize(
@@ -89,6 +90,7 @@ def test_window_and_free(logs: tuple[Path, Path], tmp_path: Path) -> None:
         (["--robot", "no_such_robot"], "unknown robot 'no_such_robot'"),
         (["--window", "5:2"], "--window must be START:END"),
         (["--free", "mass"], "unknown free parameter 'mass'"),
+        (["--odom-v-window", "soon"], "--odom-v-window must be 'auto' or seconds"),
     ],
 )
 def test_bad_arguments_exit_2_without_output(
