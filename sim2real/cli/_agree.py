@@ -15,9 +15,13 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from sim2real.cli._common import add_command
+
+if TYPE_CHECKING:  # the CLI imports the heavy modules inside the handlers only
+    from sim2real.agreement import AgreementReport, EnsembleResult
+    from sim2real.report import ReportRun
 
 __all__ = ["AgreeOutcome", "register", "run_agree", "summary_table"]
 
@@ -98,9 +102,9 @@ class AgreeOutcome:
         The ensemble, when requested.
     """
 
-    main: Any
-    runs: tuple[Any, ...]
-    ensemble: Any
+    main: AgreementReport
+    runs: tuple[ReportRun, ...]
+    ensemble: EnsembleResult | None
 
 
 def _sha256(path: str | Path) -> str:
