@@ -39,7 +39,7 @@ Example
 -------
 >>> from sim2real.envs.pedestrians import walking_speed
 >>> round(float(walking_speed(1.34, 1.0, 1.72)), 3)
-1.076
+1.075
 """
 
 from __future__ import annotations
