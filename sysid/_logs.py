@@ -11,7 +11,15 @@ from numpy.typing import NDArray
 
 from sysid.errors import SysidValueError
 
-__all__ = ["LogArrays", "VelocityLog", "as_log_arrays", "crop_log", "log_name", "log_sha256"]
+__all__ = [
+    "LogArrays",
+    "VelocityLog",
+    "as_log_arrays",
+    "crop_log",
+    "log_name",
+    "log_sha256",
+    "log_warnings",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -80,6 +88,13 @@ def log_sha256(log: object) -> str | None:
     meta = getattr(log, "meta", None)
     sha = getattr(meta, "sha256", None) if meta is not None else getattr(log, "sha256", None)
     return str(sha) if sha else None
+
+
+def log_warnings(log: object) -> tuple[str, ...]:
+    """Warnings the log reader attached to the log (``meta.warnings``), if any."""
+    meta = getattr(log, "meta", None)
+    found = getattr(meta, "warnings", ()) if meta is not None else ()
+    return tuple(str(w) for w in found) if isinstance(found, tuple | list) else ()
 
 
 def as_log_arrays(log: object, index: int = 0) -> LogArrays:

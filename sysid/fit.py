@@ -46,7 +46,7 @@ from sysid._coords import COORDS, UNITS, Mapper
 from sysid._excitation import analyse, held_command
 from sysid._initial import busiest_window, initial_coords
 from sysid._linear import first_order_stats
-from sysid._logs import LogArrays, as_log_arrays, crop_log
+from sysid._logs import LogArrays, as_log_arrays, crop_log, log_name, log_warnings
 from sysid._problem import Problem
 from sysid.errors import SysidValueError
 from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
@@ -471,7 +471,10 @@ def fit_drive(
     val_logs = [as_log_arrays(g, len(fit_logs) + i) for i, g in enumerate(validate)]
     report("checking excitation", 0.0)
     exc = analyse(fit_logs, geometry, base_params, free)
-    notes = list(exc.warnings)
+    notes = [
+        f"{log_name(g, i)}: {w}" for i, g in enumerate([*logs, *validate]) for w in log_warnings(g)
+    ]
+    notes += exc.warnings
     mapper = Mapper(geometry, base_params)
     report("initial estimates", 0.05)
     x0_map, spike_notes = initial_coords(fit_logs, geometry, base_params, exc.free, exc.ties)

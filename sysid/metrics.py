@@ -66,7 +66,8 @@ def fit_percent(y: ArrayLike, y_hat: ArrayLike) -> float:
     """
     a, b = _pair(y, y_hat)
     denom = float(np.linalg.norm(a - a.mean())) if a.size else 0.0
-    if denom == 0.0:
+    # a constant y (up to rounding of its mean) leaves the score undefined
+    if denom <= 1e-9 * max(float(np.linalg.norm(a)), 1e-300):
         return math.nan
     return 100.0 * (1.0 - float(np.linalg.norm(a - b)) / denom)
 

@@ -143,6 +143,29 @@ def test_short_and_flat_logs_exit_2(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert list(out.parent.iterdir()) == []
 
 
+def test_reader_warnings_reach_the_result(tmp_path: Path) -> None:
+    path = _write(tmp_path / "nan.mcap", seed=4, spike=None)
+    from sim2real.logs import read_trace
+
+    trace = read_trace(path)
+    meas_v = trace.meas_v.copy()
+    meas_v[100] = np.nan
+    bad = tmp_path / "with_nan.mcap"
+    write_velocity_log(
+        bad,
+        cmd_t_ns=trace.cmd_t_ns,
+        cmd_v=trace.cmd_v,
+        cmd_w=trace.cmd_w,
+        meas_t_ns=trace.meas_t_ns,
+        meas_v=meas_v,
+        meas_w=trace.meas_w,
+    )
+    out = tmp_path / "p.yaml"
+    assert main(["sysid", "fit", str(bad), "--robot", "turtlebot3_burger", "-o", str(out)]) == 0
+    warnings = yaml.safe_load(out.read_text())["warnings"]
+    assert any("with_nan.mcap" in w and "NaN" in w for w in warnings)
+
+
 def test_show_of_a_foreign_file_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     other = tmp_path / "x.yaml"
     other.write_text("format: other\n")
