@@ -180,6 +180,12 @@ class CrowdNavEnv(NavEnvBase):
         robot: str = "turtlebot2",
     ) -> None:
         self.scenario, self.complexity = self._check_scenario(scenario, complexity)
+        if num_pedestrians is not None and not (
+            isinstance(num_pedestrians, int) and num_pedestrians >= 0
+        ):
+            raise Sim2RealValueError(
+                f"num_pedestrians must be an integer >= 0 or None, got {num_pedestrians!r}"
+            )
         self.num_pedestrians = num_pedestrians
         super().__init__(
             robot=robot,

@@ -132,7 +132,7 @@ PAPER_RHO_OBS: dict[str, tuple[float, float]] = {
 
 def get_preset(name: str) -> MapConfig:
     """The preset called ``name`` (case-insensitive); unknown names raise with the known ones."""
-    key = name.upper()
+    key = str(name).upper()
     if key not in PRESETS:
         raise Sim2RealValueError(
             f"unknown map preset '{name}'; known presets are {', '.join(PRESETS)}"

@@ -111,7 +111,7 @@ class RandomMapEnv(NavEnvBase):
         robot: str = "turtlebot3_burger",
     ) -> None:
         self.map_config = map_config if map_config is not None else get_preset(preset)
-        self.preset = preset.upper() if map_config is None else "custom"
+        self.preset = str(preset).upper() if map_config is None else "custom"
         super().__init__(
             robot=robot,
             dynamics=dynamics,

@@ -142,3 +142,26 @@ def test_async_vector_env_runs() -> None:
         assert r.shape == (2,)
     finally:
         envs.close()
+
+
+def test_reward_terms_match_the_docstring(env: CrowdNavEnv) -> None:
+    cfg = env.reward_config
+    env.reset(seed=0, options={"scenario": "static", "complexity": 0.0})
+    d0 = env._goal_polar()[0]
+    _, r, *_ = env.step(np.array([0.5, 0.0]))
+    v, w = env._backend.velocity
+    d1 = env._goal_polar()[0]
+    prox = cfg.proximity * max(0.0, 1.0 - env._clearance() / cfg.safe_clearance_m)
+    expected = (
+        cfg.progress_per_m * (d0 - d1)
+        - cfg.step_penalty
+        - prox
+        - cfg.dv_per_mps * abs(v)
+        - cfg.dw_per_radps * abs(w)
+    )
+    assert r == pytest.approx(expected, abs=1e-9)
+
+
+def test_bad_constructor_pedestrian_count() -> None:
+    with pytest.raises(Sim2RealValueError, match="num_pedestrians"):
+        CrowdNavEnv(num_pedestrians=-1)
