@@ -176,6 +176,8 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
         super().reset(seed=seed)
+        if self._world is not None:
+            self._world.reset_simulation()
         x, y, yaw = self._build(dict(options or {}))
         self._backend.reset(x, y, yaw)
         self._tracker.reset(x, y)

@@ -128,6 +128,8 @@ class PybulletBackend:
     ) -> None:
         from robots.pybullet_robot import PybulletRobot
 
+        self._make = PybulletRobot
+        self._spec, self._client, self._physics_hz = spec, client, physics_hz
         self._robot = PybulletRobot(
             spec, client=client, params=params, physics_hz=physics_hz, start_pose=(0.0, 0.0, 0.0)
         )
@@ -148,7 +150,15 @@ class PybulletBackend:
         return float(v), float(w)
 
     def reset(self, x: float, y: float, yaw: float) -> None:
-        self._robot.reset(x, y, yaw)
+        """Load a new robot body at (x, y, yaw): the env resets the whole simulation first,
+        so that a seeded episode replays exactly (pybullet keeps contact caches otherwise)."""
+        self._robot = self._make(
+            self._spec,
+            client=self._client,
+            params=self._robot.get_drive_params(),
+            physics_hz=self._physics_hz,
+            start_pose=(x, y, yaw),
+        )
 
     def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
         v, w = self._robot.step(cmd_v, cmd_w, duration_s)

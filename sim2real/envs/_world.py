@@ -32,6 +32,15 @@ class PybulletWorld:
         self._peds: list[int] = []
         self._ped_key: tuple[float, ...] = ()
 
+    def reset_simulation(self) -> None:
+        """Remove every body and start from a fresh physics state (same seed, same rollout)."""
+        from robots.world import add_ground
+
+        self.p.resetSimulation(physicsClientId=self.client)
+        self.p.setGravity(0.0, 0.0, -9.81, physicsClientId=self.client)
+        self.ground = add_ground(self.client)
+        self._static, self._peds, self._ped_key = [], [], ()
+
     def close(self) -> None:
         """Disconnect the client (idempotent)."""
         if self.client >= 0:

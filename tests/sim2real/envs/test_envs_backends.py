@@ -59,3 +59,15 @@ def test_pybullet_backend_exposes_drive_params() -> None:
         assert obs.shape == (40,)
     finally:
         env.close()
+
+
+@pytest.mark.parametrize("env_id", ["sim2real/RandomMap-v0", "sim2real/CrowdNav-v0"])
+def test_pybullet_backend_passes_check_env_and_replays_seeds(env_id: str) -> None:
+    from gymnasium.utils.env_checker import check_env
+
+    kw = {"map_config": MapConfig(n_min=5, n_max=5)} if "RandomMap" in env_id else {}
+    env = gym.make(env_id, dynamics="pybullet", **kw)
+    try:
+        check_env(env.unwrapped, skip_render_check=True)  # includes step determinism per seed
+    finally:
+        env.close()
