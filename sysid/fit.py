@@ -42,6 +42,7 @@ from threadpoolctl import threadpool_limits
 from robots.params import BaseGeometry, DriveParams
 from robots.reduced import DEFAULT_DT_S
 from sysid import metrics
+from sysid._bootstrap import segment_bootstrap
 from sysid._coords import COORDS, UNITS, Mapper
 from sysid._excitation import analyse, held_command
 from sysid._initial import busiest_window, initial_coords
@@ -375,6 +376,27 @@ def _drop_inactive_limits(
     return dropped
 
 
+def _bootstrap_std(
+    logs: Sequence[LogArrays],
+    mapper: Mapper,
+    free: list[str],
+    ties: dict[str, str],
+    x_hat: FloatArray,
+    **kw: Any,
+) -> dict[str, float]:
+    """Bootstrap standard deviation of every fitted DriveParams value."""
+    if not free:
+        return {}
+    rows = segment_bootstrap(logs, mapper, free, ties, x_hat, **kw)
+    values = np.array(
+        [
+            [getattr(mapper.from_coords(dict(zip(free, r, strict=True)), ties), f) for f in free]
+            for r in rows
+        ]
+    )
+    return {f: float(np.std(values[:, j], ddof=1)) for j, f in enumerate(free)}
+
+
 def _linear_stats(identifiable: tuple[ParameterEstimate, ...]) -> dict[str, Any]:
     get = {e.name: e.value for e in identifiable}
     return {
@@ -401,6 +423,9 @@ def fit_drive(
     odom_v_window_s: float = 0.0,
     max_nfev: int = 60,
     python: bool = False,
+    bootstrap: int = 0,
+    segment_s: float = 10.0,
+    seed: int = 0,
     progress: Progress | None = None,
 ) -> SysidResult:
     r"""Fit the drive parameters of ``base_params`` to velocity logs.
@@ -441,6 +466,14 @@ def fit_drive(
         Cap on residual evaluations of the optimiser.
     python : bool
         Run the plain-Python model loop (benchmark baseline; identical numbers, much slower).
+    bootstrap : int
+        Number of block-bootstrap replicates over ``segment_s``-second segments of the fit
+        logs (0 = none); their standard deviations land in :attr:`SysidResult.bootstrap_std`
+        as a check on the Jacobian errors. Draws from ``numpy.random.default_rng(seed)``.
+    segment_s : float
+        Segment length of the bootstrap, s.
+    seed : int
+        Seed of the bootstrap draws.
     progress : callable, optional
         ``progress(stage, fraction)``, called as the fit advances.
 
@@ -461,6 +494,10 @@ def fit_drive(
         raise SysidValueError("no fitting log given; pass at least one VelocityLog")
     if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
         raise SysidValueError(f"dt_s must be in (0, 0.05] s, got {dt_s!r}; e.g. dt_s=0.005")
+    if bootstrap < 0 or not (math.isfinite(segment_s) and segment_s >= 1.0):
+        raise SysidValueError(
+            f"bootstrap must be >= 0 and segment_s >= 1 s, got {bootstrap!r} and {segment_s!r}"
+        )
     if not (math.isfinite(odom_v_window_s) and 0 <= odom_v_window_s <= 1.0):
         raise SysidValueError(
             f"odom_v_window_s must be in [0, 1] s, got {odom_v_window_s!r}; e.g. 1/30 for a "
@@ -586,6 +623,28 @@ def fit_drive(
         {k: v for k, v in exc.ties.items() if v in kept_free},
     )
     identifiable = _identifiable(prob_kept, x[keep], sub_cov, mapper, weak)
+    boot_std: dict[str, float] = {}
+    if bootstrap > 0:
+        report("bootstrap", 0.93)
+        boot_std = _bootstrap_std(
+            fit_logs,
+            mapper,
+            kept_free,
+            exc.ties,
+            x[keep],
+            solve=lambda pr, x0: _solve(pr, x0, exc.coupled, loss, f_scale, 12),
+            problem_kw={
+                "scale_v": sv,
+                "scale_w": sw,
+                "weight_v": weights[0],
+                "weight_w": weights[1],
+                "dt_s": dt_s,
+                "v_window_s": odom_v_window_s,
+            },
+            replicates=bootstrap,
+            segment_s=segment_s,
+            seed=seed,
+        )
     report("scoring", 0.95)
     kw_scores = {"dt_s": dt_s, "tol_v": tol_v, "tol_w": tol_w, "odom_v_window_s": odom_v_window_s}
     scores_fit = score_logs(fit_logs, params, geometry, **kw_scores)
@@ -609,6 +668,7 @@ def fit_drive(
         "optimizer_status": str(res.message),
         "cost": float(res.cost),
         "std_inflation_autocorr": inflation,
+        "bootstrap": {"replicates": bootstrap, "segment_s": segment_s, "seed": seed},
         "seconds": time.perf_counter() - started,
         "note": (
             "added_mass_kg and added_yaw_inertia_kgm2 are derived relative to the spec motor "
@@ -630,4 +690,5 @@ def fit_drive(
         tool_version=_tool_version(),
         warnings=tuple(notes),
         settings=settings,
+        bootstrap_std=boot_std,
     )

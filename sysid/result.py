@@ -158,6 +158,8 @@ class SysidResult:
         Plain sentences about what the data could not identify or what was odd.
     settings : dict
         Fit settings (loss, dt, scales, free parameters, evaluations, cost).
+    bootstrap_std : dict
+        Block-bootstrap standard deviation of each fitted parameter (empty without bootstrap).
     """
 
     robot: str
@@ -173,6 +175,7 @@ class SysidResult:
     tool_version: str = "unknown"
     warnings: tuple[str, ...] = ()
     settings: dict[str, Any] = field(default_factory=dict)
+    bootstrap_std: dict[str, float] = field(default_factory=dict)
 
     def estimate(self, name: str) -> ParameterEstimate:
         """The estimate of DriveParams field or identifiable combination ``name``."""
@@ -202,6 +205,7 @@ class SysidResult:
             "data": [asdict(d) for d in self.data],
             "warnings": list(self.warnings),
             "settings": _plain(self.settings),
+            "bootstrap_std": _plain(self.bootstrap_std),
         }
 
     def to_yaml(self) -> str:
@@ -290,6 +294,7 @@ class SysidResult:
             tool_version=str(doc.get("tool_version", "unknown")),
             warnings=tuple(str(w) for w in doc.get("warnings") or ()),
             settings=dict(doc.get("settings") or {}),
+            bootstrap_std={str(k): float(v) for k, v in (doc.get("bootstrap_std") or {}).items()},
         )
 
 

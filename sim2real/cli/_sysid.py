@@ -29,6 +29,7 @@ _FIT_EXAMPLES = """\
   sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --free delay_s,added_mass_kg
   sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --cmd-topic /mobile_base/cmd_vel
   sim2real sysid fit real.mcap --robot turtlebot3_burger -o p.yaml --odom-v-window auto
+  sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --bootstrap 20 --seed 1
 """
 _SHOW_EXAMPLES = """\
   sim2real sysid show params.yaml
@@ -89,6 +90,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="robust loss (default: soft_l1)",
     )
     fit.add_argument("--dt", type=float, default=0.005, help="model integration step, s")
+    fit.add_argument(
+        "--bootstrap",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also refit N block-bootstrap resamples of 10 s segments (a check on the errors)",
+    )
+    fit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap draws")
     fit.add_argument(
         "--odom-v-window",
         default="0",
@@ -206,6 +215,8 @@ def _fit(args: argparse.Namespace) -> int:
             loss=args.loss,
             dt_s=args.dt,
             odom_v_window_s=_v_window(args.odom_v_window, spec.odometry.rate_hz),
+            bootstrap=args.bootstrap,
+            seed=args.seed,
             progress=progress,
         )
     with atomic_write(out, "w", what="params file") as fh:
@@ -240,25 +251,33 @@ def _fmt(x: float | None) -> str:
     return f"{x:.4g}"
 
 
-def _estimate_rows(estimates: tuple[ParameterEstimate, ...]) -> list[tuple[str, ...]]:
+def _estimate_rows(
+    estimates: tuple[ParameterEstimate, ...], boot: dict[str, float]
+) -> list[tuple[str, ...]]:
     rows: list[tuple[str, ...]] = []
     for e in estimates:
         ci = "-" if e.ci95_low is None else f"[{_fmt(e.ci95_low)}, {_fmt(e.ci95_high)}]"
-        rows.append((e.name, _fmt(e.value), _fmt(e.std), ci, e.unit, e.status))
+        row = (e.name, _fmt(e.value), _fmt(e.std), ci, e.unit, e.status)
+        rows.append((*row, _fmt(boot.get(e.name))) if boot else row)
     return rows
 
 
 def _print_result(console: Console, result: SysidResult) -> None:
     from rich.table import Table
 
-    for title, estimates in (
-        (f"drive parameters of {result.robot}", result.estimates),
-        ("identifiable combinations (independent of the motor-gain prior)", result.identifiable),
+    for title, estimates, boot in (
+        (f"drive parameters of {result.robot}", result.estimates, result.bootstrap_std),
+        (
+            "identifiable combinations (independent of the motor-gain prior)",
+            result.identifiable,
+            {},
+        ),
     ):
         table = Table(title=title, title_justify="left")
-        for col in ("parameter", "value", "std", "95 % interval", "unit", "status"):
-            table.add_column(col, justify="right" if col in ("value", "std") else "left")
-        for row in _estimate_rows(estimates):
+        cols = ["parameter", "value", "std", "95 % interval", "unit", "status"]
+        for col in cols + (["bootstrap std"] if boot else []):
+            table.add_column(col, justify="right" if "std" in col or col == "value" else "left")
+        for row in _estimate_rows(estimates, boot):
             table.add_row(*row)
         console.print(table)
     scores = Table(title="scores", title_justify="left")

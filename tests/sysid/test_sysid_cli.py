@@ -74,6 +74,7 @@ def test_window_and_free(logs: tuple[Path, Path], tmp_path: Path) -> None:
         [
             *("sysid", "fit", str(train), "--robot", "turtlebot3_burger", "-o", str(out)),
             *("--window", "0:20", "--free", "delay_s,added_mass_kg", "--odom-v-window", "auto"),
+            *("--bootstrap", "4", "--seed", "3"),
         ]
     )
     assert code == 0
@@ -82,6 +83,8 @@ def test_window_and_free(logs: tuple[Path, Path], tmp_path: Path) -> None:
     assert fitted == {"delay_s", "added_mass_kg"}
     assert doc["data"][0]["file"].endswith("train.mcap[0:20]")
     assert doc["settings"]["odom_v_window_s"] == pytest.approx(1 / 30)  # Burger odometry 30 Hz
+    assert set(doc["bootstrap_std"]) == {"delay_s", "added_mass_kg"}
+    assert all(0 < s < 0.5 for s in doc["bootstrap_std"].values())
 
 
 @pytest.mark.parametrize(

@@ -83,3 +83,13 @@ def test_delay_is_recovered_within_10_ms(delay: float, seed: int) -> None:
         [log], geometry=GEO, base_params=BASE.replace(delay_s=0.0), odom_v_window_s=0.02
     )
     assert abs(res.params.delay_s - delay) <= 0.010
+
+
+def test_python_loop_fit_gives_the_same_numbers() -> None:
+    t, v, w = step_commands(8.0, seed=12)
+    log = synthetic_log(BASE, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=12, spike_mps=None)
+    kw = {"geometry": GEO, "base_params": BASE.replace(delay_s=0.0), "free": ["delay_s"]}
+    fast = fit_drive([log], **kw)  # type: ignore[arg-type]
+    slow = fit_drive([log], python=True, **kw)  # type: ignore[arg-type]
+    assert slow.params.delay_s == pytest.approx(fast.params.delay_s, abs=1e-9)
+    assert slow.scores_fit == fast.scores_fit

@@ -25,7 +25,9 @@ def result() -> SysidResult:
     t, v, w = step_commands(30.0, seed=8)
     log = synthetic_log(TRUTH, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=8, name="train.mcap")
     val = synthetic_log(TRUTH, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=9, name="val.mcap")
-    return fit_drive([log], geometry=GEO, base_params=BASE, validate=[val], robot="tiny")
+    return fit_drive(
+        [log], geometry=GEO, base_params=BASE, validate=[val], robot="tiny", bootstrap=5, seed=2
+    )
 
 
 def test_yaml_layout(result: SysidResult) -> None:
@@ -60,6 +62,8 @@ def test_save_load_round_trip(result: SysidResult, tmp_path: Path) -> None:
     assert back.scores_fit == result.scores_fit
     assert back.warnings == result.warnings
     assert back.correlation_names == result.correlation_names
+    assert back.bootstrap_std == pytest.approx(result.bootstrap_std)
+    assert set(result.bootstrap_std) == set(result.correlation_names)
     assert list(tmp_path.iterdir()) == [path]  # no temp file left
 
 
@@ -93,3 +97,14 @@ def test_load_errors(tmp_path: Path) -> None:
     broken.write_text("format: sim2real.sysid/1\nrobot: x\n")
     with pytest.raises(ResultFileError, match="malformed"):
         SysidResult.load(broken)
+
+
+def test_bootstrap_is_seeded() -> None:
+    t, v, w = step_commands(30.0, seed=8)
+    log = synthetic_log(TRUTH, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=8)
+    kw = {"geometry": GEO, "base_params": BASE, "free": ["delay_s", "added_mass_kg"]}
+    a = fit_drive([log], bootstrap=4, seed=5, **kw)  # type: ignore[arg-type]
+    b = fit_drive([log], bootstrap=4, seed=5, **kw)  # type: ignore[arg-type]
+    c = fit_drive([log], bootstrap=4, seed=6, **kw)  # type: ignore[arg-type]
+    assert a.bootstrap_std == b.bootstrap_std
+    assert a.bootstrap_std != c.bootstrap_std
