@@ -165,3 +165,44 @@ def test_reward_terms_match_the_docstring(env: CrowdNavEnv) -> None:
 def test_bad_constructor_pedestrian_count() -> None:
     with pytest.raises(Sim2RealValueError, match="num_pedestrians"):
         CrowdNavEnv(num_pedestrians=-1)
+
+
+def _passable(env: CrowdNavEnv, start: tuple[float, float], goal: tuple[float, float]) -> bool:
+    """Breadth-first search on a 5 cm grid of footprint-free cells."""
+    from collections import deque
+
+    from sim2real.envs.geometry import point_segment_distance
+
+    res = 0.05
+    xs = np.arange(-3.95, 3.95, res)
+    gx, gy = np.meshgrid(xs, xs, indexing="ij")
+    pts = np.column_stack([gx.ravel(), gy.ravel()])
+    sc = env._scene
+    d = point_segment_distance(pts, sc.seg_a, sc.seg_b).min(axis=1)
+    if sc.circles_r.size:
+        dc = np.linalg.norm(pts[:, None] - sc.circles_xy[None], axis=2) - sc.circles_r
+        d = np.minimum(d, dc.min(axis=1))
+    free = (d > env.robot_radius_m + 0.02).reshape(gx.shape)
+
+    def cell(p: tuple[float, float]) -> tuple[int, int]:
+        return round((p[0] - xs[0]) / res), round((p[1] - xs[0]) / res)
+
+    s, g = cell(start), cell(goal)
+    seen, queue = {s}, deque([s])
+    while queue:
+        c = queue.popleft()
+        if c == g:
+            return True
+        for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            n = (c[0] + dx, c[1] + dy)
+            if 0 <= min(n) and max(n) < len(xs) and n not in seen and free[n]:
+                seen.add(n)
+                queue.append(n)
+    return False
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_occluded_scenario_stays_passable_at_full_complexity(env: CrowdNavEnv, seed: int) -> None:
+    _, info = env.reset(seed=seed, options={"scenario": "occluded", "complexity": 1.0})
+    assert info["occlusion_pct"] == pytest.approx(90.0, abs=1.0)
+    assert _passable(env, (-3.0, 0.0), (3.0, 0.0))
