@@ -195,7 +195,7 @@ def _passable(env: CrowdNavEnv, start: tuple[float, float], goal: tuple[float, f
             return True
         for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
             n = (c[0] + dx, c[1] + dy)
-            if 0 <= min(n) and max(n) < len(xs) and n not in seen and free[n]:
+            if min(n) >= 0 and max(n) < len(xs) and n not in seen and free[n]:
                 seen.add(n)
                 queue.append(n)
     return False
