@@ -66,19 +66,36 @@ class PybulletWorld:
         cylinder_height_m, box_height_m : float or ndarray
             Heights, m (one value or one per obstacle).
         """
-        from robots.world import add_box, add_cylinder
+        from robots.world import add_box
 
         for body in self._static:
             self.p.removeBody(body, physicsClientId=self.client)
         ch = np.broadcast_to(np.asarray(cylinder_height_m, dtype=float), (len(cylinders),))
         bh = np.broadcast_to(np.asarray(box_height_m, dtype=float), (len(boxes),))
-        self._static = [
-            add_cylinder(self.client, (x, y, 0.5 * h), r, h)
-            for (x, y, r), h in zip(cylinders, ch, strict=True)
-        ] + [
+        self._static = self._cylinder_batches(cylinders, ch) + [
             add_box(self.client, (cx, cy, 0.5 * h), (0.5 * ln, 0.5 * wd, 0.5 * h), yaw=yaw)
             for (cx, cy, ln, wd, yaw), h in zip(boxes, bh, strict=True)
         ]
+
+    def _cylinder_batches(self, cylinders: FloatArray, heights: FloatArray) -> list[int]:
+        """Static cylinders, one shared shape and one batched call per distinct (r, h)."""
+        p, c = self.p, self.client
+        ids: list[int] = []
+        keys = np.column_stack([cylinders[:, 2], heights]) if len(cylinders) else np.zeros((0, 2))
+        for r, h in np.unique(keys, axis=0):
+            sel = (keys[:, 0] == r) & (keys[:, 1] == h)
+            col = p.createCollisionShape(p.GEOM_CYLINDER, radius=r, height=h, physicsClientId=c)
+            vis = p.createVisualShape(p.GEOM_CYLINDER, radius=r, length=h, physicsClientId=c)
+            pos = [[x, y, 0.5 * h] for x, y in cylinders[sel, :2]]
+            out = p.createMultiBody(
+                baseMass=0.0,
+                baseCollisionShapeIndex=col,
+                baseVisualShapeIndex=vis,
+                batchPositions=pos,
+                physicsClientId=c,
+            )
+            ids.extend([out] if isinstance(out, int) else list(out))
+        return ids
 
     def set_pedestrians(self, xy: FloatArray, radius_m: FloatArray, height_m: FloatArray) -> None:
         """Place visual-only pedestrian cylinders (rebuilt when their number or sizes change)."""
