@@ -405,6 +405,84 @@ def _linear_stats(identifiable: tuple[ParameterEstimate, ...]) -> dict[str, Any]
     }
 
 
+def _check_numbers(
+    logs: Sequence[object], dt_s: float, bootstrap: int, segment_s: float, window_s: float
+) -> None:
+    if not logs:
+        raise SysidValueError("no fitting log given; pass at least one VelocityLog")
+    if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
+        raise SysidValueError(f"dt_s must be in (0, 0.05] s, got {dt_s!r}; e.g. dt_s=0.005")
+    if bootstrap < 0 or not (math.isfinite(segment_s) and segment_s >= 1.0):
+        raise SysidValueError(
+            f"bootstrap must be >= 0 and segment_s >= 1 s, got {bootstrap!r} and {segment_s!r}"
+        )
+    if not (math.isfinite(window_s) and 0 <= window_s <= 1.0):
+        raise SysidValueError(
+            f"odom_v_window_s must be in [0, 1] s, got {window_s!r}; e.g. 1/30 for a "
+            "30 Hz encoder odometry, 0 for instantaneous velocity"
+        )
+
+
+def _optimise(
+    prob: Problem, x0: FloatArray, solve: Callable[[Problem, FloatArray, int], Any], nfev: int
+) -> Any:
+    """Least squares on all the data; long logs first converge on their busiest windows."""
+    logs = prob.logs
+    total_s = sum(_span(g) for g in logs)
+    if total_s <= _COARSE_SPAN_S:
+        return solve(prob, x0, nfev)
+    windows = [
+        crop_log(g, *busiest_window(g, _window_samples(g, _COARSE_SPAN_S * _span(g) / total_s)))
+        for g in logs
+    ]
+    coarse = Problem(
+        windows,
+        prob.mapper,
+        prob.free,
+        prob.ties,
+        scale_v=1.0 / prob.gain_v,
+        scale_w=1.0 / prob.gain_w,
+        dt_s=prob.dt_s,
+        python=prob.python,
+        v_window_s=prob.v_window_s,
+        on_eval=prob.on_eval,
+    )
+    x1 = np.asarray(solve(coarse, x0, nfev).x)
+    prob.n_evals, prob.n_steps = coarse.n_evals, coarse.n_steps
+    return solve(prob, x1, min(nfev, _POLISH_NFEV))
+
+
+def _bound_notes(free: list[str], x: FloatArray, params: DriveParams) -> list[str]:
+    out = []
+    for j, f in enumerate(free):
+        c = COORDS[f]
+        tol = 1e-5 * (c.upper - c.lower)
+        if x[j] - c.lower < tol or c.upper - x[j] < tol:
+            out.append(
+                f"{f} ended at its physical bound ({getattr(params, f):.4g}); treat it with care"
+            )
+    return out
+
+
+def _correlation(
+    cov: FloatArray, weak: list[int], names: list[str], notes: list[str]
+) -> FloatArray:
+    """Correlation matrix (NaN rows for undetermined parameters); notes strong pairs."""
+    d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = np.where(np.isfinite(np.outer(d, d)), cov / np.outer(d, d), math.nan)
+    for j in weak:
+        corr[j, :] = corr[:, j] = math.nan
+    for a in range(len(names)):
+        for b in range(a + 1, len(names)):
+            if abs(corr[a, b]) > 0.95:
+                notes.append(
+                    f"{names[a]} and {names[b]} are strongly correlated ({corr[a, b]:+.2f}): "
+                    "the log barely separates them"
+                )
+    return np.asarray(corr)
+
+
 def fit_drive(
     logs: Sequence[object],
     *,
@@ -490,19 +568,7 @@ def fit_drive(
     """
     started = time.perf_counter()
     _check_args(loss, scale, weights)
-    if not logs:
-        raise SysidValueError("no fitting log given; pass at least one VelocityLog")
-    if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
-        raise SysidValueError(f"dt_s must be in (0, 0.05] s, got {dt_s!r}; e.g. dt_s=0.005")
-    if bootstrap < 0 or not (math.isfinite(segment_s) and segment_s >= 1.0):
-        raise SysidValueError(
-            f"bootstrap must be >= 0 and segment_s >= 1 s, got {bootstrap!r} and {segment_s!r}"
-        )
-    if not (math.isfinite(odom_v_window_s) and 0 <= odom_v_window_s <= 1.0):
-        raise SysidValueError(
-            f"odom_v_window_s must be in [0, 1] s, got {odom_v_window_s!r}; e.g. 1/30 for a "
-            "30 Hz encoder odometry, 0 for instantaneous velocity"
-        )
+    _check_numbers(logs, dt_s, bootstrap, segment_s, odom_v_window_s)
     report = progress or (lambda stage, frac: None)
     fit_logs = [as_log_arrays(g, i) for i, g in enumerate(logs)]
     val_logs = [as_log_arrays(g, len(fit_logs) + i) for i, g in enumerate(validate)]
@@ -518,111 +584,50 @@ def fit_drive(
     notes += spike_notes
     free_list = list(exc.free)
     sv, sw = _scales(fit_logs, scale, tol_v, tol_w)
-    budget = max_nfev * 4
+    problem_kw: dict[str, Any] = {
+        "scale_v": sv,
+        "scale_w": sw,
+        "weight_v": weights[0],
+        "weight_w": weights[1],
+        "dt_s": dt_s,
+        "v_window_s": odom_v_window_s,
+    }
+
+    def solve(prob: Problem, x0: FloatArray, nfev: int) -> Any:
+        return _solve(prob, x0, exc.coupled, loss, f_scale, nfev)
 
     def on_eval(n: int) -> None:
-        report("fitting", 0.1 + 0.8 * min(n / budget, 1.0))
+        report("fitting", 0.1 + 0.8 * min(n / (4 * max_nfev), 1.0))
 
     prob = Problem(
-        fit_logs,
-        mapper,
-        free_list,
-        exc.ties,
-        scale_v=sv,
-        scale_w=sw,
-        weight_v=weights[0],
-        weight_w=weights[1],
-        dt_s=dt_s,
-        python=python,
-        v_window_s=odom_v_window_s,
-        on_eval=on_eval,
+        fit_logs, mapper, free_list, exc.ties, python=python, on_eval=on_eval, **problem_kw
     )
-    x0 = np.array([x0_map[f] for f in free_list])
-    total_s = sum(float(g.meas_t_s[-1] - g.meas_t_s[0]) for g in fit_logs)
-    if total_s > _COARSE_SPAN_S:
-        # long logs: converge on the busiest ~2 minutes first, then polish on all the data
-        windows = [
-            crop_log(g, *busiest_window(g, _window_samples(g, _COARSE_SPAN_S * _span(g) / total_s)))
-            for g in fit_logs
-        ]
-        coarse = Problem(
-            windows,
-            mapper,
-            free_list,
-            exc.ties,
-            scale_v=sv,
-            scale_w=sw,
-            weight_v=weights[0],
-            weight_w=weights[1],
-            dt_s=dt_s,
-            python=python,
-            v_window_s=odom_v_window_s,
-            on_eval=on_eval,
-        )
-        x0 = np.asarray(_solve(coarse, x0, exc.coupled, loss, f_scale, max_nfev).x)
-        prob.n_evals = coarse.n_evals
-        prob.n_steps = coarse.n_steps
-        polish = min(max_nfev, _POLISH_NFEV)
-    else:
-        polish = max_nfev
-    res = _solve(prob, x0, exc.coupled, loss, f_scale, polish)
+    res = _optimise(prob, np.array([x0_map[f] for f in free_list]), solve, max_nfev)
     report("uncertainty", 0.92)
     x = np.asarray(res.x)
     dropped = _drop_inactive_limits(prob, x, base_params, notes)
     keep = [j for j in range(len(free_list)) if j not in dropped]
-    with threadpool_limits(limits=1):
-        cov_k, inflation, weak = _covariance(res, prob, keep)
-    for j in weak:
-        notes.append(
-            f"{free_list[keep[j]]} is not determined by the log (flat or degenerate direction of "
-            "the fit): its interval is unbounded; fix it (--free) or record a richer log"
-        )
-    cov = np.zeros((len(free_list), len(free_list)))
-    cov[np.ix_(keep, keep)] = cov_k
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     kept_free = [free_list[j] for j in keep]
-    prob_kept = Problem(
-        fit_logs,
-        mapper,
-        kept_free,
-        exc.ties,
-        scale_v=sv,
-        scale_w=sw,
-        dt_s=dt_s,
-        v_window_s=odom_v_window_s,
-    )
+    with threadpool_limits(limits=1):
+        cov, inflation, weak = _covariance(res, prob, keep)
+    notes += [
+        f"{kept_free[j]} is not determined by the log (flat or degenerate direction of the "
+        "fit): its interval is unbounded; fix it (--free) or record a richer log"
+        for j in weak
+    ]
+    prob_kept = Problem(fit_logs, mapper, kept_free, exc.ties, **problem_kw)
     params = prob_kept.params(x[keep])
-    for j, f in enumerate(free_list):
-        c = COORDS[f]
-        if j in keep and (
-            x[j] - c.lower < 1e-5 * (c.upper - c.lower)
-            or c.upper - x[j] < 1e-5 * (c.upper - c.lower)
-        ):
-            notes.append(
-                f"{f} ended at its physical bound ({getattr(params, f):.4g}); treat it with care"
-            )
-    sub_cov = cov[np.ix_(keep, keep)]
-    d = np.sqrt(np.clip(np.diag(sub_cov), 1e-300, None))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = np.where(np.isfinite(np.outer(d, d)), sub_cov / np.outer(d, d), math.nan)
-    for j in weak:
-        corr[j, :] = corr[:, j] = math.nan
-    for a in range(len(keep)):
-        for b in range(a + 1, len(keep)):
-            if abs(corr[a, b]) > 0.95:
-                notes.append(
-                    f"{kept_free[a]} and {kept_free[b]} are strongly correlated ({corr[a, b]:+.2f}):"
-                    " the log barely separates them"
-                )
+    notes += _bound_notes(kept_free, x[keep], params)
+    corr = _correlation(cov, weak, kept_free, notes)
     estimates = _param_estimates(
         params,
         kept_free,
         x[keep],
-        sd[keep],
+        np.sqrt(np.clip(np.diag(cov), 0.0, None)),
         mapper,
         {k: v for k, v in exc.ties.items() if v in kept_free},
     )
-    identifiable = _identifiable(prob_kept, x[keep], sub_cov, mapper, weak)
+    identifiable = _identifiable(prob_kept, x[keep], cov, mapper, weak)
     boot_std: dict[str, float] = {}
     if bootstrap > 0:
         report("bootstrap", 0.93)
@@ -632,15 +637,8 @@ def fit_drive(
             kept_free,
             exc.ties,
             x[keep],
-            solve=lambda pr, x0: _solve(pr, x0, exc.coupled, loss, f_scale, 12),
-            problem_kw={
-                "scale_v": sv,
-                "scale_w": sw,
-                "weight_v": weights[0],
-                "weight_w": weights[1],
-                "dt_s": dt_s,
-                "v_window_s": odom_v_window_s,
-            },
+            solve=lambda pr, x0: solve(pr, x0, 12),
+            problem_kw=problem_kw,
             replicates=bootstrap,
             segment_s=segment_s,
             seed=seed,

@@ -143,14 +143,22 @@ def agreement_fraction(
     return float(np.mean(ok_v & ok_w)), float(np.mean(ok_v)), float(np.mean(ok_w))
 
 
+def _overlap_corr(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
+    a = a - a.mean()
+    b = b - b.mean()
+    den = float(np.sqrt(np.dot(a, a) * np.dot(b, b)))
+    return float(np.dot(a, b)) / den if den > 0 else 0.0
+
+
 def xcorr_lag_s(
     t_s: ArrayLike, real: ArrayLike, sim: ArrayLike, *, max_lag_s: float = 1.0, dt_s: float = 0.01
 ) -> float:
     """Lag of ``sim`` behind ``real`` (s, positive = sim late) by cross-correlation.
 
-    Both signals are resampled on a uniform grid of step ``dt_s``, mean-removed, and the peak of
-    their cross-correlation within ``±max_lag_s`` is refined by a parabola through its
-    neighbours (sub-sample). Returns NaN when either signal is constant.
+    Both signals are resampled on a uniform grid of step ``dt_s``; at each lag within
+    ``±max_lag_s`` the correlation coefficient of the overlapping parts is computed, and its
+    peak is refined by a parabola through its neighbours (sub-sample). Returns NaN when either
+    signal is constant.
     """
     t = np.asarray(t_s, dtype=np.float64)
     a, b = _pair(real, sim)
@@ -167,9 +175,11 @@ def xcorr_lag_s(
     lag_list = list(range(-max_k, max_k + 1))
     lags = np.asarray(lag_list, dtype=np.float64)
     n = int(grid.size)
+    # Pearson correlation of the overlapping parts at each lag: the plain sum over fewer
+    # overlapping samples at larger |lag| would bias the peak towards zero lag
     corr = np.array(
         [
-            float(np.dot(ra[max(0, -k) : n - max(0, k)], sb[max(0, k) : n - max(0, -k)]))
+            _overlap_corr(ra[max(0, -k) : n - max(0, k)], sb[max(0, k) : n - max(0, -k)])
             for k in lag_list
         ]
     )

@@ -42,5 +42,5 @@ def test_xcorr_lag_recovers_a_known_shift(shift_s: float, seed: int) -> None:
     levels = rng.uniform(-1.0, 1.0, knots.size)
     real = np.interp(t, knots, levels)
     sim = np.interp(t - shift_s, knots, levels)  # sim late by shift_s
-    # within one resampling step (dt_s = 10 ms); the parabolic peak refines below it
-    assert xcorr_lag_s(t, real, sim) == pytest.approx(shift_s, abs=0.01)
+    # sub-sample: the parabolic peak on the 10 ms grid lands within 3 ms
+    assert xcorr_lag_s(t, real, sim) == pytest.approx(shift_s, abs=0.003)
