@@ -313,5 +313,7 @@ def _print_result(console: Console, result: SysidResult) -> None:
                 f"linear {axis}: {stats['tf']}  rise {stats['rise_time_s']:.3f} s, settling "
                 f"{stats['settling_time_s']:.3f} s, bandwidth {stats['bandwidth_radps']:.2f} rad/s"
             )
+    if result.settings.get("note"):
+        console.print(f"[cyan]identifiability:[/] {result.settings['note']}", highlight=False)
     for warning in result.warnings:
         console.print(f"[yellow]note:[/] {warning}", highlight=False)
