@@ -154,7 +154,7 @@ def _const(n: int, raw: bytes) -> np.ndarray:
 
 def _f64_cols(*cols: np.ndarray) -> np.ndarray:
     mat = np.stack([np.asarray(c, dtype="<f8") for c in cols], axis=1)
-    return np.ascontiguousarray(mat).view(np.uint8).reshape(mat.shape[0], -1)
+    return np.ascontiguousarray(mat).view(np.uint8).reshape(mat.shape[0], 8 * mat.shape[1])
 
 
 def _stamp_cols(t_ns: np.ndarray) -> np.ndarray:

@@ -468,3 +468,20 @@ def test_twist_and_twist_stamped_without_cmd_vel_is_ambiguous(tmp_path: Path):
     )
     with pytest.raises(MissingTopicError, match=r"several possible command topics \(/a .*, /b "):
         read_trace(path)
+
+
+def test_a_log_whose_command_topic_is_empty_is_written_and_then_refused(tmp_path: Path) -> None:
+    """Writing an empty stream is allowed (odometry-only logs); reading it names the topic."""
+    t = T0_NS + np.arange(5, dtype=np.int64) * 100 * MS
+    empty_t = np.array([], dtype=np.int64)
+    path = write_velocity_log(
+        tmp_path / "odom_only.mcap",
+        cmd_t_ns=empty_t,
+        cmd_v=np.array([]),
+        cmd_w=np.array([]),
+        meas_t_ns=t,
+        meas_v=np.ones(5),
+        meas_w=np.zeros(5),
+    )
+    with pytest.raises(LogValueError, match=r"'/cmd_vel'.*has no messages"):
+        read_trace(path)
