@@ -30,7 +30,6 @@ Example
 
 from __future__ import annotations
 
-import bisect
 import math
 from dataclasses import dataclass
 
@@ -49,6 +48,9 @@ __all__ = [
     "pack_params",
     "simulate",
 ]
+
+# Initial rows of ReducedDrive's command history (it compacts or grows when full).
+_HISTORY_ROWS = 256
 
 #: Default integration step of the reduced model, s: pybullet's default 240 Hz physics step, so
 #: the reduced model and :class:`robots.PybulletRobot` step on the same grid by default.
@@ -220,6 +222,29 @@ def _advance_held(
                 u_v += cmd_v[i] * (hi - lo)
                 u_w += cmd_w[i] * (hi - lo)
         _step(state, u_v / dt, u_w / dt, dt, p)
+
+
+@numba.njit(cache=True)
+def _advance_history(
+    state: FloatArray,
+    hist: FloatArray,
+    n_hist: int,
+    t0: float,
+    dt: float,
+    n: int,
+    delay: float,
+    timeout: float,
+    p: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """:func:`_advance_held` over the rows of a ``(time, v, w)`` history that still act.
+
+    Only commands from the one held at the start of the delayed window on contribute.
+    """
+    first = n_hist - 1
+    while first > 0 and hist[first, 0] > t0 - delay:
+        first -= 1
+    rows = hist[first:n_hist]
+    _advance_held(state, rows[:, 0], rows[:, 1], rows[:, 2], t0, dt, n, delay, timeout, p)
 
 
 def _zoh_breakpoints(
@@ -416,9 +441,9 @@ class ReducedDrive:
         """Set the base velocity and clear the command history."""
         self.time_s = 0.0
         self._state = np.array([v, w, v, w], dtype=np.float64)
-        self._cmd_t: list[float] = []
-        self._cmd_v: list[float] = []
-        self._cmd_w: list[float] = []
+        # command history: rows of (time s, v m/s, w rad/s); the first self._n rows are used
+        self._hist = np.empty((_HISTORY_ROWS, 3), dtype=np.float64)
+        self._n = 0
 
     @property
     def velocity(self) -> tuple[float, float]:
@@ -429,29 +454,38 @@ class ReducedDrive:
         """Issue command (cmd_v, cmd_w) now and advance ``duration_s``; return (v, w)."""
         if not (math.isfinite(cmd_v) and math.isfinite(cmd_w)):
             raise RobotsValueError(f"command must be finite, got ({cmd_v!r}, {cmd_w!r})")
-        self._cmd_t.append(self.time_s)
-        self._cmd_v.append(float(cmd_v))
-        self._cmd_w.append(float(cmd_w))
-        # forget commands that can no longer take effect (keep one before the delay horizon;
-        # the 1 s margin keeps the history right if the delay is raised by up to 1 s later)
-        horizon = self.time_s - self._params.delay_s - 1.0
-        while len(self._cmd_t) > 2 and self._cmd_t[1] < horizon:
-            del self._cmd_t[0], self._cmd_v[0], self._cmd_w[0]
+        if self._n == self._hist.shape[0]:
+            self._compact_history()
+        row = self._hist[self._n]
+        row[0], row[1], row[2] = self.time_s, cmd_v, cmd_w
+        self._n += 1
         n = max(1, round(duration_s / self.dt_s))
-        dt = duration_s / n
-        # only commands from the one held at the start of the delayed window on contribute
-        i0 = max(bisect.bisect_right(self._cmd_t, self.time_s - self._params.delay_s) - 1, 0)
-        _advance_held(
+        _advance_history(
             self._state,
-            np.asarray(self._cmd_t[i0:]),
-            np.asarray(self._cmd_v[i0:]),
-            np.asarray(self._cmd_w[i0:]),
+            self._hist,
+            self._n,
             self.time_s,
-            dt,
+            duration_s / n,
             n,
             self._params.delay_s,
             self._params.cmd_timeout_s,
             self._packed,
         )
         self.time_s += duration_s
-        return self.velocity
+        return float(self._state[0]), float(self._state[1])
+
+    def _compact_history(self) -> None:
+        """Forget commands that can no longer take effect; grow the buffer if none can go.
+
+        One command before the delay horizon is kept, with a 1 s margin so that the history
+        stays right if the delay is raised by up to 1 s later.
+        """
+        horizon = self.time_s - self._params.delay_s - 1.0
+        times = self._hist[: self._n, 0]
+        first = max(int(np.searchsorted(times, horizon, side="right")) - 1, 0)
+        if first == 0:
+            self._hist = np.concatenate((self._hist, np.empty_like(self._hist)))
+            return
+        kept = self._n - first
+        self._hist[:kept] = self._hist[first : self._n]
+        self._n = kept

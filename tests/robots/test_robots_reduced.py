@@ -150,3 +150,19 @@ def test_stepping_drive_matches_batch_simulation() -> None:
 def test_non_physical_parameters_are_refused_by_name(field: str, value: float) -> None:
     with pytest.raises(RobotsValueError, match=field):
         DriveParams(**{field: value})
+
+
+@pytest.mark.parametrize("delay_s", [0.05, 12.0])
+def test_stepping_drive_keeps_its_history_right_past_the_buffer(delay_s: float) -> None:
+    """600 commands overflow the 256-row history: it compacts (short delay) or grows (12 s)."""
+    rng = np.random.default_rng(7)
+    p = DriveParams(delay_s=delay_s, coulomb_v_fwd_n=0.05, accel_lim_w_radps2=4.0)
+    drive = ReducedDrive(p, GEO)
+    cv, cw = rng.uniform(-0.2, 0.2, 600), rng.uniform(-1.0, 1.0, 600)
+    got = np.array([drive.step(v, w, 1 / 30)[0] for v, w in zip(cv, cw, strict=True)])
+    ct = np.arange(600) / 30
+    batch = simulate(
+        p, GEO, cmd_t_s=ct, cmd_v=cv, cmd_w=cw, t_out_s=np.concatenate(([0.0], ct + 1 / 30))
+    )
+    assert np.abs(got).max() > 0.05
+    assert np.allclose(got, batch.v[1:], atol=1e-9)
