@@ -14,24 +14,13 @@ import numpy as np
 from randomizers._base import Randomizer, check_name, check_number, check_scale
 from randomizers._protocol import DRIVE_PROTOCOL, require_protocol
 from randomizers.errors import RandomizationNotAppliedError, RandomizerValueError
-from robots.params import DriveParams, read_params_file
+from robots.params import MAY_BE_NEGATIVE, MUST_BE_POSITIVE, DriveParams, read_params_file
 
 __all__ = ["DynamicsRandomizer", "default_bounds"]
 
 # Same rules as robots.params: these must stay > 0, these may be negative, the rest >= 0.
-_POSITIVE = frozenset(
-    {
-        "cmd_timeout_s",
-        "speed_lim_v_mps",
-        "speed_lim_w_radps",
-        "accel_lim_v_mps2",
-        "accel_lim_w_radps2",
-        "wheel_speed_max_radps",
-        "motor_gain_nms_per_rad",
-        "wheel_torque_max_nm",
-    }
-)
-_SIGNED = frozenset({"added_mass_kg", "added_yaw_inertia_kgm2"})
+_POSITIVE = MUST_BE_POSITIVE
+_SIGNED = MAY_BE_NEGATIVE
 #: Floor of a must-be-positive parameter, as a fraction of its range centre / fitted value.
 POSITIVE_FLOOR_FRACTION = 0.01
 

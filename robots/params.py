@@ -33,6 +33,9 @@ import yaml
 from robots.errors import ParamsFileError, RobotsValueError
 
 __all__ = [
+    "MAY_BE_INF",
+    "MAY_BE_NEGATIVE",
+    "MUST_BE_POSITIVE",
     "PARAMS_FILE_FORMAT",
     "BaseGeometry",
     "DriveParams",
@@ -44,8 +47,8 @@ __all__ = [
 #: ``format:`` key of a sysid result / drive-parameter YAML file.
 PARAMS_FILE_FORMAT = "sim2real.sysid/1"
 
-# Parameters that may be +inf (meaning "no such limit") and those that may be negative.
-_MAY_BE_INF = frozenset(
+#: Parameters that may be +inf (meaning "no such limit").
+MAY_BE_INF = frozenset(
     {
         "cmd_timeout_s",
         "speed_lim_v_mps",
@@ -56,8 +59,10 @@ _MAY_BE_INF = frozenset(
         "wheel_torque_max_nm",
     }
 )
-_MAY_BE_NEGATIVE = frozenset({"added_mass_kg", "added_yaw_inertia_kgm2"})
-_MUST_BE_POSITIVE = frozenset(
+#: Parameters that may be negative (payload lighter than the spec); all others are >= 0.
+MAY_BE_NEGATIVE = frozenset({"added_mass_kg", "added_yaw_inertia_kgm2"})
+#: Parameters that must be > 0 (gains and limits; use +inf for "no limit").
+MUST_BE_POSITIVE = frozenset(
     {
         "cmd_timeout_s",
         "speed_lim_v_mps",
@@ -231,16 +236,16 @@ def _as_float(name: str, value: Any, source: str) -> float:
 def _check_value(name: str, value: float) -> None:
     if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
         raise RobotsValueError(f"drive parameter '{name}' must be a number, got {value!r}")
-    if math.isinf(value) and not (name in _MAY_BE_INF and value > 0):
+    if math.isinf(value) and not (name in MAY_BE_INF and value > 0):
         raise RobotsValueError(
             f"drive parameter '{name}' must be finite, got {value!r}; give a finite value"
         )
-    if name in _MUST_BE_POSITIVE and value <= 0:
+    if name in MUST_BE_POSITIVE and value <= 0:
         raise RobotsValueError(
             f"drive parameter '{name}' must be > 0, got {value!r}; "
             "use .inf for 'no limit' rather than 0"
         )
-    if name not in _MAY_BE_NEGATIVE and value < 0:
+    if name not in MAY_BE_NEGATIVE and value < 0:
         raise RobotsValueError(
             f"drive parameter '{name}' must be >= 0 (non-physical otherwise), got {value!r}"
         )

@@ -64,7 +64,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robots.params import BaseGeometry, DriveParams
+from robots.params import MUST_BE_POSITIVE, BaseGeometry, DriveParams
 from sim2real.errors import Sim2RealValueError
 from sim2real.replay import ReplayResult, TraceLike, replay
 from sysid.metrics import (
@@ -306,18 +306,7 @@ def measure_agreement(
 # Parameters that must stay strictly positive (a sample at or below 0 is clipped to a small
 # fraction of the nominal value); the added mass/inertia may be negative down to -90 % of the
 # spec value; all others are clipped at 0 (see robots.params for the validation rules).
-_STRICTLY_POSITIVE = frozenset(
-    {
-        "cmd_timeout_s",
-        "speed_lim_v_mps",
-        "speed_lim_w_radps",
-        "accel_lim_v_mps2",
-        "accel_lim_w_radps2",
-        "wheel_speed_max_radps",
-        "motor_gain_nms_per_rad",
-        "wheel_torque_max_nm",
-    }
-)
+_STRICTLY_POSITIVE = MUST_BE_POSITIVE
 _MIN_POSITIVE_FRACTION = 0.05
 _MIN_TOTAL_FRACTION = 0.1
 
