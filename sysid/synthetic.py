@@ -29,9 +29,41 @@ from robots.params import BaseGeometry, DriveParams
 from robots.reduced import simulate
 from sysid._logs import LogArrays
 
-__all__ = ["degrade_odometry", "step_commands", "synthetic_log"]
+__all__ = [
+    "WAFFLE_LIKE_BASE",
+    "WAFFLE_LIKE_GEOMETRY",
+    "WAFFLE_LIKE_TRUTH",
+    "degrade_odometry",
+    "step_commands",
+    "synthetic_log",
+]
 
 FloatArray = NDArray[np.float64]
+
+#: A TurtleBot3-Waffle-Pi-like base (spec mass and inertia, r = 0.033 m, L = 0.287 m).
+WAFFLE_LIKE_GEOMETRY = BaseGeometry(
+    mass_kg=1.55, yaw_inertia_kgm2=0.0146, wheel_radius_m=0.033, wheel_separation_m=0.287
+)
+#: Its "spec" drive defaults: what a fit starts from.
+WAFFLE_LIKE_BASE = DriveParams(
+    motor_gain_nms_per_rad=0.01, speed_lim_v_mps=0.26, speed_lim_w_radps=1.82
+)
+#: A hidden truth with a non-default value for every parameter the fit frees (an arm's mass
+#: and inertia, friction, smoother limits, a wheel-speed cap): the accuracy tests and the
+#: benchmark recover it.
+WAFFLE_LIKE_TRUTH = WAFFLE_LIKE_BASE.replace(
+    delay_s=0.12,
+    added_mass_kg=0.6,
+    added_yaw_inertia_kgm2=0.02,
+    viscous_v_ns_per_m=2.0,
+    viscous_w_nms_per_rad=0.05,
+    coulomb_v_fwd_n=0.4,
+    coulomb_v_bwd_n=0.5,
+    coulomb_w_nm=0.03,
+    accel_lim_v_mps2=1.0,
+    accel_lim_w_radps2=6.0,
+    wheel_speed_max_radps=7.0,
+)
 
 
 def step_commands(

@@ -7,29 +7,17 @@ import math
 import numpy as np
 import pytest
 
-from robots.params import BaseGeometry, DriveParams
 from sysid import SysidResult, fit_drive
 from sysid._coords import Mapper
-from sysid.synthetic import step_commands, synthetic_log
+from sysid.synthetic import (
+    WAFFLE_LIKE_BASE,
+    WAFFLE_LIKE_GEOMETRY,
+    WAFFLE_LIKE_TRUTH,
+    step_commands,
+    synthetic_log,
+)
 
-# Waffle-Pi-like geometry; the truth has non-default values for every parameter the fit frees.
-GEO = BaseGeometry(
-    mass_kg=1.55, yaw_inertia_kgm2=0.0146, wheel_radius_m=0.033, wheel_separation_m=0.287
-)
-BASE = DriveParams(motor_gain_nms_per_rad=0.01, speed_lim_v_mps=0.26, speed_lim_w_radps=1.82)
-TRUTH = BASE.replace(
-    delay_s=0.12,
-    added_mass_kg=0.6,
-    added_yaw_inertia_kgm2=0.02,
-    viscous_v_ns_per_m=2.0,
-    viscous_w_nms_per_rad=0.05,
-    coulomb_v_fwd_n=0.4,
-    coulomb_v_bwd_n=0.5,
-    coulomb_w_nm=0.03,
-    accel_lim_v_mps2=1.0,
-    accel_lim_w_radps2=6.0,
-    wheel_speed_max_radps=7.0,
-)
+GEO, BASE, TRUTH = WAFFLE_LIKE_GEOMETRY, WAFFLE_LIKE_BASE, WAFFLE_LIKE_TRUTH
 # what the fit must recover within 10 % (the combinations velocity data identify)
 IDENTIFIABLE = (
     "time_constant_v_s",
