@@ -140,6 +140,13 @@ def inspect_log(
             if explicit is not None:
                 raise
             chosen[role], notes[role] = None, str(exc)
+    warnings = list(log.container.warnings)
+    for role, topic in chosen.items():
+        if topic is not None and not any(c.count for c in log.chans if c.topic == topic):
+            warnings.append(
+                f"the {role} topic '{topic}' has no messages, so reading this log as a trace "
+                "(sysid fit, agree) will fail; record the topic or choose another one"
+            )
     times = [c.log_time_ns for c in log.chans if c.count]
     start = int(min(int(t[0]) for t in times)) if times else 0
     end = int(max(int(t[-1]) for t in times)) if times else 0
@@ -158,5 +165,5 @@ def inspect_log(
         meas_topic=chosen["measurement"],
         cmd_note=notes["command"],
         meas_note=notes["measurement"],
-        warnings=tuple(log.container.warnings),
+        warnings=tuple(warnings),
     )

@@ -144,8 +144,9 @@ def read_trace(
     if cmd_src != meas_src:
         _check_clocks(cmd_raw if cmd_src == "header" else meas_raw, cmd, meas, warnings)
     meas_cols = _meas_columns(meas_raw, meas.type, wheel_radius_m, wheel_separation_m)
-    cmd_t, cmd_cols = _clean(cmd_t, {"v": cmd_raw["v"], "w": cmd_raw["w"]}, cmd.topic, warnings)
-    meas_t, meas_cols = _clean(meas_t, meas_cols, meas.topic, warnings)
+    cmd_cols = {"v": cmd_raw["v"], "w": cmd_raw["w"]}
+    cmd_t, cmd_cols = _clean(cmd_t, cmd_cols, cmd.topic, warnings, name=log.name)
+    meas_t, meas_cols = _clean(meas_t, meas_cols, meas.topic, warnings, name=log.name)
     meta = TraceMeta(
         path=log.name,
         sha256=log.sha256,
@@ -233,7 +234,7 @@ def _meas_columns(
 
 
 def _clean(
-    t: np.ndarray, cols: dict[str, np.ndarray], topic: str, warnings: list[str]
+    t: np.ndarray, cols: dict[str, np.ndarray], topic: str, warnings: list[str], *, name: str
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Drop non-finite samples, sort by time and keep the last of duplicate stamps."""
     n = t.size
@@ -244,8 +245,9 @@ def _clean(
         bad = int(n - np.count_nonzero(finite))
         if bad == n:
             raise LogValueError(
-                f"every one of the {n} samples of topic '{topic}' has a NaN or infinite "
-                "value, so nothing usable remains; check the publisher or choose another topic"
+                f"every one of the {n} samples of topic '{topic}' of log file '{name}' has a "
+                "NaN or infinite value, so nothing usable remains; check the publisher or "
+                "choose another topic"
             )
         warnings.append(f"dropped {bad} of {n} samples of topic '{topic}' with NaN/inf values")
         t = t[finite]
