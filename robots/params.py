@@ -286,6 +286,8 @@ def read_params_file(path: str | Path) -> ParamsFile:
     0.12
     """
     p = Path(path)
+    if p.is_dir():
+        raise ParamsFileError(f"params file '{p}' is a folder; give the path of a params file")
     if not p.is_file():
         raise ParamsFileError(
             f"params file '{p}' does not exist; give the path of a file written by "
@@ -295,7 +297,7 @@ def read_params_file(path: str | Path) -> ParamsFile:
         doc = yaml.safe_load(p.read_text(encoding="utf-8"))
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
         raise ParamsFileError(
-            f"params file '{p}' is not valid YAML ({exc}); regenerate it"
+            f"params file '{p}' is not valid YAML ({' '.join(str(exc).split())}); regenerate it"
         ) from None
     if not isinstance(doc, dict) or not isinstance(doc.get("parameters"), dict):
         raise ParamsFileError(

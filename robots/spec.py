@@ -418,7 +418,8 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
     try:
         doc = yaml.safe_load(path.read_text(encoding="utf-8"))
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise SpecError(f"robot spec '{path}' is not valid YAML ({exc}); fix the file") from None
+        why = " ".join(str(exc).split())
+        raise SpecError(f"robot spec '{path}' is not valid YAML ({why}); fix the file") from None
     return _parse(Section(doc, "", str(path)), path)
 
 

@@ -246,6 +246,8 @@ class SysidResult:
         Raises :class:`~sysid.errors.ResultFileError` for missing, unreadable or foreign files.
         """
         p = Path(path)
+        if p.is_dir():
+            raise ResultFileError(f"sysid result file '{p}' is a folder; give the result file")
         if not p.is_file():
             raise ResultFileError(
                 f"sysid result file '{p}' does not exist; give a file written by "
@@ -254,11 +256,20 @@ class SysidResult:
         try:
             doc = yaml.safe_load(p.read_text(encoding="utf-8"))
         except (yaml.YAMLError, UnicodeDecodeError) as exc:
-            raise ResultFileError(f"sysid result file '{p}' is not valid YAML ({exc})") from None
-        if not isinstance(doc, dict) or doc.get("format") != PARAMS_FILE_FORMAT:
-            got = doc.get("format") if isinstance(doc, dict) else type(doc).__name__
+            why = " ".join(str(exc).split())
             raise ResultFileError(
-                f"file '{p}' is not a sysid result: 'format' is {got!r}, expected "
+                f"sysid result file '{p}' is not valid YAML ({why}); give a file written by "
+                "'sim2real sysid fit -o FILE'"
+            ) from None
+        if not isinstance(doc, dict) or doc.get("format") != PARAMS_FILE_FORMAT:
+            if isinstance(doc, dict):
+                got = repr(doc.get("format"))
+            elif doc is None:
+                got = "absent (the file is empty)"
+            else:
+                got = f"absent (the file holds a YAML {type(doc).__name__}, not a mapping)"
+            raise ResultFileError(
+                f"file '{p}' is not a sysid result: 'format' is {got}, expected "
                 f"'{PARAMS_FILE_FORMAT}'; give a file written by 'sim2real sysid fit'"
             )
         try:
