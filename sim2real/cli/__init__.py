@@ -64,7 +64,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except USER_ERRORS as exc:
         if args.debug:
             raise
-        print(f"sim2real: error: {exc}", file=sys.stderr)
+        message = " ".join(str(exc).split())  # one line even if a message embeds newlines
+        print(f"sim2real: error: {message}", file=sys.stderr)
         return 2
     except (FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError) as exc:
         if args.debug:

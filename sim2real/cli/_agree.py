@@ -100,11 +100,14 @@ class AgreeOutcome:
         Every replay made (spec defaults first, then the params file when given).
     ensemble : EnsembleResult or None
         The ensemble, when requested.
+    warnings : tuple of str
+        Repairs made while reading the log (dropped NaN samples, re-sorted stamps, ...).
     """
 
     main: AgreementReport
     runs: tuple[ReportRun, ...]
     ensemble: EnsembleResult | None
+    warnings: tuple[str, ...] = ()
 
 
 def _sha256(path: str | Path) -> str:
@@ -235,7 +238,9 @@ def run_agree(
                 title=title,
             ),
         )
-    return AgreeOutcome(main=runs[-1].agreement, runs=tuple(runs), ensemble=ensemble)
+    return AgreeOutcome(
+        main=runs[-1].agreement, runs=tuple(runs), ensemble=ensemble, warnings=trace.meta.warnings
+    )
 
 
 def _write_sim_log(path: str | Path, trace: Any, sim: Any) -> None:
@@ -352,6 +357,8 @@ def _handle(args: argparse.Namespace) -> int:
         sim_out=args.sim_out,
         command_line=_command_line(args),
     )
+    for warning in outcome.warnings:  # data repaired while reading: say so, do not hide it
+        print(f"sim2real: warning: {args.log}: {warning}", file=sys.stderr)
     figures = outcome.main.to_dict()
     if outcome.ensemble is not None:
         cov = outcome.ensemble.coverage

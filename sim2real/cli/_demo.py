@@ -111,19 +111,21 @@ def run_demo(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise Sim2RealValueError(f"--out '{out}' exists and is not a folder; choose a folder")
-    out.mkdir(parents=True, exist_ok=True)
     spec = load_spec(DEMO_ROBOT)
+    train_trace = read_trace(train)
+    read_trace(validate)  # a bad validation log fails here, before OUT is created or written
     print(f"1/2 fitting drive parameters of {spec.name} to {train} ...", flush=True)
     # The sample logs record v as the TurtleBot3 firmware does: encoder ticks differenced over
     # one odometry period. Modelling that window removes a half-period (~17 ms) bias from the
     # fitted delay and the time constants (what `sysid fit --odom-v-window auto` does).
     result = fit_drive(
-        [read_trace(train)],
+        [train_trace],
         geometry=spec.geometry,
         base_params=spec.drive,
         robot=spec.name,
         odom_v_window_s=1.0 / spec.odometry.rate_hz,
     )
+    out.mkdir(parents=True, exist_ok=True)
     params_path = out / "params.yaml"
     result.save(params_path)
     fit_s = time.perf_counter() - start
