@@ -5,13 +5,13 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO
 
-from sim2real.errors import Sim2RealFileNotFoundError
+from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
 
-__all__ = ["atomic_write", "check_output_path"]
+__all__ = ["atomic_write", "check_not_an_input", "check_output_path"]
 
 
 def check_output_path(path: str | Path, *, what: str = "output file") -> Path:
@@ -26,6 +26,21 @@ def check_output_path(path: str | Path, *, what: str = "output file") -> Path:
     if p.is_dir():
         raise Sim2RealFileNotFoundError(f"{what} '{p}' is a folder; give a file name")
     return p
+
+
+def check_not_an_input(
+    path: str | Path | None, inputs: Iterable[str | Path | None], *, what: str
+) -> None:
+    """Refuse an output ``path`` that is one of the ``inputs`` (it would overwrite that file)."""
+    if path is None:
+        return
+    out = Path(path).resolve()
+    for given in inputs:
+        if given is not None and Path(given).resolve() == out:
+            raise Sim2RealValueError(
+                f"{what} '{path}' is also an input file ('{given}') and would be overwritten; "
+                "choose another output path"
+            )
 
 
 @contextlib.contextmanager

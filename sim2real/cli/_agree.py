@@ -171,7 +171,7 @@ def run_agree(
     """Replay ``log`` with spec defaults (and ``params_path``), measure, write the outputs."""
     from robots.params import load_drive_params, read_params_file
     from robots.spec import load_spec
-    from sim2real._io import check_output_path
+    from sim2real._io import check_not_an_input, check_output_path
     from sim2real.agreement import check_tolerances, measure_agreement, run_ensemble
     from sim2real.errors import Sim2RealValueError
     from sim2real.logs import read_trace
@@ -182,6 +182,7 @@ def run_agree(
     for path, what in ((report_path, "report file"), (sim_out, "--sim-out file")):
         if path is not None:
             check_output_path(path, what=what)
+            check_not_an_input(path, [log, params_path], what=what)
     if ensemble_n is not None and params_path is None:
         raise Sim2RealValueError(
             "--ensemble needs --params: the ensemble draws parameters from the standard "
@@ -326,7 +327,7 @@ def write_json(path: str | Path, figures: dict[str, Any]) -> None:
 
 
 def _handle(args: argparse.Namespace) -> int:
-    from sim2real._io import check_output_path
+    from sim2real._io import check_not_an_input, check_output_path
     from sim2real.errors import Sim2RealValueError
 
     gate = args.min_agreement
@@ -341,6 +342,7 @@ def _handle(args: argparse.Namespace) -> int:
         )
     if args.json is not None:
         check_output_path(args.json, what="--json file")
+        check_not_an_input(args.json, [args.log, args.params], what="--json file")
     outcome = run_agree(
         log=args.log,
         robot=args.robot,

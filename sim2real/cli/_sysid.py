@@ -180,10 +180,11 @@ def _fit(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from robots.spec import load_spec
-    from sim2real._io import atomic_write, check_output_path
+    from sim2real._io import atomic_write, check_not_an_input, check_output_path
     from sysid import fit_drive
 
     out = check_output_path(args.output, what="params file")
+    check_not_an_input(out, [*args.logs, *args.validate], what="params file")
     spec = load_spec(args.robot)
     window = _window(args.window, "--window")
     val_window = _window(args.validate_window, "--validate-window")
