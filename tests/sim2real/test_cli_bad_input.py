@@ -532,6 +532,37 @@ def test_unwritable_output_exits_2_and_writes_nothing(
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(
+    ("flag", "clash"),
+    [
+        ("-o", "log"),
+        ("-o", "validation log"),
+        ("--json", "log"),
+        ("--report", "log"),
+        ("--sim-out", "log"),
+        ("--json", "params"),
+        ("--sim-out", "params"),
+    ],
+)
+def test_output_that_is_an_input_exits_2_and_keeps_the_input(
+    files: Files, tmp_path: Path, capsys: pytest.CaptureFixture[str], flag: str, clash: str
+) -> None:
+    log = Path(shutil.copy(files.good, tmp_path / "run.mcap"))
+    params = Path(shutil.copy(files.params_ok, tmp_path / "params.yaml"))
+    before = {p: p.read_bytes() for p in (log, params)}
+    if flag == "-o":
+        other = Path(shutil.copy(files.hidden, tmp_path / "val.mcap"))
+        before[other] = other.read_bytes()
+        target = log if clash == "log" else other
+        argv = fit(log, target, "--validate", other)
+    else:
+        target = log if clash == "log" else params
+        argv = agree(log, "--params", params, flag, target)
+    assert_bad_input(cli(capsys, *argv), target, "would be overwritten")
+    assert {p: p.read_bytes() for p in before} == before
+    assert leftovers(tmp_path) == []
+
+
 def test_a_failing_agree_leaves_no_output_of_the_others(
     files: Files, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
