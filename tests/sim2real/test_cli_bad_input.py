@@ -138,6 +138,7 @@ class Files:
     text: Path
     empty: Path
     truncated: Path
+    corrupt: Path
     missing: Path
     params_ok: Path
     params_tb2: Path
@@ -151,6 +152,7 @@ class Files:
             "text": self.text,
             "empty": self.empty,
             "truncated": self.truncated,
+            "corrupt": self.corrupt,
             "no_commands": self.no_cmd,
             "all_nan": self.all_nan,
         }[kind]
@@ -163,6 +165,10 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Files:
     truncated = root / "truncated.mcap"
     data = good.read_bytes()
     truncated.write_bytes(data[: len(data) // 2])
+    flipped, mid = bytearray(data), len(data) // 2  # invert 4 bytes of the CRC'd data section
+    flipped[mid : mid + 4] = bytes(b ^ 0xFF for b in data[mid : mid + 4])
+    corrupt = root / "corrupt.mcap"
+    corrupt.write_bytes(bytes(flipped))
     text = root / "notes.mcap"
     text.write_text("this is a text file, not a log\n", encoding="utf-8")
     empty = root / "empty.mcap"
@@ -182,6 +188,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Files:
         text=text,
         empty=empty,
         truncated=truncated,
+        corrupt=corrupt,
         missing=root / "missing.mcap",
         params_ok=write_params(root / "ok.yaml", HIDDEN),
         params_tb2=write_params(root / "tb2.yaml", {"delay_s": 0.1}, robot="turtlebot2"),
@@ -212,6 +219,7 @@ BAD_LOG_WORDS = {
     "text": "is not an MCAP file",
     "empty": "is empty (0 bytes)",
     "truncated": "is truncated",
+    "corrupt": "is corrupt",
     "no_commands": "'/cmd_vel'",
     "all_nan": "NaN",
 }
@@ -252,12 +260,19 @@ def test_bad_log_exits_2_naming_the_file(
     assert sorted(p.name for p in tmp_path.iterdir()) in ([], ["data"])
 
 
-@pytest.mark.parametrize("kind", ["missing", "text", "empty", "truncated"])
+@pytest.mark.parametrize("kind", ["missing", "text", "empty", "truncated", "corrupt"])
 def test_logs_info_on_an_unreadable_log_exits_2(
     files: Files, capsys: pytest.CaptureFixture[str], kind: str
 ) -> None:
     bad = files.bad_log(kind)
     assert_bad_input(cli(capsys, "logs", "info", bad), bad, BAD_LOG_WORDS[kind])
+
+
+def test_debug_shows_the_library_error_instead(files: Files) -> None:
+    from sim2real.errors import LogFormatError
+
+    with pytest.raises(LogFormatError, match="is not an MCAP file"):
+        main(["--debug", "logs", "info", str(files.text)])
 
 
 def test_truncated_log_message_says_where_it_was_cut(
