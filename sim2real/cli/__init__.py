@@ -22,7 +22,7 @@ from randomizers.errors import RandomizerError
 from robots.errors import RobotsError
 from sim2real import __version__
 from sim2real.cli import _agree, _demo, _envs, _logs, _robots, _sysid
-from sim2real.cli._common import EPILOG_MAIN, HelpFormatter
+from sim2real.cli._common import EPILOG_MAIN, HelpFormatter, OneLineErrorParser
 from sim2real.errors import Sim2RealError
 from sysid.errors import SysidError
 
@@ -39,7 +39,7 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``sim2real`` command with every subcommand registered."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineErrorParser(
         prog="sim2real",
         description="Close the sim-to-real gap of mobile-robot navigation policies.",
         epilog=EPILOG_MAIN,

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from typing import NoReturn
 
-__all__ = ["EPILOG_MAIN", "HelpFormatter", "add_command"]
+__all__ = ["EPILOG_MAIN", "HelpFormatter", "OneLineErrorParser", "add_command"]
 
 EPILOG_MAIN = """\
 examples:
@@ -18,6 +19,20 @@ examples:
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
     """Keeps the examples' line breaks and shows defaults."""
+
+
+class OneLineErrorParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line, like every other error, exit 2.
+
+    Subcommand parsers inherit the class, so ``sim2real agree LOG --tol-v abc`` prints
+    ``sim2real: error: sim2real agree: argument --tol-v: invalid float value: 'abc'; see
+    'sim2real agree --help'``.
+    """
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``message`` as one line with a pointer to ``--help`` and exit with code 2."""
+        text = " ".join(message.split())
+        self.exit(2, f"sim2real: error: {self.prog}: {text}; see '{self.prog} --help'\n")
 
 
 def add_command(

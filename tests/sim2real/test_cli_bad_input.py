@@ -513,8 +513,9 @@ def test_argparse_usage_errors_exit_2_without_traceback(
         err = capsys.readouterr().err
         assert exc.value.code == 2
         assert "Traceback" not in err
-        assert err.splitlines()[-1].startswith("sim2real ")
-        assert ": error: " in err.splitlines()[-1]
+        assert len(err.splitlines()) == 1, err
+        assert err.startswith("sim2real: error: sim2real ")
+        assert "--help'" in err
 
 
 # ----------------------------------------------------------------------------- output paths
