@@ -54,6 +54,14 @@ RANDOMIZERS: dict[str, type[gym.Wrapper[Any, Any, Any, Any]]] = {
 }
 
 
+def _yaml_problem(exc: Exception) -> str:
+    """Where and what a YAML/decoding error is, on one line (e.g. `` at line 2, column 3 (...)``)."""
+    mark = getattr(exc, "problem_mark", None)
+    where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+    what = getattr(exc, "problem", None) or str(exc)
+    return f"{where} ({' '.join(str(what).split())})"
+
+
 def _load(config: str | Path | Mapping[str, Any]) -> tuple[str, Mapping[str, Any]]:
     if isinstance(config, Mapping):
         return "config", config
@@ -67,7 +75,8 @@ def _load(config: str | Path | Mapping[str, Any]) -> tuple[str, Mapping[str, Any
         doc = yaml.safe_load(path.read_text(encoding="utf-8"))
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
         raise RandomizerConfigError(
-            f"randomizer config '{path}' is not valid YAML ({exc})"
+            f"randomizer config '{path}' is not valid YAML{_yaml_problem(exc)}; fix the syntax "
+            "there, or write the file again with randomizers.save_config"
         ) from None
     if not isinstance(doc, Mapping):
         raise RandomizerConfigError(

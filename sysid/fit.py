@@ -32,6 +32,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from importlib.metadata import PackageNotFoundError, version
+from numbers import Integral
 from typing import Any
 
 import numpy as np
@@ -411,10 +412,18 @@ def _check_numbers(
     if not logs:
         raise SysidValueError("no fitting log given; pass at least one VelocityLog")
     if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
-        raise SysidValueError(f"dt_s must be in (0, 0.05] s, got {dt_s!r}; e.g. dt_s=0.005")
-    if bootstrap < 0 or not (math.isfinite(segment_s) and segment_s >= 1.0):
         raise SysidValueError(
-            f"bootstrap must be >= 0 and segment_s >= 1 s, got {bootstrap!r} and {segment_s!r}"
+            f"model step dt_s (--dt) must be in (0, 0.05] s, got {dt_s!r}; e.g. --dt 0.005"
+        )
+    if isinstance(bootstrap, bool) or not isinstance(bootstrap, Integral) or bootstrap < 0:
+        raise SysidValueError(
+            f"bootstrap (--bootstrap) must be a whole number of resamples >= 0 (0 = none), got "
+            f"{bootstrap!r}; e.g. --bootstrap 20"
+        )
+    if not (math.isfinite(segment_s) and segment_s >= 1.0):
+        raise SysidValueError(
+            f"bootstrap segment_s must be a finite number of seconds >= 1, got {segment_s!r}; "
+            "e.g. segment_s=10.0"
         )
     if not (math.isfinite(window_s) and 0 <= window_s <= 1.0):
         raise SysidValueError(

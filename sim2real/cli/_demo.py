@@ -2,7 +2,8 @@
 
 1. fit the drive parameters of the TurtleBot3 Burger to ``data/demo_train.mcap`` (sysid);
 2. replay ``data/demo_validate.mcap`` (a different command sequence) in pybullet with the spec
-   defaults and with the fitted parameters, and measure the agreement of both;
+   defaults and with the fitted parameters, and measure the agreement of both (the simulated
+   v goes through the odometry model of the fit, ``--odom-v-window auto``, in both);
 3. write ``OUT/params.yaml``, ``OUT/report.html`` (+ PNGs) and ``OUT/summary.json``, and print
    a short table.
 
@@ -43,6 +44,7 @@ data/ of the source checkout, then in <prefix>/share/sim2real/data of an install
 TRAIN_LOG = "demo_train.mcap"
 VALIDATE_LOG = "demo_validate.mcap"
 DEMO_ROBOT = "turtlebot3_burger"
+_DEFAULT_OUT = "sim2real-demo"
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -54,7 +56,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         description=_DESCRIPTION,
         examples=_EXAMPLES,
     )
-    p.add_argument("--out", default="sim2real-demo", help="output folder (created if needed)")
+    p.add_argument("--out", default=_DEFAULT_OUT, help="output folder (created if needed)")
     p.add_argument(
         "--engine", choices=("pybullet", "reduced"), default="pybullet", help="replay simulator"
     )
@@ -111,6 +113,14 @@ def run_demo(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise Sim2RealValueError(f"--out '{out}' exists and is not a folder; choose a folder")
+    for parent in out.parents:  # the nearest existing parent must be a folder to create OUT in
+        if parent.exists():
+            if not parent.is_dir():
+                raise Sim2RealValueError(
+                    f"--out '{out}' cannot be created: its parent '{parent}' is a file, not a "
+                    f"folder; choose an --out path under a folder, e.g. --out {_DEFAULT_OUT}"
+                )
+            break
     spec = load_spec(DEMO_ROBOT)
     train_trace = read_trace(train)
     read_trace(validate)  # a bad validation log fails here, before OUT is created or written
@@ -137,6 +147,8 @@ def run_demo(
         engine=engine,
         ensemble_n=ensemble_n if ensemble_n >= 2 else None,
         seed=seed,
+        # compare v as the odometry reports it, like the fit above (before and after alike)
+        odom_v_window="auto",
         report_path=out / "report.html",
         command_line=f"sim2real demo --out {out} --engine {engine} --ensemble {ensemble_n} "
         f"--seed {seed}",

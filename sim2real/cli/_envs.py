@@ -134,7 +134,9 @@ def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
 
     env_id = _env_id(args.env)
     if args.episodes < 1:
-        raise Sim2RealValueError(f"--episodes must be >= 1, got {args.episodes}")
+        raise Sim2RealValueError(
+            f"--episodes must be >= 1, got {args.episodes}; e.g. --episodes 10"
+        )
     if env_id.endswith("RandomMap-v0"):
         if args.scenario is not None or args.complexity is not None:
             raise Sim2RealValueError(
@@ -185,7 +187,8 @@ def _eval(args: argparse.Namespace) -> int:
     console = Console()
     try:
         ctrl = DWAController.for_env(env)
-        with Progress(console=console, transient=True) as progress:
+        # disabled off a terminal: rich would print an empty line to a pipe
+        with Progress(console=console, transient=True, disable=not console.is_terminal) as progress:
             task = progress.add_task(f"{env.spec.id} episodes", total=args.episodes)
             summary = evaluate(
                 env,

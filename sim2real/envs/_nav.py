@@ -75,7 +75,7 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
         super().__init__()
         if dynamics not in DYNAMICS:
             raise Sim2RealValueError(
-                f"dynamics must be one of {', '.join(DYNAMICS)}, got {dynamics!r}; "
+                f"dynamics (--dynamics) must be one of {', '.join(DYNAMICS)}, got {dynamics!r}; "
                 "use 'reduced' (fast) or 'pybullet' (full rigid-body robot)"
             )
         if not (

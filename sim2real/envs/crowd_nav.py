@@ -272,14 +272,18 @@ class CrowdNavEnv(NavEnvBase):
     def _check_scenario(scenario: Any, complexity: Any) -> tuple[str, float]:
         if scenario not in SCENARIOS:
             raise Sim2RealValueError(
-                f"scenario must be one of {', '.join(SCENARIOS)}, got {scenario!r}"
+                f"scenario (--scenario) must be one of {', '.join(SCENARIOS)}, got {scenario!r}; "
+                "e.g. --scenario dynamic"
             )
         if not (
             isinstance(complexity, int | float)
             and not isinstance(complexity, bool)
             and 0.0 <= complexity <= 1.0
         ):
-            raise Sim2RealValueError(f"complexity must be a number in [0, 1], got {complexity!r}")
+            raise Sim2RealValueError(
+                f"complexity (--complexity) must be a number in [0, 1], got {complexity!r}; "
+                "e.g. --complexity 0.5"
+            )
         return str(scenario), float(complexity)
 
     def _build(self, options: dict[str, Any]) -> tuple[float, float, float]:

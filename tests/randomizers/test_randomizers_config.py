@@ -110,3 +110,26 @@ def test_missing_and_invalid_files(tmp_path: Path) -> None:
         randomizers.from_config(NavDouble(), bad)
     with pytest.raises(RandomizerConfigError, match="does not exist"):
         randomizers.save_config(NavDouble(), tmp_path / "no" / "dir.yaml")
+
+
+@pytest.mark.parametrize(
+    ("text", "where"),
+    [
+        ("randomizers:\n  - type: GoalNoise\n   bad: [1\n", "at line 3, column"),
+        ("format: x\n a: b: c\n", "at line 2, column"),
+        ("\xff\xfe not utf-8", "('utf-8' codec"),
+    ],
+)
+def test_invalid_yaml_is_one_line_naming_file_place_and_fix(
+    tmp_path: Path, text: str, where: str
+) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_bytes(text.encode("latin-1"))
+    with pytest.raises(RandomizerConfigError) as info:
+        randomizers.from_config(NavDouble(), bad)
+    message = str(info.value)
+    assert "\n" not in message and "^" not in message  # no YAML snippet with a caret
+    assert message.startswith(f"randomizer config '{bad}' is not valid YAML {where}")
+    assert message.endswith(
+        "fix the syntax there, or write the file again with randomizers.save_config"
+    )

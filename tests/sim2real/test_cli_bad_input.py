@@ -484,8 +484,10 @@ def test_bad_agree_argument_exits_2_before_writing(
         (["--free", "delay_sec"], ["'delay_sec'", "delay_s"]),
         (["--free", ","], ["--free", "','"]),
         (["--odom-v-window", "2"], ["--odom-v-window", "'2'"]),
-        (["--dt", "0"], ["dt_s", "0.0"]),
-        (["--bootstrap", "-1"], ["bootstrap", "-1"]),
+        (["--dt", "0"], ["--dt", "0.0", "e.g. --dt 0.005"]),
+        (["--dt", "0.2"], ["--dt", "(0, 0.05] s", "0.2", "e.g. --dt 0.005"]),
+        (["--dt", "nan"], ["--dt", "nan", "e.g. --dt 0.005"]),
+        (["--bootstrap", "-1"], ["--bootstrap", ">= 0", "-1", "e.g. --bootstrap 20"]),
     ],
 )
 def test_bad_sysid_fit_argument_exits_2_without_output(
@@ -496,7 +498,8 @@ def test_bad_sysid_fit_argument_exits_2_without_output(
     words: list[str],
 ) -> None:
     extra = [files.good if a == "GOOD" else a for a in extra]  # type: ignore[misc]
-    assert_bad_input(cli(capsys, *fit(files.good, tmp_path / "p.yaml", *extra)), *words)
+    line = assert_bad_input(cli(capsys, *fit(files.good, tmp_path / "p.yaml", *extra)), *words)
+    assert "segment_s" not in line  # a library keyword the CLI cannot set
     assert list(tmp_path.iterdir()) == []
 
 
@@ -639,10 +642,22 @@ def test_min_agreement_gate_exits_1_below_and_0_at_or_above(
     [
         (["envs", "eval", "Maze-v9"], ["'Maze-v9'", "sim2real/RandomMap-v0", "CrowdNav-v0"]),
         (["envs", "eval", "RandomMap-v0", "--preset", "TEST9"], ["'TEST9'", "TEST4"]),
-        (["envs", "eval", "CrowdNav-v0", "--scenario", "crowded"], ["'crowded'", "occluded"]),
-        (["envs", "eval", "CrowdNav-v0", "--complexity", "5"], ["complexity", "5.0"]),
-        (["envs", "eval", "RandomMap-v0", "--dynamics", "gazebo"], ["'gazebo'", "reduced"]),
-        (["envs", "eval", "RandomMap-v0", "--episodes", "0"], ["--episodes", "0"]),
+        (
+            ["envs", "eval", "CrowdNav-v0", "--scenario", "crowded"],
+            ["--scenario", "'crowded'", "occluded", "e.g. --scenario dynamic"],
+        ),
+        (
+            ["envs", "eval", "CrowdNav-v0", "--complexity", "5"],
+            ["--complexity", "[0, 1]", "5.0", "e.g. --complexity 0.5"],
+        ),
+        (
+            ["envs", "eval", "RandomMap-v0", "--dynamics", "gazebo"],
+            ["--dynamics", "'gazebo'", "use 'reduced'"],
+        ),
+        (
+            ["envs", "eval", "RandomMap-v0", "--episodes", "0"],
+            ["--episodes", "0", "e.g. --episodes 10"],
+        ),
         (["envs", "eval", "CrowdNav-v0", "--preset", "TRAIN"], ["--preset", "RandomMap-v0"]),
         (["envs", "eval", "RandomMap-v0", "--scenario", "static"], ["--scenario", "CrowdNav"]),
     ],
@@ -651,7 +666,9 @@ def test_bad_envs_eval_exits_2(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], words: list[str]
 ) -> None:
     extra = ["--json", tmp_path / "e.json"] if "--episodes" in argv else ["--episodes", 1]
-    assert_bad_input(cli(capsys, *argv, *extra), *words)
+    run = cli(capsys, *argv, *extra)
+    assert_bad_input(run, *words)
+    assert run.out == ""  # not even the empty line of a progress bar
     assert list(tmp_path.iterdir()) == []
 
 
@@ -676,11 +693,14 @@ def test_bad_demo_paths_exit_2_and_create_nothing(
         out = data / "demo_train.mcap"
         words = [out, "is not a folder"]
     else:
-        out = data / "demo_train.mcap" / "sub"
-        words = [out]
+        out = data / "demo_train.mcap" / "sub" / "deeper"
+        parent = data / "demo_train.mcap"
+        words = ["--out", out, f"parent '{parent}' is a file", "e.g. --out sim2real-demo"]
     before = sorted(p.name for p in tmp_path.rglob("*"))
     argv = ["demo", "--data", data, "--engine", "reduced", "--ensemble", 0, "--out", out]
-    assert_bad_input(cli(capsys, *argv), *words)
+    run = cli(capsys, *argv)
+    assert_bad_input(run, *words)
+    assert run.out == ""  # refused up front, before the fit starts
     assert sorted(p.name for p in tmp_path.rglob("*")) == before
 
 

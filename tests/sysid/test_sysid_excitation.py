@@ -107,6 +107,24 @@ def test_bad_free_names_are_refused() -> None:
         fit_drive([_log()], geometry=GEO, base_params=BASE, loss="l3")
 
 
+@pytest.mark.parametrize(
+    ("kw", "words"),
+    [
+        ({"dt_s": 0.2}, r"dt_s \(--dt\) must be in \(0, 0.05\] s, got 0.2; e.g. --dt 0.005$"),
+        ({"dt_s": 0.0}, r"dt_s \(--dt\) .*got 0.0; e.g. --dt 0.005$"),
+        ({"bootstrap": -1}, r"bootstrap \(--bootstrap\) .*>= 0 .*got -1; e.g. --bootstrap 20$"),
+        ({"bootstrap": 2.5}, r"bootstrap \(--bootstrap\) .*whole number.*got 2.5; e.g."),
+        ({"segment_s": 0.5}, r"segment_s must be .*>= 1, got 0.5; e.g. segment_s=10.0$"),
+    ],
+)
+def test_bad_step_and_bootstrap_name_keyword_flag_and_fix(kw: dict[str, float], words: str) -> None:
+    with pytest.raises(SysidValueError, match=words) as info:
+        fit_drive([_log()], geometry=GEO, base_params=BASE, **kw)  # type: ignore[arg-type]
+    assert "\n" not in str(info.value)
+    if "bootstrap" in kw:
+        assert "segment_s" not in str(info.value)  # the CLI cannot set it
+
+
 def test_no_reversal_ties_backward_friction_and_says_so() -> None:
     exc = analyse([_log(v=0.2, w=0.0)], GEO, BASE, "auto")
     assert exc.ties == {"coulomb_v_bwd_n": "coulomb_v_fwd_n"}

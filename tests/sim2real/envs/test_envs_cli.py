@@ -55,7 +55,7 @@ def test_eval_prints_rates_and_writes_json(
         (["envs", "eval", "CrowdNav-v0", "--preset", "TRAIN"], "RandomMap-v0 only"),
         (["envs", "eval", "RandomMap-v0", "--scenario", "static"], "CrowdNav-v0 only"),
         (["envs", "eval", "RandomMap-v0", "--episodes", "0"], "--episodes"),
-        (["envs", "eval", "RandomMap-v0", "--dynamics", "ode"], "dynamics must be one of"),
+        (["envs", "eval", "RandomMap-v0", "--dynamics", "ode"], "(--dynamics) must be one of"),
     ],
 )
 def test_bad_input_exits_2(

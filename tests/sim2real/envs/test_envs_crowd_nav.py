@@ -107,9 +107,13 @@ def test_goal_observation_is_relative(env: CrowdNavEnv) -> None:
 
 
 def test_bad_options_are_refused(env: CrowdNavEnv) -> None:
-    with pytest.raises(Sim2RealValueError, match="complexity"):
+    with pytest.raises(
+        Sim2RealValueError, match=r"complexity \(--complexity\) .*got 1.5; e.g. --complexity 0.5"
+    ):
         env.reset(options={"complexity": 1.5})
-    with pytest.raises(Sim2RealValueError, match="scenario"):
+    with pytest.raises(
+        Sim2RealValueError, match=r"scenario \(--scenario\) .*got 'party'; e.g. --scenario dyn"
+    ):
         env.reset(options={"scenario": "party"})
     with pytest.raises(Sim2RealValueError, match="unknown reset option"):
         env.reset(options={"preset": "TRAIN"})
