@@ -6,6 +6,13 @@ records are located with one light loop per chunk and their fields gathered with
 Python object per message), and every length is checked against the bytes that are really
 there, so a truncated or corrupt file gives a precise error instead of a short read.
 
+Chunks are read through their ``MessageIndex`` records (written right after each chunk; they
+list every message's offset in the decompressed chunk) when these check out: every listed
+offset must start a Message record inside the chunk, consecutive records must tile the chunk
+and the few records between them (Schema, Channel) are walked and must not be messages, so the
+result is exactly what a full walk gives, without a Python step per message. A chunk whose
+index is missing, partial or wrong is walked record by record as before.
+
 Integrity: chunk CRCs (``uncompressed_crc``) and the data-section CRC (``DataEnd``) are checked
 when the writer filled them in (non-zero). Without a data CRC the message count is checked
 against the ``Statistics`` record of the summary when there is one.
@@ -27,7 +34,7 @@ __all__ = ["MAGIC", "ChannelRecord", "Container", "SchemaRecord", "Segment", "sc
 MAGIC = b"\x89MCAP0\r\n"
 
 _HEADER, _FOOTER, _SCHEMA, _CHANNEL, _MESSAGE, _CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
-_STATISTICS, _DATA_END = 0x0B, 0x0F
+_MESSAGE_INDEX, _STATISTICS, _DATA_END = 0x07, 0x0B, 0x0F
 _MESSAGE_FIXED = 22  # channel_id u16, sequence u32, log_time u64, publish_time u64
 _OP_LEN = struct.Struct("<BQ")
 
@@ -163,7 +170,7 @@ def _chunk_records(buf: bytes, pos: int, end: int) -> bytes:
     return data
 
 
-def _segment(buf: bytes, starts: list[int]) -> Segment:
+def _segment(buf: bytes, starts: list[int] | np.ndarray) -> Segment:
     """Gather the fixed message fields of the message records starting at ``starts``."""
     u8 = np.frombuffer(buf, dtype=np.uint8)
     pos = np.asarray(starts, dtype=np.int64)
@@ -203,6 +210,71 @@ def _scan_chunk(buf: bytes, out: Container) -> None:
         raise _Corrupt("a record inside it runs past the chunk end")
     if starts:
         out.segments.append(_segment(buf, starts))
+
+
+def _index_offsets(data: bytes, pos: int, end: int) -> np.ndarray | None:
+    """Message offsets listed by the MessageIndex record ``data[pos:end]`` (None if malformed).
+
+    Body: ``channel_id u16, records_len u32, (log_time u64, offset u64) * k``.
+    """
+    body = end - pos - 9
+    if body < 6:
+        return None
+    size = int(struct.unpack_from("<I", data, pos + 11)[0])
+    if size % 16 or 6 + size != body:
+        return None
+    pairs = np.frombuffer(data, dtype="<u8", count=size // 8, offset=pos + 15)
+    return pairs[1::2]
+
+
+def _scan_chunk_indexed(buf: bytes, offsets: list[np.ndarray], out: Container) -> bool:
+    """Read one decompressed chunk through its message index; False when it does not check out.
+
+    Accepted only when the indexed Message records and the records walked between them tile
+    ``buf`` exactly as :func:`_scan_chunk` would walk it, and no walked record is a message:
+    then the outcome (records found, errors raised) is the same as the full walk's. ``out`` is
+    untouched when False is returned.
+    """
+    n = len(buf)
+    starts = np.sort(np.concatenate(offsets)) if offsets else np.zeros(0, np.uint64)
+    if starts.size and (n < 9 + _MESSAGE_FIXED or int(starts[-1]) > n - 9 - _MESSAGE_FIXED):
+        return False  # (also rejects offsets that would overflow int64 below)
+    starts = starts.astype(np.int64)
+    u8 = np.frombuffer(buf, dtype=np.uint8)
+    ends = starts
+    if starts.size:
+        length = gather(u8, starts + 1, "<u8")
+        if not (np.all(u8[starts] == _MESSAGE) and np.all(length <= n)):
+            return False
+        ends = starts + 9 + length.astype(np.int64)
+    lo = np.concatenate(([0], ends))
+    hi = np.concatenate((starts, [n]))
+    if np.any(lo > hi):
+        return False  # overlapping or duplicate entries
+    gaps = lo < hi
+    meta: list[tuple[int, int]] = []
+    for a, b in zip(lo[gaps].tolist(), hi[gaps].tolist(), strict=True):
+        if not _walk_gap(buf, a, b, meta):
+            return False
+    for op, pos in meta:
+        _chunk_meta(buf, op, pos, out)
+    if starts.size:
+        out.segments.append(_segment(buf, starts))
+    return True
+
+
+def _walk_gap(buf: bytes, pos: int, end: int, meta: list[tuple[int, int]]) -> bool:
+    """Walk the records of ``buf[pos:end]``; False on a message or when they do not fit."""
+    while pos < end:
+        if pos + 9 > end:
+            return False
+        op, length = _OP_LEN.unpack_from(buf, pos)
+        if op == _MESSAGE:
+            return False  # a message the index does not list
+        if op in (_SCHEMA, _CHANNEL):
+            meta.append((op, pos))
+        pos += 9 + length
+    return pos == end
 
 
 def _chunk_meta(buf: bytes, op: int, pos: int, out: Container) -> None:
@@ -250,6 +322,7 @@ def scan_mcap(data: bytes, *, name: str) -> Container:
     data_end: int | None = None
     data_crc = 0
     stats_count: int | None = None
+    pending: list[_Pending] = []
     while True:
         if pos + 9 > n:
             _truncated(out, name, pos, n, data_end)
@@ -260,8 +333,11 @@ def scan_mcap(data: bytes, *, name: str) -> Container:
             _truncated(out, name, pos, n, data_end)
             break
         try:
-            if data_end is None:
-                data_crc = _data_record(data, op, pos, end, out, top_starts)
+            if data_end is None and op == _MESSAGE_INDEX:
+                _add_index(pending, data, pos, end)
+            elif data_end is None:
+                _flush(pending, out, name)
+                data_crc = _data_record(data, op, pos, end, out, top_starts, pending)
             elif op == _STATISTICS:
                 stats_count = _Cursor(data, pos + 9, end).u64()
         except _Corrupt as exc:
@@ -279,6 +355,7 @@ def scan_mcap(data: bytes, *, name: str) -> Container:
         if op == _FOOTER:
             break
         pos = end
+    _flush(pending, out, name)
     if top_starts:
         out.segments.append(_segment_safe(data, top_starts, name))
     if data_end is not None and data_crc == 0 and stats_count is not None:
@@ -298,14 +375,61 @@ def _segment_safe(data: bytes, starts: list[int], name: str) -> Segment:
         raise LogFormatError(f"log file '{name}' is corrupt ({exc}); re-export it") from None
 
 
+@dataclass
+class _Pending:
+    """A decompressed chunk waiting for the MessageIndex records that follow it."""
+
+    pos: int
+    buf: bytes
+    offsets: list[np.ndarray] = field(default_factory=list)
+    usable: bool = True
+
+
+def _add_index(pending: list[_Pending], data: bytes, pos: int, end: int) -> None:
+    """Attach a MessageIndex record to the chunk before it (a malformed one disables the index)."""
+    if not pending:
+        return
+    offsets = _index_offsets(data, pos, end)
+    if offsets is None:
+        pending[-1].usable = False
+    else:
+        pending[-1].offsets.append(offsets)
+
+
+def _flush(pending: list[_Pending], out: Container, name: str) -> None:
+    """Scan the pending chunks: through their index when it checks out, else record by record."""
+    for chunk in pending:
+        try:
+            if not (chunk.usable and chunk.offsets) or not _scan_chunk_indexed(
+                chunk.buf, chunk.offsets, out
+            ):
+                _scan_chunk(chunk.buf, out)
+        except _Corrupt as exc:
+            raise LogFormatError(
+                f"log file '{name}' is corrupt: the record at byte {chunk.pos} is broken ({exc}); "
+                "the file cannot be read safely, re-export or re-record it"
+            ) from None
+    pending.clear()
+
+
 def _data_record(
-    data: bytes, op: int, pos: int, end: int, out: Container, top_starts: list[int]
+    data: bytes,
+    op: int,
+    pos: int,
+    end: int,
+    out: Container,
+    top_starts: list[int],
+    pending: list[_Pending],
 ) -> int:
-    """Handle one record of the data section; return the data CRC when it is DataEnd."""
+    """Handle one record of the data section; return the data CRC when it is DataEnd.
+
+    A chunk is decompressed and checked now, and scanned by :func:`_flush` once the
+    MessageIndex records after it are known.
+    """
     if op == _MESSAGE:
         top_starts.append(pos)
     elif op == _CHUNK:
-        _scan_chunk(_chunk_records(data, pos + 9, end), out)
+        pending.append(_Pending(pos, _chunk_records(data, pos + 9, end)))
     elif op == _SCHEMA:
         _add_schema(out, _schema(data, pos + 9, end))
     elif op == _CHANNEL:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -48,6 +49,7 @@ def load_log(path: str | Path) -> LoadedLog:
     if p.is_dir():
         raise Sim2RealFileNotFoundError(f"log file '{p}' is a folder; give an .mcap file")
     data = p.read_bytes()
+    digest = _Sha256(data)  # hashes in a thread (hashlib releases the GIL) while we scan
     container = scan_mcap(data, name=str(p))
     if container.warnings and container.message_count() == 0:
         raise LogFormatError(
@@ -59,10 +61,27 @@ def load_log(path: str | Path) -> LoadedLog:
     return LoadedLog(
         name=str(p),
         size_bytes=len(data),
-        sha256=hashlib.sha256(data).hexdigest(),
+        sha256=digest.hexdigest(),
         container=container,
         chans=chans,
     )
+
+
+class _Sha256:
+    """SHA-256 of a bytes object, computed in a background thread."""
+
+    def __init__(self, data: bytes) -> None:
+        self._hex = ""
+        self._thread = threading.Thread(target=self._run, args=(data,), daemon=True)
+        self._thread.start()
+
+    def _run(self, data: bytes) -> None:
+        self._hex = hashlib.sha256(data).hexdigest()
+
+    def hexdigest(self) -> str:
+        """Wait for the hash and return it as hex."""
+        self._thread.join()
+        return self._hex
 
 
 def _with_json_type(chan: Chan, container: Container) -> Chan:

@@ -1,0 +1,283 @@
+"""The MessageIndex path of the MCAP scan: same result as the full walk, never trusted blindly.
+
+The files have several channels (commands, odometry and two busy channels the reader does not
+need, as in real robot logs with /scan and /tf), several chunks per file, and Schema/Channel
+records inside the chunks, so the index path has gaps to walk.
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from logs_helpers import make_arrays
+from mcap.writer import CompressionType, IndexType, Writer
+
+from sim2real.errors import Sim2RealError
+from sim2real.logs import ODOMETRY, SCHEMA_TEXT, TWIST, Trace, _cdr, _mcap, inspect_log, read_trace
+
+_ARR = make_arrays(n_cmd=30, n_meas=80, seed=11)
+_STRING = "std_msgs/msg/String"
+_N_NOISE = 150  # messages on each of the two unused channels
+
+
+def _string_cdr(text: str) -> bytes:
+    """A std_msgs/msg/String in little-endian CDR: encapsulation, u32 length, bytes, NUL."""
+    raw = text.encode() + b"\0"
+    return b"\x00\x01\x00\x00" + struct.pack("<I", len(raw)) + raw
+
+
+def _write(
+    path: Path,
+    *,
+    compression: CompressionType = CompressionType.NONE,
+    crcs: bool = False,
+    index: IndexType = IndexType.ALL,
+) -> Path:
+    """Commands, odometry and two busy String channels, interleaved by time, small chunks."""
+    with path.open("wb") as fh:
+        w = Writer(
+            fh,
+            compression=compression,
+            enable_crcs=crcs,
+            enable_data_crcs=crcs,
+            chunk_size=4000,
+            index_types=index,
+        )
+        w.start(profile="ros2", library="index-test")
+        string_schema = w.register_schema(_STRING, "ros2msg", b"string data")
+        rows: list[tuple[int, int, bytes]] = []
+        for topic in ("/scan", "/tf"):
+            cid = w.register_channel(topic, "cdr", string_schema)
+            t = _ARR.meas_t_ns[0] + np.arange(_N_NOISE, dtype=np.int64) * 21_000_000 + 7
+            rows += [(int(ti), cid, _string_cdr(f"{topic} {i}")) for i, ti in enumerate(t)]
+        twist = w.register_schema(TWIST, "ros2msg", SCHEMA_TEXT[TWIST].encode())
+        cmd = w.register_channel("/cmd_vel", "cdr", twist)
+        payloads = _cdr.encode_twist(_ARR.cmd_v, _ARR.cmd_w)
+        rows += [(int(t), cmd, p) for t, p in zip(_ARR.cmd_t_ns, payloads, strict=True)]
+        odom = w.register_schema(ODOMETRY, "ros2msg", SCHEMA_TEXT[ODOMETRY].encode())
+        odo = w.register_channel("/odom", "cdr", odom)
+        payloads = _cdr.encode_odometry(
+            _ARR.meas_t_ns,
+            _ARR.meas_v,
+            _ARR.meas_w,
+            x=_ARR.pose_x,
+            y=_ARR.pose_y,
+            yaw=_ARR.pose_yaw,
+            frame_id="odom",
+            child_frame_id="base_link",
+        )
+        rows += [(int(t), odo, p) for t, p in zip(_ARR.meas_t_ns, payloads, strict=True)]
+        for t, cid, data in sorted(rows, key=lambda r: r[0]):
+            w.add_message(cid, log_time=t, data=data, publish_time=t)
+        w.finish()
+    return path
+
+
+def _records(data: bytes, opcode: int) -> list[tuple[int, int]]:
+    """(start, end) of the top-level records of ``data`` with ``opcode``, up to the footer."""
+    pos, out = 8, []
+    while pos + 9 <= len(data):
+        op, length = struct.unpack_from("<BQ", data, pos)
+        if op == opcode:
+            out.append((pos, pos + 9 + length))
+        if op == 0x02:
+            break
+        pos += 9 + length
+    return out
+
+
+class _Spy:
+    """Counts how chunks were scanned: through the index or by the full walk."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        self.full = 0
+        full = _mcap._scan_chunk
+
+        def counting(buf: bytes, out: _mcap.Container) -> None:
+            self.full += 1
+            full(buf, out)
+
+        monkeypatch.setattr(_mcap, "_scan_chunk", counting)
+
+
+def _scan(data: bytes) -> _mcap.Container:
+    return _mcap.scan_mcap(data, name="x.mcap")
+
+
+def _full_walk(data: bytes, monkeypatch: pytest.MonkeyPatch) -> _mcap.Container:
+    with monkeypatch.context() as m:
+        m.setattr(_mcap, "_scan_chunk_indexed", lambda *a: False)
+        return _scan(data)
+
+
+def _assert_same(a: _mcap.Container, b: _mcap.Container) -> None:
+    assert a.schemas == b.schemas and a.channels == b.channels and a.warnings == b.warnings
+    assert len(a.segments) == len(b.segments) > 1
+    for x, y in zip(a.segments, b.segments, strict=True):
+        for key in ("channel_id", "log_time_ns", "payload_off", "payload_len"):
+            np.testing.assert_array_equal(getattr(x, key), getattr(y, key))
+
+
+def _assert_same_trace(a: Trace, b: Trace) -> None:
+    for key in ("cmd_t_ns", "cmd_v", "cmd_w", "meas_t_ns", "meas_v", "meas_w", "pose_x"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+    assert a.meta.warnings == b.meta.warnings
+
+
+@pytest.mark.parametrize("compression", [CompressionType.NONE, CompressionType.ZSTD])
+@pytest.mark.parametrize("crcs", [False, True])
+def test_index_path_gives_the_full_walk_result(tmp_path, monkeypatch, compression, crcs):
+    data = _write(tmp_path / "multi.mcap", compression=compression, crcs=crcs).read_bytes()
+    spy = _Spy(monkeypatch)
+    indexed = _scan(data)
+    assert spy.full == 0  # every chunk was read through its index
+    chunks = len(_records(data, 0x06))
+    assert chunks >= 5 and len(indexed.segments) == chunks
+    _assert_same(indexed, _full_walk(data, monkeypatch))
+    assert spy.full == chunks
+    assert indexed.message_count() == 2 * _N_NOISE + _ARR.cmd_t_ns.size + _ARR.meas_t_ns.size
+
+
+def test_index_path_trace_and_info_match_the_written_arrays(tmp_path, monkeypatch):
+    path = _write(tmp_path / "multi.mcap", compression=CompressionType.ZSTD, crcs=True)
+    spy = _Spy(monkeypatch)
+    tr = read_trace(path)
+    info = inspect_log(path)
+    assert spy.full == 0
+    np.testing.assert_array_equal(tr.cmd_t_ns, _ARR.cmd_t_ns)
+    np.testing.assert_array_equal(tr.cmd_v, _ARR.cmd_v)
+    np.testing.assert_array_equal(tr.meas_t_ns, _ARR.meas_t_ns)
+    np.testing.assert_array_equal(tr.meas_w, _ARR.meas_w)
+    np.testing.assert_allclose(tr.pose_yaw, _ARR.pose_yaw, atol=1e-12)
+    counts = {t.topic: t.count for t in info.topics}
+    assert counts == {"/cmd_vel": 30, "/odom": 80, "/scan": _N_NOISE, "/tf": _N_NOISE}
+    assert info.message_count == 30 + 80 + 2 * _N_NOISE
+    assert (info.cmd_topic, info.meas_topic) == ("/cmd_vel", "/odom")
+
+
+def test_file_without_message_indexes_takes_the_full_walk(tmp_path, monkeypatch):
+    plain = _write(tmp_path / "plain.mcap").read_bytes()
+    bare = _write(tmp_path / "bare.mcap", index=IndexType.NONE).read_bytes()
+    assert _records(bare, 0x07) == [] and _records(plain, 0x07) != []
+    spy = _Spy(monkeypatch)
+    from_bare = _scan(bare)
+    assert spy.full == len(_records(bare, 0x06))
+    _assert_same(from_bare, _full_walk(plain, monkeypatch))
+
+
+def _damaged(data: bytes, how: str) -> bytes:
+    """``data`` with its first chunk's message index damaged in one way."""
+    buf = bytearray(data)
+    pos, run = _records(data, 0x06)[0][1], []  # the index records right after chunk 1
+    while data[pos] == 0x07:
+        run.append(pos)
+        pos += 9 + struct.unpack_from("<Q", data, pos + 1)[0]
+    run.sort(key=lambda r: -struct.unpack_from("<I", data, r + 11)[0])  # longest first
+    a, b = run[:2]
+    size = struct.unpack_from("<I", buf, a + 11)[0]
+    assert size >= 32  # at least two (log_time, offset) entries
+    off0 = a + 15 + 8  # the first entry's offset
+    if how == "shifted":
+        struct.pack_into("<Q", buf, off0, struct.unpack_from("<Q", buf, off0)[0] + 1)
+    elif how == "past_end":
+        struct.pack_into("<Q", buf, off0, 10**9)
+    elif how == "huge":
+        struct.pack_into("<Q", buf, off0, 2**64 - 1)
+    elif how == "duplicate":
+        buf[off0 + 16 : off0 + 24] = buf[off0 : off0 + 8]
+    elif how == "bad_size":
+        struct.pack_into("<I", buf, a + 11, size - 16)
+    elif how == "dropped":
+        buf[b] = 0x80  # the second index record becomes an unknown (ignored) record
+    elif how == "not_a_message":  # one more entry, pointing at the chunk's first record
+        # chunk body: start/end time, size (24 bytes), crc (4), compression "" (4), length (8)
+        assert data[_records(data, 0x06)[0][0] + 9 + 40] == 0x03  # a Schema record
+        struct.pack_into("<Q", buf, a + 1, struct.unpack_from("<Q", buf, a + 1)[0] + 16)
+        struct.pack_into("<I", buf, a + 11, size + 16)
+        buf[a + 15 : a + 15] = struct.pack("<QQ", 0, 0)
+    elif how == "swapped_channel":
+        buf[a + 9 : a + 11] = buf[b + 9 : b + 11]  # channel ids do not matter, offsets do
+    return bytes(buf)
+
+
+@pytest.mark.parametrize(
+    "how",
+    [
+        "shifted",
+        "past_end",
+        "huge",
+        "duplicate",
+        "bad_size",
+        "dropped",
+        "not_a_message",
+        "swapped_channel",
+    ],
+)
+def test_damaged_index_falls_back_to_the_full_walk(tmp_path, monkeypatch, how):
+    good = _write(tmp_path / "good.mcap").read_bytes()
+    bad = _damaged(good, how)
+    assert bad != good
+    spy = _Spy(monkeypatch)
+    scanned = _scan(bad)
+    assert spy.full == (0 if how == "swapped_channel" else 1)  # only the damaged chunk
+    _assert_same(scanned, _full_walk(good, monkeypatch))
+    (tmp_path / "bad.mcap").write_bytes(bad)
+    _assert_same_trace(read_trace(tmp_path / "bad.mcap"), read_trace(tmp_path / "good.mcap"))
+
+
+def test_damaged_index_with_a_data_crc_is_a_clean_error(tmp_path):
+    good = _write(tmp_path / "good.mcap", crcs=True).read_bytes()
+    path = tmp_path / "bad.mcap"
+    path.write_bytes(_damaged(good, "shifted"))
+    with pytest.raises(Sim2RealError, match="does not match its CRC"):
+        read_trace(path)
+
+
+def test_index_offsets_parse_and_reject_malformed_records():
+    pairs = np.array([[5, 0], [6, 31]], dtype="<u8").tobytes()
+    rec = struct.pack("<BQHI", 0x07, 6 + len(pairs), 3, len(pairs)) + pairs
+    np.testing.assert_array_equal(_mcap._index_offsets(rec, 0, len(rec)), [0, 31])
+    short = struct.pack("<BQHI", 0x07, 6 + 8, 3, 8) + pairs[:8]  # half an entry
+    assert _mcap._index_offsets(short, 0, len(short)) is None
+    assert _mcap._index_offsets(rec[:12], 0, 12) is None
+
+
+_GOOD: dict[str, bytes] = {}
+
+
+def _good_file(tmp: Path) -> bytes:
+    if "data" not in _GOOD:
+        _GOOD["data"] = _write(tmp / "fuzz.mcap").read_bytes()
+    return _GOOD["data"]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    flips=st.lists(
+        st.tuples(st.integers(0, 10**6), st.integers(0, 10**6), st.integers(1, 255)),
+        min_size=1,
+        max_size=4,
+    )
+)
+def test_fuzzed_index_bodies_never_change_the_result(tmp_path_factory, flips):
+    """Any damage inside MessageIndex bodies (no CRC to catch it) gives the clean result."""
+    good = _good_file(tmp_path_factory.mktemp("idx"))
+    index = _records(good, 0x07)
+    buf = bytearray(good)
+    for which, where, mask in flips:
+        start, end = index[which % len(index)]
+        buf[start + 9 + where % (end - start - 9)] ^= mask
+    try:
+        got = _scan(bytes(buf))
+    except Sim2RealError as exc:  # pragma: no cover - would be a regression
+        pytest.fail(f"damaged index made the read fail: {exc}")
+    want = _scan(good)
+    assert got.channels == want.channels
+    for x, y in zip(got.segments, want.segments, strict=True):
+        np.testing.assert_array_equal(x.payload_off, y.payload_off)
+        np.testing.assert_array_equal(x.channel_id, y.channel_id)
