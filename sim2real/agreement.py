@@ -27,7 +27,21 @@ measured velocities, :math:`(\hat v_k, \hat\omega_k)` the simulated ones at the 
   simulation late) from the cross-correlation peak of the whole traces
   (:func:`sysid.metrics.xcorr_lag_s`).
 - ``n_samples`` (all measurement samples), ``n_active``, ``tol_v``, ``tol_w``, ``robot``,
-  ``params_file`` (``None`` for spec defaults), ``log_file`` and ``log_sha256``.
+  ``params_file`` (``None`` for spec defaults), ``log_file`` and ``log_sha256`` (the JSON
+  keys, :data:`AGREEMENT_KEYS`); the report also carries ``odom_v_window_s`` (below).
+
+Odometry v window
+-----------------
+Wheel-encoder odometry reports v as the encoder tick difference over one odometry period
+:math:`W` (1/30 s on a TurtleBot3), i.e. the mean speed over :math:`[t_k - W, t_k]`: a lag of
+:math:`W/2` and some smoothing. Comparing the instantaneous simulated :math:`\hat v_k` with it
+shows a spurious lag of about :math:`-W/2` and lowers FIT % v. With
+``replay(..., odom_v_window_s=W)`` (``sim2real agree --odom-v-window S|auto``) the simulated v
+goes through the same sensor model (:func:`sysid.odometry.window_mean`, exact on the
+simulation's integration grid), like-for-like with ``sysid fit --odom-v-window``; w stays
+instantaneous (gyro or wheel difference at the stamp). The window used is recorded in
+:attr:`AgreementReport.odom_v_window_s` and in the HTML report's provenance; the JSON keys stay
+exactly :data:`AGREEMENT_KEYS`.
 
 Figures that are undefined (no active sample, constant signal) are NaN (``null`` in JSON).
 
@@ -58,7 +72,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -139,6 +153,9 @@ class AgreementReport:
         Robot (spec) name.
     params_file, log_file, log_sha256 : str or None
         Provenance: the params file (None = spec defaults), the log and its SHA-256.
+    odom_v_window_s : float
+        Odometry window the simulated v was averaged over, s (0 = instantaneous); not one of
+        the :data:`AGREEMENT_KEYS`.
     """
 
     agreement: float
@@ -158,15 +175,16 @@ class AgreementReport:
     params_file: str | None
     log_file: str | None
     log_sha256: str | None
+    odom_v_window_s: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """The figures under exactly :data:`AGREEMENT_KEYS` (NaN becomes ``None``)."""
         out: dict[str, Any] = {}
-        for f in fields(self):
-            value = getattr(self, f.name)
+        for name in AGREEMENT_KEYS:
+            value = getattr(self, name)
             if isinstance(value, float) and not math.isfinite(value):
                 value = None
-            out[f.name] = value
+            out[name] = value
         return out
 
 
@@ -199,6 +217,7 @@ def agreement_from_arrays(
     params_file: str | None = None,
     log_file: str | None = None,
     log_sha256: str | None = None,
+    odom_v_window_s: float = 0.0,
 ) -> AgreementReport:
     """Agreement of simulated and real velocities sampled at the same times ``t_s``.
 
@@ -214,6 +233,8 @@ def agreement_from_arrays(
         Agreement tolerances, m/s and rad/s (> 0).
     robot, params_file, log_file, log_sha256 : str
         Provenance copied into the report.
+    odom_v_window_s : float
+        Odometry window of ``sim_v``, s (provenance, copied into the report).
 
     Returns
     -------
@@ -254,6 +275,7 @@ def agreement_from_arrays(
         params_file=params_file,
         log_file=log_file,
         log_sha256=log_sha256,
+        odom_v_window_s=float(odom_v_window_s),
     )
 
 
@@ -273,6 +295,10 @@ def measure_agreement(
     params_file: str | None = None,
 ) -> AgreementReport:
     """Agreement of a replay with the log it replayed.
+
+    The simulated v is compared as the replay reported it: replay with
+    ``odom_v_window_s=1 / odometry rate`` to compare it like the encoder odometry reports v
+    (see "Odometry v window" in the module docstring); the window is copied into the report.
 
     Examples
     --------
@@ -298,6 +324,7 @@ def measure_agreement(
         params_file=params_file,
         log_file=log_file,
         log_sha256=sha,
+        odom_v_window_s=sim.odom_v_window_s,
     )
 
 
@@ -486,6 +513,7 @@ def run_ensemble(
     spread: float = 1.0,
     tol_v: float = DEFAULT_TOL_V,
     tol_w: float = DEFAULT_TOL_W,
+    odom_v_window_s: float = 0.0,
 ) -> EnsembleResult:
     """Replay ``trace`` ``n`` times with parameters drawn around ``params`` (see module doc).
 
@@ -505,6 +533,10 @@ def run_ensemble(
         Simulation engine of every member.
     spread : float
         Multiplier on every standard deviation (1 = the sysid uncertainty).
+    tol_v, tol_w : float
+        Tolerances of the active-sample mask, m/s and rad/s.
+    odom_v_window_s : float
+        Odometry window of every member's v, s (see :func:`sim2real.replay.replay`).
 
     Examples
     --------
@@ -529,7 +561,10 @@ def run_ensemble(
     drawn = sample_drive_params(
         params, stds, n=n, rng=rng, geometry=spec.geometry, spread=spread, reference=spec.drive
     )
-    sims = [replay(trace, robot=spec, params=p, engine=engine) for p in drawn]
+    sims = [
+        replay(trace, robot=spec, params=p, engine=engine, odom_v_window_s=odom_v_window_s)
+        for p in drawn
+    ]
     lo_v, hi_v, lo_w, hi_w, (cov, cov_v, cov_w) = ensemble_band(
         trace, sims, tol_v=tol_v, tol_w=tol_w
     )

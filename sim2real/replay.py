@@ -119,6 +119,8 @@ class ReplayResult:
         Physics rate of the pybullet engine (the reduced engine's integration rate otherwise).
     elapsed_s : float
         Wall-clock time the replay took, s.
+    odom_v_window_s : float
+        Odometry window of ``v``, s (0 = instantaneous; see :func:`replay`).
     """
 
     t_s: FloatArray
@@ -130,6 +132,7 @@ class ReplayResult:
     params: DriveParams
     physics_hz: float
     elapsed_s: float
+    odom_v_window_s: float = 0.0
 
     @property
     def duration_s(self) -> float:
@@ -186,6 +189,7 @@ def replay(
     params: DriveParams | None = None,
     engine: str = "pybullet",
     physics_hz: float = DEFAULT_PHYSICS_HZ,
+    odom_v_window_s: float = 0.0,
 ) -> ReplayResult:
     """Replay the commands of ``trace`` on a simulated robot (see the module docstring).
 
@@ -201,6 +205,11 @@ def replay(
         The pybullet rigid-body robot or the reduced drive model.
     physics_hz : float
         Physics rate of the pybullet engine, Hz.
+    odom_v_window_s : float
+        Odometry sensor model of v (see "Odometry v window" in the module docstring): report
+        the simulated v as the mean over the preceding window of this length, s, in [0, 1];
+        e.g. ``1 / spec.odometry.rate_hz`` for encoder odometry. 0 (default) reports the
+        instantaneous base velocity.
 
     Returns
     -------
@@ -210,6 +219,8 @@ def replay(
     Examples
     --------
     >>> sim = replay(trace, robot="turtlebot3_burger", engine="reduced")  # doctest: +SKIP
+    >>> sim_odom = replay(trace, robot="turtlebot3_burger", engine="reduced",
+    ...                   odom_v_window_s=1 / 30)  # doctest: +SKIP
     """
     if engine not in ENGINES:
         raise Sim2RealValueError(
@@ -217,6 +228,7 @@ def replay(
         )
     if not (math.isfinite(physics_hz) and physics_hz > 0):
         raise Sim2RealValueError(f"physics_hz must be a finite number > 0, got {physics_hz!r}")
+    _check_window(odom_v_window_s)
     spec = resolve_robot(robot)
     p = spec.drive if params is None else params
     cmd_t, cmd_v, cmd_w, meas_t, meas_v, meas_w = _check_trace(trace)
@@ -224,8 +236,17 @@ def replay(
         cmd_t, cmd_v, cmd_w, float(meas_t[0]) - p.delay_s, float(meas_v[0]), float(meas_w[0])
     )
     start = time.perf_counter()
+    rate = float(physics_hz)
     if engine == "reduced":
-        from robots.reduced import DEFAULT_DT_S, simulate
+        from robots.reduced import DEFAULT_DT_S
+
+        rate = 1.0 / DEFAULT_DT_S
+    # with a window, also read the simulation at every integration step so the window mean
+    # of its piecewise-linear output is exact (the run itself does not change)
+    t_out = _fine_times(meas_t, 1.0 / rate) if odom_v_window_s > 0 else meas_t
+    initial = (float(meas_v[0]), float(meas_w[0]))
+    if engine == "reduced":
+        from robots.reduced import simulate
 
         resp = simulate(
             p,
@@ -233,16 +254,20 @@ def replay(
             cmd_t_s=cmd_t,
             cmd_v=cmd_v,
             cmd_w=cmd_w,
-            t_out_s=meas_t,
-            v0=float(meas_v[0]),
-            w0=float(meas_w[0]),
+            t_out_s=t_out,
+            v0=initial[0],
+            w0=initial[1],
         )
-        v, w, rate = resp.v, resp.w, 1.0 / DEFAULT_DT_S
+        v, w = np.asarray(resp.v, dtype=np.float64), np.asarray(resp.w, dtype=np.float64)
     else:
-        v, w = _replay_pybullet(
-            spec, p, cmd_t, cmd_v, cmd_w, meas_t, (float(meas_v[0]), float(meas_w[0])), physics_hz
-        )
-        rate = float(physics_hz)
+        v, w = _replay_pybullet(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial, physics_hz)
+    if odom_v_window_s > 0:
+        from sysid.odometry import window_mean
+
+        # before the first measurement the base is taken to run at the measured start state
+        # (window_mean holds the first value), as the start command assumes
+        v = window_mean(t_out, v, meas_t, odom_v_window_s)
+        w = np.interp(meas_t, t_out, w)
     return ReplayResult(
         t_s=meas_t,
         t_ns=np.asarray(trace.meas_t_ns, dtype=np.int64),
@@ -253,7 +278,28 @@ def replay(
         params=p,
         physics_hz=rate,
         elapsed_s=time.perf_counter() - start,
+        odom_v_window_s=float(odom_v_window_s),
     )
+
+
+def _check_window(window_s: float) -> None:
+    if (
+        isinstance(window_s, bool)
+        or not isinstance(window_s, int | float)
+        or not (math.isfinite(window_s) and 0.0 <= window_s <= 1.0)
+    ):
+        raise Sim2RealValueError(
+            f"odom_v_window_s (--odom-v-window) must be seconds in [0, 1], got {window_s!r}; "
+            "e.g. 1/30 for a 30 Hz encoder odometry, 0 for the instantaneous velocity"
+        )
+
+
+def _fine_times(meas_t: FloatArray, dt_s: float) -> FloatArray:
+    """The measurement times merged with the engines' integration grid ``t0 + k dt``."""
+    t0, t_end = float(meas_t[0]), float(meas_t[-1])
+    n = max(1, math.ceil((t_end - t0) / dt_s))
+    grid = t0 + dt_s * np.arange(n + 1, dtype=np.float64)
+    return np.union1d(meas_t, grid[grid <= t_end])
 
 
 def _with_start_command(

@@ -23,7 +23,7 @@ if TYPE_CHECKING:  # the CLI imports the heavy modules inside the handlers only
     from sim2real.agreement import AgreementReport, EnsembleResult
     from sim2real.report import ReportRun
 
-__all__ = ["AgreeOutcome", "register", "run_agree", "summary_table"]
+__all__ = ["AgreeOutcome", "parse_odom_v_window", "register", "run_agree", "summary_table"]
 
 _EXAMPLES = """\
   sim2real agree val.mcap --robot turtlebot3_burger
@@ -34,6 +34,8 @@ _EXAMPLES = """\
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml --ensemble 20 \
       --spread 5                   # is a 5x wider randomisation wide enough? (coverage)
   sim2real agree val.mcap --robot turtlebot3_burger --engine reduced --sim-out sim.mcap
+  sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml \
+      --odom-v-window auto         # compare v as the encoder odometry reports it
 """
 
 _DESCRIPTION = """\
@@ -46,7 +48,9 @@ Only active samples count (a command is held or the robot moves). A sample agree
 |v_sim - v_real| <= tol_v and |w_sim - w_real| <= tol_w. --json writes agreement,
 agreement_v, agreement_w, fit_percent_v, fit_percent_w, rmse_v, rmse_w, lag_s_v, lag_s_w,
 n_samples, n_active, tol_v, tol_w, robot, params_file, log_file, log_sha256 (plus coverage
-with --ensemble). Exit codes: 0 ok, 1 agreement below --min-agreement, 2 bad input.
+with --ensemble). With --odom-v-window the simulated v is averaged over the preceding window,
+as wheel-encoder odometry reports v (use the same window as 'sysid fit --odom-v-window').
+Exit codes: 0 ok, 1 agreement below --min-agreement, 2 bad input.
 """
 
 
@@ -82,6 +86,16 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         type=float,
         default=1.0,
         help="multiply every std of the ensemble draws (1 = the sysid uncertainty)",
+    )
+    p.add_argument(
+        "--odom-v-window",
+        default="0",
+        metavar="S|auto",
+        help=(
+            "odometry v is a wheel-encoder tick difference over this window, s ('auto': one "
+            "period of the spec's odometry rate, e.g. 1/30 s on a TurtleBot3); the simulated v "
+            "is averaged the same way; 0 = compare the instantaneous simulated v (default)"
+        ),
     )
     p.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
     p.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
@@ -138,12 +152,15 @@ def provenance_rows(
     engine: str,
     seed: int | None,
     command_line: str,
+    odom_v_window_s: float = 0.0,
 ) -> list[tuple[str, str]]:
     """Provenance lines of a report: files with SHA-256, spec, versions, seed, command."""
     rows = [(role, f"{path}  (sha256 {_sha256(path)})") for role, path in files]
     spec_path = getattr(robot, "path", None)
     rows.append(("robot spec", f"{robot.name}" + (f"  ({spec_path})" if spec_path else "")))
     rows.append(("engine", engine))
+    if odom_v_window_s:
+        rows.append(("odometry v window", f"{odom_v_window_s:.4g} s (simulated v averaged)"))
     rows.append(("ensemble seed", "n/a" if seed is None else str(seed)))
     rows.append(("versions", _versions()))
     rows.append(("command line", command_line))
@@ -161,6 +178,7 @@ def run_agree(
     ensemble_n: int | None = None,
     seed: int = 0,
     spread: float = 1.0,
+    odom_v_window: float | str = 0.0,
     cmd_topic: str | None = None,
     odom_topic: str | None = None,
     report_path: str | Path | None = None,
@@ -168,7 +186,11 @@ def run_agree(
     command_line: str = "",
     title: str = "sim2real agreement report",
 ) -> AgreeOutcome:
-    """Replay ``log`` with spec defaults (and ``params_path``), measure, write the outputs."""
+    """Replay ``log`` with spec defaults (and ``params_path``), measure, write the outputs.
+
+    ``odom_v_window`` is the odometry window of v in seconds, or ``"auto"`` for one period of
+    the spec's odometry rate (see :func:`sim2real.replay.replay`).
+    """
     from robots.params import load_drive_params, read_params_file
     from robots.spec import load_spec
     from sim2real._io import check_not_an_input, check_output_path
@@ -189,6 +211,7 @@ def run_agree(
             "deviations of a sysid result; add --params params.yaml"
         )
     spec = load_spec(robot)
+    window_s = parse_odom_v_window(odom_v_window, spec.odometry.rate_hz)
     params = None
     if params_path is not None:
         params = load_drive_params(params_path, robot=spec.name, base=spec.drive)
@@ -198,7 +221,7 @@ def run_agree(
     if params is not None:
         configs.append(("sysid params", params, str(params_path)))
     for label, p, pfile in configs:
-        sim = replay(trace, robot=spec, params=p, engine=engine)
+        sim = replay(trace, robot=spec, params=p, engine=engine, odom_v_window_s=window_s)
         rep = measure_agreement(trace, sim, tol_v=tol_v, tol_w=tol_w, params_file=pfile)
         runs.append(ReportRun(label=label, replay=sim, agreement=rep))
     ensemble = None
@@ -215,6 +238,7 @@ def run_agree(
             engine=engine,
             tol_v=tol_v,
             tol_w=tol_w,
+            odom_v_window_s=window_s,
         )
     if sim_out is not None:
         _write_sim_log(sim_out, trace, runs[-1].replay)
@@ -235,6 +259,7 @@ def run_agree(
                     engine=engine,
                     seed=seed if ensemble is not None else None,
                     command_line=command_line,
+                    odom_v_window_s=window_s,
                 ),
                 title=title,
             ),
@@ -242,6 +267,24 @@ def run_agree(
     return AgreeOutcome(
         main=runs[-1].agreement, runs=tuple(runs), ensemble=ensemble, warnings=trace.meta.warnings
     )
+
+
+def parse_odom_v_window(value: float | str, rate_hz: float) -> float:
+    """Seconds of ``--odom-v-window``: a number in [0, 1] or ``"auto"`` (``1 / rate_hz``)."""
+    from sim2real.errors import Sim2RealValueError
+
+    if isinstance(value, str) and value.strip() == "auto":
+        return 1.0 / rate_hz
+    try:
+        seconds = float(value)
+    except (TypeError, ValueError):
+        seconds = math.nan
+    if not (math.isfinite(seconds) and 0.0 <= seconds <= 1.0):
+        raise Sim2RealValueError(
+            f"--odom-v-window must be 'auto' or seconds in [0, 1], got {value!r}; e.g. "
+            "--odom-v-window auto (one odometry period) or 0.0333"
+        )
+    return seconds
 
 
 def _write_sim_log(path: str | Path, trace: Any, sim: Any) -> None:
@@ -310,6 +353,7 @@ def _command_line(args: argparse.Namespace) -> str:
         ("--ensemble", args.ensemble),
         ("--seed", args.seed if args.ensemble is not None else None),
         ("--spread", args.spread if args.ensemble is not None else None),
+        ("--odom-v-window", args.odom_v_window if args.odom_v_window != "0" else None),
         ("--cmd-topic", args.cmd_topic),
         ("--odom-topic", args.odom_topic),
     ):
@@ -353,6 +397,7 @@ def _handle(args: argparse.Namespace) -> int:
         ensemble_n=args.ensemble,
         seed=args.seed,
         spread=args.spread,
+        odom_v_window=args.odom_v_window,
         cmd_topic=args.cmd_topic,
         odom_topic=args.odom_topic,
         report_path=args.report,

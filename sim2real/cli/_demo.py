@@ -165,6 +165,7 @@ def run_demo(
         "defaults": before.to_dict(),
         "sysid": after.to_dict(),
         "improvement_points": _points(after.agreement - before.agreement),
+        "odom_v_window_s": after.odom_v_window_s,
         "coverage": None,
         "ensemble_n": ensemble_n if outcome.ensemble is not None else 0,
         "seed": seed,

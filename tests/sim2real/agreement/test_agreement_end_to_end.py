@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robots.params import load_drive_params
 from robots.spec import load_spec
 from sim2real._samples import HIDDEN_CHANGES, ROBOT, build_sample, hidden_params
 from sim2real.agreement import measure_agreement
 from sim2real.cli import main
-from sim2real.cli._demo import TRAIN_LOG, VALIDATE_LOG, find_data_dir
+from sim2real.cli._demo import DEMO_ROBOT, TRAIN_LOG, VALIDATE_LOG, find_data_dir
 from sim2real.logs import read_trace
 from sim2real.replay import replay
 
@@ -91,6 +92,16 @@ def test_demo_writes_report_summary_and_params(
     assert 0.0 <= summary["coverage"] <= 1.0 and summary["ensemble_n"] == 3
     text = capsys.readouterr().out
     assert "spec defaults" in text and "sysid params" in text
+    # the validation compares v as the odometry reports it, like the fit: no half-period lag,
+    # and a better FIT % v than the instantaneous simulated v
+    spec = load_spec(DEMO_ROBOT)
+    assert summary["odom_v_window_s"] == pytest.approx(1.0 / spec.odometry.rate_hz)
+    assert abs(summary["sysid"]["lag_s_v"]) < 0.005
+    trace = read_trace(find_data_dir() / VALIDATE_LOG)
+    fitted = load_drive_params(out / "params.yaml", robot=spec.name, base=spec.drive)
+    inst = measure_agreement(trace, replay(trace, robot=spec, params=fitted, engine="reduced"))
+    assert inst.lag_s_v < -0.01  # the instantaneous comparison shows the odometry's lag
+    assert summary["sysid"]["fit_percent_v"] > inst.fit_percent_v + 0.5
 
 
 def test_demo_without_data_names_the_expected_path(
