@@ -61,7 +61,8 @@ class ChannelRecord:
 
 @dataclass
 class Segment:
-    """Message records found in one buffer (a chunk's records or the file's data section).
+    """Message records found in one buffer (a decompressed chunk, or the file itself for
+    uncompressed chunks and messages outside chunks).
 
     ``payload_off`` and ``payload_len`` locate each message's payload inside ``buf``.
     """
@@ -141,8 +142,6 @@ def _channel(buf: bytes, pos: int, end: int) -> ChannelRecord:
 
 
 def _decompress(compression: str, data: bytes, size: int) -> bytes:
-    if compression == "":
-        return data
     try:
         if compression == "zstd":
             import zstandard
@@ -157,17 +156,30 @@ def _decompress(compression: str, data: bytes, size: int) -> bytes:
     raise _Corrupt(f"it uses compression '{compression}', which is not zstd, lz4 or none")
 
 
-def _chunk_records(buf: bytes, pos: int, end: int) -> bytes:
+def _chunk_records(buf: bytes, pos: int, end: int) -> tuple[bytes, int, int]:
+    """The records of the Chunk record ``buf[pos:end]`` as ``(records_buf, lo, hi)``.
+
+    Uncompressed records stay where they are in ``buf`` (no copy); compressed ones are
+    decompressed into a new buffer (``lo = 0``).
+    """
     c = _Cursor(buf, pos, end)
     c.take(16)  # message start/end time
     size, crc = c.u64(), c.u32()
     compression = c.string()
-    data = _decompress(compression, c.take(c.u64()), size)
-    if len(data) != size:
-        raise _Corrupt(f"it holds {len(data)} bytes of records but says {size}")
-    if crc != 0 and zlib.crc32(data) != crc:
+    stored = c.u64()
+    lo = c.pos
+    if stored > end - lo:
+        raise _Corrupt(f"a field of {stored} bytes runs past its record end")
+    if compression == "":
+        data, hi = buf, lo + stored
+    else:
+        data = _decompress(compression, buf[lo : lo + stored], size)
+        lo, hi = 0, len(data)
+    if hi - lo != size:
+        raise _Corrupt(f"it holds {hi - lo} bytes of records but says {size}")
+    if crc != 0 and zlib.crc32(memoryview(data)[lo:hi]) != crc:
         raise _Corrupt("its CRC does not match its records")
-    return data
+    return data, lo, hi
 
 
 def _segment(buf: bytes, starts: list[int] | np.ndarray) -> Segment:
@@ -187,26 +199,25 @@ def _segment(buf: bytes, starts: list[int] | np.ndarray) -> Segment:
     )
 
 
-def _scan_chunk(buf: bytes, out: Container) -> None:
-    """Walk the records inside one decompressed chunk.
+def _scan_chunk(buf: bytes, lo: int, hi: int, out: Container) -> None:
+    """Walk the records of one chunk, ``buf[lo:hi]``, one by one.
 
     The hot loop only records where message records start; a record running past the chunk
     end can only be the last one, so one check after the loop covers every length.
     """
-    pos, n = 0, len(buf)
+    pos, head_end = lo, hi - 9  # the last position where a record header fits
     starts: list[int] = []
     append, unpack = starts.append, _OP_LEN.unpack_from
-    try:
-        while pos < n:
-            op, length = unpack(buf, pos)
-            if op == 5:  # Message
-                append(pos)
-            elif op in (_SCHEMA, _CHANNEL):
-                _chunk_meta(buf, op, pos, out)
-            pos += 9 + length
-    except struct.error:
-        raise _Corrupt("a record inside it is cut short") from None
-    if pos != n:
+    while pos < hi:
+        if pos > head_end:
+            raise _Corrupt("a record inside it is cut short")
+        op, length = unpack(buf, pos)
+        if op == 5:  # Message
+            append(pos)
+        elif op in (_SCHEMA, _CHANNEL):
+            _chunk_meta(buf, op, pos, hi, out)
+        pos += 9 + length
+    if pos != hi:
         raise _Corrupt("a record inside it runs past the chunk end")
     if starts:
         out.segments.append(_segment(buf, starts))
@@ -227,39 +238,38 @@ def _index_offsets(data: bytes, pos: int, end: int) -> np.ndarray | None:
     return pairs[1::2]
 
 
-def _scan_chunk_indexed(buf: bytes, offsets: list[np.ndarray], out: Container) -> bool:
-    """Read one decompressed chunk through its message index; False when it does not check out.
+def _scan_chunk_indexed(
+    buf: bytes, lo: int, hi: int, offsets: list[np.ndarray], out: Container
+) -> bool:
+    """Read one chunk, ``buf[lo:hi]``, through its message index; False if that does not check out.
 
-    Accepted only when the indexed Message records and the records walked between them tile
-    ``buf`` exactly as :func:`_scan_chunk` would walk it, and no walked record is a message:
-    then the outcome (records found, errors raised) is the same as the full walk's. ``out`` is
-    untouched when False is returned.
+    ``offsets`` are the indexed message offsets, relative to ``lo``. Accepted only when the
+    indexed Message records and the records walked between them tile the chunk exactly as
+    :func:`_scan_chunk` would walk it, and no walked record is a message: then the outcome
+    (records found, errors raised) is the same as the full walk's. ``out`` is untouched when
+    False is returned.
     """
-    n = len(buf)
-    starts = np.sort(np.concatenate(offsets)) if offsets else np.zeros(0, np.uint64)
-    if starts.size and (n < 9 + _MESSAGE_FIXED or int(starts[-1]) > n - 9 - _MESSAGE_FIXED):
+    n = hi - lo
+    rel = np.sort(np.concatenate(offsets))
+    if rel.size == 0 or n < 9 + _MESSAGE_FIXED or int(rel[-1]) > n - 9 - _MESSAGE_FIXED:
         return False  # (also rejects offsets that would overflow int64 below)
-    starts = starts.astype(np.int64)
+    starts = rel.astype(np.int64) + lo
     u8 = np.frombuffer(buf, dtype=np.uint8)
-    ends = starts
-    if starts.size:
-        length = gather(u8, starts + 1, "<u8")
-        if not (np.all(u8[starts] == _MESSAGE) and np.all(length <= n)):
-            return False
-        ends = starts + 9 + length.astype(np.int64)
-    lo = np.concatenate(([0], ends))
-    hi = np.concatenate((starts, [n]))
-    if np.any(lo > hi):
-        return False  # overlapping or duplicate entries
-    gaps = lo < hi
+    length = gather(u8, starts + 1, "<u8")
+    if not (np.all(u8[starts] == _MESSAGE) and np.all(length <= n)):
+        return False
+    gap_lo = np.concatenate(([lo], starts + 9 + length.astype(np.int64)))
+    gap_hi = np.concatenate((starts, [hi]))
+    if np.any(gap_lo > gap_hi):
+        return False  # overlapping or duplicate entries, or a record past the chunk end
+    gaps = gap_lo < gap_hi
     meta: list[tuple[int, int]] = []
-    for a, b in zip(lo[gaps].tolist(), hi[gaps].tolist(), strict=True):
+    for a, b in zip(gap_lo[gaps].tolist(), gap_hi[gaps].tolist(), strict=True):
         if not _walk_gap(buf, a, b, meta):
             return False
     for op, pos in meta:
-        _chunk_meta(buf, op, pos, out)
-    if starts.size:
-        out.segments.append(_segment(buf, starts))
+        _chunk_meta(buf, op, pos, hi, out)
+    out.segments.append(_segment(buf, starts))
     return True
 
 
@@ -277,9 +287,9 @@ def _walk_gap(buf: bytes, pos: int, end: int, meta: list[tuple[int, int]]) -> bo
     return pos == end
 
 
-def _chunk_meta(buf: bytes, op: int, pos: int, out: Container) -> None:
+def _chunk_meta(buf: bytes, op: int, pos: int, hi: int, out: Container) -> None:
     end = pos + 9 + _OP_LEN.unpack_from(buf, pos)[1]
-    if end > len(buf):
+    if end > hi:
         raise _Corrupt("a record inside it runs past the chunk end")
     if op == _SCHEMA:
         _add_schema(out, _schema(buf, pos + 9, end))
@@ -347,7 +357,7 @@ def scan_mcap(data: bytes, *, name: str) -> Container:
             ) from None
         if op == _DATA_END and data_end is None:
             data_end = pos
-            if data_crc != 0 and zlib.crc32(data[:pos]) != data_crc:
+            if data_crc != 0 and zlib.crc32(memoryview(data)[:pos]) != data_crc:
                 raise LogFormatError(
                     f"log file '{name}' is corrupt: its data section does not match its CRC; "
                     "the file cannot be read safely, re-export or re-record it"
@@ -381,6 +391,8 @@ class _Pending:
 
     pos: int
     buf: bytes
+    lo: int
+    hi: int
     offsets: list[np.ndarray] = field(default_factory=list)
     usable: bool = True
 
@@ -401,9 +413,9 @@ def _flush(pending: list[_Pending], out: Container, name: str) -> None:
     for chunk in pending:
         try:
             if not (chunk.usable and chunk.offsets) or not _scan_chunk_indexed(
-                chunk.buf, chunk.offsets, out
+                chunk.buf, chunk.lo, chunk.hi, chunk.offsets, out
             ):
-                _scan_chunk(chunk.buf, out)
+                _scan_chunk(chunk.buf, chunk.lo, chunk.hi, out)
         except _Corrupt as exc:
             raise LogFormatError(
                 f"log file '{name}' is corrupt: the record at byte {chunk.pos} is broken ({exc}); "
@@ -429,7 +441,7 @@ def _data_record(
     if op == _MESSAGE:
         top_starts.append(pos)
     elif op == _CHUNK:
-        pending.append(_Pending(pos, _chunk_records(data, pos + 9, end)))
+        pending.append(_Pending(pos, *_chunk_records(data, pos + 9, end)))
     elif op == _SCHEMA:
         _add_schema(out, _schema(data, pos + 9, end))
     elif op == _CHANNEL:
