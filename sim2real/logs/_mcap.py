@@ -375,7 +375,35 @@ def scan_mcap(data: bytes, *, name: str) -> Container:
                 f"log file '{name}' is corrupt: its summary counts {stats_count} messages but "
                 f"its data section holds {found}; re-export or re-record it"
             )
+    out.segments = _merged(out.segments)
     return out
+
+
+def _merged(segments: list[Segment]) -> list[Segment]:
+    """Join neighbouring segments over the same buffer (in-place chunks of one file), in order.
+
+    Fewer, longer segments keep the per-segment numpy work of the decoders small.
+    """
+    runs: list[list[Segment]] = []
+    for seg in segments:
+        if runs and runs[-1][0].buf is seg.buf:
+            runs[-1].append(seg)
+        else:
+            runs.append([seg])
+    return [run[0] if len(run) == 1 else _join(run) for run in runs]
+
+
+def _join(run: list[Segment]) -> Segment:
+    def cat(key: str) -> np.ndarray:
+        return np.concatenate([getattr(s, key) for s in run])
+
+    return Segment(
+        buf=run[0].buf,
+        channel_id=cat("channel_id"),
+        log_time_ns=cat("log_time_ns"),
+        payload_off=cat("payload_off"),
+        payload_len=cat("payload_len"),
+    )
 
 
 def _segment_safe(data: bytes, starts: list[int], name: str) -> Segment:
