@@ -182,7 +182,7 @@ def _chunk_records(buf: bytes, pos: int, end: int) -> tuple[bytes, int, int]:
     return data, lo, hi
 
 
-def _segment(buf: bytes, starts: list[int] | np.ndarray) -> Segment:
+def _segment(buf: bytes, starts: list[int]) -> Segment:
     """Gather the fixed message fields of the message records starting at ``starts``."""
     u8 = np.frombuffer(buf, dtype=np.uint8)
     pos = np.asarray(starts, dtype=np.int64)
