@@ -317,3 +317,21 @@ def test_record_header_cut_short_at_an_uncompressed_chunk_end_is_an_error():
             _scan(_raw_mcap(message + tail))
     whole = _scan(_raw_mcap(message))
     assert _payloads(whole.segments[0]) == [b"abc"]
+
+
+@pytest.mark.parametrize("fixture", ["drexel_log", "neato_log"])
+def test_real_logs_are_read_through_their_index(request, monkeypatch, fixture):
+    """The real logs (several busy channels the reader skips) use the index, same result."""
+    path = request.getfixturevalue(fixture)
+    data = Path(path).read_bytes()
+    spy = _Spy(monkeypatch)
+    indexed = _scan(data)
+    assert spy.full == 0
+    _assert_same(indexed, _full_walk(data, monkeypatch))
+    tr = read_trace(path)
+    with monkeypatch.context() as m:
+        m.setattr(_mcap, "_scan_chunk_indexed", lambda *a: False)
+        _assert_same_trace(tr, read_trace(path))
+        counts = {t.topic: t.count for t in inspect_log(path).topics}
+    assert counts == {t.topic: t.count for t in inspect_log(path).topics}
+    assert sum(counts.values()) == indexed.message_count()
