@@ -28,15 +28,42 @@ _TIME_SOURCES = ("header", "log")
 _CLOCK_GAP_S = 0.5
 
 
+class _Sha256:
+    """SHA-256 of a bytes object, computed in a background thread."""
+
+    def __init__(self, data: bytes) -> None:
+        self._data: bytes | None = data
+        self._hex = ""
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        if self._data is not None:
+            self._hex = hashlib.sha256(self._data).hexdigest()
+
+    def hexdigest(self) -> str:
+        """Wait for the hash and return it as hex (hashed here if the thread failed)."""
+        self._thread.join()
+        if not self._hex and self._data is not None:
+            self._hex = hashlib.sha256(self._data).hexdigest()
+        self._data = None  # do not keep the file's bytes alive for the digest
+        return self._hex
+
+
 @dataclass(frozen=True)
 class LoadedLog:
     """A scanned log: its bytes' digest, container and channel table."""
 
     name: str
     size_bytes: int
-    sha256: str
+    digest: _Sha256
     container: Container
     chans: list[Chan]
+
+    @property
+    def sha256(self) -> str:
+        """Hex SHA-256 of the file's bytes (waits for the hashing thread)."""
+        return self.digest.hexdigest()
 
 
 def load_log(path: str | Path) -> LoadedLog:
@@ -49,7 +76,8 @@ def load_log(path: str | Path) -> LoadedLog:
     if p.is_dir():
         raise Sim2RealFileNotFoundError(f"log file '{p}' is a folder; give an .mcap file")
     data = p.read_bytes()
-    digest = _Sha256(data)  # hashes in a thread (hashlib releases the GIL) while we scan
+    # hashed in a thread (hashlib releases the GIL) while we scan and decode
+    digest = _Sha256(data)
     container = scan_mcap(data, name=str(p))
     if container.warnings and container.message_count() == 0:
         raise LogFormatError(
@@ -61,27 +89,10 @@ def load_log(path: str | Path) -> LoadedLog:
     return LoadedLog(
         name=str(p),
         size_bytes=len(data),
-        sha256=digest.hexdigest(),
+        digest=digest,
         container=container,
         chans=chans,
     )
-
-
-class _Sha256:
-    """SHA-256 of a bytes object, computed in a background thread."""
-
-    def __init__(self, data: bytes) -> None:
-        self._hex = ""
-        self._thread = threading.Thread(target=self._run, args=(data,), daemon=True)
-        self._thread.start()
-
-    def _run(self, data: bytes) -> None:
-        self._hex = hashlib.sha256(data).hexdigest()
-
-    def hexdigest(self) -> str:
-        """Wait for the hash and return it as hex."""
-        self._thread.join()
-        return self._hex
 
 
 def _with_json_type(chan: Chan, container: Container) -> Chan:
