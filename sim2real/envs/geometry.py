@@ -37,6 +37,7 @@ __all__ = [
     "cast_rays_numpy",
     "disc_clearance",
     "point_segment_distance",
+    "ray_distance",
     "rectangle_segments",
 ]
 
@@ -139,6 +140,49 @@ def cast_rays_multi(
     return best
 
 
+@numba.njit(cache=True, inline="always")
+def ray_distance(
+    ox: float,
+    oy: float,
+    dx: float,
+    dy: float,
+    cxy: FloatArray,
+    cr: FloatArray,
+    sa: FloatArray,
+    sb: FloatArray,
+    max_range: float,
+) -> float:  # pragma: no cover - compiled
+    """Distance from (ox, oy) along the unit direction (dx, dy) to the nearest circle or segment.
+
+    Circles are ``cxy`` (C, 2) with radii ``cr``; segments run from ``sa`` to ``sb`` (S, 2).
+    Returns 0 when the origin is inside a circle and ``max_range`` when nothing is hit.
+    A compiled helper for numba kernels (the lidar here, the pedestrians' free space).
+    """
+    best = max_range
+    for c in range(cr.shape[0]):
+        fx, fy = ox - cxy[c, 0], oy - cxy[c, 1]
+        q = fx * fx + fy * fy - cr[c] * cr[c]
+        if q <= 0.0:
+            return 0.0
+        b = dx * fx + dy * fy
+        if b >= 0.0:
+            continue
+        disc = b * b - q
+        if disc >= 0.0:
+            best = min(best, -b - np.sqrt(disc))
+    for k in range(sa.shape[0]):
+        ex, ey = sb[k, 0] - sa[k, 0], sb[k, 1] - sa[k, 1]
+        denom = dx * ey - dy * ex
+        if denom == 0.0:
+            continue
+        apx, apy = sa[k, 0] - ox, sa[k, 1] - oy
+        t = (apx * ey - apy * ex) / denom
+        u = (apx * dy - apy * dx) / denom
+        if 0.0 <= t < best and 0.0 <= u <= 1.0:
+            best = t
+    return best
+
+
 @numba.njit(cache=True)
 def _cast_kernel(
     ox: float,
@@ -152,32 +196,9 @@ def _cast_kernel(
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
     for i in range(angles.shape[0]):
-        dx, dy = np.cos(angles[i]), np.sin(angles[i])
-        best = max_range
-        for c in range(cr.shape[0]):
-            fx, fy = ox - cxy[c, 0], oy - cxy[c, 1]
-            q = fx * fx + fy * fy - cr[c] * cr[c]
-            if q <= 0.0:
-                best = 0.0
-                break
-            b = dx * fx + dy * fy
-            if b >= 0.0:
-                continue
-            disc = b * b - q
-            if disc >= 0.0:
-                t = -b - np.sqrt(disc)
-                best = min(best, t)
-        for k in range(sa.shape[0]):
-            ex, ey = sb[k, 0] - sa[k, 0], sb[k, 1] - sa[k, 1]
-            denom = dx * ey - dy * ex
-            if denom == 0.0:
-                continue
-            apx, apy = sa[k, 0] - ox, sa[k, 1] - oy
-            t = (apx * ey - apy * ex) / denom
-            s = (apx * dy - apy * dx) / denom
-            if 0.0 <= t < best and 0.0 <= s <= 1.0:
-                best = t
-        out[i] = best
+        out[i] = ray_distance(
+            ox, oy, np.cos(angles[i]), np.sin(angles[i]), cxy, cr, sa, sb, max_range
+        )
 
 
 def cast_rays(

@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from sim2real.envs.geometry import FloatArray, Scene2D, point_segment_distance
+from sim2real.envs.geometry import FloatArray, Scene2D, point_segment_distance, ray_distance
 from sim2real.errors import Sim2RealValueError
 
 __all__ = [
@@ -385,27 +385,5 @@ def _gaps_kernel(
                 disc = b * b - q
                 if disc >= 0.0:
                     best = min(best, -b - np.sqrt(disc))
-            stat = 50.0  # static obstacles along the centre ray
-            for c in range(cr.shape[0]):
-                fx, fy = px - cxy[c, 0], py - cxy[c, 1]
-                q = fx * fx + fy * fy - cr[c] * cr[c]
-                if q <= 0.0:
-                    stat = 0.0
-                    break
-                b = dx * fx + dy * fy
-                if b >= 0.0:
-                    continue
-                disc = b * b - q
-                if disc >= 0.0:
-                    stat = min(stat, -b - np.sqrt(disc))
-            for s in range(sa.shape[0]):
-                ex, ey = sb[s, 0] - sa[s, 0], sb[s, 1] - sa[s, 1]
-                den = dx * ey - dy * ex
-                if den == 0.0:
-                    continue
-                apx, apy = sa[s, 0] - px, sa[s, 1] - py
-                t = (apx * ey - apy * ex) / den
-                u = (apx * dy - apy * dx) / den
-                if 0.0 <= t < stat and 0.0 <= u <= 1.0:
-                    stat = t
+            stat = ray_distance(px, py, dx, dy, cxy, cr, sa, sb, 50.0)  # static obstacles
             out[i, j] = min(best, max(stat - ri, 0.0))
