@@ -101,7 +101,7 @@ def test_walker_slows_down_and_never_enters_a_wall() -> None:
         crowd.step(0.1, wall, robot_xy=np.array([50.0, 50.0]), robot_radius_m=0.2)
         speeds.append(np.linalg.norm(crowd.velocity_mps[0]))
     assert crowd.position_m[0, 0] <= 1.0 - 0.2 + 1e-9
-    assert speeds[-1] < 0.9 * speeds[0] or crowd.position_m[0, 1] != 0.0
+    assert speeds[-1] < 0.9 * speeds[0]
 
 
 def test_dense_crowd_steps_without_overlap() -> None:

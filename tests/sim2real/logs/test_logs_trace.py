@@ -70,11 +70,11 @@ def test_arrays_are_read_only_copies_and_dataclass_is_frozen():
     tr = _trace(meas_v=src)
     src[0] = 99.0
     assert tr.meas_v[0] == 0.0
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="read-only"):
         tr.meas_v[0] = 1.0
     with pytest.raises(dataclasses.FrozenInstanceError):
         tr.cmd_v = np.zeros(3)  # type: ignore[misc]
-    with pytest.raises(TypeError):
+    with pytest.raises(TypeError, match="positional argument"):
         Trace(np.zeros(1))  # type: ignore[misc]  # keyword-only
 
 
