@@ -2,9 +2,19 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, settings
+
+# No per-example deadline: the first example of a property test may compile numba kernels, and
+# CI machines are loaded. In CI (CI=true) the examples are derandomised, so a run is repeatable.
+settings.register_profile("dev", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile(
+    "ci", deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
+settings.load_profile("ci" if os.environ.get("CI") else "dev")
 
 #: ``../shared/realdata`` beside the checkout: real third-party logs, never copied into the repo.
 REALDATA_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
