@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.params import DriveParams
+from sim2real.logs import integrate_pose
 
 __all__ = [
     "CMD_RATE_HZ",
@@ -269,17 +270,6 @@ def _odometry(
     return meas_v, meas_w
 
 
-def _integrate_pose(
-    t: FloatArray, v: FloatArray, w: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    dt = np.diff(t)
-    yaw = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * dt)))
-    vx, vy = v * np.cos(yaw), v * np.sin(yaw)
-    x = np.concatenate(([0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) * dt)))
-    y = np.concatenate(([0.0], np.cumsum(0.5 * (vy[1:] + vy[:-1]) * dt)))
-    return x, y, np.arctan2(np.sin(yaw), np.cos(yaw))
-
-
 def default_engine() -> str:
     """``"pybullet"`` when the pybullet robot is available, else ``"reduced"``."""
     try:
@@ -305,7 +295,8 @@ def build_sample(kind: str, *, engine: str | None = None) -> Sample:
     t, true_v, true_w = _simulate_true(commands, params, engine)
     geo = spec.geometry
     meas_v, meas_w = _odometry(t, true_v, true_w, rng, geo.wheel_radius_m, geo.wheel_separation_m)
-    px, py, pyaw = _integrate_pose(t, meas_v, meas_w)
+    # the base dead-reckons its pose from the velocities it measures
+    px, py, pyaw = integrate_pose(_T0_NS + np.rint(t * 1e9).astype(np.int64), meas_v, meas_w)
     keep = rng.random(t.size) >= _ODOM_DROP
     keep[0] = True
     jitter = rng.normal(0.0, _STAMP_JITTER_S, t.size).clip(-0.004, 0.004)
