@@ -165,22 +165,25 @@ def synthetic_log(
         * tick
         * (np.diff(ticks_r, prepend=ticks_r[0]) + np.diff(ticks_l, prepend=ticks_l[0]))
     )
-    meas_v = dist / period + rng.normal(0.0, noise_v_mps, t_true.size)
-    meas_w = np.interp(t_true, fine, truth.w) + rng.normal(0.0, noise_w_radps, t_true.size)
-    stamps = t_true + rng.normal(0.0, jitter_s, t_true.size)
-    keep = rng.random(t_true.size) >= drop_fraction
-    keep[:3] = True
-    if spike_mps is not None:
-        meas_v[t_true.size // 2] = spike_mps
-        keep[t_true.size // 2] = True
-    order = np.argsort(stamps[keep], kind="stable")
+    stamps, meas_v, meas_w = _degrade(
+        rng,
+        t_true,
+        dist / period,
+        np.interp(t_true, fine, truth.w),
+        quantum_v_mps=0.0,
+        noise_v_mps=noise_v_mps,
+        noise_w_radps=noise_w_radps,
+        jitter_s=jitter_s,
+        drop_fraction=drop_fraction,
+        spike_mps=spike_mps,
+    )
     return LogArrays(
         cmd_t_s=np.asarray(cmd_t_s, dtype=np.float64),
         cmd_v=np.asarray(cmd_v, dtype=np.float64),
         cmd_w=np.asarray(cmd_w, dtype=np.float64),
-        meas_t_s=stamps[keep][order],
-        meas_v=meas_v[keep][order],
-        meas_w=meas_w[keep][order],
+        meas_t_s=stamps,
+        meas_v=meas_v,
+        meas_w=meas_w,
         name=name,
     )
 
@@ -211,7 +214,34 @@ def degrade_odometry(
     >>> bool(t.size < 100 and v.max() == 1.35)
     True
     """
-    rng = np.random.default_rng(seed)
+    return _degrade(
+        np.random.default_rng(seed),
+        t_s,
+        v,
+        w,
+        quantum_v_mps=quantum_v_mps,
+        noise_v_mps=noise_v_mps,
+        noise_w_radps=noise_w_radps,
+        jitter_s=jitter_s,
+        drop_fraction=drop_fraction,
+        spike_mps=spike_mps,
+    )
+
+
+def _degrade(
+    rng: np.random.Generator,
+    t_s: FloatArray,
+    v: FloatArray,
+    w: FloatArray,
+    *,
+    quantum_v_mps: float,
+    noise_v_mps: float,
+    noise_w_radps: float,
+    jitter_s: float,
+    drop_fraction: float,
+    spike_mps: float | None,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:func:`degrade_odometry` drawing from ``rng`` (shared with :func:`synthetic_log`)."""
     n = t_s.size
     v = np.asarray(v, dtype=np.float64).copy()
     if quantum_v_mps > 0:
