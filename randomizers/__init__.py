@@ -14,6 +14,9 @@ last axis), draws from its own seeded generator, records what it drew in
 Stacks are built from and saved to YAML with :func:`from_config` / :func:`save_config`, and
 :class:`SuccessRateCurriculum` raises every scale as the policy improves.
 
+Names are loaded on first use (PEP 562), so ``import randomizers.errors`` does not pull in
+gymnasium or numba.
+
 Example
 -------
 >>> import gymnasium as gym
@@ -26,15 +29,25 @@ Example
 
 from __future__ import annotations
 
-from randomizers._base import Randomizer, iter_randomizers, set_scale
-from randomizers._camera import CameraPoseJitter
-from randomizers._config import CONFIG_FORMAT, RANDOMIZERS, from_config, save_config, to_config
-from randomizers._curriculum import CurriculumUpdate, SuccessRateCurriculum
-from randomizers._delay import ActionDelay, OdometryDelay, steps_from_seconds
-from randomizers._dynamics import DynamicsRandomizer, default_bounds
-from randomizers._gauss import fill_standard_normal
-from randomizers._goal import GoalNoise
-from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from randomizers._base import Randomizer, iter_randomizers, set_scale
+    from randomizers._camera import CameraPoseJitter
+    from randomizers._config import (
+        CONFIG_FORMAT,
+        RANDOMIZERS,
+        from_config,
+        save_config,
+        to_config,
+    )
+    from randomizers._curriculum import CurriculumUpdate, SuccessRateCurriculum
+    from randomizers._delay import ActionDelay, OdometryDelay, steps_from_seconds
+    from randomizers._dynamics import DynamicsRandomizer, default_bounds
+    from randomizers._gauss import fill_standard_normal
+    from randomizers._goal import GoalNoise
+    from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
 
 __all__ = [
     "CONFIG_FORMAT",
@@ -60,7 +73,43 @@ __all__ = [
     "to_config",
 ]
 
-# Public entry points (env.spec, pickling for async vector envs): randomizers:<Class>.
-for _cls in (*RANDOMIZERS.values(), Randomizer, SuccessRateCurriculum, CurriculumUpdate):
-    _cls.__module__ = __name__
-del _cls
+_MODULES = (
+    "randomizers._base",
+    "randomizers._camera",
+    "randomizers._config",
+    "randomizers._curriculum",
+    "randomizers._delay",
+    "randomizers._dynamics",
+    "randomizers._gauss",
+    "randomizers._goal",
+    "randomizers._noise",
+)
+
+
+def _load() -> None:
+    """Import every public name at once (on first access of any of them)."""
+    namespace = globals()
+    for module_name in _MODULES:
+        module = importlib.import_module(module_name)
+        for name in getattr(module, "__all__", ()):
+            if name in __all__:
+                namespace[name] = getattr(module, name)
+    # Public entry points (env.spec, pickling for async vector envs): randomizers:<Class>.
+    for cls in (
+        *namespace["RANDOMIZERS"].values(),
+        namespace["Randomizer"],
+        namespace["SuccessRateCurriculum"],
+        namespace["CurriculumUpdate"],
+    ):
+        cls.__module__ = __name__
+
+
+def __getattr__(name: str) -> Any:
+    if name in __all__:
+        _load()
+        return globals()[name]
+    raise AttributeError(f"module 'randomizers' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

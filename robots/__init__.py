@@ -1,7 +1,9 @@
 """Robot models: spec files of published facts, the drive model, pybullet robots and sensors.
 
-``PybulletRobot``, ``Lidar`` and ``DepthCamera`` import pybullet, so they are loaded on first
-use (``import robots`` stays light for the CLI and for sysid).
+Every name is loaded on first use (PEP 562), so ``import robots.spec`` or
+``import robots.errors`` stays light: numba comes with the drive model (:func:`simulate`,
+:class:`ReducedDrive`), pybullet with :class:`PybulletRobot`, :class:`Lidar` and
+:class:`DepthCamera`.
 
 Example
 -------
@@ -13,22 +15,22 @@ Example
 
 from __future__ import annotations
 
+import importlib
 from typing import TYPE_CHECKING, Any
 
-from robots.params import BaseGeometry, DriveParams, load_drive_params
-from robots.reduced import ReducedDrive, simulate
-from robots.spec import (
-    CameraSpec,
-    LidarSpec,
-    OdometrySpec,
-    RobotSpec,
-    list_robots,
-    load_spec,
-)
-
 if TYPE_CHECKING:
+    from robots.params import BaseGeometry, DriveParams, load_drive_params
     from robots.pybullet_robot import PybulletRobot
+    from robots.reduced import ReducedDrive, simulate
     from robots.sensors import DepthCamera, Lidar
+    from robots.spec import (
+        CameraSpec,
+        LidarSpec,
+        OdometrySpec,
+        RobotSpec,
+        list_robots,
+        load_spec,
+    )
 
 __all__ = [
     "BaseGeometry",
@@ -48,6 +50,17 @@ __all__ = [
 ]
 
 _LAZY = {
+    "BaseGeometry": "robots.params",
+    "DriveParams": "robots.params",
+    "load_drive_params": "robots.params",
+    "ReducedDrive": "robots.reduced",
+    "simulate": "robots.reduced",
+    "CameraSpec": "robots.spec",
+    "LidarSpec": "robots.spec",
+    "OdometrySpec": "robots.spec",
+    "RobotSpec": "robots.spec",
+    "list_robots": "robots.spec",
+    "load_spec": "robots.spec",
     "PybulletRobot": "robots.pybullet_robot",
     "Lidar": "robots.sensors",
     "DepthCamera": "robots.sensors",
@@ -56,7 +69,11 @@ _LAZY = {
 
 def __getattr__(name: str) -> Any:
     if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
     raise AttributeError(f"module 'robots' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

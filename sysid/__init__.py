@@ -3,6 +3,9 @@
 Fit the parameters of :class:`robots.params.DriveParams` (delay, friction, inertia, limits)
 to logs of commanded and measured velocity, with uncertainty and validation scores.
 
+Names are loaded on first use (PEP 562): ``import sysid.errors`` or ``sysid.metrics`` does not
+pull in scipy, filterpy or python-control; :func:`fit_drive` does.
+
 Example
 -------
 >>> from sysid import fit_drive
@@ -13,7 +16,9 @@ Example
 
 from __future__ import annotations
 
-from sysid._logs import LogArrays, VelocityLog, crop_log
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from sysid.errors import (
     ExcitationError,
     ResultFileError,
@@ -21,8 +26,11 @@ from sysid.errors import (
     SysidFileError,
     SysidValueError,
 )
-from sysid.fit import Progress, fit_drive, score_logs
-from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
+
+if TYPE_CHECKING:
+    from sysid._logs import LogArrays, VelocityLog, crop_log
+    from sysid.fit import Progress, fit_drive, score_logs
+    from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
 
 __all__ = [
     "DataFile",
@@ -41,3 +49,28 @@ __all__ = [
     "fit_drive",
     "score_logs",
 ]
+
+_LAZY = {
+    "LogArrays": "sysid._logs",
+    "VelocityLog": "sysid._logs",
+    "crop_log": "sysid._logs",
+    "Progress": "sysid.fit",
+    "fit_drive": "sysid.fit",
+    "score_logs": "sysid.fit",
+    "DataFile": "sysid.result",
+    "FitScores": "sysid.result",
+    "ParameterEstimate": "sysid.result",
+    "SysidResult": "sysid.result",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'sysid' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

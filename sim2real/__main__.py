@@ -1,0 +1,12 @@
+"""``python -m sim2real ...`` runs the ``sim2real`` command line."""
+
+from __future__ import annotations
+
+import sys
+
+from sim2real.cli import main
+
+__all__: list[str] = []
+
+if __name__ == "__main__":
+    sys.exit(main())
