@@ -93,12 +93,14 @@ from sysid.metrics import (
 
 __all__ = [
     "AGREEMENT_KEYS",
+    "DEFAULT_BAND_LEVEL",
     "DEFAULT_TOL_V",
     "DEFAULT_TOL_W",
     "MAX_REL_STD",
     "AgreementReport",
     "EnsembleResult",
     "agreement_from_arrays",
+    "check_band_level",
     "check_tolerances",
     "ensemble_band",
     "measure_agreement",
@@ -200,6 +202,30 @@ def check_tolerances(tol_v: float, tol_w: float) -> None:
                 f"tolerance {name} ({flag}) must be a finite number > 0, got {tol!r}; "
                 f"e.g. {flag} {DEFAULT_TOL_V if name == 'tol_v' else DEFAULT_TOL_W}"
             )
+
+
+#: Default central probability of the predictive band (``sim2real agree --band-level``).
+DEFAULT_BAND_LEVEL = 0.9
+
+
+def check_band_level(level: float) -> float:
+    """Return ``level`` as a float after checking it lies strictly between 0 and 1.
+
+    Examples
+    --------
+    >>> check_band_level(0.9)
+    0.9
+    """
+    if (
+        isinstance(level, bool)
+        or not isinstance(level, int | float)
+        or not (math.isfinite(level) and 0.0 < level < 1.0)
+    ):
+        raise Sim2RealValueError(
+            f"band level (--band-level) must be a probability strictly between 0 and 1, got "
+            f"{level!r}; e.g. --band-level {DEFAULT_BAND_LEVEL}"
+        )
+    return float(level)
 
 
 def agreement_from_arrays(
@@ -465,6 +491,7 @@ class EnsembleResult:
     coverage_v: float
     coverage_w: float
     params: tuple[DriveParams, ...]
+    band_level: float = DEFAULT_BAND_LEVEL
     sampled: tuple[str, ...] = ()
     skipped: tuple[str, ...] = ()
 
@@ -484,15 +511,18 @@ def ensemble_band(
     *,
     tol_v: float = DEFAULT_TOL_V,
     tol_w: float = DEFAULT_TOL_W,
+    band_level: float = DEFAULT_BAND_LEVEL,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, tuple[float, float, float]]:
-    """5-95 % band of replays and the coverage of the trace's active samples.
+    """Central ``band_level`` band of replays and the coverage of the trace's active samples.
 
     Returns ``(lo_v, hi_v, lo_w, hi_w, (coverage, coverage_v, coverage_w))``.
     """
     sv = np.stack([s.v for s in sims])
     sw = np.stack([s.w for s in sims])
-    lo_v, hi_v = np.quantile(sv, [0.05, 0.95], axis=0)
-    lo_w, hi_w = np.quantile(sw, [0.05, 0.95], axis=0)
+    level = check_band_level(band_level)
+    q = (0.5 * (1.0 - level), 0.5 * (1.0 + level))
+    lo_v, hi_v = np.quantile(sv, q, axis=0)
+    lo_w, hi_w = np.quantile(sw, q, axis=0)
     rv = np.asarray(trace.meas_v, dtype=np.float64)
     rw = np.asarray(trace.meas_w, dtype=np.float64)
     cmd_v, cmd_w = trace.cmd_at_meas()
@@ -514,6 +544,7 @@ def run_ensemble(
     tol_v: float = DEFAULT_TOL_V,
     tol_w: float = DEFAULT_TOL_W,
     odom_v_window_s: float = 0.0,
+    band_level: float = DEFAULT_BAND_LEVEL,
 ) -> EnsembleResult:
     """Replay ``trace`` ``n`` times with parameters drawn around ``params`` (see module doc).
 
@@ -566,7 +597,7 @@ def run_ensemble(
         for p in drawn
     ]
     lo_v, hi_v, lo_w, hi_w, (cov, cov_v, cov_w) = ensemble_band(
-        trace, sims, tol_v=tol_v, tol_w=tol_w
+        trace, sims, tol_v=tol_v, tol_w=tol_w, band_level=band_level
     )
     return EnsembleResult(
         n=n,
@@ -581,6 +612,7 @@ def run_ensemble(
         coverage_v=cov_v,
         coverage_w=cov_w,
         params=tuple(drawn),
+        band_level=float(band_level),
         sampled=tuple(sampled),
         skipped=tuple(k for k in skipped if stds[k] != 0),
     )

@@ -458,6 +458,10 @@ def test_sysid_show_of_a_good_params_file_exits_0(
         (["--ensemble", "3"], ["--ensemble", "--params"]),
         (["--params", "OK", "--ensemble", "1"], ["--ensemble", "1"]),
         (["--params", "OK", "--ensemble", "3", "--spread", "-1"], ["--spread", "-1.0"]),
+        (["--params", "OK", "--ensemble", "3", "--band-level", "1"], ["--band-level", "1.0"]),
+        (["--params", "OK", "--ensemble", "3", "--band-level", "0"], ["--band-level", "0.0"]),
+        (["--params", "OK", "--ensemble", "3", "--band-level", "nan"], ["--band-level", "nan"]),
+        (["--params", "OK", "--ensemble", "0"], ["--ensemble", "0"]),
     ],
 )
 def test_bad_agree_argument_exits_2_before_writing(

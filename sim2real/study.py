@@ -1,0 +1,414 @@
+"""The agreement study: replay a log, measure agreement, build the band, write the outputs.
+
+:func:`run_study` is what ``sim2real agree`` (and ``sim2real demo``) run: it reads the log,
+replays it with the spec defaults and (when given) a params file, measures the agreement of
+each replay (:mod:`sim2real.agreement`), optionally replays an ensemble drawn from the params
+file's randomisation and measures how much of the real log its predictive band covers, and
+writes the requested outputs (JSON figures, HTML report, simulated MCAP). The CLI only parses
+arguments into a :class:`StudyConfig`, calls :func:`run_study` and prints
+:func:`summary_table` of the returned :class:`StudyResult`.
+
+Example
+-------
+>>> from sim2real.study import StudyConfig, run_study
+>>> result = run_study(StudyConfig(log="val.mcap", robot="turtlebot3_burger",  # doctest: +SKIP
+...                                params_path="params.yaml", engine="reduced"))
+>>> round(result.main.agreement, 2)  # doctest: +SKIP
+0.93
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the heavy modules are imported by run_study only
+    from sim2real.agreement import AgreementReport, EnsembleResult
+    from sim2real.report import ReportRun
+
+__all__ = [
+    "StudyConfig",
+    "StudyResult",
+    "parse_odom_v_window",
+    "provenance_rows",
+    "run_study",
+    "study_figures",
+    "summary_table",
+    "write_json",
+]
+
+
+@dataclass(frozen=True, kw_only=True)
+class StudyConfig:
+    """What to compare and what to write (the arguments of ``sim2real agree``).
+
+    Attributes
+    ----------
+    log : str or Path
+        The real log (ROS 2 MCAP).
+    robot : str
+        Robot (spec) name.
+    params_path : str or Path, optional
+        A sysid result; without it only the spec defaults are replayed.
+    engine : {"pybullet", "reduced"}
+        Simulator of every replay.
+    tol_v, tol_w : float
+        Agreement tolerances, m/s and rad/s.
+    ensemble_n : int, optional
+        Size of the ensemble drawn from the params file (>= 2); None = no ensemble.
+    seed : int
+        Seed of the ensemble draws.
+    spread : float
+        Multiplier on the ensemble's standard deviations.
+    band_level : float
+        Central probability of the predictive band, in (0, 1).
+    odom_v_window : float or "auto"
+        Odometry window of v, s (see :func:`sim2real.replay.replay`).
+    cmd_topic, odom_topic : str, optional
+        Topics (default: auto-detect).
+    json_path, report_path, sim_out : str or Path, optional
+        Outputs: the figures as JSON, the HTML report (+ PNGs), the simulated run as MCAP.
+    command_line : str
+        The command line shown in the report's provenance.
+    title : str
+        The report's title.
+    """
+
+    log: str | Path
+    robot: str
+    params_path: str | Path | None = None
+    engine: str = "pybullet"
+    tol_v: float = 0.02
+    tol_w: float = 0.1
+    ensemble_n: int | None = None
+    seed: int = 0
+    spread: float = 1.0
+    band_level: float = 0.9
+    odom_v_window: float | str = 0.0
+    cmd_topic: str | None = None
+    odom_topic: str | None = None
+    json_path: str | Path | None = None
+    report_path: str | Path | None = None
+    sim_out: str | Path | None = None
+    command_line: str = ""
+    title: str = "sim2real agreement report"
+
+
+@dataclass(frozen=True, kw_only=True)
+class StudyResult:
+    """What :func:`run_study` computed.
+
+    Attributes
+    ----------
+    main : AgreementReport
+        The figures of the requested configuration (the params file, else the spec defaults).
+    runs : tuple of ReportRun
+        Every replay made (spec defaults first, then the params file when given).
+    ensemble : EnsembleResult or None
+        The ensemble, when requested.
+    figures : dict
+        The JSON figures (:data:`sim2real.agreement.AGREEMENT_KEYS`, plus the band's keys with
+        an ensemble); what ``--json`` writes.
+    warnings : tuple of str
+        Repairs made while reading the log (dropped NaN samples, re-sorted stamps, ...).
+    written : tuple of Path
+        Output files written (JSON, report HTML, simulated MCAP), in that order.
+    """
+
+    main: AgreementReport
+    runs: tuple[ReportRun, ...]
+    ensemble: EnsembleResult | None
+    figures: dict[str, Any]
+    warnings: tuple[str, ...] = ()
+    written: tuple[Path, ...] = ()
+
+
+def _sha256(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _versions() -> str:
+    import platform
+    from importlib.metadata import PackageNotFoundError, version
+
+    parts = [f"python {platform.python_version()}"]
+    for dist in ("sim2real", "numpy", "scipy", "pybullet", "mcap", "matplotlib"):
+        try:
+            parts.append(f"{dist} {version(dist)}")
+        except PackageNotFoundError:
+            parts.append(f"{dist} (not installed)")
+    return ", ".join(parts)
+
+
+def provenance_rows(
+    *,
+    files: Sequence[tuple[str, str | Path]],
+    robot: Any,
+    engine: str,
+    seed: int | None,
+    command_line: str,
+    odom_v_window_s: float = 0.0,
+) -> list[tuple[str, str]]:
+    """Provenance lines of a report: files with SHA-256, spec, versions, seed, command."""
+    rows = [(role, f"{path}  (sha256 {_sha256(path)})") for role, path in files]
+    spec_path = getattr(robot, "path", None)
+    rows.append(("robot spec", f"{robot.name}" + (f"  ({spec_path})" if spec_path else "")))
+    rows.append(("engine", engine))
+    if odom_v_window_s:
+        rows.append(("odometry v window", f"{odom_v_window_s:.4g} s (simulated v averaged)"))
+    rows.append(("ensemble seed", "n/a" if seed is None else str(seed)))
+    rows.append(("versions", _versions()))
+    rows.append(("command line", command_line))
+    return rows
+
+
+def parse_odom_v_window(value: float | str, rate_hz: float) -> float:
+    """Seconds of ``--odom-v-window``: a number in [0, 1] or ``"auto"`` (``1 / rate_hz``).
+
+    Examples
+    --------
+    >>> parse_odom_v_window("auto", 30.0), parse_odom_v_window(0.05, 30.0)
+    (0.03333333333333333, 0.05)
+    """
+    from sim2real.errors import Sim2RealValueError
+
+    if isinstance(value, str) and value.strip() == "auto":
+        return 1.0 / rate_hz
+    try:
+        seconds = float(value)
+    except (TypeError, ValueError):
+        seconds = math.nan
+    if not (math.isfinite(seconds) and 0.0 <= seconds <= 1.0):
+        raise Sim2RealValueError(
+            f"--odom-v-window must be 'auto' or seconds in [0, 1], got {value!r}; e.g. "
+            "--odom-v-window auto (one odometry period) or 0.0333"
+        )
+    return seconds
+
+
+def _check_config(config: StudyConfig) -> None:
+    from sim2real._io import check_not_an_input, check_output_path
+    from sim2real.agreement import check_band_level, check_tolerances
+    from sim2real.errors import Sim2RealValueError
+
+    check_tolerances(config.tol_v, config.tol_w)
+    outputs = (
+        (config.json_path, "--json file"),
+        (config.report_path, "report file"),
+        (config.sim_out, "--sim-out file"),
+    )
+    for path, what in outputs:
+        if path is not None:
+            check_output_path(path, what=what)
+            check_not_an_input(path, [config.log, config.params_path], what=what)
+    n = config.ensemble_n
+    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 2):
+        raise Sim2RealValueError(
+            f"--ensemble must be an integer >= 2, got {n!r}; e.g. --ensemble 20"
+        )
+    if n is not None and config.params_path is None:
+        raise Sim2RealValueError(
+            "--ensemble needs --params: the ensemble draws parameters from the randomisation "
+            "of a sysid result; add --params params.yaml"
+        )
+    check_band_level(config.band_level)
+
+
+def run_study(config: StudyConfig) -> StudyResult:
+    """Replay ``config.log`` with spec defaults (and the params file), measure, write outputs.
+
+    Parameters
+    ----------
+    config : StudyConfig
+        What to compare and what to write.
+
+    Returns
+    -------
+    StudyResult
+
+    Raises
+    ------
+    sim2real.errors.Sim2RealError, robots.errors.RobotsError
+        On bad input (one sentence naming the argument or file and the fix).
+    """
+    from robots.params import load_drive_params
+    from robots.spec import load_spec
+    from sim2real.agreement import measure_agreement
+    from sim2real.logs import read_trace
+    from sim2real.replay import replay
+    from sim2real.report import ReportRun
+
+    _check_config(config)
+    spec = load_spec(config.robot)
+    window_s = parse_odom_v_window(config.odom_v_window, spec.odometry.rate_hz)
+    params = None
+    if config.params_path is not None:
+        params = load_drive_params(config.params_path, robot=spec.name, base=spec.drive)
+    trace = read_trace(config.log, cmd_topic=config.cmd_topic, odom_topic=config.odom_topic)
+    runs = []
+    configs: list[tuple[str, Any, str | None]] = [("spec defaults", spec.drive, None)]
+    if params is not None:
+        configs.append(("sysid params", params, str(config.params_path)))
+    for label, p, pfile in configs:
+        sim = replay(trace, robot=spec, params=p, engine=config.engine, odom_v_window_s=window_s)
+        rep = measure_agreement(
+            trace, sim, tol_v=config.tol_v, tol_w=config.tol_w, params_file=pfile
+        )
+        runs.append(ReportRun(label=label, replay=sim, agreement=rep))
+    ensemble = _ensemble(config, trace, spec, params, window_s)
+    figures = study_figures(runs[-1].agreement, ensemble)
+    written: list[Path] = []
+    if config.json_path is not None:
+        write_json(config.json_path, figures)
+        written.append(Path(config.json_path))
+    if config.report_path is not None:
+        _write_report(config, trace, spec, tuple(runs), ensemble, window_s)
+        written.append(Path(config.report_path))
+    if config.sim_out is not None:
+        _write_sim_log(config.sim_out, trace, runs[-1].replay)
+        written.append(Path(config.sim_out))
+    return StudyResult(
+        main=runs[-1].agreement,
+        runs=tuple(runs),
+        ensemble=ensemble,
+        figures=figures,
+        warnings=tuple(trace.meta.warnings),
+        written=tuple(written),
+    )
+
+
+def _ensemble(
+    config: StudyConfig, trace: Any, spec: Any, params: Any, window_s: float
+) -> EnsembleResult | None:
+    if config.ensemble_n is None or params is None or config.params_path is None:
+        return None
+    from robots.params import read_params_file
+    from sim2real.agreement import run_ensemble
+
+    stds = read_params_file(config.params_path).stds
+    return run_ensemble(
+        trace,
+        robot=spec,
+        params=params,
+        stds=stds,
+        n=config.ensemble_n,
+        seed=config.seed,
+        spread=config.spread,
+        engine=config.engine,
+        tol_v=config.tol_v,
+        tol_w=config.tol_w,
+        odom_v_window_s=window_s,
+        band_level=config.band_level,
+    )
+
+
+def study_figures(main: AgreementReport, ensemble: EnsembleResult | None) -> dict[str, Any]:
+    """The JSON figures: the agreement keys, plus the band's keys when there is an ensemble."""
+    figures = main.to_dict()
+    if ensemble is not None:
+        cov = ensemble.coverage
+        figures["coverage"] = cov if math.isfinite(cov) else None
+    return figures
+
+
+def _write_report(
+    config: StudyConfig,
+    trace: Any,
+    spec: Any,
+    runs: tuple[ReportRun, ...],
+    ensemble: EnsembleResult | None,
+    window_s: float,
+) -> None:
+    from sim2real.report import ReportInput, param_rows, write_report
+
+    assert config.report_path is not None  # checked by the caller
+    files: list[tuple[str, str | Path]] = [("log", config.log)]
+    if config.params_path is not None:
+        files.append(("params", config.params_path))
+    write_report(
+        config.report_path,
+        ReportInput(
+            trace=trace,
+            runs=runs,
+            ensemble=ensemble,
+            params=param_rows(spec.drive, runs[-1].replay.params, config.params_path),
+            provenance=provenance_rows(
+                files=files,
+                robot=spec,
+                engine=config.engine,
+                seed=config.seed if ensemble is not None else None,
+                command_line=config.command_line,
+                odom_v_window_s=window_s,
+            ),
+            title=config.title,
+        ),
+    )
+
+
+def _write_sim_log(path: str | Path, trace: Any, sim: Any) -> None:
+    """The replayed commands and the simulated velocities (at the real stamps) as MCAP.
+
+    The odometry pose is dead-reckoned from the simulated (v, w) by the writer.
+    """
+    from sim2real.logs import write_velocity_log
+
+    write_velocity_log(
+        path,
+        cmd_t_ns=trace.cmd_t_ns,
+        cmd_v=trace.cmd_v,
+        cmd_w=trace.cmd_w,
+        meas_t_ns=sim.t_ns,
+        meas_v=sim.v,
+        meas_w=sim.w,
+    )
+
+
+def write_json(path: str | Path, figures: dict[str, Any]) -> None:
+    """Write ``figures`` as pretty JSON (NaN already mapped to null) via a temp file."""
+    from sim2real._io import atomic_write
+
+    with atomic_write(path, "wb", what="--json file") as fh:
+        fh.write((json.dumps(figures, indent=2, allow_nan=False) + "\n").encode("utf-8"))
+
+
+def summary_table(runs: Sequence[Any], ensemble: Any = None) -> str:
+    """A plain-text table of the agreement figures, one column per replay."""
+
+    def pct(x: float) -> str:
+        return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"
+
+    def num(x: float, spec: str) -> str:
+        return format(x, spec) if math.isfinite(x) else "n/a"
+
+    lines = [("", [r.label for r in runs])]
+    a = [r.agreement for r in runs]
+    lines += [
+        ("agreement", [pct(x.agreement) for x in a]),
+        ("agreement v", [pct(x.agreement_v) for x in a]),
+        ("agreement w", [pct(x.agreement_w) for x in a]),
+        ("FIT % v", [num(x.fit_percent_v, ".1f") for x in a]),
+        ("FIT % w", [num(x.fit_percent_w, ".1f") for x in a]),
+        ("RMSE v [m/s]", [num(x.rmse_v, ".4f") for x in a]),
+        ("RMSE w [rad/s]", [num(x.rmse_w, ".4f") for x in a]),
+        ("lag v [s]", [num(x.lag_s_v, "+.3f") for x in a]),
+        ("lag w [s]", [num(x.lag_s_w, "+.3f") for x in a]),
+        ("active/samples", [f"{x.n_active}/{x.n_samples}" for x in a]),
+    ]
+    if ensemble is not None:
+        lines.append((f"coverage (N={ensemble.n})", ["", pct(ensemble.coverage)][-len(runs) :]))
+    w0 = max(len(k) for k, _ in lines)
+    widths = [max(len(row[i]) for _, row in lines) for i in range(len(runs))]
+    out = []
+    for key, row in lines:
+        cells = "  ".join(c.rjust(w) for c, w in zip(row, widths, strict=True))
+        out.append(f"{key.ljust(w0)}  {cells}")
+    return "\n".join(out)
