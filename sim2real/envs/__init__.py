@@ -29,6 +29,7 @@ from sim2real.envs.baselines import DWAController, EvalSummary, evaluate
 from sim2real.envs.crowd_nav import SCENARIOS, CrowdNavEnv, CrowdNavReward
 from sim2real.envs.maps import PAPER_RHO_OBS, PRESETS, MapConfig, generate_map
 from sim2real.envs.metrics import EpisodeMetrics
+from sim2real.envs.orca import OrcaAgents, OrcaConfig, orca_velocities
 from sim2real.envs.random_map import RandomMapEnv, RandomMapReward
 
 __all__ = [
@@ -42,10 +43,13 @@ __all__ = [
     "EpisodeMetrics",
     "EvalSummary",
     "MapConfig",
+    "OrcaAgents",
+    "OrcaConfig",
     "RandomMapEnv",
     "RandomMapReward",
     "evaluate",
     "generate_map",
+    "orca_velocities",
 ]
 
 #: The registered env ids.

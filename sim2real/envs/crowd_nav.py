@@ -24,6 +24,13 @@ Scenario families and the complexity factor c in [0, 1] (paper 000, Sec. I-A-2)
 ``"num_pedestrians"`` or ``"pedestrian_density"`` (per m^2 of room; 1-3 run) override the
 pedestrian count.
 
+Pedestrian policy (``pedestrians=`` or the reset option ``"pedestrians"``)
+    ``"eq1"`` (default): the density-dependent walking speed of paper 000's eq. (1)
+    (:mod:`sim2real.envs.pedestrians`); ``"orca"``: optimal reciprocal collision avoidance
+    (:mod:`sim2real.envs.orca`, the policy crowd-navigation papers compare against) at the
+    same preferred speeds, goals and start times; pedestrians then avoid the robot with its
+    current velocity.
+
 Observation (``Dict``)
     ``"lidar"``: ranges of the 2-D lidar of the spec (m; outside its limits read the maximum);
     ``"depth"``: depth image (m along the optical axis, shape (height, width), 64 x 48 by
@@ -73,10 +80,17 @@ from robots.params import DriveParams
 from sim2real.envs._nav import NavEnvBase, StepInfo
 from sim2real.envs.depth import DepthCamera, DepthScene
 from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, rectangle_segments
+from sim2real.envs.orca import OrcaCrowd
 from sim2real.envs.pedestrians import ALPHA, Crowd, spawn_positions
 from sim2real.errors import Sim2RealValueError
 
-__all__ = ["SCENARIOS", "CrowdNavEnv", "CrowdNavReward", "occlusion_fraction"]
+__all__ = [
+    "PEDESTRIAN_POLICIES",
+    "SCENARIOS",
+    "CrowdNavEnv",
+    "CrowdNavReward",
+    "occlusion_fraction",
+]
 
 #: The scenario families of paper 000.
 SCENARIOS = ("static", "dynamic", "occluded")
@@ -88,7 +102,9 @@ _START_X_M = -3.0
 _GOAL_X_M = 3.0
 _PANEL_D_M = (1.5, 3.0)
 _PED_R_M = (0.18, 0.24)
-_OPTIONS = {"scenario", "complexity", "num_pedestrians", "pedestrian_density"}
+_OPTIONS = {"scenario", "complexity", "num_pedestrians", "pedestrian_density", "pedestrians"}
+#: Pedestrian policies: paper 000's eq. (1) speed model, or ORCA (van den Berg et al. 2011).
+PEDESTRIAN_POLICIES = ("eq1", "orca")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -148,6 +164,8 @@ class CrowdNavEnv(NavEnvBase):
     num_pedestrians : int, optional
         Fixed pedestrian count (overrides the complexity rule) for the dynamic and occluded
         scenarios.
+    pedestrians : str
+        Pedestrian policy, one of :data:`PEDESTRIAN_POLICIES` (``"eq1"`` or ``"orca"``).
     depth_width, depth_height : int
         Depth image size, pixels.
     dynamics : str
@@ -170,6 +188,7 @@ class CrowdNavEnv(NavEnvBase):
         scenario: str = "dynamic",
         complexity: float = 0.5,
         num_pedestrians: int | None = None,
+        pedestrians: str = "eq1",
         depth_width: int = 64,
         depth_height: int = 48,
         dynamics: str = "reduced",
@@ -187,6 +206,8 @@ class CrowdNavEnv(NavEnvBase):
                 f"num_pedestrians must be an integer >= 0 or None, got {num_pedestrians!r}"
             )
         self.num_pedestrians = num_pedestrians
+        self.pedestrians = self._check_policy(pedestrians)
+        self._episode_policy = self.pedestrians
         super().__init__(
             robot=robot,
             dynamics=dynamics,
@@ -286,6 +307,15 @@ class CrowdNavEnv(NavEnvBase):
             )
         return str(scenario), float(complexity)
 
+    @staticmethod
+    def _check_policy(policy: Any) -> str:
+        if policy not in PEDESTRIAN_POLICIES:
+            raise Sim2RealValueError(
+                f"pedestrians must be one of {', '.join(PEDESTRIAN_POLICIES)}, got {policy!r}; "
+                "e.g. pedestrians='orca'"
+            )
+        return str(policy)
+
     def _build(self, options: dict[str, Any]) -> tuple[float, float, float]:
         unknown = sorted(set(options) - _OPTIONS)
         if unknown:
@@ -296,6 +326,7 @@ class CrowdNavEnv(NavEnvBase):
             options.get("scenario", self.scenario), options.get("complexity", self.complexity)
         )
         self._episode_scenario, self._episode_complexity = scenario, c
+        self._episode_policy = self._check_policy(options.get("pedestrians", self.pedestrians))
         rng = self.np_random
         walls = _room_walls()
         if scenario == "occluded":
@@ -464,7 +495,8 @@ class CrowdNavEnv(NavEnvBase):
         pref = rng.uniform(1.0, 1.5, n)
         if scenario == "dynamic":
             pref = np.where(rng.random(n) < 0.2, 0.0, pref)
-        return Crowd(
+        kind = OrcaCrowd if self._episode_policy == "orca" else Crowd
+        return kind(
             rng,
             position_m=pos,
             radius_m=rng.uniform(*_PED_R_M, n),
@@ -488,9 +520,14 @@ class CrowdNavEnv(NavEnvBase):
 
     def _advance(self, dt_s: float) -> None:
         assert self.crowd is not None
-        x, y, _ = self._backend.pose
+        x, y, yaw = self._backend.pose
+        v, _ = self._backend.velocity
         self.crowd.step(
-            dt_s, self._scene, robot_xy=np.array([x, y]), robot_radius_m=self.robot_radius_m
+            dt_s,
+            self._scene,
+            robot_xy=np.array([x, y]),
+            robot_radius_m=self.robot_radius_m,
+            robot_velocity_mps=np.array([v * math.cos(yaw), v * math.sin(yaw)]),
         )
         self._sync_pedestrians()
 
@@ -540,4 +577,5 @@ class CrowdNavEnv(NavEnvBase):
             "complexity": self._episode_complexity,
             "occlusion_pct": 100.0 * self._occlusion,
             "num_pedestrians": 0 if self.crowd is None else len(self.crowd),
+            "pedestrians": self._episode_policy,
         }

@@ -287,9 +287,19 @@ class Crowd:
         return out
 
     def step(
-        self, dt_s: float, scene: Scene2D, *, robot_xy: FloatArray, robot_radius_m: float
+        self,
+        dt_s: float,
+        scene: Scene2D,
+        *,
+        robot_xy: FloatArray,
+        robot_radius_m: float,
+        robot_velocity_mps: FloatArray | None = None,
     ) -> None:
-        """Advance every pedestrian by ``dt_s`` around the static ``scene`` and the robot."""
+        """Advance every pedestrian by ``dt_s`` around the static ``scene`` and the robot.
+
+        ``robot_velocity_mps`` is unused here (eq. (1) looks at free space only); the ORCA
+        crowd (:class:`sim2real.envs.orca.OrcaCrowd`) needs it.
+        """
         n = len(self)
         self.time_s += dt_s
         if n == 0:

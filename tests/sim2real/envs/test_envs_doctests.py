@@ -15,6 +15,7 @@ MODULES = [
     "sim2real.envs.geometry",
     "sim2real.envs.maps",
     "sim2real.envs.metrics",
+    "sim2real.envs.orca",
     "sim2real.envs.pedestrians",
     "sim2real.envs.random_map",
 ]
