@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -33,47 +33,27 @@ import yaml
 from robots.errors import ParamsFileError, RobotsValueError
 
 __all__ = [
+    "COORD_KINDS",
     "MAY_BE_INF",
     "MAY_BE_NEGATIVE",
     "MUST_BE_POSITIVE",
     "PARAMS_FILE_FORMAT",
+    "SCHEMA",
+    "SIGN_RULES",
+    "UNITS",
     "BaseGeometry",
     "DriveParams",
+    "FieldSchema",
     "ParamsFile",
+    "Prior",
+    "generic_priors",
     "load_drive_params",
+    "load_params_document",
     "read_params_file",
 ]
 
 #: ``format:`` key of a sysid result / drive-parameter YAML file.
 PARAMS_FILE_FORMAT = "sim2real.sysid/1"
-
-#: Parameters that may be +inf (meaning "no such limit").
-MAY_BE_INF = frozenset(
-    {
-        "cmd_timeout_s",
-        "speed_lim_v_mps",
-        "speed_lim_w_radps",
-        "accel_lim_v_mps2",
-        "accel_lim_w_radps2",
-        "wheel_speed_max_radps",
-        "wheel_torque_max_nm",
-    }
-)
-#: Parameters that may be negative (payload lighter than the spec); all others are >= 0.
-MAY_BE_NEGATIVE = frozenset({"added_mass_kg", "added_yaw_inertia_kgm2"})
-#: Parameters that must be > 0 (gains and limits; use +inf for "no limit").
-MUST_BE_POSITIVE = frozenset(
-    {
-        "cmd_timeout_s",
-        "speed_lim_v_mps",
-        "speed_lim_w_radps",
-        "accel_lim_v_mps2",
-        "accel_lim_w_radps2",
-        "wheel_speed_max_radps",
-        "motor_gain_nms_per_rad",
-        "wheel_torque_max_nm",
-    }
-)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -224,6 +204,433 @@ class DriveParams:
         return j
 
 
+# ----------------------------------------------------------------------------- the schema
+
+#: Coordinate kinds: the space in which a field is fitted, given a prior and sampled.
+#: ``lin``: the value itself; ``log``: log of the value; ``log_total_mass``:
+#: log(spec mass + added_mass_kg); ``log_total_inertia``: log(spec yaw inertia + added one).
+COORD_KINDS = ("lin", "log", "log_total_mass", "log_total_inertia")
+#: Sign rules: ``nonneg`` (>= 0), ``positive`` (> 0; +inf allowed where ``may_be_inf``),
+#: ``total_positive`` (any sign, but the spec value plus it must stay > 0).
+SIGN_RULES = ("nonneg", "positive", "total_positive")
+
+_G = 9.81  # m/s^2, to express friction priors as a fraction of the weight
+
+
+def _abs(value: float) -> Callable[[BaseGeometry], float]:
+    """A spread that does not depend on the robot's size."""
+    return lambda geometry: value
+
+
+def _weight(fraction: float) -> Callable[[BaseGeometry], float]:
+    """A force spread as a fraction of the spec weight m g, N."""
+    return lambda g: fraction * g.mass_kg * _G
+
+
+def _weight_arm(fraction: float) -> Callable[[BaseGeometry], float]:
+    """A yaw-torque spread: ``fraction`` of the weight acting at half the wheel track, N m."""
+    return lambda g: fraction * g.mass_kg * _G * 0.5 * g.wheel_separation_m
+
+
+def _per_mass(rate_1ps: float) -> Callable[[BaseGeometry], float]:
+    """A viscous-coefficient spread as a rate per spec mass, N s/m."""
+    return lambda g: rate_1ps * g.mass_kg
+
+
+def _per_inertia(rate_1ps: float) -> Callable[[BaseGeometry], float]:
+    """A yaw viscous-coefficient spread as a rate per spec yaw inertia, N m s/rad."""
+    return lambda g: rate_1ps * g.yaw_inertia_kgm2
+
+
+@dataclass(frozen=True, kw_only=True)
+class FieldSchema:
+    """Everything the toolkit knows about one :class:`DriveParams` field.
+
+    Attributes
+    ----------
+    name : str
+        The DriveParams field.
+    unit : str
+        SI unit of the value.
+    sign : str
+        One of :data:`SIGN_RULES`.
+    may_be_inf : bool
+        ``+inf`` is allowed and means "no such limit".
+    coord : str
+        One of :data:`COORD_KINDS`: the coordinate of the fit, the prior and the sampler.
+    lower, upper : float
+        Physically plausible range of the value (natural units; for ``total_positive`` fields
+        the range of the *total* as a multiple of the spec value). Fits and draws stay inside.
+    axis : str
+        ``"v"``, ``"w"`` or ``"vw"``: which measured channel the field shapes.
+    fittable : bool
+        Velocity logs can inform it (the command timeout cannot: it is a firmware setting).
+    prior_sd, session_sd : callable
+        Generic prior spread and default between-session spread in coordinate units, as a
+        function of the geometry (used when a spec gives none; see ``robots/specs/*.yaml``).
+    absurd_sd : float
+        A spread (coordinate units, relative to ``prior_sd`` for ``lin`` fields) above this is
+        refused as absurd when a distribution is read.
+    doc : str
+        One line on what it is.
+    """
+
+    name: str
+    unit: str
+    sign: str
+    may_be_inf: bool
+    coord: str
+    lower: float
+    upper: float
+    axis: str
+    fittable: bool
+    prior_sd: Callable[[BaseGeometry], float]
+    session_sd: Callable[[BaseGeometry], float]
+    absurd_sd: float
+    doc: str
+
+    def spec_value(self, geometry: BaseGeometry) -> float:
+        """The spec quantity a ``total_positive`` field adds to (0 for the others)."""
+        if self.coord == "log_total_mass":
+            return geometry.mass_kg
+        if self.coord == "log_total_inertia":
+            return geometry.yaw_inertia_kgm2
+        return 0.0
+
+    def to_coord(self, value: float, geometry: BaseGeometry) -> float:
+        """The coordinate of ``value`` (inf stays inf for ``log`` fields).
+
+        Raises :class:`~robots.errors.RobotsValueError` when ``value`` has no coordinate (a
+        non-positive limit or total mass).
+        """
+        if self.coord == "lin":
+            return float(value)
+        total = float(value) + self.spec_value(geometry)
+        if not total > 0:
+            raise RobotsValueError(
+                f"drive parameter '{self.name}' = {value!r} has no {self.coord} coordinate: "
+                f"the {'total ' if self.spec_value(geometry) else ''}value must be > 0"
+            )
+        return math.log(total)
+
+    def from_coord(self, z: float, geometry: BaseGeometry) -> float:
+        """The value at coordinate ``z`` (inverse of :meth:`to_coord`)."""
+        if self.coord == "lin":
+            return float(z)
+        return math.exp(float(z)) - self.spec_value(geometry)
+
+    def coord_bounds(self, geometry: BaseGeometry) -> tuple[float, float]:
+        """:attr:`lower`, :attr:`upper` in coordinates."""
+        if self.coord == "lin":
+            return self.lower, self.upper
+        scale = self.spec_value(geometry) or 1.0
+        return math.log(self.lower * scale), math.log(self.upper * scale)
+
+    def derivative(self, value: float, geometry: BaseGeometry) -> float:
+        """d value / d coordinate at ``value`` (to turn a coordinate std into a value std)."""
+        if self.coord == "lin":
+            return 1.0
+        return float(value) + self.spec_value(geometry)
+
+
+def _field(
+    name: str, unit: str, sign: str, coord: str, bounds: tuple[float, float], **kw: Any
+) -> FieldSchema:
+    return FieldSchema(
+        name=name,
+        unit=unit,
+        sign=sign,
+        coord=coord,
+        lower=bounds[0],
+        upper=bounds[1],
+        may_be_inf=kw.pop("may_be_inf", False),
+        axis=kw.pop("axis", "vw"),
+        fittable=kw.pop("fittable", True),
+        absurd_sd=kw.pop("absurd_sd", 3.0 if coord != "lin" else 100.0),
+        **kw,
+    )
+
+
+#: The drive-parameter schema, one entry per :class:`DriveParams` field in declaration order.
+#: Generic priors (used when a spec has no ``priors`` entry): typical command latencies are
+#: 0.05-0.3 s (seed paper 000; Kobuki issue #389 measures ~0.2 s), so the delay prior is
+#: 0.1 s wide; a motor gain nobody publishes is known to a factor e (log sd 1); payload changes
+#: the total mass by ~30 % (log sd 0.3); floor friction is a few % of the weight.
+SCHEMA: dict[str, FieldSchema] = {
+    f.name: f
+    for f in (
+        _field(
+            "delay_s",
+            "s",
+            "nonneg",
+            "lin",
+            (0.0, 1.0),
+            prior_sd=_abs(0.1),
+            session_sd=_abs(0.02),
+            absurd_sd=10.0,
+            doc="command transport delay",
+        ),
+        _field(
+            "cmd_timeout_s",
+            "s",
+            "positive",
+            "log",
+            (0.01, 100.0),
+            may_be_inf=True,
+            fittable=False,
+            prior_sd=_abs(0.0),
+            session_sd=_abs(0.0),
+            doc="stop after this long without a command (firmware setting)",
+        ),
+        _field(
+            "speed_lim_v_mps",
+            "m/s",
+            "positive",
+            "log",
+            (0.01, 10.0),
+            may_be_inf=True,
+            axis="v",
+            prior_sd=_abs(0.02),
+            session_sd=_abs(0.0),
+            doc="firmware clamp on the commanded forward speed",
+        ),
+        _field(
+            "speed_lim_w_radps",
+            "rad/s",
+            "positive",
+            "log",
+            (0.05, 50.0),
+            may_be_inf=True,
+            axis="w",
+            prior_sd=_abs(0.02),
+            session_sd=_abs(0.0),
+            doc="firmware clamp on the commanded yaw rate",
+        ),
+        _field(
+            "accel_lim_v_mps2",
+            "m/s^2",
+            "positive",
+            "log",
+            (0.02, 50.0),
+            may_be_inf=True,
+            axis="v",
+            prior_sd=_abs(0.3),
+            session_sd=_abs(0.05),
+            doc="velocity-smoother rate limit, forward",
+        ),
+        _field(
+            "accel_lim_w_radps2",
+            "rad/s^2",
+            "positive",
+            "log",
+            (0.1, 300.0),
+            may_be_inf=True,
+            axis="w",
+            prior_sd=_abs(0.3),
+            session_sd=_abs(0.05),
+            doc="velocity-smoother rate limit, yaw",
+        ),
+        _field(
+            "wheel_speed_max_radps",
+            "rad/s",
+            "positive",
+            "log",
+            (0.3, 300.0),
+            may_be_inf=True,
+            prior_sd=_abs(0.15),
+            session_sd=_abs(0.05),
+            doc="per-wheel speed cap (loaded, at the battery's voltage)",
+        ),
+        _field(
+            "motor_gain_nms_per_rad",
+            "N m s/rad",
+            "positive",
+            "log",
+            (1e-5, 1e3),
+            prior_sd=_abs(1.0),
+            session_sd=_abs(0.05),
+            doc="P gain of each wheel's speed loop",
+        ),
+        _field(
+            "wheel_torque_max_nm",
+            "N m",
+            "positive",
+            "log",
+            (1e-4, 100.0),
+            may_be_inf=True,
+            prior_sd=_abs(0.7),
+            session_sd=_abs(0.1),
+            doc="per-wheel torque saturation",
+        ),
+        _field(
+            "coulomb_v_fwd_n",
+            "N",
+            "nonneg",
+            "lin",
+            (0.0, math.inf),
+            axis="v",
+            prior_sd=_weight(0.02),
+            session_sd=_weight(0.005),
+            doc="Coulomb friction force, moving forward",
+        ),
+        _field(
+            "coulomb_v_bwd_n",
+            "N",
+            "nonneg",
+            "lin",
+            (0.0, math.inf),
+            axis="v",
+            prior_sd=_weight(0.02),
+            session_sd=_weight(0.005),
+            doc="Coulomb friction force, moving backward",
+        ),
+        _field(
+            "coulomb_w_nm",
+            "N m",
+            "nonneg",
+            "lin",
+            (0.0, math.inf),
+            axis="w",
+            prior_sd=_weight_arm(0.03),
+            session_sd=_weight_arm(0.008),
+            doc="Coulomb friction torque about yaw",
+        ),
+        _field(
+            "viscous_v_ns_per_m",
+            "N s/m",
+            "nonneg",
+            "lin",
+            (0.0, math.inf),
+            axis="v",
+            prior_sd=_per_mass(1.0),
+            session_sd=_per_mass(0.2),
+            doc="viscous friction, forward",
+        ),
+        _field(
+            "viscous_w_nms_per_rad",
+            "N m s/rad",
+            "nonneg",
+            "lin",
+            (0.0, math.inf),
+            axis="w",
+            prior_sd=_per_inertia(1.0),
+            session_sd=_per_inertia(0.2),
+            doc="viscous friction about yaw",
+        ),
+        _field(
+            "added_mass_kg",
+            "kg",
+            "total_positive",
+            "log_total_mass",
+            (0.1, 20.0),
+            axis="v",
+            prior_sd=_abs(0.3),
+            session_sd=_abs(0.1),
+            doc="payload beyond the spec mass",
+        ),
+        _field(
+            "added_yaw_inertia_kgm2",
+            "kg m^2",
+            "total_positive",
+            "log_total_inertia",
+            (0.1, 30.0),
+            axis="w",
+            prior_sd=_abs(0.4),
+            session_sd=_abs(0.15),
+            doc="payload yaw inertia beyond the spec",
+        ),
+    )
+}
+
+#: Parameters that may be +inf (meaning "no such limit"); derived from :data:`SCHEMA`.
+MAY_BE_INF = frozenset(n for n, f in SCHEMA.items() if f.may_be_inf)
+#: Parameters that may be negative (payload lighter than the spec); derived from :data:`SCHEMA`.
+MAY_BE_NEGATIVE = frozenset(n for n, f in SCHEMA.items() if f.sign == "total_positive")
+#: Parameters that must be > 0 (gains and limits; +inf for "no limit"); from :data:`SCHEMA`.
+MUST_BE_POSITIVE = frozenset(n for n, f in SCHEMA.items() if f.sign == "positive")
+#: Units of every field; derived from :data:`SCHEMA`.
+UNITS = {n: f.unit for n, f in SCHEMA.items()}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Prior:
+    """Prior belief about one drive parameter, in the field's coordinate (:data:`SCHEMA`).
+
+    Attributes
+    ----------
+    name : str
+        The DriveParams field.
+    nominal : float
+        Prior centre in natural units (the spec's drive value unless the spec says otherwise);
+        ``+inf`` for "no such limit" (then there is no prior: the field is fixed unless a fit
+        finds the limit).
+    sd : float
+        Prior standard deviation in coordinate units (``lin``: the unit of the value; log
+        coordinates: a relative spread, 0.1 = about 10 %); 0 = known exactly.
+    session_sd : float
+        Default between-session standard deviation in coordinate units (payload, floor,
+        battery sag and latency change from day to day): used as the session-to-session
+        spread when only one log is fitted.
+    source : str
+        ``"spec"`` (written in the robot spec) or ``"generic"`` (from the schema).
+    """
+
+    name: str
+    nominal: float
+    sd: float
+    session_sd: float
+    source: str
+
+    def __post_init__(self) -> None:
+        for key in ("sd", "session_sd"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise RobotsValueError(
+                    f"prior of '{self.name}': {key} must be a number, got {value!r}"
+                )
+            if not (math.isfinite(value) and value >= 0):
+                raise RobotsValueError(
+                    f"prior of '{self.name}': {key} must be a finite number >= 0, got {value!r}"
+                )
+        _check_value(self.name, self.nominal)
+
+    @property
+    def informative(self) -> bool:
+        """True when the prior constrains the value (finite nominal, sd > 0)."""
+        return math.isfinite(self.nominal) and self.sd > 0
+
+    def mean(self, geometry: BaseGeometry) -> float:
+        """Prior centre in coordinates (inf for an infinite nominal)."""
+        if math.isinf(self.nominal):
+            return math.inf
+        return SCHEMA[self.name].to_coord(self.nominal, geometry)
+
+
+def generic_priors(drive: DriveParams, geometry: BaseGeometry) -> dict[str, Prior]:
+    """Wide priors for every field, centred on ``drive``, with the schema's generic spreads.
+
+    Specs without a ``priors`` section (e.g. the ones ``sim2real robots new`` writes) get
+    these; see :data:`SCHEMA` for the reasoning behind each spread.
+
+    Examples
+    --------
+    >>> geo = BaseGeometry(mass_kg=1.0, yaw_inertia_kgm2=0.01, wheel_radius_m=0.033,
+    ...                    wheel_separation_m=0.16)
+    >>> generic_priors(DriveParams(delay_s=0.1), geo)["delay_s"].sd
+    0.1
+    """
+    return {
+        name: Prior(
+            name=name,
+            nominal=float(getattr(drive, name)),
+            sd=float(f.prior_sd(geometry)),
+            session_sd=float(f.session_sd(geometry)),
+            source="generic",
+        )
+        for name, f in SCHEMA.items()
+    }
+
+
 def _as_float(name: str, value: Any, source: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise RobotsValueError(
@@ -234,18 +641,20 @@ def _as_float(name: str, value: Any, source: str) -> float:
 
 
 def _check_value(name: str, value: float) -> None:
+    """The sign and finiteness rules of :data:`SCHEMA` (bounds are for fits and draws only)."""
     if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
         raise RobotsValueError(f"drive parameter '{name}' must be a number, got {value!r}")
-    if math.isinf(value) and not (name in MAY_BE_INF and value > 0):
+    rule = SCHEMA[name]
+    if math.isinf(value) and not (rule.may_be_inf and value > 0):
         raise RobotsValueError(
             f"drive parameter '{name}' must be finite, got {value!r}; give a finite value"
         )
-    if name in MUST_BE_POSITIVE and value <= 0:
+    if rule.sign == "positive" and value <= 0:
         raise RobotsValueError(
             f"drive parameter '{name}' must be > 0, got {value!r}; "
             "use .inf for 'no limit' rather than 0"
         )
-    if name not in MAY_BE_NEGATIVE and value < 0:
+    if rule.sign == "nonneg" and value < 0:
         raise RobotsValueError(
             f"drive parameter '{name}' must be >= 0 (non-physical otherwise), got {value!r}"
         )
@@ -265,12 +674,43 @@ class ParamsFile:
         ``{name: value}`` for every parameter the file lists.
     stds : dict
         ``{name: standard deviation}`` for the parameters that carry one (fitted ones).
+    document : dict
+        The whole parsed file (e.g. its ``randomization`` block, read by
+        :mod:`robots.randomization`).
     """
 
     path: Path
     robot: str
     values: dict[str, float]
     stds: dict[str, float]
+    document: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+
+def load_params_document(path: str | Path) -> Any:
+    """Parse a params (sysid result) YAML file: the one place that file is read and parsed.
+
+    Returns the YAML document (whatever it holds; callers check the layout). Raises
+    :class:`~robots.errors.ParamsFileError` for a missing file, a folder or invalid YAML.
+
+    Examples
+    --------
+    >>> load_params_document("params.yaml")["robot"]  # doctest: +SKIP
+    'turtlebot3_burger'
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise ParamsFileError(f"params file '{p}' is a folder; give the path of a params file")
+    if not p.is_file():
+        raise ParamsFileError(
+            f"params file '{p}' does not exist; give the path of a file written by "
+            "'sim2real sysid fit -o FILE'"
+        )
+    try:
+        return yaml.safe_load(p.read_text(encoding="utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        raise ParamsFileError(
+            f"params file '{p}' is not valid YAML ({' '.join(str(exc).split())}); regenerate it"
+        ) from None
 
 
 def read_params_file(path: str | Path) -> ParamsFile:
@@ -286,19 +726,7 @@ def read_params_file(path: str | Path) -> ParamsFile:
     0.12
     """
     p = Path(path)
-    if p.is_dir():
-        raise ParamsFileError(f"params file '{p}' is a folder; give the path of a params file")
-    if not p.is_file():
-        raise ParamsFileError(
-            f"params file '{p}' does not exist; give the path of a file written by "
-            "'sim2real sysid fit -o FILE'"
-        )
-    try:
-        doc = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise ParamsFileError(
-            f"params file '{p}' is not valid YAML ({' '.join(str(exc).split())}); regenerate it"
-        ) from None
+    doc = load_params_document(p)
     if not isinstance(doc, dict) or not isinstance(doc.get("parameters"), dict):
         raise ParamsFileError(
             f"params file '{p}' has no 'parameters' mapping; it must be a file written by "
@@ -319,7 +747,7 @@ def read_params_file(path: str | Path) -> ParamsFile:
         values[name] = _as_float(name, raw, f"params file '{p}'")
         if isinstance(entry, dict) and isinstance(entry.get("std"), int | float):
             stds[name] = float(entry["std"])
-    return ParamsFile(path=p, robot=robot, values=values, stds=stds)
+    return ParamsFile(path=p, robot=robot, values=values, stds=stds, document=doc)
 
 
 def load_drive_params(path: str | Path, *, robot: str, base: DriveParams) -> DriveParams:

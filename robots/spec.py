@@ -20,6 +20,15 @@ where :math:`J_w` is the spin inertia of one wheel (it adds :math:`J_w/r^2` of a
 wheel). The base centre of mass is placed on the wheel-axle midpoint: the reduced model assumes
 it, and an offset ``d`` would add a force :math:`m d \omega^2` that it does not have.
 
+Priors
+------
+The optional ``priors`` section gives every drive parameter a prior in its coordinate of
+:data:`robots.params.SCHEMA` (``field: {sd: .., session_sd: .., nominal: ..}``, nominal
+defaulting to the ``drive`` value), each with its justification in a comment. Fields it does not
+list -- and every field of a spec without the section, as ``sim2real robots new`` writes them --
+get the schema's generic wide prior (:func:`robots.params.generic_priors`). ``sysid`` fits MAP
+estimates against these priors; :mod:`robots.randomization` samples them.
+
 Example
 -------
 >>> from robots.spec import load_spec
@@ -40,7 +49,7 @@ import yaml
 
 from robots._spec_parse import Section
 from robots.errors import RobotsValueError, SpecError, UnknownRobotError
-from robots.params import BaseGeometry, DriveParams
+from robots.params import SCHEMA, BaseGeometry, DriveParams, Prior, generic_priors
 
 __all__ = [
     "SPECS_DIR",
@@ -226,6 +235,10 @@ class RobotSpec:
         separation: what the reduced model and the pybullet model share.
     drive : DriveParams
         Default drive parameters (published numbers where they exist, nominal otherwise).
+    priors : dict
+        ``{field: Prior}`` for every DriveParams field: the spec's ``priors`` section where it
+        gives one (nominal, sd and between-session sd in the field's coordinate, see
+        :data:`robots.params.SCHEMA`), the schema's generic wide prior otherwise.
     max_v_mps, max_w_radps : float
         Top forward speed and yaw rate the base reaches, m/s and rad/s.
     base_mass_kg : float
@@ -272,6 +285,11 @@ class RobotSpec:
     odometry: OdometrySpec
     sources: tuple[str, ...]
     path: Path
+    priors: dict[str, Prior] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.priors:  # a spec built in code: generic priors around its drive values
+            object.__setattr__(self, "priors", generic_priors(self.drive, self.geometry))
 
     @property
     def wheel_positions_m(self) -> tuple[Vec3, Vec3]:
@@ -321,14 +339,28 @@ class RobotSpec:
             ],
             "limits": {"max_v_mps": self.max_v_mps, "max_w_radps": self.max_w_radps},
             "drive": self.drive.to_dict(),
+            "priors": _priors_dict(self.priors, self.drive),
             "lidar": _plain(dataclasses.asdict(self.lidar)),
             "depth_camera": None if cam is None else _plain(dataclasses.asdict(cam)),
             "odometry": dataclasses.asdict(self.odometry),
         }
 
     def with_params(self, params: DriveParams) -> RobotSpec:
-        """A copy of this spec whose default drive parameters are ``params``."""
+        """A copy of this spec whose default drive parameters are ``params`` (priors kept)."""
         return dataclasses.replace(self, drive=params)
+
+
+def _priors_dict(priors: dict[str, Prior], drive: DriveParams) -> dict[str, dict[str, float]]:
+    """The ``priors`` section: the spec-given priors (generic ones are derived, not written)."""
+    out: dict[str, dict[str, float]] = {}
+    for name, p in priors.items():
+        if p.source != "spec":
+            continue
+        entry = {"sd": p.sd, "session_sd": p.session_sd}
+        if p.nominal != float(getattr(drive, name)):
+            entry = {"nominal": p.nominal, **entry}
+        out[name] = entry
+    return out
 
 
 def _plain(d: dict[str, Any]) -> dict[str, Any]:
@@ -449,6 +481,7 @@ def _parse(top: Section, path: Path) -> RobotSpec:
     max_w = limits.number("max_w_radps", positive=True)
     limits.finish()
     drive = _drive(top.section("drive"))
+    priors_raw = top.raw("priors", optional=True)
     lidar = _lidar(top.section("lidar"))
     cam_raw = top.raw("depth_camera")
     camera = None if cam_raw is None else _camera(top.section("depth_camera"))
@@ -456,6 +489,9 @@ def _parse(top: Section, path: Path) -> RobotSpec:
     top.finish()
     extra = [(p.mass_kg, p.xyz_m) for p in points] + [(c.mass_kg, c.xyz_m) for c in casters]
     geometry = _effective_geometry(base_mass, inertia[2], wheels, extra=extra)
+    priors = generic_priors(drive, geometry)
+    if priors_raw is not None:
+        priors |= _priors(top.section("priors"), drive)
     return RobotSpec(
         name=name,
         description=description,
@@ -475,6 +511,7 @@ def _parse(top: Section, path: Path) -> RobotSpec:
         odometry=odometry,
         sources=tuple(sources),
         path=path,
+        priors=priors,
     )
 
 
@@ -543,6 +580,33 @@ def _drive(s: Section) -> DriveParams:
         return DriveParams(**values)
     except RobotsValueError as exc:
         raise SpecError(f"robot spec '{s.source}': section '{s.where}': {exc}") from None
+
+
+def _priors(s: Section, drive: DriveParams) -> dict[str, Prior]:
+    """The spec's ``priors`` section: ``field: {sd, session_sd[, nominal]}`` (see RobotSpec)."""
+    out: dict[str, Prior] = {}
+    for name in list(s.data):
+        if name not in SCHEMA:
+            continue  # finish() names it as unknown
+        entry = s.section(name)
+        nominal = (
+            entry.number("nominal", allow_inf=True)
+            if "nominal" in entry.data
+            else float(getattr(drive, name))
+        )
+        try:
+            out[name] = Prior(
+                name=name,
+                nominal=nominal,
+                sd=entry.number("sd", nonneg=True),
+                session_sd=entry.number("session_sd", nonneg=True),
+                source="spec",
+            )
+        except RobotsValueError as exc:
+            raise SpecError(f"robot spec '{s.source}': section '{entry.where}': {exc}") from None
+        entry.finish()
+    s.finish()
+    return out
 
 
 def _lidar(s: Section) -> LidarSpec:

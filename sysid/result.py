@@ -24,7 +24,8 @@ from typing import Any
 
 import yaml
 
-from robots.params import PARAMS_FILE_FORMAT, DriveParams
+from robots.errors import ParamsFileError
+from robots.params import PARAMS_FILE_FORMAT, DriveParams, load_params_document
 from sysid.errors import ResultFileError, SysidFileError
 
 __all__ = ["STATUSES", "DataFile", "FitScores", "ParameterEstimate", "SysidResult"]
@@ -246,21 +247,10 @@ class SysidResult:
         Raises :class:`~sysid.errors.ResultFileError` for missing, unreadable or foreign files.
         """
         p = Path(path)
-        if p.is_dir():
-            raise ResultFileError(f"sysid result file '{p}' is a folder; give the result file")
-        if not p.is_file():
-            raise ResultFileError(
-                f"sysid result file '{p}' does not exist; give a file written by "
-                "'sim2real sysid fit -o FILE'"
-            )
         try:
-            doc = yaml.safe_load(p.read_text(encoding="utf-8"))
-        except (yaml.YAMLError, UnicodeDecodeError) as exc:
-            why = " ".join(str(exc).split())
-            raise ResultFileError(
-                f"sysid result file '{p}' is not valid YAML ({why}); give a file written by "
-                "'sim2real sysid fit -o FILE'"
-            ) from None
+            doc = load_params_document(p)
+        except ParamsFileError as exc:
+            raise ResultFileError(str(exc)) from None
         if not isinstance(doc, dict) or doc.get("format") != PARAMS_FILE_FORMAT:
             if isinstance(doc, dict):
                 got = repr(doc.get("format"))

@@ -1,0 +1,605 @@
+r"""The one distribution of drive parameters (and odometry noise) that every sampler draws from.
+
+A :class:`DriveDistribution` is a Gaussian in the fit coordinates of
+:data:`robots.params.SCHEMA` (``lin`` for delay and friction, ``log`` for gains and limits,
+``log_total_mass`` / ``log_total_inertia`` for the payload), plus fixed values for every other
+field and an :class:`ObservationNoise` model. ``sim2real sysid fit`` writes it to the
+``randomization:`` block of a params file; ``agree --ensemble``,
+``DynamicsRandomizer.from_sysid`` and the envs draw from it with :meth:`DriveDistribution.sample`
+-- same seed, same draws everywhere.
+
+Sampling: :math:`z = \mu + s\,V\,\mathrm{clip}(\Lambda^{1/2} e, \pm c\,\Lambda^{1/2})` with
+:math:`\Sigma = V \Lambda V^T`, :math:`e \sim \mathcal N(0, I)` truncated at
+:data:`TRUNCATE_SIGMA` per principal direction and :math:`s` the ``spread``; each coordinate is
+then kept inside the schema's plausible range and mapped back to a value. Total mass and yaw
+inertia are :math:`e^z > 0` and limits :math:`e^z > 0` by construction, so every draw is a
+physical robot.
+
+The block (``format: sim2real.randomization/1``)::
+
+    randomization:
+      format: sim2real.randomization/1
+      robot: turtlebot3_burger
+      geometry: {mass_kg: .., yaw_inertia_kgm2: .., wheel_radius_m: .., wheel_separation_m: ..}
+      names: [delay_s, added_mass_kg, ...]     # fields that vary
+      coords: [lin, log_total_mass, ...]       # their coordinate kinds (from the schema)
+      mean: [...]                              # in coordinates
+      covariance: [[...], ...]                 # in coordinates
+      fixed: {cmd_timeout_s: 0.5, accel_lim_v_mps2: .inf, ...}   # every other field
+      noise: {v: {std_mps: .., quantum_mps: ..}, w: {std_radps: .., quantum_radps: ..}}
+
+Example
+-------
+>>> import numpy as np
+>>> from robots.spec import load_spec
+>>> spec = load_spec("turtlebot3_burger")
+>>> dist = DriveDistribution.from_priors(spec.name, spec.geometry, spec.priors)
+>>> draws = dist.sample(np.random.default_rng(0), 3)
+>>> all(p.total_mass_kg(spec.geometry) > 0 for p in draws)
+True
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robots.errors import ParamsFileError, RobotsValueError
+from robots.params import SCHEMA, BaseGeometry, DriveParams, Prior, read_params_file
+
+__all__ = [
+    "RANDOMIZATION_FORMAT",
+    "TRUNCATE_SIGMA",
+    "DriveDistribution",
+    "ObservationNoise",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: ``format:`` key of the ``randomization`` block.
+RANDOMIZATION_FORMAT = "sim2real.randomization/1"
+#: Draws are truncated at this many standard deviations per principal direction (keeps 99.99 %
+#: of the mass, the variance shrinks by 0.1 %, and no draw is an absurd robot).
+TRUNCATE_SIGMA = 4.0
+#: Largest odometry noise accepted from a file (m/s, rad/s): beyond it the "noise" is the
+#: signal, and the file is wrong.
+_MAX_NOISE = {"v": 1.0, "w": 5.0}
+
+
+@dataclass(frozen=True, kw_only=True)
+class ObservationNoise:
+    """Odometry noise model: white noise and quantisation of the reported v and w.
+
+    Attributes
+    ----------
+    std_v_mps, std_w_radps : float
+        Standard deviation of the white noise on v (m/s) and w (rad/s).
+    quantum_v_mps, quantum_w_radps : float
+        Resolution of the reported values (an encoder tick per odometry period), 0 = none.
+    """
+
+    std_v_mps: float = 0.0
+    std_w_radps: float = 0.0
+    quantum_v_mps: float = 0.0
+    quantum_w_radps: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            limit = _MAX_NOISE["v" if "_v_" in f.name else "w"]
+            ok = isinstance(value, int | float) and not isinstance(value, bool)
+            if not (ok and math.isfinite(value) and 0.0 <= value <= limit):
+                raise RobotsValueError(
+                    f"observation noise '{f.name}' must be a finite number in [0, {limit}], got "
+                    f"{value!r}; refit the params file or fix the value"
+                )
+
+    def to_dict(self) -> dict[str, dict[str, float]]:
+        """The ``noise`` mapping of the block."""
+        return {
+            "v": {"std_mps": self.std_v_mps, "quantum_mps": self.quantum_v_mps},
+            "w": {"std_radps": self.std_w_radps, "quantum_radps": self.quantum_w_radps},
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any, *, source: str = "noise") -> ObservationNoise:
+        """Inverse of :meth:`to_dict`; ``source`` names the mapping in errors."""
+        keys = {"v": ("std_mps", "quantum_mps"), "w": ("std_radps", "quantum_radps")}
+        if not isinstance(data, Mapping) or set(data) != set(keys):
+            raise ParamsFileError(
+                f"{source} must be a mapping with keys 'v' and 'w', got {data!r}; e.g. "
+                "{v: {std_mps: 0.004, quantum_mps: 0.0}, w: {std_radps: 0.02, quantum_radps: 0.0}}"
+            )
+        values: dict[str, Any] = {}
+        for axis, (std_key, q_key) in keys.items():
+            entry = data[axis]
+            if not isinstance(entry, Mapping) or set(entry) != {std_key, q_key}:
+                raise ParamsFileError(
+                    f"{source}.{axis} must be a mapping with keys '{std_key}' and '{q_key}', "
+                    f"got {entry!r}"
+                )
+            unit = std_key.removeprefix("std_")
+            values[f"std_{axis}_{unit}"] = entry[std_key]
+            values[f"quantum_{axis}_{unit}"] = entry[q_key]
+        try:
+            return cls(**values)
+        except RobotsValueError as exc:
+            raise ParamsFileError(f"{source}: {exc}") from None
+
+    def apply(
+        self, rng: np.random.Generator, v: Any, w: Any, *, spread: float = 1.0
+    ) -> tuple[FloatArray, FloatArray]:
+        """Noisy, quantised copies of ``v`` and ``w`` (v noise drawn first, then w)."""
+        va = np.asarray(v, dtype=np.float64)
+        wa = np.asarray(w, dtype=np.float64)
+        nv = va + spread * self.std_v_mps * rng.standard_normal(va.shape)
+        nw = wa + spread * self.std_w_radps * rng.standard_normal(wa.shape)
+        if self.quantum_v_mps > 0:
+            nv = np.round(nv / self.quantum_v_mps) * self.quantum_v_mps
+        if self.quantum_w_radps > 0:
+            nw = np.round(nw / self.quantum_w_radps) * self.quantum_w_radps
+        return nv, nw
+
+
+@dataclass(frozen=True, kw_only=True)
+class DriveDistribution:
+    """A Gaussian over drive parameters in schema coordinates, fixed values and odometry noise.
+
+    Attributes
+    ----------
+    robot : str
+        Robot (spec) name the distribution belongs to.
+    geometry : BaseGeometry
+        The spec geometry (the total-mass and total-inertia coordinates are relative to it).
+    names : tuple of str
+        DriveParams fields that vary, in the order of :attr:`mean`.
+    mean : tuple of float
+        Mean in coordinates.
+    covariance : tuple of tuple of float
+        Covariance in coordinates (symmetric, positive semi-definite).
+    fixed : dict
+        ``{field: value}`` for every other DriveParams field (may be inf for limits).
+    noise : ObservationNoise
+        Odometry noise model.
+    """
+
+    robot: str
+    geometry: BaseGeometry
+    names: tuple[str, ...]
+    mean: tuple[float, ...]
+    covariance: tuple[tuple[float, ...], ...]
+    fixed: dict[str, float] = field(default_factory=dict)
+    noise: ObservationNoise = field(default_factory=ObservationNoise)
+
+    def __post_init__(self) -> None:
+        _validate(self._parts(), "DriveDistribution")
+
+    def _parts(self) -> _Parts:
+        return _Parts(
+            geometry=self.geometry,
+            names=self.names,
+            mean=self.mean,
+            covariance=self.covariance,
+            fixed=self.fixed,
+        )
+
+    # --- views -------------------------------------------------------------------------------
+
+    @property
+    def coords(self) -> tuple[str, ...]:
+        """Coordinate kind of each varying field (from :data:`robots.params.SCHEMA`)."""
+        return tuple(SCHEMA[n].coord for n in self.names)
+
+    @property
+    def mean_array(self) -> FloatArray:
+        """:attr:`mean` as an array."""
+        return np.array(self.mean, dtype=np.float64)
+
+    @property
+    def covariance_array(self) -> FloatArray:
+        """:attr:`covariance` as a (k, k) array."""
+        return np.array(self.covariance, dtype=np.float64).reshape(len(self.names), -1)
+
+    def std(self) -> dict[str, float]:
+        """Standard deviation of each varying field, in coordinate units."""
+        return dict(zip(self.names, np.sqrt(np.diag(self.covariance_array)).tolist(), strict=True))
+
+    def params_at(self, z: Sequence[float]) -> DriveParams:
+        """The DriveParams at coordinate vector ``z`` (kept inside the schema's range)."""
+        changes = dict(self.fixed)
+        for name, zi in zip(self.names, z, strict=True):
+            lo, hi = SCHEMA[name].coord_bounds(self.geometry)
+            changes[name] = SCHEMA[name].from_coord(min(max(float(zi), lo), hi), self.geometry)
+        return DriveParams(**changes)
+
+    def mean_params(self) -> DriveParams:
+        """The DriveParams at the mean (the representative point estimate)."""
+        return self.params_at(self.mean)
+
+    # --- sampling ----------------------------------------------------------------------------
+
+    def sample_coords(self, rng: np.random.Generator, n: int, *, spread: float = 1.0) -> FloatArray:
+        """``n`` draws in coordinates, shape (n, k) (see the module docstring)."""
+        _check_draw_args(rng, n, spread)
+        k = len(self.names)
+        eig, vec = np.linalg.eigh(self.covariance_array)
+        root = np.sqrt(np.clip(eig, 0.0, None))
+        e = np.clip(rng.standard_normal((n, k)), -TRUNCATE_SIGMA, TRUNCATE_SIGMA)
+        out: FloatArray = self.mean_array + spread * (e * root) @ vec.T
+        return out
+
+    def sample(self, rng: np.random.Generator, n: int, *, spread: float = 1.0) -> list[DriveParams]:
+        """``n`` physical parameter sets drawn from the distribution.
+
+        ``spread`` multiplies every standard deviation (1 = as fitted). Draws come from
+        ``rng.standard_normal((n, k))``: same generator state, same robots.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from robots.spec import load_spec
+        >>> spec = load_spec("turtlebot2")
+        >>> dist = DriveDistribution.from_priors(spec.name, spec.geometry, spec.priors)
+        >>> a = dist.sample(np.random.default_rng(1), 2)
+        >>> a == dist.sample(np.random.default_rng(1), 2)
+        True
+        """
+        return [self.params_at(z) for z in self.sample_coords(rng, n, spread=spread)]
+
+    def sample_noise(
+        self, rng: np.random.Generator, v: Any, w: Any, *, spread: float = 1.0
+    ) -> tuple[FloatArray, FloatArray]:
+        """Odometry as the robot would report ``v`` and ``w``: noise, then quantisation."""
+        _check_draw_args(rng, 1, spread)
+        return self.noise.apply(rng, v, w, spread=spread)
+
+    def scaled(self, factor: float) -> DriveDistribution:
+        """The same distribution with every standard deviation times ``factor``."""
+        if isinstance(factor, bool) or not (
+            isinstance(factor, int | float) and math.isfinite(factor) and factor >= 0
+        ):
+            raise RobotsValueError(
+                f"scale factor must be a finite number >= 0, got {factor!r}; e.g. 1.5"
+            )
+        cov = self.covariance_array * float(factor) ** 2
+        return DriveDistribution(
+            robot=self.robot,
+            geometry=self.geometry,
+            names=self.names,
+            mean=self.mean,
+            covariance=_tuples(cov),
+            fixed=dict(self.fixed),
+            noise=self.noise,
+        )
+
+    # --- construction and files --------------------------------------------------------------
+
+    @classmethod
+    def from_priors(
+        cls,
+        robot: str,
+        geometry: BaseGeometry,
+        priors: Mapping[str, Prior],
+        *,
+        session: bool = True,
+        noise: ObservationNoise | None = None,
+    ) -> DriveDistribution:
+        """The prior predictive distribution: every informative prior varies, with variance
+        ``sd**2`` (+ ``session_sd**2`` when ``session``); the others are fixed at their nominal.
+
+        Examples
+        --------
+        >>> from robots.spec import load_spec
+        >>> spec = load_spec("turtlebot3_burger")
+        >>> "delay_s" in DriveDistribution.from_priors(spec.name, spec.geometry, spec.priors).names
+        True
+        """
+        names = [n for n in SCHEMA if priors[n].informative]
+        var = [priors[n].sd ** 2 + (priors[n].session_sd ** 2 if session else 0.0) for n in names]
+        return cls(
+            robot=robot,
+            geometry=geometry,
+            names=tuple(names),
+            mean=tuple(priors[n].mean(geometry) for n in names),
+            covariance=_tuples(np.diag(var)),
+            fixed={n: priors[n].nominal for n in SCHEMA if n not in names},
+            noise=noise or ObservationNoise(),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``randomization`` block (plain YAML types)."""
+        return {
+            "format": RANDOMIZATION_FORMAT,
+            "robot": self.robot,
+            "geometry": {
+                f.name: float(getattr(self.geometry, f.name)) for f in fields(BaseGeometry)
+            },
+            "names": list(self.names),
+            "coords": list(self.coords),
+            "mean": [float(x) for x in self.mean],
+            "covariance": [[float(c) for c in row] for row in self.covariance],
+            "fixed": {k: float(v) for k, v in self.fixed.items()},
+            "noise": self.noise.to_dict(),
+        }
+
+    @classmethod
+    def from_dict(
+        cls, block: Any, *, robot: str | None = None, source: str = "randomization"
+    ) -> DriveDistribution:
+        """Read a ``randomization`` block; ``source`` names it in errors (file and key).
+
+        Raises :class:`~robots.errors.ParamsFileError` (one sentence naming the key, the rule,
+        the value and the fix) for another robot's block, missing keys, NaN/inf or absurd
+        spreads, a covariance that is not symmetric positive semi-definite, unknown fields.
+        """
+        return _parse_block(cls, block, robot=robot, source=source)
+
+    @classmethod
+    def from_params_file(cls, path: str | Path, *, robot: str) -> DriveDistribution:
+        """The distribution in the ``randomization`` block of a params file for ``robot``.
+
+        Examples
+        --------
+        >>> dist = DriveDistribution.from_params_file("params.yaml", robot="turtlebot2")
+        ... # doctest: +SKIP
+        >>> dist.sample(np.random.default_rng(0), 10)  # doctest: +SKIP
+        """
+        pf = read_params_file(path)
+        if pf.robot != robot:
+            raise ParamsFileError(
+                f"params file '{pf.path}' was identified for robot '{pf.robot}', not '{robot}'; "
+                f"pass --robot {pf.robot} or fit a params file for {robot}"
+            )
+        if "randomization" not in pf.document:
+            raise ParamsFileError(
+                f"params file '{pf.path}' has no 'randomization' block; refit it with "
+                "'sim2real sysid fit' (this version writes one)"
+            )
+        return cls.from_dict(
+            pf.document["randomization"],
+            robot=robot,
+            source=f"params file '{pf.path}': randomization",
+        )
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def _tuples(matrix: FloatArray) -> tuple[tuple[float, ...], ...]:
+    return tuple(tuple(float(c) for c in row) for row in np.atleast_2d(matrix))
+
+
+def _check_draw_args(rng: Any, n: Any, spread: Any) -> None:
+    if not isinstance(rng, np.random.Generator):
+        raise RobotsValueError(
+            f"rng must be a numpy.random.Generator, got {type(rng).__name__}; "
+            "e.g. numpy.random.default_rng(0)"
+        )
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+        raise RobotsValueError(f"number of draws n must be an integer >= 1, got {n!r}")
+    if isinstance(spread, bool) or not (
+        isinstance(spread, int | float) and math.isfinite(spread) and spread >= 0
+    ):
+        raise RobotsValueError(f"spread must be a finite number >= 0, got {spread!r}; e.g. 1.0")
+
+
+def _fail(source: str, key: str, rule: str, value: Any, fix: str) -> ParamsFileError:
+    return ParamsFileError(f"{source}.{key} {rule}, got {value!r}; {fix}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Parts:
+    """The fields of a distribution that :func:`_validate` checks."""
+
+    geometry: BaseGeometry
+    names: tuple[str, ...]
+    mean: tuple[float, ...]
+    covariance: tuple[tuple[float, ...], ...]
+    fixed: Mapping[str, float]
+
+
+def _validate(dist: _Parts, source: str) -> None:
+    """Check a distribution (raises ParamsFileError naming the key and the field)."""
+    refit = "refit the params file with 'sim2real sysid fit'"
+    k = len(dist.names)
+    if k == 0:
+        raise _fail(source, "names", "must list at least one varying field", [], refit)
+    unknown = [n for n in dist.names if n not in SCHEMA]
+    if unknown or len(set(dist.names)) != k:
+        raise _fail(
+            source,
+            "names",
+            f"must be distinct DriveParams fields ({list(SCHEMA)})",
+            list(dist.names),
+            refit,
+        )
+    missing = [n for n in SCHEMA if n not in dist.names and n not in dist.fixed]
+    extra = [n for n in dist.fixed if n not in SCHEMA or n in dist.names]
+    if missing or extra:
+        raise _fail(
+            source,
+            "fixed",
+            f"must give every field not in names exactly once (missing {missing}, extra {extra})",
+            sorted(dist.fixed),
+            refit,
+        )
+    if len(dist.mean) != k:
+        raise _fail(source, "mean", f"must be {k} numbers (one per name)", list(dist.mean), refit)
+    for name, x in zip(dist.names, dist.mean, strict=True):
+        if not (isinstance(x, int | float) and math.isfinite(x)):
+            raise _fail(source, "mean", f"entry of '{name}' must be a finite number", x, refit)
+    rows_ok = all(len(row) == k for row in dist.covariance)
+    cov = np.array(dist.covariance, dtype=np.float64) if rows_ok else np.zeros((0,))
+    if cov.shape != (k, k):
+        raise _fail(source, "covariance", f"must be a {k} x {k} matrix", dist.covariance, refit)
+    for i, name in enumerate(dist.names):
+        var = float(cov[i, i])
+        limit = SCHEMA[name].absurd_sd
+        if SCHEMA[name].coord == "lin":
+            limit *= max(SCHEMA[name].prior_sd(dist.geometry), 1e-12)
+        if not (math.isfinite(var) and var >= 0):
+            raise _fail(
+                source,
+                "covariance",
+                f"variance of '{name}' must be a finite number >= 0",
+                var,
+                refit,
+            )
+        if math.sqrt(var) > limit:
+            raise _fail(
+                source,
+                "covariance",
+                f"standard deviation of '{name}' must be <= {limit:.3g} in its "
+                f"{SCHEMA[name].coord} coordinate (wider is an absurd spread)",
+                math.sqrt(var),
+                refit,
+            )
+    bad = np.argwhere(~np.isfinite(cov) | ~np.isclose(cov, cov.T, rtol=1e-6, atol=1e-12))
+    if bad.size:
+        i, j = (int(a) for a in bad[0])
+        raise _fail(
+            source,
+            "covariance",
+            f"must be finite and symmetric; the entry of ('{dist.names[i]}', '{dist.names[j]}')",
+            float(cov[i, j]),
+            refit,
+        )
+    eig = np.linalg.eigvalsh(cov)
+    if eig[0] < -1e-9 * max(float(eig[-1]), 1e-300):
+        raise _fail(
+            source,
+            "covariance",
+            "must be positive semi-definite (smallest eigenvalue)",
+            float(eig[0]),
+            refit,
+        )
+    try:
+        values = dict(dist.fixed)
+        for name, z in zip(dist.names, dist.mean, strict=True):
+            lo, hi = SCHEMA[name].coord_bounds(dist.geometry)
+            values[name] = SCHEMA[name].from_coord(min(max(z, lo), hi), dist.geometry)
+        DriveParams(**values)
+    except RobotsValueError as exc:
+        raise ParamsFileError(f"{source}: {exc}; {refit}") from None
+
+
+def _parse_block(
+    cls: type[DriveDistribution], block: Any, *, robot: str | None, source: str
+) -> DriveDistribution:
+    refit = "refit the params file with 'sim2real sysid fit'"
+    keys = {
+        "format",
+        "robot",
+        "geometry",
+        "names",
+        "coords",
+        "mean",
+        "covariance",
+        "fixed",
+        "noise",
+    }
+    if not isinstance(block, Mapping) or not block:
+        raise ParamsFileError(f"{source} must be a non-empty mapping, got {block!r}; {refit}")
+    missing = sorted(keys - set(block))
+    unknown = sorted(set(block) - keys)
+    if missing or unknown:
+        raise _fail(
+            source,
+            "keys",
+            f"must be {sorted(keys)} (missing {missing}, unknown {unknown})",
+            sorted(block),
+            refit,
+        )
+    if block["format"] != RANDOMIZATION_FORMAT:
+        raise _fail(source, "format", f"must be '{RANDOMIZATION_FORMAT}'", block["format"], refit)
+    if robot is not None and block["robot"] != robot:
+        raise _fail(
+            source,
+            "robot",
+            f"must be '{robot}' (this block is for another robot)",
+            block["robot"],
+            f"use the params file of {robot} or pass --robot {block['robot']}",
+        )
+    names, coords = block["names"], block["coords"]
+    if not (isinstance(names, list) and all(isinstance(n, str) for n in names)):
+        raise _fail(source, "names", "must be a list of DriveParams field names", names, refit)
+    if not isinstance(coords, list) or len(coords) != len(names):
+        raise _fail(
+            source, "coords", f"must be a list of {len(names)} coordinate kinds", coords, refit
+        )
+    for n, c in zip(names, coords, strict=True):
+        if n in SCHEMA and SCHEMA[n].coord != c:
+            raise _fail(source, "coords", f"entry of '{n}' must be '{SCHEMA[n].coord}'", c, refit)
+    geometry = _parse_geometry(block["geometry"], f"{source}.geometry")
+    fixed = block["fixed"]
+    if not isinstance(fixed, Mapping):
+        raise _fail(source, "fixed", "must be a mapping of field: value", fixed, refit)
+    parts = _Parts(
+        geometry=geometry,
+        names=tuple(names),
+        mean=tuple(_floats(block["mean"], f"{source}.mean", any_float=True)),
+        covariance=tuple(
+            tuple(_floats(row, f"{source}.covariance", any_float=True))
+            for row in _rows(block["covariance"], source)
+        ),
+        fixed={
+            str(k): _floats([v], f"{source}.fixed.{k}", allow_inf=True)[0] for k, v in fixed.items()
+        },
+    )
+    _validate(parts, source)
+    return cls(
+        robot=str(block["robot"]),
+        geometry=parts.geometry,
+        names=parts.names,
+        mean=parts.mean,
+        covariance=parts.covariance,
+        fixed=dict(parts.fixed),
+        noise=ObservationNoise.from_dict(block["noise"], source=f"{source}.noise"),
+    )
+
+
+def _rows(value: Any, source: str) -> list[Any]:
+    if not isinstance(value, list) or not all(isinstance(r, list) for r in value):
+        raise _fail(
+            source,
+            "covariance",
+            "must be a list of rows (lists of numbers)",
+            value,
+            "refit the params file with 'sim2real sysid fit'",
+        )
+    return value
+
+
+def _floats(
+    values: Any, where: str, *, allow_inf: bool = False, any_float: bool = False
+) -> list[float]:
+    """Numbers of a YAML list (``any_float``: NaN/inf pass, the caller names the field)."""
+    ok = isinstance(values, list) and all(
+        isinstance(x, int | float) and not isinstance(x, bool) for x in values
+    )
+    if ok:
+        out = [float(x) for x in values]
+        if any_float or all(math.isfinite(x) or (allow_inf and x == math.inf) for x in out):
+            return out
+    raise ParamsFileError(
+        f"{where} must hold {'numbers (.inf allowed)' if allow_inf else 'finite numbers'}, got "
+        f"{values!r}; refit the params file with 'sim2real sysid fit'"
+    )
+
+
+def _parse_geometry(value: Any, where: str) -> BaseGeometry:
+    names = [f.name for f in fields(BaseGeometry)]
+    if not isinstance(value, Mapping) or sorted(value) != sorted(names):
+        raise ParamsFileError(
+            f"{where} must be a mapping with keys {names}, got {value!r}; refit the params file"
+        )
+    try:
+        return BaseGeometry(**{n: _floats([value[n]], f"{where}.{n}")[0] for n in names})
+    except RobotsValueError as exc:
+        raise ParamsFileError(f"{where}: {exc}") from None
