@@ -77,7 +77,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         description=_DESCRIPTION,
         examples=_EXAMPLES,
     )
-    p.add_argument("log", metavar="LOG.mcap", help="the real log (ROS 2 MCAP)")
+    p.add_argument(
+        "log", metavar="LOG", help="the real log: a .mcap file, ROS 1 .bag, rosbag2 folder or .csv"
+    )
     p.add_argument("--robot", required=True, help="robot name (see 'sim2real robots list')")
     p.add_argument("--params", metavar="PARAMS.yaml", help="sysid result (default: spec values)")
     p.add_argument(

@@ -17,6 +17,7 @@ __all__ = ["register"]
 _INFO_EXAMPLES = """\
   sim2real logs info run.mcap                       # topics, counts, rates, chosen topics
   sim2real logs info run.mcap --json                # the same as JSON
+  sim2real logs info run.bag                        # a ROS 1 bag (or a rosbag2 folder)
   sim2real logs info run.mcap --cmd-topic /cmd_vel_nav --odom-topic /odometry/wheel
 """
 
@@ -27,7 +28,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         sub,
         "logs",
         help="inspect MCAP velocity logs",
-        description="Inspect robot velocity logs recorded as MCAP (ROS 2 CDR or JSON).",
+        description=(
+            "Inspect robot velocity logs: MCAP (ROS 2 CDR or JSON), ROS 1 bags and rosbag2 "
+            "folders (sqlite3 or mcap storage)."
+        ),
         examples=_INFO_EXAMPLES,
     )
     group_sub = group.add_subparsers(dest="logs_command", metavar="SUBCOMMAND")
@@ -44,7 +48,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         ),
         examples=_INFO_EXAMPLES,
     )
-    info.add_argument("log", metavar="LOG.mcap", help="the MCAP log file")
+    info.add_argument(
+        "log", metavar="LOG", help="the log: a .mcap file, ROS 1 .bag or rosbag2 folder"
+    )
     info.add_argument("--cmd-topic", metavar="TOPIC", help="command topic (default: detect)")
     info.add_argument("--odom-topic", metavar="TOPIC", help="measurement topic (default: detect)")
     info.add_argument("--json", action="store_true", help="print JSON instead of a table")

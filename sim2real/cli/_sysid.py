@@ -19,6 +19,7 @@ __all__ = ["register"]
 
 _GROUP_EXAMPLES = """\
   sim2real sysid fit run.mcap --robot turtlebot3_burger -o params.yaml
+  sim2real sysid fit run.bag --robot turtlebot3_burger -o params.yaml   # ROS 1 bag
   sim2real sysid show params.yaml
 """
 _FIT_EXAMPLES = """\
@@ -63,7 +64,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         ),
         examples=_FIT_EXAMPLES,
     )
-    fit.add_argument("logs", nargs="+", metavar="LOG.mcap", help="fitting log(s)")
+    fit.add_argument(
+        "logs",
+        nargs="+",
+        metavar="LOG",
+        help="fitting log(s): a .mcap file, ROS 1 .bag, rosbag2 folder or .csv",
+    )
     fit.add_argument("--robot", required=True, help="robot spec name (see 'sim2real robots list')")
     fit.add_argument("-o", "--output", required=True, metavar="PARAMS.yaml", help="result file")
     fit.add_argument(

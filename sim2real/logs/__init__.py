@@ -1,10 +1,20 @@
-"""Read and write robot velocity logs (MCAP, ROS 2 CDR or JSON).
+"""Read and write robot velocity logs (MCAP, ROS 1 bags, rosbag2 folders, CSV).
 
-:func:`read_trace` turns an MCAP log into a :class:`Trace` of commanded and measured planar
+:func:`read_trace` turns a log into a :class:`Trace` of commanded and measured planar
 velocities; :func:`write_trace` / :func:`write_velocity_log` write one back with the real ROS 2
 message definitions, so a simulated run and a real run open side by side in Foxglove, in
 ``ros2 bag`` tooling and in this reader. :func:`inspect_log` describes a log
 (``sim2real logs info``).
+
+Formats
+-------
+A reader factory picks the reader from the path: an MCAP file (ROS 2 CDR or JSON, our own
+bulk reader), a ROS 1 ``.bag`` or a rosbag2 *folder* with sqlite3 or mcap storage (both
+through the maintained ``rosbags`` library; :func:`write_rosbag` writes them), or a ``.csv``
+with the columns ``t, cmd_v, cmd_w, meas_v, meas_w`` (optional ``x, y, yaw``; times in
+decimal seconds, read exactly; see :func:`write_csv_trace`). In bags, channels of other types
+are only counted, never decoded; channels of non-standard (custom) types are listed in one
+note. The same recording gives the identical :class:`Trace` in every format.
 
 Conventions
 -----------
@@ -61,6 +71,8 @@ Examples
 
 from __future__ import annotations
 
+from sim2real.logs._bagwrite import BAG_FORMATS, write_rosbag
+from sim2real.logs._csv import CSV_COLUMNS, write_csv_trace
 from sim2real.logs._info import LogInfo, TopicInfo, inspect_log
 from sim2real.logs._reader import read_trace
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, SCHEMA_TEXT, TWIST, TWIST_STAMPED
@@ -73,6 +85,8 @@ from sim2real.logs._writer import (
 from sim2real.logs.trace import Trace, TraceMeta
 
 __all__ = [
+    "BAG_FORMATS",
+    "CSV_COLUMNS",
     "JOINT_STATE",
     "ODOMETRY",
     "SCHEMA_TEXT",
@@ -85,7 +99,9 @@ __all__ = [
     "inspect_log",
     "integrate_pose",
     "read_trace",
+    "write_csv_trace",
     "write_joint_state_log",
+    "write_rosbag",
     "write_trace",
     "write_velocity_log",
 ]

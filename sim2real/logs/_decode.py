@@ -2,7 +2,9 @@
 
 CDR messages of the fixed-layout types go through the numpy bulk decoders of
 :mod:`sim2real.logs._cdr`; every other case (big-endian CDR, ``JointState``) goes through
-mcap-ros2-support's generic decoder, and JSON messages through :func:`json.loads`. All paths
+mcap-ros2-support's generic decoder, and JSON messages through :func:`json.loads`. ROS 1
+payloads (from ``.bag`` files) take the bulk decoders of :mod:`sim2real.logs._ros1` or
+rosbags' ROS 1 deserialiser. All paths
 return the same keys: ``log_ns``, ``v``, ``w``, plus ``stamp_ns`` for stamped types, pose
 fields ``x``, ``y``, ``qx``, ``qy``, ``qz``, ``qw`` for Odometry, and ``left``/``right`` wheel
 speeds (rad/s) for JointState.
@@ -20,6 +22,7 @@ from sim2real.errors import LogFormatError, LogValueError
 from sim2real.logs import _cdr
 from sim2real.logs._channels import Chan
 from sim2real.logs._mcap import Container, Segment
+from sim2real.logs._ros1 import BULK_ROS1
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED
 
 __all__ = ["decode_channel", "infer_json_type"]
@@ -84,10 +87,14 @@ def _decode_part(
         if type_name in _BULK and _cdr.is_little_endian(u8, off, ln):
             return _BULK[type_name](u8, off, ln)
         decode = _generic_cdr(chan)
+    elif chan.encoding == "ros1":  # ROS 1 bags (sim2real.logs._bags)
+        if type_name in BULK_ROS1:
+            return BULK_ROS1[type_name](seg.u8, off, ln)
+        decode = _generic_ros1(type_name)
     elif chan.encoding == "json":
         decode = _json_loads
     else:
-        raise _BadMessage(f"message encoding '{chan.encoding}' is neither cdr nor json")
+        raise _BadMessage(f"message encoding '{chan.encoding}' is neither cdr, ros1 nor json")
     msgs = []
     for o, n in zip(off.tolist(), ln.tolist(), strict=True):
         try:
@@ -112,6 +119,15 @@ def _generic_cdr(chan: Chan) -> Callable[[bytes], Any]:
     if decoder is None:
         raise _BadMessage("no decoder for this schema")
     return decoder
+
+
+def _generic_ros1(type_name: str) -> Callable[[bytes], Any]:
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    if type_name not in store.types:
+        raise _BadMessage(f"type '{type_name}' is not a standard ROS 1 message")
+    return lambda raw: store.deserialize_ros1(raw, type_name)
 
 
 def _json_loads(raw: bytes) -> Any:

@@ -15,9 +15,10 @@ from sim2real.errors import (
     Sim2RealFileNotFoundError,
     Sim2RealValueError,
 )
+from sim2real.logs._bags import open_log_source, source_kind
 from sim2real.logs._channels import Chan, channel_table, choose_topic
 from sim2real.logs._decode import decode_channel, infer_json_type
-from sim2real.logs._mcap import Container, scan_mcap
+from sim2real.logs._mcap import Container
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY
 from sim2real.logs.trace import Trace, TraceMeta
 
@@ -67,18 +68,21 @@ class LoadedLog:
 
 
 def load_log(path: str | Path) -> LoadedLog:
-    """Read and scan an MCAP file (clear errors for missing, empty or broken files)."""
+    """Read and scan a log: MCAP file, ROS 1 bag or rosbag2 folder (clear errors for bad ones)."""
     p = Path(path)
     if not p.exists():
         raise Sim2RealFileNotFoundError(
             f"log file '{p}' does not exist; check the path (e.g. `ls {p.parent}`)"
         )
-    if p.is_dir():
-        raise Sim2RealFileNotFoundError(f"log file '{p}' is a folder; give an .mcap file")
-    data = p.read_bytes()
+    source = open_log_source(p)  # the factory picks the reader (MCAP, ROS 1 bag, rosbag2)
+    if source.kind == "csv":
+        raise LogFormatError(
+            f"log file '{p}' is a CSV trace, which has no channels to list; read it with "
+            "read_trace (sysid fit, agree) instead"
+        )
     # hashed in a thread (hashlib releases the GIL) while we scan and decode
-    digest = _Sha256(data)
-    container = scan_mcap(data, name=str(p))
+    digest = _Sha256(source.data)
+    container = source.scan()
     if container.warnings and container.message_count() == 0:
         raise LogFormatError(
             f"{container.warnings[-1]}, and no complete message remains before the cut; "
@@ -88,7 +92,7 @@ def load_log(path: str | Path) -> LoadedLog:
     chans = [_with_json_type(c, container) for c in chans]
     return LoadedLog(
         name=str(p),
-        size_bytes=len(data),
+        size_bytes=len(source.data),
         digest=digest,
         container=container,
         chans=chans,
@@ -153,6 +157,10 @@ def read_trace(
             f"time_source must be 'header' or 'log', got {time_source!r}; use 'header' "
             "(default) or 'log'"
         )
+    if Path(path).is_file() and source_kind(Path(path)) == "csv":
+        from sim2real.logs._csv import read_csv_trace
+
+        return read_csv_trace(path)
     log = load_log(path)
     warnings = list(log.container.warnings)
     cmd = choose_topic(log.chans, "command", cmd_topic, name=log.name)

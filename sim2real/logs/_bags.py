@@ -1,0 +1,302 @@
+"""ROS 1 bags and rosbag2 folders through ``rosbags``, as a :class:`Container` (private).
+
+The reader factory (:func:`open_log_source`) looks at a path and picks its reader, like
+mcap's ``make_reader``: an MCAP file goes to our MCAP scan, a ROS 1 ``.bag`` (magic
+``#ROSBAG V2.0``) and a rosbag2 folder (``metadata.yaml`` with sqlite3 or mcap storage) go to
+the readers below, which use the maintained ``rosbags`` library (Ternaris) for the container:
+bag header, chunks, compression, connection and index records, rosbag2 metadata and
+storage plugins. Each reader yields only the channels whose type drives the trace
+(commands: Twist, TwistStamped; measurements: Odometry, JointState) as message payloads with
+integer-nanosecond log times; other channels contribute their log times only (counts and rates
+for ``logs info``) and are never decoded, so a custom message (e.g. a bumper message with
+camelCase fields) can never break a read. Channels whose type is not a standard ROS message
+are listed in one note.
+
+ROS 1 payloads keep their own serialisation (channel encoding ``ros1``); rosbag2 payloads are
+ROS 2 CDR like MCAP's. Both then go through the same decoders as MCAP messages.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sim2real.errors import LogFormatError, Sim2RealFileNotFoundError
+from sim2real.logs._cdr import gather
+from sim2real.logs._mcap import MAGIC, ChannelRecord, Container, SchemaRecord, Segment
+from sim2real.logs._schemas import (
+    JOINT_STATE,
+    ODOMETRY,
+    SCHEMA_TEXT,
+    TWIST,
+    TWIST_STAMPED,
+    normalize_type,
+)
+
+__all__ = ["DRIVE_TYPES", "LogSource", "open_log_source", "source_kind"]
+
+#: Message types a trace is built from; every other channel is only counted.
+DRIVE_TYPES = (TWIST, TWIST_STAMPED, ODOMETRY, JOINT_STATE)
+_ROS1_MAGIC = b"#ROSBAG V"
+
+
+@dataclass(frozen=True)
+class LogSource:
+    """A log picked by the factory: its kind, the bytes to hash and how to scan it."""
+
+    kind: str  # "mcap", "ros1", "rosbag2" or "csv"
+    path: Path
+    data: bytes
+
+    def scan(self) -> Container:
+        """The log's container (channels, schemas, message segments, warnings)."""
+        if self.kind == "mcap":
+            from sim2real.logs._mcap import scan_mcap
+
+            return scan_mcap(self.data, name=str(self.path))
+        if self.kind == "ros1":
+            return _scan_ros1(self.path, self.data)
+        return _scan_rosbag2(self.path)
+
+
+def source_kind(path: Path) -> str:
+    """Which reader a path needs: ``mcap``, ``ros1``, ``rosbag2`` or ``csv``.
+
+    A folder is a rosbag2 bag; a file is recognised by its magic bytes (MCAP, ROS 1 bag),
+    else by its ``.csv`` suffix; anything else is handed to the MCAP reader, whose error says
+    what the bytes are not.
+    """
+    if path.is_dir():
+        return "rosbag2"
+    with path.open("rb") as fh:
+        head = fh.read(16)
+    if head.startswith(MAGIC[:5]):
+        return "mcap"
+    if head.startswith(_ROS1_MAGIC):
+        return "ros1"
+    if path.suffix.lower() == ".csv":
+        return "csv"
+    if path.suffix.lower() == ".db3" or path.name == "metadata.yaml":
+        raise Sim2RealFileNotFoundError(
+            f"log file '{path}' is one file of a rosbag2 folder; give the folder "
+            f"'{path.parent}' instead"
+        )
+    return "mcap"
+
+
+def open_log_source(path: Path) -> LogSource:
+    """The factory: pick the reader for ``path`` and load the bytes to hash.
+
+    For a rosbag2 folder the hashed bytes are its ``metadata.yaml`` followed by its storage
+    files in the order the metadata lists them.
+    """
+    kind = source_kind(path)
+    if kind != "rosbag2":
+        return LogSource(kind=kind, path=path, data=path.read_bytes())
+    meta = path / "metadata.yaml"
+    if not meta.is_file():
+        found = ", ".join(sorted(p.name for p in path.iterdir())[:5]) or "nothing"
+        raise Sim2RealFileNotFoundError(
+            f"log folder '{path}' has no metadata.yaml, so it is not a readable rosbag2 bag "
+            f"(found: {found}); recreate the metadata with `ros2 bag reindex {path}` or give "
+            "an .mcap/.bag file"
+        )
+    parts = [meta.read_bytes()]
+    parts += [p.read_bytes() for p in sorted(path.iterdir()) if p.suffix in (".db3", ".mcap")]
+    return LogSource(kind=kind, path=path, data=b"".join(parts))
+
+
+# ------------------------------------------------------------------------------- shared
+
+
+class _Table:
+    """Channels (one per topic and type) and schemas being built for a container."""
+
+    def __init__(self) -> None:
+        self.container = Container()
+        self._ids: dict[tuple[str, str], int] = {}
+
+    def channel(self, topic: str, type_name: str, encoding: str, msgdef: str) -> int:
+        key = (topic, type_name)
+        if key not in self._ids:
+            cid = len(self._ids) + 1
+            self._ids[key] = cid
+            text = SCHEMA_TEXT.get(type_name, msgdef) if encoding == "cdr" else msgdef
+            enc = "ros2msg" if encoding == "cdr" else "ros1msg"
+            self.container.schemas[cid] = SchemaRecord(cid, type_name, enc, text.encode())
+            self.container.channels[cid] = ChannelRecord(cid, cid, topic, encoding)
+        return self._ids[key]
+
+
+def _segment(
+    buf: bytes, cid: np.ndarray, t: np.ndarray, off: np.ndarray, ln: np.ndarray
+) -> Segment:
+    return Segment(
+        buf=buf,
+        channel_id=cid.astype(np.uint16),
+        log_time_ns=t.astype(np.int64),
+        payload_off=off.astype(np.int64),
+        payload_len=ln.astype(np.int64),
+    )
+
+
+def _times_only(entries: list[tuple[int, np.ndarray]]) -> Segment | None:
+    """A segment holding log times but no payloads (channels that are never decoded)."""
+    if not entries:
+        return None
+    cid = np.concatenate([np.full(t.size, c) for c, t in entries])
+    t = np.concatenate([t for _, t in entries])
+    zero = np.zeros(t.size, np.int64)
+    return _segment(b"", cid, t, zero, zero)
+
+
+def _note_unknown(container: Container, unknown: Iterable[tuple[str, str]]) -> None:
+    items = sorted(set(unknown))
+    if items:
+        listing = ", ".join(f"{topic} ({type_name})" for topic, type_name in items)
+        container.warnings.append(
+            f"skipped {len(items)} channel(s) with message types that are not standard ROS "
+            f"messages: {listing}; they are not needed for commands and odometry"
+        )
+
+
+def _known_type(type_name: str) -> bool:
+    from rosbags.typesys import Stores, get_typestore
+
+    return type_name in get_typestore(Stores.ROS1_NOETIC).types
+
+
+# ------------------------------------------------------------------------------- ROS 1 bag
+
+
+def _scan_ros1(path: Path, data: bytes) -> Container:
+    from rosbags.rosbag1 import Reader, ReaderError
+
+    try:
+        with Reader(path) as reader:
+            return _ros1_container(reader, data)
+    except (ReaderError, KeyError, ValueError, OSError) as exc:
+        raise LogFormatError(
+            f"log file '{path}' is not a readable ROS 1 bag ({exc}); check that the "
+            "recording finished (`rosbag reindex` repairs an unindexed bag)"
+        ) from None
+
+
+def _ros1_container(reader: Any, data: bytes) -> Container:
+    table = _Table()
+    by_chunk: dict[int, list[tuple[int, np.ndarray, np.ndarray]]] = {}
+    others: list[tuple[int, np.ndarray]] = []
+    unknown = []
+    for conn in reader.connections:
+        type_name = normalize_type(conn.msgtype)
+        cid = table.channel(conn.topic, type_name, "ros1", conn.msgdef.data)
+        index = reader.indexes.get(conn.id, [])
+        flat = itertools.chain.from_iterable(index)  # IndexData(time, chunk_pos, offset)
+        rows = np.fromiter(flat, np.int64, count=3 * len(index)).reshape(-1, 3)
+        if type_name not in DRIVE_TYPES:
+            others.append((cid, rows[:, 0]))
+            if not _known_type(type_name):
+                unknown.append((conn.topic, type_name))
+            continue
+        for pos in np.unique(rows[:, 1]).tolist():
+            sel = rows[rows[:, 1] == pos]
+            by_chunk.setdefault(pos, []).append((cid, sel[:, 0], sel[:, 2]))
+    for pos, parts in by_chunk.items():
+        chunk = reader.chunks[pos]
+        raw = chunk.decompressor(data[chunk.datapos : chunk.datapos + chunk.datasize])
+        table.container.segments.append(_ros1_segment(bytes(raw), parts))
+    extra = _times_only(others)
+    if extra is not None:
+        table.container.segments.append(extra)
+    table.container.profile = "ros1"
+    table.container.library = "rosbags"
+    _note_unknown(table.container, unknown)
+    return table.container
+
+
+def _ros1_segment(buf: bytes, parts: list[tuple[int, np.ndarray, np.ndarray]]) -> Segment:
+    """Locate the payloads of message-data records in a decompressed chunk.
+
+    A record is ``header_len u32, header, data_len u32, data`` (ROS bag format 2.0); the index
+    gives each record's offset and time.
+    """
+    u8 = np.frombuffer(buf, dtype=np.uint8)
+    cid = np.concatenate([np.full(o.size, c) for c, _, o in parts])
+    t = np.concatenate([tt for _, tt, _ in parts])
+    rec = np.concatenate([o for _, _, o in parts])
+    if rec.size and (rec.min() < 0 or rec.max() + 4 > u8.size):
+        raise ValueError("an index entry points outside its chunk")
+    head_len = gather(u8, rec, "<u4").astype(np.int64)
+    len_at = rec + 4 + head_len
+    if np.any(len_at + 4 > u8.size):
+        raise ValueError("a message record header runs past its chunk")
+    data_len = gather(u8, len_at, "<u4").astype(np.int64)
+    off = len_at + 4
+    if np.any(off + data_len > u8.size):
+        raise ValueError("a message record runs past its chunk")
+    return _segment(buf, cid, t, off, data_len)
+
+
+# ------------------------------------------------------------------------------- rosbag2
+
+
+def _scan_rosbag2(path: Path) -> Container:
+    from rosbags.rosbag2 import Reader, ReaderError
+
+    try:
+        with Reader(path) as reader:
+            return _rosbag2_container(reader)
+    except (ReaderError, KeyError, ValueError, OSError) as exc:
+        raise LogFormatError(
+            f"log folder '{path}' is not a readable rosbag2 bag ({exc}); check its "
+            "metadata.yaml and storage files (`ros2 bag info` shows the same problem)"
+        ) from None
+
+
+def _rosbag2_container(reader: Any) -> Container:
+    table = _Table()
+    wanted, cids = [], {}
+    others: dict[int, list[int]] = {}
+    unknown = []
+    for conn in reader.connections:
+        type_name = normalize_type(conn.msgtype)
+        cid = table.channel(conn.topic, type_name, "cdr", conn.msgdef.data)
+        cids[conn.id] = cid
+        if type_name in DRIVE_TYPES:
+            wanted.append(conn)
+        else:
+            others[cid] = []
+            if not _known_type(type_name):
+                unknown.append((conn.topic, type_name))
+    bufs, cid_l, t_l, ln_l = [], [], [], []
+    for conn, t, raw in _messages(reader, wanted):
+        bufs.append(raw)
+        cid_l.append(cids[conn.id])
+        t_l.append(t)
+        ln_l.append(len(raw))
+    if bufs:
+        ln = np.array(ln_l, np.int64)
+        off = np.concatenate(([0], np.cumsum(ln)[:-1]))
+        seg = _segment(b"".join(bufs), np.array(cid_l), np.array(t_l, np.int64), off, ln)
+        table.container.segments.append(seg)
+    other_conns = [c for c in reader.connections if cids[c.id] in others]
+    for conn, t, _ in _messages(reader, other_conns):
+        others[cids[conn.id]].append(t)
+    extra = _times_only([(c, np.array(t, np.int64)) for c, t in others.items()])
+    if extra is not None:
+        table.container.segments.append(extra)
+    table.container.profile = "ros2"
+    table.container.library = "rosbags"
+    _note_unknown(table.container, unknown)
+    return table.container
+
+
+def _messages(reader: Any, conns: list[Any]) -> Iterator[tuple[Any, int, bytes]]:
+    if not conns:
+        return iter(())
+    return iter(reader.messages(connections=conns))
