@@ -82,9 +82,9 @@ def source_kind(path: Path) -> str:
     if path.suffix.lower() == ".csv":
         return "csv"
     if path.suffix.lower() == ".db3" or path.name == "metadata.yaml":
-        raise Sim2RealFileNotFoundError(
-            f"log file '{path}' is one file of a rosbag2 folder; give the folder "
-            f"'{path.parent}' instead"
+        raise LogFormatError(
+            f"log file '{path}' is not an MCAP file but one file of a rosbag2 folder; give "
+            f"the folder '{path.parent}' instead"
         )
     return "mcap"
 
@@ -102,9 +102,9 @@ def open_log_source(path: Path) -> LogSource:
     if not meta.is_file():
         found = ", ".join(sorted(p.name for p in path.iterdir())[:5]) or "nothing"
         raise Sim2RealFileNotFoundError(
-            f"log folder '{path}' has no metadata.yaml, so it is not a readable rosbag2 bag "
-            f"(found: {found}); recreate the metadata with `ros2 bag reindex {path}` or give "
-            "an .mcap/.bag file"
+            f"log path '{path}' is a folder without a metadata.yaml, so it is not a rosbag2 "
+            f"bag (found: {found}); give an .mcap, .bag or .csv file, or recreate the "
+            f"metadata with `ros2 bag reindex {path}`"
         )
     parts = [meta.read_bytes()]
     parts += [p.read_bytes() for p in sorted(path.iterdir()) if p.suffix in (".db3", ".mcap")]

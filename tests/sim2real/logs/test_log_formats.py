@@ -239,7 +239,7 @@ def test_rosbag2_folder_without_metadata(
     (folder / "run_0.db3").write_bytes(next(formats["sqlite3"].glob("*.db3")).read_bytes())
     assert main(["logs", "info", str(folder)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "no metadata.yaml" in err[0] and "run_0.db3" in err[0]
+    assert len(err) == 1 and "without a metadata.yaml" in err[0] and "run_0.db3" in err[0]
 
 
 @pytest.mark.parametrize(
