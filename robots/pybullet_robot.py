@@ -60,10 +60,10 @@ from dataclasses import dataclass
 from types import TracebackType
 
 import numpy as np
-import pybullet as p
 from numpy.typing import NDArray
 
 from robots._chain import CommandShaper, clip, drive_step, friction_of
+from robots._pybullet import pybullet as p
 from robots._urdf import LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT, urdf_path
 from robots.errors import RobotsError, RobotsValueError
 from robots.params import DriveParams

@@ -49,6 +49,10 @@ __all__ = [
     "simulate",
 ]
 
+#: Most integration steps one simulation call may take (~5.8 h at the default 240 Hz): a
+#: longer span means a log with a long pause; split it into its segments instead.
+MAX_SIM_STEPS = 5_000_000
+
 # Initial rows of ReducedDrive's command history (it compacts or grows when full).
 _HISTORY_ROWS = 256
 
@@ -340,6 +344,13 @@ def _check_inputs(
             raise RobotsValueError(f"{name} contains NaN or inf; clean the log first")
     if np.any(np.diff(cmd_t_s) < 0) or np.any(np.diff(t_out_s) < 0):
         raise RobotsValueError("cmd_t_s and t_out_s must be sorted in time (non-decreasing)")
+    span_s = float(t_out_s[-1] - t_out_s[0])
+    if span_s / dt_s > MAX_SIM_STEPS:
+        raise RobotsValueError(
+            f"t_out_s spans {span_s:.4g} s, {span_s / dt_s:.3g} integration steps of {dt_s:g} s "
+            f"(at most {MAX_SIM_STEPS} are allowed, a bound on memory); simulate the parts of "
+            "a log between its pauses one by one (sim2real.logs.Trace.segments())"
+        )
 
 
 def simulate(

@@ -34,9 +34,9 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-import pybullet as p
 from numpy.typing import NDArray
 
+from robots._pybullet import pybullet as p
 from robots.errors import RobotsValueError
 from robots.pybullet_robot import PybulletRobot
 from robots.spec import CameraSpec, LidarSpec

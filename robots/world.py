@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import pybullet as p
+from robots._pybullet import pybullet as p
 
 __all__ = ["GROUND_FRICTION", "add_box", "add_cylinder", "add_ground"]
 

@@ -22,6 +22,13 @@ starts in motion does not begin with a spurious stop.
   velocity is interpolated linearly at each measurement time.
 - ``reduced``: :func:`robots.reduced.simulate` over the whole command history, the same way.
 
+Segments
+--------
+A log whose odometry pauses (a gap longer than ``max(2 s, 20 sampling steps)``, see
+:meth:`sim2real.logs.Trace.segments`) is replayed segment by segment, each from its own first
+measurement as above, and the results are joined in time order: no simulation runs across a
+gap, so memory and time follow the number of messages, not the time span.
+
 Example
 -------
 >>> from sim2real.logs import read_trace  # doctest: +SKIP
@@ -231,6 +238,9 @@ def replay(
     _check_window(odom_v_window_s)
     spec = resolve_robot(robot)
     p = spec.drive if params is None else params
+    segments = trace.segments() if hasattr(trace, "segments") else (trace,)
+    if len(segments) > 1:
+        return _replay_segments(trace, segments, spec, p, engine, physics_hz, odom_v_window_s)
     cmd_t, cmd_v, cmd_w, meas_t, meas_v, meas_w = _check_trace(trace)
     cmd_t, cmd_v, cmd_w = _with_start_command(
         cmd_t, cmd_v, cmd_w, float(meas_t[0]) - p.delay_s, float(meas_v[0]), float(meas_w[0])
@@ -277,6 +287,42 @@ def replay(
         robot=spec.name,
         params=p,
         physics_hz=rate,
+        elapsed_s=time.perf_counter() - start,
+        odom_v_window_s=float(odom_v_window_s),
+    )
+
+
+def _replay_segments(
+    trace: TraceLike,
+    segments: tuple[TraceLike, ...],
+    spec: RobotSpecLike,
+    params: DriveParams,
+    engine: str,
+    physics_hz: float,
+    odom_v_window_s: float,
+) -> ReplayResult:
+    """Replay each segment on its own and join the results (times of the whole trace)."""
+    start = time.perf_counter()
+    parts = [
+        replay(
+            seg,
+            robot=spec,
+            params=params,
+            engine=engine,
+            physics_hz=physics_hz,
+            odom_v_window_s=odom_v_window_s,
+        )
+        for seg in segments
+    ]
+    return ReplayResult(
+        t_s=np.asarray(trace.meas_t_s, dtype=np.float64),
+        t_ns=np.asarray(trace.meas_t_ns, dtype=np.int64),
+        v=np.concatenate([r.v for r in parts]),
+        w=np.concatenate([r.w for r in parts]),
+        engine=engine,
+        robot=spec.name,
+        params=params,
+        physics_hz=parts[0].physics_hz,
         elapsed_s=time.perf_counter() - start,
         odom_v_window_s=float(odom_v_window_s),
     )

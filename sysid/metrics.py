@@ -150,6 +150,18 @@ def _overlap_corr(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
     return float(np.dot(a, b)) / den if den > 0 else 0.0
 
 
+def _close_gaps(t: NDArray[np.float64], longest_s: float) -> NDArray[np.float64]:
+    """``t`` with every step longer than ``longest_s`` shortened to the median step."""
+    if t.size < 3:
+        return t
+    steps = np.diff(t)
+    long = steps > longest_s
+    if not np.any(long):
+        return t
+    excess = np.where(long, steps - float(np.median(steps)), 0.0)
+    return t - np.concatenate(([0.0], np.cumsum(excess)))
+
+
 def xcorr_lag_s(
     t_s: ArrayLike, real: ArrayLike, sim: ArrayLike, *, max_lag_s: float = 1.0, dt_s: float = 0.01
 ) -> float:
@@ -158,9 +170,11 @@ def xcorr_lag_s(
     Both signals are resampled on a uniform grid of step ``dt_s``; at each lag within
     ``±max_lag_s`` the correlation coefficient of the overlapping parts is computed, and its
     peak is refined by a parabola through its neighbours (sub-sample). Returns NaN when either
-    signal is constant.
+    signal is constant. A pause in ``t_s`` longer than ``2 max_lag_s`` is closed to one median
+    step first (the parts either side cannot inform each other's lag), so the grid follows
+    the samples, never the time span of a log with a long gap.
     """
-    t = np.asarray(t_s, dtype=np.float64)
+    t = _close_gaps(np.asarray(t_s, dtype=np.float64), 2.0 * max_lag_s)
     a, b = _pair(real, sim)
     if t.size < 3 or t[-1] - t[0] < 4 * dt_s:
         return math.nan

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from sim2real.cli._common import add_command
 from sim2real.errors import Sim2RealValueError
@@ -78,7 +78,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     fit.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
     fit.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
     fit.add_argument(
-        "--time-source", choices=("header", "log"), default="header", help="message timing"
+        "--time-source",
+        choices=("auto", "header", "log"),
+        default="auto",
+        help=(
+            "message timing: header stamps, recorder log times, or 'auto' (default: header "
+            "stamps unless they run on another clock than the log times, which it says)"
+        ),
     )
     fit.add_argument("--window", metavar="START:END", help="use only this part of the fit logs (s)")
     fit.add_argument(
@@ -165,9 +171,18 @@ def _free(text: str) -> str | list[str]:
     return "auto" if names == ["auto"] else names
 
 
-def _read(paths: list[str], args: argparse.Namespace, window: tuple[float, float] | None) -> list:  # type: ignore[type-arg]
+def _read(
+    paths: list[str],
+    args: argparse.Namespace,
+    window: tuple[float, float] | None,
+    spec: Any,
+    notes: list[str],
+) -> list:  # type: ignore[type-arg]
+    """The logs to fit: each file read, screened, cropped and split at its pauses.
+
+    The time source each file was read with (``--time-source auto``) is appended to ``notes``.
+    """
     from sim2real.logs import read_trace
-    from sysid import crop_log
 
     logs = []
     for path in paths:
@@ -177,12 +192,34 @@ def _read(paths: list[str], args: argparse.Namespace, window: tuple[float, float
             odom_topic=args.odom_topic,
             time_source=args.time_source,
         )
-        logs.append(trace if window is None else crop_log(trace, *window))
+        if trace.meta.time_note:
+            notes.append(f"{path}: {trace.meta.time_note}")
+        trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
+        trace.check_enough()
+        logs.extend(_pieces(trace, window))
     return logs
+
+
+def _pieces(trace: Any, window: tuple[float, float] | None) -> list:  # type: ignore[type-arg]
+    """The segments of ``trace`` (its pauses split it), cropped to ``window`` (s since t0)."""
+    from sysid import crop_log
+
+    segments = trace.segments()
+    if window is None:
+        return list(segments)
+    out = []
+    for seg in segments:
+        shift_s = (seg.t0_ns - trace.t0_ns) / 1e9
+        lo, hi = window[0] - shift_s, window[1] - shift_s
+        t = seg.meas_t_s
+        if bool(((t >= lo) & (t < hi)).any()):
+            out.append(crop_log(seg, lo, hi))
+    return out or [crop_log(trace, *window)]  # none overlaps: crop_log says so
 
 
 def _fit(args: argparse.Namespace) -> int:
     from rich.console import Console
+    from rich.markup import escape
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from robots.spec import load_spec
@@ -195,8 +232,9 @@ def _fit(args: argparse.Namespace) -> int:
     window = _window(args.window, "--window")
     val_window = _window(args.validate_window, "--validate-window")
     free = _free(args.free)
-    logs = _read(args.logs, args, window)
-    val = _read(args.validate, args, val_window)
+    notes: list[str] = []
+    logs = _read(args.logs, args, window, spec, notes)
+    val = _read(args.validate, args, val_window, spec, notes)
     console = _console()
     err = Console(stderr=True)
     with Progress(
@@ -229,7 +267,9 @@ def _fit(args: argparse.Namespace) -> int:
     with atomic_write(out, "w", what="params file") as fh:
         fh.write(result.to_yaml())
     _print_result(console, result)
-    console.print(f"wrote [bold]{out}[/]")
+    for note in notes:
+        console.print(f"[cyan]time:[/] {escape(note)}", highlight=False)
+    console.print(f"wrote [bold]{escape(str(out))}[/]")
     return 0
 
 
@@ -270,6 +310,7 @@ def _estimate_rows(
 
 
 def _print_result(console: Console, result: SysidResult) -> None:
+    from rich.markup import escape
     from rich.table import Table
 
     for title, estimates, boot in (
@@ -321,6 +362,7 @@ def _print_result(console: Console, result: SysidResult) -> None:
                 f"{stats['settling_time_s']:.3f} s, bandwidth {stats['bandwidth_radps']:.2f} rad/s"
             )
     if result.settings.get("note"):
-        console.print(f"[cyan]identifiability:[/] {result.settings['note']}", highlight=False)
+        note = escape(str(result.settings["note"]))
+        console.print(f"[cyan]identifiability:[/] {note}", highlight=False)
     for warning in result.warnings:
-        console.print(f"[yellow]note:[/] {warning}", highlight=False)
+        console.print(f"[yellow]note:[/] {escape(warning)}", highlight=False)

@@ -20,8 +20,7 @@ class PybulletWorld:
     """Bodies of one env in its own DIRECT pybullet client (ground from :mod:`robots.world`)."""
 
     def __init__(self) -> None:
-        import pybullet as p
-
+        from robots._pybullet import pybullet as p
         from robots.world import add_ground
 
         self.p = p

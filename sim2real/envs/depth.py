@@ -283,7 +283,7 @@ class DepthCamera:
 
     def update_view(self, x: float, y: float, yaw: float) -> FloatArray:
         """pybullet's column-major view matrix (16 floats) for the base at (x, y, yaw)."""
-        import pybullet as p
+        from robots._pybullet import pybullet as p
 
         eye, rot = self.world_pose(x, y, yaw)
         target = eye + rot[:, 0]

@@ -38,7 +38,18 @@ Header stamp vs log time
     log time (``meta.cmd_time_source == "log"``); stamps that are 0 (unstamped publishers)
     also fall back to log time with a warning. ``time_source="log"`` uses log time for both.
     When one stream uses stamps and the other log time, a warning is recorded if their
-    clocks differ by more than 0.5 s (median).
+    clocks differ by more than 0.5 s (median). ``time_source="auto"`` (the CLI's default)
+    makes that choice itself: header stamps unless their median offset from the times they
+    are compared with (the other stream's stamps, else the log times) exceeds 0.5 s, then log
+    times for both; ``meta.time_note`` says which and why.
+Gaps and far stamps
+    Times are checked before use. A pause in the measurements longer than
+    ``max(2 s, 20 x the median sampling step)`` splits the log into segments
+    (:meth:`Trace.segments`); replay and the sysid CLI run each segment on its own, so no
+    time grid spans a gap and memory follows the number of messages, not the time span. A
+    segment of fewer than 5 samples beside a longer one is a far stamp outlier (a corrupt
+    stamp) and is dropped, as are commands more than 60 s from every measurement.
+    :meth:`Trace.without_absurd` drops velocities beyond 10x the robot's limits.
 Zero-order hold
     A command holds until the next one: :meth:`Trace.cmd_at_meas` gives, at each measurement
     time, the last command at or before it (0 before the first command), and
@@ -51,7 +62,7 @@ Topic detection
     otherwise pass ``cmd_topic=`` / ``odom_topic=`` (CLI ``--cmd-topic``/``--odom-topic``).
 Repairs
     Samples with NaN/inf values are dropped; samples are sorted by time and of equal stamps
-    the last is kept. Each repair adds a sentence to ``Trace.meta.warnings``. A truncated
+    the last is kept; far stamp outliers are dropped (above). Each repair adds a sentence to ``Trace.meta.warnings``. A truncated
     file (recording stopped mid-write) keeps its complete records, with a warning; corrupt
     records (failed CRC, impossible lengths) raise :class:`~sim2real.errors.LogFormatError`.
 

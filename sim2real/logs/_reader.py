@@ -20,11 +20,20 @@ from sim2real.logs._channels import Chan, channel_table, choose_topic
 from sim2real.logs._decode import decode_channel, infer_json_type
 from sim2real.logs._mcap import Container
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY
+from sim2real.logs._timeline import (
+    GAP_FACTOR,
+    GAP_MIN_S,
+    drop_far_commands,
+    drop_isolated,
+    gap_threshold_ns,
+    segment_bounds,
+)
 from sim2real.logs.trace import Trace, TraceMeta
 
-__all__ = ["load_log", "read_trace"]
+__all__ = ["TIME_SOURCES", "load_log", "read_trace"]
 
-_TIME_SOURCES = ("header", "log")
+#: Values of ``time_source`` (CLI ``--time-source``).
+TIME_SOURCES = ("auto", "header", "log")
 #: Header stamps further than this from the log time come from another clock (s).
 _CLOCK_GAP_S = 0.5
 
@@ -132,9 +141,11 @@ def read_trace(
         The ``.mcap`` file (ROS 2 CDR or JSON messages).
     cmd_topic, odom_topic : str, optional
         Override the auto-detected command / measurement topics.
-    time_source : {"header", "log"}
+    time_source : {"header", "log", "auto"}
         ``"header"`` uses ``header.stamp`` where the message has one (Twist never does);
-        ``"log"`` uses the recorder's log time for every stream.
+        ``"log"`` uses the recorder's log time for every stream; ``"auto"`` uses the header
+        stamps unless they are on another clock than the times they are compared with
+        (median offset > 0.5 s), then log times, and says which in ``meta.time_note``.
     wheel_radius_m, wheel_separation_m : float, optional
         Needed when the measurement is ``sensor_msgs/msg/JointState`` wheel speeds (m).
     wheel_joints : (str, str), optional
@@ -152,10 +163,10 @@ def read_trace(
     >>> tr.meta.cmd_topic, tr.meta.meas_rate_hz  # doctest: +SKIP
     ('/cmd_vel', 23.0)
     """
-    if time_source not in _TIME_SOURCES:
+    if time_source not in TIME_SOURCES:
         raise Sim2RealValueError(
-            f"time_source must be 'header' or 'log', got {time_source!r}; use 'header' "
-            "(default) or 'log'"
+            f"time_source must be 'header', 'log' or 'auto', got {time_source!r}; use "
+            "'header' (default), 'log' or 'auto'"
         )
     if Path(path).is_file() and source_kind(Path(path)) == "csv":
         from sim2real.logs._csv import read_csv_trace
@@ -177,14 +188,21 @@ def read_trace(
     meas_raw = decode_channel(
         log.container, meas, name=log.name, type_name=meas.type, wheel_joints=wheel_joints
     )
-    cmd_t, cmd_src = _times(cmd_raw, time_source, cmd.topic, warnings)
-    meas_t, meas_src = _times(meas_raw, time_source, meas.topic, warnings)
-    if cmd_src != meas_src:
+    time_note = ""
+    source = time_source
+    if time_source == "auto":
+        source, time_note = _auto_source(cmd_raw, meas_raw, cmd, meas)
+    cmd_t, cmd_src = _times(cmd_raw, source, cmd.topic, warnings)
+    meas_t, meas_src = _times(meas_raw, source, meas.topic, warnings)
+    if cmd_src != meas_src and time_source != "auto":
         _check_clocks(cmd_raw if cmd_src == "header" else meas_raw, cmd, meas, warnings)
     meas_cols = _meas_columns(meas_raw, meas.type, wheel_radius_m, wheel_separation_m)
     cmd_cols = {"v": cmd_raw["v"], "w": cmd_raw["w"]}
     cmd_t, cmd_cols = _clean(cmd_t, cmd_cols, cmd.topic, warnings, name=log.name)
     meas_t, meas_cols = _clean(meas_t, meas_cols, meas.topic, warnings, name=log.name)
+    meas_t, meas_cols = _drop_outliers(meas_t, meas_cols, meas.topic, warnings)
+    cmd_t, cmd_cols = _drop_far_commands(cmd_t, cmd_cols, meas_t, cmd.topic, warnings)
+    _note_gaps(meas_t, meas.topic, warnings)
     meta = TraceMeta(
         path=log.name,
         sha256=log.sha256,
@@ -201,6 +219,7 @@ def read_trace(
         meas_time_source=meas_src,
         encoding=meas.encoding,
         warnings=tuple(warnings),
+        time_note=time_note,
     )
     return Trace(
         cmd_t_ns=cmd_t,
@@ -250,6 +269,98 @@ def _check_clocks(raw: dict[str, np.ndarray], cmd: Chan, meas: Chan, warnings: l
             f"from another clock than the log times used for the other stream ({cmd.topic} "
             f"vs {meas.topic}); read with time_source='log' to put both on one clock"
         )
+
+
+def _offset_s(raw: dict[str, np.ndarray]) -> float | None:
+    """Median of (log time - header stamp) over the stamped samples, s (None: no stamps)."""
+    if "stamp_ns" not in raw:
+        return None
+    stamps = raw["stamp_ns"]
+    ok = stamps > 0
+    if not np.any(ok):
+        return None
+    return float(np.median(raw["log_ns"][ok] - stamps[ok])) / 1e9
+
+
+def _auto_source(
+    cmd_raw: dict[str, np.ndarray], meas_raw: dict[str, np.ndarray], cmd: Chan, meas: Chan
+) -> tuple[str, str]:
+    """``time_source="auto"``: header stamps unless they sit on another clock; and why."""
+    off_cmd, off_meas = _offset_s(cmd_raw), _offset_s(meas_raw)
+    if off_cmd is None and off_meas is None:
+        return "log", "time source auto: log times (no stream carries header stamps)"
+    if off_cmd is not None and off_meas is not None:
+        diff = off_meas - off_cmd
+        if abs(diff) <= _CLOCK_GAP_S:
+            return "header", (
+                f"time source auto: header stamps (the stamps of '{cmd.topic}' and "
+                f"'{meas.topic}' agree within {abs(diff):.3f} s, median)"
+            )
+        return "log", (
+            f"time source auto: log times, because the header stamps of '{meas.topic}' are "
+            f"{-diff:+.3f} s (median) off those of '{cmd.topic}' (two clocks)"
+        )
+    stamped, other = (meas, cmd) if off_meas is not None else (cmd, meas)
+    offset = float(off_meas if off_meas is not None else off_cmd)  # type: ignore[arg-type]
+    if abs(offset) <= _CLOCK_GAP_S:
+        return "header", (
+            f"time source auto: header stamps of '{stamped.topic}' (they agree with the "
+            f"recording clock within {abs(offset):.3f} s, median), log times of "
+            f"'{other.topic}' (it has no header)"
+        )
+    return "log", (
+        f"time source auto: log times, because the header stamps of '{stamped.topic}' are "
+        f"{-offset:+.3f} s (median) off the recording clock that times '{other.topic}'"
+    )
+
+
+def _drop_outliers(
+    t: np.ndarray, cols: dict[str, np.ndarray], topic: str, warnings: list[str]
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Drop far stamp outliers: samples in tiny segments beside a long one (with a note)."""
+    keep = drop_isolated(t)
+    if np.all(keep):
+        return t, cols
+    bad = int(keep.size - np.count_nonzero(keep))
+    gap_s = gap_threshold_ns(t[keep]) / 1e9
+    warnings.append(
+        f"dropped {bad} of {keep.size} samples of topic '{topic}' whose stamps lie far "
+        f"outside the recording (more than {gap_s:.3g} s from all other samples, a corrupt "
+        "stamp)"
+    )
+    return t[keep], {k: v[keep] for k, v in cols.items()}
+
+
+def _drop_far_commands(
+    t: np.ndarray,
+    cols: dict[str, np.ndarray],
+    meas_t: np.ndarray,
+    topic: str,
+    warnings: list[str],
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Drop commands too far from every measurement segment to act on it (with a note)."""
+    keep = drop_far_commands(t, meas_t)
+    if np.all(keep):
+        return t, cols
+    bad = int(keep.size - np.count_nonzero(keep))
+    warnings.append(
+        f"dropped {bad} of {keep.size} samples of topic '{topic}' that lie more than 60 s "
+        "away from every measurement (a corrupt stamp, or commands sent while nothing was "
+        "measured)"
+    )
+    return t[keep], {k: v[keep] for k, v in cols.items()}
+
+
+def _note_gaps(meas_t: np.ndarray, topic: str, warnings: list[str]) -> None:
+    bounds = segment_bounds(meas_t)
+    if len(bounds) <= 1:
+        return
+    gaps = [(meas_t[a] - meas_t[a - 1]) / 1e9 for a, _ in bounds[1:]]
+    warnings.append(
+        f"topic '{topic}' pauses {len(gaps)} time(s) for longer than max({GAP_MIN_S:g} s, "
+        f"{GAP_FACTOR:g} sampling steps) (longest {max(gaps):.3g} s), so the log is used as "
+        f"{len(bounds)} separate segments (replayed and fitted one by one)"
+    )
 
 
 def _meas_columns(

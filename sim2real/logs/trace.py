@@ -21,11 +21,16 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from sim2real.errors import Sim2RealValueError
+from sim2real.errors import LogValueError, Sim2RealValueError
+from sim2real.logs._timeline import command_windows, segment_bounds
 
-__all__ = ["Trace", "TraceMeta"]
+__all__ = ["ABSURD_FACTOR", "MIN_MEAS_SAMPLES", "Trace", "TraceMeta"]
 
 _NS = 1e9
+#: Velocities beyond this many times the robot's spec limits are physically absurd.
+ABSURD_FACTOR = 10.0
+#: Fewer measurement samples than this cannot be fitted or compared.
+MIN_MEAS_SAMPLES = 10
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -35,7 +40,8 @@ class TraceMeta:
     Attributes
     ----------
     path : str
-        The log file ("" for a trace built in memory).
+        The log file ("" for a trace built in memory); a segment made by
+        :meth:`Trace.segments` is named ``"<file> (segment k/n)"``.
     sha256 : str
         Hex SHA-256 of the file bytes.
     cmd_topic, cmd_type, meas_topic, meas_type : str
@@ -45,9 +51,13 @@ class TraceMeta:
     cmd_rate_hz, meas_rate_hz : float
         Mean sample rates, ``(n - 1) / (t_last - t_first)`` (0 with fewer than 2 samples).
     time_source : str
-        The requested time base, ``"header"`` or ``"log"``.
+        The requested time base, ``"header"``, ``"log"`` or ``"auto"``.
     cmd_time_source, meas_time_source : str
         What each stream really uses (a ``Twist`` has no header, so always ``"log"``).
+    time_note : str
+        With ``time_source="auto"``: one sentence saying which time base was chosen and why.
+    segment : str
+        ``"k/n"`` for the k-th of n segments made by :meth:`Trace.segments`, else "".
     encoding : str
         Message encoding of the measurement channel (``"cdr"`` or ``"json"``).
     warnings : tuple of str
@@ -69,6 +79,8 @@ class TraceMeta:
     meas_time_source: str = "header"
     encoding: str = "cdr"
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    time_note: str = ""
+    segment: str = ""
 
 
 def _frozen(a: np.ndarray | None, dtype: type, name: str) -> np.ndarray | None:
@@ -172,6 +184,161 @@ class Trace:
     def has_pose(self) -> bool:
         """True when the measurement source carried a pose."""
         return self.pose_x is not None
+
+    # ------------------------------------------------------------------------ segments
+    def segments(self) -> tuple[Trace, ...]:
+        """The trace split at its measurement gaps (see :mod:`sim2real.logs`, "Gaps").
+
+        A pause longer than ``max(2 s, 20 x the median odometry step)`` ends a segment; each
+        segment keeps the commands on its side of the gap (within 60 s of its measurements).
+        A trace without such a gap is returned whole, as ``(self,)``. The reader's warnings
+        travel with the first segment only.
+
+        Examples
+        --------
+        >>> tr = Trace(cmd_t_ns=[0], cmd_v=[0.1], cmd_w=[0.0],
+        ...            meas_t_ns=[0, 10**8, 2 * 10**8, 10**12, 10**12 + 10**8],
+        ...            meas_v=[0.0] * 5, meas_w=[0.0] * 5)
+        >>> [s.meas_t_ns.size for s in tr.segments()]
+        [3, 2]
+        """
+        bounds = segment_bounds(self.meas_t_ns)
+        if len(bounds) <= 1:
+            return (self,)
+        cmds = command_windows(self.cmd_t_ns, self.meas_t_ns)
+        n = len(bounds)
+        return tuple(
+            self._slice(slice(a, b), slice(c0, c1), segment=f"{k + 1}/{n}")
+            for k, ((a, b), (c0, c1)) in enumerate(zip(bounds, cmds, strict=True))
+        )
+
+    def _slice(self, meas: slice, cmd: slice, *, segment: str | None = None) -> Trace:
+        pose = {
+            k: (None if getattr(self, k) is None else getattr(self, k)[meas])
+            for k in ("pose_x", "pose_y", "pose_yaw")
+        }
+        meta = replace(
+            self.meta,
+            cmd_count=len(range(*cmd.indices(self.cmd_t_ns.size))),
+            meas_count=len(range(*meas.indices(self.meas_t_ns.size))),
+        )
+        if segment is not None:
+            first = segment.startswith("1/")
+            meta = replace(
+                meta,
+                segment=segment,
+                path=f"{self.meta.path or 'trace'} (segment {segment})",
+                warnings=self.meta.warnings if first else (),  # said once, not n times
+            )
+        return replace(
+            self,
+            cmd_t_ns=self.cmd_t_ns[cmd],
+            cmd_v=self.cmd_v[cmd],
+            cmd_w=self.cmd_w[cmd],
+            meas_t_ns=self.meas_t_ns[meas],
+            meas_v=self.meas_v[meas],
+            meas_w=self.meas_w[meas],
+            meta=meta,
+            **pose,
+        )
+
+    # ------------------------------------------------------------------------ values
+    def without_absurd(
+        self, *, max_v_mps: float, max_w_radps: float, factor: float = ABSURD_FACTOR
+    ) -> Trace:
+        """Drop samples whose velocities exceed ``factor`` x the robot's limits, with a note.
+
+        A sample (command or measurement) with ``|v| > factor * max_v_mps`` or
+        ``|w| > factor * max_w_radps`` cannot come from the robot (a corrupt value, a wrong
+        unit or another robot's log); it is dropped and ``meta.warnings`` says how many were.
+
+        Raises
+        ------
+        LogValueError
+            When more than half the samples of a stream are absurd (a unit or robot mistake,
+            not a glitch) or fewer than 10 measurement samples remain.
+
+        Examples
+        --------
+        >>> tr = Trace(cmd_t_ns=[0], cmd_v=[0.1], cmd_w=[0.0], meas_t_ns=list(range(12)),
+        ...            meas_v=[0.1] * 11 + [4.5e306], meas_w=[0.0] * 12)
+        >>> tr.without_absurd(max_v_mps=0.22, max_w_radps=2.84).meas_v.size
+        11
+        """
+        lim_v, lim_w = factor * max_v_mps, factor * max_w_radps
+        notes = list(self.meta.warnings)
+        keep = {}
+        for role, v, w in (
+            ("command", self.cmd_v, self.cmd_w),
+            ("measurement", self.meas_v, self.meas_w),
+        ):
+            ok = (np.abs(v) <= lim_v) & (np.abs(w) <= lim_w)
+            bad = int(ok.size - np.count_nonzero(ok))
+            if bad and 2 * bad > ok.size:
+                raise LogValueError(self._absurd_message(role, bad, ok.size, lim_v, lim_w))
+            if bad:
+                notes.append(
+                    f"dropped {bad} of {ok.size} {role} samples with |v| > {lim_v:.3g} m/s or "
+                    f"|w| > {lim_w:.3g} rad/s ({factor:g}x the robot's limits: not physical)"
+                )
+            keep[role] = ok
+        if all(np.all(k) for k in keep.values()):
+            return self
+        out = self._mask(keep["command"], keep["measurement"])
+        out = replace(out, meta=replace(out.meta, warnings=tuple(notes)))
+        out.check_enough()
+        return out
+
+    def _absurd_message(self, role: str, bad: int, n: int, lim_v: float, lim_w: float) -> str:
+        where = self.meta.path or "the trace"
+        topic = self.meta.cmd_topic if role == "command" else self.meta.meas_topic
+        on = f" (topic '{topic}')" if topic else ""
+        return (
+            f"{bad} of {n} {role} samples of log file '{where}'{on} have |v| > {lim_v:.3g} m/s "
+            f"or |w| > {lim_w:.3g} rad/s, 10x the robot's limits, so the values are in another "
+            "unit or come from another robot; check --robot and the topic (--cmd-topic / "
+            "--odom-topic)"
+        )
+
+    def _mask(self, cmd_keep: np.ndarray, meas_keep: np.ndarray) -> Trace:
+        pose = {
+            k: (None if getattr(self, k) is None else getattr(self, k)[meas_keep])
+            for k in ("pose_x", "pose_y", "pose_yaw")
+        }
+        return replace(
+            self,
+            cmd_t_ns=self.cmd_t_ns[cmd_keep],
+            cmd_v=self.cmd_v[cmd_keep],
+            cmd_w=self.cmd_w[cmd_keep],
+            meas_t_ns=self.meas_t_ns[meas_keep],
+            meas_v=self.meas_v[meas_keep],
+            meas_w=self.meas_w[meas_keep],
+            meta=replace(
+                self.meta,
+                cmd_count=int(np.count_nonzero(cmd_keep)),
+                meas_count=int(np.count_nonzero(meas_keep)),
+            ),
+            **pose,
+        )
+
+    def check_enough(self) -> None:
+        """Raise :class:`~sim2real.errors.LogValueError` when too little data is left.
+
+        A trace needs at least one command and 10 measurement samples to be replayed, fitted
+        or compared.
+        """
+        where = self.meta.path or "the trace"
+        if self.meas_t_ns.size < MIN_MEAS_SAMPLES:
+            raise LogValueError(
+                f"log file '{where}' has only {self.meas_t_ns.size} usable measurement samples "
+                f"after cleaning (at least {MIN_MEAS_SAMPLES} are needed); see its warnings "
+                "(`sim2real logs info`) and record a longer log or choose another --odom-topic"
+            )
+        if self.cmd_t_ns.size == 0:
+            raise LogValueError(
+                f"log file '{where}' has no usable command sample after cleaning; record the "
+                "command topic or choose another one with --cmd-topic"
+            )
 
     # ------------------------------------------------------------------------ operations
     def cmd_at_meas(self) -> tuple[np.ndarray, np.ndarray]:

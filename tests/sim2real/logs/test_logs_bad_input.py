@@ -266,7 +266,7 @@ def test_header_clock_far_from_log_clock_is_warned(tmp_path: Path):
 
 def test_bad_time_source(small_log: Path):
     with pytest.raises(
-        Sim2RealValueError, match=r"time_source must be 'header' or 'log', got 'ros'"
+        Sim2RealValueError, match=r"time_source must be 'header', 'log' or 'auto', got 'ros'"
     ):
         read_trace(small_log, time_source="ros")
 

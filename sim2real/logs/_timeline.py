@@ -1,0 +1,131 @@
+"""Time validation of a log's sample streams: gaps, segments and far stamp outliers (private).
+
+A recording is a set of *segments*: runs of measurement samples whose consecutive stamps are
+closer than the gap threshold :func:`gap_threshold_ns`, ``max(2 s, 20 x the median sampling
+step)``. A longer pause (the robot was switched off for a night, the recorder was paused)
+starts a new segment; anything that simulates a log (replay, sysid) runs each segment on its
+own, so no time grid ever spans a gap and memory stays proportional to the number of
+messages, never to the time span.
+
+A segment with fewer than :data:`MIN_SEGMENT_SAMPLES` samples, while the log has a longer one,
+is a *far stamp outlier* (a flipped byte in one ``header.stamp`` puts a sample years away
+from the rest): it is dropped with a note naming the count. Commands are kept where a
+segment can use them: within :data:`COMMAND_REACH_S` (or the gap threshold, when larger) of a
+segment's measurements; farther commands are far outliers too.
+
+Example
+-------
+>>> import numpy as np
+>>> t = np.array([0, 1, 2, 3, 4, 5, 10**18], dtype=np.int64) * 10**8
+>>> bounds = segment_bounds(t)
+>>> [(int(a), int(b)) for a, b in bounds]
+[(0, 6), (6, 7)]
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "COMMAND_REACH_S",
+    "GAP_FACTOR",
+    "GAP_MIN_S",
+    "MIN_SEGMENT_SAMPLES",
+    "command_windows",
+    "drop_far_commands",
+    "drop_isolated",
+    "gap_threshold_ns",
+    "segment_bounds",
+]
+
+IntArray = NDArray[np.int64]
+
+_NS = 1_000_000_000
+#: A pause in the measurements longer than this (s) always starts a new segment ...
+GAP_MIN_S = 2.0
+#: ... and so does one longer than this many median sampling steps.
+GAP_FACTOR = 20.0
+#: A segment with fewer samples than this, beside a longer one, is a far stamp outlier.
+MIN_SEGMENT_SAMPLES = 5
+#: Commands farther than this (s) from every kept segment are far outliers.
+COMMAND_REACH_S = 60.0
+
+
+def gap_threshold_ns(t_ns: IntArray) -> int:
+    """The gap threshold of sorted measurement times: ``max(2 s, 20 x median step)`` in ns.
+
+    The median of the positive steps is robust to a few outliers and to bursts.
+    """
+    steps = np.diff(np.asarray(t_ns, dtype=np.int64))
+    steps = steps[steps > 0]
+    median = float(np.median(steps)) if steps.size else 0.0
+    return int(max(GAP_MIN_S * _NS, GAP_FACTOR * median))
+
+
+def segment_bounds(t_ns: IntArray) -> list[tuple[int, int]]:
+    """Index ranges ``[start, stop)`` of the segments of sorted times ``t_ns``."""
+    t = np.asarray(t_ns, dtype=np.int64)
+    if t.size == 0:
+        return []
+    cuts = np.flatnonzero(np.diff(t) > gap_threshold_ns(t)) + 1
+    edges = [0, *(int(c) for c in cuts), int(t.size)]
+    return list(itertools.pairwise(edges))
+
+
+def drop_isolated(t_ns: IntArray) -> NDArray[np.bool_]:
+    """Mask of the samples to keep: all but those in too-short segments beside a long one."""
+    keep = np.ones(np.asarray(t_ns).size, dtype=bool)
+    bounds = segment_bounds(t_ns)
+    if not bounds or max(b - a for a, b in bounds) < MIN_SEGMENT_SAMPLES:
+        return keep
+    for a, b in bounds:
+        if b - a < MIN_SEGMENT_SAMPLES:
+            keep[a:b] = False
+    return keep
+
+
+def _reach_ns(meas_t_ns: IntArray) -> int:
+    return max(int(COMMAND_REACH_S * _NS), gap_threshold_ns(meas_t_ns))
+
+
+def drop_far_commands(cmd_t_ns: IntArray, meas_t_ns: IntArray) -> NDArray[np.bool_]:
+    """Mask of the commands within reach of a measurement segment (all when none exists)."""
+    cmd = np.asarray(cmd_t_ns, dtype=np.int64)
+    meas = np.asarray(meas_t_ns, dtype=np.int64)
+    keep = np.zeros(cmd.size, dtype=bool)
+    if meas.size == 0:
+        return ~keep
+    reach = _reach_ns(meas)
+    for a, b in segment_bounds(meas):
+        lo, hi = int(meas[a]) - reach, int(meas[b - 1]) + reach
+        keep |= (cmd >= lo) & (cmd <= hi)
+    return keep
+
+
+def command_windows(cmd_t_ns: IntArray, meas_t_ns: IntArray) -> list[tuple[int, int]]:
+    """Command index ranges ``[start, stop)`` that belong to each measurement segment.
+
+    A segment's commands are those within reach of its measurements and on its side of the
+    middle of each neighbouring gap, so the ranges never overlap and never span a gap.
+    """
+    cmd = np.asarray(cmd_t_ns, dtype=np.int64)
+    meas = np.asarray(meas_t_ns, dtype=np.int64)
+    bounds = segment_bounds(meas)
+    reach = _reach_ns(meas)
+    out = []
+    for k, (a, b) in enumerate(bounds):
+        lo = int(meas[a]) - reach
+        hi = int(meas[b - 1]) + reach
+        if k > 0:
+            prev_end = int(meas[bounds[k - 1][1] - 1])
+            lo = max(lo, prev_end + (int(meas[a]) - prev_end) // 2 + 1)
+        if k + 1 < len(bounds):
+            nxt = int(meas[bounds[k + 1][0]])
+            hi = min(hi, int(meas[b - 1]) + (nxt - int(meas[b - 1])) // 2)
+        c0 = int(np.searchsorted(cmd, lo, side="left"))
+        c1 = int(np.searchsorted(cmd, hi, side="right"))
+        out.append((c0, c1))
+    return out
