@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from sim2real.errors import LogFormatError, LogValueError
+from sim2real.logs._timeline import drop_outliers
 from sim2real.logs.trace import Trace, TraceMeta
 
 __all__ = ["CSV_COLUMNS", "read_csv_trace", "write_csv_trace"]
@@ -94,6 +95,8 @@ def read_csv_trace(path: str | Path) -> Trace:
             f"{t_ns[k + 1] / _NS} s after {t_ns[k] / _NS} s); sort the rows by t and remove "
             "repeated times"
         )
+    warnings: list[str] = []
+    t_ns, cols = drop_outliers(t_ns, cols, "t", warnings)  # a row with a corrupt far time
     meta = TraceMeta(
         path=str(p),
         sha256=hashlib.sha256(raw).hexdigest(),
@@ -101,13 +104,14 @@ def read_csv_trace(path: str | Path) -> Trace:
         cmd_type="csv",
         meas_topic="meas_v,meas_w",
         meas_type="csv",
-        cmd_count=len(body),
-        meas_count=len(body),
+        cmd_count=int(t_ns.size),
+        meas_count=int(t_ns.size),
         cmd_rate_hz=_rate(t_ns),
         meas_rate_hz=_rate(t_ns),
         cmd_time_source="csv",
         meas_time_source="csv",
         encoding="csv",
+        warnings=tuple(warnings),
     )
     return Trace(
         cmd_t_ns=t_ns,

@@ -24,8 +24,7 @@ from sim2real.logs._timeline import (
     GAP_FACTOR,
     GAP_MIN_S,
     drop_far_commands,
-    drop_isolated,
-    gap_threshold_ns,
+    drop_outliers,
     segment_bounds,
 )
 from sim2real.logs.trace import Trace, TraceMeta
@@ -200,7 +199,7 @@ def read_trace(
     cmd_cols = {"v": cmd_raw["v"], "w": cmd_raw["w"]}
     cmd_t, cmd_cols = _clean(cmd_t, cmd_cols, cmd.topic, warnings, name=log.name)
     meas_t, meas_cols = _clean(meas_t, meas_cols, meas.topic, warnings, name=log.name)
-    meas_t, meas_cols = _drop_outliers(meas_t, meas_cols, meas.topic, warnings)
+    meas_t, meas_cols = drop_outliers(meas_t, meas_cols, meas.topic, warnings)
     cmd_t, cmd_cols = _drop_far_commands(cmd_t, cmd_cols, meas_t, cmd.topic, warnings)
     _note_gaps(meas_t, meas.topic, warnings)
     meta = TraceMeta(
@@ -312,23 +311,6 @@ def _auto_source(
         f"time source auto: log times, because the header stamps of '{stamped.topic}' are "
         f"{-offset:+.3f} s (median) off the recording clock that times '{other.topic}'"
     )
-
-
-def _drop_outliers(
-    t: np.ndarray, cols: dict[str, np.ndarray], topic: str, warnings: list[str]
-) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """Drop far stamp outliers: samples in tiny segments beside a long one (with a note)."""
-    keep = drop_isolated(t)
-    if np.all(keep):
-        return t, cols
-    bad = int(keep.size - np.count_nonzero(keep))
-    gap_s = gap_threshold_ns(t[keep]) / 1e9
-    warnings.append(
-        f"dropped {bad} of {keep.size} samples of topic '{topic}' whose stamps lie far "
-        f"outside the recording (more than {gap_s:.3g} s from all other samples, a corrupt "
-        "stamp)"
-    )
-    return t[keep], {k: v[keep] for k, v in cols.items()}
 
 
 def _drop_far_commands(

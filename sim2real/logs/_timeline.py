@@ -37,6 +37,7 @@ __all__ = [
     "command_windows",
     "drop_far_commands",
     "drop_isolated",
+    "drop_outliers",
     "gap_threshold_ns",
     "segment_bounds",
 ]
@@ -129,3 +130,20 @@ def command_windows(cmd_t_ns: IntArray, meas_t_ns: IntArray) -> list[tuple[int, 
         c1 = int(np.searchsorted(cmd, hi, side="right"))
         out.append((c0, c1))
     return out
+
+
+def drop_outliers(
+    t: IntArray, cols: dict[str, np.ndarray], topic: str, warnings: list[str]
+) -> tuple[IntArray, dict[str, np.ndarray]]:
+    """Drop far stamp outliers of sorted times (see :func:`drop_isolated`), with a note."""
+    keep = drop_isolated(t)
+    if np.all(keep):
+        return t, cols
+    bad = int(keep.size - np.count_nonzero(keep))
+    gap_s = gap_threshold_ns(t[keep]) / _NS
+    warnings.append(
+        f"dropped {bad} of {keep.size} samples of topic '{topic}' whose stamps lie far "
+        f"outside the recording (more than {gap_s:.3g} s from all other samples, a corrupt "
+        "stamp)"
+    )
+    return t[keep], {k: v[keep] for k, v in cols.items()}

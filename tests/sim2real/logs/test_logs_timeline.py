@@ -199,3 +199,12 @@ def test_xcorr_lag_closes_long_pauses() -> None:
     t_gap = np.where(t < 10, t, t + 3.0e7)  # a year-long pause in the middle
     assert xcorr_lag_s(t_gap, real, sim) == pytest.approx(lag, abs=0.02)
     assert lag == pytest.approx(0.2, abs=0.02)
+
+
+def test_csv_row_with_a_far_time_is_dropped(tmp_path: Path) -> None:
+    rows = [f"{0.1 * k:.1f},0.2,0,0.19,0" for k in range(30)] + ["315360000.0,0.2,0,0.19,0"]
+    path = tmp_path / "far.csv"
+    path.write_text("t,cmd_v,cmd_w,meas_v,meas_w\n" + "\n".join(rows) + "\n")
+    tr = read_trace(path)
+    assert tr.meas_t_ns.size == 30 and tr.duration_s < 3.0
+    assert tr.meta.warnings[0].startswith("dropped 1 of 31 samples of topic 't'")
