@@ -26,9 +26,10 @@ _EVAL_EXAMPLES = """\
   sim2real envs eval sim2real/RandomMap-v0 --episodes 5 --dynamics pybullet
   sim2real envs eval CrowdNav-v0 --episodes 10 --scenario dynamic --complexity 1.0
   sim2real envs eval CrowdNav-v0 --episodes 10 --json crowd.json    # also write the numbers
+  sim2real envs eval CarCrossing-v0 --episodes 50                   # rule-based car baseline
 """
 
-_KNOWN = ("sim2real/CrowdNav-v0", "sim2real/RandomMap-v0")
+_KNOWN = ("sim2real/CrowdNav-v0", "sim2real/RandomMap-v0", "sim2real/CarCrossing-v0")
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -39,7 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="reference training envs: list them, evaluate the baseline controller",
         description=(
             "The gymnasium envs of sim2real.envs (registered on import): CrowdNav-v0 (dense "
-            "crowds, paper 000) and RandomMap-v0 (random walls and cylinders, paper 001)."
+            "crowds, paper 000), RandomMap-v0 (random walls and cylinders, paper 001) and "
+            "CarCrossing-v0 (a car passes an obstacle and an occluded pedestrian, paper 002)."
         ),
         examples=_GROUP_EXAMPLES,
     )
@@ -56,11 +58,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     ev = add_command(
         group_sub,
         "eval",
-        help="run the DWA baseline for N episodes and print the outcome rates and metrics",
+        help="run the baseline controller for N episodes and print outcome rates and metrics",
         description=(
-            "Run the non-learned dynamic-window controller (sim2real.envs.baselines) on an env "
-            "for N seeded episodes and print success / collision / timeout rates and the mean "
-            "path length, time to goal and smoothness: a reference number per preset."
+            "Run the env's non-learned baseline (the dynamic-window controller of "
+            "sim2real.envs.baselines; for CarCrossing-v0 the rule-based "
+            "sim2real.envs.car_baseline) for N seeded episodes and print success / collision / "
+            "timeout rates and the mean path length, time to goal and smoothness: a reference "
+            "number per preset."
         ),
         examples=_EVAL_EXAMPLES,
     )
@@ -110,6 +114,12 @@ def _list(args: argparse.Namespace) -> int:
         "Box(40): 36 ranges, goal d/bearing, v, w",
         f"preset: {', '.join(PRESETS)}",
     )
+    table.add_row(
+        "sim2real/CarCrossing-v0",
+        "Ackermann car 26x18 cm",
+        "Box(14): position, 5 distance sensors, steering, distances, lane, detections, heading",
+        "Discrete(4) actions; scenario drawn from the seed",
+    )
     console.print(table)
     presets = Table(title="RandomMap-v0 presets (paper 001, Table I)")
     for col in ("preset", "d_target m", "r_wall", "n cylinders", "paper rho_obs"):
@@ -137,6 +147,13 @@ def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
         raise Sim2RealValueError(
             f"--episodes must be >= 1, got {args.episodes}; e.g. --episodes 10"
         )
+    if env_id.endswith("CarCrossing-v0"):
+        if args.preset is not None or args.scenario is not None or args.complexity is not None:
+            raise Sim2RealValueError(
+                "--preset, --scenario and --complexity do not apply to CarCrossing-v0 (its "
+                "scenario is drawn from the seed); drop them"
+            )
+        return gym.make(env_id, dynamics=args.dynamics), None
     if env_id.endswith("RandomMap-v0"):
         if args.scenario is not None or args.complexity is not None:
             raise Sim2RealValueError(
@@ -180,13 +197,15 @@ def _eval(args: argparse.Namespace) -> int:
 
     from sim2real._io import atomic_write, check_output_path
     from sim2real.envs.baselines import DWAController, evaluate
+    from sim2real.envs.car_baseline import CarCrossingBaseline
 
     if args.json:
         check_output_path(args.json, what="--json file")
     env, options = _make_env(args)
     console = Console()
     try:
-        ctrl = DWAController.for_env(env)
+        is_car = env.spec.id.endswith("CarCrossing-v0")
+        ctrl: Any = CarCrossingBaseline.for_env(env) if is_car else DWAController.for_env(env)
         # disabled off a terminal: rich would print an empty line to a pipe
         with Progress(console=console, transient=True, disable=not console.is_terminal) as progress:
             task = progress.add_task(f"{env.spec.id} episodes", total=args.episodes)
@@ -202,8 +221,9 @@ def _eval(args: argparse.Namespace) -> int:
         env.close()
     what = args.preset.upper() if args.preset else (args.scenario or "")
     last = args.seed + summary.episodes - 1
+    name = "Rule-based" if is_car else "DWA"
     table = Table(
-        title=f"DWA baseline on {env.spec.id} {what} ({summary.episodes} episodes, "
+        title=f"{name} baseline on {env.spec.id} {what} ({summary.episodes} episodes, "
         f"seeds {args.seed}..{last}, dynamics {args.dynamics})"
     )
     table.add_column("metric")
@@ -211,6 +231,9 @@ def _eval(args: argparse.Namespace) -> int:
     table.add_row("success rate", f"{summary.success_rate:.2f}")
     table.add_row("collision rate", f"{summary.collision_rate:.2f}")
     table.add_row("timeout rate", f"{summary.timeout_rate:.2f}")
+    if is_car:
+        off = sum(bool(r.get("off_road")) for r in summary.per_episode) / summary.episodes
+        table.add_row("off-road rate", f"{off:.2f}")
     m = summary.means
     table.add_row("path length m", _fmt(m["path_length_m"], 2))
     table.add_row("time to goal s (successes)", _fmt(m["time_to_goal_s"], 2))

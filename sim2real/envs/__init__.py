@@ -5,6 +5,8 @@
   families and a complexity factor.
 - ``sim2real/RandomMap-v0`` (:class:`RandomMapEnv`): a TurtleBot 3 Burger crossing random maps
   of walls and cylinders (paper 001, Table I presets).
+- ``sim2real/CarCrossing-v0`` (:class:`CarCrossingEnv`): a small Ackermann car passes an
+  obstacle while an occluded pedestrian crosses the adjacent lane (paper 002).
 
 Both take ``dynamics="reduced"`` (the identified drive model in numba, pose integrated
 kinematically, exact 2-D world) or ``dynamics="pybullet"`` (the rigid-body robot of
@@ -26,6 +28,7 @@ from __future__ import annotations
 import gymnasium as gym
 
 from sim2real.envs.baselines import DWAController, EvalSummary, evaluate
+from sim2real.envs.car_crossing import CarCrossingEnv, CarCrossingReward
 from sim2real.envs.crowd_nav import SCENARIOS, CrowdNavEnv, CrowdNavReward
 from sim2real.envs.maps import PAPER_RHO_OBS, PRESETS, MapConfig, generate_map
 from sim2real.envs.metrics import EpisodeMetrics
@@ -37,6 +40,8 @@ __all__ = [
     "PAPER_RHO_OBS",
     "PRESETS",
     "SCENARIOS",
+    "CarCrossingEnv",
+    "CarCrossingReward",
     "CrowdNavEnv",
     "CrowdNavReward",
     "DWAController",
@@ -53,10 +58,14 @@ __all__ = [
 ]
 
 #: The registered env ids.
-ENV_IDS = ("sim2real/CrowdNav-v0", "sim2real/RandomMap-v0")
+ENV_IDS = ("sim2real/CrowdNav-v0", "sim2real/RandomMap-v0", "sim2real/CarCrossing-v0")
 
 # The envs end episodes themselves (metrics need the outcome), so no TimeLimit wrapper.
 if "sim2real/CrowdNav-v0" not in gym.registry:
     gym.register(id="sim2real/CrowdNav-v0", entry_point="sim2real.envs.crowd_nav:CrowdNavEnv")
 if "sim2real/RandomMap-v0" not in gym.registry:
     gym.register(id="sim2real/RandomMap-v0", entry_point="sim2real.envs.random_map:RandomMapEnv")
+if "sim2real/CarCrossing-v0" not in gym.registry:
+    gym.register(
+        id="sim2real/CarCrossing-v0", entry_point="sim2real.envs.car_crossing:CarCrossingEnv"
+    )

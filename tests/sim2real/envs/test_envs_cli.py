@@ -56,6 +56,7 @@ def test_eval_prints_rates_and_writes_json(
         (["envs", "eval", "RandomMap-v0", "--scenario", "static"], "CrowdNav-v0 only"),
         (["envs", "eval", "RandomMap-v0", "--episodes", "0"], "--episodes"),
         (["envs", "eval", "RandomMap-v0", "--dynamics", "ode"], "(--dynamics) must be one of"),
+        (["envs", "eval", "CarCrossing-v0", "--complexity", "0.5"], "do not apply to CarCrossing"),
     ],
 )
 def test_bad_input_exits_2(
@@ -72,3 +73,11 @@ def test_help_ends_with_examples(capsys: pytest.CaptureFixture[str]) -> None:
         main(["envs", "eval", "--help"])
     out = capsys.readouterr().out
     assert "examples:" in out and "sim2real envs eval RandomMap-v0" in out
+
+
+def test_eval_car_crossing_baseline(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["envs", "eval", "sim2real/CarCrossing-v0", "--episodes", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "Rule-based baseline" in out and "off-road rate" in out
+    rate = float(out.split("success rate")[1].split()[1])
+    assert rate >= 0.9

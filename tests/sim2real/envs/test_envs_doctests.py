@@ -10,6 +10,8 @@ import pytest
 MODULES = [
     "sim2real.envs",
     "sim2real.envs.baselines",
+    "sim2real.envs.car_baseline",
+    "sim2real.envs.car_crossing",
     "sim2real.envs.crowd_nav",
     "sim2real.envs.depth",
     "sim2real.envs.geometry",
