@@ -1,9 +1,10 @@
-"""The command side of the drive chain, step by step, for the pybullet robot.
+"""The drive chain step by step from Python: a view of the shared kernel :mod:`robots._kernel`.
 
-The same arithmetic as the reduced model's kernel (:mod:`robots.reduced`): firmware speed clamp,
-velocity-smoother rate limit, wheel targets with the per-wheel speed cap (both wheels scaled
-together), per-wheel proportional speed loop with torque saturation, and the axis friction
-applied as a proximal step (Coulomb friction stops the base but never reverses it).
+:class:`CommandShaper` (firmware speed clamp, velocity-smoother rate limit, wheel targets with
+the per-wheel speed cap), :func:`drive_step` (per-wheel proportional speed loops with torque
+saturation and the axis friction as a proximal step) and :func:`friction_of` call the same
+compiled arithmetic as the reduced model (:mod:`robots.reduced`) and the pybullet robot
+(:func:`robots._kernel.pybullet_substep`), so there is one copy of it.
 
 Example
 -------
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from robots import _kernel
 from robots.params import BaseGeometry, DriveParams
 
 __all__ = ["CommandShaper", "DriveStep", "clip", "drive_step", "friction_of"]
@@ -42,10 +44,20 @@ class CommandShaper:
     """
 
     def __init__(self, params: DriveParams, geometry: BaseGeometry) -> None:
-        self.params = params
         self.geometry = geometry
+        self.params = params
         self.ref_v = 0.0
         self.ref_w = 0.0
+
+    @property
+    def params(self) -> DriveParams:
+        """The drive parameters in use."""
+        return self._params
+
+    @params.setter
+    def params(self, params: DriveParams) -> None:
+        self._params = params
+        self._packed = _kernel.pack_params(params, self.geometry)
 
     def reset(self, v: float = 0.0, w: float = 0.0) -> None:
         """Set the smoother's reference (the base's current velocity)."""
@@ -53,28 +65,10 @@ class CommandShaper:
 
     def wheel_targets(self, u_v: float, u_w: float, dt: float) -> tuple[float, float]:
         """Advance the smoother by ``dt`` s with command (u_v, u_w); return (right, left) rad/s."""
-        p, g = self.params, self.geometry
-        u_v = clip(u_v, p.speed_lim_v_mps)
-        u_w = clip(u_w, p.speed_lim_w_radps)
-        self.ref_v += clip(u_v - self.ref_v, p.accel_lim_v_mps2 * dt)
-        self.ref_w += clip(u_w - self.ref_w, p.accel_lim_w_radps2 * dt)
-        half_l, r = 0.5 * g.wheel_separation_m, g.wheel_radius_m
-        wr = (self.ref_v + self.ref_w * half_l) / r
-        wl = (self.ref_v - self.ref_w * half_l) / r
-        peak = max(abs(wr), abs(wl))
-        if peak > p.wheel_speed_max_radps:
-            scale = p.wheel_speed_max_radps / peak
-            wr *= scale
-            wl *= scale
+        self.ref_v, self.ref_w, wr, wl = _kernel.shape_command(
+            u_v, u_w, self.ref_v, self.ref_w, dt, self._packed
+        )
         return wr, wl
-
-
-def _coulomb_prox(x_nc: float, impulse_pos: float, impulse_neg: float) -> float:
-    if x_nc > impulse_pos:
-        return x_nc - impulse_pos
-    if x_nc < -impulse_neg:
-        return x_nc + impulse_neg
-    return 0.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -104,45 +98,15 @@ def drive_step(
     params: DriveParams,
     geometry: BaseGeometry,
 ) -> DriveStep:
-    r"""One step of the wheel loops and axis friction, discretised as the reduced model does.
+    r"""One step of the wheel loops and axis friction (:func:`robots._kernel.wheel_loops`).
 
     Unsaturated: backward Euler of the P loops and viscous friction, then Coulomb friction as a
     proximal step; the torques are the loops' torques at the end-of-step wheel speeds.
     Saturated (a torque above ``wheel_torque_max_nm``): clipped torques of the current wheel
-    speeds. Mirrors ``robots.reduced._step`` line by line (a test checks they agree).
+    speeds.
     """
-    p = params
-    r, sep = geometry.wheel_radius_m, geometry.wheel_separation_m
-    half_l = 0.5 * sep
-    m, inertia, k = (
-        p.total_mass_kg(geometry),
-        p.total_yaw_inertia_kgm2(geometry),
-        p.motor_gain_nms_per_rad,
-    )
-    ref_v = 0.5 * r * (wr_ref + wl_ref)
-    ref_w = r * (wr_ref - wl_ref) / sep
-    kv = 2.0 * k / (r * r)
-    kw = k * sep * sep / (2.0 * r * r)
-    den_v = m + dt * (kv + p.viscous_v_ns_per_m)
-    den_w = inertia + dt * (kw + p.viscous_w_nms_per_rad)
-    v_nc = (m * v + dt * kv * ref_v) / den_v
-    w_nc = (inertia * w + dt * kw * ref_w) / den_w
-    v1 = _coulomb_prox(v_nc, dt * p.coulomb_v_fwd_n / den_v, dt * p.coulomb_v_bwd_n / den_v)
-    w1 = _coulomb_prox(w_nc, dt * p.coulomb_w_nm / den_w, dt * p.coulomb_w_nm / den_w)
-    tr = k * (wr_ref - (v1 + w1 * half_l) / r)
-    tl = k * (wl_ref - (v1 - w1 * half_l) / r)
-    tmax = p.wheel_torque_max_nm
-    if max(abs(tr), abs(tl)) > tmax:
-        tr = clip(k * (wr_ref - (v + w * half_l) / r), tmax)
-        tl = clip(k * (wl_ref - (v - w * half_l) / r), tmax)
-        force = (tr + tl) / r
-        torque = (tr - tl) * half_l / r
-        den_v = m + dt * p.viscous_v_ns_per_m
-        den_w = inertia + dt * p.viscous_w_nms_per_rad
-        v_nc = (m * v + dt * force) / den_v
-        w_nc = (inertia * w + dt * torque) / den_w
-        v1 = _coulomb_prox(v_nc, dt * p.coulomb_v_fwd_n / den_v, dt * p.coulomb_v_bwd_n / den_v)
-        w1 = _coulomb_prox(w_nc, dt * p.coulomb_w_nm / den_w, dt * p.coulomb_w_nm / den_w)
+    packed = _kernel.pack_params(params, geometry)
+    v1, w1, tr, tl = _kernel.wheel_loops(v, w, wr_ref, wl_ref, dt, packed)
     return DriveStep(v1=v1, w1=w1, torque_l=tl, torque_r=tr)
 
 
@@ -157,6 +121,7 @@ def friction_of(
     stuck (it holds the base against a drive below breakaway, and never reverses it).
     """
     r, half_l = geometry.wheel_radius_m, 0.5 * geometry.wheel_separation_m
-    force = m * (step.v1 - v) / dt - (step.torque_r + step.torque_l) / r
-    torque = inertia * (step.w1 - w) / dt - (step.torque_r - step.torque_l) * half_l / r
+    force, torque = _kernel.axis_friction(
+        v, w, step.v1, step.w1, step.torque_r, step.torque_l, dt, m, inertia, r, half_l
+    )
     return force, torque

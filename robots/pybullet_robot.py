@@ -10,15 +10,15 @@ model (:mod:`robots.reduced`):
 2. firmware speed clamp, velocity-smoother rate limits, per-wheel speed cap (both wheels
    scaled together) -> wheel speed targets;
 3. per-wheel proportional speed loops :math:`\tau = \mathrm{clip}(K(\omega_{ref}-\omega),
-   \pm\tau_{max})`, discretised exactly as the reduced model does (:func:`robots._chain.
-   drive_step`: backward Euler while unsaturated, torques of the current wheel speeds when
-   saturated), applied with ``TORQUE_CONTROL`` (the default velocity motors are disabled).
+   \pm\tau_{max})`, discretised exactly as the reduced model does (the shared kernel
+   :func:`robots._kernel.pybullet_substep`: backward Euler while unsaturated, torques of the
+   current wheel speeds when saturated), applied with ``TORQUE_CONTROL`` (the default velocity motors are disabled).
    The loops see the measured wheel speeds: while the tyres grip these equal the speeds implied
    by the base motion; a slipping wheel adds :math:`-K' s` for its slip :math:`s` (rad/s), with
    :math:`K' = K/(1 + dt\,K/J_w)` the gain of a free wheel of spin inertia :math:`J_w`;
 4. Coulomb and viscous friction of the forward and yaw axes, applied as an external force
-   along the heading and a yaw torque at the centre of mass (:func:`robots._chain.
-   friction_of`): :math:`-b v - c\,\mathrm{sgn}(v)` while moving, and while stuck just what
+   along the heading and a yaw torque at the centre of mass (:func:`robots._kernel.
+   axis_friction`): :math:`-b v - c\,\mathrm{sgn}(v)` while moving, and while stuck just what
    holds the base (at most the Coulomb level), so it stops the base without reversing it and a
    drive below breakaway does not move it. (Friction in the wheel joints could not give
    independent forward and yaw Coulomb terms.)
@@ -62,7 +62,7 @@ from types import TracebackType
 import numpy as np
 from numpy.typing import NDArray
 
-from robots._chain import CommandShaper, clip, drive_step, friction_of
+from robots._kernel import pack_params, pybullet_substep
 from robots._pybullet import pybullet as p
 from robots._urdf import LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT, urdf_path
 from robots.errors import RobotsError, RobotsValueError
@@ -202,7 +202,11 @@ class PybulletRobot:
             )
         )
         self._setup_contacts()
-        self._shaper = CommandShaper(params or self.spec.drive, self.spec.geometry)
+        # the velocity smoother's reference [ref_v, ref_w], advanced in place by the kernel
+        self._ref = np.zeros(2)
+        wheels = self.spec.wheels
+        self._wheel_radius_m, self._wheel_separation_m = wheels.radius_m, wheels.separation_m
+        self._spin_inertia = wheels.spin_inertia_kgm2
         self.set_drive_params(params or self.spec.drive)
         self.reset(*start_pose)
 
@@ -285,8 +289,6 @@ class PybulletRobot:
                 f"params must be a robots.DriveParams, got {type(params).__name__}"
             )
         geo = self.spec.geometry
-        m_eff = params.total_mass_kg(geo)
-        i_eff = params.total_yaw_inertia_kgm2(geo)
         mass = lumped_base_mass_kg(self.spec) + params.added_mass_kg
         ixx, iyy, izz = lumped_base_inertia(self.spec)
         izz += params.added_yaw_inertia_kgm2
@@ -305,8 +307,7 @@ class PybulletRobot:
         )
         self._check_applied(mass, (ixx, iyy, izz))
         self._params = params
-        self._shaper.params = params
-        self._m_eff, self._i_eff = m_eff, i_eff
+        self._packed = pack_params(params, geo)
 
     def _check_applied(self, mass: float, inertia: tuple[float, float, float]) -> None:
         c, body = self.client, self.body_id
@@ -353,7 +354,7 @@ class PybulletRobot:
         p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=c)
         for j in _WHEELS:
             p.resetJointState(body, j, 0.0, 0.0, physicsClientId=c)
-        self._shaper.reset()
+        self._ref[:] = 0.0
         self.time_s = 0.0
         self._cmd_t: list[float] = []
         self._cmd_v: list[float] = []
@@ -378,7 +379,7 @@ class PybulletRobot:
         for j, side in ((LEFT_WHEEL_JOINT, -1.0), (RIGHT_WHEEL_JOINT, 1.0)):
             angle = p.getJointState(body, j, physicsClientId=c)[0]
             p.resetJointState(body, j, angle, (v + side * w * half) / r, physicsClientId=c)
-        self._shaper.reset(v, w)
+        self._ref[0], self._ref[1] = v, w
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -451,8 +452,9 @@ class PybulletRobot:
             )
         else:
             u_v = u_w = np.zeros(n)
-        for i in range(n):
-            self._physics_step(float(u_v[i]), float(u_w[i]))
+        physics_step = self._physics_step
+        for a, b in zip(u_v.tolist(), u_w.tolist(), strict=True):
+            physics_step(a, b)
         self.time_s += n * self.dt_s
         return self.velocity
 
@@ -507,10 +509,12 @@ class PybulletRobot:
         n = max(1, math.ceil((float(t_out_s[-1]) - t0) / self.dt_s))
         grid = t0 + self.dt_s * np.arange(n + 1, dtype=np.float64)
         u_v, u_w = self._delayed(cmd_t_s, cmd_v, cmd_w, grid[:-1])
-        rec = np.empty((n + 1, 7))
-        for i in range(n):
-            rec[i] = self._physics_step(float(u_v[i]), float(u_w[i]))
-        rec[n] = self._sample()
+        rows = [
+            self._physics_step(a, b, record=True)
+            for a, b in zip(u_v.tolist(), u_w.tolist(), strict=True)
+        ]
+        rows.append(self._sample())
+        rec = np.array(rows, dtype=np.float64)
         self.time_s = n * self.dt_s
         rec[:, 6] = np.unwrap(rec[:, 6])
         col = [np.interp(t_out_s, grid, rec[:, j]) for j in range(7)]
@@ -546,35 +550,45 @@ class PybulletRobot:
         v = lin[0] * math.cos(yaw) + lin[1] * math.sin(yaw)
         return (v, ang[2], 0.5 * r * (wr + wl), r * (wr - wl) / sep, pos[0], pos[1], yaw)
 
-    def _physics_step(self, u_v: float, u_w: float) -> tuple[float, ...]:
-        """One physics step with the delayed command (u_v, u_w); returns the state before it."""
-        c, body, prm, dt = self.client, self.body_id, self._params, self.dt_s
-        r, sep = self.spec.wheels.radius_m, self.spec.wheels.separation_m
-        wr_ref, wl_ref = self._shaper.wheel_targets(u_v, u_w, dt)
-        states = p.getJointStates(body, _WHEELS, physicsClientId=c)
+    def _physics_step(
+        self, u_v: float, u_w: float, *, record: bool = False
+    ) -> tuple[float, ...] | None:
+        """One physics step with the delayed command (u_v, u_w).
+
+        Three state reads, the drive arithmetic in one call of the shared kernel
+        (:func:`robots._kernel.pybullet_substep`), the wheel torques in one
+        ``setJointMotorControlArray``, the axis friction, ``stepSimulation``. With ``record``
+        returns the state before the step (as :meth:`_sample`).
+        """
+        c, body = self.client, self.body_id
+        (_, wl, _, _), (_, wr, _, _) = p.getJointStates(body, _WHEELS, physicsClientId=c)
         lin, ang = p.getBaseVelocity(body, physicsClientId=c)
         pos, orn = p.getBasePositionAndOrientation(body, physicsClientId=c)
-        yaw = _yaw_of(orn)
-        cy, sy = math.cos(yaw), math.sin(yaw)
-        v, w = lin[0] * cy + lin[1] * sy, ang[2]
-        step = drive_step(v, w, wr_ref, wl_ref, dt, prm, self.spec.geometry)
-        # the loops act on the measured wheel speeds: the model's torques (wheel speeds from
-        # the base motion) plus K times the slip of each wheel (zero while the tyres grip)
-        k, tmax, half_l = prm.motor_gain_nms_per_rad, prm.wheel_torque_max_nm, 0.5 * sep
-        slip_l = states[0][1] - (v - w * half_l) / r
-        slip_r = states[1][1] - (v + w * half_l) / r
-        k_slip = k / (1.0 + dt * k / self.spec.wheels.spin_inertia_kgm2)
-        tl = clip(step.torque_l - k_slip * slip_l, tmax)
-        tr = clip(step.torque_r - k_slip * slip_r, tmax)
+        tl, tr, fx, fy, tz, v, w, yaw = pybullet_substep(
+            self._ref,
+            u_v,
+            u_w,
+            wl,
+            wr,
+            lin[0],
+            lin[1],
+            ang[2],
+            orn[0],
+            orn[1],
+            orn[2],
+            orn[3],
+            self.dt_s,
+            self._packed,
+            self._spin_inertia,
+        )
         p.setJointMotorControlArray(
-            body, _WHEELS, p.TORQUE_CONTROL, forces=[tl, tr], physicsClientId=c
+            body, _WHEELS, p.TORQUE_CONTROL, forces=(tl, tr), physicsClientId=c
         )
         self._last_torques = (tl, tr)
-        force, torque = friction_of(step, v, w, dt, self._m_eff, self._i_eff, self.spec.geometry)
-        p.applyExternalForce(
-            body, -1, [force * cy, force * sy, 0.0], pos, p.WORLD_FRAME, physicsClientId=c
-        )
-        p.applyExternalTorque(body, -1, [0.0, 0.0, torque], p.WORLD_FRAME, physicsClientId=c)
-        sample = self._record(states, lin, ang, pos, yaw)
+        p.applyExternalForce(body, -1, (fx, fy, 0.0), pos, p.WORLD_FRAME, physicsClientId=c)
+        p.applyExternalTorque(body, -1, (0.0, 0.0, tz), p.WORLD_FRAME, physicsClientId=c)
         p.stepSimulation(physicsClientId=c)
-        return sample
+        if not record:
+            return None
+        r, sep = self._wheel_radius_m, self._wheel_separation_m
+        return (v, w, 0.5 * r * (wr + wl), r * (wr - wl) / sep, pos[0], pos[1], yaw)

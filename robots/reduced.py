@@ -37,6 +37,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from robots._kernel import drive_step, pack_params
 from robots.errors import RobotsValueError
 from robots.params import BaseGeometry, DriveParams
 
@@ -62,99 +63,16 @@ DEFAULT_DT_S = 1.0 / 240.0
 
 FloatArray = NDArray[np.float64]
 
-# Index of each entry of the packed parameter vector used by the numba kernels.
-_SPEED_V, _SPEED_W, _ACC_V, _ACC_W, _WMAX, _K, _TMAX = 0, 1, 2, 3, 4, 5, 6
-_CFWD, _CBWD, _CW, _BV, _BW, _MASS, _INERTIA, _R, _L = 7, 8, 9, 10, 11, 12, 13, 14, 15
-_N_PACKED = 16
-
-
-def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
-    """Pack parameters and geometry into the flat float vector the numba kernels take."""
-    p = np.empty(_N_PACKED)
-    p[_SPEED_V] = params.speed_lim_v_mps
-    p[_SPEED_W] = params.speed_lim_w_radps
-    p[_ACC_V] = params.accel_lim_v_mps2
-    p[_ACC_W] = params.accel_lim_w_radps2
-    p[_WMAX] = params.wheel_speed_max_radps
-    p[_K] = params.motor_gain_nms_per_rad
-    p[_TMAX] = params.wheel_torque_max_nm
-    p[_CFWD] = params.coulomb_v_fwd_n
-    p[_CBWD] = params.coulomb_v_bwd_n
-    p[_CW] = params.coulomb_w_nm
-    p[_BV] = params.viscous_v_ns_per_m
-    p[_BW] = params.viscous_w_nms_per_rad
-    p[_MASS] = params.total_mass_kg(geometry)
-    p[_INERTIA] = params.total_yaw_inertia_kgm2(geometry)
-    p[_R] = geometry.wheel_radius_m
-    p[_L] = geometry.wheel_separation_m
-    return p
-
-
-@numba.njit(cache=True, inline="always")
-def _clip(x: float, lim: float) -> float:
-    if x > lim:
-        return lim
-    if x < -lim:
-        return -lim
-    return x
-
-
-@numba.njit(cache=True, inline="always")
-def _coulomb_prox(x_nc: float, impulse_pos: float, impulse_neg: float) -> float:
-    """Apply a Coulomb impulse that opposes motion but never reverses it."""
-    if x_nc > impulse_pos:
-        return x_nc - impulse_pos
-    if x_nc < -impulse_neg:
-        return x_nc + impulse_neg
-    return 0.0
-
 
 @numba.njit(cache=True)
 def _step(
     state: FloatArray, u_v: float, u_w: float, dt: float, p: FloatArray
 ) -> None:  # pragma: no cover - compiled
-    """Advance ``state = [v, w, ref_v, ref_w]`` by one step with (delayed) command (u_v, u_w)."""
-    v, w, rv, rw = state[0], state[1], state[2], state[3]
-    r, half_l = p[_R], 0.5 * p[_L]
-    m, inertia, k = p[_MASS], p[_INERTIA], p[_K]
-    # firmware clamp, then velocity smoother (rate limit on the reference)
-    u_v = _clip(u_v, p[_SPEED_V])
-    u_w = _clip(u_w, p[_SPEED_W])
-    rv += _clip(u_v - rv, p[_ACC_V] * dt)
-    rw += _clip(u_w - rw, p[_ACC_W] * dt)
-    # wheel targets with the per-wheel speed cap (both wheels scaled together)
-    wr_ref = (rv + rw * half_l) / r
-    wl_ref = (rv - rw * half_l) / r
-    peak = max(abs(wr_ref), abs(wl_ref))
-    if peak > p[_WMAX]:
-        s = p[_WMAX] / peak
-        wr_ref *= s
-        wl_ref *= s
-    ref_v = 0.5 * r * (wr_ref + wl_ref)
-    ref_w = r * (wr_ref - wl_ref) / p[_L]
-    # unsaturated: backward Euler of the P loop + viscous friction, per axis
-    kv = 2.0 * k / (r * r)
-    kw = k * p[_L] * p[_L] / (2.0 * r * r)
-    den_v = m + dt * (kv + p[_BV])
-    den_w = inertia + dt * (kw + p[_BW])
-    v_nc = (m * v + dt * kv * ref_v) / den_v
-    w_nc = (inertia * w + dt * kw * ref_w) / den_w
-    v1 = _coulomb_prox(v_nc, dt * p[_CFWD] / den_v, dt * p[_CBWD] / den_v)
-    w1 = _coulomb_prox(w_nc, dt * p[_CW] / den_w, dt * p[_CW] / den_w)
-    tr = k * (wr_ref - (v1 + w1 * half_l) / r)
-    tl = k * (wl_ref - (v1 - w1 * half_l) / r)
-    if max(abs(tr), abs(tl)) > p[_TMAX]:
-        # saturated: torques from the current state, clipped; viscous term kept implicit
-        tr = _clip(k * (wr_ref - (v + w * half_l) / r), p[_TMAX])
-        tl = _clip(k * (wl_ref - (v - w * half_l) / r), p[_TMAX])
-        force = (tr + tl) / r
-        torque = (tr - tl) * half_l / r
-        den_v = m + dt * p[_BV]
-        den_w = inertia + dt * p[_BW]
-        v_nc = (m * v + dt * force) / den_v
-        w_nc = (inertia * w + dt * torque) / den_w
-        v1 = _coulomb_prox(v_nc, dt * p[_CFWD] / den_v, dt * p[_CBWD] / den_v)
-        w1 = _coulomb_prox(w_nc, dt * p[_CW] / den_w, dt * p[_CW] / den_w)
+    """Advance ``state = [v, w, ref_v, ref_w]`` by one step with (delayed) command (u_v, u_w).
+
+    The arithmetic is the shared kernel :func:`robots._kernel.drive_step`.
+    """
+    v1, w1, rv, rw, _, _ = drive_step(state[0], state[1], state[2], state[3], u_v, u_w, dt, p)
     state[0], state[1], state[2], state[3] = v1, w1, rv, rw
 
 
@@ -178,7 +96,7 @@ def _integrate(
 def _integrate_python(
     u_v: FloatArray, u_w: FloatArray, dt: float, p: FloatArray, v0: float, w0: float
 ) -> tuple[FloatArray, FloatArray]:
-    """The same loop in plain Python (the benchmark baseline and the kernels' reference)."""
+    """The same loop in Python, one kernel call per step (the benchmark baseline)."""
     step = _step.py_func
     n = u_v.shape[0]
     out_v = np.empty(n + 1)

@@ -63,7 +63,10 @@ def record() -> dict[str, np.ndarray]:
         red = simulate(params, spec.geometry, **cmd, v0=0.05, w0=-0.1)
         out[f"{case}/simulate"] = np.stack([red.v, red.w])
         drive = ReducedDrive(params, spec.geometry)
-        steps = [drive.step(float(a), float(b), 0.1) for a, b in zip(cmd["cmd_v"], cmd["cmd_w"])]
+        steps = [
+            drive.step(float(a), float(b), 0.1)
+            for a, b in zip(cmd["cmd_v"], cmd["cmd_w"], strict=True)
+        ]
         out[f"{case}/reduced_step"] = np.array(steps)
         with PybulletRobot(spec, params=params) as robot:
             rep = robot.replay(**cmd, v0=0.05, w0=-0.1)
@@ -72,7 +75,7 @@ def record() -> dict[str, np.ndarray]:
             )
             robot.reset()
             rows = []
-            for a, b in zip(cmd["cmd_v"][:15], cmd["cmd_w"][:15]):
+            for a, b in zip(cmd["cmd_v"][:15], cmd["cmd_w"][:15], strict=True):
                 v, w = robot.step(float(a), float(b), 0.1)
                 rows.append((v, w, *robot.wheel_torques, *robot.pose))
             out[f"{case}/pybullet_step"] = np.array(rows)

@@ -1,4 +1,5 @@
-"""The pybullet robot's per-step drive arithmetic equals the reduced model's kernel."""
+"""The one drive-step kernel (robots._kernel): compiled equals interpreted, the Python view
+(robots._chain) and the pybullet substep give its numbers, friction is bounded."""
 
 from __future__ import annotations
 
@@ -8,9 +9,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robots import ReducedDrive, load_spec, simulate
+from robots import ReducedDrive, _kernel, load_spec, simulate
 from robots._chain import CommandShaper, drive_step, friction_of
-from robots.reduced import _step, pack_params
+from robots._kernel import pack_params, pybullet_substep
+from robots.reduced import _step
 
 SPEC = load_spec("turtlebot3_burger")
 
@@ -42,17 +44,35 @@ def test_shaper_and_drive_step_match_the_reduced_kernel(
         added_mass_kg=added, wheel_torque_max_nm=tmax, accel_lim_v_mps2=2.0, accel_lim_w_radps2=9.0
     )
     geo = SPEC.geometry
+    packed = pack_params(params, geo)
+    # the reduced model's compiled step
     state = np.array([v, w, ref_v, ref_w])
-    _step.py_func(state, u_v, u_w, dt, pack_params(params, geo))
+    _step(state, u_v, u_w, dt, packed)
+    # the same arithmetic interpreted by Python (numba's py_func all the way down)
+    ref_v1, ref_w1, wr, wl = _kernel.shape_command.py_func(u_v, u_w, ref_v, ref_w, dt, packed)
+    v1, w1, tr, tl = _kernel.wheel_loops.py_func(v, w, wr, wl, dt, packed)
+    assert np.allclose(state, [v1, w1, ref_v1, ref_w1], rtol=1e-12, atol=1e-12)
+    # the Python view used step by step
     shaper = CommandShaper(params, geo)
     shaper.reset(ref_v, ref_w)
-    wr, wl = shaper.wheel_targets(u_v, u_w, dt)
+    assert np.allclose(shaper.wheel_targets(u_v, u_w, dt), (wr, wl), rtol=1e-12, atol=1e-12)
     out = drive_step(v, w, wr, wl, dt, params, geo)
-    assert math.isclose(out.v1, state[0], rel_tol=1e-12, abs_tol=1e-12)
-    assert math.isclose(out.w1, state[1], rel_tol=1e-12, abs_tol=1e-12)
-    assert math.isclose(shaper.ref_v, state[2], rel_tol=1e-12, abs_tol=1e-12)
-    assert math.isclose(shaper.ref_w, state[3], rel_tol=1e-12, abs_tol=1e-12)
+    assert math.isclose(out.v1, v1, rel_tol=1e-12, abs_tol=1e-12)
+    assert math.isclose(out.w1, w1, rel_tol=1e-12, abs_tol=1e-12)
+    assert math.isclose(shaper.ref_v, ref_v1, rel_tol=1e-12, abs_tol=1e-12)
+    assert math.isclose(shaper.ref_w, ref_w1, rel_tol=1e-12, abs_tol=1e-12)
     assert abs(out.torque_l) <= tmax + 1e-12 and abs(out.torque_r) <= tmax + 1e-12
+    # the pybullet substep on a base heading along +x whose wheels roll without slip
+    r, half_l = geo.wheel_radius_m, 0.5 * geo.wheel_separation_m
+    ref = np.array([ref_v, ref_w])
+    got = pybullet_substep(
+        ref, u_v, u_w, (v - w * half_l) / r, (v + w * half_l) / r, v, 0.0, w,
+        0.0, 0.0, 0.0, 1.0, dt, packed, SPEC.wheels.spin_inertia_kgm2,
+    )  # fmt: skip
+    force, torque = friction_of(out, v, w, dt, packed[12], packed[13], geo)
+    assert np.allclose(ref, [ref_v1, ref_w1], rtol=1e-12, atol=1e-12)
+    assert np.allclose(got[:5], (tl, tr, force, 0.0, torque), rtol=1e-9, atol=1e-9)
+    assert got[5:] == (v, w, 0.0)
 
 
 @settings(max_examples=200, deadline=None)

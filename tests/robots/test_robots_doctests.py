@@ -14,6 +14,7 @@ MODULES = [
     "robots.sensors",
     "robots.pybullet_robot",
     "robots._chain",
+    "robots._kernel",
 ]
 
 

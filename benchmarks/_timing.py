@@ -1,0 +1,134 @@
+"""Timing helpers shared by the benchmarks: alternate the contenders, same repeat count, report
+min/median/max, and time whole commands as a user runs them (cold and warm).
+
+Not a public module (benchmarks are scripts); imported as ``from _timing import ...`` with the
+``benchmarks/`` folder on ``sys.path`` (the scripts run from there).
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["Stats", "alternate", "command_times", "fmt_ratio", "machine", "record"]
+
+REPO = Path(__file__).resolve().parents[1]
+#: Where :func:`record` appends headline figures (``make bench`` turns them into the README table).
+RESULTS = Path(os.environ.get("SIM2REAL_BENCH_RESULTS", REPO / "benchmarks" / ".results.jsonl"))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Stats:
+    """Wall-clock seconds of the repeats of one contender."""
+
+    times_s: tuple[float, ...]
+
+    @property
+    def min(self) -> float:
+        return min(self.times_s)
+
+    @property
+    def median(self) -> float:
+        return statistics.median(self.times_s)
+
+    @property
+    def max(self) -> float:
+        return max(self.times_s)
+
+    def fmt(self, scale: float = 1e3, unit: str = "ms") -> str:
+        """``min/median/max`` in ``unit`` (``scale`` converts from seconds)."""
+        return (
+            f"{self.min * scale:.3g}/{self.median * scale:.3g}/{self.max * scale:.3g} {unit} "
+            "(min/median/max)"
+        )
+
+    def rate(self, count: float) -> tuple[float, float, float]:
+        """``count`` per second at (slowest, median, fastest) repeat."""
+        return count / self.max, count / self.median, count / self.min
+
+
+def alternate(
+    contenders: Mapping[str, Callable[[], object]], repeats: int, *, warmup: bool = True
+) -> dict[str, Stats]:
+    """Time each contender ``repeats`` times, interleaved (a, b, a, b, ...) in one process."""
+    names = list(contenders)
+    if warmup:
+        for name in names:
+            contenders[name]()
+    times: dict[str, list[float]] = {name: [] for name in names}
+    for i in range(repeats):
+        order = names if i % 2 == 0 else names[::-1]
+        for name in order:
+            t0 = time.perf_counter()
+            contenders[name]()
+            times[name].append(time.perf_counter() - t0)
+    return {name: Stats(times_s=tuple(ts)) for name, ts in times.items()}
+
+
+def fmt_ratio(num: Stats, den: Stats) -> str:
+    """Per-repeat ratios num/den (paired by repeat): min/median/max."""
+    ratios = [a / b for a, b in zip(num.times_s, den.times_s, strict=True)]
+    return f"{min(ratios):.3g}/{statistics.median(ratios):.3g}/{max(ratios):.3g} (min/median/max)"
+
+
+def paired_ratios(num: Stats, den: Stats) -> tuple[float, float, float]:
+    """(min, median, max) of the per-repeat ratios num/den."""
+    ratios = [a / b for a, b in zip(num.times_s, den.times_s, strict=True)]
+    return min(ratios), statistics.median(ratios), max(ratios)
+
+
+def command_times(
+    commands: Mapping[str, Sequence[str]], repeats: int, *, drop_caches: Callable[[], None] | None
+) -> dict[str, tuple[float, Stats]]:
+    """Whole-process wall time of each command: (cold, warm stats), commands alternated.
+
+    "Cold" is the first run after ``drop_caches`` (e.g. removing numba's cache and
+    ``__pycache__`` of the package); "warm" are the following ``repeats`` runs.
+    """
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+
+    def run(argv: Sequence[str]) -> float:
+        t0 = time.perf_counter()
+        subprocess.run(argv, check=True, capture_output=True, env=env, cwd=REPO)
+        return time.perf_counter() - t0
+
+    cold: dict[str, float] = {}
+    for name, argv in commands.items():
+        if drop_caches is not None:
+            drop_caches()
+        cold[name] = run(argv)
+    warm: dict[str, list[float]] = {name: [] for name in commands}
+    names = list(commands)
+    for i in range(repeats):
+        for name in names if i % 2 == 0 else names[::-1]:
+            warm[name].append(run(commands[name]))
+    return {name: (cold[name], Stats(times_s=tuple(warm[name]))) for name in names}
+
+
+def machine() -> str:
+    """One line naming the machine: CPU model, cores, Python."""
+    cpu = "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, Python {sys.version.split()[0]}"
+
+
+def record(bench: str, figure: str, value: str, target: str, met: bool | None) -> None:
+    """Append one headline figure to :data:`RESULTS` (one JSON object per line)."""
+    import json
+
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    row = {"bench": bench, "figure": figure, "value": value, "target": target, "met": met}
+    with RESULTS.open("a", encoding="utf-8") as fh:
+        fh.write(json.dumps(row) + "\n")
