@@ -221,6 +221,21 @@ class OdometrySpec:
     w_source: str
     rate_hz: float
 
+    @property
+    def v_window_s(self) -> float:
+        """Window over which the reported v averages the true speed, s.
+
+        Encoder odometry (``v_source: wheels``) differences wheel ticks over one odometry
+        period, so it reports the mean speed over ``1 / rate_hz``; the default of
+        ``sysid fit`` and ``sim2real agree`` (``--odom-v-window auto``).
+
+        Examples
+        --------
+        >>> round(OdometrySpec(v_source="wheels", w_source="imu", rate_hz=30.0).v_window_s, 4)
+        0.0333
+        """
+        return 1.0 / self.rate_hz if self.v_source == "wheels" else 0.0
+
 
 @dataclass(frozen=True, kw_only=True)
 class RobotSpec:

@@ -80,7 +80,17 @@ FloatArray = NDArray[np.float64]
 T0_NS = 1_700_000_000_000_000_000
 
 #: Command profiles of :func:`command_profile`.
-PROFILES = ("steps", "ramps", "arcs", "reversals", "turns", "teleop", "random_steps", "mixed")
+PROFILES = (
+    "steps",
+    "ramps",
+    "arcs",
+    "reversals",
+    "turns",
+    "teleop",
+    "goals",
+    "random_steps",
+    "mixed",
+)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -378,6 +388,15 @@ def _block(
     elif kind == "turns":
         _hold(out, 0.0, sign * rng.uniform(0.3, 0.9) * wm, rng.uniform(1.5, 2.5), hz)
         _hold(out, 0.0, -sign * rng.uniform(0.3, 0.9) * wm, rng.uniform(1.5, 2.5), hz)
+    elif kind == "goals":  # go-to-goal: a proportional in-place turn, then a gently steered leg
+        heading = rng.uniform(-2.5, 2.5)
+        while abs(heading) > 0.05:
+            w = float(np.clip(1.2 * heading, -0.55 * wm, 0.55 * wm))
+            out.append((0.0, w, True))
+            heading -= w * 0.7 / hz
+        speed, phase = rng.uniform(0.45, 1.0) * vm, rng.uniform(0.0, 2.0 * math.pi)
+        for k in range(round(rng.uniform(3.0, 6.0) * hz)):
+            out.append((speed, 0.05 * wm * math.sin(phase + 0.9 * k / hz), True))
     else:  # teleop: held key combinations; sometimes the publisher stops (key released)
         for _ in range(int(rng.integers(2, 4))):
             v = float(rng.choice([0.0, 0.5, 0.9, -0.5])) * vm
@@ -402,8 +421,9 @@ def command_profile(
     ``kind`` is one of :data:`PROFILES`: ``steps`` (v or w steps), ``ramps`` (up and down in
     v), ``arcs`` (v and w together), ``reversals`` (forward then backward), ``turns`` (in place,
     both ways), ``teleop`` (held key combinations with moments where the publisher falls
-    silent), ``random_steps`` (:func:`sysid.synthetic.step_commands`) or ``mixed`` (random
-    blocks of all of these). Each profile starts with 1.5 s at rest; blocks end with a pause.
+    silent), ``goals`` (go-to-goal legs: a proportional in-place turn with decaying w, then a
+    leg with gentle heading corrections), ``random_steps``
+    (:func:`sysid.synthetic.step_commands`) or ``mixed`` (random blocks of the first six). Each profile starts with 1.5 s at rest; blocks end with a pause.
     Times with no command published (teleop silences) are missing from ``t_s``.
 
     Examples
@@ -429,7 +449,7 @@ def command_profile(
         )
     out: list[tuple[float, float, bool]] = []
     _hold(out, 0.0, 0.0, 1.5, rate_hz)
-    kinds = PROFILES[:6]
+    kinds = PROFILES[:6]  # "mixed": the excitation blocks and teleop
     n = int(duration_s * rate_hz)
     while len(out) < n:
         block = kinds[int(rng.integers(len(kinds)))] if kind == "mixed" else kind

@@ -68,7 +68,8 @@ class StudyConfig:
     band_level : float
         Central probability of the predictive band, in (0, 1).
     odom_v_window : float or "auto"
-        Odometry window of v, s (see :func:`sim2real.replay.replay`).
+        Odometry window of v, s (see :func:`sim2real.replay.replay`); ``"auto"`` (default)
+        takes the robot's (:attr:`robots.spec.OdometrySpec.v_window_s`), like ``sysid fit``.
     cmd_topic, odom_topic : str, optional
         Topics (default: auto-detect).
     json_path, report_path, sim_out : str or Path, optional
@@ -89,7 +90,7 @@ class StudyConfig:
     seed: int = 0
     spread: float = 1.0
     band_level: float = 0.9
-    odom_v_window: float | str = 0.0
+    odom_v_window: float | str = "auto"
     cmd_topic: str | None = None
     odom_topic: str | None = None
     json_path: str | Path | None = None
@@ -171,8 +172,12 @@ def provenance_rows(
     return rows
 
 
-def parse_odom_v_window(value: float | str, rate_hz: float) -> float:
-    """Seconds of ``--odom-v-window``: a number in [0, 1] or ``"auto"`` (``1 / rate_hz``).
+def parse_odom_v_window(value: float | str, rate_hz: float, *, v_source: str = "wheels") -> float:
+    """Seconds of ``--odom-v-window``: a number in [0, 1] or ``"auto"``.
+
+    ``"auto"`` is the robot's own window (:attr:`robots.spec.OdometrySpec.v_window_s`): one
+    odometry period ``1 / rate_hz`` when v comes from wheel encoders (``v_source="wheels"``),
+    0 otherwise.
 
     Examples
     --------
@@ -182,7 +187,7 @@ def parse_odom_v_window(value: float | str, rate_hz: float) -> float:
     from sim2real.errors import Sim2RealValueError
 
     if isinstance(value, str) and value.strip() == "auto":
-        return 1.0 / rate_hz
+        return 1.0 / rate_hz if v_source == "wheels" else 0.0
     try:
         seconds = float(value)
     except (TypeError, ValueError):
@@ -249,7 +254,9 @@ def run_study(config: StudyConfig) -> StudyResult:
 
     _check_config(config)
     spec = load_spec(config.robot)
-    window_s = parse_odom_v_window(config.odom_v_window, spec.odometry.rate_hz)
+    window_s = parse_odom_v_window(
+        config.odom_v_window, spec.odometry.rate_hz, v_source=spec.odometry.v_source
+    )
     params = None
     if config.params_path is not None:
         params = load_drive_params(config.params_path, robot=spec.name, base=spec.drive)

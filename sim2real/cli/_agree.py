@@ -18,6 +18,7 @@ from sim2real.cli._common import add_command
 
 # light (stdlib-only at import); re-exported for callers of the old names (sim2real demo)
 from sim2real.study import (
+    StudyConfig,
     StudyResult,
     parse_odom_v_window,
     provenance_rows,
@@ -34,6 +35,7 @@ __all__ = [
     "provenance_rows",
     "register",
     "run_agree",
+    "study_config",
     "summary_table",
     "write_json",
 ]
@@ -49,7 +51,7 @@ _EXAMPLES = """\
       --spread 5                   # is a 5x wider randomisation wide enough? (coverage)
   sim2real agree val.mcap --robot turtlebot3_burger --engine reduced --sim-out sim.mcap
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml \
-      --odom-v-window auto         # compare v as the encoder odometry reports it
+      --odom-v-window 0            # compare the instantaneous simulated v
 """
 
 _DESCRIPTION = """\
@@ -62,8 +64,9 @@ Only active samples count (a command is held or the robot moves). A sample agree
 |v_sim - v_real| <= tol_v and |w_sim - w_real| <= tol_w. --json writes agreement,
 agreement_v, agreement_w, fit_percent_v, fit_percent_w, rmse_v, rmse_w, lag_s_v, lag_s_w,
 n_samples, n_active, tol_v, tol_w, robot, params_file, log_file, log_sha256 (plus coverage
-with --ensemble). With --odom-v-window the simulated v is averaged over the preceding window,
-as wheel-encoder odometry reports v (use the same window as 'sysid fit --odom-v-window').
+with --ensemble). The simulated v is averaged over the preceding --odom-v-window, as
+wheel-encoder odometry reports v; the default 'auto' takes it from the robot spec (one
+odometry period for an encoder base), like 'sysid fit'.
 Exit codes: 0 ok, 1 agreement below --min-agreement, 2 bad input.
 """
 
@@ -112,12 +115,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     p.add_argument(
         "--odom-v-window",
-        default="0",
+        default="auto",
         metavar="S|auto",
         help=(
-            "odometry v is a wheel-encoder tick difference over this window, s ('auto': one "
-            "period of the spec's odometry rate, e.g. 1/30 s on a TurtleBot3); the simulated v "
-            "is averaged the same way; 0 = compare the instantaneous simulated v (default)"
+            "odometry v is a wheel-encoder tick difference over this window, s; the simulated v "
+            "is averaged the same way (default 'auto': from the spec's odometry, one period for "
+            "an encoder base, e.g. 1/30 s on a TurtleBot3, 0 otherwise; like 'sysid fit'); "
+            "0 = compare the instantaneous simulated v"
         ),
     )
     p.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
@@ -137,7 +141,7 @@ def run_agree(
     seed: int = 0,
     spread: float = 1.0,
     band_level: float = 0.9,
-    odom_v_window: float | str = 0.0,
+    odom_v_window: float | str = "auto",
     cmd_topic: str | None = None,
     odom_topic: str | None = None,
     json_path: str | Path | None = None,
@@ -188,7 +192,7 @@ def _command_line(args: argparse.Namespace) -> str:
         ("--seed", args.seed if args.ensemble is not None else None),
         ("--spread", args.spread if args.ensemble is not None else None),
         ("--band-level", args.band_level if args.ensemble is not None else None),
-        ("--odom-v-window", args.odom_v_window if args.odom_v_window != "0" else None),
+        ("--odom-v-window", args.odom_v_window if args.odom_v_window != "auto" else None),
         ("--cmd-topic", args.cmd_topic),
         ("--odom-topic", args.odom_topic),
     ):
@@ -197,9 +201,36 @@ def _command_line(args: argparse.Namespace) -> str:
     return shlex.join(parts)
 
 
+def study_config(args: argparse.Namespace) -> StudyConfig:
+    """The :class:`~sim2real.study.StudyConfig` of parsed ``sim2real agree`` arguments.
+
+    ``sim2real demo`` parses the README tour's ``agree`` command line and runs this config, so
+    the demo and the tour compute the same figures.
+    """
+    return StudyConfig(
+        log=args.log,
+        robot=args.robot,
+        params_path=args.params,
+        engine=args.engine,
+        tol_v=args.tol_v,
+        tol_w=args.tol_w,
+        ensemble_n=args.ensemble,
+        seed=args.seed,
+        spread=args.spread,
+        band_level=args.band_level,
+        odom_v_window=args.odom_v_window,
+        cmd_topic=args.cmd_topic,
+        odom_topic=args.odom_topic,
+        json_path=args.json,
+        report_path=args.report,
+        sim_out=args.sim_out,
+        command_line=_command_line(args),
+    )
+
+
 def _handle(args: argparse.Namespace) -> int:
     from sim2real.errors import Sim2RealValueError
-    from sim2real.study import StudyConfig, run_study
+    from sim2real.study import run_study
 
     gate = args.min_agreement
     if gate is not None and not (math.isfinite(gate) and 0.0 <= gate <= 1.0):
@@ -207,27 +238,7 @@ def _handle(args: argparse.Namespace) -> int:
             f"--min-agreement must be a fraction between 0 and 1, got {gate!r}; "
             "e.g. --min-agreement 0.9 for 90 %"
         )
-    result = run_study(
-        StudyConfig(
-            log=args.log,
-            robot=args.robot,
-            params_path=args.params,
-            engine=args.engine,
-            tol_v=args.tol_v,
-            tol_w=args.tol_w,
-            ensemble_n=args.ensemble,
-            seed=args.seed,
-            spread=args.spread,
-            band_level=args.band_level,
-            odom_v_window=args.odom_v_window,
-            cmd_topic=args.cmd_topic,
-            odom_topic=args.odom_topic,
-            json_path=args.json,
-            report_path=args.report,
-            sim_out=args.sim_out,
-            command_line=_command_line(args),
-        )
-    )
+    result = run_study(study_config(args))
     for warning in result.warnings:  # data repaired while reading: say so, do not hide it
         print(f"sim2real: warning: {args.log}: {warning}", file=sys.stderr)
     print(f"{args.log}: robot {args.robot}, engine {args.engine}")

@@ -1,13 +1,16 @@
-"""``sim2real demo`` (what ``make demo`` runs): sysid on a bundled log, agreement on another.
+"""``sim2real demo`` (what ``make demo`` runs): the README tour's two commands, in-process.
 
-1. fit the drive parameters of the TurtleBot3 Burger to ``data/demo_train.mcap`` (sysid);
-2. replay ``data/demo_validate.mcap`` (a different command sequence) in pybullet with the spec
-   defaults and with the fitted parameters, and measure the agreement of both (the simulated
-   v goes through the odometry model of the fit, ``--odom-v-window auto``, in both);
-3. write ``OUT/params.yaml``, ``OUT/report.html`` (+ PNGs) and ``OUT/summary.json``, and print
-   a short table.
+1. ``sim2real sysid fit data/demo_train.mcap --robot turtlebot3_burger --validate
+   data/demo_validate.mcap -o OUT/params.yaml``: fit the drive model to one session;
+2. ``sim2real agree data/demo_validate.mcap --robot turtlebot3_burger --params OUT/params.yaml
+   --report OUT/report.html --json OUT/agreement.json --ensemble 10``: replay another session
+   (a different kind of driving, 37 ms more latency, more payload, a lower battery) in pybullet
+   with the spec defaults and with the fit, measure both and the randomised band's coverage;
+3. write ``OUT/summary.json`` and print a short table.
 
-The sample logs are synthetic (see ``data/README.md``); they are looked up in
+Every other option is at its default (:func:`tour_commands`), so the tour gives the same
+figures. The sample logs come from a foreign plant (:mod:`sim2real.plants`), not from the
+model that is fitted (see ``data/README.md``); they are looked up in
 ``$SIM2REAL_DATA``, then in ``data/`` of the source checkout, then in
 ``<prefix>/share/sim2real/data`` of an installed package.
 """
@@ -17,6 +20,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -24,7 +28,7 @@ from typing import Any
 
 from sim2real.cli._common import add_command
 
-__all__ = ["find_data_dir", "register", "run_demo"]
+__all__ = ["find_data_dir", "register", "run_demo", "tour_commands"]
 
 _EXAMPLES = """\
   sim2real demo                       # writes sim2real-demo/{report.html,summary.json,params.yaml}
@@ -32,12 +36,14 @@ _EXAMPLES = """\
 """
 
 _DESCRIPTION = """\
-The main job, what `make demo` runs:
-  1. fit the drive parameters of a TurtleBot3 Burger to data/demo_train.mcap (sysid);
-  2. replay data/demo_validate.mcap (a different command sequence) in simulation with the
-     spec defaults and with the fit, and measure the sim-vs-real agreement of both;
-  3. write OUT/params.yaml, OUT/report.html (+ PNGs) and OUT/summary.json and print a table.
-The sample logs are synthetic (data/README.md). They are looked up in $SIM2REAL_DATA, then in
+The main job, what `make demo` runs: the README tour's two commands with default options.
+  1. sim2real sysid fit data/demo_train.mcap --robot turtlebot3_burger \
+         --validate data/demo_validate.mcap -o OUT/params.yaml
+  2. sim2real agree data/demo_validate.mcap --robot turtlebot3_burger --params OUT/params.yaml \
+         --report OUT/report.html --json OUT/agreement.json --ensemble 10
+  3. write OUT/summary.json (before/after agreement, band coverage) and print a table.
+The sample logs are two sessions of a foreign plant (sim2real.plants), a base simulated with
+physics the fitted model does not have (data/README.md). They are looked up in $SIM2REAL_DATA, then in
 data/ of the source checkout, then in <prefix>/share/sim2real/data of an installed package.
 """
 
@@ -92,25 +98,44 @@ def find_data_dir(explicit: str | Path | None = None) -> Path:
     )
 
 
-def run_demo(
+def tour_commands(
     out_dir: str | Path,
+    data_dir: str | Path,
     *,
     engine: str = "pybullet",
     ensemble_n: int = 10,
     seed: int = 0,
-    data_dir: str | Path | None = None,
-) -> dict[str, Any]:
-    """Run the demo; returns the summary written to ``OUT/summary.json``."""
-    from robots.spec import load_spec
-    from sim2real.cli._agree import run_agree, summary_table, write_json
-    from sim2real.errors import Sim2RealValueError
-    from sim2real.logs import read_trace
-    from sysid import fit_drive
+) -> tuple[list[str], list[str]]:
+    """The README tour's ``sysid fit`` and ``agree`` command lines (arguments after ``sim2real``).
 
-    start = time.perf_counter()
-    data = find_data_dir(data_dir)
-    train, validate = data / TRAIN_LOG, data / VALIDATE_LOG
-    out = Path(out_dir)
+    The demo runs exactly these, with every other option at its default, so a user who types
+    the tour gets the demo's figures. ``--engine`` and ``--seed`` appear only when they differ
+    from their defaults.
+
+    Examples
+    --------
+    >>> fit, agree = tour_commands("o", "data")
+    >>> " ".join(fit)
+    'sysid fit data/demo_train.mcap --robot turtlebot3_burger --validate data/demo_validate.mcap -o o/params.yaml'
+    """
+    data, out = Path(data_dir), Path(out_dir)
+    train, validate = str(data / TRAIN_LOG), str(data / VALIDATE_LOG)
+    params = str(out / "params.yaml")
+    fit = ["sysid", "fit", train, "--robot", DEMO_ROBOT, "--validate", validate, "-o", params]
+    agree = ["agree", validate, "--robot", DEMO_ROBOT, "--params", params]
+    agree += ["--report", str(out / "report.html"), "--json", str(out / "agreement.json")]
+    if ensemble_n >= 2:
+        agree += ["--ensemble", str(ensemble_n)]
+        if seed != 0:
+            agree += ["--seed", str(seed)]
+    if engine != "pybullet":
+        agree += ["--engine", engine]
+    return fit, agree
+
+
+def _check_out(out: Path) -> None:
+    from sim2real.errors import Sim2RealValueError
+
     if out.exists() and not out.is_dir():
         raise Sim2RealValueError(f"--out '{out}' exists and is not a folder; choose a folder")
     for parent in out.parents:  # the nearest existing parent must be a folder to create OUT in
@@ -121,67 +146,84 @@ def run_demo(
                     f"folder; choose an --out path under a folder, e.g. --out {_DEFAULT_OUT}"
                 )
             break
-    spec = load_spec(DEMO_ROBOT)
-    train_trace = read_trace(train)
-    read_trace(validate)  # a bad validation log fails here, before OUT is created or written
-    print(f"1/2 fitting drive parameters of {spec.name} to {train} ...", flush=True)
-    # The sample logs record v as the TurtleBot3 firmware does: encoder ticks differenced over
-    # one odometry period. Modelling that window removes a half-period (~17 ms) bias from the
-    # fitted delay and the time constants (what `sysid fit --odom-v-window auto` does).
-    result = fit_drive(
-        [train_trace],
-        geometry=spec.geometry,
-        base_params=spec.drive,
-        robot=spec.name,
-        odom_v_window_s=1.0 / spec.odometry.rate_hz,
-    )
+
+
+def run_demo(
+    out_dir: str | Path,
+    *,
+    engine: str = "pybullet",
+    ensemble_n: int = 10,
+    seed: int = 0,
+    data_dir: str | Path | None = None,
+) -> dict[str, Any]:
+    """Run the demo (the README tour's two commands); returns ``OUT/summary.json``'s content."""
+    import dataclasses
+
+    from sim2real.cli import build_parser
+    from sim2real.cli._agree import study_config
+    from sim2real.cli._sysid import _fit
+    from sim2real.logs import read_trace
+    from sim2real.study import run_study, summary_table, write_json
+
+    start = time.perf_counter()
+    data = find_data_dir(data_dir)
+    out = Path(out_dir)
+    _check_out(out)
+    read_trace(data / TRAIN_LOG)  # a bad log fails here, before OUT is created or written
+    read_trace(data / VALIDATE_LOG)
+    fit_argv, agree_argv = tour_commands(out, data, engine=engine, ensemble_n=ensemble_n, seed=seed)
+    parser = build_parser()
+    print(f"1/2 sim2real {shlex.join(fit_argv)}", flush=True)
     out.mkdir(parents=True, exist_ok=True)
-    params_path = out / "params.yaml"
-    result.save(params_path)
+    _fit(parser.parse_args(fit_argv))
     fit_s = time.perf_counter() - start
-    print(f"2/2 replaying {validate} in {engine} (defaults, fit, ensemble) ...", flush=True)
-    outcome = run_agree(
-        log=validate,
-        robot=spec.name,
-        params_path=params_path,
-        engine=engine,
-        ensemble_n=ensemble_n if ensemble_n >= 2 else None,
-        seed=seed,
-        # compare v as the odometry reports it, like the fit above (before and after alike)
-        odom_v_window="auto",
-        report_path=out / "report.html",
-        command_line=f"sim2real demo --out {out} --engine {engine} --ensemble {ensemble_n} "
-        f"--seed {seed}",
-        title="sim2real demo: TurtleBot3 Burger, spec defaults vs sysid fit",
+    print(f"2/2 sim2real {shlex.join(agree_argv)}", flush=True)
+    config = dataclasses.replace(
+        study_config(parser.parse_args(agree_argv)),
+        title="sim2real demo: TurtleBot3 Burger (foreign plant), spec defaults vs sysid fit",
     )
+    outcome = run_study(config)
+    summary = _summary(outcome, fit_argv, agree_argv, data, out)
+    summary["fit_s"] = round(fit_s, 2)
+    summary["elapsed_s"] = round(time.perf_counter() - start, 2)
+    write_json(out / "summary.json", summary)
+    print(summary_table(outcome.runs, outcome.ensemble))
+    before, after = summary["defaults"]["agreement"], summary["sysid"]["agreement"]
+    cov = summary["coverage"]
+    print(
+        f"validation log: agreement {_pct(before)} with spec defaults -> {_pct(after)} with the "
+        f"sysid fit; band coverage {_pct(cov)} ({summary['elapsed_s']:.0f} s)"
+    )
+    print(f"wrote {out / 'params.yaml'}, {out / 'report.html'}, {out / 'summary.json'}")
+    return summary
+
+
+def _summary(
+    outcome: Any, fit_argv: list[str], agree_argv: list[str], data: Path, out: Path
+) -> dict[str, Any]:
     before, after = (r.agreement for r in outcome.runs)
-    summary: dict[str, Any] = {
-        "robot": spec.name,
-        "engine": engine,
-        "train_log": str(train),
-        "validate_log": str(validate),
-        "params_file": str(params_path),
+    ens = outcome.ensemble
+    coverage = ens.coverage if ens is not None and math.isfinite(ens.coverage) else None
+    return {
+        "robot": DEMO_ROBOT,
+        "engine": outcome.runs[-1].replay.engine,
+        "train_log": str(data / TRAIN_LOG),
+        "validate_log": str(data / VALIDATE_LOG),
+        "params_file": str(out / "params.yaml"),
         "report": str(out / "report.html"),
+        "commands": ["sim2real " + shlex.join(fit_argv), "sim2real " + shlex.join(agree_argv)],
         "defaults": before.to_dict(),
         "sysid": after.to_dict(),
         "improvement_points": _points(after.agreement - before.agreement),
         "odom_v_window_s": after.odom_v_window_s,
-        "coverage": None,
-        "ensemble_n": ensemble_n if outcome.ensemble is not None else 0,
-        "seed": seed,
-        "fit_s": round(fit_s, 2),
-        "elapsed_s": round(time.perf_counter() - start, 2),
+        "coverage": coverage,
+        "ensemble_n": ens.n if ens is not None else 0,
+        "seed": _seed(agree_argv),
     }
-    if outcome.ensemble is not None and math.isfinite(outcome.ensemble.coverage):
-        summary["coverage"] = outcome.ensemble.coverage
-    write_json(out / "summary.json", summary)
-    print(summary_table(outcome.runs, outcome.ensemble))
-    print(
-        f"agreement on the validation log: {_pct(before.agreement)} with spec defaults -> "
-        f"{_pct(after.agreement)} with the sysid fit ({summary['elapsed_s']:.0f} s)"
-    )
-    print(f"wrote {params_path}, {out / 'report.html'}, {out / 'summary.json'}")
-    return summary
+
+
+def _seed(agree_argv: list[str]) -> int:
+    return int(agree_argv[agree_argv.index("--seed") + 1]) if "--seed" in agree_argv else 0
 
 
 def _points(x: float) -> float | None:

@@ -101,7 +101,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         choices=("linear", "soft_l1", "huber", "cauchy", "arctan"),
         help="robust loss (default: soft_l1)",
     )
-    fit.add_argument("--dt", type=float, default=0.005, help="model integration step, s")
+    fit.add_argument(
+        "--dt", type=float, default=None, help="model integration step, s (default 1/240)"
+    )
     fit.add_argument(
         "--bootstrap",
         type=int,
@@ -112,12 +114,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     fit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap draws")
     fit.add_argument(
         "--odom-v-window",
-        default="0",
+        default="auto",
         metavar="S|auto",
         help=(
-            "odometry v is a wheel-encoder tick difference over this window, s ('auto': one "
-            "period of the spec's odometry rate, e.g. 1/30 s on a TurtleBot3); 0 = compare the "
-            "instantaneous model v (default, as the pybullet robot reports it)"
+            "odometry v is a wheel-encoder tick difference over this window, s (default 'auto': "
+            "from the spec's odometry, one period for an encoder base, e.g. 1/30 s on a "
+            "TurtleBot3, 0 otherwise); 0 = compare the instantaneous model v"
         ),
     )
     fit.set_defaults(handler=_fit)
@@ -148,9 +150,9 @@ def _window(text: str | None, option: str) -> tuple[float, float] | None:
     return start, end
 
 
-def _v_window(text: str, rate_hz: float) -> float:
+def _v_window(text: str, auto_s: float) -> float:
     if text == "auto":
-        return 1.0 / rate_hz
+        return auto_s
     try:
         value = float(text)
     except ValueError:
@@ -258,8 +260,8 @@ def _fit(args: argparse.Namespace) -> int:
             validate=val,
             robot=spec.name,
             loss=args.loss,
-            dt_s=args.dt,
-            odom_v_window_s=_v_window(args.odom_v_window, spec.odometry.rate_hz),
+            **({} if args.dt is None else {"dt_s": args.dt}),
+            odom_v_window_s=_v_window(args.odom_v_window, spec.odometry.v_window_s),
             bootstrap=args.bootstrap,
             seed=args.seed,
             progress=progress,

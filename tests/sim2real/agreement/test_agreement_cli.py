@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from _agreement_fixtures import HIDDEN, ROBOT, T0_NS, hidden_params, write_log, write_params
 
+from robots.spec import load_spec
 from sim2real.agreement import AGREEMENT_KEYS, measure_agreement
 from sim2real.cli import main
 from sim2real.logs import read_trace
@@ -73,7 +74,11 @@ def test_sim_out_is_readable_with_real_stamps(log: Path, params: Path, tmp_path:
     np.testing.assert_array_equal(sim.meas_t_ns, real.meas_t_ns)
     np.testing.assert_array_equal(sim.cmd_t_ns, real.cmd_t_ns)
     np.testing.assert_allclose(sim.cmd_v, real.cmd_v)
-    expected = replay(real, robot=ROBOT, params=hidden_params(), engine="reduced")
+    # agree's default odometry window is the spec's (one 1/30 s encoder period)
+    window = load_spec(ROBOT).odometry.v_window_s
+    expected = replay(
+        real, robot=ROBOT, params=hidden_params(), engine="reduced", odom_v_window_s=window
+    )
     np.testing.assert_allclose(sim.meas_v, expected.v, atol=1e-12)
     np.testing.assert_allclose(sim.meas_w, expected.w, atol=1e-12)
     assert sim.meta.cmd_type == "geometry_msgs/msg/Twist"

@@ -10,7 +10,7 @@ import pytest
 
 from robots.params import load_drive_params
 from robots.spec import load_spec
-from sim2real._samples import HIDDEN_CHANGES, ROBOT, build_sample, hidden_params
+from sim2real._samples import DEMO_VARIATION, ROBOT, SAMPLE_FILES, build_sample, sample_base
 from sim2real.agreement import measure_agreement
 from sim2real.cli import main
 from sim2real.cli._demo import DEMO_ROBOT, TRAIN_LOG, VALIDATE_LOG, find_data_dir
@@ -23,58 +23,83 @@ DATA = Path(__file__).resolve().parents[3] / "data"
 def test_bundled_logs_are_small_and_as_documented() -> None:
     assert find_data_dir() == DATA
     total = 0
-    for name, duration in ((TRAIN_LOG, 150.0), (VALIDATE_LOG, 120.0)):
+    for kind, (name, _seed, _profile, duration) in SAMPLE_FILES.items():
         path = DATA / name
         total += path.stat().st_size
         trace = read_trace(path)
         assert trace.meta.cmd_topic == "/cmd_vel" and trace.meta.meas_topic == "/odom"
-        assert trace.meta.cmd_rate_hz == pytest.approx(10.0, rel=0.03)  # 1 % dropped
-        assert trace.meta.meas_rate_hz == pytest.approx(30.0 * 0.98, rel=0.02)  # 2 % dropped
-        assert duration <= trace.duration_s <= duration + 10.0
-    assert total < 2_000_000
+        assert trace.meta.cmd_rate_hz == pytest.approx(10.0, rel=0.03)  # teleop silences
+        assert trace.meta.meas_rate_hz == pytest.approx(30.0 * 0.99, rel=0.01)  # 1 % lost
+        assert duration - 0.1 <= trace.duration_s <= duration
+        run = build_sample(kind)  # the file is what the generator makes, bit for bit
+        np.testing.assert_array_equal(trace.meas_v, run.meas_v[run.kept])
+    assert total < 1_000_000
     readme = (DATA / "README.md").read_text(encoding="utf-8")
-    assert "synthetic" in readme.lower()
-    for key, value in HIDDEN_CHANGES.items():
-        assert f"`{key}`" in readme
-        assert f"{value:g}" in readme
+    assert "synthetic" in readme.lower() and "sim2real.plants" in readme
+    for kind in SAMPLE_FILES:  # the session table states each session's draws
+        p = build_sample(kind).params
+        payload = p.mass_kg - sample_base().mass_kg
+        for value in (payload, p.latency_s, *p.coulomb_fwd_n):
+            assert f"{value:.3g}" in readme, (kind, value)
+        assert f"{p.battery_v:.2f} V" in readme
+
+
+def test_the_two_sessions_differ_as_documented() -> None:
+    train, validate = build_sample("train").params, build_sample("validate").params
+    lo, hi = DEMO_VARIATION.latency_s
+    assert lo <= train.latency_s <= hi and lo <= validate.latency_s <= hi
+    assert validate.latency_s - train.latency_s == pytest.approx(0.037, abs=0.001)
+    assert validate.mass_kg > train.mass_kg and validate.battery_v < train.battery_v
 
 
 @pytest.mark.slow
-def test_sysid_fit_reaches_95_percent_on_a_different_validation_log() -> None:
+def test_sysid_fit_on_the_foreign_plant_validates_on_another_session() -> None:
     from sysid import fit_drive
 
     spec = load_spec(ROBOT)
     train, validate = read_trace(DATA / TRAIN_LOG), read_trace(DATA / VALIDATE_LOG)
-    result = fit_drive([train], geometry=spec.geometry, base_params=spec.drive, robot=spec.name)
-    after = measure_agreement(validate, replay(validate, robot=spec, params=result.params))
-    before = measure_agreement(validate, replay(validate, robot=spec))
-    assert after.agreement >= 0.95
-    assert before.agreement <= after.agreement - 0.3
-    assert after.fit_percent_v >= 90 and after.fit_percent_w >= 90
-    assert abs(after.lag_s_v) < 0.02 and abs(after.lag_s_w) < 0.02
-    truth = measure_agreement(
-        validate, replay(validate, robot=spec, params=hidden_params(spec.drive))
+    window = 1.0 / spec.odometry.rate_hz
+    result = fit_drive(
+        [train],
+        geometry=spec.geometry,
+        base_params=spec.drive,
+        robot=spec.name,
+        odom_v_window_s=window,
     )
-    assert after.agreement >= truth.agreement - 0.02  # as good as the hidden truth
+    kw = {"robot": spec, "odom_v_window_s": window}
+    after = measure_agreement(validate, replay(validate, params=result.params, **kw))
+    before = measure_agreement(validate, replay(validate, **kw))
+    # the model does not contain the plant (PI loop, torque-speed line, per-wheel friction,
+    # scrub, latency jitter) and the validation session has 37 ms more latency, yet the fit
+    # carries over; the spec defaults do clearly worse
+    assert after.agreement >= 0.9
+    assert before.agreement <= after.agreement - 0.1
+    assert after.fit_percent_v >= 80 and after.fit_percent_w >= 80
+    # the fitted delay is the training session's latency plus the loop's first response
+    lat = build_sample("train").params.latency_s
+    assert lat <= result.params.delay_s <= lat + 0.02
+    # sim leads real on the validation session by about the latency difference
+    assert after.lag_s_w == pytest.approx(-0.037, abs=0.012)
 
 
 def test_generator_is_seeded_and_its_noise_is_as_documented() -> None:
-    a = build_sample("validate", engine="reduced")
-    b = build_sample("validate", engine="reduced")
+    a = build_sample("validate")
+    b = build_sample("validate")
     np.testing.assert_array_equal(a.meas_v, b.meas_v)
-    np.testing.assert_array_equal(a.meas_t_ns, b.meas_t_ns)
+    np.testing.assert_array_equal(a.stamp_t_s, b.stamp_t_s)
     gyro = a.meas_w - a.true_w
     assert gyro.mean() == pytest.approx(0.003, abs=0.001)
-    assert gyro.std() == pytest.approx(0.012, rel=0.08)
+    assert gyro.std() == pytest.approx(0.012, rel=0.05)
     # encoder v (ticks differenced over each 1/30 s period) vs the instantaneous true v:
-    # quantisation + slip noise + the period average (<= 0.6 m/s^2 * 1/60 s = 0.01 m/s while
-    # accelerating) stay inside the 0.02 m/s tolerance
+    # quantisation (0.76 mm/s) + the period average stay inside the 0.02 m/s tolerance but
+    # while the base accelerates (~2 % of the samples: the half-period lag of a fast step)
     err_v = np.abs(a.meas_v - a.true_v)
-    assert np.median(err_v) < 0.003
-    assert np.percentile(err_v, 99) < 0.013
-    assert 0.97 < a.meas_t_ns.size / (a.duration_s * 30.0) < 0.99
-    assert np.all(np.diff(a.meas_t_ns) > 0)
-    c = build_sample("train", engine="reduced")
+    assert np.median(err_v) < 0.001
+    assert np.percentile(err_v, 95) < 0.002
+    assert 0.01 < np.mean(err_v > 0.01) < 0.04
+    assert 0.98 < a.kept.mean() < 1.0
+    assert np.all(np.diff(a.stamp_t_s) > 0)
+    c = build_sample("train")
     assert c.cmd_v.size != a.cmd_v.size or not np.array_equal(c.cmd_v, a.cmd_v)
 
 
@@ -87,8 +112,8 @@ def test_demo_writes_report_summary_and_params(
     for name in ("report.html", "summary.json", "params.yaml", "report_timeseries.png"):
         assert (out / name).is_file()
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["sysid"]["agreement"] >= 0.95
-    assert summary["improvement_points"] >= 30.0
+    assert summary["sysid"]["agreement"] >= 0.9
+    assert summary["improvement_points"] >= 10.0
     assert 0.0 <= summary["coverage"] <= 1.0 and summary["ensemble_n"] == 3
     text = capsys.readouterr().out
     assert "spec defaults" in text and "sysid params" in text
@@ -96,11 +121,13 @@ def test_demo_writes_report_summary_and_params(
     # and a better FIT % v than the instantaneous simulated v
     spec = load_spec(DEMO_ROBOT)
     assert summary["odom_v_window_s"] == pytest.approx(1.0 / spec.odometry.rate_hz)
-    assert abs(summary["sysid"]["lag_s_v"]) < 0.005
+    # sim leads real by the sessions' latency difference (37 ms), not by a half period more
+    assert summary["sysid"]["lag_s_v"] == pytest.approx(-0.037, abs=0.012)
     trace = read_trace(find_data_dir() / VALIDATE_LOG)
     fitted = load_drive_params(out / "params.yaml", robot=spec.name, base=spec.drive)
     inst = measure_agreement(trace, replay(trace, robot=spec, params=fitted, engine="reduced"))
-    assert inst.lag_s_v < -0.01  # the instantaneous comparison shows the odometry's lag
+    # the instantaneous comparison adds the odometry's half-period lag
+    assert inst.lag_s_v < summary["sysid"]["lag_s_v"] - 0.01
     assert summary["sysid"]["fit_percent_v"] > inst.fit_percent_v + 0.5
 
 
