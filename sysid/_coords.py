@@ -1,44 +1,59 @@
-r"""Well-conditioned fit coordinates for :class:`robots.params.DriveParams`.
+r"""Fit coordinates of :class:`robots.params.DriveParams`, and the schema's coordinates.
 
-With velocity-only data the wheel-loop gain :math:`K` and the mass trade off (only their ratio
-shapes the response), so the motor gain stays at the spec prior and every other parameter is
-fitted through a normalised coordinate that does not depend on that choice. With
-:math:`k_v = 2K/r^2` and :math:`k_\omega = K L^2 / (2 r^2)`:
+Two coordinate systems meet here:
+
+* the **schema coordinates** :math:`z` of :data:`robots.params.SCHEMA` (``lin`` delay and
+  friction, ``log`` gains and limits, ``log_total_mass``, ``log_total_inertia``): the priors,
+  the posterior, the population and the randomisation distribution live in them;
+* the **internal fit coordinates** :math:`u` the optimiser moves, chosen so that velocity data
+  see each one alone. With :math:`k_v = 2K/r^2` and :math:`k_\omega = K L^2/(2 r^2)`:
 
 ==========================  ====================================  =========
-DriveParams field           fit coordinate                        unit
+DriveParams field           internal coordinate                   unit
 ==========================  ====================================  =========
 delay_s                     delay                                 s
+motor_gain_nms_per_rad      log K                                 log
 added_mass_kg               log((m + dm) / k_v)                   log s
 added_yaw_inertia_kgm2      log((I + dI) / k_w)                   log s
 viscous_v_ns_per_m          b_v / k_v                             1
 viscous_w_nms_per_rad       b_w / k_w                             1
 coulomb_v_fwd_n (bwd)       F_c / k_v  (steady-state speed loss)  m/s
 coulomb_w_nm                T_c / k_w                             rad/s
+wheel_torque_max_nm         log(tau_max / K)                      log rad/s
 accel_lim_*, speed_lim_*,   log of the value                      log
-wheel_speed_max_radps,
-wheel_torque_max_nm
+wheel_speed_max_radps
 ==========================  ====================================  =========
 
-Each coordinate maps to exactly one field (given K), so fixing a field fixes its coordinate.
+Velocity data only fix mass/gain ratios, so with every other coordinate held, moving
+:math:`\log K` scales masses, inertias, friction forces and the torque cap together and leaves
+the response unchanged (exactly so without a fixed finite torque cap): the data Jacobian column
+of :math:`\log K` is zero and the priors (in :math:`z`) alone place the gain. The posterior is
+computed in :math:`u` and mapped to :math:`z` with the Jacobian :math:`G = \partial z/\partial u`.
+A total mass or inertia is :math:`e^{z} > 0` for every :math:`u`, so no fit is non-physical.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from robots.params import BaseGeometry, DriveParams
+import numpy as np
+from numpy.typing import NDArray
+
+from robots.params import SCHEMA, BaseGeometry, DriveParams, Prior, generic_priors
 
 __all__ = ["COORDS", "NOT_FITTABLE", "Coord", "Mapper"]
+
+FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True, kw_only=True)
 class Coord:
-    """One fit coordinate: the DriveParams field it sets, its kind, its bounds and FD step."""
+    """One internal fit coordinate: the field it sets, its kind, bounds and FD step."""
 
     field: str
-    kind: str  # "lin", "log", "mass", "inertia", "ratio_v", "ratio_w"
+    kind: str  # "lin", "log", "mass", "inertia", "ratio_v", "ratio_w", "torque_ratio"
     lower: float
     upper: float
     step: float
@@ -46,7 +61,7 @@ class Coord:
     unit: str
 
 
-COORDS: dict[str, Coord] = {
+_TABLE: dict[str, Coord] = {
     c.field: c
     for c in (
         Coord(field="delay_s", kind="lin", lower=0.0, upper=1.0, step=1e-3, axis="vw", unit="s"),
@@ -160,93 +175,174 @@ COORDS: dict[str, Coord] = {
         ),
         Coord(
             field="wheel_torque_max_nm",
-            kind="log",
-            lower=math.log(1e-4),
-            upper=math.log(100.0),
+            kind="torque_ratio",
+            lower=math.log(1e-3),
+            upper=math.log(1e4),
             step=1e-3,
             axis="vw",
             unit="N m",
         ),
+        Coord(
+            field="motor_gain_nms_per_rad",
+            kind="log",
+            lower=math.log(1e-5),
+            upper=math.log(1e3),
+            step=1e-3,
+            axis="vw",
+            unit="N m s/rad",
+        ),
     )
 }
 
-#: Fields that velocity data cannot identify (with the reason, used in error messages).
-NOT_FITTABLE: dict[str, str] = {
-    "motor_gain_nms_per_rad": (
-        "the wheel-loop gain trades off with mass and inertia in velocity data, so it stays at "
-        "the spec prior and added_mass_kg / added_yaw_inertia_kgm2 are derived relative to it"
-    ),
-    "cmd_timeout_s": "the command timeout is a firmware setting; set it in the robot spec",
-}
 
-UNITS: dict[str, str] = {name: c.unit for name, c in COORDS.items()} | {
-    "motor_gain_nms_per_rad": "N m s/rad",
-    "cmd_timeout_s": "s",
+#: Fields a fit can free (velocity logs can inform them), in DriveParams order.
+COORDS: dict[str, Coord] = {n: _TABLE[n] for n in SCHEMA if n in _TABLE}
+
+#: Fields that velocity data cannot inform (with the reason, used in error messages).
+NOT_FITTABLE: dict[str, str] = {
+    n: "the command timeout is a firmware setting; set it in the robot spec"
+    for n, f in SCHEMA.items()
+    if not f.fittable
 }
 
 
 class Mapper:
-    """Maps between DriveParams and fit coordinates for one geometry and motor gain."""
+    """Maps DriveParams to internal fit coordinates and schema coordinates.
 
-    def __init__(self, geometry: BaseGeometry, base: DriveParams) -> None:
+    Parameters
+    ----------
+    geometry : BaseGeometry
+        Spec geometry.
+    base : DriveParams
+        Values of the fields that are not fitted (the prior nominals).
+    priors : mapping, optional
+        ``{field: Prior}``; the schema's generic priors around ``base`` when omitted.
+    """
+
+    def __init__(
+        self,
+        geometry: BaseGeometry,
+        base: DriveParams,
+        priors: Mapping[str, Prior] | None = None,
+    ) -> None:
         self.geometry = geometry
         self.base = base
-        r, sep, k = (
-            geometry.wheel_radius_m,
-            geometry.wheel_separation_m,
-            base.motor_gain_nms_per_rad,
-        )
-        self.kv = 2.0 * k / (r * r)
-        self.kw = k * sep * sep / (2.0 * r * r)
+        self.priors = dict(priors) if priors is not None else generic_priors(base, geometry)
+
+    # --- loop gains ---------------------------------------------------------------------------
+
+    def gains(self, k: float) -> tuple[float, float]:
+        """(k_v, k_w) for motor gain ``k``."""
+        r, sep = self.geometry.wheel_radius_m, self.geometry.wheel_separation_m
+        return 2.0 * k / (r * r), k * sep * sep / (2.0 * r * r)
+
+    @property
+    def kv(self) -> float:
+        """k_v at the base motor gain."""
+        return self.gains(self.base.motor_gain_nms_per_rad)[0]
+
+    @property
+    def kw(self) -> float:
+        """k_w at the base motor gain."""
+        return self.gains(self.base.motor_gain_nms_per_rad)[1]
+
+    # --- internal coordinates -----------------------------------------------------------------
 
     def to_coord(self, params: DriveParams, field: str) -> float:
-        """The fit coordinate of ``field`` for ``params``."""
+        """The internal fit coordinate of ``field`` for ``params``."""
         c = COORDS[field]
         value = float(getattr(params, field))
-        if c.kind == "lin":
+        k = params.motor_gain_nms_per_rad
+        kv, kw = self.gains(k)
+        if c.kind in ("lin",):
             return value
         if c.kind == "log":
             return math.log(value) if math.isfinite(value) else c.upper
+        if c.kind == "torque_ratio":
+            return math.log(value / k) if math.isfinite(value) else c.upper
         if c.kind == "mass":
-            return math.log(params.total_mass_kg(self.geometry) / self.kv)
+            return math.log(params.total_mass_kg(self.geometry) / kv)
         if c.kind == "inertia":
-            return math.log(params.total_yaw_inertia_kgm2(self.geometry) / self.kw)
-        if c.kind == "ratio_v":
-            return value / self.kv
-        return value / self.kw  # ratio_w
+            return math.log(params.total_yaw_inertia_kgm2(self.geometry) / kw)
+        return value / (kv if c.kind == "ratio_v" else kw)
 
     def from_coords(self, values: dict[str, float], ties: dict[str, str]) -> DriveParams:
-        """DriveParams with the given coordinates applied (``ties``: field -> source field)."""
+        """DriveParams with the given internal coordinates applied (``ties``: field -> source)."""
+        k = (
+            math.exp(values["motor_gain_nms_per_rad"])
+            if "motor_gain_nms_per_rad" in values
+            else self.base.motor_gain_nms_per_rad
+        )
+        kv, kw = self.gains(k)
         changes: dict[str, float] = {}
         for field, x in values.items():
-            c = COORDS[field]
-            if c.kind == "lin":
+            kind = COORDS[field].kind
+            if kind == "lin":
                 changes[field] = x
-            elif c.kind == "log":
+            elif kind == "log":
                 changes[field] = math.exp(x)
-            elif c.kind == "mass":
-                changes[field] = self.kv * math.exp(x) - self.geometry.mass_kg
-            elif c.kind == "inertia":
-                changes[field] = self.kw * math.exp(x) - self.geometry.yaw_inertia_kgm2
-            elif c.kind == "ratio_v":
-                changes[field] = x * self.kv
+            elif kind == "torque_ratio":
+                changes[field] = k * math.exp(x)
+            elif kind == "mass":
+                changes[field] = kv * math.exp(x) - self.geometry.mass_kg
+            elif kind == "inertia":
+                changes[field] = kw * math.exp(x) - self.geometry.yaw_inertia_kgm2
             else:
-                changes[field] = x * self.kw
+                changes[field] = x * (kv if kind == "ratio_v" else kw)
         for field, source in ties.items():
             changes[field] = changes.get(source, float(getattr(self.base, source)))
         return self.base.replace(**changes)
 
+    # --- schema coordinates -------------------------------------------------------------------
+
+    def bounds(self, field: str) -> tuple[float, float]:
+        """Plausible range of the schema coordinate of ``field``."""
+        return SCHEMA[field].coord_bounds(self.geometry)
+
+    def prior(self, field: str) -> tuple[float, float] | None:
+        """(mean, sd) of the prior of ``field`` in schema coordinates, None if uninformative."""
+        p = self.priors[field]
+        return (p.mean(self.geometry), p.sd) if p.informative else None
+
+    def z(self, params: DriveParams, field: str) -> float:
+        """Schema coordinate of ``field`` (inf limits map to the upper bound)."""
+        value = float(getattr(params, field))
+        if math.isinf(value):
+            return self.bounds(field)[1]
+        return SCHEMA[field].to_coord(value, self.geometry)
+
+    def value(self, field: str, z: float) -> float:
+        """The value of ``field`` at schema coordinate ``z``."""
+        return SCHEMA[field].from_coord(z, self.geometry)
+
+    def schema_coords(
+        self, free: Sequence[str], ties: dict[str, str], u: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Schema coordinates of the free fields at internal ``u``, and G = dz/du (FD)."""
+        params = self.from_coords(dict(zip(free, map(float, u), strict=True)), ties)
+        z = np.array([self.z(params, f) for f in free])
+        g = np.zeros((len(free), len(free)))
+        for j, f in enumerate(free):
+            h = COORDS[f].step
+            up = np.array(u, dtype=np.float64)
+            up[j] += h
+            p = self.from_coords(dict(zip(free, map(float, up), strict=True)), ties)
+            g[:, j] = (np.array([self.z(p, name) for name in free]) - z) / h
+        return z, g
+
     def identifiable(self, params: DriveParams) -> dict[str, tuple[float, str]]:
-        """The combinations the log identifies, independent of the motor-gain prior.
+        """The combinations velocity data identify whatever the mass/gain split is.
 
         Returns ``{name: (value, unit)}``: time constants, steady-state gains, friction per
         unit mass / inertia, the Coulomb speed loss, delay and limits.
         """
-        m = params.total_mass_kg(self.geometry)
-        j = params.total_yaw_inertia_kgm2(self.geometry)
-        kv, kw = self.kv, self.kw
+        g = self.geometry
+        k = params.motor_gain_nms_per_rad
+        kv, kw = self.gains(k)
+        m = params.total_mass_kg(g)
+        j = params.total_yaw_inertia_kgm2(g)
         bv, bw = params.viscous_v_ns_per_m, params.viscous_w_nms_per_rad
-        out: dict[str, tuple[float, str]] = {
+        return {
             "delay_s": (params.delay_s, "s"),
             "time_constant_v_s": (m / (kv + bv), "s"),
             "time_constant_w_s": (j / (kw + bw), "s"),
@@ -262,10 +358,6 @@ class Mapper:
             "accel_lim_v_mps2": (params.accel_lim_v_mps2, "m/s^2"),
             "accel_lim_w_radps2": (params.accel_lim_w_radps2, "rad/s^2"),
             "wheel_speed_max_radps": (params.wheel_speed_max_radps, "rad/s"),
-            "wheel_speed_max_mps": (
-                params.wheel_speed_max_radps * self.geometry.wheel_radius_m,
-                "m/s",
-            ),
-            "mass_per_motor_gain_kg_per_nms": (m / params.motor_gain_nms_per_rad, "kg rad/(N m s)"),
+            "wheel_speed_max_mps": (params.wheel_speed_max_radps * g.wheel_radius_m, "m/s"),
+            "mass_per_motor_gain_kg_per_nms": (m / k, "kg rad/(N m s)"),
         }
-        return out

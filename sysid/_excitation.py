@@ -148,7 +148,7 @@ def _auto_free(
             fields = [f for f, c in COORDS.items() if c.axis == axis]
             notes.append(
                 f"the {what} axis is not excited (its command never changes or the robot never "
-                f"moves along it): {', '.join(fields)} kept at the spec prior"
+                f"moves along it): {', '.join(fields)} not fitted (their posterior is their prior)"
             )
             continue
         if axis == "v":
@@ -180,7 +180,7 @@ def _auto_free(
             notes.append(
                 f"the log holds essentially one {'forward speed' if axis == 'v' else 'yaw rate'}"
                 f" level ({lvl:.2f} {'m/s' if axis == 'v' else 'rad/s'}): viscous and Coulomb "
-                f"friction trade off; {visc} kept at the spec prior"
+                f"friction trade off; {visc} not fitted (its posterior is its prior)"
             )
         acc = "accel_lim_v_mps2" if axis == "v" else "accel_lim_w_radps2"
         step = STEP_V if axis == "v" else STEP_W
@@ -193,8 +193,11 @@ def _auto_free(
         else:
             notes.append(
                 f"no command step of {step:g} {'m/s' if axis == 'v' else 'rad/s'} or more on "
-                f"the {axis} axis (largest {jumps:.3g}): {acc} kept at the spec prior"
+                f"the {axis} axis (largest {jumps:.3g}): {acc} not fitted (its posterior is its prior)"
             )
+    if "added_mass_kg" in free or "added_yaw_inertia_kgm2" in free:
+        # velocity data fix mass/gain ratios: the gain is fitted too, the priors split them
+        free.append("motor_gain_nms_per_rad")
     cap = base.wheel_speed_max_radps
     peak_cmd = _peak_wheel_cmd(logs, geometry)
     peak_meas = _peak_wheel_meas(logs, geometry)
@@ -211,12 +214,12 @@ def _auto_free(
             notes.append(
                 "the forward command holds one level and drives the wheels into their speed "
                 "cap: Coulomb friction and the cap both explain the speed deficit; the cap is "
-                "fitted and coulomb_v_fwd_n / coulomb_v_bwd_n are kept at the spec prior"
+                "fitted and coulomb_v_fwd_n / coulomb_v_bwd_n are not fitted (their posterior is their prior)"
             )
     else:
         notes.append(
             f"no wheel near its speed cap (peak commanded wheel speed {peak_cmd:.1f} rad/s): "
-            "wheel_speed_max_radps kept at the spec prior"
+            "wheel_speed_max_radps not fitted (its posterior is its prior)"
         )
     return free, ties, notes
 

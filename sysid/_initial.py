@@ -22,7 +22,7 @@ A good start point makes the nonlinear fit converge in a few iterations (the 2 s
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numba
@@ -31,7 +31,7 @@ from filterpy.kalman import KalmanFilter
 from numpy.typing import NDArray
 from scipy.ndimage import median_filter
 
-from robots.params import BaseGeometry, DriveParams
+from robots.params import BaseGeometry, DriveParams, Prior
 from sysid._coords import COORDS, Mapper
 from sysid._excitation import held_command
 from sysid._logs import LogArrays, crop_log
@@ -280,6 +280,7 @@ def initial_coords(
     base: DriveParams,
     free: Sequence[str],
     ties: dict[str, str],
+    priors: Mapping[str, Prior] | None = None,
 ) -> tuple[dict[str, float], list[str]]:
     """Start values of the free coordinates, and notes (e.g. spikes found).
 
@@ -288,7 +289,7 @@ def initial_coords(
     window of each log; the best candidate is refined to sub-sample precision by
     cross-correlating the measurement with the zero-delay model response.
     """
-    mapper = Mapper(geometry, base)
+    mapper = Mapper(geometry, base, priors)
     notes: list[str] = []
     for log in logs:
         sv, sw = spike_mask(log.meas_v, 0.05), spike_mask(log.meas_w, 0.3)

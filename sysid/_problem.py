@@ -1,4 +1,10 @@
-"""The output-error least-squares problem: residuals and a structured finite-difference Jacobian."""
+r"""The MAP least-squares problem: data residuals, prior residuals, a structured FD Jacobian.
+
+The residual vector stacks the scaled output errors of every log (v then w, log by log) and,
+after them, one row per informative prior: :math:`w_p (z - \mu)/\sigma` with :math:`w_p` the
+data residuals' noise scale (so that the sum of squares is, up to a factor, the negative log
+posterior: regularised least squares).
+"""
 
 from __future__ import annotations
 
@@ -75,6 +81,7 @@ class Problem:
         python: bool = False,
         v_window_s: float = 0.0,
         on_eval: Callable[[int], None] | None = None,
+        prior_weight: float = 1.0,
     ) -> None:
         self.logs = list(logs)
         self.mapper = mapper
@@ -110,16 +117,77 @@ class Problem:
         )
         self._cache_x: FloatArray | None = None
         self._cache_f: FloatArray | None = None
+        priors = [mapper.prior(f) for f in self.free]
+        #: coordinates with an informative prior, their prior means and sds
+        self.prior_idx = np.array([j for j, p in enumerate(priors) if p is not None], dtype=np.intp)
+        self.prior_mu = np.array([p[0] for p in priors if p is not None])
+        self.prior_sd = np.array([p[1] for p in priors if p is not None])
+        #: scale of the prior rows (the data residuals' noise level; set by the fit)
+        self.prior_weight = prior_weight
+        self._settings = {
+            "scale_v": scale_v,
+            "scale_w": scale_w,
+            "weight_v": weight_v,
+            "weight_w": weight_w,
+            "dt_s": dt_s,
+            "python": python,
+            "v_window_s": v_window_s,
+        }
+
+    def like(self, logs: Sequence[LogArrays]) -> Problem:
+        """The same problem (coordinates, settings, prior weight) on other logs."""
+        return Problem(
+            logs,
+            self.mapper,
+            self.free,
+            self.ties,
+            on_eval=self.on_eval,
+            prior_weight=self.prior_weight,
+            **self._settings,  # type: ignore[arg-type]
+        )
+
+    @property
+    def n_data(self) -> int:
+        """Number of data residual rows (the prior rows follow)."""
+        return self.n_rows
 
     @property
     def lower(self) -> FloatArray:
-        """Lower bounds of the coordinates."""
+        """Lower bounds of the internal coordinates."""
         return np.array([COORDS[f].lower for f in self.free])
 
     @property
     def upper(self) -> FloatArray:
-        """Upper bounds of the coordinates."""
+        """Upper bounds of the internal coordinates."""
         return np.array([COORDS[f].upper for f in self.free])
+
+    def schema_coords(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Schema coordinates z of the free fields at internal ``x``, and dz/dx."""
+        return self.mapper.schema_coords(self.free, self.ties, x)
+
+    def prior_residuals(self, x: FloatArray) -> FloatArray:
+        r""":math:`w_p (z - \mu)/\sigma` of the fields with an informative prior."""
+        if not self.prior_idx.size:
+            return np.zeros(0)
+        params = self.params(x)
+        z = np.array([self.mapper.z(params, self.free[j]) for j in self.prior_idx])
+        out: FloatArray = self.prior_weight * (z - self.prior_mu) / self.prior_sd
+        return out
+
+    def prior_jacobian(self, x: FloatArray) -> FloatArray:
+        """Jacobian of :meth:`prior_residuals` (no simulation: the coordinate map only)."""
+        if not self.prior_idx.size:
+            return np.zeros((0, len(self.free)))
+        _, g = self.schema_coords(x)
+        out: FloatArray = (self.prior_weight / self.prior_sd)[:, None] * g[self.prior_idx]
+        return out
+
+    def _gain_is_invisible(self) -> bool:
+        """With every other internal coordinate held, the motor gain does not change the
+        response (no fixed finite torque cap): its data column is exactly zero."""
+        return "wheel_torque_max_nm" in self.free or math.isinf(
+            self.mapper.base.wheel_torque_max_nm
+        )
 
     def params(self, x: FloatArray) -> DriveParams:
         """DriveParams at coordinate vector ``x``."""
@@ -176,8 +244,8 @@ class Problem:
             [np.concatenate([s.v * self.gain_v, s.w * self.gain_w]) for s in sims]
         )
 
-    def residuals(self, x: FloatArray) -> FloatArray:
-        """Scaled residual vector at ``x`` (cached for the Jacobian)."""
+    def data_residuals(self, x: FloatArray) -> FloatArray:
+        """Scaled output errors at ``x`` (cached for the Jacobian)."""
         if (
             self._cache_f is not None
             and self._cache_x is not None
@@ -191,22 +259,33 @@ class Problem:
             self.on_eval(self.n_evals)
         return f
 
+    def residuals(self, x: FloatArray) -> FloatArray:
+        """Data residuals followed by the prior residuals."""
+        return np.concatenate([self.data_residuals(x), self.prior_residuals(x)])
+
     def groups(self, coupled: bool) -> list[list[int]]:
         """Columns perturbed together: a forward-axis and a yaw-axis coordinate share one
         simulation when the axes are decoupled (no active wheel-speed or torque cap), because
         each then only moves its own channel's residuals."""
         if coupled:
-            return [[j] for j in range(len(self.free))]
+            skip = "motor_gain_nms_per_rad" if self._gain_is_invisible() else ""
+            return [[j] for j, f in enumerate(self.free) if f != skip]
         v = [j for j, f in enumerate(self.free) if COORDS[f].axis == "v"]
         w = [j for j, f in enumerate(self.free) if COORDS[f].axis == "w"]
-        shared = [[j] for j, f in enumerate(self.free) if COORDS[f].axis == "vw"]
+        skip = "motor_gain_nms_per_rad" if self._gain_is_invisible() else ""
+        shared = [[j] for j, f in enumerate(self.free) if COORDS[f].axis == "vw" and f != skip]
         pairs = [[a, b] for a, b in zip(v, w, strict=False)]
         rest = [[j] for j in (v[len(w) :] if len(v) > len(w) else w[len(v) :])]
         return shared + pairs + rest
 
     def jacobian(self, x: FloatArray, coupled: bool) -> FloatArray:
-        """Forward-difference Jacobian with grouped columns (see :meth:`groups`)."""
-        f0 = self.residuals(x)
+        """Jacobian of :meth:`residuals`: forward differences with grouped columns (see
+        :meth:`groups`) for the data rows, exact for the prior rows."""
+        return np.concatenate([self.data_jacobian(x, coupled), self.prior_jacobian(x)])
+
+    def data_jacobian(self, x: FloatArray, coupled: bool) -> FloatArray:
+        """Forward-difference Jacobian of :meth:`data_residuals`."""
+        f0 = self.data_residuals(x)
         jac = np.zeros((self.n_rows, len(self.free)))
         lo, hi = self.lower, self.upper
         for group in self.groups(coupled):

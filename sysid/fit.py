@@ -1,27 +1,38 @@
-r"""Fit the drive-model parameters to logged velocity traces (output-error, robust).
+r"""Fit the drive-model parameters to logged velocity traces: MAP, robust, with a population.
 
-The reduced drive model (:func:`robots.reduced.simulate`) is driven by the logged commands
-and its v and w are compared with the measured ones at every measurement time. The scaled
-residuals :math:`(\hat y - y)\,w_c / s_c` (scale :math:`s_c` = agreement tolerance of the
-channel by default) are minimised with ``scipy.optimize.least_squares`` (trust-region
-reflective, bounds from physics) under a robust loss (``soft_l1``): real odometry carries
-spikes and bursts that a squared loss would chase.
+The reduced drive model (:func:`robots.reduced.simulate`) is driven by the logged commands and
+its v and w are compared with the measured ones at every measurement time. The scaled residuals
+:math:`(\hat y - y)\,w_c / s_c` (scale :math:`s_c` = agreement tolerance of the channel by
+default) under a robust loss (``soft_l1``: real odometry carries spikes) plus one residual per
+prior, :math:`(z-\mu)/\sigma` in the coordinates of :data:`robots.params.SCHEMA`, are minimised
+with ``scipy.optimize.least_squares`` (trust-region reflective): a maximum-a-posteriori fit
+(:mod:`sysid._map`). Where a log informs a parameter its posterior is narrow; where not, the
+posterior *is* its prior -- every parameter keeps an honest spread.
 
 Identifiability
 ---------------
 Velocity data fix the *response* of each axis, not the split between motor gain and mass:
-:math:`T_v = (m+\Delta m)/(k_v + b_v)` with :math:`k_v = 2K/r^2`. So the wheel-loop gain
-:math:`K` stays at the spec prior and the fit runs in normalised coordinates
-(:mod:`sysid._coords`); ``added_mass_kg`` and ``added_yaw_inertia_kgm2`` are *derived*
-relative to that prior. The quantities the data identify whatever :math:`K` is (time constants,
-steady-state gains, friction per unit mass/inertia, Coulomb speed loss, delay, limits) are
-reported in :attr:`SysidResult.identifiable`.
+:math:`T_v = (m+\Delta m)/(k_v + b_v)` with :math:`k_v = 2K/r^2`. The motor gain is fitted with
+the rest, and the priors resolve that family: masses and inertias stay near their priors (a
+total mass is :math:`e^z`, never <= 0) and the remainder goes into the motor gain. The
+combinations the data identify whatever the split is (time constants, steady-state gains,
+friction per unit mass, Coulomb speed loss, delay, limits) are reported in
+:attr:`SysidResult.identifiable`.
+
+Several logs
+------------
+Each log is fitted on its own (per-session estimates in :attr:`SysidResult.sessions`), then a
+random-effects model gives the population mean and the between-session covariance
+(:mod:`sysid._fleet`). :attr:`SysidResult.randomization` holds the distribution to train on:
+mean, covariance = between-session + uncertainty of the mean (one log: posterior + the spec's
+default between-session spread), the priors of the fields no log informed, and the odometry
+noise.
 
 Example
 -------
 >>> from sysid import fit_drive
 >>> res = fit_drive([trace], geometry=spec.geometry, base_params=spec.drive,
-...                 robot="turtlebot3_burger")  # doctest: +SKIP
+...                 priors=spec.priors, robot="turtlebot3_burger")  # doctest: +SKIP
 >>> res.estimate("delay_s").ci95_low  # doctest: +SKIP
 0.112
 """
@@ -30,26 +41,28 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from numbers import Integral
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
-from threadpoolctl import threadpool_limits
 
-from robots.params import BaseGeometry, DriveParams
+from robots.params import SCHEMA, BaseGeometry, DriveParams, Prior, generic_priors
+from robots.randomization import DriveDistribution, ObservationNoise
 from robots.reduced import DEFAULT_DT_S
 from sysid import metrics
 from sysid._bootstrap import segment_bootstrap
-from sysid._coords import COORDS, UNITS, Mapper
+from sysid._coords import Mapper
 from sysid._excitation import analyse, held_command
-from sysid._initial import busiest_window, initial_coords
+from sysid._fleet import SessionInfo, population
 from sysid._linear import first_order_stats
-from sysid._logs import LogArrays, as_log_arrays, crop_log, log_name, log_warnings
+from sysid._logs import LogArrays, as_log_arrays, log_name, log_warnings
+from sysid._map import Posterior, map_fit
 from sysid._problem import Problem
+from sysid._summary import distribution, estimate_noise, field_estimates, identifiable_estimates
 from sysid.errors import SysidValueError
 from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
 
@@ -59,54 +72,6 @@ FloatArray = NDArray[np.float64]
 
 #: ``progress(stage, fraction)`` callback: stage text and overall fraction done in [0, 1].
 Progress = Callable[[str, float], None]
-
-_LIMITS = (
-    "accel_lim_v_mps2",
-    "accel_lim_w_radps2",
-    "wheel_speed_max_radps",
-    "speed_lim_v_mps",
-    "speed_lim_w_radps",
-    "wheel_torque_max_nm",
-)
-_DERIVED = ("added_mass_kg", "added_yaw_inertia_kgm2")
-_Z95 = 1.959963984540054
-
-
-#: Logs longer than this (s, in total) are first fitted on their busiest windows.
-_COARSE_SPAN_S = 150.0
-#: Residual-evaluation cap of the polishing pass on all the data.
-_POLISH_NFEV = 3
-
-
-def _span(log: LogArrays) -> float:
-    return float(log.meas_t_s[-1] - log.meas_t_s[0])
-
-
-def _window_samples(log: LogArrays, span_s: float) -> int:
-    rate = log.meas_t_s.size / max(_span(log), 1e-9)
-    return max(int(rate * span_s), 10)
-
-
-def _solve(
-    prob: Problem, x0: FloatArray, coupled: bool, loss: str, f_scale: float, max_nfev: int
-) -> Any:
-    """One trust-region-reflective robust least-squares run (single-threaded BLAS: the
-    Jacobian is tall and thin, where threads only add contention)."""
-    with threadpool_limits(limits=1):
-        return least_squares(
-            prob.residuals,
-            x0,
-            jac=lambda x: prob.jacobian(x, coupled),
-            bounds=(prob.lower, prob.upper),
-            loss=loss,
-            f_scale=f_scale,
-            x_scale="jac",
-            method="trf",
-            ftol=1e-6,
-            xtol=1e-6,
-            gtol=1e-8,
-            max_nfev=max_nfev,
-        )
 
 
 def _tool_version() -> str:
@@ -199,205 +164,6 @@ def score_logs(
     return tuple(out)
 
 
-def _covariance(res: Any, prob: Problem, keep: list[int]) -> tuple[FloatArray, float, list[int]]:
-    """Parameter covariance from the Jacobian at the solution, the inflation used, and the
-    (kept) columns the data do not determine.
-
-    :math:`\\Sigma = s^2 (J^T J)^{-1}` with the loss-modified Jacobian of ``least_squares``,
-    :math:`s` the robust (MAD) residual scale, and a factor :math:`(1+\\rho_1)/(1-\\rho_1)`
-    for the lag-1 autocorrelation :math:`\\rho_1` of the residuals (correlated residuals carry
-    less information than independent ones; without it the intervals would be far too
-    narrow). Directions of the column-normalised Jacobian with singular value below 1e-4 are
-    not identified: parameters with weight on them get an infinite variance.
-    """
-    jac = np.asarray(res.jac)[:, keep]
-    f = np.asarray(res.fun)
-    n, p = f.size, len(keep)
-    s2 = (1.4826 * float(np.median(np.abs(f - np.median(f))))) ** 2 * n / max(n - p, 1)
-    rho = []
-    for rows in (prob.rows["v"], prob.rows["w"]):
-        r = f[rows] - np.mean(f[rows])
-        den = float(np.dot(r, r))
-        if den > 0:
-            rho.append(float(np.dot(r[1:], r[:-1]) / den))
-    rho1 = float(np.clip(np.mean(rho) if rho else 0.0, 0.0, 0.98))
-    inflation = (1.0 + rho1) / (1.0 - rho1)
-    norms = np.linalg.norm(jac, axis=0)
-    safe = np.where(norms > 0, norms, 1.0)
-    _, sv, vt = np.linalg.svd(jac / safe, full_matrices=False)
-    good = sv > 1e-4 * max(float(sv[0]) if sv.size else 0.0, 1e-300)
-    inv = (vt[good].T / sv[good] ** 2) @ vt[good]
-    cov = s2 * inflation * inv / np.outer(safe, safe)
-    null = vt[~good]
-    weak = [j for j in range(p) if norms[j] == 0 or float(np.sum(null[:, j] ** 2)) > 1e-3]
-    for j in weak:
-        cov[j, j] = math.inf
-    return cov, inflation, weak
-
-
-def _ci(
-    field: str, x: float, sd: float, mapper: Mapper, ties: dict[str, str]
-) -> tuple[float, float]:
-    c = COORDS[field]
-    lo = float(np.clip(x - _Z95 * sd, c.lower, c.upper))
-    hi = float(np.clip(x + _Z95 * sd, c.lower, c.upper))
-    a = float(getattr(mapper.from_coords({field: lo}, {}), field))
-    b = float(getattr(mapper.from_coords({field: hi}, {}), field))
-    return min(a, b), max(a, b)
-
-
-def _param_estimates(
-    params: DriveParams,
-    free: list[str],
-    x: FloatArray,
-    sd: FloatArray,
-    mapper: Mapper,
-    ties: dict[str, str],
-) -> tuple[ParameterEstimate, ...]:
-    out = []
-    for name in DriveParams.names():
-        value = float(getattr(params, name))
-        source = ties.get(name)
-        j = free.index(source if source else name) if (source or name) in free else None
-        if j is None:
-            status = "tied" if source else "fixed"
-            out.append(
-                ParameterEstimate(
-                    name=name,
-                    value=value,
-                    std=None,
-                    ci95_low=None,
-                    ci95_high=None,
-                    unit=UNITS[name],
-                    status=status,
-                )
-            )
-            continue
-        field = free[j]
-        lo, hi = _ci(field, float(x[j]), float(sd[j]), mapper, ties)
-        dx = COORDS[field].step
-        v2 = float(getattr(mapper.from_coords({field: float(x[j]) + dx}, {}), field))
-        v1 = float(getattr(mapper.from_coords({field: float(x[j])}, {}), field))
-        std = abs(v2 - v1) / dx * float(sd[j])
-        status = "tied" if source else ("derived" if name in _DERIVED else "fitted")
-        out.append(
-            ParameterEstimate(
-                name=name,
-                value=value,
-                std=std,
-                ci95_low=lo,
-                ci95_high=hi,
-                unit=UNITS[name],
-                status=status,
-            )
-        )
-    return tuple(out)
-
-
-def _identifiable(
-    prob: Problem, x: FloatArray, cov: FloatArray, mapper: Mapper, weak: list[int]
-) -> tuple[ParameterEstimate, ...]:
-    """Delta-method uncertainty of the identifiable combinations (no simulation needed)."""
-    cov = np.where(np.isfinite(cov), cov, 0.0)
-    base = mapper.identifiable(prob.params(x))
-    grads = np.zeros((len(base), x.size))
-    keys = list(base)
-    for j in range(x.size):
-        h = 1e-6 * max(1.0, abs(float(x[j])))
-        xp, xm = x.copy(), x.copy()
-        xp[j] = min(float(x[j]) + h, float(prob.upper[j]))
-        xm[j] = max(float(x[j]) - h, float(prob.lower[j]))
-        vp = mapper.identifiable(prob.params(xp))
-        vm = mapper.identifiable(prob.params(xm))
-        span = float(xp[j] - xm[j])
-        for i, k in enumerate(keys):
-            a, b = vp[k][0], vm[k][0]
-            ok = math.isfinite(a) and math.isfinite(b) and span > 0
-            grads[i, j] = (a - b) / span if ok else 0.0
-    out = []
-    for i, k in enumerate(keys):
-        value, unit = base[k]
-        g = grads[i]
-        if not np.any(g) or not math.isfinite(value):
-            out.append(
-                ParameterEstimate(
-                    name=k,
-                    value=value,
-                    std=None,
-                    ci95_low=None,
-                    ci95_high=None,
-                    unit=unit,
-                    status="fixed",
-                )
-            )
-            continue
-        std = float(math.sqrt(max(float(g @ cov @ g), 0.0)))
-        if any(g[j] != 0 for j in weak):
-            std = math.inf
-        if value > 0 and std < value:
-            # positive quantity: interval symmetric in log space
-            lo, hi = value * math.exp(-_Z95 * std / value), value * math.exp(_Z95 * std / value)
-        else:
-            lo, hi = value - _Z95 * std, value + _Z95 * std
-            lo = max(lo, 0.0) if value >= 0 else lo  # these combinations are non-negative
-        out.append(
-            ParameterEstimate(
-                name=k,
-                value=value,
-                std=std,
-                ci95_low=lo,
-                ci95_high=hi,
-                unit=unit,
-                status="fitted" if k == "delay_s" else "derived",
-            )
-        )
-    return tuple(out)
-
-
-def _drop_inactive_limits(
-    prob: Problem, x: FloatArray, base: DriveParams, notes: list[str]
-) -> list[int]:
-    """Limits that never shape the response are not identified: their prior is kept.
-
-    Returns the indices of the coordinates to drop from the fit result."""
-    params = prob.params(x)
-    ref = prob.scaled_sim(params)
-    dropped = []
-    for j, field in enumerate(prob.free):
-        if field not in _LIMITS:
-            continue
-        unlimited = prob.scaled_sim(params.replace(**{field: math.inf}))
-        if float(np.max(np.abs(unlimited - ref))) < 0.1:
-            prior = float(getattr(base, field))
-            dropped.append(j)
-            notes.append(
-                f"{field} never limited the response in the log (fitted {getattr(params, field):.3g} "
-                f"is not identifiable): kept at the spec prior ({prior:g})"
-            )
-    return dropped
-
-
-def _bootstrap_std(
-    logs: Sequence[LogArrays],
-    mapper: Mapper,
-    free: list[str],
-    ties: dict[str, str],
-    x_hat: FloatArray,
-    **kw: Any,
-) -> dict[str, float]:
-    """Bootstrap standard deviation of every fitted DriveParams value."""
-    if not free:
-        return {}
-    rows = segment_bootstrap(logs, mapper, free, ties, x_hat, **kw)
-    values = np.array(
-        [
-            [getattr(mapper.from_coords(dict(zip(free, r, strict=True)), ties), f) for f in free]
-            for r in rows
-        ]
-    )
-    return {f: float(np.std(values[:, j], ddof=1)) for j, f in enumerate(free)}
-
-
 def _linear_stats(identifiable: tuple[ParameterEstimate, ...]) -> dict[str, Any]:
     get = {e.name: e.value for e in identifiable}
     return {
@@ -432,47 +198,6 @@ def _check_numbers(
         )
 
 
-def _optimise(
-    prob: Problem, x0: FloatArray, solve: Callable[[Problem, FloatArray, int], Any], nfev: int
-) -> Any:
-    """Least squares on all the data; long logs first converge on their busiest windows."""
-    logs = prob.logs
-    total_s = sum(_span(g) for g in logs)
-    if total_s <= _COARSE_SPAN_S:
-        return solve(prob, x0, nfev)
-    windows = [
-        crop_log(g, *busiest_window(g, _window_samples(g, _COARSE_SPAN_S * _span(g) / total_s)))
-        for g in logs
-    ]
-    coarse = Problem(
-        windows,
-        prob.mapper,
-        prob.free,
-        prob.ties,
-        scale_v=1.0 / prob.gain_v,
-        scale_w=1.0 / prob.gain_w,
-        dt_s=prob.dt_s,
-        python=prob.python,
-        v_window_s=prob.v_window_s,
-        on_eval=prob.on_eval,
-    )
-    x1 = np.asarray(solve(coarse, x0, nfev).x)
-    prob.n_evals, prob.n_steps = coarse.n_evals, coarse.n_steps
-    return solve(prob, x1, min(nfev, _POLISH_NFEV))
-
-
-def _bound_notes(free: list[str], x: FloatArray, params: DriveParams) -> list[str]:
-    out = []
-    for j, f in enumerate(free):
-        c = COORDS[f]
-        tol = 1e-5 * (c.upper - c.lower)
-        if x[j] - c.lower < tol or c.upper - x[j] < tol:
-            out.append(
-                f"{f} ended at its physical bound ({getattr(params, f):.4g}); treat it with care"
-            )
-    return out
-
-
 def _correlation(
     cov: FloatArray, weak: list[int], names: list[str], notes: list[str]
 ) -> FloatArray:
@@ -482,14 +207,205 @@ def _correlation(
         corr = np.where(np.isfinite(np.outer(d, d)), cov / np.outer(d, d), math.nan)
     for j in weak:
         corr[j, :] = corr[:, j] = math.nan
+    family = False
     for a in range(len(names)):
         for b in range(a + 1, len(names)):
-            if abs(corr[a, b]) > 0.95:
-                notes.append(
-                    f"{names[a]} and {names[b]} are strongly correlated ({corr[a, b]:+.2f}): "
-                    "the log barely separates them"
-                )
+            if not abs(corr[a, b]) > 0.95:
+                continue
+            if names[a] in _SCALE_FAMILY and names[b] in _SCALE_FAMILY:
+                family = True
+                continue
+            notes.append(
+                f"{names[a]} and {names[b]} are strongly correlated ({corr[a, b]:+.2f}): "
+                "the log barely separates them"
+            )
+    if family:
+        notes.append(
+            "the motor gain, masses, inertias and friction forces move together (velocity data "
+            "fix their ratios): their split, and so their intervals, rest on the spec priors; "
+            "see 'identifiable' for what the log fixes on its own"
+        )
     return np.asarray(corr)
+
+
+#: Fields that velocity data only see relative to the motor gain (see sysid._coords).
+_SCALE_FAMILY = frozenset(
+    {
+        "motor_gain_nms_per_rad",
+        "wheel_torque_max_nm",
+        "added_mass_kg",
+        "added_yaw_inertia_kgm2",
+        "coulomb_v_fwd_n",
+        "coulomb_v_bwd_n",
+        "coulomb_w_nm",
+        "viscous_v_ns_per_m",
+        "viscous_w_nms_per_rad",
+    }
+)
+
+
+def _check_priors(
+    priors: Mapping[str, Prior] | None, base: DriveParams, geo: BaseGeometry
+) -> dict[str, Prior]:
+    out = generic_priors(base, geo)
+    if priors is None:
+        return out
+    unknown = sorted(set(priors) - set(SCHEMA))
+    if unknown:
+        raise SysidValueError(
+            f"priors has unknown drive parameter(s) {unknown}; known ones are {list(SCHEMA)}"
+        )
+    return out | {k: v for k, v in priors.items() if isinstance(v, Prior)}
+
+
+def _prior_base(base: DriveParams, priors: Mapping[str, Prior]) -> DriveParams:
+    """The values of the fields a fit does not free: their prior nominal (finite ones)."""
+    return base.replace(**{n: p.nominal for n, p in priors.items() if math.isfinite(p.nominal)})
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Summary:
+    """What a result reports about the fitted coordinates (one log or a population)."""
+
+    params: DriveParams
+    free: tuple[str, ...]
+    ties: dict[str, str]
+    u: FloatArray
+    cov_u: FloatArray
+    z: FloatArray
+    cov: FloatArray
+    weak: tuple[int, ...]
+    between: FloatArray | None
+    problem: Problem
+
+
+def _channel_residuals(post: Posterior) -> tuple[FloatArray, FloatArray]:
+    """Measured minus modelled v and w (m/s, rad/s) at the MAP point, all logs."""
+    prob = post.problem
+    sims = prob.simulate(post.params)
+    res_v = [g.meas_v - s.v for g, s in zip(prob.logs, sims, strict=True)]
+    res_w = [g.meas_w - s.w for g, s in zip(prob.logs, sims, strict=True)]
+    return np.concatenate(res_v), np.concatenate(res_w)
+
+
+def _convergence_notes(posts: Sequence[Posterior], names: Sequence[str], nfev: int) -> list[str]:
+    return [
+        f"{name}: the optimiser stopped at its evaluation limit ({nfev}) before converging "
+        f"({post.message}); the estimates may be off: record a richer log, fix parameters "
+        "(--free) or allow more evaluations"
+        for post, name in zip(posts, names, strict=True)
+        if not post.converged
+    ]
+
+
+def _single(post: Posterior) -> _Summary:
+    return _Summary(
+        params=post.params,
+        free=post.free,
+        ties=post.ties,
+        u=post.u,
+        cov_u=post.cov_u,
+        z=post.z,
+        cov=post.cov,
+        weak=post.weak,
+        between=None,
+        problem=post.problem,
+    )
+
+
+def _fleet(
+    posts: Sequence[Posterior],
+    logs: Sequence[LogArrays],
+    mapper: Mapper,
+    problem_kw: dict[str, Any],
+) -> _Summary:
+    """Random-effects population of per-log posteriors (see :mod:`sysid._fleet`)."""
+    used = set()
+    for p in posts:
+        used |= {f for j, f in enumerate(p.free) if j not in p.weak}
+    names = tuple(n for n in DriveParams.names() if n in used)
+    priors = [mapper.prior(n) for n in names]
+    mu_p = np.array([p[0] if p else 0.0 for p in priors])
+    prec = np.array([1.0 / p[1] ** 2 if p else 0.0 for p in priors])
+    s0 = np.diag([max(mapper.priors[n].session_sd, 1e-6) ** 2 for n in names])
+    sessions = []
+    for p in posts:
+        z = mu_p.copy()
+        info = np.zeros((len(names), len(names)))
+        idx = [(i, p.free.index(n)) for i, n in enumerate(names) if n in p.free]
+        idx = [(i, j) for i, j in idx if j not in p.weak]
+        rows = [i for i, _ in idx]
+        cols = [j for _, j in idx]
+        z[rows] = p.z[cols]
+        info[np.ix_(rows, rows)] = p.info[np.ix_(cols, cols)]
+        sessions.append(SessionInfo(z=z, info=info))
+    pop = population(sessions, prior_mu=mu_p, prior_prec=prec, session_cov=s0)
+    ties: dict[str, str] = {}
+    for p in posts:
+        ties |= {k: v for k, v in p.ties.items() if v in names}
+    prob = Problem(logs, mapper, names, ties, **problem_kw)
+    values = {n: mapper.value(n, float(z)) for n, z in zip(names, pop.mean, strict=True)}
+    params = mapper.base.replace(**values, **{k: values[v] for k, v in ties.items()})
+    u = np.array([mapper.to_coord(params, n) for n in names])
+    _, g = prob.schema_coords(u)
+    g_inv = np.linalg.pinv(g)
+    return _Summary(
+        params=params,
+        free=names,
+        ties=ties,
+        u=u,
+        cov_u=g_inv @ pop.mean_cov @ g_inv.T,
+        z=pop.mean,
+        cov=pop.mean_cov,
+        weak=(),
+        between=pop.between,
+        problem=prob,
+    )
+
+
+def _session_entry(post: Posterior, mapper: Mapper, name: str) -> dict[str, Any]:
+    sd = np.sqrt(np.clip(np.diag(post.cov), 0.0, None))
+    return {
+        "log": name,
+        "converged": post.converged,
+        "parameters": {
+            f: {"value": mapper.value(f, float(post.z[j])), "coord_std": float(sd[j])}
+            for j, f in enumerate(post.free)
+        },
+    }
+
+
+def _priors_doc(priors: Mapping[str, Prior]) -> dict[str, dict[str, Any]]:
+    return {
+        n: {
+            "nominal": p.nominal,
+            "sd": p.sd,
+            "session_sd": p.session_sd,
+            "coord": SCHEMA[n].coord,
+            "source": p.source,
+        }
+        for n, p in priors.items()
+    }
+
+
+def _bootstrap_std(
+    logs: Sequence[LogArrays], summary: _Summary, mapper: Mapper, **kw: Any
+) -> dict[str, float]:
+    """Bootstrap standard deviation of every fitted DriveParams value."""
+    free = list(summary.free)
+    if not free:
+        return {}
+    rows = segment_bootstrap(logs, mapper, free, summary.ties, summary.u, **kw)
+    values = np.array(
+        [
+            [
+                getattr(mapper.from_coords(dict(zip(free, r, strict=True)), summary.ties), f)
+                for f in free
+            ]
+            for r in rows
+        ]
+    )
+    return {f: float(np.std(values[:, j], ddof=1)) for j, f in enumerate(free)}
 
 
 def fit_drive(
@@ -497,6 +413,7 @@ def fit_drive(
     *,
     geometry: BaseGeometry,
     base_params: DriveParams,
+    priors: Mapping[str, Prior] | None = None,
     free: str | Sequence[str] | None = "auto",
     validate: Sequence[object] = (),
     robot: str = "unknown",
@@ -515,26 +432,31 @@ def fit_drive(
     seed: int = 0,
     progress: Progress | None = None,
 ) -> SysidResult:
-    r"""Fit the drive parameters of ``base_params`` to velocity logs.
+    r"""MAP fit of the drive parameters to velocity logs (one or several sessions).
 
     Parameters
     ----------
     logs : sequence of VelocityLog
         Fitting logs (``cmd_t_s, cmd_v, cmd_w, meas_t_s, meas_v, meas_w``; e.g.
-        ``sim2real.logs.Trace``), each simulated from its first measurement.
+        ``sim2real.logs.Trace``), each simulated from its first measurement. Several logs are
+        several sessions: each is fitted on its own and a population is estimated.
     geometry : BaseGeometry
         The robot's spec geometry (mass, yaw inertia, wheel radius and separation).
     base_params : DriveParams
-        Spec defaults: the prior for every parameter not fitted, and the motor gain.
+        Spec defaults (the centre of the generic priors).
+    priors : mapping of Prior, optional
+        ``{field: Prior}`` (``RobotSpec.priors``); fields it lacks get the schema's generic
+        prior around ``base_params``. Fields the fit does not free take the prior's nominal.
     free : "auto", None or list of str
-        Fields to fit. ``"auto"``/None chooses from the excitation of the logs and explains
-        every parameter it leaves at the prior in :attr:`SysidResult.warnings`.
+        Fields to fit. ``"auto"``/None chooses from the excitation of the logs (plus the motor
+        gain whenever a mass or inertia is fitted) and explains what it leaves at the prior in
+        :attr:`SysidResult.warnings`.
     validate : sequence of VelocityLog
         Logs only scored (FIT %, agreement) with the fitted parameters.
     robot : str
         Robot name written in the result.
     loss, f_scale : str, float
-        Robust loss of ``least_squares`` and its inlier scale (in units of ``scale``).
+        Robust loss of the data residuals and its inlier scale (in units of ``scale``).
     scale : "tol", "std" or (s_v, s_w)
         Residual scale per channel: the agreement tolerances (default), the channels' standard
         deviations, or explicit values (m/s, rad/s).
@@ -543,20 +465,19 @@ def fit_drive(
     tol_v, tol_w : float
         Agreement tolerances (m/s, rad/s) for the scores.
     dt_s : float
-        Integration step of the reduced model, s (use the step the params will be used with).
+        Integration step of the reduced model, s.
     odom_v_window_s : float
         Measurement model of v: the odometry's v is the mean over this preceding window, s
         (wheel-encoder tick differences over one odometry period, e.g. 1/30 s on a
-        TurtleBot3); 0 (default) compares the instantaneous model v. Without it, encoder
-        odometry looks half a period late and the fitted delay absorbs that.
+        TurtleBot3); 0 (default) compares the instantaneous model v.
     max_nfev : int
-        Cap on residual evaluations of the optimiser.
+        Cap on residual evaluations of the optimiser (hitting it is a warning).
     python : bool
         Run the plain-Python model loop (benchmark baseline; identical numbers, much slower).
     bootstrap : int
         Number of block-bootstrap replicates over ``segment_s``-second segments of the fit
-        logs (0 = none); their standard deviations land in :attr:`SysidResult.bootstrap_std`
-        as a check on the Jacobian errors. Draws from ``numpy.random.default_rng(seed)``.
+        logs (0 = none), a check on the Jacobian errors. Draws from
+        ``numpy.random.default_rng(seed)``.
     segment_s : float
         Segment length of the bootstrap, s.
     seed : int
@@ -581,17 +502,13 @@ def fit_drive(
     report = progress or (lambda stage, frac: None)
     fit_logs = [as_log_arrays(g, i) for i, g in enumerate(logs)]
     val_logs = [as_log_arrays(g, len(fit_logs) + i) for i, g in enumerate(validate)]
-    report("checking excitation", 0.0)
-    exc = analyse(fit_logs, geometry, base_params, free)
+    pri = _check_priors(priors, base_params, geometry)
+    base = _prior_base(base_params, pri)
+    mapper = Mapper(geometry, base, pri)
     notes = [
         f"{log_name(g, i)}: {w}" for i, g in enumerate([*logs, *validate]) for w in log_warnings(g)
     ]
-    notes += exc.warnings
-    mapper = Mapper(geometry, base_params)
-    report("initial estimates", 0.05)
-    x0_map, spike_notes = initial_coords(fit_logs, geometry, base_params, exc.free, exc.ties)
-    notes += spike_notes
-    free_list = list(exc.free)
+    report("checking excitation", 0.0)
     sv, sw = _scales(fit_logs, scale, tol_v, tol_w)
     problem_kw: dict[str, Any] = {
         "scale_v": sv,
@@ -601,94 +518,154 @@ def fit_drive(
         "dt_s": dt_s,
         "v_window_s": odom_v_window_s,
     }
+    groups = [fit_logs] if len(fit_logs) == 1 else [[g] for g in fit_logs]
+    posts: list[Posterior] = []
+    for k, group in enumerate(groups):
+        exc = analyse(group, geometry, base, free)
+        prefix = f"{group[0].name}: " if len(groups) > 1 else ""
+        notes += [prefix + w for w in exc.warnings]
+        lo, span = 0.05 + 0.85 * k / len(groups), 0.85 / len(groups)
 
-    def solve(prob: Problem, x0: FloatArray, nfev: int) -> Any:
-        return _solve(prob, x0, exc.coupled, loss, f_scale, nfev)
+        def on_eval(n: int, lo: float = lo, span: float = span) -> None:
+            report("fitting", lo + span * min(n / (4 * max_nfev), 1.0))
 
-    def on_eval(n: int) -> None:
-        report("fitting", 0.1 + 0.8 * min(n / (4 * max_nfev), 1.0))
-
-    prob = Problem(
-        fit_logs, mapper, free_list, exc.ties, python=python, on_eval=on_eval, **problem_kw
+        post = map_fit(
+            group,
+            mapper,
+            exc,
+            problem_kw=problem_kw,
+            loss=loss,
+            f_scale=f_scale,
+            max_nfev=max_nfev,
+            python=python,
+            on_eval=on_eval,
+            notes=notes,
+        )
+        notes += [
+            f"{prefix}{post.free[j]} is not determined by the log and has no prior (flat "
+            "direction of the fit): it is kept at its value and not randomised; fix it (--free) "
+            "or record a richer log"
+            for j in post.weak
+        ]
+        posts.append(post)
+    notes += _convergence_notes(
+        posts, [g.name for g in fit_logs] if len(posts) > 1 else ["fit"], max_nfev
     )
-    res = _optimise(prob, np.array([x0_map[f] for f in free_list]), solve, max_nfev)
     report("uncertainty", 0.92)
-    x = np.asarray(res.x)
-    dropped = _drop_inactive_limits(prob, x, base_params, notes)
-    keep = [j for j in range(len(free_list)) if j not in dropped]
-    kept_free = [free_list[j] for j in keep]
-    with threadpool_limits(limits=1):
-        cov, inflation, weak = _covariance(res, prob, keep)
-    notes += [
-        f"{kept_free[j]} is not determined by the log (flat or degenerate direction of the "
-        "fit): its interval is unbounded; fix it (--free) or record a richer log"
-        for j in weak
-    ]
-    prob_kept = Problem(fit_logs, mapper, kept_free, exc.ties, **problem_kw)
-    params = prob_kept.params(x[keep])
-    notes += _bound_notes(kept_free, x[keep], params)
-    corr = _correlation(cov, weak, kept_free, notes)
-    estimates = _param_estimates(
-        params,
-        kept_free,
-        x[keep],
-        np.sqrt(np.clip(np.diag(cov), 0.0, None)),
-        mapper,
-        {k: v for k, v in exc.ties.items() if v in kept_free},
+    summary = _single(posts[0]) if len(posts) == 1 else _fleet(posts, fit_logs, mapper, problem_kw)
+    res_v, res_w = (
+        np.concatenate(parts) for parts in zip(*map(_channel_residuals, posts), strict=True)
     )
-    identifiable = _identifiable(prob_kept, x[keep], cov, mapper, weak)
+    noise = estimate_noise(fit_logs, res_v, res_w)
+    return _finish(
+        summary=summary,
+        posts=posts,
+        mapper=mapper,
+        noise=noise,
+        fit_logs=fit_logs,
+        val_logs=val_logs,
+        notes=notes,
+        robot=robot,
+        problem_kw=problem_kw,
+        settings={
+            "loss": loss,
+            "f_scale": f_scale,
+            "scale_v": sv,
+            "scale_w": sw,
+            "weights": list(weights),
+            "dt_s": dt_s,
+            "odom_v_window_s": odom_v_window_s,
+            "max_nfev": max_nfev,
+            "bootstrap": {"replicates": bootstrap, "segment_s": segment_s, "seed": seed},
+        },
+        scoring={"dt_s": dt_s, "tol_v": tol_v, "tol_w": tol_w, "odom_v_window_s": odom_v_window_s},
+        bootstrap=(bootstrap, segment_s, seed, loss, f_scale),
+        started=started,
+        report=report,
+    )
+
+
+def _finish(
+    *,
+    summary: _Summary,
+    posts: Sequence[Posterior],
+    mapper: Mapper,
+    noise: ObservationNoise,
+    fit_logs: Sequence[LogArrays],
+    val_logs: Sequence[LogArrays],
+    notes: list[str],
+    robot: str,
+    problem_kw: dict[str, Any],
+    settings: dict[str, Any],
+    scoring: dict[str, Any],
+    bootstrap: tuple[int, float, int, str, float],
+    started: float,
+    report: Progress,
+) -> SysidResult:
+    s = summary
+    corr = _correlation(s.cov, list(s.weak), list(s.free), notes)
+    estimates = field_estimates(mapper, s.params, s.free, s.z, s.cov, s.ties)
+    identifiable = identifiable_estimates(s.problem, s.u, s.cov_u, s.weak)
+    dist: DriveDistribution = distribution(
+        robot, mapper, s.params, s.free, s.z, s.cov, s.ties, noise, between=s.between
+    )
+    replicates, segment_s, seed, loss, f_scale = bootstrap
     boot_std: dict[str, float] = {}
-    if bootstrap > 0:
+    if replicates > 0:
         report("bootstrap", 0.93)
+        coupled = any(p.coupled for p in posts)
+
+        def solve(pr: Problem, x0: FloatArray) -> Any:
+            from sysid._map import _solve
+
+            return _solve(pr, x0, coupled, loss, f_scale, 12)
+
         boot_std = _bootstrap_std(
             fit_logs,
+            s,
             mapper,
-            kept_free,
-            exc.ties,
-            x[keep],
-            solve=lambda pr, x0: solve(pr, x0, 12),
-            problem_kw=problem_kw,
-            replicates=bootstrap,
+            solve=solve,
+            problem_kw=problem_kw | {"prior_weight": posts[0].problem.prior_weight},
+            replicates=replicates,
             segment_s=segment_s,
             seed=seed,
         )
     report("scoring", 0.95)
-    kw_scores = {"dt_s": dt_s, "tol_v": tol_v, "tol_w": tol_w, "odom_v_window_s": odom_v_window_s}
-    scores_fit = score_logs(fit_logs, params, geometry, **kw_scores)
-    scores_val = score_logs(val_logs, params, geometry, **kw_scores) if val_logs else ()
+    scores_fit = score_logs(fit_logs, s.params, mapper.geometry, **scoring)
+    scores_val = score_logs(val_logs, s.params, mapper.geometry, **scoring) if val_logs else ()
     data = tuple(DataFile(file=g.name, sha256=g.sha256, role="fit") for g in fit_logs) + tuple(
         DataFile(file=g.name, sha256=g.sha256, role="validation") for g in val_logs
     )
-    settings = {
-        "loss": loss,
-        "f_scale": f_scale,
-        "scale_v": sv,
-        "scale_w": sw,
-        "weights": list(weights),
-        "dt_s": dt_s,
-        "odom_v_window_s": odom_v_window_s,
-        "free": kept_free,
-        "ties": dict(exc.ties),
-        "motor_gain_prior_nms_per_rad": base_params.motor_gain_nms_per_rad,
-        "model_evaluations": prob.n_evals,
-        "model_steps": prob.n_steps,
-        "optimizer_status": str(res.message),
-        "cost": float(res.cost),
-        "std_inflation_autocorr": inflation,
-        "bootstrap": {"replicates": bootstrap, "segment_s": segment_s, "seed": seed},
+    settings = settings | {
+        "free": list(s.free),
+        "ties": dict(s.ties),
+        "model_evaluations": sum(p.evaluations for p in posts),
+        "model_steps": sum(p.steps for p in posts),
+        "optimizer_status": "; ".join(p.message for p in posts),
+        "converged": all(p.converged for p in posts),
+        "cost": sum(p.cost for p in posts),
+        "std_inflation_autocorr": max(p.inflation for p in posts),
+        "prior_weight": [p.problem.prior_weight for p in posts],
+        "sessions": len(posts),
         "seconds": time.perf_counter() - started,
         "note": (
-            "added_mass_kg and added_yaw_inertia_kgm2 are derived relative to the spec motor "
-            "gain (velocity data only identify mass/gain ratios); see 'identifiable'"
+            "MAP fit against the spec priors: velocity data only identify mass/gain ratios, "
+            "the priors keep masses and inertias near theirs and move the rest into the motor "
+            "gain; see 'identifiable' for what the data fix on their own"
         ),
     }
+    sessions = (
+        tuple(_session_entry(p, mapper, g.name) for p, g in zip(posts, fit_logs, strict=True))
+        if len(posts) > 1
+        else ()
+    )
     report("done", 1.0)
     return SysidResult(
         robot=robot,
-        params=params,
+        params=s.params,
         estimates=estimates,
         identifiable=identifiable,
-        correlation_names=tuple(kept_free),
+        correlation_names=tuple(s.free),
         correlation=tuple(tuple(float(c) for c in row) for row in corr),
         linear=_linear_stats(identifiable),
         scores_fit=scores_fit,
@@ -698,4 +675,7 @@ def fit_drive(
         warnings=tuple(notes),
         settings=settings,
         bootstrap_std=boot_std,
+        randomization=dist,
+        sessions=sessions,
+        priors=_priors_doc(mapper.priors),
     )

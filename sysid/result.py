@@ -26,12 +26,13 @@ import yaml
 
 from robots.errors import ParamsFileError
 from robots.params import PARAMS_FILE_FORMAT, DriveParams, load_params_document
+from robots.randomization import DriveDistribution
 from sysid.errors import ResultFileError, SysidFileError
 
 __all__ = ["STATUSES", "DataFile", "FitScores", "ParameterEstimate", "SysidResult"]
 
 #: Allowed values of :attr:`ParameterEstimate.status`.
-STATUSES = ("fitted", "fixed", "tied", "derived")
+STATUSES = ("fitted", "prior", "fixed", "tied", "derived")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -51,8 +52,16 @@ class ParameterEstimate:
     unit : str
         SI unit.
     status : str
-        ``fitted`` (a fit coordinate), ``fixed`` (spec prior), ``tied`` (set equal to another
-        parameter) or ``derived`` (computed from fitted ones and a fixed prior).
+        ``fitted`` (a MAP estimate the log informed), ``prior`` (not fitted: the log does not
+        inform it, its posterior is its prior), ``fixed`` (known exactly or "no limit": no
+        spread), ``tied`` (set equal to another parameter) or ``derived`` (an identifiable
+        combination computed from the fitted ones).
+    coord : str or None
+        Coordinate kind of the field (:data:`robots.params.SCHEMA`), None for combinations.
+    coord_std : float or None
+        Posterior standard deviation in that coordinate.
+    prior_sd : float or None
+        Prior standard deviation in that coordinate (None: no prior).
     """
 
     name: str
@@ -62,17 +71,37 @@ class ParameterEstimate:
     ci95_high: float | None
     unit: str
     status: str
+    coord: str | None = None
+    coord_std: float | None = None
+    prior_sd: float | None = None
+
+    @property
+    def sd_ratio(self) -> float | None:
+        """Posterior / prior sd in coordinates: ~1 = the data did not inform it, << 1 = they
+        did; None without a prior."""
+        if self.coord_std is None or not self.prior_sd:
+            return None
+        return self.coord_std / self.prior_sd
 
     def to_yaml_dict(self) -> dict[str, Any]:
         """The mapping written under this parameter's name in the result file."""
         ci = None if self.ci95_low is None else [_num(self.ci95_low), _num(self.ci95_high)]
-        return {
+        out: dict[str, Any] = {
             "value": _num(self.value),
             "std": None if self.std is None else _num(self.std),
             "ci95": ci,
             "unit": self.unit,
             "status": self.status,
         }
+        if self.coord is not None:
+            ratio = self.sd_ratio
+            out |= {
+                "coord": self.coord,
+                "coord_std": None if self.coord_std is None else _num(self.coord_std),
+                "prior_sd": None if self.prior_sd is None else _num(self.prior_sd),
+                "sd_ratio": None if ratio is None else round(_num(ratio), 4),
+            }
+        return out
 
     @classmethod
     def from_yaml_dict(cls, name: str, entry: Mapping[str, Any]) -> ParameterEstimate:
@@ -81,11 +110,14 @@ class ParameterEstimate:
         return cls(
             name=name,
             value=float(entry["value"]),
-            std=None if entry.get("std") is None else float(entry["std"]),
+            std=_opt(entry.get("std")),
             ci95_low=None if ci is None else float(ci[0]),
             ci95_high=None if ci is None else float(ci[1]),
             unit=str(entry.get("unit", "")),
             status=str(entry.get("status", "fixed")),
+            coord=None if entry.get("coord") is None else str(entry["coord"]),
+            coord_std=_opt(entry.get("coord_std")),
+            prior_sd=_opt(entry.get("prior_sd")),
         )
 
 
@@ -161,6 +193,15 @@ class SysidResult:
         Fit settings (loss, dt, scales, free parameters, evaluations, cost).
     bootstrap_std : dict
         Block-bootstrap standard deviation of each fitted parameter (empty without bootstrap).
+    randomization : DriveDistribution or None
+        The calibrated distribution (``randomization`` block of the file): posterior (one log)
+        or population (several logs) plus between-session spread, priors of the fields the
+        logs did not inform, and the odometry noise model.
+    sessions : tuple of dict
+        Per-log estimates when several logs were fitted: ``{"log": name, "parameters":
+        {field: {"value": .., "coord_std": ..}}}``.
+    priors : dict
+        ``{field: {"nominal", "sd", "session_sd", "coord", "source"}}``: the priors used.
     """
 
     robot: str
@@ -177,6 +218,14 @@ class SysidResult:
     warnings: tuple[str, ...] = ()
     settings: dict[str, Any] = field(default_factory=dict)
     bootstrap_std: dict[str, float] = field(default_factory=dict)
+    randomization: DriveDistribution | None = None
+    sessions: tuple[dict[str, Any], ...] = ()
+    priors: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    @property
+    def converged(self) -> bool:
+        """False when the optimiser stopped at its evaluation limit (see :attr:`warnings`)."""
+        return bool(self.settings.get("converged", True))
 
     def estimate(self, name: str) -> ParameterEstimate:
         """The estimate of DriveParams field or identifiable combination ``name``."""
@@ -207,6 +256,9 @@ class SysidResult:
             "warnings": list(self.warnings),
             "settings": _plain(self.settings),
             "bootstrap_std": _plain(self.bootstrap_std),
+            "priors": _plain(self.priors),
+            "sessions": _plain(list(self.sessions)),
+            "randomization": None if self.randomization is None else self.randomization.to_dict(),
         }
 
     def to_yaml(self) -> str:
@@ -263,7 +315,9 @@ class SysidResult:
                 f"'{PARAMS_FILE_FORMAT}'; give a file written by 'sim2real sysid fit'"
             )
         try:
-            return cls._from_doc(doc)
+            return cls._from_doc(doc, p)
+        except ParamsFileError as exc:
+            raise ResultFileError(str(exc)) from None
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise ResultFileError(
                 f"sysid result file '{p}' is malformed ({type(exc).__name__}: {exc}); "
@@ -271,7 +325,7 @@ class SysidResult:
             ) from None
 
     @classmethod
-    def _from_doc(cls, doc: Mapping[str, Any]) -> SysidResult:
+    def _from_doc(cls, doc: Mapping[str, Any], path: Path) -> SysidResult:
         estimates = tuple(
             ParameterEstimate.from_yaml_dict(k, v) for k, v in doc["parameters"].items()
         )
@@ -296,7 +350,20 @@ class SysidResult:
             warnings=tuple(str(w) for w in doc.get("warnings") or ()),
             settings=dict(doc.get("settings") or {}),
             bootstrap_std={str(k): float(v) for k, v in (doc.get("bootstrap_std") or {}).items()},
+            randomization=(
+                None
+                if doc.get("randomization") is None
+                else DriveDistribution.from_dict(
+                    doc["randomization"], robot=str(doc["robot"]), source=f"{path}: randomization"
+                )
+            ),
+            sessions=tuple(dict(s) for s in doc.get("sessions") or ()),
+            priors={str(k): dict(v) for k, v in (doc.get("priors") or {}).items()},
         )
+
+
+def _opt(x: Any) -> float | None:
+    return None if x is None else float(x)
 
 
 def _num(x: float | None) -> float:

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 from sim2real.cli._common import add_command
 from sim2real.errors import Sim2RealValueError
+from sysid.metrics import FIT_PERCENT_DEFINITION
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -24,6 +25,7 @@ _GROUP_EXAMPLES = """\
 """
 _FIT_EXAMPLES = """\
   sim2real sysid fit run.mcap --robot turtlebot3_burger -o params.yaml
+  sim2real sysid fit a.mcap b.mcap c.mcap --robot turtlebot2 -o p.yaml   # a fleet of sessions
   sim2real sysid fit a.mcap b.mcap --robot turtlebot2 -o p.yaml --validate c.mcap
   sim2real sysid fit goal.mcap --robot turtlebot3_waffle_pi -o p.yaml \\
       --window 0:20 --validate goal.mcap --validate-window 20:40   # fit one part, check another
@@ -57,10 +59,15 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="fit the drive parameters to one or more logs",
         description=(
             "Simulate the reduced drive model from the logged commands and fit its parameters "
-            "to the measured velocities (robust output-error least squares). Prints the "
-            "parameters with 95 % intervals, what the logs could not identify, and FIT % / "
-            "agreement on the fitting and validation logs; writes a params file that "
-            "'sim2real agree --params' and the envs read."
+            "to the measured velocities: a MAP fit (robust least squares plus the spec's priors "
+            "of every drive parameter). Prints each parameter's prior, posterior (value, 95 % "
+            "interval) and how much the data informed it (post/prior sd: ~1 = not at all), "
+            "what the logs could not identify, and FIT % / agreement on the fitting and "
+            "validation logs. Several logs are several sessions: each is fitted and a "
+            "population (mean, between-session spread) is estimated. Writes a params file "
+            "with a 'randomization' block (the distribution to train on, with the odometry "
+            "noise) that 'sim2real agree --params' and the envs read. "
+            f"{FIT_PERCENT_DEFINITION}."
         ),
         examples=_FIT_EXAMPLES,
     )
@@ -256,6 +263,7 @@ def _fit(args: argparse.Namespace) -> int:
             logs,
             geometry=spec.geometry,
             base_params=spec.drive,
+            priors=spec.priors,
             free=free,
             validate=val,
             robot=spec.name,
@@ -300,15 +308,54 @@ def _fmt(x: float | None) -> str:
     return f"{x:.4g}"
 
 
+def _prior_text(result: SysidResult, name: str) -> str:
+    p = result.priors.get(name)
+    if not p or not p.get("sd"):
+        return "-"
+    return f"{_fmt(p['nominal'])} ± {_fmt(p['sd'])} ({p['coord']})"
+
+
 def _estimate_rows(
-    estimates: tuple[ParameterEstimate, ...], boot: dict[str, float]
+    result: SysidResult, estimates: tuple[ParameterEstimate, ...], boot: dict[str, float]
 ) -> list[tuple[str, ...]]:
     rows: list[tuple[str, ...]] = []
     for e in estimates:
         ci = "-" if e.ci95_low is None else f"[{_fmt(e.ci95_low)}, {_fmt(e.ci95_high)}]"
         row = (e.name, _fmt(e.value), _fmt(e.std), ci, e.unit, e.status)
+        if e.coord is not None:
+            row = (*row, _prior_text(result, e.name), _fmt(e.sd_ratio))
         rows.append((*row, _fmt(boot.get(e.name))) if boot else row)
     return rows
+
+
+def _print_population(console: Console, result: SysidResult) -> None:
+    """The randomisation distribution (and the per-session estimates of a fleet)."""
+    from rich.table import Table
+
+    dist = result.randomization
+    if dist is None:
+        return
+    title = (
+        f"randomization: population of {len(result.sessions)} sessions"
+        if result.sessions
+        else "randomization: posterior + default between-session spread"
+    )
+    table = Table(title=title, title_justify="left")
+    for col in ("parameter", "coordinate", "mean value", "sd (coordinate)"):
+        table.add_column(col)
+    sessions = [s["log"] for s in result.sessions]
+    for name in sessions:
+        table.add_column(Path(name).name)
+    mean = dist.mean_params()
+    for name, coord, sd in zip(dist.names, dist.coords, dist.std().values(), strict=True):
+        per_log = [s["parameters"].get(name, {}).get("value") for s in result.sessions]
+        table.add_row(name, coord, _fmt(getattr(mean, name)), _fmt(sd), *[_fmt(v) for v in per_log])
+    console.print(table)
+    n = dist.noise
+    console.print(
+        f"odometry noise: v {n.std_v_mps:.4g} m/s (quantum {n.quantum_v_mps:.4g}), "
+        f"w {n.std_w_radps:.4g} rad/s (quantum {n.quantum_w_radps:.4g})"
+    )
 
 
 def _print_result(console: Console, result: SysidResult) -> None:
@@ -325,11 +372,14 @@ def _print_result(console: Console, result: SysidResult) -> None:
     ):
         table = Table(title=title, title_justify="left")
         cols = ["parameter", "value", "std", "95 % interval", "unit", "status"]
+        if any(e.coord is not None for e in estimates):
+            cols += ["prior (coordinate sd)", "post/prior sd"]
         for col in cols + (["bootstrap std"] if boot else []):
             table.add_column(col, justify="right" if "std" in col or col == "value" else "left")
-        for row in _estimate_rows(estimates, boot):
+        for row in _estimate_rows(result, estimates, boot):
             table.add_row(*row)
         console.print(table)
+    _print_population(console, result)
     scores = Table(title="scores", title_justify="left")
     for col in (
         "log",

@@ -101,8 +101,10 @@ def test_length_mismatch_and_unsorted_times_are_refused() -> None:
 def test_bad_free_names_are_refused() -> None:
     with pytest.raises(SysidValueError, match="unknown free parameter 'mass'"):
         fit_drive([_log()], geometry=GEO, base_params=BASE, free=["mass"])
-    with pytest.raises(SysidValueError, match="motor_gain_nms_per_rad' cannot be fitted"):
-        fit_drive([_log()], geometry=GEO, base_params=BASE, free=["motor_gain_nms_per_rad"])
+    # the motor gain is fittable now (MAP: its prior resolves the mass/gain family); the
+    # command timeout, a firmware setting, is not
+    with pytest.raises(SysidValueError, match="cmd_timeout_s' cannot be fitted"):
+        fit_drive([_log()], geometry=GEO, base_params=BASE, free=["cmd_timeout_s"])
     with pytest.raises(SysidValueError, match="loss must be one of"):
         fit_drive([_log()], geometry=GEO, base_params=BASE, loss="l3")
 

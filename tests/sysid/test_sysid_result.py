@@ -38,14 +38,24 @@ def test_yaml_layout(result: SysidResult) -> None:
     delay = doc["parameters"]["delay_s"]
     assert delay["status"] == "fitted" and delay["unit"] == "s"
     assert delay["ci95"][0] < delay["value"] < delay["ci95"][1]
-    assert doc["parameters"]["motor_gain_nms_per_rad"] == {
-        "value": 0.005,
+    # MAP: the motor gain is fitted against its (generic) prior, which the data narrow
+    gain = doc["parameters"]["motor_gain_nms_per_rad"]
+    assert gain["status"] == "fitted" and gain["unit"] == "N m s/rad" and gain["coord"] == "log"
+    assert gain["prior_sd"] == 1.0 and 0 < gain["sd_ratio"] < 1.0
+    assert doc["parameters"]["cmd_timeout_s"] == {
+        "value": math.inf,
         "std": None,
         "ci95": None,
-        "unit": "N m s/rad",
+        "unit": "s",
         "status": "fixed",
+        "coord": "log",
+        "coord_std": None,
+        "prior_sd": None,
+        "sd_ratio": None,
     }
-    assert doc["parameters"]["cmd_timeout_s"]["value"] == math.inf
+    assert doc["randomization"]["format"] == "sim2real.randomization/1"
+    assert "delay_s" in doc["randomization"]["names"]
+    assert set(doc["priors"]) == set(DriveParams.names())
     assert "time_constant_v_s" in doc["identifiable"]
     assert [d["role"] for d in doc["data"]] == ["fit", "validation"]
     assert doc["data"][0]["file"] == "train.mcap"
@@ -72,7 +82,7 @@ def test_robots_reads_the_result_file(result: SysidResult, tmp_path: Path) -> No
     pf = read_params_file(path)
     assert pf.robot == "tiny"
     assert pf.values["delay_s"] == pytest.approx(result.params.delay_s)
-    assert "delay_s" in pf.stds and "motor_gain_nms_per_rad" not in pf.stds
+    assert "delay_s" in pf.stds and "cmd_timeout_s" not in pf.stds
     params = load_drive_params(path, robot="tiny", base=DriveParams())
     assert params == result.params
     with pytest.raises(ParamsFileError, match="identified for robot 'tiny'"):

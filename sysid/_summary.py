@@ -1,0 +1,255 @@
+"""From fitted coordinates to what a result reports: estimates of every field, identifiable
+combinations, the randomisation distribution and the odometry noise model."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robots.params import SCHEMA, DriveParams
+from robots.randomization import DriveDistribution, ObservationNoise
+from sysid._coords import Mapper
+from sysid._logs import LogArrays
+from sysid._problem import Problem
+from sysid.result import ParameterEstimate
+
+__all__ = [
+    "Z95",
+    "distribution",
+    "estimate_noise",
+    "field_estimates",
+    "identifiable_estimates",
+    "quantum",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: Two-sided 95 % quantile of the standard normal distribution.
+Z95 = 1.959963984540054
+
+
+def _estimate(
+    mapper: Mapper, name: str, z: float, sd: float, status: str, value: float | None = None
+) -> ParameterEstimate:
+    """A field's estimate from its coordinate ``z`` and coordinate sd (interval mapped back)."""
+    f = SCHEMA[name]
+    v = mapper.value(name, z) if value is None else value
+    prior = mapper.priors[name]
+    if math.isfinite(sd):
+        lo, hi = mapper.bounds(name)
+        a = mapper.value(name, float(np.clip(z - Z95 * sd, lo, hi)))
+        b = mapper.value(name, float(np.clip(z + Z95 * sd, lo, hi)))
+        ci: tuple[float | None, float | None] = (min(a, b), max(a, b))
+        std: float | None = abs(f.derivative(v, mapper.geometry)) * sd
+    else:
+        ci, std = (-math.inf, math.inf), math.inf
+    return ParameterEstimate(
+        name=name,
+        value=v,
+        std=std,
+        ci95_low=ci[0],
+        ci95_high=ci[1],
+        unit=f.unit,
+        status=status,
+        coord=f.coord,
+        coord_std=sd,
+        prior_sd=prior.sd if prior.informative else None,
+    )
+
+
+def field_estimates(
+    mapper: Mapper,
+    params: DriveParams,
+    free: Sequence[str],
+    z: FloatArray,
+    cov: FloatArray,
+    ties: dict[str, str],
+) -> tuple[ParameterEstimate, ...]:
+    """Every DriveParams field: fitted (from ``z``, ``cov``), prior, tied or fixed."""
+    out = []
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if len(free) else np.zeros(0)
+    for name in DriveParams.names():
+        source = ties.get(name, name)
+        if source in free:
+            j = list(free).index(source)
+            status = "tied" if name in ties else "fitted"
+            value = float(getattr(params, name))
+            out.append(_estimate(mapper, name, float(z[j]), float(sd[j]), status, value))
+        elif mapper.priors[name].informative:
+            p = mapper.priors[name]
+            out.append(_estimate(mapper, name, p.mean(mapper.geometry), p.sd, "prior", p.nominal))
+        else:
+            f = SCHEMA[name]
+            out.append(
+                ParameterEstimate(
+                    name=name,
+                    value=float(getattr(params, name)),
+                    std=None,
+                    ci95_low=None,
+                    ci95_high=None,
+                    unit=f.unit,
+                    status="fixed",
+                    coord=f.coord,
+                    coord_std=None,
+                    prior_sd=None,
+                )
+            )
+    return tuple(out)
+
+
+def _plain_estimate(name: str, value: float, unit: str) -> ParameterEstimate:
+    return ParameterEstimate(
+        name=name, value=value, std=None, ci95_low=None, ci95_high=None, unit=unit, status="fixed"
+    )
+
+
+def identifiable_estimates(
+    prob: Problem, x: FloatArray, cov: FloatArray, weak: Sequence[int]
+) -> tuple[ParameterEstimate, ...]:
+    """Delta-method uncertainty of the identifiable combinations (no simulation needed)."""
+    mapper = prob.mapper
+    cov = np.where(np.isfinite(cov), cov, 0.0)
+    base = mapper.identifiable(prob.params(x))
+    keys = list(base)
+    grads = np.zeros((len(base), x.size))
+    for j in range(x.size):
+        h = 1e-6 * max(1.0, abs(float(x[j])))
+        xp, xm = x.copy(), x.copy()
+        xp[j] = min(float(x[j]) + h, float(prob.upper[j]))
+        xm[j] = max(float(x[j]) - h, float(prob.lower[j]))
+        vp, vm = mapper.identifiable(prob.params(xp)), mapper.identifiable(prob.params(xm))
+        span = float(xp[j] - xm[j])
+        for i, k in enumerate(keys):
+            a, b = vp[k][0], vm[k][0]
+            ok = math.isfinite(a) and math.isfinite(b) and span > 0
+            grads[i, j] = (a - b) / span if ok else 0.0
+    out = []
+    for i, k in enumerate(keys):
+        value, unit = base[k]
+        g = grads[i]
+        if not np.any(g) or not math.isfinite(value):
+            out.append(_plain_estimate(k, value, unit))
+            continue
+        std = float(math.sqrt(max(float(g @ cov @ g), 0.0)))
+        if any(g[j] != 0 for j in weak):
+            std = math.inf
+        if value > 0 and std < value:  # positive quantity: interval symmetric in log space
+            lo, hi = value * math.exp(-Z95 * std / value), value * math.exp(Z95 * std / value)
+        else:
+            lo, hi = value - Z95 * std, value + Z95 * std
+            lo = max(lo, 0.0) if value >= 0 else lo
+        status = "fitted" if k == "delay_s" else "derived"
+        out.append(
+            ParameterEstimate(
+                name=k, value=value, std=std, ci95_low=lo, ci95_high=hi, unit=unit, status=status
+            )
+        )
+    return tuple(out)
+
+
+def distribution(
+    robot: str,
+    mapper: Mapper,
+    params: DriveParams,
+    free: Sequence[str],
+    z: FloatArray,
+    cov: FloatArray,
+    ties: dict[str, str],
+    noise: ObservationNoise,
+    *,
+    between: FloatArray | None = None,
+) -> DriveDistribution:
+    """The ``randomization`` distribution.
+
+    Fitted coordinates: mean ``z``, covariance ``cov`` + ``between`` (the between-session
+    covariance; the priors' default session spreads when None). Fields the fit did not free but
+    whose prior is informative: prior mean, prior variance + default session variance. Tied
+    fields copy their source's row. Everything else (known exactly, "no limit", undetermined
+    coordinates) is fixed at its value in ``params``.
+    """
+    geo = mapper.geometry
+    finite = [j for j, f in enumerate(free) if math.isfinite(float(cov[j, j]))]
+    names = [free[j] for j in finite]
+    session = np.array([mapper.priors[n].session_sd ** 2 for n in names])
+    block = cov[np.ix_(finite, finite)] + (
+        np.diag(session) if between is None else between[np.ix_(finite, finite)]
+    )
+    means = [float(z[j]) for j in finite]
+    extra = [
+        n
+        for n in DriveParams.names()
+        if n not in free and n not in ties and mapper.priors[n].informative
+    ]
+    k0, k1 = len(names), len(names) + len(extra)
+    full = np.zeros((k1, k1))
+    full[:k0, :k0] = block
+    for i, n in enumerate(extra, start=k0):
+        p = mapper.priors[n]
+        full[i, i] = p.sd**2 + p.session_sd**2
+        means.append(p.mean(geo))
+    names += extra
+    tied = [(n, s) for n, s in ties.items() if s in names]
+    for n, s in tied:  # a tied field moves with its source: a duplicated row and column
+        j = names.index(s)
+        full = np.pad(full, ((0, 1), (0, 1)))
+        full[-1, :] = full[j, :]
+        full[:, -1] = full[:, j]
+        full[-1, -1] = full[j, j]
+        names.append(n)
+        means.append(means[j])
+    fixed = {n: float(getattr(params, n)) for n in DriveParams.names() if n not in names}
+    return DriveDistribution(
+        robot=robot,
+        geometry=geo,
+        names=tuple(names),
+        mean=tuple(means),
+        covariance=tuple(tuple(float(c) for c in row) for row in 0.5 * (full + full.T)),
+        fixed=fixed,
+        noise=noise,
+    )
+
+
+def quantum(values: FloatArray) -> float:
+    """Resolution of a lattice the measured values sit on (an encoder tick per period), 0 if none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> quantum(np.round(np.random.default_rng(0).normal(0, 0.1, 500) / 0.004) * 0.004)
+    0.004
+    """
+    nz = np.abs(values[np.abs(values) > 1e-9])
+    if nz.size < 20:
+        return 0.0
+    uniq = np.unique(np.round(nz, 12))
+    if uniq.size > 0.5 * nz.size:
+        return 0.0
+    gaps = np.diff(uniq)
+    gaps = gaps[gaps > 1e-9]
+    if gaps.size == 0:
+        return 0.0
+    q = float(np.min(gaps))
+    on_lattice = np.abs(nz / q - np.round(nz / q)) < 1e-3
+    return round(q, 12) if float(np.mean(on_lattice)) >= 0.95 else 0.0
+
+
+def estimate_noise(
+    logs: Sequence[LogArrays], residuals_v: FloatArray, residuals_w: FloatArray
+) -> ObservationNoise:
+    """Odometry noise: robust (MAD) sd of the fit residuals per channel, and the lattice of the
+    measured values (encoder quantisation) when there is one."""
+
+    def mad(r: FloatArray) -> float:
+        return float(1.4826 * np.median(np.abs(r - np.median(r)))) if r.size else 0.0
+
+    meas_v = np.concatenate([g.meas_v for g in logs])
+    meas_w = np.concatenate([g.meas_w for g in logs])
+    return ObservationNoise(
+        std_v_mps=min(mad(residuals_v), 1.0),
+        std_w_radps=min(mad(residuals_w), 5.0),
+        quantum_v_mps=min(quantum(meas_v), 1.0),
+        quantum_w_radps=min(quantum(meas_w), 5.0),
+    )
