@@ -321,7 +321,7 @@ def _estimate_rows(
     rows: list[tuple[str, ...]] = []
     for e in estimates:
         ci = "-" if e.ci95_low is None else f"[{_fmt(e.ci95_low)}, {_fmt(e.ci95_high)}]"
-        row = (e.name, _fmt(e.value), _fmt(e.std), ci, e.unit, e.status)
+        row: tuple[str, ...] = (e.name, _fmt(e.value), _fmt(e.std), ci, e.unit, e.status)
         if e.coord is not None:
             row = (*row, _prior_text(result, e.name), _fmt(e.sd_ratio))
         rows.append((*row, _fmt(boot.get(e.name))) if boot else row)
