@@ -12,7 +12,10 @@ from sim2real.errors import MissingTopicError
 from sim2real.logs._channels import Chan, choose_topic
 from sim2real.logs._reader import load_log
 
-__all__ = ["LogInfo", "TopicInfo", "inspect_log"]
+__all__ = ["NO_CHECKSUMS", "LogInfo", "TopicInfo", "inspect_log"]
+
+#: The note of a log without any CRC (chunk or data section).
+NO_CHECKSUMS = "this file has no checksums; corruption cannot be detected"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -141,6 +144,8 @@ def inspect_log(
                 raise
             chosen[role], notes[role] = None, str(exc)
     warnings = list(log.container.warnings)
+    if not log.container.checksums:
+        warnings.append(NO_CHECKSUMS)
     for role, topic in chosen.items():
         if topic is not None and not any(c.count for c in log.chans if c.topic == topic):
             warnings.append(

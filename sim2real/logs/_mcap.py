@@ -15,7 +15,10 @@ index is missing, partial or wrong is walked record by record as before.
 
 Integrity: chunk CRCs (``uncompressed_crc``) and the data-section CRC (``DataEnd``) are checked
 when the writer filled them in (non-zero). Without a data CRC the message count is checked
-against the ``Statistics`` record of the summary when there is one.
+against the ``Statistics`` record of the summary when there is one. A file with no CRC at all
+(what rosbags and several recorders write) is flagged (``Container.checksums`` is False, and
+``logs info`` says that corruption cannot be detected). A message whose channel id no Channel
+record defines is an error naming its byte offset (it used to be dropped silently).
 """
 
 from __future__ import annotations
@@ -89,6 +92,8 @@ class Container:
     channels: dict[int, ChannelRecord] = field(default_factory=dict)
     segments: list[Segment] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    #: True when the file carries a data-section CRC or a CRC on every chunk it has.
+    checksums: bool = False
 
     def message_count(self) -> int:
         """Total number of message records found."""
@@ -156,8 +161,8 @@ def _decompress(compression: str, data: bytes, size: int) -> bytes:
     raise _Corrupt(f"it uses compression '{compression}', which is not zstd, lz4 or none")
 
 
-def _chunk_records(buf: bytes, pos: int, end: int) -> tuple[bytes, int, int]:
-    """The records of the Chunk record ``buf[pos:end]`` as ``(records_buf, lo, hi)``.
+def _chunk_records(buf: bytes, pos: int, end: int) -> tuple[bytes, int, int, bool]:
+    """The records of the Chunk record ``buf[pos:end]`` as ``(records_buf, lo, hi, has_crc)``.
 
     Uncompressed records stay where they are in ``buf`` (no copy); compressed ones are
     decompressed into a new buffer (``lo = 0``).
@@ -179,7 +184,7 @@ def _chunk_records(buf: bytes, pos: int, end: int) -> tuple[bytes, int, int]:
         raise _Corrupt(f"it holds {hi - lo} bytes of records but says {size}")
     if crc != 0 and zlib.crc32(memoryview(data)[lo:hi]) != crc:
         raise _Corrupt("its CRC does not match its records")
-    return data, lo, hi
+    return data, lo, hi, crc != 0
 
 
 def _segment(buf: bytes, starts: list[int]) -> Segment:
@@ -369,6 +374,8 @@ def scan_mcap(data: bytes, *, name: str) -> Container:
     data_crc = 0
     stats_count: int | None = None
     pending: list[_Pending] = []
+    origins: list[_Origin] = []
+    chunk_crcs: list[bool] = []
     while True:
         if pos + 9 > n:
             _truncated(out, name, pos, n, data_end)
@@ -382,7 +389,7 @@ def scan_mcap(data: bytes, *, name: str) -> Container:
             if data_end is None and op == _MESSAGE_INDEX:
                 _add_index(pending, data, pos, end)
             elif data_end is None:
-                _flush(pending, out, name)
+                _flush(pending, out, name, origins, chunk_crcs)
                 data_crc = _data_record(data, op, pos, end, out, top_starts, pending)
             elif op == _STATISTICS:
                 stats_count = _Cursor(data, pos + 9, end).u64()
@@ -401,9 +408,12 @@ def scan_mcap(data: bytes, *, name: str) -> Container:
         if op == _FOOTER:
             break
         pos = end
-    _flush(pending, out, name)
+    _flush(pending, out, name, origins, chunk_crcs)
     if top_starts:
         out.segments.append(_segment_safe(data, top_starts, name))
+        origins.append(_Origin(-1, 0, data))
+    _check_channel_ids(out, origins, data, name)
+    out.checksums = data_crc != 0 or (bool(chunk_crcs) and all(chunk_crcs))
     if data_end is not None and data_crc == 0 and stats_count is not None:
         found = out.message_count()
         if found != stats_count:
@@ -459,6 +469,7 @@ class _Pending:
     hi: int
     offsets: list[np.ndarray] = field(default_factory=list)
     usable: bool = True
+    has_crc: bool = False
 
 
 def _add_index(pending: list[_Pending], data: bytes, pos: int, end: int) -> None:
@@ -472,9 +483,17 @@ def _add_index(pending: list[_Pending], data: bytes, pos: int, end: int) -> None
         pending[-1].offsets.append(offsets)
 
 
-def _flush(pending: list[_Pending], out: Container, name: str) -> None:
-    """Scan the pending chunks: through their index when it checks out, else record by record."""
+def _flush(
+    pending: list[_Pending], out: Container, name: str, origins: list[_Origin], crcs: list[bool]
+) -> None:
+    """Scan the pending chunks: through their index when it checks out, else record by record.
+
+    Each new segment's origin (the chunk's file offset) goes to ``origins``, each chunk's
+    CRC presence to ``crcs``.
+    """
     for chunk in pending:
+        before = len(out.segments)
+        crcs.append(chunk.has_crc)
         try:
             if not (chunk.usable and chunk.offsets) or not _scan_chunk_indexed(
                 chunk.buf, chunk.lo, chunk.hi, chunk.offsets, out
@@ -485,7 +504,41 @@ def _flush(pending: list[_Pending], out: Container, name: str) -> None:
                 f"log file '{name}' is corrupt: the record at byte {chunk.pos} is broken ({exc}); "
                 "the file cannot be read safely, re-export or re-record it"
             ) from None
+        origins.extend(_Origin(chunk.pos, chunk.lo, chunk.buf) for _ in out.segments[before:])
     pending.clear()
+
+
+@dataclass(frozen=True)
+class _Origin:
+    """Where a segment's records are: in the chunk record at ``chunk_pos`` (``lo`` is where the
+    chunk's records start in ``buf``), or outside chunks (``chunk_pos`` -1, ``buf`` the file)."""
+
+    chunk_pos: int
+    lo: int
+    buf: bytes
+
+
+def _check_channel_ids(out: Container, origins: list[_Origin], data: bytes, name: str) -> None:
+    """Every message names a defined channel; else a LogFormatError naming its byte offset."""
+    known = np.fromiter(out.channels, dtype=np.int64, count=len(out.channels))
+    for seg, origin in zip(out.segments, origins, strict=True):
+        bad = np.flatnonzero(~np.isin(seg.channel_id, known))
+        if bad.size == 0:
+            continue
+        i = int(bad[0])
+        record = int(seg.payload_off[i]) - 9 - _MESSAGE_FIXED
+        if origin.buf is data:
+            where = f"the message record at byte {record}"
+        else:
+            where = (
+                f"the message record at byte {record - origin.lo} of the decompressed chunk "
+                f"at byte {origin.chunk_pos}"
+            )
+        raise LogFormatError(
+            f"log file '{name}' is corrupt: {where} names channel id {int(seg.channel_id[i])}, "
+            f"which no Channel record defines ({bad.size} such message(s)); the file cannot be "
+            "read safely, re-export or re-record it"
+        )
 
 
 def _data_record(
@@ -505,7 +558,8 @@ def _data_record(
     if op == _MESSAGE:
         top_starts.append(pos)
     elif op == _CHUNK:
-        pending.append(_Pending(pos, *_chunk_records(data, pos + 9, end)))
+        buf, lo, hi, has_crc = _chunk_records(data, pos + 9, end)
+        pending.append(_Pending(pos, buf, lo, hi, has_crc=has_crc))
     elif op == _SCHEMA:
         _add_schema(out, _schema(data, pos + 9, end))
     elif op == _CHANNEL:

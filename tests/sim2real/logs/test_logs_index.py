@@ -294,7 +294,7 @@ def test_fuzzed_index_bodies_never_change_the_result(tmp_path_factory, flips):
 
 
 def _raw_mcap(records: bytes) -> bytes:
-    """A minimal MCAP file with one uncompressed, CRC-less chunk holding ``records``."""
+    """A minimal MCAP file with channel 1 and one uncompressed, CRC-less chunk of ``records``."""
 
     def rec(op: int, body: bytes) -> bytes:
         return struct.pack("<BQ", op, len(body)) + body
@@ -304,7 +304,8 @@ def _raw_mcap(records: bytes) -> bytes:
 
     chunk = struct.pack("<QQQI", 0, 0, len(records), 0) + string("")
     chunk += struct.pack("<Q", len(records)) + records
-    body = rec(0x01, string("ros2") + string("raw")) + rec(0x06, chunk)
+    channel = struct.pack("<HH", 1, 0) + string("/raw") + string("cdr") + struct.pack("<I", 0)
+    body = rec(0x01, string("ros2") + string("raw")) + rec(0x04, channel) + rec(0x06, chunk)
     body += rec(0x0F, struct.pack("<I", 0)) + rec(0x02, struct.pack("<QQI", 0, 0, 0))
     return _mcap.MAGIC + body + _mcap.MAGIC
 
