@@ -65,6 +65,7 @@ from numpy.typing import NDArray
 from robots._kernel import pack_params, pybullet_substep
 from robots._pybullet import pybullet as p
 from robots._urdf import LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT, urdf_path
+from robots.check import ensure_spec_ok
 from robots.errors import RobotsError, RobotsValueError
 from robots.params import DriveParams
 from robots.reduced import _check_inputs, delayed_step_average
@@ -172,6 +173,7 @@ class PybulletRobot:
         start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
     ) -> None:
         self.spec = spec if isinstance(spec, RobotSpec) else load_spec(spec)
+        ensure_spec_ok(self.spec)  # geometry + 1 s drive test, once per spec (robots.check)
         if not (math.isfinite(physics_hz) and physics_hz > 0):
             raise RobotsValueError(f"physics_hz must be a finite number > 0, got {physics_hz!r}")
         self.physics_hz = float(physics_hz)

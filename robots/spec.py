@@ -40,6 +40,7 @@ Example
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -454,9 +455,11 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
     if not (path.suffix in (".yaml", ".yml") or path.is_file()):
         path = SPECS_DIR / f"{text}.yaml"
         if not path.is_file():
+            close = difflib.get_close_matches(text, list_robots(), n=1, cutoff=0.6)
+            hint = f"did you mean '{close[0]}'? " if close else ""
             raise UnknownRobotError(
-                f"unknown robot '{text}'; known robots are {list_robots()} "
-                "(or give the path of a spec .yaml file)"
+                f"unknown robot '{text}'; {hint}known robots are {list_robots()} "
+                "(or give the path of a spec .yaml file, e.g. from `sim2real robots new`)"
             )
     if not path.is_file():
         raise UnknownRobotError(

@@ -1,9 +1,11 @@
-"""`sim2real robots` commands: list the shipped robot specs and show one in full."""
+"""`sim2real robots` commands: list the shipped specs, show one, write a new one, check one."""
 
 from __future__ import annotations
 
 import argparse
 import math
+import tempfile
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from sim2real.cli._common import add_command
@@ -17,6 +19,19 @@ _GROUP_EXAMPLES = """\
   sim2real robots list                              # name, mass, wheels, speed caps, sensors
   sim2real robots show turtlebot3_burger            # the full spec with drive defaults, sources
   sim2real robots show turtlebot2 --yaml > tb2.yaml # as a spec file (edit, then load it by path)
+  sim2real robots new neato --wheel-separation 0.248 --max-speed 0.3 -o neato.yaml
+  sim2real robots check neato.yaml                  # geometry + 1 s pybullet drive test
+"""
+_NEW_EXAMPLES = """\
+  sim2real robots new neato --wheel-separation 0.248 --max-speed 0.3 -o neato.yaml
+  sim2real robots new husky --wheel-separation 0.555 --wheel-radius 0.165 --mass 50 \\
+      --max-speed 1.0 --drive skid -o husky.yaml
+  sim2real sysid fit run.bag --robot neato.yaml -o params.yaml   # the file works as --robot
+"""
+_CHECK_EXAMPLES = """\
+  sim2real robots check neato.yaml
+  sim2real robots check turtlebot3_burger
+  sim2real robots check my_robot.yaml --no-drive    # geometry only (no pybullet)
 """
 _LIST_EXAMPLES = """\
   sim2real robots list
@@ -63,6 +78,111 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     show.add_argument("name", metavar="NAME", help="a robot name (see `robots list`) or spec path")
     show.add_argument("--yaml", action="store_true", help="print the spec as a YAML spec file")
     show.set_defaults(handler=_show)
+    _register_new(group_sub)
+    _register_check(group_sub)
+
+
+def _register_new(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    new = add_command(
+        group_sub,
+        "new",
+        help="write a complete spec from a few published numbers",
+        description=(
+            "Write a complete, commented robot spec from the wheel separation and whatever else "
+            "you know. Every fact not given is a documented prior with a wide spread (which "
+            "`sysid fit` narrows with your logs); the spec is checked (robots check) before it "
+            "is written. Load it anywhere with --robot FILE.yaml."
+        ),
+        examples=_NEW_EXAMPLES,
+    )
+    new.add_argument("name", metavar="NAME", help="robot name (letters, digits, _ and -)")
+    new.add_argument("-o", "--out", metavar="NAME.yaml", help="output spec (default NAME.yaml)")
+    new.add_argument(
+        "--wheel-separation", type=float, required=True, metavar="M", help="track width, m"
+    )
+    new.add_argument("--wheel-radius", type=float, metavar="M", help="wheel radius, m")
+    new.add_argument("--mass", type=float, metavar="KG", help="total mass, kg")
+    new.add_argument("--max-speed", type=float, metavar="MPS", help="top forward speed, m/s")
+    new.add_argument("--max-turn-rate", type=float, metavar="RADPS", help="top yaw rate, rad/s")
+    new.add_argument(
+        "--footprint-radius", type=float, metavar="M", help="radius of the base's outline, m"
+    )
+    new.add_argument("--drive", choices=("diff", "skid"), default="diff", help="drive type")
+    new.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    new.set_defaults(handler=_new)
+
+
+def _register_check(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    check = add_command(
+        group_sub,
+        "check",
+        help="sanity-check a spec (geometry and a 1 s pybullet drive test)",
+        description=(
+            "Check a spec: body clear of the ground, wheels on it, centre of mass inside the "
+            "support polygon, and a 1 s pybullet drive test (a forward command moves the base "
+            "forward within 20 % of the commanded speed; a turn command turns it the right "
+            "way). The same checks run whenever a spec loads into pybullet. Exit 2 when a "
+            "check fails."
+        ),
+        examples=_CHECK_EXAMPLES,
+    )
+    check.add_argument("spec", metavar="SPEC", help="a robot name or spec .yaml file")
+    check.add_argument("--no-drive", action="store_true", help="skip the pybullet drive test")
+    check.set_defaults(handler=_check)
+
+
+def _new(args: argparse.Namespace) -> int:
+    from robots.check import check_spec
+    from robots.errors import SpecError
+    from robots.spec import load_spec
+    from robots.template import spec_text
+    from sim2real._io import atomic_write
+    from sim2real.errors import Sim2RealValueError
+
+    text = spec_text(
+        args.name,
+        wheel_separation_m=args.wheel_separation,
+        wheel_radius_m=args.wheel_radius,
+        mass_kg=args.mass,
+        max_speed_mps=args.max_speed,
+        max_turn_rate_radps=args.max_turn_rate,
+        footprint_radius_m=args.footprint_radius,
+        drive=args.drive,
+    )
+    out = Path(args.out or f"{args.name}.yaml")
+    if out.suffix not in (".yaml", ".yml"):
+        raise Sim2RealValueError(
+            f"-o {out}: a spec file must end in .yaml; e.g. -o {args.name}.yaml"
+        )
+    if out.exists() and not args.force:
+        raise Sim2RealValueError(
+            f"-o {out}: the file exists; pass --force to overwrite it or pick another name"
+        )
+    with tempfile.TemporaryDirectory() as tmp:
+        probe = Path(tmp) / out.name
+        probe.write_text(text, encoding="utf-8")
+        report = check_spec(load_spec(probe))
+    if not report.passed:  # the rules should never produce this; refuse rather than write it
+        raise SpecError(report.reason().replace(str(probe), str(out)))
+    with atomic_write(out, "w", what="spec file") as fh:
+        fh.write(text)
+    print(f"wrote {out}: robot '{args.name}', checks passed ({len(report.items)})")
+    print(f"use it with --robot {out}; edit any number you know better, then `robots check {out}`")
+    return 0
+
+
+def _check(args: argparse.Namespace) -> int:
+    from robots.check import check_spec
+    from robots.errors import SpecError
+    from robots.spec import load_spec
+
+    report = check_spec(load_spec(args.spec), drive_test=not args.no_drive)
+    for item in report.items:
+        print(f"{'ok  ' if item.passed else 'FAIL'}  {item.name}: {item.detail}")
+    if not report.passed:
+        raise SpecError(report.reason())
+    print(f"{report.robot}: all {len(report.items)} checks passed")
+    return 0
 
 
 def _sensors(spec: RobotSpec) -> str:

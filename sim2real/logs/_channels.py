@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,9 +87,12 @@ def choose_topic(chans: list[Chan], role: str, explicit: str | None, *, name: st
     if explicit is not None:
         found = [c for c in chans if c.topic == explicit]
         if not found:
+            usable = [c.topic for c in chans if c.type in types]
+            close = difflib.get_close_matches(explicit, usable or [c.topic for c in chans], n=1)
+            hint = f"did you mean '{close[0]}'? " if close else ""
             raise MissingTopicError(
                 f"log file '{name}' has no topic '{explicit}' (asked for as the {role} topic); "
-                f"topics present: {_listing(chans)}; pick one with {flag}"
+                f"{hint}topics present: {_listing(chans)}; pick one with {flag}"
             )
         if found[0].type not in types:
             raise MissingTopicError(

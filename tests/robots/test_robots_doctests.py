@@ -15,6 +15,9 @@ MODULES = [
     "robots.pybullet_robot",
     "robots._chain",
     "robots._kernel",
+    "robots.check",
+    "robots.template",
+    "robots.specdoc",
 ]
 
 

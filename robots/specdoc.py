@@ -1,0 +1,177 @@
+"""The spec-format page (``docs/spec-format.md``), generated from the schema.
+
+The drive-parameter table comes from :data:`robots.params.SCHEMA` (units, coordinates, sign
+rules, bounds, generic priors); the section tables list the keys :func:`robots.spec.load_spec`
+reads (a test checks they equal the keys of ``RobotSpec.to_dict``); the example is what
+``sim2real robots new`` writes. Regenerate with ``python scripts/gen_spec_format.py`` (a test
+fails when the page is stale).
+
+Example
+-------
+>>> page = spec_format_markdown()
+>>> "| delay_s |" in page
+True
+"""
+
+from __future__ import annotations
+
+import math
+
+from robots.params import SCHEMA, BaseGeometry
+from robots.template import spec_text
+
+__all__ = ["SECTIONS", "spec_format_markdown"]
+
+#: Keys of each spec section: (key, unit, rule and meaning).
+SECTIONS: dict[str, list[tuple[str, str, str]]] = {
+    "": [
+        ("name", "", "robot name; `--robot NAME` for shipped specs, else give the file path"),
+        ("description", "", "one line"),
+        ("sources", "", "non-empty list of citation strings (cite every number)"),
+        ("base", "", "section below"),
+        ("wheels", "", "section below"),
+        ("casters", "", "list of casters (may be empty; the base then tips: `robots check`)"),
+        ("point_masses", "", "list of extra masses (sensors, payload), may be empty"),
+        ("limits", "", "section below"),
+        ("drive", "", "every drive parameter (table below)"),
+        ("priors", "", "optional: per-parameter priors (format below)"),
+        ("lidar", "", "section below"),
+        ("depth_camera", "", "section below, or `null`"),
+        ("odometry", "", "section below"),
+    ],
+    "base": [
+        ("mass_kg", "kg", "> 0; base link without wheels, casters and point masses"),
+        ("inertia_diag_kgm2", "kg m^2", "3 numbers > 0 obeying the triangle inequality"),
+        ("link_height_m", "m", ">= 0; base_link origin above the ground"),
+        (
+            "body",
+            "m",
+            "`{shape: box, size_m: [x, y, z], xyz_m: [..]}` or `{shape: cylinder, radius_m, "
+            "height_m, xyz_m}`; must clear the ground",
+        ),
+    ],
+    "wheels": [
+        ("radius_m", "m", "> 0"),
+        ("width_m", "m", "> 0"),
+        ("separation_m", "m", "> 0; distance between the wheel contact points"),
+        ("mass_kg", "kg", "> 0, one wheel"),
+        ("spin_inertia_kgm2", "kg m^2", "> 0, about the axle; <= 2 x cross_inertia_kgm2"),
+        ("cross_inertia_kgm2", "kg m^2", "> 0, about a diameter"),
+    ],
+    "casters[]": [
+        ("x_m", "m", "position in base_link"),
+        ("y_m", "m", "position in base_link"),
+        ("radius_m", "m", "> 0; frictionless sphere touching the ground"),
+        ("mass_kg", "kg", ">= 0"),
+    ],
+    "point_masses[]": [
+        ("name", "", "label"),
+        ("mass_kg", "kg", "> 0"),
+        ("xyz_m", "m", "position in base_link"),
+    ],
+    "limits": [
+        ("max_v_mps", "m/s", "> 0; top forward speed"),
+        ("max_w_radps", "rad/s", "> 0; top yaw rate"),
+    ],
+    "lidar": [
+        ("beams", "", "integer >= 1"),
+        ("angle_min_rad", "rad", "first beam"),
+        ("angle_max_rad", "rad", "last beam, within 2 pi of the first"),
+        ("range_min_m", "m", "> 0"),
+        ("range_max_m", "m", "> range_min_m"),
+        ("xyz_m", "m", "mount in base_link"),
+        ("rate_hz", "Hz", "> 0"),
+    ],
+    "depth_camera": [
+        ("width", "px", "integer >= 1"),
+        ("height", "px", "integer >= 1"),
+        ("hfov_deg", "deg", "0-180"),
+        ("near_m", "m", "> 0"),
+        ("far_m", "m", "> near_m"),
+        ("xyz_m", "m", "mount in base_link"),
+        ("rpy_rad", "rad", "mount orientation"),
+        ("rate_hz", "Hz", "> 0"),
+    ],
+    "odometry": [
+        ("v_source", "", "`wheels`"),
+        ("w_source", "", "`imu` or `wheels`"),
+        ("rate_hz", "Hz", "> 0"),
+    ],
+}
+
+#: A 1 kg, 0.16 m-track base: the geometry at which the generic prior spreads are printed.
+_REF = BaseGeometry(
+    mass_kg=1.0, yaw_inertia_kgm2=0.01, wheel_radius_m=0.033, wheel_separation_m=0.16
+)
+
+
+def _num(x: float) -> str:
+    return "inf" if math.isinf(x) else f"{x:g}"
+
+
+def _drive_table() -> list[str]:
+    rows = [
+        "| field | unit | coordinate | sign | may be inf | bounds | generic prior sd | meaning |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, f in SCHEMA.items():
+        bounds = f"{_num(f.lower)} .. {_num(f.upper)}"
+        if f.sign == "total_positive":
+            bounds += " x spec"
+        rows.append(
+            f"| {name} | {f.unit} | {f.coord} | {f.sign} | {'yes' if f.may_be_inf else 'no'} "
+            f"| {bounds} | {f.prior_sd(_REF):.3g} | {f.doc} |"
+        )
+    return rows
+
+
+def spec_format_markdown() -> str:
+    """The whole spec-format page as Markdown."""
+    out = [
+        "# Robot spec format",
+        "",
+        "<!-- generated by scripts/gen_spec_format.py from robots/specdoc.py and "
+        "robots.params.SCHEMA; do not edit -->",
+        "",
+        "A robot spec is a YAML file of published facts about a base and its sensors. Load a",
+        "shipped one by name (`--robot turtlebot3_burger`) or any file by path",
+        "(`--robot my_robot.yaml`). `sim2real robots new NAME --wheel-separation M -o NAME.yaml`",
+        "writes a complete one from a few numbers; `sim2real robots check SPEC` checks one (the",
+        "same checks run whenever a spec loads into pybullet). Unknown keys, missing keys and",
+        "non-physical values are refused with the file and the dotted key. Frames: `base_link`",
+        "origin on the wheel-axle midpoint, `link_height_m` above the ground, x forward, y left.",
+        "",
+    ]
+    for section, keys in SECTIONS.items():
+        out += [f"## `{section or 'top level'}`", "", "| key | unit | rule |", "|---|---|---|"]
+        out += [f"| {k} | {u} | {rule} |" for k, u, rule in keys]
+        out.append("")
+    out += [
+        "## `drive`: the drive parameters",
+        "",
+        "Every field of `robots.params.DriveParams` (the drive chain both engines run). The",
+        "*coordinate* is the space in which sysid fits the field, its prior is given and the",
+        "randomiser samples it: `lin` the value, `log` its logarithm, `log_total_mass` /",
+        "`log_total_inertia` the logarithm of the spec value plus the field. Generic prior",
+        "spreads (used when the spec's `priors` omits a field) are in coordinate units, shown",
+        "for a 1 kg, 0.16 m-track base (some scale with mass and track).",
+        "",
+        *_drive_table(),
+        "",
+        "## `priors`",
+        "",
+        "Optional. One entry per drive parameter, `field: {sd: .., session_sd: ..}` with an",
+        "optional `nominal:` (default: the `drive` value), in the field's coordinate:",
+        "`sd` is the prior spread, `session_sd` the day-to-day spread (payload, floor,",
+        "battery). `sd: 0` fixes the field. Fields not listed get the generic prior above.",
+        "",
+        "## Example (what `robots new` writes)",
+        "",
+        "`sim2real robots new neato --wheel-separation 0.248 --max-speed 0.3 -o neato.yaml`:",
+        "",
+        "```yaml",
+        spec_text("neato", wheel_separation_m=0.248, max_speed_mps=0.3).rstrip(),
+        "```",
+        "",
+    ]
+    return "\n".join(out)

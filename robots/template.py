@@ -1,0 +1,249 @@
+"""A complete robot spec from a few published numbers (``sim2real robots new``).
+
+Only the wheel separation is required. Every other fact a spec needs gets a *documented
+prior*: a typical value derived from the given numbers, explained in a comment, and -- for the
+drive parameters -- an explicit wide prior in the spec's ``priors`` section (format of
+:mod:`robots.spec`, coordinates of :data:`robots.params.SCHEMA`) that sysid narrows with data.
+Numbers that are given get narrow priors.
+
+Typical-value rules (small indoor bases to field robots: TurtleBot3 Burger/Waffle, Kobuki,
+Neato, Jackal, Husky; see ``/work/shared/robot-specs.md``):
+
+- wheel radius ``r = 0.2 b`` for wheel separation ``b`` (those bases span 0.12-0.30 b);
+- total mass ``m = 250 b^3`` kg (a base's volume grows with its size cubed; those bases sit
+  within a factor 3 of it), clipped to 0.5-200 kg;
+- top speed 0.5 m/s, top yaw rate ``2 v_max / b`` (both wheels at the cap, opposite);
+- footprint radius ``0.7 b`` (at least ``b/2`` plus half a wheel width);
+- wheel speed loop time constant 0.1 s, traction ``mu = 0.5``, Coulomb friction 1 % of the
+  weight, viscous drag 0.1 /s of the mass.
+
+Example
+-------
+>>> text = spec_text("neato", wheel_separation_m=0.248, max_speed_mps=0.3)
+>>> "speed_lim_v_mps: 0.3" in text
+True
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from robots.errors import RobotsValueError
+
+__all__ = ["DRIVES", "NewRobot", "spec_text"]
+
+#: ``--drive`` choices: differential drive, skid steer.
+DRIVES = ("diff", "skid")
+_G = 9.81
+
+
+@dataclass(frozen=True, kw_only=True)
+class NewRobot:
+    """The numbers of a new robot, given or filled with the typical-value rules.
+
+    ``given`` names the fields the user gave (their priors are narrow).
+    """
+
+    name: str
+    wheel_separation_m: float
+    wheel_radius_m: float
+    mass_kg: float
+    max_speed_mps: float
+    max_turn_rate_radps: float
+    footprint_radius_m: float
+    drive: str
+    given: frozenset[str]
+
+    @classmethod
+    def from_facts(
+        cls,
+        name: str,
+        *,
+        wheel_separation_m: float,
+        wheel_radius_m: float | None = None,
+        mass_kg: float | None = None,
+        max_speed_mps: float | None = None,
+        max_turn_rate_radps: float | None = None,
+        footprint_radius_m: float | None = None,
+        drive: str = "diff",
+    ) -> NewRobot:
+        """Fill the facts not given (see the module docstring for the rules)."""
+        facts = {
+            "wheel_separation_m": wheel_separation_m,
+            "wheel_radius_m": wheel_radius_m,
+            "mass_kg": mass_kg,
+            "max_speed_mps": max_speed_mps,
+            "max_turn_rate_radps": max_turn_rate_radps,
+            "footprint_radius_m": footprint_radius_m,
+        }
+        for key, value in facts.items():
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise RobotsValueError(
+                    f"{key} must be a finite number > 0, got {value!r}; give it in SI units "
+                    "(m, kg, m/s, rad/s)"
+                )
+        if not name.replace("_", "").replace("-", "").isalnum():
+            raise RobotsValueError(
+                f"robot name must be letters, digits, '_' or '-', got {name!r}; e.g. my_robot"
+            )
+        if drive not in DRIVES:
+            raise RobotsValueError(f"drive must be one of {list(DRIVES)}, got {drive!r}")
+        b = wheel_separation_m
+        r = wheel_radius_m or 0.2 * b
+        v = max_speed_mps or 0.5
+        min_footprint = 0.5 * b + 0.25 * r
+        if footprint_radius_m is not None and footprint_radius_m < min_footprint:
+            raise RobotsValueError(
+                f"footprint_radius_m {footprint_radius_m} is smaller than half the wheel "
+                f"separation plus half a wheel width ({min_footprint:.4g} m): the wheels would "
+                "stick out; give the radius of the circle that contains the whole base"
+            )
+        return cls(
+            name=name,
+            wheel_separation_m=b,
+            wheel_radius_m=r,
+            mass_kg=mass_kg or min(max(250.0 * b**3, 0.5), 200.0),
+            max_speed_mps=v,
+            max_turn_rate_radps=max_turn_rate_radps or 2.0 * v / b,
+            footprint_radius_m=footprint_radius_m or max(0.7 * b, min_footprint),
+            drive=drive,
+            given=frozenset(k for k, val in facts.items() if val is not None),
+        )
+
+
+def _g(x: float) -> str:
+    """A number as YAML (6 significant digits; .inf)."""
+    if math.isinf(x):
+        return ".inf"
+    return "0.0" if abs(x) < 1e-12 else f"{x:.6g}"
+
+
+def _src(robot: NewRobot, key: str, rule: str) -> str:
+    return "given" if key in robot.given else f"prior: {rule}, not given"
+
+
+def spec_text(name: str, *, wheel_separation_m: float, **facts: float | str | None) -> str:
+    """The commented YAML text of a complete spec (see :class:`NewRobot` for ``facts``).
+
+    The text loads with :func:`robots.spec.load_spec` and passes :func:`robots.check.check_spec`.
+    """
+    robot = NewRobot.from_facts(name, wheel_separation_m=wheel_separation_m, **facts)  # type: ignore[arg-type]
+    return _render(robot)
+
+
+def _render(robot: NewRobot) -> str:
+    b, r, m = robot.wheel_separation_m, robot.wheel_radius_m, robot.mass_kg
+    v, w, fr = robot.max_speed_mps, robot.max_turn_rate_radps, robot.footprint_radius_m
+    width = 0.5 * r
+    m_wheel = 0.03 * m
+    spin = 0.5 * m_wheel * r * r
+    cross = m_wheel * (3 * r * r + width * width) / 12.0
+    m_base = m - 2 * m_wheel
+    height = max(0.4 * fr, 1.2 * r)
+    clearance = 0.3 * r
+    izz = 0.5 * m_base * fr * fr
+    ixx = m_base * (3 * fr * fr + height * height) / 12.0
+    z_body = clearance + 0.5 * height - r  # base_link sits at axle height r
+    caster_r = 0.3 * r
+    caster_x = fr - caster_r
+    # mass and inertia as the reduced model lumps them (robots.spec mass model)
+    m_eff = m + 2 * spin / (r * r)
+    i_eff = izz + 2 * (cross + m_wheel * b * b / 4) + 2 * spin * b * b / (4 * r * r)
+    k_motor = m_eff * r * r / (2 * 0.1)
+    tau_max = 0.5 * m * _G / 2 * r
+    given = robot.given
+    skid = robot.drive == "skid"
+    lines = [
+        f"# {robot.name}: a spec written by `sim2real robots new` from the numbers given below;",
+        "# every other fact is a documented prior (comments say which rule made it; see",
+        "# robots/template.py). Edit any number you know better, then run",
+        f"# `sim2real robots check {robot.name}.yaml`. sysid fits the drive section against the",
+        "# priors at the end, so the wide ones are narrowed by your logs.",
+        f"name: {robot.name}",
+        f"description: {robot.name}, {'skid-steer' if skid else 'differential-drive'} base "
+        "(spec from published numbers and documented priors)",
+        "sources:",
+        f'  - "given: {", ".join(sorted(given))}"',
+        '  - "priors: robots/template.py typical-value rules (TurtleBot3, Kobuki, Neato, '
+        'Jackal, Husky)"',
+        "base:",
+        f"  mass_kg: {_g(m_base)}  # total {_g(m)} kg ({_src(robot, 'mass_kg', 'm = 250 b^3')})"
+        " less two wheels",
+        f"  inertia_diag_kgm2: [{_g(ixx)}, {_g(ixx)}, {_g(izz)}]  # prior: solid cylinder of the"
+        " footprint",
+        f"  link_height_m: {_g(r)}  # base_link at axle height",
+        f"  body: {{shape: cylinder, radius_m: {_g(fr)}, height_m: {_g(height)}, xyz_m: [0.0, 0.0,"
+        f" {_g(z_body)}]}}  # footprint ({_src(robot, 'footprint_radius_m', '0.7 b')}); prior:"
+        f" height 0.4 x radius, {_g(clearance)} m ground clearance",
+        "wheels:",
+        f"  radius_m: {_g(r)}  # {_src(robot, 'wheel_radius_m', 'r = 0.2 b')}",
+        f"  width_m: {_g(width)}  # prior: 0.5 r",
+        f"  separation_m: {_g(b)}  # given",
+        f"  mass_kg: {_g(m_wheel)}  # prior: 3 % of the total mass",
+        f"  spin_inertia_kgm2: {_g(spin)}  # prior: solid disc, m r^2 / 2",
+        f"  cross_inertia_kgm2: {_g(cross)}  # prior: solid disc, m (3 r^2 + w^2) / 12",
+        "casters:  # prior: frictionless skids front and back, so the base cannot tip",
+        f"  - {{x_m: {_g(caster_x)}, y_m: 0.0, radius_m: {_g(caster_r)}, mass_kg: 0.0}}",
+        f"  - {{x_m: {_g(-caster_x)}, y_m: 0.0, radius_m: {_g(caster_r)}, mass_kg: 0.0}}",
+        "point_masses: []",
+        "limits:",
+        f"  max_v_mps: {_g(v)}  # {_src(robot, 'max_speed_mps', '0.5 m/s')}",
+        f"  max_w_radps: {_g(w)}  # {_src(robot, 'max_turn_rate_radps', '2 v_max / b')}",
+        "drive:",
+        "  delay_s: 0.1  # prior: typical ROS command latency 0.05-0.3 s",
+        "  cmd_timeout_s: .inf  # prior: none known (sysid tells whether the log shows one)",
+        f"  speed_lim_v_mps: {_g(v)}  # the top speed",
+        f"  speed_lim_w_radps: {_g(w)}  # the top yaw rate",
+        "  accel_lim_v_mps2: .inf  # prior: no velocity smoother known",
+        "  accel_lim_w_radps2: .inf",
+        f"  wheel_speed_max_radps: {_g(v / r)}  # top speed / r (drivers scale both wheels)",
+        f"  motor_gain_nms_per_rad: {_g(k_motor)}  # prior: speed-loop time constant 0.1 s,"
+        " K = m_eff r^2 / (2 T)",
+        f"  wheel_torque_max_nm: {_g(tau_max)}  # prior: traction mu = 0.5 on half the weight",
+        f"  coulomb_v_fwd_n: {_g(0.01 * m * _G)}  # prior: 1 % of the weight",
+        f"  coulomb_v_bwd_n: {_g(0.01 * m * _G)}",
+        f"  coulomb_w_nm: {_g(0.01 * m * _G * b / 2)}  # prior: 1 % of the weight at half the track",
+        f"  viscous_v_ns_per_m: {_g(0.1 * m)}  # prior: 0.1 /s of the mass",
+        f"  viscous_w_nms_per_rad: {_g(0.1 * i_eff)}  # prior: 0.1 /s of the yaw inertia",
+        "  added_mass_kg: 0.0",
+        "  added_yaw_inertia_kgm2: 0.0",
+        "# Priors (robots.params.SCHEMA coordinates: lin = the unit of the value; log and",
+        "# log_total_* = a relative spread, 0.7 ~ a factor 2). Wide where a number was not given.",
+        "priors:",
+        "  delay_s: {sd: 0.15, session_sd: 0.03}  # 0-0.4 s",
+        "  cmd_timeout_s: {sd: 0.0, session_sd: 0.0}  # a firmware setting: sysid detects it",
+        f"  speed_lim_v_mps: {{sd: {0.05 if 'max_speed_mps' in given else 0.7}, session_sd: 0.0}}",
+        f"  speed_lim_w_radps: {{sd: {0.05 if 'max_turn_rate_radps' in given else 0.7}, "
+        "session_sd: 0.0}",
+        "  accel_lim_v_mps2: {sd: 1.0, session_sd: 0.05}  # no centre (inf): fitted freely",
+        "  accel_lim_w_radps2: {sd: 1.0, session_sd: 0.05}",
+        f"  wheel_speed_max_radps: {{sd: {0.15 if 'max_speed_mps' in given else 0.7}, "
+        "session_sd: 0.05}  # battery sag",
+        "  motor_gain_nms_per_rad: {sd: 1.5, session_sd: 0.05}  # time constant 0.02-0.5 s",
+        "  wheel_torque_max_nm: {sd: 1.0, session_sd: 0.15}  # floor and tyres",
+        f"  coulomb_v_fwd_n: {{sd: {_g(0.04 * m * _G)}, session_sd: {_g(0.005 * m * _G)}}}"
+        "  # 0-8 % of the weight",
+        f"  coulomb_v_bwd_n: {{sd: {_g(0.04 * m * _G)}, session_sd: {_g(0.005 * m * _G)}}}",
+        f"  coulomb_w_nm: {{sd: {_g(0.05 * m * _G * b / 2)}, session_sd: "
+        f"{_g(0.01 * m * _G * b / 2)}}}",
+        f"  viscous_v_ns_per_m: {{sd: {_g(1.5 * m)}, session_sd: {_g(0.2 * m)}}}",
+        f"  viscous_w_nms_per_rad: {{sd: {_g(1.5 * i_eff)}, session_sd: {_g(0.2 * i_eff)}}}",
+        f"  added_mass_kg: {{sd: {0.3 if 'mass_kg' in given else 0.7}, session_sd: 0.1}}"
+        "  # payload; a factor 2 when the mass was not given",
+        "  added_yaw_inertia_kgm2: {sd: 0.7, session_sd: 0.15}  # body shape is a guess",
+        "lidar:  # placeholder: a typical 360-beam 2D lidar on top; edit to your sensor",
+        "  beams: 360",
+        "  angle_min_rad: 0.0",
+        f"  angle_max_rad: {2 * math.pi * 359 / 360!r}",
+        "  range_min_m: 0.12",
+        "  range_max_m: 3.5",
+        f"  xyz_m: [0.0, 0.0, {_g(z_body + 0.5 * height + 0.03)}]",
+        "  rate_hz: 5.0",
+        "depth_camera: null",
+        "odometry:  # prior: wheel encoders for both (edit w_source to imu if a gyro is used)",
+        "  v_source: wheels",
+        "  w_source: wheels",
+        "  rate_hz: 20.0",
+    ]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,69 @@
+"""``sim2real robots new`` / ``robots check`` through the CLI; the written file works as --robot."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from sim2real.cli import main
+
+
+def _run(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, str]:
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse usage errors
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_new_then_check(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "neato.yaml"
+    code, text, _ = _run(
+        capsys, "robots", "new", "neato", "--wheel-separation", 0.248, "--max-speed", 0.3, "-o", out
+    )
+    assert code == 0 and "checks passed (6)" in text
+    assert yaml.safe_load(out.read_text())["limits"]["max_v_mps"] == 0.3
+    code, text, _ = _run(capsys, "robots", "check", out)
+    assert code == 0 and text.count("ok  ") == 6 and "all 6 checks passed" in text
+    code, text, _ = _run(capsys, "robots", "show", out)
+    assert code == 0 and "separation 0.248 m" in text
+    # an existing file is not overwritten without --force
+    code, _, err = _run(capsys, "robots", "new", "neato", "--wheel-separation", 0.3, "-o", out)
+    assert code == 2 and "exists; pass --force" in err
+    assert yaml.safe_load(out.read_text())["wheels"]["separation_m"] == 0.248
+
+
+def test_check_refuses_a_bad_spec(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "r.yaml"
+    assert _run(capsys, "robots", "new", "r", "--wheel-separation", 0.3, "-o", out)[0] == 0
+    doc = yaml.safe_load(out.read_text())
+    doc["base"]["body"]["xyz_m"] = [0.0, 0.0, -0.05]
+    out.write_text(yaml.safe_dump(doc))
+    code, text, err = _run(capsys, "robots", "check", out)
+    assert code == 2 and "FAIL  body clear of the ground" in text
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "fails the check 'body clear of the ground'" in lines[0]
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["--wheel-separation", "0"], "wheel_separation_m must be a finite number > 0"),
+        (["--wheel-separation", "0.3", "--footprint-radius", "0.05"], "wheels would stick out"),
+        ([], "the following arguments are required: --wheel-separation"),
+    ],
+)
+def test_new_bad_input(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], match: str
+) -> None:
+    code, _, err = _run(capsys, "robots", "new", "r", *argv, "-o", tmp_path / "r.yaml")
+    assert code == 2 and match in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "r.yaml").exists()
+
+
+def test_unknown_robot_did_you_mean(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = _run(capsys, "robots", "check", "turtlebot2_")
+    assert code == 2 and "did you mean 'turtlebot2'" in err
