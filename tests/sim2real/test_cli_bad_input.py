@@ -718,6 +718,8 @@ COMMANDS = [
     ["robots"],
     ["robots", "list"],
     ["robots", "show"],
+    ["robots", "new"],
+    ["robots", "check"],
     ["sysid"],
     ["sysid", "fit"],
     ["sysid", "show"],
