@@ -4,8 +4,12 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP_RUN := $(VENV)/.installed-run
 STAMP_DEV := $(VENV)/.installed-dev
+STAMP_TRAIN := $(VENV)/.installed-train
+# CPU torch first: this exact release is a ~190 MB CPU wheel; a bare `torch` requirement would
+# pull a multi-GB CUDA build. Override e.g. TORCH='torch==2.9.1' on another platform.
+TORCH ?= torch==2.13.0
 
-.PHONY: demo test lint venv dev bench clean data
+.PHONY: demo test lint venv dev bench clean data train-extra test-train
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -19,8 +23,15 @@ $(STAMP_DEV): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e '.[dev]'
 	touch $@ $(STAMP_RUN)
 
+$(STAMP_TRAIN): pyproject.toml $(STAMP_DEV)
+	$(BIN)/python -m pip install -q '$(TORCH)'
+	$(BIN)/python -m pip install -q -e '.[dev,train,cluster]'
+	touch $@
+
 venv: $(STAMP_RUN)
 dev: $(STAMP_DEV)
+## make train-extra: install the [train] and [cluster] extras (CPU torch, SB3, TensorBoard, Ray)
+train-extra: $(STAMP_TRAIN)
 
 ## make demo: fit sysid on the bundled training log, measure agreement, write sim2real-demo/report.html
 demo: $(STAMP_RUN)
@@ -35,6 +46,10 @@ lint: $(STAMP_DEV)
 ## make test: lint, then the whole test suite
 test: lint
 	$(BIN)/python -m pytest -q
+
+## make test-train: install the [train]/[cluster] extras, then run the tests that need them
+test-train: $(STAMP_TRAIN)
+	$(BIN)/python -m pytest -q -m "train or cluster"
 
 ## make bench: the performance targets (prints ratios measured in the same run)
 bench: $(STAMP_DEV)

@@ -8,8 +8,12 @@ entry wraps the env directly::
       - {type: DepthNoise, key: depth, std_m: 0.2, near_m: 0.05, far_m: 8.0}
       - {type: OdometryDelay, key: velocity, delay_s: [0.05, 0.15]}
       - {type: DynamicsRandomizer, uniform: {coulomb_v_fwd_n: [0.5, 1.5]}, scale: 0.5}
+      - {type: DynamicsRandomizer, sysid: params.yaml, scale: 1.0, name: fitted}
 
-Each entry's other keys are the wrapper's keyword arguments. :func:`to_config` writes every
+Each entry's other keys are the wrapper's keyword arguments. A ``DynamicsRandomizer`` entry with
+a ``sysid`` key (the path of a ``sim2real sysid fit`` result, relative to the config file) is
+built with :meth:`DynamicsRandomizer.from_sysid` (its ``scale``, ``fields``, ``bounds`` and
+``name`` keys pass through). :func:`to_config` writes every
 argument (including the current ``scale`` and ``name``), so ``from_config(env, to_config(w))``
 rebuilds the same stack with the same random streams.
 """
@@ -62,9 +66,9 @@ def _yaml_problem(exc: Exception) -> str:
     return f"{where} ({' '.join(str(what).split())})"
 
 
-def _load(config: str | Path | Mapping[str, Any]) -> tuple[str, Mapping[str, Any]]:
+def _load(config: str | Path | Mapping[str, Any]) -> tuple[str, Mapping[str, Any], Path | None]:
     if isinstance(config, Mapping):
-        return "config", config
+        return "config", config, None
     path = Path(config)
     if not path.is_file():
         raise RandomizerConfigError(
@@ -83,11 +87,19 @@ def _load(config: str | Path | Mapping[str, Any]) -> tuple[str, Mapping[str, Any
             f"randomizer config '{path}' must be a mapping with 'format' and 'randomizers', got "
             f"{type(doc).__name__}"
         )
-    return f"randomizer config '{path}'", doc
+    return f"randomizer config '{path}'", doc, path.parent
 
 
-def from_config(env: gym.Env[Any, Any], config: str | Path | Mapping[str, Any]) -> Any:
+def from_config(
+    env: gym.Env[Any, Any],
+    config: str | Path | Mapping[str, Any],
+    *,
+    base_dir: str | Path | None = None,
+) -> Any:
     """Wrap ``env`` in the randomizers a YAML file (or an equivalent dict) lists.
+
+    Relative ``sysid`` paths are taken relative to the config file's folder, or to ``base_dir``
+    (default: the working directory) when ``config`` is a dict.
 
     Examples
     --------
@@ -100,7 +112,9 @@ def from_config(env: gym.Env[Any, Any], config: str | Path | Mapping[str, Any]) 
     >>> [r.name for r in randomizers.iter_randomizers(env)]
     ['ActionDelay', 'ObservationNoise']
     """
-    where, doc = _load(config)
+    where, doc, folder = _load(config)
+    if folder is None and base_dir is not None:
+        folder = Path(base_dir)
     fmt = doc.get("format", CONFIG_FORMAT)
     if fmt != CONFIG_FORMAT:
         raise RandomizerConfigError(f"{where}: key 'format' must be '{CONFIG_FORMAT}', got {fmt!r}")
@@ -125,12 +139,34 @@ def from_config(env: gym.Env[Any, Any], config: str | Path | Mapping[str, Any]) 
             )
         kwargs = {k: v for k, v in entry.items() if k != "type"}
         try:
-            wrapped = cls(wrapped, **kwargs)
+            if "sysid" in kwargs and cls is DynamicsRandomizer:
+                wrapped = _from_sysid(wrapped, kwargs, folder)
+            else:
+                wrapped = cls(wrapped, **kwargs)
         except RandomizerError as exc:
             raise type(exc)(f"{where}: randomizers[{i}] ({kind}): {exc}") from None
         except TypeError as exc:  # unknown or missing keyword
             raise RandomizerConfigError(f"{where}: randomizers[{i}] ({kind}): {exc}") from None
     return wrapped
+
+
+def _from_sysid(env: Any, kwargs: dict[str, Any], folder: Path | None) -> Any:
+    """A DynamicsRandomizer around the sysid result named by ``kwargs['sysid']``."""
+    rest = dict(kwargs)
+    sysid = rest.pop("sysid")
+    if not isinstance(sysid, str | Path):
+        raise RandomizerConfigError(
+            f"key 'sysid' must be the path of a sysid result file, got {sysid!r}"
+        )
+    path = Path(sysid)
+    if not path.is_absolute() and folder is not None:
+        path = folder / path
+    if not path.is_file():
+        raise RandomizerConfigError(
+            f"key 'sysid' names '{path}', which does not exist; give the path of a "
+            "'sim2real sysid fit' result, relative to the config file"
+        )
+    return DynamicsRandomizer.from_sysid(path, env=env, **rest)
 
 
 def to_config(env: Any) -> dict[str, Any]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from pathlib import Path
 
@@ -44,3 +45,25 @@ def neato_log(realdata_dir: Path) -> Path:
     if not path.is_file():
         pytest.skip(f"{path} is absent")
     return path
+
+
+#: Markers of tests that need an optional extra, and the modules that extra installs.
+_EXTRAS = {"train": ("torch", "stable_baselines3"), "cluster": ("ray",)}
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Skip tests of an optional extra (`train`, `cluster`) when it is not installed.
+
+    `make test` runs without the extras; `make test-train` installs them and runs these tests.
+    """
+    for marker, modules in _EXTRAS.items():
+        missing = [m for m in modules if importlib.util.find_spec(m) is None]
+        if not missing:
+            continue
+        skip = pytest.mark.skip(
+            reason=f"needs the [{marker}] extra "
+            f"({', '.join(missing)} missing): run `make test-train`"
+        )
+        for item in items:
+            if item.get_closest_marker(marker) is not None:
+                item.add_marker(skip)

@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 from randomizers.errors import RandomizerError
 from robots.errors import RobotsError
 from sim2real import __version__
-from sim2real.cli import _agree, _demo, _envs, _logs, _robots, _sysid
+from sim2real.cli import _agree, _demo, _envs, _logs, _robots, _sysid, _train
 from sim2real.cli._common import EPILOG_MAIN, HelpFormatter, OneLineErrorParser
 from sim2real.errors import Sim2RealError
 from sysid.errors import SysidError
@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for module in (_logs, _robots, _sysid, _agree, _envs, _demo):
+    for module in (_logs, _robots, _sysid, _agree, _envs, _train, _demo):
         module.register(sub)
     return parser
 

@@ -8,6 +8,7 @@ import math
 from typing import Any
 
 from sim2real.cli._common import add_command
+from sim2real.cli._policy import add_policy_arguments, prepare, register_robustness
 from sim2real.errors import Sim2RealValueError
 
 __all__ = ["register"]
@@ -27,6 +28,8 @@ _EVAL_EXAMPLES = """\
   sim2real envs eval CrowdNav-v0 --episodes 10 --scenario dynamic --complexity 1.0
   sim2real envs eval CrowdNav-v0 --episodes 10 --json crowd.json    # also write the numbers
   sim2real envs eval CarCrossing-v0 --episodes 50                   # rule-based car baseline
+  sim2real envs eval RandomMap-v0 --policy runs/randommap_ppo/model.zip --preset TEST1
+  sim2real envs eval RandomMap-v0 --policy model.zip --params real.yaml --randomize dr.yaml
 """
 
 _KNOWN = ("sim2real/CrowdNav-v0", "sim2real/RandomMap-v0", "sim2real/CarCrossing-v0")
@@ -58,13 +61,15 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     ev = add_command(
         group_sub,
         "eval",
-        help="run the baseline controller for N episodes and print outcome rates and metrics",
+        help="run the baseline controller or a trained --policy for N episodes; outcome rates",
         description=(
             "Run the env's non-learned baseline (the dynamic-window controller of "
             "sim2real.envs.baselines; for CarCrossing-v0 the rule-based "
             "sim2real.envs.car_baseline) for N seeded episodes and print success / collision / "
             "timeout rates and the mean path length, time to goal and smoothness: a reference "
-            "number per preset."
+            "number per preset. --policy evaluates a trained policy instead (sim2real train), "
+            "--params uses a sysid result's drive parameters, --randomize adds a randomizer "
+            "stack."
         ),
         examples=_EVAL_EXAMPLES,
     )
@@ -77,8 +82,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     ev.add_argument(
         "--dynamics", default="reduced", help="robot back-end: reduced (fast) or pybullet"
     )
+    add_policy_arguments(ev)
     ev.add_argument("--json", metavar="FILE", help="also write the summary and episodes as JSON")
     ev.set_defaults(handler=_eval)
+    register_robustness(group_sub, _make_env)
 
 
 def _env_id(name: str) -> str:
@@ -196,8 +203,7 @@ def _eval(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from sim2real._io import atomic_write, check_output_path
-    from sim2real.envs.baselines import DWAController, evaluate
-    from sim2real.envs.car_baseline import CarCrossingBaseline
+    from sim2real.envs.baselines import evaluate
 
     if args.json:
         check_output_path(args.json, what="--json file")
@@ -205,7 +211,7 @@ def _eval(args: argparse.Namespace) -> int:
     console = Console()
     try:
         is_car = env.spec.id.endswith("CarCrossing-v0")
-        ctrl: Any = CarCrossingBaseline.for_env(env) if is_car else DWAController.for_env(env)
+        env, ctrl, label = prepare(env, args)
         # disabled off a terminal: rich would print an empty line to a pipe
         with Progress(console=console, transient=True, disable=not console.is_terminal) as progress:
             task = progress.add_task(f"{env.spec.id} episodes", total=args.episodes)
@@ -221,9 +227,8 @@ def _eval(args: argparse.Namespace) -> int:
         env.close()
     what = args.preset.upper() if args.preset else (args.scenario or "")
     last = args.seed + summary.episodes - 1
-    name = "Rule-based" if is_car else "DWA"
     table = Table(
-        title=f"{name} baseline on {env.spec.id} {what} ({summary.episodes} episodes, "
+        title=f"{label} on {env.spec.id} {what} ({summary.episodes} episodes, "
         f"seeds {args.seed}..{last}, dynamics {args.dynamics})"
     )
     table.add_column("metric")
@@ -249,6 +254,10 @@ def _eval(args: argparse.Namespace) -> int:
             "preset": args.preset,
             "options": options,
             "dynamics": args.dynamics,
+            "controller": label,
+            "policy": args.policy,
+            "params": args.params,
+            "randomize": args.randomize,
             "seed": args.seed,
             "success_rate": summary.success_rate,
             "collision_rate": summary.collision_rate,

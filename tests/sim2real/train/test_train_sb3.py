@@ -1,0 +1,152 @@
+"""`sim2real train` with stable-baselines3 and `envs eval --policy` on its model (needs [train]).
+
+Small budgets (a few hundred steps, short episodes) keep these fast; they check the outputs,
+the model's metadata, determinism of the seed, and the bad-input paths, not learning quality.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+
+import pytest
+import yaml
+
+from sim2real.cli import main
+
+pytestmark = pytest.mark.train
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def _config(tmp_path: Path, **change: object) -> Path:
+    doc = {
+        "format": "sim2real.train/1",
+        "env": {"id": "RandomMap-v0", "kwargs": {"preset": "TEST1", "max_episode_steps": 40}},
+        "randomizers": str(ROOT / "examples" / "randommap_randomizers.yaml"),
+        "algorithm": "PPO",
+        "hyperparameters": {"n_steps": 64, "batch_size": 32, "n_epochs": 1},
+        "timesteps": 128,
+        "n_envs": 2,
+        "vec_env": "dummy",
+        "seed": 0,
+        "out": str(tmp_path / "run"),
+        "checkpoint_every": 64,
+        "evaluation": {"episodes": 2, "seed": 100},
+        **change,
+    }
+    path = tmp_path / "train.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    return path
+
+
+def test_train_writes_every_output(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    cfg = _config(tmp_path)
+    assert main(["train", str(cfg), "--timesteps", "128", "--seed", "4"]) == 0
+    out = tmp_path / "run"
+    assert "trained 128 steps" in capsys.readouterr().out
+    resolved = yaml.safe_load((out / "config.yaml").read_text())
+    assert resolved["seed"] == 4 and resolved["timesteps"] == 128
+    # the randomizer stack is written out in full (types, arguments, names)
+    assert [r["name"] for r in resolved["randomizers"]["randomizers"]] == [
+        "DynamicsRandomizer",
+        "LidarNoise[0:36]",
+        "GoalNoise[36:38]",
+        "OdometryDelay[38:40]",
+    ]
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == [
+        "model_128_steps.zip",
+        "model_64_steps.zip",
+    ]
+    assert any((out / "tensorboard").rglob("events.out.tfevents.*"))
+    with zipfile.ZipFile(out / "model.zip") as zf:
+        meta = yaml.safe_load(zf.read("sim2real.yaml"))
+    assert meta["algorithm"] == "PPO" and meta["env_id"] == "sim2real/RandomMap-v0"
+    assert meta["observation_space"] == "Box(40,)"
+    ev = yaml.safe_load((out / "evaluation.yaml").read_text())
+    assert ev["episodes"] == 2 and ev["seeds"] == [100, 101]
+    assert ev["success_rate"] + ev["collision_rate"] + ev["timeout_rate"] == pytest.approx(1.0)
+
+
+def test_same_seed_same_policy(tmp_path: Path) -> None:
+    from stable_baselines3 import PPO
+
+    params = []
+    for run in ("a", "b", "c"):
+        seed = 1 if run != "c" else 2
+        cfg = _config(tmp_path, out=str(tmp_path / run), checkpoint_every=0, timesteps=64)
+        assert main(["train", str(cfg), "--seed", str(seed)]) == 0
+        model = PPO.load(str(tmp_path / run / "model.zip"), device="cpu")
+        params.append(next(iter(model.policy.parameters())).detach().numpy().copy())
+    assert (params[0] == params[1]).all()
+    assert not (params[0] == params[2]).all()
+
+
+def test_eval_policy_and_mismatched_env(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    cfg = _config(tmp_path, checkpoint_every=0, timesteps=64, randomizers=None)
+    assert main(["train", str(cfg)]) == 0
+    model = str(tmp_path / "run" / "model.zip")
+    capsys.readouterr()
+    report = tmp_path / "eval.json"
+    argv = ["envs", "eval", "RandomMap-v0", "--policy", model, "--episodes", "2"]
+    assert main([*argv, "--preset", "TEST1", "--json", str(report)]) == 0
+    doc = json.loads(report.read_text())
+    assert doc["controller"] == "PPO policy model.zip" and len(doc["episodes"]) == 2
+    assert "PPO policy model.zip on" in capsys.readouterr().out
+    # a policy trained on RandomMap's Box(40) observation cannot drive CrowdNav
+    assert main(["envs", "eval", "CrowdNav-v0", "--policy", model, "--episodes", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "expects observations Box(40,) but env sim2real/CrowdNav-v0 gives Dict(" in err
+    assert err.count("\n") == 1
+    # not a model at all
+    bogus = tmp_path / "bogus.zip"
+    bogus.write_bytes(b"not a zip")
+    assert main(["envs", "eval", "RandomMap-v0", "--policy", str(bogus)]) == 2
+    assert "is not a zip file" in capsys.readouterr().err
+
+
+def test_dqn_gets_an_action_grid_and_evaluates(tmp_path: Path) -> None:
+    cfg = _config(
+        tmp_path,
+        algorithm="DQN",
+        n_envs=1,
+        hyperparameters={"learning_starts": 16, "buffer_size": 500},
+        timesteps=64,
+        checkpoint_every=0,
+    )
+    assert main(["train", str(cfg)]) == 0
+    with zipfile.ZipFile(tmp_path / "run" / "model.zip") as zf:
+        meta = yaml.safe_load(zf.read("sim2real.yaml"))
+    assert len(meta["discrete_actions"]["v_mps"]) == 3
+    assert len(meta["discrete_actions"]["w_radps"]) == 5
+    model = str(tmp_path / "run" / "model.zip")
+    assert main(["envs", "eval", "RandomMap-v0", "--policy", model, "--episodes", "1"]) == 0
+
+
+def test_robustness_with_a_policy(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    cfg = _config(tmp_path, checkpoint_every=0, timesteps=64, randomizers=None)
+    assert main(["train", str(cfg)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "rob.json"
+    argv = ["envs", "robustness", "RandomMap-v0", "--policy", str(tmp_path / "run" / "model.zip")]
+    rand = tmp_path / "dr.yaml"
+    rand.write_text(
+        yaml.safe_dump(
+            {
+                "format": "sim2real.randomizers/1",
+                "randomizers": [
+                    {"type": "ActionDelay", "delay_steps": 3},
+                    {"type": "LidarNoise", "index": [0, 36], "std_m": 0.05, "name": "lidar"},
+                ],
+            }
+        )
+    )
+    argv += ["--randomize", str(rand), "--episodes", "2", "--preset", "TEST1"]
+    assert main([*argv, "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    assert [r["condition"] for r in rows] == ["none", "ActionDelay", "lidar", "all"]
+    for r in rows:
+        lo, hi = r["success_ci95"]
+        assert 0.0 <= lo <= r["success_rate"] <= hi <= 1.0
+        assert r["success_rate"] + r["collision_rate"] + r["timeout_rate"] == pytest.approx(1.0)
