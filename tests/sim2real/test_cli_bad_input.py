@@ -727,6 +727,8 @@ COMMANDS = [
     ["envs"],
     ["envs", "list"],
     ["envs", "eval"],
+    ["envs", "robustness"],
+    ["train"],
     ["demo"],
 ]
 
