@@ -823,6 +823,7 @@ def final_evaluation(cfg: TrainConfig, model: Any) -> dict[str, Any]:
         )
     finally:
         env.close()
+    rows = summary.per_episode
     return {
         "env_id": cfg.env_id,
         "env_kwargs": kwargs,
@@ -832,6 +833,11 @@ def final_evaluation(cfg: TrainConfig, model: Any) -> dict[str, Any]:
         "success_rate": summary.success_rate,
         "collision_rate": summary.collision_rate,
         "timeout_rate": summary.timeout_rate,
+        **(
+            {"off_road_rate": sum(bool(r.get("off_road")) for r in rows) / len(rows)}
+            if rows and "off_road" in rows[0]
+            else {}
+        ),
         "means": {k: (None if math.isnan(v) else v) for k, v in summary.means.items()},
     }
 

@@ -13,7 +13,8 @@ __all__ = ["register"]
 _EXAMPLES = """\
   sim2real train examples/randommap_ppo.yaml                     # as configured
   sim2real train examples/randommap_ppo.yaml --timesteps 2000    # a quick smoke run
-  sim2real train examples/crowdnav_sac.yaml --seed 3 --out runs/crowd_s3
+  sim2real train examples/crowdnav_ppo.yaml --seed 3 --out runs/crowd_s3
+  sim2real train examples/carcrossing_dqn.yaml
   sim2real envs eval RandomMap-v0 --policy runs/randommap_ppo/model.zip --episodes 20
   tensorboard --logdir runs/randommap_ppo/tensorboard
 """

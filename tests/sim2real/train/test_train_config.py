@@ -48,6 +48,13 @@ def test_example_configs_load_with_overrides() -> None:
     ]
     crowd = load_config(ROOT / "examples" / "crowdnav_ppo.yaml")
     assert crowd.env_id == "sim2real/CrowdNav-v0" and crowd.env_kwargs["scenario"] == "dynamic"
+    car = load_config(ROOT / "examples" / "carcrossing_dqn.yaml")
+    assert (car.env_id, car.algorithm) == ("sim2real/CarCrossing-v0", "DQN")
+    # every example's env and randomizer stack builds
+    for c in (cfg, crowd, car):
+        env = build_env(c.env_id, c.env_kwargs, randomizers=c.randomizers)
+        env.reset(seed=0)
+        env.close()
 
 
 @pytest.mark.parametrize(
