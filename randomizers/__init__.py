@@ -44,10 +44,11 @@ if TYPE_CHECKING:
     )
     from randomizers._curriculum import CurriculumUpdate, SuccessRateCurriculum
     from randomizers._delay import ActionDelay, OdometryDelay, steps_from_seconds
-    from randomizers._dynamics import DynamicsRandomizer, default_bounds
+    from randomizers._dynamics import DynamicsRandomizer, default_bounds, stream_generator
     from randomizers._gauss import fill_standard_normal
     from randomizers._goal import GoalNoise
     from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
+    from randomizers._odometry_noise import VelocityObservationNoise
 
 __all__ = [
     "CONFIG_FORMAT",
@@ -63,6 +64,7 @@ __all__ = [
     "OdometryDelay",
     "Randomizer",
     "SuccessRateCurriculum",
+    "VelocityObservationNoise",
     "default_bounds",
     "fill_standard_normal",
     "from_config",
@@ -70,6 +72,7 @@ __all__ = [
     "save_config",
     "set_scale",
     "steps_from_seconds",
+    "stream_generator",
     "to_config",
 ]
 
@@ -83,6 +86,7 @@ _MODULES = (
     "randomizers._gauss",
     "randomizers._goal",
     "randomizers._noise",
+    "randomizers._odometry_noise",
 )
 
 

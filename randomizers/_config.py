@@ -35,6 +35,7 @@ from randomizers._delay import ActionDelay, OdometryDelay
 from randomizers._dynamics import DynamicsRandomizer
 from randomizers._goal import GoalNoise
 from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
+from randomizers._odometry_noise import VelocityObservationNoise
 from randomizers.errors import RandomizerConfigError, RandomizerError
 
 __all__ = ["CONFIG_FORMAT", "RANDOMIZERS", "from_config", "save_config", "to_config"]
@@ -54,6 +55,7 @@ RANDOMIZERS: dict[str, type[gym.Wrapper[Any, Any, Any, Any]]] = {
         LidarNoise,
         ObservationNoise,
         OdometryDelay,
+        VelocityObservationNoise,
     )
 }
 

@@ -11,12 +11,14 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
-from randomizers._base import Randomizer, check_name, check_number, check_scale
+from randomizers._base import Randomizer, check_name, check_number, check_scale, stream_key
 from randomizers._protocol import DRIVE_PROTOCOL, require_protocol
 from randomizers.errors import RandomizationNotAppliedError, RandomizerValueError
+from robots.errors import RobotsError
 from robots.params import MAY_BE_NEGATIVE, MUST_BE_POSITIVE, DriveParams, read_params_file
+from robots.randomization import DriveDistribution
 
-__all__ = ["DynamicsRandomizer", "default_bounds"]
+__all__ = ["DynamicsRandomizer", "default_bounds", "load_distribution", "stream_generator"]
 
 # Same rules as robots.params: these must stay > 0, these may be negative, the rest >= 0.
 _POSITIVE = MUST_BE_POSITIVE
@@ -42,6 +44,47 @@ def default_bounds(name: str, centre: float) -> tuple[float, float]:
     if name in _POSITIVE:
         return POSITIVE_FLOOR_FRACTION * abs(centre), math.inf
     return 0.0, math.inf
+
+
+def stream_generator(seed: int | None, name: str) -> np.random.Generator:
+    """The generator a randomizer called ``name`` draws from after ``reset(seed=seed)``.
+
+    ``sim2real agree --ensemble`` draws its parameter sets from
+    ``stream_generator(seed, "DynamicsRandomizer")``, so its members are exactly the episodes
+    of a default-named :class:`DynamicsRandomizer` reset with the same seed.
+
+    Examples
+    --------
+    >>> a = stream_generator(3, "DynamicsRandomizer").standard_normal()
+    >>> a == stream_generator(3, "DynamicsRandomizer").standard_normal()
+    True
+    """
+    return np.random.Generator(
+        np.random.PCG64(np.random.SeedSequence(entropy=seed, spawn_key=stream_key(name)))
+    )
+
+
+def load_distribution(
+    path: str | Path, *, robot: str | None = None, owner: str = "DynamicsRandomizer.from_sysid"
+) -> DriveDistribution:
+    """The ``randomization`` block of a params file, as a :class:`DriveDistribution`.
+
+    ``robot`` (e.g. the env's robot) must be the file's robot; None accepts the file's own.
+    Errors are :class:`~randomizers.errors.RandomizerValueError` naming ``owner`` and the file.
+    """
+    try:
+        if robot is None:
+            robot = read_params_file(path).robot
+        return DriveDistribution.from_params_file(path, robot=robot)
+    except (RobotsError, OSError) as exc:
+        raise RandomizerValueError(f"{owner}: {exc}") from None
+
+
+def env_robot(env: gym.Env[Any, Any]) -> str | None:
+    """Name of the robot an env simulates (``env.unwrapped.robot_spec.name``), if it says."""
+    spec = getattr(env.unwrapped, "robot_spec", None)
+    name = getattr(spec, "name", None)
+    return name if isinstance(name, str) else None
 
 
 def _number(value: Any, argument: str, *, allow_inf: bool) -> float:
@@ -88,18 +131,25 @@ class DynamicsRandomizer(
     r"""Draw drive-model parameters (:class:`robots.params.DriveParams`) once per episode.
 
     Seed 000 identifies extra motor friction and inertia of the real robot; randomising them
-    around the identified values makes a policy robust to what identification missed. Each
-    listed field is drawn as
+    around the identified values makes a policy robust to what identification missed. Two
+    ways to say what to draw:
 
-    - ``uniform={name: [low, high]}``: :math:`m + c\,(u - m)` with :math:`u \sim U(low, high)`
-      and centre :math:`m = (low + high)/2`, i.e. the range shrinks about its centre with the
-      curriculum scale c;
-    - ``normal={name: [mean, std]}``: :math:`\mathrm{mean} + c\,\mathrm{std}\,z`,
-      :math:`z \sim \mathcal N(0, 1)` (see :meth:`from_sysid`);
+    - **a sysid result** (``sysid=params.yaml``, see :meth:`from_sysid`): every episode is one
+      draw of the file's ``randomization`` block,
+      :meth:`robots.randomization.DriveDistribution.sample` with ``spread`` = the curriculum
+      scale c -- the one sampler ``sim2real agree --ensemble`` uses too (same seed, same
+      robots). The whole parameter set comes from the file (the env's own values are
+      replaced), so the env simulates the identified robot population.
+    - **by hand**, field by field, then clipped to ``bounds[name]`` or :func:`default_bounds`:
 
-    then clipped to ``bounds[name]`` or :func:`default_bounds` so it stays physical. Fields are
-    drawn in :class:`~robots.params.DriveParams` declaration order; the others keep the env's
-    values (read with ``get_drive_params`` at the first reset).
+      - ``uniform={name: [low, high]}``: :math:`m + c\,(u - m)` with
+        :math:`u \sim U(low, high)` and centre :math:`m = (low + high)/2`, i.e. the range
+        shrinks about its centre with the curriculum scale c;
+      - ``normal={name: [mean, std]}``: :math:`\mathrm{mean} + c\,\mathrm{std}\,z`,
+        :math:`z \sim \mathcal N(0, 1)`;
+
+      fields are drawn in :class:`~robots.params.DriveParams` declaration order; the others
+      keep the env's values (read with ``get_drive_params`` at the first reset).
 
     The parameters are applied with ``env.unwrapped.set_drive_params`` *before* the env's reset
     (so the whole episode uses them) and read back with ``get_drive_params`` after the set and
@@ -115,7 +165,16 @@ class DynamicsRandomizer(
     normal : mapping of str to [mean, std], optional
         Gaussian distributions (std >= 0).
     bounds : mapping of str to [low, high], optional
-        Hard clip ranges overriding :func:`default_bounds`.
+        Hard clip ranges overriding :func:`default_bounds` (not with ``sysid``).
+    sysid : str or Path, optional
+        A params file with a ``randomization`` block (``sim2real sysid fit`` writes one); not
+        together with ``uniform``/``normal``/``bounds``.
+    robot : str, optional
+        The robot the env simulates; the params file must be for it. Default: the env's
+        ``robot_spec.name`` when it has one, else the file's robot.
+    fields : sequence of str, optional
+        With ``sysid``: only these fields vary (their marginal); the others stay at the
+        distribution's mean.
     scale : float
         Curriculum scale c in [0, 1].
     name : str, optional
@@ -154,21 +213,43 @@ class DynamicsRandomizer(
         uniform: Mapping[str, Sequence[float]] | None = None,
         normal: Mapping[str, Sequence[float]] | None = None,
         bounds: Mapping[str, Sequence[float]] | None = None,
+        sysid: str | Path | None = None,
+        robot: str | None = None,
+        fields: Iterable[str] | None = None,
         scale: float = 1.0,
         name: str | None = None,
     ) -> None:
         uni = _pairs(uniform, "uniform", "[low, high]")
         nor = _pairs(normal, "normal", "[mean, std]")
         lim = _pairs(bounds, "bounds", "[low, high]", allow_inf=True)
-        _check_distributions(uni, nor, lim)
         scale = check_scale(scale)
         require_protocol(env, DRIVE_PROTOCOL, "DynamicsRandomizer")
+        dist = None
+        if sysid is not None:
+            if uni or nor or lim:
+                raise RandomizerValueError(
+                    "DynamicsRandomizer: argument 'sysid' draws every parameter from the params "
+                    "file; do not also give 'uniform', 'normal' or 'bounds' (use one stack "
+                    "entry each)"
+                )
+            robot = robot if robot is not None else env_robot(env)
+            dist = _marginal(load_distribution(sysid, robot=robot), fields, sysid)
+        else:
+            if fields is not None or robot is not None:
+                raise RandomizerValueError(
+                    "DynamicsRandomizer: arguments 'fields' and 'robot' need 'sysid' (a params "
+                    "file); pass sysid='params.yaml' or drop them"
+                )
+            _check_distributions(uni, nor, lim)
         name = check_name(name, env, "DynamicsRandomizer")
         gym.utils.RecordConstructorArgs.__init__(
             self,
             uniform={k: list(v) for k, v in uni.items()} or None,
             normal={k: list(v) for k, v in nor.items()} or None,
             bounds={k: list(v) for k, v in lim.items()} or None,
+            sysid=None if sysid is None else str(sysid),
+            robot=None if dist is None else dist.robot,
+            fields=None if fields is None or dist is None else list(dist.names),
             scale=scale,
             name=name,
         )
@@ -178,6 +259,8 @@ class DynamicsRandomizer(
         self._normal = nor
         self._bounds = lim
         self._order = [f for f in DriveParams.names() if f in uni or f in nor]
+        #: The distribution drawn from (with ``sysid``), else None.
+        self.distribution: DriveDistribution | None = dist
         self.nominal: DriveParams | None = None
         self.params: DriveParams | None = None
         self.sampled: dict[str, float] = {}
@@ -188,16 +271,16 @@ class DynamicsRandomizer(
         path: str | Path,
         *,
         env: gym.Env[Any, Any] | None = None,
+        robot: str | None = None,
         scale: float = 1.0,
         fields: Iterable[str] | None = None,
-        bounds: Mapping[str, Sequence[float]] | None = None,
         name: str | None = None,
     ) -> Any:
-        """Randomise around a sysid result: each fitted parameter ~ N(value, (c·std)^2).
+        """Randomise with the ``randomization`` block of a sysid result (see the class doc).
 
-        Reads the file with :func:`robots.params.read_params_file`; the parameters that carry a
-        ``std`` (status ``fitted``) are randomised, or only ``fields`` when given. Without
-        ``env`` it returns a picklable ``env -> wrapper`` callable for
+        Each episode is ``DriveDistribution.sample(rng, 1, spread=scale)``. The file must be
+        for the env's robot (``robot``, else ``env.unwrapped.robot_spec.name`` when the env
+        has one). Without ``env`` it returns a picklable ``env -> wrapper`` callable for
         ``gymnasium.make_vec(..., wrappers=[...])``; with ``env`` it returns the wrapper.
 
         Examples
@@ -205,25 +288,12 @@ class DynamicsRandomizer(
         >>> make = DynamicsRandomizer.from_sysid("params.yaml", scale=1.0)  # doctest: +SKIP
         >>> env = make(base_env)  # doctest: +SKIP
         """
-        pf = read_params_file(path)
-        wanted = list(pf.stds) if fields is None else [_check_field(f, "fields") for f in fields]
-        normal: dict[str, list[float]] = {}
-        for field in wanted:
-            if field not in pf.stds:
-                raise RandomizerValueError(
-                    f"DynamicsRandomizer.from_sysid: argument 'fields' names '{field}', which "
-                    f"has no std in '{pf.path}' (not fitted); fitted ones: {sorted(pf.stds)}"
-                )
-            value, std = pf.values[field], pf.stds[field]
-            if math.isfinite(value) and math.isfinite(std) and std >= 0:
-                normal[field] = [value, std]
-        if not normal:
-            raise RandomizerValueError(
-                f"DynamicsRandomizer.from_sysid: '{pf.path}' has no fitted parameter with a "
-                "finite value and std; fit one with 'sim2real sysid fit' or use uniform ranges"
-            )
+        check_scale(scale)
+        dist = load_distribution(path, robot=robot)  # fail here, not in a worker
+        _marginal(dist, fields, path)
+        wanted = None if fields is None else list(fields)
         factory = functools.partial(
-            cls, normal=normal, bounds=bounds, scale=check_scale(scale), name=name
+            cls, sysid=str(path), robot=robot, fields=wanted, scale=scale, name=name
         )
         return factory if env is None else factory(env)
 
@@ -246,10 +316,11 @@ class DynamicsRandomizer(
         base = self.env.unwrapped
         got = base.get_drive_params()  # type: ignore[attr-defined]
         assert self.params is not None
+        want = self.params.to_dict()
         wrong = {
-            f: (getattr(got, f), v)
-            for f, v in self.sampled.items()
-            if not math.isclose(getattr(got, f), v, rel_tol=1e-9, abs_tol=1e-12)
+            f: (getattr(got, f), want[f])
+            for f in self.sampled
+            if not math.isclose(getattr(got, f), want[f], rel_tol=1e-9, abs_tol=1e-12)
         }
         if wrong:
             raise RandomizationNotAppliedError(
@@ -257,6 +328,21 @@ class DynamicsRandomizer(
                 f"(got, set) = {wrong}; set_drive_params must take effect and persist across "
                 "reset()"
             )
+
+    def _episode_params(self) -> DriveParams:
+        if self.distribution is not None:
+            params = self.distribution.sample(self.rng, 1, spread=self.scale)[0]
+            self.sampled = {f: float(getattr(params, f)) for f in self.distribution.names}
+            return params
+        assert self.nominal is not None
+        self.sampled = self._draw()
+        try:
+            return self.nominal.replace(**self.sampled)
+        except ValueError as exc:
+            raise RandomizerValueError(
+                f"DynamicsRandomizer: the drawn parameters are not valid ({exc}); narrow the "
+                "distributions or pass 'bounds'"
+            ) from None
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -266,15 +352,7 @@ class DynamicsRandomizer(
         base = self.env.unwrapped
         if self.nominal is None:
             self.nominal = base.get_drive_params()  # type: ignore[attr-defined]
-        assert self.nominal is not None
-        self.sampled = self._draw()
-        try:
-            self.params = self.nominal.replace(**self.sampled)
-        except ValueError as exc:
-            raise RandomizerValueError(
-                f"DynamicsRandomizer: the drawn parameters are not valid ({exc}); narrow the "
-                "distributions or pass 'bounds'"
-            ) from None
+        self.params = self._episode_params()
         base.set_drive_params(self.params)  # type: ignore[attr-defined]
         self._check_applied("right after set_drive_params")
         obs, info = self.env.reset(seed=seed, options=options)
@@ -284,6 +362,35 @@ class DynamicsRandomizer(
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """Step the env (the parameters stay fixed within an episode)."""
         return self.env.step(action)
+
+
+def _marginal(
+    dist: DriveDistribution, fields: Iterable[str] | None, path: str | Path
+) -> DriveDistribution:
+    """``dist`` with only ``fields`` varying (their marginal); the rest fixed at the mean."""
+    if fields is None:
+        return dist
+    wanted = [_check_field(f, "fields") for f in fields]
+    missing = [f for f in wanted if f not in dist.names]
+    if missing or not wanted:
+        raise RandomizerValueError(
+            f"DynamicsRandomizer.from_sysid: argument 'fields' names {missing or wanted}, which "
+            f"do not vary in '{path}' (no std: fixed or not identified); varying ones: "
+            f"{list(dist.names)}"
+        )
+    keep = [i for i, n in enumerate(dist.names) if n in wanted]
+    cov = dist.covariance_array[np.ix_(keep, keep)]
+    mean_params = dist.mean_params()
+    fixed = {f: float(getattr(mean_params, f)) for f in DriveParams.names() if f not in wanted}
+    return DriveDistribution(
+        robot=dist.robot,
+        geometry=dist.geometry,
+        names=tuple(dist.names[i] for i in keep),
+        mean=tuple(dist.mean[i] for i in keep),
+        covariance=tuple(tuple(float(c) for c in row) for row in cov),
+        fixed=fixed,
+        noise=dist.noise,
+    )
 
 
 def _check_distributions(

@@ -174,44 +174,30 @@ def test_dynamics_detects_an_env_that_forgets_params_on_reset() -> None:
 
 
 def _params_file(tmp_path: Path) -> Path:
-    doc = {
-        "format": "sim2real.sysid/1",
-        "robot": "turtlebot2_kobuki",
-        "tool_version": "0.1.0",
-        "parameters": {
-            "delay_s": {
-                "value": 0.118,
-                "std": 0.003,
-                "ci95": [0.112, 0.124],
-                "unit": "s",
-                "status": "fitted",
-            },
-            "coulomb_v_fwd_n": {"value": 2.0, "std": 0.4, "unit": "N", "status": "fitted"},
-            "added_mass_kg": {"value": 1.5, "std": 0.1, "unit": "kg", "status": "fitted"},
-            "accel_lim_v_mps2": {
-                "value": float("inf"),
-                "std": None,
-                "unit": "m/s^2",
-                "status": "fixed",
-            },
-        },
-    }
-    path = tmp_path / "params.yaml"
-    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
-    return path
+    """A turtlebot2 params file whose randomisation is centred on NavDouble-like values."""
+    from robots.spec import load_spec
+    from tests.randomization_block import write_params_file
+
+    centre = load_spec("turtlebot2").drive.replace(delay_s=0.118, coulomb_v_fwd_n=2.0)
+    return write_params_file(tmp_path / "params.yaml", centre, "turtlebot2", rel=0.5)
 
 
-def test_from_sysid_uses_fitted_value_and_std(tmp_path: Path) -> None:
-    factory = DynamicsRandomizer.from_sysid(_params_file(tmp_path), scale=1.0)
+def test_from_sysid_draws_the_files_distribution(tmp_path: Path) -> None:
+    from robots.randomization import DriveDistribution
+
+    path = _params_file(tmp_path)
+    dist = DriveDistribution.from_params_file(path, robot="turtlebot2")
+    factory = DynamicsRandomizer.from_sysid(path, scale=1.0)
     env = factory(NavDouble())
     recs = [env.reset(seed=s)[1]["randomization"]["DynamicsRandomizer"] for s in range(400)]
+    assert set(recs[0]) == {*dist.names, "scale"}
     delay = np.array([r["delay_s"] for r in recs])
-    friction = np.array([r["coulomb_v_fwd_n"] for r in recs])
-    assert set(recs[0]) == {"delay_s", "coulomb_v_fwd_n", "added_mass_kg", "scale"}
-    assert abs(delay.mean() - 0.118) < 4 * 0.003 / 20
-    assert abs(delay.std() / 0.003 - 1) < 4 / math.sqrt(800)
-    assert abs(friction.std() / 0.4 - 1) < 4 / math.sqrt(800)
-    assert np.isinf(env.unwrapped.get_drive_params().accel_lim_v_mps2)
+    sd = dist.std()["delay_s"]  # delay is fitted in its own unit (lin coordinate)
+    assert abs(delay.mean() - 0.118) < 4 * sd / 20
+    assert abs(delay.std() / sd - 1) < 4 / math.sqrt(800)
+    # the whole parameter set is the file's robot, not the env's (cmd_timeout_s is fixed)
+    assert env.unwrapped.get_drive_params().cmd_timeout_s == dist.fixed["cmd_timeout_s"]
+    assert env.unwrapped.get_drive_params() == env.params
 
 
 def test_from_sysid_with_env_fields_and_scale(tmp_path: Path) -> None:
@@ -219,17 +205,33 @@ def test_from_sysid_with_env_fields_and_scale(tmp_path: Path) -> None:
         _params_file(tmp_path), env=NavDouble(), scale=0.0, fields=["delay_s"]
     )
     rec = env.reset(seed=0)[1]["randomization"]["DynamicsRandomizer"]
-    assert rec == {"delay_s": 0.118, "scale": 0.0}
+    assert rec == {"delay_s": pytest.approx(0.118), "scale": 0.0}
+    assert env.spec is None or env.spec.kwargs.get("fields") in (None, ["delay_s"])
 
 
-def test_from_sysid_refuses_unfitted_field(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match=r"accel_lim_v_mps2.*no std"):
-        DynamicsRandomizer.from_sysid(_params_file(tmp_path), fields=["accel_lim_v_mps2"])
+def test_from_sysid_refuses_a_field_that_does_not_vary(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match=r"cmd_timeout_s.*do not vary"):
+        DynamicsRandomizer.from_sysid(_params_file(tmp_path), fields=["cmd_timeout_s"])
 
 
 def test_from_sysid_missing_file_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="does not exist"):
         DynamicsRandomizer.from_sysid(tmp_path / "nope.yaml")
+
+
+def test_from_sysid_refuses_a_file_without_randomization(tmp_path: Path) -> None:
+    path = tmp_path / "old.yaml"
+    doc = {"format": "sim2real.sysid/1", "robot": "turtlebot2", "parameters": {}}
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    with pytest.raises(ValueError, match="randomization"):
+        DynamicsRandomizer.from_sysid(path)
+
+
+def test_sysid_and_hand_ranges_do_not_mix(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="sysid"):
+        DynamicsRandomizer(
+            NavDouble(), sysid=_params_file(tmp_path), uniform={"delay_s": [0.0, 0.1]}
+        )
 
 
 def test_drive_params_stay_valid_dataclass() -> None:

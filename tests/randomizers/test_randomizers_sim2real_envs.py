@@ -108,3 +108,41 @@ def test_index_selected_stack_on_randommap_box_observation() -> None:
         np.testing.assert_array_equal(x, y)
     velocity = np.array([o[38:40] for o in a])
     np.testing.assert_array_equal(velocity[1], velocity[0])  # delayed: still the first value
+
+
+def test_sysid_randomisation_on_crowdnav_from_a_config(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # the training stack a sysid result prescribes: its robots and its odometry noise, built
+    # from the params file through a randomizer config (what `envs eval --randomize` reads)
+    from robots.randomization import DriveDistribution
+    from tests.randomization_block import write_params_file
+
+    base = gym.make("sim2real/CrowdNav-v0", dynamics="reduced")
+    robot = base.unwrapped.robot_spec
+    path = write_params_file(tmp_path / "p.yaml", robot.drive, robot.name, noise_v=0.02)
+    dist = DriveDistribution.from_params_file(path, robot=robot.name)
+    config = {
+        "randomizers": [
+            {"type": "DynamicsRandomizer", "sysid": str(path)},
+            {"type": "VelocityObservationNoise", "key": "velocity", "std_v_mps": 0.02,
+             "std_w_radps": 0.02},
+        ]
+    }  # fmt: skip
+    env = randomizers.from_config(base, config)
+    env.reset(seed=5)
+    assert (
+        env.unwrapped.get_drive_params()
+        == dist.sample(randomizers.stream_generator(5, "DynamicsRandomizer"), 1)[0]
+    )
+    vel = []
+    for _ in range(30):
+        obs, *_ = env.step(np.array([0.0, 0.0], np.float32))
+        vel.append(obs["velocity"])
+    assert 0.01 < float(np.std(np.array(vel)[:, 0])) < 0.03  # standing still: noise only
+    saved = randomizers.to_config(env)["randomizers"]
+    assert saved[0]["sysid"] == str(path) and saved[0]["robot"] == robot.name
+    other = "turtlebot2" if robot.name != "turtlebot2" else "turtlebot3_burger"
+    from robots.spec import load_spec
+
+    wrong = write_params_file(tmp_path / "w.yaml", load_spec(other).drive, other)
+    with pytest.raises(randomizers.errors.RandomizerValueError, match=other):
+        randomizers.DynamicsRandomizer.from_sysid(wrong, env=gym.make("sim2real/CrowdNav-v0"))
