@@ -45,17 +45,26 @@ exactly :data:`AGREEMENT_KEYS`.
 
 Figures that are undefined (no active sample, constant signal) are NaN (``null`` in JSON).
 
-Ensemble coverage
------------------
-:func:`run_ensemble` replays the log *N* times with drive parameters drawn from the sysid
-uncertainty (each fitted parameter :math:`\sim\mathcal N(\text{value}, (s\,\sigma)^2)`,
-independent, clipped to its physical range, from a seeded :class:`numpy.random.Generator`)
-and reports ``coverage``: the fraction of active real samples whose :math:`v_k` *and*
-:math:`\omega_k` both lie inside the 5-95 % band of the ensemble at :math:`t_k`. Coverage near
-0.9 means the randomisation is about as wide as the real variability; far below means it is
-too narrow (a band from parameter uncertainty alone collapses where the robot cruises, so
-sensor noise alone keeps it low). ``sim2real agree --ensemble N --json`` adds the key
-``coverage`` after the :data:`AGREEMENT_KEYS`.
+Predictive band and coverage
+----------------------------
+:func:`run_ensemble` replays the log with *N* robots drawn from a params file's
+randomisation (:meth:`robots.randomization.DriveDistribution.sample`, the sampler
+``randomizers.DynamicsRandomizer.from_sysid`` uses in training: same seed, same robots), adds
+*K* odometry-noise realisations to each simulated trace
+(:meth:`robots.randomization.ObservationNoise.apply`, the rule of
+``randomizers.VelocityObservationNoise``), and takes the central ``band_level`` band of the
+:math:`N K` traces at every measurement time (:func:`predictive_band`). The band is thus the
+predictive distribution of what the odometry of a randomised robot would report.
+
+- ``coverage_v`` / ``coverage_w``: fraction of active real samples whose v / w lies inside
+  its band; ``coverage``: both at once.
+- ``band_width_v_mps`` / ``band_width_w_radps``: median band width over the active samples.
+- ``coverage_by_level``: the coverage of the central band at each level of
+  :data:`COVERAGE_LEVELS` (a calibrated band covers about its level at every level).
+
+A calibrated 90 % band covers 80-99 % (:func:`calibrated_range`); :func:`band_verdict` says in
+one sentence whether it is too narrow, calibrated or too wide and what to do.
+``sim2real agree --ensemble N --json`` adds :data:`BAND_KEYS` after :data:`AGREEMENT_KEYS`.
 
 Example
 -------
@@ -71,14 +80,13 @@ Example
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from robots.params import MUST_BE_POSITIVE, BaseGeometry, DriveParams
+from robots.params import DriveParams
 from sim2real.errors import Sim2RealValueError
 from sim2real.replay import ReplayResult, TraceLike, replay
 from sysid.metrics import (
@@ -93,20 +101,27 @@ from sysid.metrics import (
 
 __all__ = [
     "AGREEMENT_KEYS",
+    "BAND_KEYS",
+    "COVERAGE_LEVELS",
     "DEFAULT_BAND_LEVEL",
     "DEFAULT_TOL_V",
     "DEFAULT_TOL_W",
-    "MAX_REL_STD",
+    "DYNAMICS_STREAM",
+    "NOISE_DRAWS",
+    "NOISE_STREAM",
     "AgreementReport",
     "EnsembleResult",
     "agreement_from_arrays",
+    "band_coverage",
+    "band_verdict",
+    "calibrated_range",
     "check_band_level",
     "check_tolerances",
-    "ensemble_band",
+    "ensemble_members",
     "measure_agreement",
+    "predictive_band",
+    "predictive_samples",
     "run_ensemble",
-    "sample_drive_params",
-    "sampled_parameters",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -354,134 +369,62 @@ def measure_agreement(
     )
 
 
-# --- ensemble ---------------------------------------------------------------------------------
+# --- ensemble and predictive band ------------------------------------------------------------
 
-# Parameters that must stay strictly positive (a sample at or below 0 is clipped to a small
-# fraction of the nominal value); the added mass/inertia may be negative down to -90 % of the
-# spec value; all others are clipped at 0 (see robots.params for the validation rules).
-_STRICTLY_POSITIVE = MUST_BE_POSITIVE
-_MIN_POSITIVE_FRACTION = 0.05
-_MIN_TOTAL_FRACTION = 0.1
-
-
-def _clip_physical(name: str, x: float, nominal: float, geometry: BaseGeometry) -> float:
-    if name == "added_mass_kg":
-        return max(x, -(1.0 - _MIN_TOTAL_FRACTION) * geometry.mass_kg)
-    if name == "added_yaw_inertia_kgm2":
-        return max(x, -(1.0 - _MIN_TOTAL_FRACTION) * geometry.yaw_inertia_kgm2)
-    if name in _STRICTLY_POSITIVE:
-        return max(x, _MIN_POSITIVE_FRACTION * abs(nominal)) if nominal > 0 else nominal
-    return max(x, 0.0)
-
-
-#: A std above this multiple of the value's magnitude means "not identified": not sampled.
-MAX_REL_STD = 10.0
-
-
-def sampled_parameters(
-    base: DriveParams, stds: Mapping[str, float], *, reference: DriveParams | None = None
-) -> list[str]:
-    """Names of the parameters an ensemble draws (sorted).
-
-    A parameter is drawn when it is a :class:`DriveParams` field with a finite value and a
-    finite std > 0 of at most :data:`MAX_REL_STD` times its scale, the larger magnitude of its
-    value and its ``reference`` value (the spec default); a wider std carries no information
-    and would only produce absurd robots. The reference keeps a parameter fitted at 0 (e.g. a
-    friction at its bound) in the ensemble.
-    """
-    known = set(DriveParams.names())
-    out = []
-    for name, std in stds.items():
-        if name not in known or not (math.isfinite(std) and std > 0):
-            continue
-        value = float(getattr(base, name))
-        ref = float(getattr(reference, name)) if reference is not None else 0.0
-        scale = max(abs(value), abs(ref) if math.isfinite(ref) else 0.0)
-        if math.isfinite(value) and std <= MAX_REL_STD * scale:
-            out.append(name)
-    return sorted(out)
-
-
-def sample_drive_params(
-    base: DriveParams,
-    stds: Mapping[str, float],
-    *,
-    n: int,
-    rng: np.random.Generator,
-    geometry: BaseGeometry,
-    spread: float = 1.0,
-    reference: DriveParams | None = None,
-) -> list[DriveParams]:
-    r"""Draw ``n`` parameter sets around ``base`` from the sysid uncertainty.
-
-    Each parameter of :func:`sampled_parameters` (with ``reference``, e.g. the spec defaults)
-    is drawn independently from
-    :math:`\mathcal N(\text{value}, (\text{spread}\cdot\sigma)^2)`, truncated at
-    :math:`\pm 3` spread σ and clipped to its physical range; the others keep their ``base``
-    value.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> geo = BaseGeometry(mass_kg=1.0, yaw_inertia_kgm2=0.01, wheel_radius_m=0.033,
-    ...                    wheel_separation_m=0.16)
-    >>> ps = sample_drive_params(DriveParams(delay_s=0.1), {"delay_s": 0.01}, n=3,
-    ...                          rng=np.random.default_rng(0), geometry=geo)
-    >>> len(ps)
-    3
-    """
-    if isinstance(n, bool) or not isinstance(n, int) or n < 2:
-        raise Sim2RealValueError(
-            f"ensemble size (--ensemble) must be an integer >= 2, got {n!r}; e.g. --ensemble 20"
-        )
-    if not (math.isfinite(spread) and spread >= 0):
-        raise Sim2RealValueError(
-            f"ensemble spread (--spread) must be a finite number >= 0, got {spread!r}; e.g. 1"
-        )
-    names = sampled_parameters(base, stds, reference=reference)
-    out: list[DriveParams] = []
-    for _ in range(n):
-        draws = rng.standard_normal(len(names))
-        changes: dict[str, float] = {}
-        for name, z in zip(names, draws, strict=True):
-            nominal = float(getattr(base, name))
-            # truncated at 3 sigma so a rare draw cannot leave the fitted region entirely
-            x = nominal + spread * float(stds[name]) * float(np.clip(z, -3.0, 3.0))
-            changes[name] = _clip_physical(name, x, nominal, geometry)
-        out.append(base.replace(**changes))
-    return out
+#: Odometry-noise realisations drawn per ensemble member (the band is taken over N x K traces);
+#: more when N x NOISE_DRAWS draws could not span the widest band of :data:`COVERAGE_LEVELS`.
+NOISE_DRAWS = 4
+#: Band levels of the coverage-vs-level curve (:attr:`EnsembleResult.coverage_by_level`).
+COVERAGE_LEVELS: tuple[float, ...] = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
+#: Names of the random streams of the ensemble: the streams of a default-named
+#: :class:`randomizers.DynamicsRandomizer` and :class:`randomizers.VelocityObservationNoise`
+#: reset with the same seed (same seed, same robots as in training).
+DYNAMICS_STREAM = "DynamicsRandomizer"
+NOISE_STREAM = "VelocityObservationNoise"
 
 
 @dataclass(frozen=True, kw_only=True)
 class EnsembleResult:
-    """Replays with parameters drawn from the sysid uncertainty, and the coverage they give.
+    """Replays drawn from a params file's randomisation, their predictive band and its coverage.
 
     Attributes
     ----------
     n, seed : int
-        Ensemble size and the seed of the parameter draws.
+        Ensemble size and the seed of the draws.
     spread : float
-        Multiplier applied to every standard deviation.
+        Multiplier applied to every standard deviation (dynamics and noise).
+    band_level : float
+        Central probability of the band.
+    noise_draws : int
+        Odometry-noise realisations per member.
     t_s : ndarray
         Measurement times, s since the log start.
     lo_v, hi_v, lo_w, hi_w : ndarray
-        5 % and 95 % quantiles of the simulated v (m/s) and w (rad/s) at ``t_s``.
+        The band of v (m/s) and w (rad/s) at ``t_s``.
     coverage : float
         Fraction of active real samples inside the band on both axes (NaN if none active).
     coverage_v, coverage_w : float
         The same per axis.
+    band_width_v_mps, band_width_w_radps : float
+        Median band width over the active samples.
+    coverage_by_level : tuple of (level, coverage_v, coverage_w)
+        Coverage of the central band at each of :data:`COVERAGE_LEVELS` (a calibrated band
+        covers about ``level``).
     params : tuple of DriveParams
         The drawn parameter sets.
     sampled : tuple of str
-        Parameters that were drawn.
-    skipped : tuple of str
-        Parameters with a std in the params file that were not drawn (std too wide to mean
-        anything, see :func:`sampled_parameters`).
+        Parameters that vary in the distribution.
+    members_v, members_w : ndarray
+        Noise-free simulated v and w of each member, shape (n, samples).
+    active : ndarray of bool
+        The active-sample mask the coverage counts.
     """
 
     n: int
     seed: int
     spread: float
+    band_level: float
+    noise_draws: int
     t_s: FloatArray
     lo_v: FloatArray
     hi_v: FloatArray
@@ -490,53 +433,158 @@ class EnsembleResult:
     coverage: float
     coverage_v: float
     coverage_w: float
+    band_width_v_mps: float
+    band_width_w_radps: float
+    coverage_by_level: tuple[tuple[float, float, float], ...]
     params: tuple[DriveParams, ...]
-    band_level: float = DEFAULT_BAND_LEVEL
-    sampled: tuple[str, ...] = ()
-    skipped: tuple[str, ...] = ()
+    sampled: tuple[str, ...]
+    members_v: FloatArray
+    members_w: FloatArray
+    active: NDArray[np.bool_]
+
+    def band_figures(self) -> dict[str, Any]:
+        """The band's JSON keys (:data:`BAND_KEYS`), NaN as ``None``."""
+        out: dict[str, Any] = {}
+        for key in BAND_KEYS:
+            if key == "coverage_by_level":
+                value: Any = [
+                    {"level": lv, "coverage_v": _finite(cv), "coverage_w": _finite(cw)}
+                    for lv, cv, cw in self.coverage_by_level
+                ]
+            elif key == "ensemble_n":
+                value = self.n
+            else:
+                value = _finite(getattr(self, key))
+            out[key] = value
+        return out
 
 
-def _coverage(
-    inside_v: NDArray[np.bool_], inside_w: NDArray[np.bool_], active: NDArray[np.bool_]
-) -> tuple[float, float, float]:
-    if not active.any():
-        return math.nan, math.nan, math.nan
-    iv, iw = inside_v[active], inside_w[active]
-    return float(np.mean(iv & iw)), float(np.mean(iv)), float(np.mean(iw))
+#: The keys ``sim2real agree --ensemble N --json`` adds after :data:`AGREEMENT_KEYS`.
+BAND_KEYS: tuple[str, ...] = (
+    "coverage",
+    "coverage_v",
+    "coverage_w",
+    "band_level",
+    "band_width_v_mps",
+    "band_width_w_radps",
+    "ensemble_n",
+    "coverage_by_level",
+)
 
 
-def ensemble_band(
-    trace: TraceLike,
-    sims: Sequence[ReplayResult],
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def predictive_samples(
+    members_v: FloatArray,
+    members_w: FloatArray,
+    noise: Any,
+    rng: np.random.Generator,
     *,
-    tol_v: float = DEFAULT_TOL_V,
-    tol_w: float = DEFAULT_TOL_W,
-    band_level: float = DEFAULT_BAND_LEVEL,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, tuple[float, float, float]]:
-    """Central ``band_level`` band of replays and the coverage of the trace's active samples.
+    noise_draws: int = NOISE_DRAWS,
+    spread: float = 1.0,
+) -> tuple[FloatArray, FloatArray]:
+    """Odometry as each member would report it: ``noise_draws`` noisy copies per member.
 
-    Returns ``(lo_v, hi_v, lo_w, hi_w, (coverage, coverage_v, coverage_w))``.
+    ``noise`` is a :class:`robots.randomization.ObservationNoise`; its
+    :meth:`~robots.randomization.ObservationNoise.apply` (white noise, then quantisation) is
+    the rule :class:`randomizers.VelocityObservationNoise` applies in training. Returns arrays
+    of shape (n * noise_draws, samples).
     """
-    sv = np.stack([s.v for s in sims])
-    sw = np.stack([s.w for s in sims])
-    level = check_band_level(band_level)
+    mv = np.repeat(np.atleast_2d(members_v), noise_draws, axis=0)
+    mw = np.repeat(np.atleast_2d(members_w), noise_draws, axis=0)
+    v, w = noise.apply(rng, mv, mw, spread=spread)
+    return v, w
+
+
+def predictive_band(samples: FloatArray, level: float) -> tuple[FloatArray, FloatArray]:
+    r"""Central ``level`` band of draws (rows) at each sample (columns).
+
+    The quantiles use the Weibull plotting position :math:`p\,(m + 1)` of *m* draws: the
+    interval between those order statistics contains a further draw of the same distribution
+    with probability ``level`` (Hyndman & Fan 1996, definition 6), whereas plain sample
+    quantiles give a band that is too narrow for small ensembles (about 81 % instead of 90 %
+    with 20 draws).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> lo, hi = predictive_band(np.arange(19.0).reshape(19, 1), 0.9)
+    >>> float(lo[0]), float(hi[0])
+    (0.0, 18.0)
+    """
+    level = check_band_level(level)
     q = (0.5 * (1.0 - level), 0.5 * (1.0 + level))
-    lo_v, hi_v = np.quantile(sv, q, axis=0)
-    lo_w, hi_w = np.quantile(sw, q, axis=0)
-    rv = np.asarray(trace.meas_v, dtype=np.float64)
-    rw = np.asarray(trace.meas_w, dtype=np.float64)
-    cmd_v, cmd_w = trace.cmd_at_meas()
-    active = active_mask(cmd_v, cmd_w, rv, rw, tol_v=tol_v, tol_w=tol_w)
-    cov = _coverage((rv >= lo_v) & (rv <= hi_v), (rw >= lo_w) & (rw <= hi_w), active)
-    return lo_v, hi_v, lo_w, hi_w, cov
+    lo, hi = np.quantile(samples, q, axis=0, method="weibull")
+    return lo, hi
+
+
+def band_coverage(
+    real: FloatArray, lo: FloatArray, hi: FloatArray, active: NDArray[np.bool_]
+) -> float:
+    """Fraction of the active ``real`` samples inside ``[lo, hi]`` (NaN when none is active)."""
+    if not active.any():
+        return math.nan
+    inside = (real >= lo) & (real <= hi)
+    return float(np.mean(inside[active]))
+
+
+def _median_width(lo: FloatArray, hi: FloatArray, active: NDArray[np.bool_]) -> float:
+    return float(np.median((hi - lo)[active])) if active.any() else math.nan
+
+
+def _check_ensemble_args(n: Any, spread: Any, noise_draws: Any) -> None:
+    if isinstance(n, bool) or not isinstance(n, int) or n < 2:
+        raise Sim2RealValueError(
+            f"ensemble size (--ensemble) must be an integer >= 2, got {n!r}; e.g. --ensemble 20"
+        )
+    if isinstance(spread, bool) or not (
+        isinstance(spread, int | float) and math.isfinite(spread) and spread >= 0
+    ):
+        raise Sim2RealValueError(
+            f"ensemble spread (--spread) must be a finite number >= 0, got {spread!r}; e.g. 1"
+        )
+    if isinstance(noise_draws, bool) or not isinstance(noise_draws, int) or noise_draws < 1:
+        raise Sim2RealValueError(
+            f"noise_draws must be an integer >= 1, got {noise_draws!r}; e.g. {NOISE_DRAWS}"
+        )
+
+
+def ensemble_members(
+    trace: TraceLike,
+    *,
+    robot: Any,
+    distribution: Any,
+    n: int,
+    seed: int,
+    engine: str = "reduced",
+    spread: float = 1.0,
+    odom_v_window_s: float = 0.0,
+) -> tuple[list[DriveParams], FloatArray, FloatArray]:
+    """Draw ``n`` parameter sets and replay ``trace`` with each: ``(params, v, w)``.
+
+    The draws are ``distribution.sample(stream_generator(seed, "DynamicsRandomizer"), n,
+    spread=spread)`` -- the parameter sets of the first ``n`` episodes of a
+    ``DynamicsRandomizer.from_sysid`` reset with ``seed``. ``v`` and ``w`` have shape
+    (n, samples).
+    """
+    from randomizers._dynamics import stream_generator
+
+    _check_ensemble_args(n, spread, 1)
+    drawn = distribution.sample(stream_generator(seed, DYNAMICS_STREAM), n, spread=spread)
+    sims = [
+        replay(trace, robot=robot, params=p, engine=engine, odom_v_window_s=odom_v_window_s)
+        for p in drawn
+    ]
+    return drawn, np.stack([s.v for s in sims]), np.stack([s.w for s in sims])
 
 
 def run_ensemble(
     trace: TraceLike,
     *,
     robot: Any,
-    params: DriveParams,
-    stds: Mapping[str, float],
+    distribution: Any,
     n: int,
     seed: int,
     engine: str = "reduced",
@@ -545,8 +593,9 @@ def run_ensemble(
     tol_w: float = DEFAULT_TOL_W,
     odom_v_window_s: float = 0.0,
     band_level: float = DEFAULT_BAND_LEVEL,
+    noise_draws: int = NOISE_DRAWS,
 ) -> EnsembleResult:
-    """Replay ``trace`` ``n`` times with parameters drawn around ``params`` (see module doc).
+    """Replay ``trace`` with ``n`` robots drawn from ``distribution``; band and coverage.
 
     Parameters
     ----------
@@ -554,65 +603,199 @@ def run_ensemble(
         The real log.
     robot : str or RobotSpec
         The robot, as for :func:`sim2real.replay.replay`.
-    params : DriveParams
-        Central parameter values (e.g. a sysid result).
-    stds : mapping
-        Standard deviation per fitted parameter (``ParamsFile.stds``).
+    distribution : robots.randomization.DriveDistribution
+        The randomisation (``DriveDistribution.from_params_file``).
     n, seed : int
-        Ensemble size (>= 2) and seed of the :class:`numpy.random.Generator`.
+        Ensemble size (>= 2) and seed (see :func:`ensemble_members`; the noise comes from the
+        stream of a default-named ``VelocityObservationNoise`` reset with ``seed``).
     engine : {"reduced", "pybullet"}
         Simulation engine of every member.
     spread : float
-        Multiplier on every standard deviation (1 = the sysid uncertainty).
+        Multiplier on every standard deviation, dynamics and noise (1 = the file's).
     tol_v, tol_w : float
         Tolerances of the active-sample mask, m/s and rad/s.
     odom_v_window_s : float
         Odometry window of every member's v, s (see :func:`sim2real.replay.replay`).
+    band_level : float
+        Central probability of the band, in (0, 1).
+    noise_draws : int
+        Odometry-noise realisations per member (the band is over ``n * noise_draws`` traces);
+        raised so that the traces can span the widest band of :data:`COVERAGE_LEVELS` (*m*
+        draws span at most an :math:`(m - 1)/(m + 1)` band). Where the dynamics dominate the
+        band, only ``n`` decides: use ``n >= 2 / (1 - band_level) - 1`` (19 for 90 %).
 
     Examples
     --------
-    >>> ens = run_ensemble(trace, robot="turtlebot3_burger", params=p, stds=pf.stds,
-    ...                    n=20, seed=0)  # doctest: +SKIP
-    >>> ens.coverage  # doctest: +SKIP
-    0.87
+    >>> dist = DriveDistribution.from_params_file("params.yaml", robot="turtlebot2")
+    ... # doctest: +SKIP
+    >>> ens = run_ensemble(trace, robot="turtlebot2", distribution=dist, n=20, seed=0)
+    ... # doctest: +SKIP
+    >>> ens.coverage_v, ens.band_width_v_mps  # doctest: +SKIP
+    (0.91, 0.05)
     """
-    check_tolerances(tol_v, tol_w)
+    from randomizers._dynamics import stream_generator
     from sim2real.replay import resolve_robot
 
+    check_tolerances(tol_v, tol_w)
+    level = check_band_level(band_level)
+    _check_ensemble_args(n, spread, noise_draws)
     spec = resolve_robot(robot)
-    sampled = sampled_parameters(params, stds, reference=spec.drive)
-    if not sampled:
-        raise Sim2RealValueError(
-            "the ensemble needs parameter uncertainties, but the params file lists no "
-            f"parameter with a usable std (> 0 and <= {MAX_REL_STD:g} x its value); pass a "
-            "params file written by 'sim2real sysid fit'"
+    # m draws span at most a (m - 1)/(m + 1) band: enough noise draws for the widest level
+    widest = max(*COVERAGE_LEVELS, level)
+    noise_draws = max(noise_draws, math.ceil((2.0 / (1.0 - widest) - 1.0) / n))
+    drawn, mv, mw = ensemble_members(
+        trace,
+        robot=spec,
+        distribution=distribution,
+        n=n,
+        seed=seed,
+        engine=engine,
+        spread=spread,
+        odom_v_window_s=odom_v_window_s,
+    )
+    sv, sw = predictive_samples(
+        mv,
+        mw,
+        distribution.noise,
+        stream_generator(seed, NOISE_STREAM),
+        noise_draws=noise_draws,
+        spread=spread,
+    )
+    rv = np.asarray(trace.meas_v, dtype=np.float64)
+    rw = np.asarray(trace.meas_w, dtype=np.float64)
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    active = active_mask(cmd_v, cmd_w, rv, rw, tol_v=tol_v, tol_w=tol_w)
+    curve = []
+    for lv in sorted({*COVERAGE_LEVELS, level}):
+        lo_v, hi_v = predictive_band(sv, lv)
+        lo_w, hi_w = predictive_band(sw, lv)
+        curve.append(
+            (lv, band_coverage(rv, lo_v, hi_v, active), band_coverage(rw, lo_w, hi_w, active))
         )
-    skipped = sorted(k for k, s in stds.items() if k in DriveParams.names() and k not in sampled)
-    rng = np.random.default_rng(seed)
-    drawn = sample_drive_params(
-        params, stds, n=n, rng=rng, geometry=spec.geometry, spread=spread, reference=spec.drive
-    )
-    sims = [
-        replay(trace, robot=spec, params=p, engine=engine, odom_v_window_s=odom_v_window_s)
-        for p in drawn
-    ]
-    lo_v, hi_v, lo_w, hi_w, (cov, cov_v, cov_w) = ensemble_band(
-        trace, sims, tol_v=tol_v, tol_w=tol_w, band_level=band_level
-    )
+    lo_v, hi_v = predictive_band(sv, level)
+    lo_w, hi_w = predictive_band(sw, level)
+    inside = (rv >= lo_v) & (rv <= hi_v) & (rw >= lo_w) & (rw <= hi_w)
     return EnsembleResult(
         n=n,
         seed=seed,
         spread=float(spread),
-        t_s=sims[0].t_s,
+        band_level=level,
+        noise_draws=noise_draws,
+        t_s=np.asarray(trace.meas_t_s, dtype=np.float64),
         lo_v=lo_v,
         hi_v=hi_v,
         lo_w=lo_w,
         hi_w=hi_w,
-        coverage=cov,
-        coverage_v=cov_v,
-        coverage_w=cov_w,
+        coverage=float(np.mean(inside[active])) if active.any() else math.nan,
+        coverage_v=band_coverage(rv, lo_v, hi_v, active),
+        coverage_w=band_coverage(rw, lo_w, hi_w, active),
+        band_width_v_mps=_median_width(lo_v, hi_v, active),
+        band_width_w_radps=_median_width(lo_w, hi_w, active),
+        coverage_by_level=tuple(curve),
         params=tuple(drawn),
-        band_level=float(band_level),
-        sampled=tuple(sampled),
-        skipped=tuple(k for k in skipped if stds[k] != 0),
+        sampled=tuple(distribution.names),
+        members_v=mv,
+        members_w=mw,
+        active=active,
     )
+
+
+# --- verdict ----------------------------------------------------------------------------------
+
+
+def calibrated_range(level: float) -> tuple[float, float]:
+    """Coverage range in which a ``level`` band counts as calibrated.
+
+    From ``level - 0.1`` (misses up to 10 points more than it should) to
+    ``level + 0.9 (1 - level)`` (misses at least a tenth of what it should): 80-99 % for a
+    90 % band.
+
+    Examples
+    --------
+    >>> tuple(round(x, 3) for x in calibrated_range(0.9))
+    (0.8, 0.99)
+    """
+    level = check_band_level(level)
+    return level - 0.1, level + 0.9 * (1.0 - level)
+
+
+def _axis_state(coverage: float, level: float) -> str:
+    lo, hi = calibrated_range(level)
+    if not math.isfinite(coverage):
+        return "unknown"
+    if coverage < lo:
+        return "narrow"
+    if coverage > hi:
+        return "wide"
+    return "ok"
+
+
+def band_verdict(
+    *,
+    coverage_v: float,
+    coverage_w: float,
+    band_level: float = DEFAULT_BAND_LEVEL,
+    band_width_v_mps: float = math.nan,
+    band_width_w_radps: float = math.nan,
+) -> str:
+    """One sentence: is the predictive band too narrow, calibrated or too wide, and what to do.
+
+    A band is calibrated when the coverage of both v and w lies in :func:`calibrated_range`.
+
+    Examples
+    --------
+    >>> band_verdict(coverage_v=0.42, coverage_w=0.9).split(":")[0]
+    'The 90 % band is too narrow'
+    >>> band_verdict(coverage_v=0.9, coverage_w=0.93).split(":")[0]
+    'The 90 % band is calibrated'
+    """
+    level = check_band_level(band_level)
+    lo, hi = calibrated_range(level)
+    states = {"v": _axis_state(coverage_v, level), "w": _axis_state(coverage_w, level)}
+    pct = f"{100 * level:g} %"
+    cov = f"it covers {_pct(coverage_v)} of the active real v samples and {_pct(coverage_w)} of w"
+    target = f"(calibrated: {100 * lo:.0f}-{100 * hi:.0f} %)"
+    calibrate = (
+        "'sim2real sysid calibrate PARAMS.yaml VALIDATION.mcap -o CALIBRATED.yaml' on a log the "
+        "fit did not use"
+    )
+    if "unknown" in states.values():
+        return (
+            f"The {pct} band cannot be judged: the log has no active sample on one axis; record "
+            "a log in which the robot moves and turns"
+        ) + "."
+    if set(states.values()) == {"ok"}:
+        widths = ""
+        if math.isfinite(band_width_v_mps) and math.isfinite(band_width_w_radps):
+            widths = (
+                f", {band_width_v_mps:.3g} m/s and {band_width_w_radps:.3g} rad/s wide (median)"
+            )
+        return (
+            f"The {pct} band is calibrated: {cov} {target}{widths}; train with this "
+            "randomisation (randomizers.DynamicsRandomizer.from_sysid and "
+            "VelocityObservationNoise.from_sysid of the same params file)."
+        )
+    if "narrow" in states.values() and "wide" in states.values():
+        narrow = next(a for a, s in states.items() if s == "narrow")
+        wide = next(a for a, s in states.items() if s == "wide")
+        return (
+            f"The {pct} band is too narrow on {narrow} and too wide on {wide}: {cov} {target}; "
+            f"fit its spread per axis with {calibrate}."
+        )
+    if "narrow" in states.values():
+        axes = " and ".join(a for a, s in states.items() if s == "narrow")
+        return (
+            f"The {pct} band is too narrow on {axes}: {cov} {target}, so the randomisation "
+            f"does not contain the real robot; widen it with {calibrate}, or fit several "
+            "sessions at once (sysid fit a.mcap b.mcap ...) so the between-session spread is "
+            "estimated."
+        )
+    axes = " and ".join(a for a, s in states.items() if s == "wide")
+    return (
+        f"The {pct} band is too wide on {axes}: {cov} {target}, so training randomises more "
+        f"than the real robot varies; shrink it with {calibrate}."
+    )
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"

@@ -226,6 +226,13 @@ def _check_config(config: StudyConfig) -> None:
             "of a sysid result; add --params params.yaml"
         )
     check_band_level(config.band_level)
+    spread = config.spread
+    if isinstance(spread, bool) or not (
+        isinstance(spread, int | float) and math.isfinite(spread) and spread >= 0
+    ):
+        raise Sim2RealValueError(
+            f"ensemble spread (--spread) must be a finite number >= 0, got {spread!r}; e.g. 1"
+        )
 
 
 def run_study(config: StudyConfig) -> StudyResult:
@@ -298,15 +305,14 @@ def _ensemble(
 ) -> EnsembleResult | None:
     if config.ensemble_n is None or params is None or config.params_path is None:
         return None
-    from robots.params import read_params_file
+    from robots.randomization import DriveDistribution
     from sim2real.agreement import run_ensemble
 
-    stds = read_params_file(config.params_path).stds
+    distribution = DriveDistribution.from_params_file(config.params_path, robot=spec.name)
     return run_ensemble(
         trace,
         robot=spec,
-        params=params,
-        stds=stds,
+        distribution=distribution,
         n=config.ensemble_n,
         seed=config.seed,
         spread=config.spread,
@@ -319,11 +325,24 @@ def _ensemble(
 
 
 def study_figures(main: AgreementReport, ensemble: EnsembleResult | None) -> dict[str, Any]:
-    """The JSON figures: the agreement keys, plus the band's keys when there is an ensemble."""
+    """The JSON figures: the agreement keys, plus the band's keys when there is an ensemble.
+
+    Raises :class:`~sim2real.errors.Sim2RealValueError` when the band's coverage or width
+    cannot be computed (no active sample): those keys are never null.
+    """
+    from sim2real.errors import Sim2RealValueError
+
     figures = main.to_dict()
     if ensemble is not None:
-        cov = ensemble.coverage
-        figures["coverage"] = cov if math.isfinite(cov) else None
+        band = ensemble.band_figures()
+        missing = [k for k, v in band.items() if v is None]
+        if missing:
+            raise Sim2RealValueError(
+                f"the ensemble's {', '.join(missing)} cannot be computed for log "
+                f"'{main.log_file}': it has {main.n_active} active samples on which to measure "
+                "the band; use a log in which the robot moves and turns"
+            )
+        figures.update(band)
     return figures
 
 
@@ -411,7 +430,18 @@ def summary_table(runs: Sequence[Any], ensemble: Any = None) -> str:
         ("active/samples", [f"{x.n_active}/{x.n_samples}" for x in a]),
     ]
     if ensemble is not None:
-        lines.append((f"coverage (N={ensemble.n})", ["", pct(ensemble.coverage)][-len(runs) :]))
+        level = f"{100 * ensemble.band_level:g} % band"
+
+        def last(text: str) -> list[str]:
+            return ([""] * (len(runs) - 1)) + [text]
+
+        lines += [
+            (f"coverage v, {level} (N={ensemble.n})", last(pct(ensemble.coverage_v))),
+            (f"coverage w, {level} (N={ensemble.n})", last(pct(ensemble.coverage_w))),
+            ("coverage v and w", last(pct(ensemble.coverage))),
+            ("band width v [m/s]", last(num(ensemble.band_width_v_mps, ".4f"))),
+            ("band width w [rad/s]", last(num(ensemble.band_width_w_radps, ".4f"))),
+        ]
     w0 = max(len(k) for k, _ in lines)
     widths = [max(len(row[i]) for _, row in lines) for i in range(len(runs))]
     out = []

@@ -47,8 +47,8 @@ _EXAMPLES = """\
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml --json agree.json \\
       --min-agreement 0.9          # CI gate: exit 1 below 90 %
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml --ensemble 20 --seed 1
-  sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml --ensemble 20 \
-      --spread 5                   # is a 5x wider randomisation wide enough? (coverage)
+  sim2real agree test.mcap --robot turtlebot2 --params calibrated.yaml --ensemble 30 \
+      --band-level 0.9 --json agree.json   # coverage_v/_w and band widths of the 90 % band
   sim2real agree val.mcap --robot turtlebot3_burger --engine reduced --sim-out sim.mcap
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml \
       --odom-v-window 0            # compare the instantaneous simulated v
@@ -63,10 +63,19 @@ every odometry time.
 Only active samples count (a command is held or the robot moves). A sample agrees when
 |v_sim - v_real| <= tol_v and |w_sim - w_real| <= tol_w. --json writes agreement,
 agreement_v, agreement_w, fit_percent_v, fit_percent_w, rmse_v, rmse_w, lag_s_v, lag_s_w,
-n_samples, n_active, tol_v, tol_w, robot, params_file, log_file, log_sha256 (plus coverage
-with --ensemble). The simulated v is averaged over the preceding --odom-v-window, as
-wheel-encoder odometry reports v; the default 'auto' takes it from the robot spec (one
-odometry period for an encoder base), like 'sysid fit'.
+n_samples, n_active, tol_v, tol_w, robot, params_file, log_file, log_sha256. The simulated
+v is averaged over the preceding --odom-v-window, as wheel-encoder odometry reports v; the
+default 'auto' takes it from the robot spec (one odometry period for an encoder base), like
+'sysid fit'.
+
+With --ensemble N, N robots are drawn from the params file's 'randomization' block (the
+sampler DynamicsRandomizer.from_sysid uses in training: same --seed, same robots), each
+simulated trace gets the file's odometry noise (as VelocityObservationNoise adds it), and the
+central --band-level band of these traces is the predictive band; --json then adds coverage,
+coverage_v, coverage_w (share of active real samples inside the band), band_level,
+band_width_v_mps, band_width_w_radps (median width), ensemble_n and coverage_by_level, and a
+sentence says whether the band is too narrow, calibrated (80-99 % for a 90 % band) or too
+wide. Fit the spread to a validation log with 'sim2real sysid calibrate'.
 Exit codes: 0 ok, 1 agreement below --min-agreement, 2 bad input.
 """
 
@@ -97,14 +106,19 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--min-agreement", type=float, metavar="F", help="exit 1 when agreement < F (0..1)"
     )
     p.add_argument(
-        "--ensemble", type=int, metavar="N", help="also run N sims sampled from the params' std"
+        "--ensemble",
+        type=int,
+        metavar="N",
+        help="also replay N robots drawn from the params file's randomisation (N >= 2) and "
+        "measure how much of the log their predictive band covers",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the ensemble draws")
     p.add_argument(
         "--spread",
         type=float,
         default=1.0,
-        help="multiply every std of the ensemble draws (1 = the sysid uncertainty)",
+        help="multiply every standard deviation of the ensemble draws, dynamics and noise "
+        "(1 = the params file's; prefer 'sim2real sysid calibrate' over tuning this by hand)",
     )
     p.add_argument(
         "--band-level",
@@ -243,6 +257,19 @@ def _handle(args: argparse.Namespace) -> int:
         print(f"sim2real: warning: {args.log}: {warning}", file=sys.stderr)
     print(f"{args.log}: robot {args.robot}, engine {args.engine}")
     print(summary_table(result.runs, result.ensemble))
+    if result.ensemble is not None:
+        from sim2real.agreement import band_verdict
+
+        e = result.ensemble
+        print(
+            band_verdict(
+                coverage_v=e.coverage_v,
+                coverage_w=e.coverage_w,
+                band_level=e.band_level,
+                band_width_v_mps=e.band_width_v_mps,
+                band_width_w_radps=e.band_width_w_radps,
+            )
+        )
     for path in result.written:
         print(f"wrote {path}")
     agreement = result.main.agreement

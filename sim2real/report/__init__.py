@@ -30,7 +30,7 @@ import yaml
 
 from robots.params import DriveParams
 from sim2real._io import atomic_write, check_output_path
-from sim2real.agreement import AgreementReport, EnsembleResult
+from sim2real.agreement import AgreementReport, EnsembleResult, band_verdict
 from sim2real.errors import Sim2RealValueError
 from sim2real.replay import ReplayResult, TraceLike
 from sim2real.report._html import Figure, HeadlineCard, Table, render_page
@@ -254,27 +254,19 @@ def _cards(data: ReportInput) -> list[HeadlineCard]:
         e = data.ensemble
         cards.append(
             HeadlineCard(
-                label=f"ensemble coverage (N={e.n})",
+                label=f"coverage of the {100 * e.band_level:g} % band (N={e.n})",
                 fraction=e.coverage,
-                detail=f"real inside 5-95 % band: v {_pct(e.coverage_v)} · w {_pct(e.coverage_w)}"
-                + _coverage_hint(e.coverage)
-                + (f"; not sampled (std too wide): {', '.join(e.skipped)}" if e.skipped else ""),
+                detail=f"v {_pct(e.coverage_v)} · w {_pct(e.coverage_w)} — "
+                + band_verdict(
+                    coverage_v=e.coverage_v,
+                    coverage_w=e.coverage_w,
+                    band_level=e.band_level,
+                    band_width_v_mps=e.band_width_v_mps,
+                    band_width_w_radps=e.band_width_w_radps,
+                ),
             )
         )
     return cards
-
-
-def _coverage_hint(coverage: float) -> str:
-    if not math.isfinite(coverage):
-        return ""
-    if coverage < 0.5:
-        return (
-            " — band too narrow: the parameter uncertainty alone does not span the real "
-            "spread (noise, unmodelled effects); widen the randomisation"
-        )
-    if coverage < 0.85:
-        return " — band somewhat narrow for a 5-95 % band"
-    return " — band about as wide as the real spread"
 
 
 def _steps_table(data: ReportInput) -> Table:
@@ -337,8 +329,9 @@ _DEFINITIONS = {
     "|w_sim - w_real| <= tol_w (agreement v / w: one axis each)",
     "FIT %": "MATLAB compare fit over active samples, 100 (1 - ||y - y_sim|| / ||y - mean(y)||)",
     "lag": "shift of the simulated trace behind the real one at the cross-correlation peak",
-    "coverage": "fraction of active real samples inside the 5-95 % band of the ensemble of "
-    "simulations drawn from the sysid uncertainty (both axes)",
+    "coverage": "fraction of active real samples inside the central predictive band (level "
+    "given, 90 % by default) of robots drawn from the params file's randomisation plus sampled "
+    "odometry noise (coverage v / w: one axis each); a calibrated 90 % band covers 80-99 %",
 }
 
 
@@ -351,7 +344,13 @@ def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
     band = None
     if data.ensemble is not None:
         e = data.ensemble
-        band = Band(lo_v=e.lo_v, hi_v=e.hi_v, lo_w=e.lo_w, hi_w=e.hi_w, label="ensemble 5-95 %")
+        band = Band(
+            lo_v=e.lo_v,
+            hi_v=e.hi_v,
+            lo_w=e.lo_w,
+            hi_w=e.hi_w,
+            label=f"{100 * e.band_level:g} % predictive band (N={e.n})",
+        )
     first = data.runs[0].agreement
     cmd_v, cmd_w = trace.cmd_at_meas()
     active = active_mask(cmd_v, cmd_w, rv, rw, tol_v=first.tol_v, tol_w=first.tol_w)
@@ -376,7 +375,8 @@ def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
                     band=band,
                 ),
                 caption="Forward velocity v and yaw rate w: real odometry, each simulation, the "
-                "command (dashed) and, when present, the ensemble's 5-95 % band.",
+                "command (dashed) and, when present, the ensemble's predictive band (sampled "
+                "robots plus sampled odometry noise).",
             ),
         ),
         *([("zoom", zoom)] if zoom is not None else []),

@@ -42,7 +42,7 @@ class SimSeries:
 
 @dataclass(frozen=True, kw_only=True)
 class Band:
-    """An ensemble's 5-95 % band at the measurement times."""
+    """An ensemble's predictive band (lower and upper edge) at the measurement times."""
 
     lo_v: FloatArray
     hi_v: FloatArray

@@ -11,6 +11,7 @@ from robots.params import DriveParams
 from robots.reduced import simulate
 from robots.spec import load_spec
 from sim2real.logs import write_velocity_log
+from tests.randomization_block import distribution_around
 
 ROBOT = "turtlebot3_burger"
 T0_NS = 1_700_000_000_000_000_000
@@ -62,9 +63,19 @@ def write_log(
 
 
 def write_params(
-    path: Path, values: dict[str, float], *, robot: str = ROBOT, rel_std: float = 0.05
+    path: Path,
+    values: dict[str, float],
+    *,
+    robot: str = ROBOT,
+    rel_std: float = 0.05,
+    rel_band: float = 0.3,
 ) -> Path:
-    """A params file in the sysid result format (every given value 'fitted' with a std)."""
+    """A params file in the sysid result format (every given value 'fitted' with a std).
+
+    Its ``randomization`` block is centred on the spec defaults with ``values`` applied (prior
+    covariance x ``rel_band**2``; noise as :func:`write_log` adds it).
+    """
+    base = load_spec(robot).drive.replace(**values)
     doc = {
         "format": "sim2real.sysid/1",
         "robot": robot,
@@ -78,6 +89,7 @@ def write_params(
             }
             for k, v in values.items()
         },
+        "randomization": distribution_around(base, robot, rel=rel_band).to_dict(),
     }
     path.write_text(yaml.safe_dump(doc), encoding="utf-8")
     return path

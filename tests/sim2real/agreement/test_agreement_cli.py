@@ -10,7 +10,7 @@ import pytest
 from _agreement_fixtures import HIDDEN, ROBOT, T0_NS, hidden_params, write_log, write_params
 
 from robots.spec import load_spec
-from sim2real.agreement import AGREEMENT_KEYS, measure_agreement
+from sim2real.agreement import AGREEMENT_KEYS, BAND_KEYS, measure_agreement
 from sim2real.cli import main
 from sim2real.logs import read_trace
 from sim2real.replay import replay
@@ -170,8 +170,15 @@ def test_ensemble_adds_coverage_to_json(log: Path, params: Path, tmp_path: Path)
     out = tmp_path / "e.json"
     assert _agree(log, "--params", params, "--ensemble", "6", "--seed", "3", "--json", out) == 0
     figures = json.loads(out.read_text())
-    assert tuple(figures) == (*AGREEMENT_KEYS, "coverage")
-    assert 0.0 <= figures["coverage"] <= 1.0
+    assert tuple(figures) == (*AGREEMENT_KEYS, *BAND_KEYS)
+    assert None not in figures.values()
+    assert 0.0 <= figures["coverage"] <= min(figures["coverage_v"], figures["coverage_w"]) <= 1
+    assert figures["band_level"] == 0.9 and figures["ensemble_n"] == 6
+    assert 0.0 < figures["band_width_v_mps"] < 0.2 and 0.0 < figures["band_width_w_radps"] < 1
+    levels = [row["level"] for row in figures["coverage_by_level"]]
+    assert levels == [0.5, 0.6, 0.7, 0.8, 0.9, 0.95]
+    cov_v = [row["coverage_v"] for row in figures["coverage_by_level"]]
+    assert cov_v == sorted(cov_v) and cov_v[4] == figures["coverage_v"]
     out2 = tmp_path / "e2.json"
     assert _agree(log, "--params", params, "--ensemble", "6", "--seed", "3", "--json", out2) == 0
     assert json.loads(out2.read_text()) == figures  # seeded: same numbers
