@@ -139,6 +139,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     show.add_argument("params", metavar="PARAMS.yaml", help="file written by 'sysid fit'")
     show.set_defaults(handler=_show)
+    from sim2real.cli import _calibrate  # `sysid calibrate` lives with the band (issue 11 B)
+
+    _calibrate.register(group_sub)
 
 
 def _window(text: str | None, option: str) -> tuple[float, float] | None:

@@ -23,6 +23,7 @@ from robots.reduced import simulate
 from robots.spec import list_robots, load_spec
 from sim2real.cli import main
 from sim2real.logs import write_velocity_log
+from tests.randomization_block import distribution_around
 
 ROBOT = "turtlebot3_burger"
 T0_NS = 1_700_000_000_000_000_000
@@ -109,7 +110,16 @@ def write_log(
 
 
 def write_params(path: Path, values: dict[str, float], *, robot: str = ROBOT) -> Path:
-    """A params file in the sysid result format (``format: sim2real.sysid/1``)."""
+    """A params file in the sysid result format (``format: sim2real.sysid/1``).
+
+    Its ``randomization`` block is centred on the spec values with ``values`` applied when
+    they are valid drive parameters (else on the spec values).
+    """
+    drive = load_spec(robot).drive
+    try:
+        centre = drive.replace(**values)
+    except (TypeError, ValueError):
+        centre = drive
     doc = {
         "format": "sim2real.sysid/1",
         "robot": robot,
@@ -118,6 +128,7 @@ def write_params(path: Path, values: dict[str, float], *, robot: str = ROBOT) ->
             k: {"value": v, "std": 0.05 * abs(v), "ci95": None, "status": "fitted"}
             for k, v in values.items()
         },
+        "randomization": distribution_around(centre, robot).to_dict(),
     }
     path.write_text(yaml.safe_dump(doc), encoding="utf-8")
     return path
@@ -402,6 +413,71 @@ def test_params_for_another_robot_exits_2_and_names_both_robots(
     line = assert_bad_input(run, files.params_tb2, "'turtlebot2'", f"'{ROBOT}'")
     assert "--robot turtlebot2" in line  # the fix
     assert list(tmp_path.iterdir()) == []
+
+
+def _block_file(folder: Path, name: str, change: str) -> Path:
+    """A good params file whose ``randomization`` block is broken as ``change`` says."""
+    path = write_params(folder / name, HIDDEN)
+    doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    block = doc["randomization"]
+    i = block["names"].index("delay_s")
+    if change == "nan_std":
+        block["covariance"][i][i] = float("nan")
+    elif change == "absurd_spread":
+        block["covariance"][i][i] = 1.0e6  # a delay sd of 1000 s
+    elif change == "other_robot":
+        block["robot"] = "turtlebot2"
+    elif change == "negative_noise":
+        block["noise"]["v"]["std_mps"] = -0.1
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("change", "words"),
+    [
+        ("nan_std", ["randomization", "covariance", "'delay_s'", "nan"]),
+        ("absurd_spread", ["randomization", "covariance", "'delay_s'", "absurd"]),
+        ("other_robot", ["randomization", "robot", "turtlebot2"]),
+        ("negative_noise", ["randomization", "std_v_mps", "-0.1"]),
+    ],
+)
+def test_bad_randomization_block_exits_2_in_agree_and_calibrate(
+    files: Files, tmp_path: Path, capsys: pytest.CaptureFixture[str], change: str, words: list[str]
+) -> None:
+    params = _block_file(files.root, f"block_{change}.yaml", change)
+    out = tmp_path / "a.json"
+    run = cli(capsys, *agree(files.good, "--params", params, "--ensemble", 3, "--json", out))
+    assert_bad_input(run, params, *words)
+    cal = ["sysid", "calibrate", params, files.hidden, "--robot", ROBOT, "-o", tmp_path / "c.yaml"]
+    assert_bad_input(cli(capsys, *cal), params, *words)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [
+        (["--ensemble", "3"], ["--ensemble", ">= 4", "3"]),
+        (["--ensemble", "-1"], ["--ensemble", "-1"]),
+        (["--odom-v-window", "5"], ["--odom-v-window", "'5'"]),
+        (["--robot", "turtlebot2"], ["turtlebot2", ROBOT]),
+    ],
+)
+def test_bad_calibrate_argument_exits_2_without_output(
+    files: Files, tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str],
+    words: list[str],
+) -> None:  # fmt: skip
+    argv = ["sysid", "calibrate", files.params_ok, files.hidden, "-o", tmp_path / "c.yaml"]
+    robot = [] if "--robot" in extra else ["--robot", ROBOT]
+    assert_bad_input(cli(capsys, *argv, *robot, *extra), *words)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_calibrate_output_over_an_input_exits_2(
+    files: Files, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["sysid", "calibrate", files.params_ok, files.hidden, "--robot", ROBOT]
+    assert_bad_input(cli(capsys, *argv, "-o", files.params_ok), "input", files.params_ok)
 
 
 @pytest.mark.parametrize(
@@ -723,6 +799,7 @@ COMMANDS = [
     ["sysid"],
     ["sysid", "fit"],
     ["sysid", "show"],
+    ["sysid", "calibrate"],
     ["agree"],
     ["envs"],
     ["envs", "list"],

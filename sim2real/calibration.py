@@ -1,0 +1,420 @@
+r"""Fit the spread of a params file's randomisation to a validation log, by likelihood.
+
+A sysid fit gives a distribution of robots (``randomization:`` block: a Gaussian in fit
+coordinates plus an odometry-noise model). Whether it is as wide as the real robot varies can
+only be judged on a log the fit did not use. :func:`calibrate` fits the *spread* of that
+distribution to such a validation log, in the spirit of DROPO (Tiboni et al., 2023, "DROPO:
+Sim-to-real transfer with offline domain randomization"): maximise the likelihood of the real
+trace under the predictive distribution of the randomised simulation.
+
+Model
+-----
+For a dynamics factor :math:`s` the covariance is scaled by :math:`s^2`
+(:meth:`robots.randomization.DriveDistribution.scaled`), *N* robots are drawn (common random
+numbers: the same seed for every *s*) and the log is replayed with each. At every active
+measurement time :math:`t_k` and per axis the predictive distribution is Gaussian with the
+members' mean :math:`m_k(s)` and variance
+
+.. math:: V_k = (1 + 1/N)\,\widehat{\mathrm{var}}_k(s) + \sigma^2 + q^2/12,
+
+the sample variance of the members (inflated for a new draw), the odometry white noise
+:math:`\sigma` and the quantisation :math:`q` of the noise model. The objective is the mean
+Gaussian log-likelihood of the real :math:`v_k` and :math:`\omega_k` over the active samples.
+:math:`\sigma_v` and :math:`\sigma_\omega` are maximised in closed 1-D searches for each
+*s*; *s* by a log-spaced grid refined with bounded Brent. The result keeps the mean (the point
+estimate) and scales the covariance by :math:`s^2` and sets the noise stds; the factors and
+the likelihood before and after are stored in a ``calibration:`` block of the output file.
+
+Example
+-------
+>>> from sim2real.calibration import calibrate, write_calibrated
+>>> result = calibrate("params.yaml", ["val.mcap"], robot="turtlebot2")  # doctest: +SKIP
+>>> result.dynamics_factor  # doctest: +SKIP
+2.3
+>>> write_calibrated("params.yaml", "calibrated.yaml", result)  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sim2real.errors import Sim2RealValueError
+
+__all__ = [
+    "CALIBRATION_METHOD",
+    "CalibrationResult",
+    "calibrate",
+    "calibrate_traces",
+    "predictive_log_likelihood",
+    "write_calibrated",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: Name of the method in the output file's ``calibration`` block.
+CALIBRATION_METHOD = "gaussian-predictive-likelihood/1 (DROPO-style, Tiboni et al. 2023)"
+#: Search range of the dynamics factor.
+FACTOR_RANGE = (0.05, 20.0)
+#: Search range of the odometry noise stds (m/s or rad/s).
+NOISE_RANGE = (1e-5, 1.0)
+#: Points of the initial log-spaced grid of the dynamics factor.
+GRID_POINTS = 11
+#: Default ensemble size of the calibration.
+DEFAULT_N = 32
+
+
+@dataclass(frozen=True, kw_only=True)
+class CalibrationResult:
+    """The fitted spread of a distribution and how much it improved the likelihood.
+
+    Attributes
+    ----------
+    dynamics_factor : float
+        Factor on every standard deviation of the drive parameters (covariance x factor²).
+    noise_std_v_mps, noise_std_w_radps : float
+        Fitted odometry white-noise stds.
+    noise_factor_v, noise_factor_w : float
+        Fitted noise std / the file's (NaN when the file's std is 0).
+    log_likelihood, log_likelihood_before : float
+        Mean Gaussian predictive log-likelihood per active sample and axis, fitted and with
+        the file's distribution as it was.
+    n_active : int
+        Active samples over all validation logs.
+    n, seed : int
+        Ensemble size and seed of the calibration.
+    engine : str
+        Simulator of the calibration.
+    odom_v_window_s : float
+        Odometry window of the simulated v, s.
+    distribution : DriveDistribution
+        The calibrated distribution (mean unchanged).
+    original : DriveDistribution
+        The distribution as read.
+    validation : tuple of (str, str)
+        (file, sha256) of each validation log.
+    """
+
+    dynamics_factor: float
+    noise_std_v_mps: float
+    noise_std_w_radps: float
+    noise_factor_v: float
+    noise_factor_w: float
+    log_likelihood: float
+    log_likelihood_before: float
+    n_active: int
+    n: int
+    seed: int
+    engine: str
+    odom_v_window_s: float
+    distribution: Any
+    original: Any
+    validation: tuple[tuple[str, str], ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``calibration`` block of the output file (plain YAML types)."""
+
+        def num(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
+        return {
+            "method": CALIBRATION_METHOD,
+            "dynamics_factor": float(self.dynamics_factor),
+            "noise_std_v_mps": float(self.noise_std_v_mps),
+            "noise_std_w_radps": float(self.noise_std_w_radps),
+            "noise_factor_v": num(self.noise_factor_v),
+            "noise_factor_w": num(self.noise_factor_w),
+            "log_likelihood_per_sample": float(self.log_likelihood),
+            "log_likelihood_per_sample_before": float(self.log_likelihood_before),
+            "n_active": int(self.n_active),
+            "ensemble_n": int(self.n),
+            "seed": int(self.seed),
+            "engine": self.engine,
+            "odom_v_window_s": float(self.odom_v_window_s),
+            "validation": [{"file": f, "sha256": h} for f, h in self.validation],
+        }
+
+
+def predictive_log_likelihood(real: FloatArray, members: FloatArray, noise_var: float) -> float:
+    """Mean Gaussian log-likelihood of ``real`` under the members' predictive distribution.
+
+    ``members`` has shape (n, samples); the predictive variance at each sample is
+    ``(1 + 1/n) * var(members) + noise_var`` (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> members = np.array([[0.0, 1.0], [0.2, 1.2], [0.1, 1.1]])
+    >>> round(predictive_log_likelihood(np.array([0.1, 1.1]), members, 0.01), 3)
+    1.262
+    """
+    n = members.shape[0]
+    mean = members.mean(axis=0)
+    var = (1.0 + 1.0 / n) * members.var(axis=0, ddof=1) + noise_var
+    var = np.maximum(var, 1e-12)
+    ll = -0.5 * (np.log(2.0 * math.pi * var) + (real - mean) ** 2 / var)
+    return float(np.mean(ll))
+
+
+@dataclass(frozen=True)
+class _Log:
+    """One validation log reduced to what the likelihood needs (active samples only)."""
+
+    trace: Any
+    active: NDArray[np.bool_]
+    v: FloatArray
+    w: FloatArray
+
+
+def _best_noise(
+    real: FloatArray, members: FloatArray, quantum: float, span: tuple[float, float]
+) -> tuple[float, float]:
+    """The noise std maximising the likelihood (bounded search in log std): (std, loglik)."""
+    from scipy.optimize import minimize_scalar
+
+    q_var = quantum**2 / 12.0
+
+    def neg(log_std: float) -> float:
+        return -predictive_log_likelihood(real, members, math.exp(2 * log_std) + q_var)
+
+    res = minimize_scalar(
+        neg,
+        bounds=(math.log(span[0]), math.log(span[1])),
+        method="bounded",
+        options={"xatol": 1e-3},
+    )
+    return math.exp(float(res.x)), -float(res.fun)
+
+
+def calibrate_traces(
+    traces: Sequence[Any],
+    *,
+    robot: Any,
+    distribution: Any,
+    n: int = DEFAULT_N,
+    seed: int = 0,
+    engine: str = "reduced",
+    odom_v_window_s: float = 0.0,
+    tol_v: float = 0.02,
+    tol_w: float = 0.1,
+) -> CalibrationResult:
+    """Fit the dynamics factor and the noise stds of ``distribution`` to ``traces``.
+
+    See the module docstring for the model; :func:`calibrate` reads the files.
+
+    Parameters
+    ----------
+    traces : sequence of Trace
+        Validation logs (not used by the fit).
+    robot : str or RobotSpec
+        The robot.
+    distribution : robots.randomization.DriveDistribution
+        The distribution to calibrate.
+    n, seed : int
+        Ensemble size (>= 4) and seed (common random numbers for every factor).
+    engine : {"reduced", "pybullet"}
+        Simulator ("reduced": tens of ensembles are replayed).
+    odom_v_window_s : float
+        Odometry window of the simulated v, s (as in the fit).
+    tol_v, tol_w : float
+        Tolerances of the active-sample mask.
+
+    Returns
+    -------
+    CalibrationResult
+    """
+    from sim2real.agreement import check_tolerances, ensemble_members
+    from sim2real.replay import resolve_robot
+    from sysid.metrics import active_mask
+
+    check_tolerances(tol_v, tol_w)
+    if isinstance(n, bool) or not isinstance(n, int) or n < 4:
+        raise Sim2RealValueError(
+            f"calibration ensemble size (--ensemble) must be an integer >= 4, got {n!r}; e.g. "
+            f"--ensemble {DEFAULT_N}"
+        )
+    if not traces:
+        raise Sim2RealValueError("calibrate needs at least one validation log; pass one")
+    spec = resolve_robot(robot)
+    logs = []
+    for trace in traces:
+        rv = np.asarray(trace.meas_v, dtype=np.float64)
+        rw = np.asarray(trace.meas_w, dtype=np.float64)
+        cv, cw = trace.cmd_at_meas()
+        active = active_mask(cv, cw, rv, rw, tol_v=tol_v, tol_w=tol_w)
+        logs.append(_Log(trace=trace, active=active, v=rv[active], w=rw[active]))
+    n_active = sum(int(lg.active.sum()) for lg in logs)
+    if n_active < 20:
+        raise Sim2RealValueError(
+            f"the validation log(s) have {n_active} active samples; calibration needs at least "
+            "20 (a log in which the robot moves and turns)"
+        )
+
+    def members(factor: float) -> tuple[FloatArray, FloatArray]:
+        vs, ws = [], []
+        for lg in logs:
+            _, mv, mw = ensemble_members(
+                lg.trace,
+                robot=spec,
+                distribution=distribution,
+                n=n,
+                seed=seed,
+                engine=engine,
+                spread=factor,
+                odom_v_window_s=odom_v_window_s,
+            )
+            vs.append(mv[:, lg.active])
+            ws.append(mw[:, lg.active])
+        return np.concatenate(vs, axis=1), np.concatenate(ws, axis=1)
+
+    real_v = np.concatenate([lg.v for lg in logs])
+    real_w = np.concatenate([lg.w for lg in logs])
+    noise = distribution.noise
+    cache: dict[float, tuple[float, float, float]] = {}
+
+    def objective(log_factor: float) -> float:
+        key = round(log_factor, 9)
+        if key not in cache:
+            mv, mw = members(math.exp(log_factor))
+            sv, llv = _best_noise(real_v, mv, noise.quantum_v_mps, NOISE_RANGE)
+            sw, llw = _best_noise(real_w, mw, noise.quantum_w_radps, NOISE_RANGE)
+            cache[key] = (llv + llw, sv, sw)
+        return -cache[key][0]
+
+    grid = np.linspace(math.log(FACTOR_RANGE[0]), math.log(FACTOR_RANGE[1]), GRID_POINTS)
+    values = [objective(float(x)) for x in grid]
+    best = int(np.argmin(values))
+    lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, GRID_POINTS - 1)]
+    from scipy.optimize import minimize_scalar
+
+    res = minimize_scalar(
+        objective, bounds=(float(lo), float(hi)), method="bounded", options={"xatol": 0.01}
+    )
+    log_factor = float(res.x) if res.fun <= values[best] else float(grid[best])
+    ll, std_v, std_w = cache[round(log_factor, 9)]
+    factor = math.exp(log_factor)
+    mv1, mw1 = members(1.0)
+    ll_before = predictive_log_likelihood(
+        real_v, mv1, noise.std_v_mps**2 + noise.quantum_v_mps**2 / 12.0
+    ) + predictive_log_likelihood(
+        real_w, mw1, noise.std_w_radps**2 + noise.quantum_w_radps**2 / 12.0
+    )
+    calibrated = dataclasses.replace(
+        distribution.scaled(factor),
+        noise=dataclasses.replace(noise, std_v_mps=std_v, std_w_radps=std_w),
+    )
+    return CalibrationResult(
+        dynamics_factor=factor,
+        noise_std_v_mps=std_v,
+        noise_std_w_radps=std_w,
+        noise_factor_v=std_v / noise.std_v_mps if noise.std_v_mps > 0 else math.nan,
+        noise_factor_w=std_w / noise.std_w_radps if noise.std_w_radps > 0 else math.nan,
+        log_likelihood=ll,
+        log_likelihood_before=ll_before,
+        n_active=n_active,
+        n=n,
+        seed=seed,
+        engine=engine,
+        odom_v_window_s=float(odom_v_window_s),
+        distribution=calibrated,
+        original=distribution,
+        validation=tuple(
+            (str(getattr(t.meta, "path", "")), str(getattr(t.meta, "sha256", ""))) for t in traces
+        ),
+    )
+
+
+def _fit_logs(document: Any) -> set[str]:
+    """SHA-256 of the logs a params file was fitted on (its ``data`` entries)."""
+    entries = document.get("data") if isinstance(document, dict) else None
+    out = set()
+    for entry in entries if isinstance(entries, list) else []:
+        if isinstance(entry, dict) and isinstance(entry.get("sha256"), str):
+            out.add(entry["sha256"])
+    return out
+
+
+def _window_of(document: Any) -> float:
+    settings = document.get("settings") if isinstance(document, dict) else None
+    value = settings.get("odom_v_window_s") if isinstance(settings, dict) else None
+    if isinstance(value, int | float) and math.isfinite(value) and 0 <= value <= 1:
+        return float(value)
+    return 0.0
+
+
+def calibrate(
+    params_path: str | Path,
+    logs: Sequence[str | Path],
+    *,
+    robot: str,
+    n: int = DEFAULT_N,
+    seed: int = 0,
+    engine: str = "reduced",
+    odom_v_window_s: float | None = None,
+    tol_v: float = 0.02,
+    tol_w: float = 0.1,
+) -> CalibrationResult:
+    """Read a params file and validation logs and fit the spread (:func:`calibrate_traces`).
+
+    The odometry window defaults to the fit's (``settings.odom_v_window_s`` of the file). A
+    validation log the params file was fitted on is refused: a spread fitted to the fit's own
+    residuals is too narrow for any other session.
+    """
+    from robots.params import read_params_file
+    from robots.randomization import DriveDistribution
+    from robots.spec import load_spec
+    from sim2real.logs import read_trace
+
+    spec = load_spec(robot)
+    distribution = DriveDistribution.from_params_file(params_path, robot=spec.name)
+    document = read_params_file(params_path).document
+    fitted_on = _fit_logs(document)
+    traces = [read_trace(path) for path in logs]
+    for path, trace in zip(logs, traces, strict=True):
+        if getattr(trace.meta, "sha256", None) in fitted_on:
+            raise Sim2RealValueError(
+                f"validation log '{path}' is one of the logs params file '{params_path}' was "
+                "fitted on; calibrate on a log (session) the fit never saw"
+            )
+    window = _window_of(document) if odom_v_window_s is None else odom_v_window_s
+    return calibrate_traces(
+        traces,
+        robot=spec,
+        distribution=distribution,
+        n=n,
+        seed=seed,
+        engine=engine,
+        odom_v_window_s=window,
+        tol_v=tol_v,
+        tol_w=tol_w,
+    )
+
+
+def write_calibrated(
+    params_path: str | Path, out_path: str | Path, result: CalibrationResult
+) -> Path:
+    """Write ``params_path`` with the calibrated ``randomization`` and a ``calibration`` block.
+
+    Everything else (the point estimate, scores, provenance) is copied unchanged; the file is
+    written to a temp file and renamed.
+    """
+    import yaml
+
+    from robots.params import read_params_file
+    from sim2real._io import atomic_write, check_not_an_input
+
+    check_not_an_input(out_path, [params_path], what="calibrated params file (-o)")
+    document = dict(read_params_file(params_path).document)
+    document["randomization"] = result.distribution.to_dict()
+    document["calibration"] = result.to_dict()
+    text = yaml.safe_dump(document, sort_keys=False, default_flow_style=None, width=100)
+    with atomic_write(out_path, "w", what="calibrated params file (-o)") as fh:
+        fh.write(text)
+    return Path(out_path)

@@ -1,0 +1,127 @@
+"""Calibration of a distribution's spread by the Gaussian predictive likelihood of a log."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from _agreement_fixtures import HIDDEN, ROBOT, hidden_params, write_log
+
+from robots.randomization import DriveDistribution
+from sim2real.agreement import run_ensemble
+from sim2real.calibration import (
+    calibrate,
+    calibrate_traces,
+    predictive_log_likelihood,
+    write_calibrated,
+)
+from sim2real.cli import main
+from sim2real.errors import Sim2RealValueError
+from sim2real.logs import read_trace
+from tests.randomization_block import distribution_around, write_params_file
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """Two logs of the hidden robot (noise 0.003 m/s, 0.02 rad/s), different commands."""
+    root = tmp_path_factory.mktemp("cal")
+    return (
+        write_log(root / "val.mcap", duration_s=20.0, seed=1),
+        write_log(root / "test.mcap", duration_s=20.0, seed=2),
+    )
+
+
+def test_log_likelihood_is_the_gaussian_density() -> None:
+    members = np.array([[0.0], [2.0]])  # mean 1, variance 2 (ddof 1), x (1 + 1/2) = 3
+    got = predictive_log_likelihood(np.array([2.0]), members, 1.0)  # V = 4
+    assert got == pytest.approx(-0.5 * (math.log(2 * math.pi * 4.0) + 1.0 / 4.0))
+
+
+def test_noise_is_recovered_when_the_dynamics_are_right(logs: tuple[Path, Path]) -> None:
+    # every robot is the true one; the file's noise is 10x too large: the fit finds the truth
+    dist = distribution_around(hidden_params(), ROBOT, rel=1e-6, noise_v=0.03, noise_w=0.2)
+    res = calibrate_traces([read_trace(logs[0])], robot=ROBOT, distribution=dist, n=4)
+    assert res.noise_std_v_mps == pytest.approx(0.003, rel=0.15)
+    assert res.noise_std_w_radps == pytest.approx(0.02, rel=0.15)
+    assert res.noise_factor_v == pytest.approx(0.1, rel=0.15)
+    assert res.log_likelihood > res.log_likelihood_before
+    assert res.distribution.noise.std_v_mps == res.noise_std_v_mps
+    assert res.distribution.mean == dist.mean  # the point estimate is kept
+
+
+def test_a_too_narrow_distribution_is_widened_and_then_covers_an_unseen_log(
+    logs: tuple[Path, Path],
+) -> None:
+    # centred off the truth (delay 0.1 s instead of 0.15 s, no added mass) and 20x too narrow,
+    # without noise: the band misses the real robot until the calibration widens it
+    off = hidden_params().replace(delay_s=0.1, added_mass_kg=0.0)
+    dist = distribution_around(off, ROBOT, rel=0.02, noise_v=0.0, noise_w=0.0)
+    val, test = (read_trace(p) for p in logs)
+    before = run_ensemble(test, robot=ROBOT, distribution=dist, n=20, seed=3, engine="reduced")
+    res = calibrate_traces([val], robot=ROBOT, distribution=dist, n=16, seed=0)
+    after = run_ensemble(
+        test, robot=ROBOT, distribution=res.distribution, n=20, seed=3, engine="reduced"
+    )
+    assert res.dynamics_factor > 2.0
+    assert before.coverage_v < 0.5 and before.coverage_w < 0.6
+    assert 0.8 <= after.coverage_v <= 0.99 and 0.8 <= after.coverage_w <= 0.99
+    assert res.log_likelihood > res.log_likelihood_before + 1.0
+
+
+def test_calibrate_cli_writes_the_calibrated_block(
+    logs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    params = write_params_file(
+        tmp_path / "p.yaml", hidden_params(), ROBOT, fitted=HIDDEN, rel=0.05, noise_v=0.03
+    )
+    out = tmp_path / "cal.yaml"
+    argv = ["sysid", "calibrate", str(params), str(logs[0]), "--robot", ROBOT, "-o", str(out)]
+    assert main([*argv, "--ensemble", "8"]) == 0
+    text = capsys.readouterr().out
+    assert "dynamics spread factor" in text and f"wrote {out}" in text
+    doc = yaml.safe_load(out.read_text())
+    cal = doc["calibration"]
+    assert (
+        cal["validation"][0]["file"] == str(logs[0]) and len(cal["validation"][0]["sha256"]) == 64
+    )
+    assert cal["ensemble_n"] == 8 and cal["engine"] == "reduced"
+    assert cal["log_likelihood_per_sample"] > cal["log_likelihood_per_sample_before"]
+    before = DriveDistribution.from_params_file(params, robot=ROBOT)
+    after = DriveDistribution.from_params_file(out, robot=ROBOT)
+    np.testing.assert_allclose(
+        after.covariance_array, before.covariance_array * cal["dynamics_factor"] ** 2, rtol=1e-9
+    )
+    assert after.noise.std_v_mps == pytest.approx(cal["noise_std_v_mps"])
+    assert after.noise.std_v_mps < 0.01  # the file's 0.03 was 10x the log's noise
+    assert doc["parameters"] == yaml.safe_load(params.read_text())["parameters"]
+
+
+def test_a_log_the_fit_used_is_refused(logs: tuple[Path, Path], tmp_path: Path) -> None:
+    sha = read_trace(logs[0]).meta.sha256
+    params = write_params_file(
+        tmp_path / "p.yaml",
+        hidden_params(),
+        ROBOT,
+        extra={"data": [{"file": str(logs[0]), "sha256": sha}]},
+    )
+    with pytest.raises(Sim2RealValueError, match="fitted on"):
+        calibrate(params, [logs[0]], robot=ROBOT, n=4)
+
+
+def test_write_calibrated_refuses_to_overwrite_its_input(
+    logs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    params = write_params_file(tmp_path / "p.yaml", hidden_params(), ROBOT)
+    res = calibrate(params, [logs[0]], robot=ROBOT, n=4)
+    with pytest.raises(Sim2RealValueError, match="input"):
+        write_calibrated(params, params, res)
+
+
+@pytest.mark.parametrize("n", [3, 0])
+def test_small_calibration_ensemble_is_refused(logs: tuple[Path, Path], n: int) -> None:
+    dist = distribution_around(hidden_params(), ROBOT)
+    with pytest.raises(Sim2RealValueError, match="--ensemble"):
+        calibrate_traces([read_trace(logs[0])], robot=ROBOT, distribution=dist, n=n)
