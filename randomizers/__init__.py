@@ -44,7 +44,12 @@ if TYPE_CHECKING:
     )
     from randomizers._curriculum import CurriculumUpdate, SuccessRateCurriculum
     from randomizers._delay import ActionDelay, OdometryDelay, steps_from_seconds
-    from randomizers._dynamics import DynamicsRandomizer, default_bounds, stream_generator
+    from randomizers._dynamics import (
+        DynamicsRandomizer,
+        default_bounds,
+        distribution_from_file,
+        stream_generator,
+    )
     from randomizers._gauss import fill_standard_normal
     from randomizers._goal import GoalNoise
     from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
@@ -66,6 +71,7 @@ __all__ = [
     "SuccessRateCurriculum",
     "VelocityObservationNoise",
     "default_bounds",
+    "distribution_from_file",
     "fill_standard_normal",
     "from_config",
     "iter_randomizers",

@@ -324,43 +324,10 @@ def _ensemble(
 
 
 def _distribution(params_path: str | Path, spec: Any, params: Any) -> Any:
-    """The params file's randomisation (:meth:`DriveDistribution.from_params_file`).
+    """The params file's randomisation (see :func:`randomizers.distribution_from_file`)."""
+    from randomizers._dynamics import distribution_from_file
 
-    TEMPORARY adapter (issue 11: removed once ``sysid fit`` writes the ``randomization``
-    block): a file without the block gets the spec priors (with their session spread) centred
-    on its values, a fitted parameter's std in place of its prior sd, and no odometry noise.
-    """
-    import numpy as np
-
-    from robots.params import SCHEMA, read_params_file
-    from robots.randomization import DriveDistribution
-
-    pf = read_params_file(params_path)
-    if "randomization" in pf.document or pf.robot != spec.name:
-        return DriveDistribution.from_params_file(params_path, robot=spec.name)
-    geo = spec.geometry
-    names, mean, var = [], [], []
-    for name, prior in spec.priors.items():
-        value = float(getattr(params, name))
-        if not (prior.informative and math.isfinite(value)):
-            continue
-        try:
-            z = SCHEMA[name].to_coord(value, geo)
-        except ValueError:  # e.g. a non-positive total mass from an old fit: keep it fixed
-            continue
-        std = pf.stds.get(name, math.nan)
-        sd = std / SCHEMA[name].derivative(value, geo) if math.isfinite(std) else prior.sd
-        names.append(name)
-        mean.append(z)
-        var.append(min(sd, prior.sd) ** 2 + prior.session_sd**2)
-    return DriveDistribution(
-        robot=spec.name,
-        geometry=geo,
-        names=tuple(names),
-        mean=tuple(mean),
-        covariance=tuple(tuple(float(c) for c in row) for row in np.diag(var)),
-        fixed={n: float(getattr(params, n)) for n in SCHEMA if n not in names},
-    )
+    return distribution_from_file(params_path, robot=spec.name)
 
 
 def study_figures(main: AgreementReport, ensemble: EnsembleResult | None) -> dict[str, Any]:
