@@ -162,18 +162,21 @@ def test_bad_window_names_the_argument(trace: Trace, bad: float) -> None:
 
 
 def test_ensemble_members_use_the_window(trace: Trace) -> None:
-    p = hidden_params()
+    from tests.randomization_block import distribution_around
+
+    # spread 0 and no noise: every member is the centre itself, the band the windowed replay
+    dist = distribution_around(hidden_params(), ROBOT, noise_v=0.0, noise_w=0.0)
     ens = run_ensemble(
         trace,
         robot=ROBOT,
-        params=p,
-        stds={"delay_s": 0.01},
+        distribution=dist,
         n=2,
         seed=0,
-        spread=0.0,  # every member is p itself: the band is the windowed replay
+        spread=0.0,
         engine="reduced",
         odom_v_window_s=WINDOW_S,
     )
+    p = dist.mean_params()
     sim = replay(trace, robot=ROBOT, params=p, engine="reduced", odom_v_window_s=WINDOW_S)
     np.testing.assert_allclose(ens.lo_v, sim.v, rtol=0, atol=1e-12)
     np.testing.assert_allclose(ens.hi_v, sim.v, rtol=0, atol=1e-12)
