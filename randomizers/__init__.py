@@ -47,7 +47,6 @@ if TYPE_CHECKING:
     from randomizers._dynamics import (
         DynamicsRandomizer,
         default_bounds,
-        distribution_from_file,
         stream_generator,
     )
     from randomizers._gauss import fill_standard_normal
@@ -71,7 +70,6 @@ __all__ = [
     "SuccessRateCurriculum",
     "VelocityObservationNoise",
     "default_bounds",
-    "distribution_from_file",
     "fill_standard_normal",
     "from_config",
     "iter_randomizers",

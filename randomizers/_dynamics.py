@@ -21,7 +21,6 @@ from robots.randomization import DriveDistribution
 __all__ = [
     "DynamicsRandomizer",
     "default_bounds",
-    "distribution_from_file",
     "load_distribution",
     "stream_generator",
 ]
@@ -81,50 +80,9 @@ def load_distribution(
     try:
         if robot is None:
             robot = read_params_file(path).robot
-        return distribution_from_file(path, robot=robot)
+        return DriveDistribution.from_params_file(path, robot=robot)
     except (RobotsError, OSError) as exc:
         raise RandomizerValueError(f"{owner}: {exc}") from None
-
-
-def distribution_from_file(path: str | Path, *, robot: str) -> DriveDistribution:
-    """:meth:`DriveDistribution.from_params_file`, with a TEMPORARY adapter for old files.
-
-    Issue 11: removed once ``sysid fit`` writes the ``randomization`` block. A file of
-    ``robot`` without the block gets the spec priors (with their session spread) centred on
-    its values, a fitted parameter's std in place of its prior sd when smaller, and no
-    odometry noise. Raises :class:`robots.errors.ParamsFileError` like ``from_params_file``.
-    """
-    from robots.params import SCHEMA, load_drive_params
-    from robots.spec import load_spec
-
-    pf = read_params_file(path)
-    if "randomization" in pf.document or pf.robot != robot:
-        return DriveDistribution.from_params_file(path, robot=robot)
-    spec = load_spec(robot)
-    params = load_drive_params(path, robot=spec.name, base=spec.drive)
-    geo = spec.geometry
-    names, mean, var = [], [], []
-    for name, prior in spec.priors.items():
-        value = float(getattr(params, name))
-        if not (prior.informative and math.isfinite(value)):
-            continue
-        try:
-            z = SCHEMA[name].to_coord(value, geo)
-        except ValueError:  # e.g. a non-positive total mass from an old fit: keep it fixed
-            continue
-        std = pf.stds.get(name, math.nan)
-        sd = std / SCHEMA[name].derivative(value, geo) if math.isfinite(std) else prior.sd
-        names.append(name)
-        mean.append(z)
-        var.append(min(sd, prior.sd) ** 2 + prior.session_sd**2)
-    return DriveDistribution(
-        robot=spec.name,
-        geometry=geo,
-        names=tuple(names),
-        mean=tuple(mean),
-        covariance=tuple(tuple(float(c) for c in row) for row in np.diag(var)),
-        fixed={n: float(getattr(params, n)) for n in SCHEMA if n not in names},
-    )
 
 
 def env_robot(env: gym.Env[Any, Any]) -> str | None:

@@ -367,13 +367,13 @@ def calibrate(
     validation log the params file was fitted on is refused: a spread fitted to the fit's own
     residuals is too narrow for any other session.
     """
-    from randomizers._dynamics import distribution_from_file
     from robots.params import read_params_file
+    from robots.randomization import DriveDistribution
     from robots.spec import load_spec
     from sim2real.logs import read_trace
 
     spec = load_spec(robot)
-    distribution = distribution_from_file(params_path, robot=spec.name)
+    distribution = DriveDistribution.from_params_file(params_path, robot=spec.name)
     document = read_params_file(params_path).document
     fitted_on = _fit_logs(document)
     traces = [read_trace(path) for path in logs]

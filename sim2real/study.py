@@ -305,9 +305,10 @@ def _ensemble(
 ) -> EnsembleResult | None:
     if config.ensemble_n is None or params is None or config.params_path is None:
         return None
+    from robots.randomization import DriveDistribution
     from sim2real.agreement import run_ensemble
 
-    distribution = _distribution(config.params_path, spec, params)
+    distribution = DriveDistribution.from_params_file(config.params_path, robot=spec.name)
     return run_ensemble(
         trace,
         robot=spec,
@@ -321,13 +322,6 @@ def _ensemble(
         odom_v_window_s=window_s,
         band_level=config.band_level,
     )
-
-
-def _distribution(params_path: str | Path, spec: Any, params: Any) -> Any:
-    """The params file's randomisation (see :func:`randomizers.distribution_from_file`)."""
-    from randomizers._dynamics import distribution_from_file
-
-    return distribution_from_file(params_path, robot=spec.name)
 
 
 def study_figures(main: AgreementReport, ensemble: EnsembleResult | None) -> dict[str, Any]:

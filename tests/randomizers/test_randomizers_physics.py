@@ -219,25 +219,12 @@ def test_from_sysid_missing_file_is_a_clear_error(tmp_path: Path) -> None:
         DynamicsRandomizer.from_sysid(tmp_path / "nope.yaml")
 
 
-def test_file_without_randomization_gets_the_spec_priors_around_its_values(
-    tmp_path: Path,
-) -> None:
-    # TEMPORARY adapter (issue 11) until `sysid fit` writes the randomization block
-    from randomizers import distribution_from_file
-    from robots.spec import load_spec
-
+def test_from_sysid_refuses_a_file_without_randomization(tmp_path: Path) -> None:
     path = tmp_path / "old.yaml"
-    fitted = {"delay_s": {"value": 0.15, "std": 0.001, "status": "fitted"}}
-    doc = {"format": "sim2real.sysid/1", "robot": "turtlebot2", "parameters": fitted}
+    doc = {"format": "sim2real.sysid/1", "robot": "turtlebot2", "parameters": {}}
     path.write_text(yaml.safe_dump(doc), encoding="utf-8")
-    dist = distribution_from_file(path, robot="turtlebot2")
-    prior = load_spec("turtlebot2").priors
-    assert dist.mean_params().delay_s == pytest.approx(0.15)
-    assert dist.std()["delay_s"] == pytest.approx(math.hypot(0.001, prior["delay_s"].session_sd))
-    sd_mass = math.hypot(prior["added_mass_kg"].sd, prior["added_mass_kg"].session_sd)
-    assert dist.std()["added_mass_kg"] == pytest.approx(sd_mass)
-    env = DynamicsRandomizer.from_sysid(path, env=NavDouble())
-    assert env.reset(seed=0)[1]["randomization"]["DynamicsRandomizer"]["delay_s"] != 0.15
+    with pytest.raises(ValueError, match="no 'randomization' block"):
+        DynamicsRandomizer.from_sysid(path)
 
 
 def test_sysid_and_hand_ranges_do_not_mix(tmp_path: Path) -> None:
