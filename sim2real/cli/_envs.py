@@ -30,9 +30,15 @@ _EVAL_EXAMPLES = """\
   sim2real envs eval CarCrossing-v0 --episodes 50                   # rule-based car baseline
   sim2real envs eval RandomMap-v0 --policy runs/randommap_ppo/model.zip --preset TEST1
   sim2real envs eval RandomMap-v0 --policy model.zip --params real.yaml --randomize dr.yaml
+  sim2real envs eval Race-v0 --track circuit --opponents 4 --planner dijkstra
 """
 
-_KNOWN = ("sim2real/CrowdNav-v0", "sim2real/RandomMap-v0", "sim2real/CarCrossing-v0")
+_KNOWN = (
+    "sim2real/CrowdNav-v0",
+    "sim2real/RandomMap-v0",
+    "sim2real/CarCrossing-v0",
+    "sim2real/Race-v0",
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -44,7 +50,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         description=(
             "The gymnasium envs of sim2real.envs (registered on import): CrowdNav-v0 (dense "
             "crowds, paper 000), RandomMap-v0 (random walls and cylinders, paper 001) and "
-            "CarCrossing-v0 (a car passes an obstacle and an occluded pedestrian, paper 002)."
+            "CarCrossing-v0 (a car passes an obstacle and an occluded pedestrian, paper 002) "
+            "and Race-v0 (TurtleBot 3 Burgers race ORCA opponents on walled tracks, paper 003)."
         ),
         examples=_GROUP_EXAMPLES,
     )
@@ -65,7 +72,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         description=(
             "Run the env's non-learned baseline (the dynamic-window controller of "
             "sim2real.envs.baselines; for CarCrossing-v0 the rule-based "
-            "sim2real.envs.car_baseline) for N seeded episodes and print success / collision / "
+            "sim2real.envs.car_baseline; for Race-v0 an A* or Dijkstra global plan on the track "
+            "map followed with DWA, sim2real.envs.race_baseline) for N seeded episodes and print success / collision / "
             "timeout rates and the mean path length, time to goal and smoothness: a reference "
             "number per preset. --policy evaluates a trained policy instead (sim2real train), "
             "--params uses a sysid result's drive parameters, --randomize adds a randomizer "
@@ -79,6 +87,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     ev.add_argument("--preset", help="RandomMap-v0 map preset (TRAIN, TEST1..TEST4)")
     ev.add_argument("--scenario", help="CrowdNav-v0 scenario (static, dynamic, occluded)")
     ev.add_argument("--complexity", type=float, help="CrowdNav-v0 complexity factor in [0, 1]")
+    ev.add_argument("--track", help="Race-v0 track (open, curve, cross, circuit)")
+    ev.add_argument("--opponents", type=int, help="Race-v0 number of ORCA opponents (0-5)")
+    ev.add_argument("--planner", help="Race-v0 global planner: astar (default) or dijkstra")
     ev.add_argument(
         "--dynamics", default="reduced", help="robot back-end: reduced (fast) or pybullet"
     )
@@ -154,6 +165,26 @@ def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
         raise Sim2RealValueError(
             f"--episodes must be >= 1, got {args.episodes}; e.g. --episodes 10"
         )
+    track = getattr(args, "track", None)  # `envs robustness` has no race flags
+    opponents = getattr(args, "opponents", None)
+    race_only = {
+        "--track": track,
+        "--opponents": opponents,
+        "--planner": getattr(args, "planner", None),
+    }
+    given = [flag for flag, value in race_only.items() if value is not None]
+    if env_id.endswith("Race-v0"):
+        if args.preset is not None or args.scenario is not None or args.complexity is not None:
+            raise Sim2RealValueError(
+                "--preset, --scenario and --complexity do not apply to Race-v0; use --track, "
+                "--opponents and --planner"
+            )
+        kw: dict[str, Any] = {"track": track or "circuit"}
+        if opponents is not None:
+            kw["num_opponents"] = opponents
+        return gym.make(env_id, dynamics=args.dynamics, **kw), None
+    if given:
+        raise Sim2RealValueError(f"{', '.join(given)} apply to Race-v0 only; drop them")
     if env_id.endswith("CarCrossing-v0"):
         if args.preset is not None or args.scenario is not None or args.complexity is not None:
             raise Sim2RealValueError(
@@ -167,8 +198,7 @@ def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
                 "--scenario and --complexity apply to CrowdNav-v0 only; use --preset for "
                 "RandomMap-v0"
             )
-        kw: dict[str, Any] = {"preset": args.preset or "TRAIN"}
-        return gym.make(env_id, dynamics=args.dynamics, **kw), None
+        return gym.make(env_id, dynamics=args.dynamics, preset=args.preset or "TRAIN"), None
     if args.preset is not None:
         raise Sim2RealValueError(
             "--preset applies to RandomMap-v0 only; use --scenario and --complexity for CrowdNav-v0"
@@ -211,6 +241,7 @@ def _eval(args: argparse.Namespace) -> int:
     console = Console()
     try:
         is_car = env.spec.id.endswith("CarCrossing-v0")
+        is_race = env.spec.id.endswith("Race-v0")
         env, ctrl, label = prepare(env, args)
         # disabled off a terminal: rich would print an empty line to a pipe
         with Progress(console=console, transient=True, disable=not console.is_terminal) as progress:
@@ -225,7 +256,11 @@ def _eval(args: argparse.Namespace) -> int:
             )
     finally:
         env.close()
-    what = args.preset.upper() if args.preset else (args.scenario or "")
+    what = (
+        args.preset.upper()
+        if args.preset
+        else (args.scenario or getattr(args, "track", None) or "")
+    )
     last = args.seed + summary.episodes - 1
     table = Table(
         title=f"{label} on {env.spec.id} {what} ({summary.episodes} episodes, "
@@ -239,6 +274,9 @@ def _eval(args: argparse.Namespace) -> int:
     if is_car:
         off = sum(bool(r.get("off_road")) for r in summary.per_episode) / summary.episodes
         table.add_row("off-road rate", f"{off:.2f}")
+    if is_race:
+        wall = sum(bool(r.get("wall_collision")) for r in summary.per_episode) / summary.episodes
+        table.add_row("wall collision rate", f"{wall:.2f}")
     m = summary.means
     table.add_row("path length m", _fmt(m["path_length_m"], 2))
     table.add_row("time to goal s (successes)", _fmt(m["time_to_goal_s"], 2))

@@ -58,6 +58,15 @@ def _controller(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
             from sim2real.envs.car_baseline import CarCrossingBaseline
 
             return CarCrossingBaseline.for_env(env), None, "Rule-based baseline"
+        if env.spec is not None and env.spec.id.endswith("Race-v0"):
+            from sim2real.envs.race_baseline import PLANNERS, RaceBaseline
+
+            planner = getattr(args, "planner", None) or "astar"
+            if planner not in PLANNERS:
+                raise Sim2RealValueError(
+                    f"--planner must be one of {', '.join(PLANNERS)}, got {planner!r}"
+                )
+            return RaceBaseline.for_env(env, method=planner), None, f"{planner} + DWA baseline"
         return DWAController.for_env(env), None, "DWA baseline"
     from sim2real.evaluation import check_spaces, load_policy
 

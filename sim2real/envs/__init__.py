@@ -7,6 +7,8 @@
   of walls and cylinders (paper 001, Table I presets).
 - ``sim2real/CarCrossing-v0`` (:class:`CarCrossingEnv`): a small Ackermann car passes an
   obstacle while an occluded pedestrian crosses the adjacent lane (paper 002).
+- ``sim2real/Race-v0`` (:class:`RaceEnv`) and :func:`race_parallel_env` (PettingZoo): TurtleBot
+  3 Burgers race ORCA opponents on walled tracks (paper 003).
 
 Both take ``dynamics="reduced"`` (the identified drive model in numba, pose integrated
 kinematically, exact 2-D world) or ``dynamics="pybullet"`` (the rigid-body robot of
@@ -33,6 +35,7 @@ from sim2real.envs.crowd_nav import SCENARIOS, CrowdNavEnv, CrowdNavReward
 from sim2real.envs.maps import PAPER_RHO_OBS, PRESETS, MapConfig, generate_map
 from sim2real.envs.metrics import EpisodeMetrics
 from sim2real.envs.orca import OrcaAgents, OrcaConfig, orca_velocities
+from sim2real.envs.race import RaceEnv, RaceParallelEnv, RaceReward, race_parallel_env
 from sim2real.envs.random_map import RandomMapEnv, RandomMapReward
 
 __all__ = [
@@ -50,21 +53,32 @@ __all__ = [
     "MapConfig",
     "OrcaAgents",
     "OrcaConfig",
+    "RaceEnv",
+    "RaceParallelEnv",
+    "RaceReward",
     "RandomMapEnv",
     "RandomMapReward",
     "evaluate",
     "generate_map",
     "orca_velocities",
+    "race_parallel_env",
 ]
 
 #: The registered env ids.
-ENV_IDS = ("sim2real/CrowdNav-v0", "sim2real/RandomMap-v0", "sim2real/CarCrossing-v0")
+ENV_IDS = (
+    "sim2real/CrowdNav-v0",
+    "sim2real/RandomMap-v0",
+    "sim2real/CarCrossing-v0",
+    "sim2real/Race-v0",
+)
 
 # The envs end episodes themselves (metrics need the outcome), so no TimeLimit wrapper.
 if "sim2real/CrowdNav-v0" not in gym.registry:
     gym.register(id="sim2real/CrowdNav-v0", entry_point="sim2real.envs.crowd_nav:CrowdNavEnv")
 if "sim2real/RandomMap-v0" not in gym.registry:
     gym.register(id="sim2real/RandomMap-v0", entry_point="sim2real.envs.random_map:RandomMapEnv")
+if "sim2real/Race-v0" not in gym.registry:
+    gym.register(id="sim2real/Race-v0", entry_point="sim2real.envs.race:RaceEnv")
 if "sim2real/CarCrossing-v0" not in gym.registry:
     gym.register(
         id="sim2real/CarCrossing-v0", entry_point="sim2real.envs.car_crossing:CarCrossingEnv"

@@ -57,6 +57,11 @@ def test_eval_prints_rates_and_writes_json(
         (["envs", "eval", "RandomMap-v0", "--episodes", "0"], "--episodes"),
         (["envs", "eval", "RandomMap-v0", "--dynamics", "ode"], "(--dynamics) must be one of"),
         (["envs", "eval", "CarCrossing-v0", "--complexity", "0.5"], "do not apply to CarCrossing"),
+        (["envs", "eval", "Race-v0", "--track", "oval"], "track (--track) must be one of open"),
+        (["envs", "eval", "Race-v0", "--opponents", "-1"], "must be an integer in [0, 5]"),
+        (["envs", "eval", "Race-v0", "--planner", "rrt"], "--planner must be one of astar"),
+        (["envs", "eval", "CrowdNav-v0", "--complexity", "1.5"], "must be a number in [0, 1]"),
+        (["envs", "eval", "RandomMap-v0", "--track", "open"], "apply to Race-v0 only"),
     ],
 )
 def test_bad_input_exits_2(
@@ -81,3 +86,11 @@ def test_eval_car_crossing_baseline(capsys: pytest.CaptureFixture[str]) -> None:
     assert "Rule-based baseline" in out and "off-road rate" in out
     rate = float(out.split("success rate")[1].split()[1])
     assert rate >= 0.9
+
+
+def test_eval_race_baseline(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["envs", "eval", "Race-v0", "--track", "open", "--opponents", "3", "--episodes", "2"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "astar + DWA baseline" in out and "wall collision rate" in out
+    assert float(out.split("success rate")[1].split()[1]) == 1.0

@@ -19,7 +19,10 @@ MODULES = [
     "sim2real.envs.metrics",
     "sim2real.envs.orca",
     "sim2real.envs.pedestrians",
+    "sim2real.envs.race",
+    "sim2real.envs.race_baseline",
     "sim2real.envs.random_map",
+    "sim2real.envs.tracks",
 ]
 
 
