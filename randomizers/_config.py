@@ -12,7 +12,7 @@ entry wraps the env directly::
 
 Each entry's other keys are the wrapper's keyword arguments. A ``DynamicsRandomizer`` entry with
 a ``sysid`` key (the path of a ``sim2real sysid fit`` result, relative to the config file) is
-built with :meth:`DynamicsRandomizer.from_sysid` (its ``scale``, ``fields``, ``bounds`` and
+built with :meth:`DynamicsRandomizer.from_sysid` (its ``scale``, ``fields``, ``robot`` and
 ``name`` keys pass through). :func:`to_config` writes every
 argument (including the current ``scale`` and ``name``), so ``from_config(env, to_config(w))``
 rebuilds the same stack with the same random streams.

@@ -128,7 +128,13 @@ def _sysid_result(path: Path, robot: str = "turtlebot3_burger") -> Path:
 
 
 def test_randomizer_config_builds_dynamics_from_a_sysid_result(tmp_path: Path) -> None:
-    _sysid_result(tmp_path / "fit.yaml")
+    from robots.randomization import DriveDistribution
+    from robots.spec import load_spec
+    from tests.randomization_block import write_params_file
+
+    centre = load_spec("turtlebot3_burger").drive.replace(delay_s=0.2, added_mass_kg=0.5)
+    fit = write_params_file(tmp_path / "fit.yaml", centre, "turtlebot3_burger")
+    sd = DriveDistribution.from_params_file(fit, robot="turtlebot3_burger").std()["delay_s"]
     cfg_path = _write(
         tmp_path / "dr.yaml",
         {
@@ -138,11 +144,11 @@ def test_randomizer_config_builds_dynamics_from_a_sysid_result(tmp_path: Path) -
     )
     env = dr.from_config(gym.make("sim2real/RandomMap-v0", preset="TEST1"), cfg_path)
     saved = dr.to_config(env)["randomizers"][0]
-    assert saved["normal"] == {"delay_s": [0.2, 0.01], "added_mass_kg": [0.5, 0.05]}
+    assert saved["sysid"] == str(fit) and saved["robot"] == "turtlebot3_burger"
     assert saved["scale"] == 0.5
     _, info = env.reset(seed=3)
     drawn = info["randomization"]["DynamicsRandomizer"]
-    assert abs(drawn["delay_s"] - 0.2) < 0.5 * 0.01 * 6 and drawn["delay_s"] != 0.2
+    assert abs(drawn["delay_s"] - 0.2) < 0.5 * sd * 4 and drawn["delay_s"] != 0.2
     assert env.unwrapped.get_drive_params().delay_s == drawn["delay_s"]
     with pytest.raises(dr.errors.RandomizerConfigError, match=r"key 'sysid' names '.*nope.yaml'"):
         dr.from_config(
