@@ -247,17 +247,24 @@ class DynamicsRandomizer(
                 )
             _check_distributions(uni, nor, lim)
         name = check_name(name, env, "DynamicsRandomizer")
-        gym.utils.RecordConstructorArgs.__init__(
-            self,
-            uniform={k: list(v) for k, v in uni.items()} or None,
-            normal={k: list(v) for k, v in nor.items()} or None,
-            bounds={k: list(v) for k, v in lim.items()} or None,
-            sysid=None if sysid is None else str(sysid),
-            robot=None if dist is None else dist.robot,
-            fields=None if fields is None or dist is None else list(dist.names),
-            scale=scale,
-            name=name,
-        )
+        if dist is None:
+            gym.utils.RecordConstructorArgs.__init__(
+                self,
+                uniform={k: list(v) for k, v in uni.items()} or None,
+                normal={k: list(v) for k, v in nor.items()} or None,
+                bounds={k: list(v) for k, v in lim.items()} or None,
+                scale=scale,
+                name=name,
+            )
+        else:
+            gym.utils.RecordConstructorArgs.__init__(
+                self,
+                sysid=str(sysid),
+                robot=dist.robot,
+                fields=None if fields is None else list(dist.names),
+                scale=scale,
+                name=name,
+            )
         gym.Wrapper.__init__(self, env)
         self._init_randomizer(name, scale)
         self._uniform = uni
