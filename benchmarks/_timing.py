@@ -16,7 +16,15 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Stats", "alternate", "command_times", "fmt_ratio", "machine", "record"]
+__all__ = [
+    "Stats",
+    "alternate",
+    "command_times",
+    "fmt_ratio",
+    "machine",
+    "paired_ratios",
+    "record",
+]
 
 REPO = Path(__file__).resolve().parents[1]
 #: Where :func:`record` appends headline figures (``make bench`` turns them into the README table).
@@ -84,30 +92,34 @@ def paired_ratios(num: Stats, den: Stats) -> tuple[float, float, float]:
 
 
 def command_times(
-    commands: Mapping[str, Sequence[str]], repeats: int, *, drop_caches: Callable[[], None] | None
+    commands: Mapping[str, Sequence[str]], repeats: int
 ) -> dict[str, tuple[float, Stats]]:
-    """Whole-process wall time of each command: (cold, warm stats), commands alternated.
+    """Whole-process wall time of each command as a user runs it: (cold, warm stats).
 
-    "Cold" is the first run after ``drop_caches`` (e.g. removing numba's cache and
-    ``__pycache__`` of the package); "warm" are the following ``repeats`` runs.
+    "Cold": the first run with empty bytecode and numba caches (``PYTHONPYCACHEPREFIX`` and
+    ``NUMBA_CACHE_DIR`` pointed at fresh folders, so every module is compiled and every numba
+    kernel built again; the OS file cache is not dropped). "Warm": ``repeats`` runs with the
+    normal caches after one unmeasured run, the commands alternated.
     """
-    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    import tempfile
 
-    def run(argv: Sequence[str]) -> float:
+    base_env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+
+    def run(argv: Sequence[str], env: Mapping[str, str]) -> float:
         t0 = time.perf_counter()
-        subprocess.run(argv, check=True, capture_output=True, env=env, cwd=REPO)
+        subprocess.run(argv, check=True, capture_output=True, env=dict(env), cwd=REPO)
         return time.perf_counter() - t0
 
     cold: dict[str, float] = {}
     for name, argv in commands.items():
-        if drop_caches is not None:
-            drop_caches()
-        cold[name] = run(argv)
+        with tempfile.TemporaryDirectory() as pyc, tempfile.TemporaryDirectory() as nb:
+            cold[name] = run(argv, {**base_env, "PYTHONPYCACHEPREFIX": pyc, "NUMBA_CACHE_DIR": nb})
+        run(argv, base_env)  # fill the normal caches
     warm: dict[str, list[float]] = {name: [] for name in commands}
     names = list(commands)
     for i in range(repeats):
         for name in names if i % 2 == 0 else names[::-1]:
-            warm[name].append(run(commands[name]))
+            warm[name].append(run(commands[name], base_env))
     return {name: (cold[name], Stats(times_s=tuple(warm[name]))) for name in names}
 
 

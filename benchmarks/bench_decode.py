@@ -1,8 +1,10 @@
 """Decode speed: sim2real.logs bulk numpy path vs message-by-message mcap-ros2-support.
 
-Run: ``.venv/bin/python benchmarks/bench_decode.py``. Prints messages/s of both and the ratio
-(target >= 10x), on a generated ROS 2 log (50 Hz Odometry x 1000 s = 50k messages, 20 Hz
-Twist = 20k) and on the real logs in ../shared/realdata when present.
+Run: ``.venv/bin/python benchmarks/bench_decode.py [--quick]``. Ours and the baseline are
+alternated in one process with the same repeat count (min/median/max printed), on a generated
+ROS 2 log (50 Hz Odometry x 1000 s = 50k messages, 20 Hz
+Twist = 20k) and on the real logs in ../shared/realdata when present; on the real logs also whole processes (start-up and imports included, cold and
+warm), as a user runs a decode.
 
 Both sides go from the file on disk to numpy arrays of the same fields (stamps or log times,
 v, w and, for Odometry, x, y and the quaternion):
@@ -17,12 +19,14 @@ A second table times the payload decoders alone on pre-extracted payload bytes.
 
 from __future__ import annotations
 
+import sys
 import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from _timing import alternate, command_times, paired_ratios, record
 
 REALDATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
 T0_NS = 1_700_000_000 * 10**9
@@ -102,17 +106,37 @@ def _best(fn: Callable[[], int], repeat: int) -> tuple[float, int]:
     return min(times), n
 
 
-def _row(label: str, path: Path, repeat_ours: int, repeat_base: int) -> float:
-    t_ours, n_ours = _best(lambda: _ours(path), repeat_ours)
-    t_base, n_base = _best(lambda: _baseline(path), repeat_base)
+def _row(label: str, path: Path, repeats: int) -> float:
+    """In-process file -> arrays, ours and mcap_ros2 alternated, same repeat count."""
+    n_ours, n_base = _ours(path), _baseline(path)
     if n_ours != n_base:
         raise SystemExit(f"message counts differ: ours {n_ours}, mcap_ros2 {n_base}")
-    ratio = (n_ours / t_ours) / (n_base / t_base)
+    st = alternate({"ours": lambda: _ours(path), "base": lambda: _baseline(path)}, repeats)
+    lo, med, hi = paired_ratios(st["base"], st["ours"])
     print(
-        f"{label:<28} {n_ours:>7} msgs  ours {n_ours / t_ours:>12,.0f} msg/s  "
-        f"mcap_ros2 {n_base / t_base:>10,.0f} msg/s  ratio {ratio:6.1f}x"
+        f"{label:<28} {n_ours:>7} msgs  ours {st['ours'].fmt()}  mcap_ros2 {st['base'].fmt()}  "
+        f"speed-up {lo:.1f}/{med:.1f}/{hi:.1f}x (min/median/max of {repeats} alternated pairs)"
     )
-    return ratio
+    return med
+
+
+def _whole_process(label: str, path: Path, repeats: int) -> float:
+    """Whole-process file -> arrays (python start-up and imports included), cold and warm."""
+    here = Path(__file__).resolve().parent
+    prog = f"import sys; sys.path.insert(0, {str(here)!r}); import bench_decode as b; b.{{}}"
+    cmds = {
+        "ours": [sys.executable, "-c", prog.format(f"_ours(b.Path({str(path)!r}))")],
+        "mcap_ros2": [sys.executable, "-c", prog.format(f"_baseline(b.Path({str(path)!r}))")],
+    }
+    res = command_times(cmds, repeats)
+    (c_ours, w_ours), (c_base, w_base) = res["ours"], res["mcap_ros2"]
+    lo, med, hi = paired_ratios(w_base, w_ours)
+    print(
+        f"{label:<28} whole process: ours cold {c_ours:.2f} s, warm {w_ours.fmt(1.0, 's')}; "
+        f"mcap_ros2 cold {c_base:.2f} s, warm {w_base.fmt(1.0, 's')}; "
+        f"speed-up {lo:.2f}/{med:.2f}/{hi:.2f}x"
+    )
+    return med
 
 
 def _decoder_only(path: Path) -> float:
@@ -156,14 +180,31 @@ def _decoder_only(path: Path) -> float:
 
 
 def main() -> None:
-    print("file -> arrays (read_trace vs make_reader + mcap_ros2 DecoderFactory):")
+    quick = "--quick" in sys.argv
+    reps = 3 if quick else 7
+    print("file -> arrays (read_trace vs make_reader + mcap_ros2 DecoderFactory), in process:")
     with tempfile.TemporaryDirectory() as tmp:
         path = _make_log(Path(tmp) / "bench.mcap")
-        ratio = _row("generated 50k odom + 20k cmd", path, 5, 2)
+        ratio = _row("generated 50k odom + 20k cmd", path, reps)
+        record(
+            "decode",
+            "decode speed-up vs mcap-ros2, generated 70k-message log, in process",
+            f"{ratio:.1f}x (median of {reps} alternated pairs)",
+            ">= 10x",
+            ratio >= 10,
+        )
         for name in ("tb3wp_drexel_goal.mcap", "neato_olin2018_teleop.mcap"):
             real = REALDATA / name
             if real.is_file():
-                _row(name, real, 10, 10)  # small files: same number of tries on both sides
+                r_in = _row(name, real, reps)
+                r_proc = _whole_process(name, real, reps)
+                record(
+                    "decode",
+                    f"decode speed-up vs mcap-ros2, real log {name}",
+                    f"in process {r_in:.1f}x; whole process {r_proc:.2f}x (warm medians)",
+                    ">= 20x in process, >= 2x whole process",
+                    r_in >= 20 and r_proc >= 2,
+                )
         print("decoders alone, same payload bytes:")
         _decoder_only(path)
     verdict = "meets" if ratio >= 10 else "MISSES"

@@ -1,0 +1,173 @@
+"""Issue-16 headline figures: CLI start-up, agree on a 1-minute log, the pybullet loop, DepthNoise.
+
+Run with ``.venv/bin/python benchmarks/bench_perf.py [--quick]``. Every ratio alternates ours and
+the baseline in one process with the same repeat count and prints min/median/max; command times
+are whole processes as a user runs them, cold (empty bytecode and numba caches) and warm.
+
+1. ``sim2real robots list`` and ``sim2real logs info LOG`` against ``python -c "import
+   gymnasium"`` (target: <= 3x);
+2. ``sim2real agree LOG --engine reduced`` on a 1-minute log (the first 60 s of
+   ``data/demo_validate.mcap``) (target: < 0.8 s);
+3. ``PybulletRobot.step`` at 10 Hz control (24 physics steps of 1/240 s each) against bare
+   ``stepSimulation`` on the same robot and substeps, wheel torques set once per control step
+   (target: >= 80 % of the bare rate);
+4. ``DepthNoise`` on a 640x480 float32 image against its floor, the random bits of one frame plus
+   one add (target: >= 1,800 frames/s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from _timing import REPO, alternate, command_times, machine, paired_ratios, record
+
+PY = sys.executable
+
+
+def _minute_log(folder: Path) -> Path:
+    from sim2real.logs import read_trace, write_trace
+
+    tr = read_trace(REPO / "data" / "demo_validate.mcap")
+    return write_trace(folder / "minute.mcap", tr.window(0.0, 60.0))
+
+
+def bench_cli(repeats: int) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        log = _minute_log(Path(tmp))
+        cmds = {
+            "import gymnasium": [PY, "-c", "import gymnasium"],
+            "sim2real robots list": [PY, "-m", "sim2real", "robots", "list"],
+            "sim2real logs info": [PY, "-m", "sim2real", "logs", "info", str(log)],
+            "sim2real agree --engine reduced (60 s log)": [
+                PY, "-m", "sim2real", "agree", str(log), "--robot", "turtlebot3_burger",
+                "--engine", "reduced",
+            ],
+        }  # fmt: skip
+        res = command_times(cmds, repeats)
+    print(f"1./2. whole commands, {repeats} warm runs alternated (cold: empty caches, 1 run)")
+    base = res["import gymnasium"][1]
+    for name, (cold, warm) in res.items():
+        print(f"   {name:<44} cold {cold:6.2f} s  warm {warm.fmt(1.0, 's')}")
+    for name in ("sim2real robots list", "sim2real logs info"):
+        warm = res[name][1]
+        lo, med, hi = paired_ratios(warm, base)
+        print(f"   {name} / import gymnasium: {lo:.2f}/{med:.2f}/{hi:.2f}x (target <= 3x)")
+        record(
+            "cli",
+            f"`{name}` / `python -c 'import gymnasium'` (warm)",
+            f"{med:.2f}x (min {lo:.2f}, max {hi:.2f}); cold {res[name][0]:.2f} s",
+            "<= 3x",
+            med <= 3.0,
+        )
+    cold, warm = res["sim2real agree --engine reduced (60 s log)"]
+    print(f"   agree --engine reduced, 60 s log: warm median {warm.median:.2f} s (target < 0.8 s)")
+    record(
+        "cli",
+        "`sim2real agree --engine reduced`, 1-minute log, whole process",
+        f"warm {warm.median:.2f} s (min {warm.min:.2f}, max {warm.max:.2f}); cold {cold:.2f} s",
+        "< 0.8 s",
+        warm.median < 0.8,
+    )
+
+
+def bench_pybullet_loop(repeats: int, control_steps: int) -> None:
+    import pybullet as p
+
+    from robots import PybulletRobot, load_spec
+    from robots._urdf import LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT
+
+    robot = PybulletRobot(load_spec("turtlebot3_burger"))
+    c, body, wheels = robot.client, robot.body_id, [LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT]
+    substeps = round(0.1 * robot.physics_hz)
+    cmd = np.random.default_rng(0).uniform(-1.0, 1.0, (control_steps, 2)) * (0.22, 2.8)
+
+    def bare() -> None:
+        robot.reset()
+        for k in range(control_steps):
+            tq = 0.02 * float(cmd[k, 0]) / 0.22
+            p.setJointMotorControlArray(
+                body, wheels, p.TORQUE_CONTROL, forces=(tq, tq), physicsClientId=c
+            )
+            for _ in range(substeps):
+                p.stepSimulation(physicsClientId=c)
+
+    def ours() -> None:
+        robot.reset()
+        for k in range(control_steps):
+            robot.step(float(cmd[k, 0]), float(cmd[k, 1]), 0.1)
+
+    st = alternate({"bare stepSimulation": bare, "PybulletRobot.step": ours}, repeats)
+    robot.close()
+    n = control_steps * substeps
+    print(f"3. pybullet loop, {control_steps} control steps x {substeps} substeps, {repeats} reps")
+    for name, s in st.items():
+        slow, med, fast = s.rate(n)
+        print(f"   {name:<22} {slow:8.0f}/{med:8.0f}/{fast:8.0f} physics steps/s (min/med/max)")
+    lo, med, hi = paired_ratios(st["bare stepSimulation"], st["PybulletRobot.step"])
+    print(f"   PybulletRobot / bare rate: {lo:.2f}/{med:.2f}/{hi:.2f} (target >= 0.80)")
+    record(
+        "robots",
+        "`PybulletRobot.step` rate / bare `stepSimulation` (same robot, 24 substeps)",
+        f"{med:.2f} (min {lo:.2f}, max {hi:.2f})",
+        ">= 0.80",
+        med >= 0.8,
+    )
+
+
+def bench_depth_noise(repeats: int, frames: int) -> None:
+    import gymnasium as gym
+
+    from randomizers import DepthNoise
+
+    rng = np.random.default_rng(0)
+    img = rng.uniform(0.3, 7.5, (480, 640)).astype(np.float32)
+    img[::97, ::89] = np.nan
+
+    class Cam(gym.Env[np.ndarray, int]):
+        observation_space = gym.spaces.Box(0.0, 8.0, (480, 640), np.float32)
+        action_space = gym.spaces.Discrete(1)
+
+    env = DepthNoise(Cam(), 0.2, near_m=0.05, far_m=8.0)
+    bits = np.random.default_rng(1).bit_generator
+
+    def ours() -> None:
+        for _ in range(frames):
+            env.observation(img)
+
+    def floor() -> None:
+        for _ in range(frames):
+            bits.random_raw(img.size // 2)
+            img + img
+
+    st = alternate({"DepthNoise": ours, "floor (bits + add)": floor}, repeats)
+    print(f"4. DepthNoise 640x480 float32, {frames} frames x {repeats} reps")
+    for name, s in st.items():
+        slow, med, fast = s.rate(frames)
+        print(f"   {name:<20} {slow:7.0f}/{med:7.0f}/{fast:7.0f} frames/s (min/median/max)")
+    slow, med, fast = st["DepthNoise"].rate(frames)
+    record(
+        "randomizers",
+        "`DepthNoise` 640x480 float32 frames/s",
+        f"{med:.0f} (min {slow:.0f}, max {fast:.0f}); floor {st['floor (bits + add)'].rate(frames)[1]:.0f}",
+        ">= 1,800",
+        med >= 1800,
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repeats")
+    args = parser.parse_args()
+    reps = 5 if args.quick else 11
+    print(f"machine: {machine()}")
+    bench_cli(reps)
+    bench_pybullet_loop(reps, control_steps=20 if args.quick else 50)
+    bench_depth_noise(reps, frames=20 if args.quick else 50)
+
+
+if __name__ == "__main__":
+    main()
