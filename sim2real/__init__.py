@@ -11,11 +11,20 @@ The distribution installs four import packages:
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
+from typing import Any
 
 __all__ = ["__version__"]
 
-try:
-    __version__ = version("sim2real")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+unknown"
+
+def __getattr__(name: str) -> Any:
+    # importlib.metadata costs tens of ms at start-up: looked up only when asked for (PEP 562)
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("sim2real")
+        except PackageNotFoundError:  # pragma: no cover - running from a source tree
+            value = "0.0.0+unknown"
+        globals()["__version__"] = value
+        return value
+    raise AttributeError(f"module 'sim2real' has no attribute {name!r}")

@@ -20,7 +20,6 @@ from collections.abc import Callable, Sequence
 
 from randomizers.errors import RandomizerError
 from robots.errors import RobotsError
-from sim2real import __version__
 from sim2real.cli import _agree, _demo, _envs, _logs, _robots, _sysid, _train
 from sim2real.cli._common import EPILOG_MAIN, HelpFormatter, OneLineErrorParser
 from sim2real.errors import Sim2RealError
@@ -37,6 +36,22 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
 )
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: looks the version up only when asked (importlib.metadata is slow)."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
+        import sim2real
+
+        print(f"sim2real {sim2real.__version__}")
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``sim2real`` command with every subcommand registered."""
     parser = OneLineErrorParser(
@@ -45,7 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG_MAIN,
         formatter_class=HelpFormatter,
     )
-    parser.add_argument("--version", action="version", version=f"sim2real {__version__}")
+    parser.add_argument(
+        "--version", action=_VersionAction, nargs=0, help="show the version number and exit"
+    )
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
