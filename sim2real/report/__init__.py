@@ -1,11 +1,15 @@
 """The agreement report: one self-contained HTML page plus the same figures as PNG files.
 
-The page shows, for one real log, the headline agreement with the spec defaults and with the
-sysid parameters side by side, time plots of v and w (real, each simulation, the ensemble
-band), error histograms, rolling agreement, a table of step-like segments (rise time,
-overshoot, steady-state error, real vs sim), the parameter table with intervals, and the
-provenance (files with SHA-256, versions, seed, command line). Plots are drawn by
-:mod:`sim2real.report._plots`, the page by :mod:`sim2real.report._html`.
+The page leads with a verdict (``<section id="verdict">``, :mod:`sim2real.report._verdict`):
+the agreement of the main simulation, the coverage of the randomised band and the timing,
+each with one sentence saying what it means, and the next step. Right under it, on the same
+first screen, the main plot: v and w over time, real and the main simulation in a
+colour-blind-safe pair, the band drawn, the legend outside the data. Below: the headline
+cards and agreement figures of every run, a close-up, error histograms, rolling agreement;
+then, collapsed, the step-like segments (rise time, overshoot, steady-state error, real vs
+sim), the parameter table with intervals, the provenance (files with SHA-256, versions, seed,
+command line) and the definitions. Plots are drawn by :mod:`sim2real.report._plots`, the page
+by :mod:`sim2real.report._html`.
 
 Example
 -------
@@ -43,6 +47,7 @@ from sim2real.report._plots import (
     time_series_png,
 )
 from sim2real.report._steps import find_steps, step_response
+from sim2real.report._verdict import lag_phrase, make_verdict
 from sysid.metrics import active_mask
 
 __all__ = [
@@ -204,8 +209,8 @@ def _summary_table(data: ReportInput) -> Table:
         ("FIT % w", "fit_percent_w", lambda x: _fmt(x, ".1f")),
         ("RMSE v [m/s]", "rmse_v", lambda x: _fmt(x, ".4f")),
         ("RMSE w [rad/s]", "rmse_w", lambda x: _fmt(x, ".4f")),
-        ("lag v [s] (sim behind real)", "lag_s_v", lambda x: _fmt(x, "+.3f")),
-        ("lag w [s] (sim behind real)", "lag_s_w", lambda x: _fmt(x, "+.3f")),
+        ("timing v", "lag_s_v", lag_phrase),
+        ("timing w", "lag_s_w", lag_phrase),
         ("active / all samples", "n_active", None),
     )
     for label, key, fmt in metrics:
@@ -335,6 +340,11 @@ _DEFINITIONS = {
 }
 
 
+#: Height of the main (first-screen) plot, inches at 100 dpi: with the verdict above it, it
+#: fits a 1280x800 screen.
+LEAD_PLOT_HEIGHT_IN = 4.3
+
+
 def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
     trace = data.trace
     t = np.asarray(trace.meas_t_s, dtype=np.float64)
@@ -373,6 +383,7 @@ def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
                     cmd_v=np.asarray(trace.cmd_v, dtype=np.float64),
                     cmd_w=np.asarray(trace.cmd_w, dtype=np.float64),
                     band=band,
+                    height_in=LEAD_PLOT_HEIGHT_IN,
                 ),
                 caption="Forward velocity v and yaw rate w: real odometry, each simulation, the "
                 "command (dashed) and, when present, the ensemble's predictive band (sampled "
@@ -491,9 +502,11 @@ def write_report(path: str | Path, data: ReportInput, *, write_pngs: bool = True
     page = render_page(
         title=data.title,
         subtitle=subtitle,
+        verdict=make_verdict(data.runs, data.ensemble, robot=first.robot),
+        lead=figures[0][1],
         cards=_cards(data),
         summary=_summary_table(data),
-        figures=[f for _, f in figures],
+        figures=[f for _, f in figures[1:]],
         tables=tables,
         definitions=_DEFINITIONS,
     )

@@ -13,7 +13,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-__all__ = ["Figure", "HeadlineCard", "Table", "render_page"]
+__all__ = ["Figure", "HeadlineCard", "Stat", "Table", "Verdict", "render_page"]
 
 _CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0;color:#1d1d1f;
@@ -34,6 +34,18 @@ figure{margin:12px 0;background:#fff;padding:8px;border-radius:8px;
 box-shadow:0 1px 3px rgba(0,0,0,.08)}figure img{width:100%;height:auto;display:block}
 figcaption{font-size:.85rem;color:#444;margin-top:4px}.note{font-size:.85rem;color:#555}
 code{background:#eef0f3;padding:1px 4px;border-radius:3px;word-break:break-all}
+main{padding:14px 24px}h1{font-size:1.35rem}.sub{margin:0 0 8px;font-size:.85rem}
+#verdict{background:#fff;border-radius:10px;box-shadow:0 1px 3px rgba(0,0,0,.12);
+padding:10px 16px 10px}#verdict .stats{display:flex;gap:18px;flex-wrap:wrap}
+#verdict .stat{flex:1;min-width:220px}#verdict .stat .big{font-size:1.7rem;font-weight:700}
+#verdict .stat .label{font-size:.78rem;color:#555;text-transform:uppercase;letter-spacing:.04em}
+#verdict .stat p{margin:2px 0 0;font-size:.86rem}
+#verdict .next{margin:8px 0 0;padding:6px 10px;background:#fff8e1;border-left:4px solid #b36b00;
+font-size:.92rem}#verdict .next.ok{background:#eaf6ee;border-left-color:#1b7e3c}
+figure.lead{margin:8px 0 0;padding:4px 8px}figure.lead figcaption{margin-top:0}
+details{margin:14px 0;background:#fff;border-radius:8px;padding:4px 12px;
+box-shadow:0 1px 3px rgba(0,0,0,.08)}summary{cursor:pointer;font-weight:600;padding:6px 0}
+details h2{margin-top:10px}
 """
 
 _CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
@@ -69,6 +81,28 @@ class Figure:
     caption: str
 
 
+@dataclass(frozen=True, kw_only=True)
+class Stat:
+    """One figure of the verdict: a label, its value as text, a grade fraction, one sentence."""
+
+    label: str
+    value: str
+    fraction: float
+    sentence: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class Verdict:
+    """The report's first section: the figures that matter and the next step.
+
+    ``ok`` marks a next step that is "nothing to fix" (drawn green instead of amber).
+    """
+
+    stats: Sequence[Stat]
+    next_step: str
+    ok: bool = False
+
+
 def _e(text: object) -> str:
     return html.escape(str(text), quote=True)
 
@@ -77,6 +111,21 @@ def _grade(fraction: float) -> str:
     if not math.isfinite(fraction):
         return ""
     return "good" if fraction >= 0.9 else "mid" if fraction >= 0.7 else "bad"
+
+
+def _verdict(v: Verdict, title: str, subtitle: str) -> str:
+    stats = "".join(
+        f'<div class="stat"><div class="label">{_e(st.label)}</div>'
+        f'<div class="big {_grade(st.fraction)}">{_e(st.value)}</div>'
+        f"<p>{_e(st.sentence)}</p></div>"
+        for st in v.stats
+    )
+    cls = "next ok" if v.ok else "next"
+    return (
+        f'<section id="verdict"><h1>{_e(title)}</h1><p class="sub">{_e(subtitle)}</p>'
+        f'<div class="stats">{stats}</div>'
+        f'<p class="{cls}"><b>Next step:</b> {_e(v.next_step)}</p></section>'
+    )
 
 
 def _card(card: HeadlineCard) -> str:
@@ -103,26 +152,40 @@ def _table(table: Table) -> str:
     )
 
 
-def _figure(fig: Figure) -> str:
+def _figure(fig: Figure, *, lead: bool = False) -> str:
     data = base64.b64encode(fig.png).decode("ascii")
-    return (
-        f"<h2>{_e(fig.title)}</h2><figure>"
+    img = (
         f'<img alt="{_e(fig.title)}" src="data:image/png;base64,{data}">'
-        f"<figcaption>{_e(fig.caption)}</figcaption></figure>"
+        f"<figcaption>{_e(fig.caption)}</figcaption>"
     )
+    if lead:  # the main plot: no heading, right under the verdict
+        return f'<figure class="lead" id="main-plot">{img}</figure>'
+    return f"<h2>{_e(fig.title)}</h2><figure>{img}</figure>"
+
+
+def _details(summary: str, body: str) -> str:
+    return f"<details><summary>{_e(summary)}</summary>{body}</details>"
 
 
 def render_page(
     *,
     title: str,
     subtitle: str,
+    verdict: Verdict,
+    lead: Figure,
     cards: Sequence[HeadlineCard],
     summary: Table,
     figures: Sequence[Figure],
     tables: Sequence[Table],
     definitions: Mapping[str, str],
 ) -> str:
-    """The whole report page as one HTML string (no external resources)."""
+    """The whole report page as one HTML string (no external resources).
+
+    Layout: the verdict (title, the figures that matter, the next step) and the main plot
+    fill the first screen; then the headline cards, the agreement figures and the other
+    plots; each of ``tables`` (parameters, segments, provenance) and the definitions are
+    collapsed ``<details>`` blocks below.
+    """
     defs = "".join(f"<li><b>{_e(k)}</b>: {_e(v)}</li>" for k, v in definitions.items())
     parts = [
         "<!DOCTYPE html>",
@@ -130,12 +193,13 @@ def render_page(
         f'<meta http-equiv="Content-Security-Policy" content="{_CSP}">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
         f"<title>{_e(title)}</title><style>{_CSS}</style></head><body><main>",
-        f'<h1>{_e(title)}</h1><p class="sub">{_e(subtitle)}</p>',
-        '<div class="cards">' + "".join(_card(c) for c in cards) + "</div>",
+        _verdict(verdict, title, subtitle),
+        _figure(lead, lead=True),
+        '<h2>Agreement</h2><div class="cards">' + "".join(_card(c) for c in cards) + "</div>",
         _table(summary),
         *(_figure(f) for f in figures),
-        *(_table(t) for t in tables),
-        f'<h2>How to read this report</h2><ul class="note">{defs}</ul>',
+        *(_details(t.title, _table(t)) for t in tables),
+        _details("How to read this report", f'<ul class="note">{defs}</ul>'),
         "</main></body></html>",
     ]
     return "\n".join(parts) + "\n"

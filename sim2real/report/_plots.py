@@ -25,10 +25,22 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
-_REAL_COLOR = "#222222"
-_SIM_COLORS = ("#d95f02", "#1b9e77", "#7570b3")
-_BAND_COLOR = "#1b9e77"
+# Okabe & Ito's colour-blind-safe palette (Okabe and Ito 2008, "Color Universal Design"):
+# real in blue, the main simulation (the last run, e.g. the sysid fit) and its band in
+# vermillion, earlier runs (e.g. the spec defaults) in grey and reddish purple.
+_REAL_COLOR = "#0072B2"
+_MAIN_SIM_COLOR = "#D55E00"
+_OTHER_SIM_COLORS = ("#7F7F7F", "#CC79A7", "#009E73")
+_BAND_COLOR = _MAIN_SIM_COLOR
+_CMD_COLOR = "#AAAAAA"
 _DPI = 100
+
+
+def _sim_color(k: int, n: int) -> str:
+    """Colour of simulation ``k`` of ``n``: the last one is the main simulation."""
+    if k == n - 1:
+        return _MAIN_SIM_COLOR
+    return _OTHER_SIM_COLORS[k % len(_OTHER_SIM_COLORS)]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -77,25 +89,37 @@ def time_series_png(
     cmd_v: FloatArray | None = None,
     cmd_w: FloatArray | None = None,
     band: Band | None = None,
+    height_in: float = 5.6,
 ) -> bytes:
-    """v and w over time: real, each simulation, the command and the ensemble band."""
-    fig, axes = _figure(11.0, 5.6, rows=2)
+    """v and w over time: real, each simulation, the command and the ensemble band.
+
+    Real and the main (last) simulation are a colour-blind-safe blue/vermillion pair, the band
+    is drawn in the main simulation's colour, and the legend sits above the axes, outside the
+    data.
+    """
+    fig, axes = _figure(11.0, height_in, rows=2)
     for row, (name, unit, real, cmd) in enumerate(
         (("v", "m/s", real_v, cmd_v), ("w", "rad/s", real_w, cmd_w))
     ):
         ax = axes[row, 0]
         if band is not None:
             lo, hi = (band.lo_v, band.hi_v) if name == "v" else (band.lo_w, band.hi_w)
-            ax.fill_between(t_s, lo, hi, color=_BAND_COLOR, alpha=0.2, lw=0, label=band.label)
+            ax.fill_between(t_s, lo, hi, color=_BAND_COLOR, alpha=0.22, lw=0, label=band.label)
         if cmd_t_s is not None and cmd is not None:
-            ax.step(cmd_t_s, cmd, where="post", color="#999999", lw=0.8, ls="--", label="command")
-        ax.plot(t_s, real, color=_REAL_COLOR, lw=1.0, label="real")
+            ax.step(cmd_t_s, cmd, where="post", color=_CMD_COLOR, lw=0.8, ls="--", label="command")
+        ax.plot(t_s, real, color=_REAL_COLOR, lw=1.1, label="real")
         for k, sim in enumerate(sims):
             y = sim.v if name == "v" else sim.w
-            ax.plot(t_s, y, color=_SIM_COLORS[k % len(_SIM_COLORS)], lw=1.0, label=sim.label)
+            main = k == len(sims) - 1
+            ax.plot(
+                t_s, y, color=_sim_color(k, len(sims)), lw=1.0 if main else 0.8,
+                ls="-" if main else ":", label=f"sim: {sim.label}",
+            )  # fmt: skip
         ax.set_ylabel(f"{name} [{unit}]")
         ax.grid(True, alpha=0.3)
-    axes[0, 0].legend(loc="upper right", fontsize=8, ncols=3)
+        ax.margins(x=0.005)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside upper center", ncols=len(labels), fontsize=9)
     axes[1, 0].set_xlabel("time since log start [s]")
     return _png(fig)
 
@@ -124,11 +148,11 @@ def error_histograms_png(
                 bins=bins,
                 histtype="stepfilled",
                 alpha=0.45,
-                color=_SIM_COLORS[k % len(_SIM_COLORS)],
+                color=_sim_color(k, len(sims)),
                 label=sim.label,
             )
         for x in (-tol, tol):
-            ax.axvline(x, color=_REAL_COLOR, lw=0.8, ls="--")
+            ax.axvline(x, color="#222222", lw=0.8, ls="--")
         ax.set_xlabel(f"{name}_sim - {name}_real [{unit}]  (dashed: ±tol)")
         ax.set_ylabel("active samples")
         ax.grid(True, alpha=0.3)
@@ -182,7 +206,7 @@ def rolling_agreement_png(
             t_s, 0, 100, where=idle, color="#cccccc", alpha=0.5, lw=0, label="idle (excluded)"
         )
     for k, (label, frac) in enumerate(series):
-        ax.plot(t_s, 100.0 * frac, color=_SIM_COLORS[k % len(_SIM_COLORS)], lw=1.2, label=label)
+        ax.plot(t_s, 100.0 * frac, color=_sim_color(k, len(series)), lw=1.2, label=label)
     ax.set_ylim(0, 102)
     ax.set_ylabel(f"agreement in {window_s:g} s window [%]")
     ax.set_xlabel("time since log start [s]")
