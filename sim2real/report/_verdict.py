@@ -146,9 +146,10 @@ def _next_step(runs: Sequence[Any], ensemble: Any | None, robot: str) -> tuple[s
     level, cov = _band_level(ensemble), ensemble.coverage
     if not cov >= level - 0.1:
         return (
-            f"the band is too narrow (it covers {_pct(cov)}, a calibrated {100 * level:g} % band "
-            "covers about that much): widen the randomisation, e.g. compare again with "
-            "--spread 3, or calibrate the band on a validation log.",
+            f"the band is too narrow: it covers {_pct(cov)} of the real samples where a "
+            f"calibrated {100 * level:g} % band covers about {100 * level:g} %; widen the "
+            "randomisation (compare again with a larger --spread) or calibrate the band on a "
+            "validation log.",
             False,
         )
     if cov > min(0.995, level + 0.08):
