@@ -71,6 +71,7 @@ DEMO_VARIATION = SessionVariation(
 #: File name, seed, command profile and duration (s) of each sample log.
 SAMPLE_FILES: dict[str, tuple[str, int, str, float]] = {
     "train": ("demo_train.mcap", 11, "mixed", 150.0),
+    "calibrate": ("demo_calibrate.mcap", 33, "mixed", 120.0),
     "validate": ("demo_validate.mcap", 22, "goals", 120.0),
 }
 

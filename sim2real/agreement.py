@@ -520,14 +520,36 @@ def predictive_band(samples: FloatArray, level: float) -> tuple[FloatArray, Floa
     return lo, hi
 
 
+#: A real sample this close to a band edge counts as inside it. Quantised odometry puts real
+#: samples and band edges on the same lattice (k x quantum), computed in different ways (tick
+#: arithmetic vs rounding with the quantum read from the params file), so an edge sample may
+#: differ from the edge by round-off only; 1e-9 (m/s or rad/s) is far below any sensor's
+#: resolution.
+EDGE_TOL = 1e-9
+
+
+def _within(real: FloatArray, lo: FloatArray, hi: FloatArray) -> NDArray[np.bool_]:
+    return (real >= lo - EDGE_TOL) & (real <= hi + EDGE_TOL)
+
+
 def band_coverage(
     real: FloatArray, lo: FloatArray, hi: FloatArray, active: NDArray[np.bool_]
 ) -> float:
-    """Fraction of the active ``real`` samples inside ``[lo, hi]`` (NaN when none is active)."""
+    """Fraction of the active ``real`` samples inside ``[lo, hi]`` (NaN when none is active).
+
+    A sample within :data:`EDGE_TOL` of an edge is inside (round-off on a quantised lattice).
+
+    Examples
+    --------
+    >>> q = 0.5 * 0.033 * (2 * np.pi / 4096) * 30.0  # one encoder quantum of v, m/s
+    >>> real = np.array([3 * q, 0.1])
+    >>> edge = np.full(2, np.round(3 * q / 0.00075932049) * 0.00075932049)  # a rounded quantum
+    >>> bool(real[0] > edge[0]), band_coverage(real, -edge, edge, np.ones(2, bool))
+    (True, 0.5)
+    """
     if not active.any():
         return math.nan
-    inside = (real >= lo) & (real <= hi)
-    return float(np.mean(inside[active]))
+    return float(np.mean(_within(real, lo, hi)[active]))
 
 
 def _median_width(lo: FloatArray, hi: FloatArray, active: NDArray[np.bool_]) -> float:
@@ -674,7 +696,7 @@ def run_ensemble(
         )
     lo_v, hi_v = predictive_band(sv, level)
     lo_w, hi_w = predictive_band(sw, level)
-    inside = (rv >= lo_v) & (rv <= hi_v) & (rw >= lo_w) & (rw <= hi_w)
+    inside = _within(rv, lo_v, hi_v) & _within(rw, lo_w, hi_w)
     return EnsembleResult(
         n=n,
         seed=seed,

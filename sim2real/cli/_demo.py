@@ -1,12 +1,19 @@
-"""``sim2real demo`` (what ``make demo`` runs): the README tour's two commands, in-process.
+"""``sim2real demo`` (what ``make demo`` runs): the README tour's three commands, in-process.
+
+The bundled logs are three sessions of one base (a foreign plant, :mod:`sim2real.plants`):
 
 1. ``sim2real sysid fit data/demo_train.mcap --robot turtlebot3_burger --validate
-   data/demo_validate.mcap -o OUT/params.yaml``: fit the drive model to one session;
-2. ``sim2real agree data/demo_validate.mcap --robot turtlebot3_burger --params OUT/params.yaml
-   --report OUT/report.html --json OUT/agreement.json --ensemble 10``: replay another session
-   (a different kind of driving, 37 ms more latency, more payload, a lower battery) in pybullet
-   with the spec defaults and with the fit, measure both and the randomised band's coverage;
-3. write ``OUT/summary.json`` and print a short table.
+   data/demo_validate.mcap -o OUT/params.yaml``: fit the drive model to the first session
+   (the validation log is only scored);
+2. ``sim2real sysid calibrate OUT/params.yaml data/demo_calibrate.mcap --robot
+   turtlebot3_burger -o OUT/calibrated.yaml``: fit the spread of the randomisation to a second
+   session the fit did not see;
+3. ``sim2real agree data/demo_validate.mcap --robot turtlebot3_burger --params
+   OUT/calibrated.yaml --report OUT/report.html --json OUT/agreement.json --ensemble 10``:
+   replay a third session (another kind of driving, 37 ms more latency than the first, more
+   payload, a lower battery) in pybullet with the spec defaults and with the fit, measure both
+   and the coverage of the calibrated band;
+4. write ``OUT/summary.json`` and print a short table.
 
 Every other option is at its default (:func:`tour_commands`), so the tour gives the same
 figures. The sample logs come from a foreign plant (:mod:`sim2real.plants`), not from the
@@ -42,13 +49,15 @@ The main job, what `make demo` runs: the README tour's two commands with default
   2. sim2real agree data/demo_validate.mcap --robot turtlebot3_burger --params OUT/params.yaml \
          --report OUT/report.html --json OUT/agreement.json --ensemble 10
   3. write OUT/summary.json (before/after agreement, band coverage) and print a table.
-The sample logs are two sessions of a foreign plant (sim2real.plants), a base simulated with
+The sample logs are three sessions of a foreign plant (sim2real.plants), a base simulated with
 physics the fitted model does not have (data/README.md). They are looked up in $SIM2REAL_DATA, then in
 data/ of the source checkout, then in <prefix>/share/sim2real/data of an installed package.
 """
 
 TRAIN_LOG = "demo_train.mcap"
+CALIBRATE_LOG = "demo_calibrate.mcap"
 VALIDATE_LOG = "demo_validate.mcap"
+_LOGS = (TRAIN_LOG, CALIBRATE_LOG, VALIDATE_LOG)
 DEMO_ROBOT = "turtlebot3_burger"
 _DEFAULT_OUT = "sim2real-demo"
 
@@ -88,11 +97,11 @@ def find_data_dir(explicit: str | Path | None = None) -> Path:
 
     candidates = [Path(explicit)] if explicit is not None else _candidates()
     for folder in candidates:
-        if (folder / TRAIN_LOG).is_file() and (folder / VALIDATE_LOG).is_file():
+        if all((folder / name).is_file() for name in _LOGS):
             return folder
     tried = ", ".join(f"'{c}'" for c in candidates)
     raise Sim2RealFileNotFoundError(
-        f"the demo's sample logs {TRAIN_LOG} and {VALIDATE_LOG} were not found in {tried}; "
+        f"the demo's sample logs {', '.join(_LOGS)} were not found in {tried}; "
         "run the demo from a source checkout, set SIM2REAL_DATA or pass --data DIR "
         "(regenerate them with 'python -m sim2real._samples data')"
     )
@@ -105,24 +114,26 @@ def tour_commands(
     engine: str = "pybullet",
     ensemble_n: int = 10,
     seed: int = 0,
-) -> tuple[list[str], list[str]]:
-    """The README tour's ``sysid fit`` and ``agree`` command lines (arguments after ``sim2real``).
+) -> tuple[list[str], list[str], list[str]]:
+    """The README tour's ``sysid fit``, ``sysid calibrate`` and ``agree`` command lines.
 
-    The demo runs exactly these, with every other option at its default, so a user who types
-    the tour gets the demo's figures. ``--engine`` and ``--seed`` appear only when they differ
-    from their defaults.
+    Each is the argument list after ``sim2real``. The demo runs exactly these, with every
+    other option at its default, so a user who types the tour gets the demo's figures.
+    ``--engine`` and ``--seed`` appear only when they differ from their defaults.
 
     Examples
     --------
-    >>> fit, agree = tour_commands("o", "data")
-    >>> " ".join(fit)
-    'sysid fit data/demo_train.mcap --robot turtlebot3_burger --validate data/demo_validate.mcap -o o/params.yaml'
+    >>> fit, calibrate, agree = tour_commands("o", "data")
+    >>> " ".join(calibrate)
+    'sysid calibrate o/params.yaml data/demo_calibrate.mcap --robot turtlebot3_burger -o o/calibrated.yaml'
     """
     data, out = Path(data_dir), Path(out_dir)
     train, validate = str(data / TRAIN_LOG), str(data / VALIDATE_LOG)
-    params = str(out / "params.yaml")
+    params, calibrated = str(out / "params.yaml"), str(out / "calibrated.yaml")
     fit = ["sysid", "fit", train, "--robot", DEMO_ROBOT, "--validate", validate, "-o", params]
-    agree = ["agree", validate, "--robot", DEMO_ROBOT, "--params", params]
+    calibrate = ["sysid", "calibrate", params, str(data / CALIBRATE_LOG)]
+    calibrate += ["--robot", DEMO_ROBOT, "-o", calibrated]
+    agree = ["agree", validate, "--robot", DEMO_ROBOT, "--params", calibrated]
     agree += ["--report", str(out / "report.html"), "--json", str(out / "agreement.json")]
     if ensemble_n >= 2:
         agree += ["--ensemble", str(ensemble_n)]
@@ -130,7 +141,7 @@ def tour_commands(
             agree += ["--seed", str(seed)]
     if engine != "pybullet":
         agree += ["--engine", engine]
-    return fit, agree
+    return fit, calibrate, agree
 
 
 def _check_out(out: Path) -> None:
@@ -161,6 +172,7 @@ def run_demo(
 
     from sim2real.cli import build_parser
     from sim2real.cli._agree import study_config
+    from sim2real.cli._calibrate import _handle as _calibrate
     from sim2real.cli._sysid import _fit
     from sim2real.logs import read_trace
     from sim2real.study import run_study, summary_table, write_json
@@ -169,21 +181,25 @@ def run_demo(
     data = find_data_dir(data_dir)
     out = Path(out_dir)
     _check_out(out)
-    read_trace(data / TRAIN_LOG)  # a bad log fails here, before OUT is created or written
-    read_trace(data / VALIDATE_LOG)
-    fit_argv, agree_argv = tour_commands(out, data, engine=engine, ensemble_n=ensemble_n, seed=seed)
+    for name in _LOGS:  # a bad log fails here, before OUT is created or written
+        read_trace(data / name)
+    fit_argv, calibrate_argv, agree_argv = tour_commands(
+        out, data, engine=engine, ensemble_n=ensemble_n, seed=seed
+    )
     parser = build_parser()
-    print(f"1/2 sim2real {shlex.join(fit_argv)}", flush=True)
+    print(f"1/3 sim2real {shlex.join(fit_argv)}", flush=True)
     out.mkdir(parents=True, exist_ok=True)
     _fit(parser.parse_args(fit_argv))
     fit_s = time.perf_counter() - start
-    print(f"2/2 sim2real {shlex.join(agree_argv)}", flush=True)
+    print(f"2/3 sim2real {shlex.join(calibrate_argv)}", flush=True)
+    _calibrate(parser.parse_args(calibrate_argv))
+    print(f"3/3 sim2real {shlex.join(agree_argv)}", flush=True)
     config = dataclasses.replace(
         study_config(parser.parse_args(agree_argv)),
-        title="sim2real demo: TurtleBot3 Burger (foreign plant), spec defaults vs sysid fit",
+        title="sim2real demo: TurtleBot3 Burger (foreign plant), spec defaults vs calibrated sysid fit",
     )
     outcome = run_study(config)
-    summary = _summary(outcome, fit_argv, agree_argv, data, out)
+    summary = _summary(outcome, [fit_argv, calibrate_argv, agree_argv], data, out)
     summary["fit_s"] = round(fit_s, 2)
     summary["elapsed_s"] = round(time.perf_counter() - start, 2)
     write_json(out / "summary.json", summary)
@@ -194,13 +210,14 @@ def run_demo(
         f"validation log: agreement {_pct(before)} with spec defaults -> {_pct(after)} with the "
         f"sysid fit; band coverage {_pct(cov)} ({summary['elapsed_s']:.0f} s)"
     )
-    print(f"wrote {out / 'params.yaml'}, {out / 'report.html'}, {out / 'summary.json'}")
+    print(
+        f"wrote {out / 'params.yaml'}, {out / 'calibrated.yaml'}, {out / 'report.html'}, "
+        f"{out / 'summary.json'}"
+    )
     return summary
 
 
-def _summary(
-    outcome: Any, fit_argv: list[str], agree_argv: list[str], data: Path, out: Path
-) -> dict[str, Any]:
+def _summary(outcome: Any, argvs: list[list[str]], data: Path, out: Path) -> dict[str, Any]:
     before, after = (r.agreement for r in outcome.runs)
     ens = outcome.ensemble
     coverage = ens.coverage if ens is not None and math.isfinite(ens.coverage) else None
@@ -208,17 +225,23 @@ def _summary(
         "robot": DEMO_ROBOT,
         "engine": outcome.runs[-1].replay.engine,
         "train_log": str(data / TRAIN_LOG),
+        "calibrate_log": str(data / CALIBRATE_LOG),
         "validate_log": str(data / VALIDATE_LOG),
         "params_file": str(out / "params.yaml"),
+        "calibrated_file": str(out / "calibrated.yaml"),
         "report": str(out / "report.html"),
-        "commands": ["sim2real " + shlex.join(fit_argv), "sim2real " + shlex.join(agree_argv)],
+        "commands": ["sim2real " + shlex.join(argv) for argv in argvs],
         "defaults": before.to_dict(),
         "sysid": after.to_dict(),
         "improvement_points": _points(after.agreement - before.agreement),
         "odom_v_window_s": after.odom_v_window_s,
         "coverage": coverage,
         "ensemble_n": ens.n if ens is not None else 0,
-        "seed": _seed(agree_argv),
+        "coverage_v": ens.coverage_v if ens is not None else None,
+        "coverage_w": ens.coverage_w if ens is not None else None,
+        "band_width_v_mps": ens.band_width_v_mps if ens is not None else None,
+        "band_width_w_radps": ens.band_width_w_radps if ens is not None else None,
+        "seed": _seed(argvs[-1]),
     }
 
 

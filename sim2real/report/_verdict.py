@@ -5,7 +5,8 @@ there is one), the coverage of the randomised band (when an ensemble was run) an
 (cross-correlation lag). Each gets one sentence saying what it means; then one next step,
 chosen in this order: fit the model (no params), fix the timing (a lag over
 :data:`LAG_LIMIT_S`), improve the fit (agreement under :data:`GOOD_AGREEMENT`), add a band (no
-ensemble), widen or narrow the band (coverage outside the calibrated range), else "use it".
+ensemble), then :func:`sim2real.agreement.band_verdict` (the band too narrow or too wide, with
+the command that calibrates it, or calibrated: "train with it").
 """
 
 from __future__ import annotations
@@ -143,26 +144,16 @@ def _next_step(runs: Sequence[Any], ensemble: Any | None, robot: str) -> tuple[s
             f"--params {params} --ensemble 10'.",
             False,
         )
-    level, cov = _band_level(ensemble), ensemble.coverage
-    if not cov >= level - 0.1:
-        return (
-            f"the band is too narrow: it covers {_pct(cov)} of the real samples where a "
-            f"calibrated {100 * level:g} % band covers about {100 * level:g} %; widen the "
-            "randomisation (compare again with a larger --spread) or calibrate the band on a "
-            "validation log.",
-            False,
-        )
-    if cov > min(0.995, level + 0.08):
-        return (
-            f"the band is wider than the real spread (it covers {_pct(cov)}): training on it "
-            "randomises more than needed; calibrate the band or compare with --spread 0.5.",
-            False,
-        )
-    return (
-        f"sim and real agree and the band covers the real base: train with this randomisation "
-        f"(DynamicsRandomizer.from_sysid('{params}')).",
-        True,
+    from sim2real.agreement import band_verdict
+
+    sentence = band_verdict(
+        coverage_v=ensemble.coverage_v,
+        coverage_w=ensemble.coverage_w,
+        band_level=ensemble.band_level,
+        band_width_v_mps=ensemble.band_width_v_mps,
+        band_width_w_radps=ensemble.band_width_w_radps,
     )
+    return sentence[0].lower() + sentence[1:], " band is calibrated" in sentence
 
 
 def make_verdict(runs: Sequence[Any], ensemble: Any | None, *, robot: str) -> Verdict:

@@ -67,16 +67,19 @@ def test_readme_cli_tour_gives_the_demos_figures(
 
     commands = _sh_commands((ROOT / "README.md").read_text(encoding="utf-8"))
     fit = next(c for c in commands if c[:2] == ["sysid", "fit"])
+    calibrate = next(c for c in commands if c[:2] == ["sysid", "calibrate"])
     agree = next(c for c in commands if c[0] == "agree" and "--ensemble" in c)
     # the demo runs exactly the tour's commands (its own output folder aside)
-    demo_fit, demo_agree = tour_commands(".", "data")
     norm = lambda argv: [Path(a).name if "/" in a else a for a in argv]  # noqa: E731
-    assert norm(fit) == norm(demo_fit) and norm(agree) == norm(demo_agree)
+    assert [norm(c) for c in (fit, calibrate, agree)] == [
+        norm(c) for c in tour_commands(".", "data")
+    ]
     (tmp_path / "data").symlink_to(ROOT / "data")
     cwd = os.getcwd()
     try:
         os.chdir(tmp_path)
         assert main(fit) == 0
+        assert main(calibrate) == 0
         assert main([*agree, "--engine", "reduced"]) == 0  # the reduced engine keeps it quick
     finally:
         os.chdir(cwd)
@@ -86,8 +89,36 @@ def test_readme_cli_tour_gives_the_demos_figures(
     for key in ("agreement", "agreement_v", "fit_percent_v", "fit_percent_w", "lag_s_w"):
         assert summary["sysid"][key] == tour[key], key
     assert summary["coverage"] == tour["coverage"]
-    a = yaml.safe_load((tmp_path / "params.yaml").read_text())["parameters"]
-    b = yaml.safe_load((tmp_path / "demo" / "params.yaml").read_text())["parameters"]
-    assert {k: v["value"] for k, v in a.items()} == {k: v["value"] for k, v in b.items()}
+    for name in ("params.yaml", "calibrated.yaml"):
+        a = yaml.safe_load((tmp_path / name).read_text())
+        b = yaml.safe_load((tmp_path / "demo" / name).read_text())
+        assert a["randomization"] == b["randomization"], name
+        values = [{k: v["value"] for k, v in d["parameters"].items()} for d in (a, b)]
+        assert values[0] == values[1], name
+    # the demo's targets: on a session neither the fit nor the calibration saw
+    assert summary["sysid"]["agreement"] >= 0.8 and summary["coverage"] >= 0.8
     # the robot-dependent default: v of an encoder base is averaged over one odometry period
     assert summary["odom_v_window_s"] == pytest.approx(1.0 / 30.0)
+    out = tmp_path / "demo"
+    for name in ("report.html", "summary.json", "calibrated.yaml", "report_timeseries.png"):
+        assert (out / name).is_file()
+    assert summary["improvement_points"] >= 10.0 and summary["ensemble_n"] == 10
+    # sim leads real by the sessions' latency difference (37 ms), not by a half period more
+    assert summary["sysid"]["lag_s_v"] == pytest.approx(-0.037, abs=0.012)
+    _instantaneous_v_lags_more(out, summary)
+
+
+def _instantaneous_v_lags_more(out: Path, summary: dict) -> None:  # type: ignore[type-arg]
+    """Comparing the instantaneous simulated v adds the odometry's half-period lag."""
+    from robots.params import load_drive_params
+    from robots.spec import load_spec
+    from sim2real.agreement import measure_agreement
+    from sim2real.logs import read_trace
+    from sim2real.replay import replay
+
+    spec = load_spec("turtlebot3_burger")
+    trace = read_trace(ROOT / "data" / "demo_validate.mcap")
+    fitted = load_drive_params(out / "calibrated.yaml", robot=spec.name, base=spec.drive)
+    inst = measure_agreement(trace, replay(trace, robot=spec, params=fitted, engine="reduced"))
+    assert inst.lag_s_v < summary["sysid"]["lag_s_v"] - 0.01
+    assert summary["sysid"]["fit_percent_v"] > inst.fit_percent_v + 0.5

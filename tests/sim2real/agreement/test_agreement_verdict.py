@@ -32,6 +32,16 @@ class _Ens:
     coverage: float
     n: int = 10
     band_level: float = 0.9
+    band_width_v_mps: float = 0.01
+    band_width_w_radps: float = 0.1
+
+    @property
+    def coverage_v(self) -> float:
+        return self.coverage
+
+    @property
+    def coverage_w(self) -> float:
+        return self.coverage
 
 
 def _runs(after: float, **kw: object) -> list[_Run]:
@@ -64,7 +74,8 @@ def test_the_verdict_has_three_figures_with_a_sentence_each() -> None:
     assert [s.value for s in v.stats] == ["94.4 %", "0.9 %", "-39 ms"]
     assert "(spec defaults: 50.0 %)" in v.stats[0].sentence
     assert v.stats[2].sentence.startswith("sim leads real by 0.039 s")
-    assert v.next_step.startswith("the band is too narrow") and not v.ok
+    assert v.next_step.startswith("the 90 % band is too narrow") and not v.ok
+    assert "sim2real sysid calibrate" in v.next_step
 
 
 def test_next_step_order() -> None:
@@ -80,6 +91,23 @@ def test_next_step_order() -> None:
     no_band = make_verdict(_runs(0.95), None, robot="r")
     assert "--ensemble 10" in no_band.next_step and no_band.stats[1].value == "no band"
     wide = make_verdict(_runs(0.95), _Ens(1.0), robot="r")
-    assert wide.next_step.startswith("the band is wider than the real spread")
+    assert wide.next_step.startswith("the 90 % band is too wide") and not wide.ok
     good = make_verdict(_runs(0.95), _Ens(0.88), robot="r")
-    assert good.ok and "DynamicsRandomizer.from_sysid('params.yaml')" in good.next_step
+    assert good.ok and "DynamicsRandomizer.from_sysid" in good.next_step
+
+
+def test_coverage_counts_a_sample_on_a_quantised_band_edge() -> None:
+    """Encoder odometry and a band rounded with the params file's quantum share a lattice."""
+    import numpy as np
+
+    from sim2real.agreement import band_coverage
+
+    q_real = 0.5 * 0.033 * (2 * np.pi / 4096) * 30.0  # one encoder quantum of v at 30 Hz
+    q_file = float(f"{q_real:.8g}")  # as a YAML file keeps it
+    k = np.arange(-5, 6)
+    real = k * q_real
+    edge = np.round(real / q_file) * q_file
+    assert np.any(real > edge) and np.any(real < edge)  # round-off puts some just outside
+    active = np.ones(k.size, bool)
+    assert band_coverage(real, edge, edge, active) == 1.0
+    assert band_coverage(real + 1e-6, edge, edge, active) == 0.0  # a real miss still misses
