@@ -259,6 +259,7 @@ def test_bad_log_exits_2_naming_the_file(
         if command == "demo validate log":
             good_role, bad_role = bad_role, good_role
         shutil.copy(files.good, data / f"{good_role}.mcap")
+        shutil.copy(files.good, data / "demo_calibrate.mcap")
         if bad.exists():
             bad = Path(shutil.copy(bad, data / f"{bad_role}.mcap"))
         else:  # a missing log: the data folder is incomplete
@@ -765,7 +766,7 @@ def test_bad_demo_paths_exit_2_and_create_nothing(
 ) -> None:
     data, out = tmp_path / "data", tmp_path / "out"
     data.mkdir()
-    for name in ("demo_train.mcap", "demo_validate.mcap"):
+    for name in ("demo_train.mcap", "demo_calibrate.mcap", "demo_validate.mcap"):
         shutil.copy(files.good, data / name)
     words: list[object]
     if case == "no data folder":
