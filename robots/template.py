@@ -193,11 +193,14 @@ def _render(robot: NewRobot) -> str:
         "drive:",
         "  delay_s: 0.1  # prior: typical ROS command latency 0.05-0.3 s",
         "  cmd_timeout_s: .inf  # prior: none known (sysid tells whether the log shows one)",
-        f"  speed_lim_v_mps: {_g(v)}  # the top speed",
-        f"  speed_lim_w_radps: {_g(w)}  # the top yaw rate",
+        "  speed_lim_v_mps: .inf  # the top speed is the wheel-speed cap below (set a firmware",
+        "  # clamp here if your driver clamps v itself before the wheels)",
+        f"  speed_lim_w_radps: {_g(w) if 'max_turn_rate_radps' in given else '.inf'}  # "
+        f"{'given top yaw rate' if 'max_turn_rate_radps' in given else 'the wheel cap limits it'}",
         "  accel_lim_v_mps2: .inf  # prior: no velocity smoother known",
         "  accel_lim_w_radps2: .inf",
-        f"  wheel_speed_max_radps: {_g(v / r)}  # top speed / r (drivers scale both wheels)",
+        f"  wheel_speed_max_radps: {_g(v / r)}  # top speed / r; a command beyond it scales both"
+        " wheels together (as most drivers do), keeping the turn radius",
         f"  motor_gain_nms_per_rad: {_g(k_motor)}  # prior: speed-loop time constant 0.1 s,"
         " K = m_eff r^2 / (2 T)",
         f"  wheel_torque_max_nm: {_g(tau_max)}  # prior: traction mu = 0.5 on half the weight",

@@ -19,6 +19,7 @@ from sim2real.logs._bags import open_log_source, source_kind
 from sim2real.logs._channels import Chan, channel_table, choose_topic
 from sim2real.logs._decode import decode_channel, infer_json_type
 from sim2real.logs._mcap import Container
+from sim2real.logs._pose_velocity import velocities_from_pose
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY
 from sim2real.logs._timeline import (
     GAP_FACTOR,
@@ -129,6 +130,7 @@ def read_trace(
     wheel_radius_m: float | None = None,
     wheel_separation_m: float | None = None,
     wheel_joints: tuple[str, str] | None = None,
+    odom_velocity: str = "auto",
 ) -> Trace:
     """Read the commanded and measured velocities of an MCAP log.
 
@@ -150,6 +152,10 @@ def read_trace(
     wheel_joints : (str, str), optional
         Left and right wheel joint names of a JointState topic (default: the joints whose
         names contain "left" / "right").
+    odom_velocity : {"auto", "twist", "pose"}
+        Where measured velocities come from: the Odometry twist, its pose (smoothed
+        differentiation, :mod:`sim2real.logs._pose_velocity`), or ``"auto"``: the pose when
+        the twist is zero or spiky while the pose moves (said in ``meta.warnings``).
 
     Returns
     -------
@@ -202,6 +208,7 @@ def read_trace(
     meas_t, meas_cols = drop_outliers(meas_t, meas_cols, meas.topic, warnings)
     cmd_t, cmd_cols = _drop_far_commands(cmd_t, cmd_cols, meas_t, cmd.topic, warnings)
     _note_gaps(meas_t, meas.topic, warnings)
+    meas_cols = velocities_from_pose(meas_t, meas_cols, meas.topic, warnings, mode=odom_velocity)
     meta = TraceMeta(
         path=log.name,
         sha256=log.sha256,

@@ -27,17 +27,19 @@ def recording(n: int = 240, seed: int = 3) -> Trace:
     """A 12 s recording: commands and odometry at 20 Hz on common stamps, with a pose."""
     rng = np.random.default_rng(seed)
     t = T0_NS + np.arange(n, dtype=np.int64) * 50_000_000 + rng.integers(0, 999, n)
-    v, w = rng.uniform(-0.3, 0.3, n), rng.uniform(-1.0, 1.0, n)
-    yaw = np.cumsum(w) * 0.05
+    s = np.arange(n) * 0.05
+    v, w = 0.2 + 0.1 * np.sin(0.5 * s), 0.8 * np.sin(0.3 * s)
+    mv, mw = 0.9 * v + rng.normal(0, 0.002, n), 0.9 * w + rng.normal(0, 0.005, n)
+    yaw = np.cumsum(mw) * 0.05
     return Trace(
         cmd_t_ns=t,
         cmd_v=v,
         cmd_w=w,
         meas_t_ns=t,
-        meas_v=0.9 * v + rng.normal(0, 0.01, n),
-        meas_w=0.9 * w + rng.normal(0, 0.01, n),
-        pose_x=np.cumsum(v * np.cos(yaw)) * 0.05,
-        pose_y=np.cumsum(v * np.sin(yaw)) * 0.05,
+        meas_v=mv,
+        meas_w=mw,
+        pose_x=np.cumsum(mv * np.cos(yaw)) * 0.05,
+        pose_y=np.cumsum(mv * np.sin(yaw)) * 0.05,
         pose_yaw=np.arctan2(np.sin(yaw), np.cos(yaw)),
         meta=TraceMeta(),
     )
@@ -108,7 +110,7 @@ def test_ros1_bulk_decode_equals_rosbags_deserialiser(tmp_path: Path) -> None:
             for c, t, raw in rd.messages():
                 if c.topic == "/odom":
                     wr.write(odom, t, raw)
-    tr = read_trace(path)
+    tr = read_trace(path, odom_velocity="twist")
     with Reader(path) as rd:
         msgs = [(c.topic, store.deserialize_ros1(raw, c.msgtype)) for c, _, raw in rd.messages()]
     cmd = [m for topic, m in msgs if topic == "/cmd"]

@@ -1,0 +1,154 @@
+"""Measured velocities from the odometry pose when the twist is zero or spiky (private).
+
+Some drivers publish an Odometry twist that is zero while the pose moves, or one that is a
+raw backward difference of the pose over jittery stamps (the Neato driver: its yaw rate
+jumps between 0.6 and 1.6 rad/s during a steady 1 rad/s spin). The pose itself is then the
+better measurement: its displacement over a short window averages the stamp jitter out.
+
+Smoothed differentiation: at each sample a straight line is fitted by least squares to
+x, y and the unwrapped yaw over the samples within +-W/2 (a centred local-linear, i.e.
+first-order Savitzky-Golay, derivative on irregular times; no lag, noise falls as W^-3/2);
+v is the fitted (dx/dt, dy/dt) projected on the heading, w is d(yaw)/dt. The window is
+``W = clip(5 x median odometry period, 0.3 s, 1.0 s)``.
+
+Detection (``odom_velocity="auto"``), over the samples where the pose moves
+(``|v_pose| > 0.05 m/s`` or ``|w_pose| > 0.2 rad/s``; at least 20 of them per channel):
+
+- *zero*: the twist is below 10 % of the pose velocity in more than half of them;
+- *spiky*: the median of ``|twist - pose velocity|`` exceeds :data:`SPIKY_RATIO` (10 %) of the
+  median pose speed in v *and* in w (stamp jitter spoils both alike; clean encoder odometry
+  stays near 1 %, and a yaw rate from a gyro may differ from the pose's on its own).
+
+A pose that jumps (more than 1 % of its derivative beyond 5 m/s or 20 rad/s, e.g. a map
+frame) is never used. The choice is stated in one sentence in ``Trace.meta.warnings``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sim2real.errors import Sim2RealValueError
+
+__all__ = ["ODOM_VELOCITY_MODES", "SPIKY_RATIO", "pose_derivative", "velocities_from_pose"]
+
+#: ``odom_velocity=`` choices of :func:`sim2real.logs.read_trace`.
+ODOM_VELOCITY_MODES = ("auto", "twist", "pose")
+#: Median twist-vs-pose deviation (relative to the median pose speed) that counts as spiky.
+SPIKY_RATIO = 0.10
+_MOVING_V, _MOVING_W = 0.05, 0.2
+_JUMP_V, _JUMP_W = 5.0, 20.0
+_MIN_MOVING = 20  # samples where the pose moves, per channel, before a verdict
+
+
+def _local_slope(t: np.ndarray, y: np.ndarray, half: float) -> np.ndarray:
+    """Least-squares slope of y(t) over the samples within +-half of each sample."""
+    lo = np.searchsorted(t, t - half, "left")
+    hi = np.searchsorted(t, t + half, "right")
+
+    def csum(a: np.ndarray) -> np.ndarray:
+        return np.concatenate(([0.0], np.cumsum(a)))
+
+    tc = t - t.mean()
+    st, sy, stt, sty = (csum(a) for a in (tc, y, tc * tc, tc * y))
+    n = (hi - lo).astype(np.float64)
+    s_t, s_y = st[hi] - st[lo], sy[hi] - sy[lo]
+    den = n * (stt[hi] - stt[lo]) - s_t * s_t
+    num = n * (sty[hi] - sty[lo]) - s_t * s_y
+    ok = den > 1e-12 * np.maximum(n * n, 1.0)
+    return np.where(ok, num / np.where(ok, den, 1.0), 0.0)
+
+
+def pose_derivative(
+    t_s: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray, window_s: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Body velocities (v along the heading, w) from a planar pose by local-linear fits.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 2.0, 41)
+    >>> v, w = pose_derivative(t, 0.3 * t, 0 * t, 0 * t, 0.5)
+    >>> bool(np.allclose(v, 0.3)), bool(np.allclose(w, 0.0))
+    (True, True)
+    """
+    unwrapped = np.unwrap(yaw)
+    half = 0.5 * window_s
+    vx, vy, w = (_local_slope(t_s, a, half) for a in (x, y, unwrapped))
+    v = vx * np.cos(yaw) + vy * np.sin(yaw)
+    return v, w
+
+
+def _window_s(t_s: np.ndarray) -> float:
+    period = float(np.median(np.diff(t_s))) if t_s.size > 1 else 0.1
+    return float(np.clip(5.0 * period, 0.3, 1.0))
+
+
+def _verdict(
+    twist: tuple[np.ndarray, np.ndarray], pose: tuple[np.ndarray, np.ndarray]
+) -> tuple[str, str, float]:
+    """("zero" | "spiky" | "", the channel(s), the figure) for the twist against the pose."""
+    ratios = {}
+    for ch, tw, pv, moving in (
+        ("v", twist[0], pose[0], _MOVING_V),
+        ("w", twist[1], pose[1], _MOVING_W),
+    ):
+        sel = np.abs(pv) > moving
+        if np.count_nonzero(sel) < _MIN_MOVING:
+            continue
+        zero = float(np.mean(np.abs(tw[sel]) < 0.1 * np.abs(pv[sel])))
+        if zero > 0.5:
+            return "zero", ch, zero
+        ratios[ch] = float(np.median(np.abs(tw[sel] - pv[sel])) / np.median(np.abs(pv[sel])))
+    # stamp jitter spoils v and w alike; one channel alone differing is another sensor (a gyro)
+    if ratios and min(ratios.values()) > SPIKY_RATIO:
+        return "spiky", " and ".join(ratios), min(ratios.values())
+    return "", "", 0.0
+
+
+def velocities_from_pose(
+    t_ns: np.ndarray,
+    cols: dict[str, np.ndarray],
+    topic: str,
+    warnings: list[str],
+    *,
+    mode: str = "auto",
+) -> dict[str, np.ndarray]:
+    """Replace ``cols["v"]``/``cols["w"]`` by pose velocities when ``mode`` asks or detects it."""
+    if mode not in ODOM_VELOCITY_MODES:
+        raise Sim2RealValueError(
+            f"odom_velocity must be one of {list(ODOM_VELOCITY_MODES)}, got {mode!r}; use "
+            "'auto' (default), 'twist' or 'pose'"
+        )
+    if mode == "twist" or "x" not in cols or t_ns.size < 5:
+        if mode == "pose":
+            raise Sim2RealValueError(
+                f"odom_velocity='pose' needs an Odometry pose, but topic '{topic}' has none "
+                "(or fewer than 5 samples); use 'twist'"
+            )
+        return cols
+    t_s = (t_ns - t_ns[0]).astype(np.float64) / 1e9
+    window = _window_s(t_s)
+    v, w = pose_derivative(t_s, cols["x"], cols["y"], cols["yaw"], window)
+    jumps = np.mean((np.abs(v) > _JUMP_V) | (np.abs(w) > _JUMP_W))
+    if jumps > 0.01 and mode == "auto":
+        return cols
+    if mode == "auto":
+        kind, ch, figure = _verdict((cols["v"], cols["w"]), (v, w))
+        if not kind:
+            return cols
+        what = (
+            f"zero in {figure:.0%} of the samples where the pose moves"
+            if kind == "zero"
+            else f"spiky (its {ch} deviate from the pose's by {figure:.0%} or more of the speed, "
+            "median)"
+        )
+        warnings.append(
+            f"the odometry twist of topic '{topic}' is {what}, so the measured velocities are "
+            f"taken from the pose (local-linear derivative over {window:.2f} s windows); "
+            "read_trace(..., odom_velocity='twist') keeps the twist"
+        )
+    else:
+        warnings.append(
+            f"measured velocities of topic '{topic}' are taken from the pose (local-linear "
+            f"derivative over {window:.2f} s windows), as asked"
+        )
+    return {**cols, "v": v, "w": w}

@@ -1,0 +1,98 @@
+"""Measured velocities from the odometry pose when the twist is zero or spiky (read_trace)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim2real.logs import Trace, TraceMeta, read_trace, write_trace
+from sim2real.logs._pose_velocity import pose_derivative
+
+T0_NS = 1_700_000_000 * 10**9
+
+
+def _drive(seed: int = 0, n: int = 400, rate_hz: float = 10.0):
+    """A smooth path: v and w as slow sines, stamps at 10 Hz, the exact pose."""
+    t = np.arange(n) / rate_hz
+    v = 0.25 + 0.1 * np.sin(0.3 * t)
+    w = 0.8 * np.sin(0.2 * t)
+    yaw = 0.8 / 0.2 * (1 - np.cos(0.2 * t))
+    dt = 1e-3
+    fine = np.arange(0, t[-1] + dt, dt)
+    vf, yf = np.interp(fine, t, v), 0.8 / 0.2 * (1 - np.cos(0.2 * fine))
+    x = np.interp(t, fine, np.cumsum(vf * np.cos(yf)) * dt)
+    y = np.interp(t, fine, np.cumsum(vf * np.sin(yf)) * dt)
+    return t, v, w, x, y, np.arctan2(np.sin(yaw), np.cos(yaw))
+
+
+def _log(tmp_path: Path, meas_v: np.ndarray, meas_w: np.ndarray, t_s=None) -> Path:
+    t, v, w, x, y, yaw = _drive()
+    t_s = t if t_s is None else t_s
+    ns = T0_NS + np.round(t_s * 1e9).astype(np.int64)
+    tr = Trace(
+        cmd_t_ns=ns,
+        cmd_v=v,
+        cmd_w=w,
+        meas_t_ns=ns,
+        meas_v=meas_v,
+        meas_w=meas_w,
+        pose_x=x,
+        pose_y=y,
+        pose_yaw=yaw,
+        meta=TraceMeta(),
+    )
+    return write_trace(tmp_path / "run.mcap", tr)
+
+
+def test_pose_derivative_recovers_body_velocities() -> None:
+    t, v, w, x, y, yaw = _drive()
+    pv, pw = pose_derivative(t, x, y, yaw, 0.5)
+    inner = slice(5, -5)
+    assert np.max(np.abs(pv[inner] - v[inner])) < 0.005
+    assert np.max(np.abs(pw[inner] - w[inner])) < 0.01
+
+
+def test_zero_twist_is_replaced(tmp_path: Path) -> None:
+    _, v, w, *_ = _drive()
+    tr = read_trace(_log(tmp_path, np.zeros_like(v), np.zeros_like(w)))
+    assert len(tr.meta.warnings) == 1 and "is zero in 100% of the samples" in tr.meta.warnings[0]
+    assert np.median(np.abs(tr.meas_v - v)) < 0.005 and np.median(np.abs(tr.meas_w - w)) < 0.01
+
+
+def test_jittered_backward_difference_is_spiky(tmp_path: Path) -> None:
+    """A driver differencing the pose over stamps that jitter by +-30 %: both channels spiky."""
+    t, v, _, x, y, yaw = _drive()
+    rng = np.random.default_rng(1)
+    stamps = t + rng.uniform(-0.03, 0.03, t.size)  # the pose was sampled at t, stamped here
+    dt = np.diff(stamps, prepend=stamps[0] - 0.1)
+    tv = np.hypot(np.diff(x, prepend=x[0]), np.diff(y, prepend=y[0])) / dt
+    tw = np.diff(np.unwrap(yaw), prepend=yaw[0]) / dt
+    tr = read_trace(_log(tmp_path, tv, tw, t_s=stamps))
+    assert any("is spiky" in m for m in tr.meta.warnings)
+    inner = slice(10, -10)
+    err_pose = np.median(np.abs(tr.meas_v[inner] - v[inner]))
+    err_twist = np.median(np.abs(tv[inner] - v[inner]))
+    assert err_pose < 0.5 * err_twist
+    kept = read_trace(tmp_path / "run.mcap", odom_velocity="twist")
+    assert np.array_equal(kept.meas_v, tv) and kept.meta.warnings == ()
+
+
+def test_clean_twist_or_gyro_yaw_rate_is_kept(tmp_path: Path) -> None:
+    _, v, w, *_ = _drive()
+    rng = np.random.default_rng(2)
+    # encoder v with a little noise; a gyro w that differs from the pose's yaw rate by ~20 %
+    mv = v + rng.normal(0, 0.003, v.size)
+    mw = 1.2 * w + rng.normal(0, 0.02, w.size)
+    tr = read_trace(_log(tmp_path, mv, mw))
+    assert tr.meta.warnings == ()
+    assert np.array_equal(tr.meas_v, mv) and np.array_equal(tr.meas_w, mw)
+    forced = read_trace(tmp_path / "run.mcap", odom_velocity="pose")
+    assert "as asked" in forced.meta.warnings[0]
+
+
+def test_bad_mode(tmp_path: Path) -> None:
+    _, v, w, *_ = _drive()
+    with pytest.raises(ValueError, match="odom_velocity must be one of"):
+        read_trace(_log(tmp_path, v, w), odom_velocity="imu")
