@@ -44,10 +44,11 @@ def test_new_spec_is_complete_and_documented(neato_text: str, tmp_path: Path) ->
     # every drive field has a written prior; given numbers are narrow, guessed ones wide
     assert set(doc["priors"]) == set(SCHEMA)
     assert all(p.source == "spec" for p in spec.priors.values())
-    assert spec.priors["speed_lim_v_mps"].sd == 0.05  # --max-speed was given
+    assert spec.priors["wheel_speed_max_radps"].sd == 0.15  # --max-speed was given
     assert spec.priors["speed_lim_w_radps"].sd == 0.7  # --max-turn-rate was not
     assert spec.priors["added_mass_kg"].sd == 0.7  # --mass was not
-    assert spec.drive.speed_lim_v_mps == 0.3 and spec.max_v_mps == 0.3
+    # the top speed is a wheel cap scaling both wheels (no separate v clamp)
+    assert spec.drive.speed_lim_v_mps == math.inf and spec.max_v_mps == 0.3
     assert spec.geometry.wheel_separation_m == 0.248
     assert math.isclose(spec.max_w_radps, 2 * 0.3 / 0.248, rel_tol=1e-5)
     assert math.isclose(

@@ -83,7 +83,9 @@ def test_neato_fit_with_generic_geometry(neato_log: Path) -> None:
     geo = BaseGeometry(
         mass_kg=3.0, yaw_inertia_kgm2=0.03, wheel_radius_m=0.035, wheel_separation_m=0.235
     )
-    trace = read_trace(neato_log)
+    # the raw (spiky) twist: read_trace would take the pose's derivative instead (see
+    # sim2real.logs._pose_velocity), which removes the twist's backward-difference lag
+    trace = read_trace(neato_log, odom_velocity="twist")
     half = float(trace.meas_t_s[-1]) / 2
     res = fit_drive(
         [crop_log(trace, 0.0, half)],
