@@ -20,7 +20,7 @@ Neato, Jackal, Husky; see ``/work/shared/robot-specs.md``):
 Example
 -------
 >>> text = spec_text("neato", wheel_separation_m=0.248, max_speed_mps=0.3)
->>> "speed_lim_v_mps: 0.3" in text
+>>> "max_v_mps: 0.3  # given" in text
 True
 """
 
