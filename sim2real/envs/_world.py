@@ -1,7 +1,8 @@
 """The pybullet side of an env world: static obstacles, pedestrian bodies and the depth camera.
 
 pybullet runs in DIRECT mode, one client per env. Static obstacles (cylinders, boxes, walls)
-are rebuilt at each reset; pedestrians are upright cylinders moved kinematically every step.
+are rebuilt at each reset; pedestrians are upright cylinder bodies (with collision shapes, so
+ray tests and the camera see them) moved kinematically every step.
 The envs render depth with :mod:`sim2real.envs.depth`; pybullet's TinyRenderer\n(:func:`render_pybullet_depth`) is the reference it is tested and benchmarked against.
 """
 
@@ -30,6 +31,11 @@ class PybulletWorld:
         self._static: list[int] = []
         self._peds: list[int] = []
         self._ped_key: tuple[float, ...] = ()
+
+    @property
+    def pedestrian_ids(self) -> list[int]:
+        """pybullet body ids of the pedestrians, in the order of the last ``set_pedestrians``."""
+        return list(self._peds)
 
     def reset_simulation(self) -> None:
         """Remove every body and start from a fresh physics state (same seed, same rollout)."""
@@ -97,7 +103,11 @@ class PybulletWorld:
         return ids
 
     def set_pedestrians(self, xy: FloatArray, radius_m: FloatArray, height_m: FloatArray) -> None:
-        """Place visual-only pedestrian cylinders (rebuilt when their number or sizes change)."""
+        """Place the pedestrian cylinders (rebuilt when their number or sizes change).
+
+        They are kinematic bodies with a collision shape: pybullet's ray tests (lidar) and
+        camera see them, and the robot touches them.
+        """
         p, c = self.p, self.client
         key = tuple(np.round(np.concatenate([radius_m, height_m]), 6).tolist())
         if key != self._ped_key:
@@ -105,8 +115,9 @@ class PybulletWorld:
                 p.removeBody(body, physicsClientId=c)
             self._peds = []
             for r, h in zip(radius_m, height_m, strict=True):
+                col = p.createCollisionShape(p.GEOM_CYLINDER, radius=r, height=h, physicsClientId=c)
                 vis = p.createVisualShape(p.GEOM_CYLINDER, radius=r, length=h, physicsClientId=c)
-                self._peds.append(p.createMultiBody(0.0, -1, vis, physicsClientId=c))
+                self._peds.append(p.createMultiBody(0.0, col, vis, physicsClientId=c))
             self._ped_key = key
         for body, (x, y), h in zip(self._peds, xy, height_m, strict=True):
             p.resetBasePositionAndOrientation(

@@ -513,6 +513,8 @@ class CrowdNavEnv(NavEnvBase):
         assert crowd is not None
         self._full_scene = self._scene.with_circles(crowd.position_m, crowd.radius_m)
         peds = np.column_stack([crowd.position_m, crowd.radius_m, crowd.height_m])
+        if self._world is not None:  # dynamics="pybullet": pedestrians are bodies there too
+            self._world.set_pedestrians(crowd.position_m, crowd.radius_m, crowd.height_m)
         self._depth_scene = DepthScene(
             cylinders=np.vstack([self._depth_static.cylinders, peds]),
             boxes=self._depth_static.boxes,

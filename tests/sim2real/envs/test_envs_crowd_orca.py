@@ -43,3 +43,34 @@ def test_orca_option_per_episode_and_determinism() -> None:
     with pytest.raises(Sim2RealValueError, match="pedestrians must be one of eq1, orca"):
         env.reset(seed=5, options={"pedestrians": "sfm"})
     env.close()
+
+
+@pytest.mark.slow
+def test_pybullet_pedestrians_are_bodies_the_lidar_hits() -> None:
+    import pybullet as p
+
+    env = gym.make("sim2real/CrowdNav-v0", dynamics="pybullet", scenario="dynamic")
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(np.zeros(2, dtype=np.float32))
+    base = env.unwrapped
+    world, crowd = base._world, base.crowd
+    ids = world.pedestrian_ids
+    assert len(ids) == len(crowd) > 0
+    for k in range(len(crowd)):
+        x, y = crowd.position_m[k]
+        z = 0.3
+        hit = p.rayTest([x - 2.0, y, z], [x + 2.0, y, z], physicsClientId=world.client)[0]
+        # the ray from 2 m west hits this pedestrian (or another body in front of it)
+        assert hit[0] >= 0
+        if hit[0] == ids[k]:
+            assert hit[3][0] == pytest.approx(x - crowd.radius_m[k], abs=0.02)
+    hits = sum(
+        p.rayTest(
+            [*crowd.position_m[k], 3.0], [*crowd.position_m[k], 0.05], physicsClientId=world.client
+        )[0][0]
+        == ids[k]
+        for k in range(len(crowd))
+    )
+    assert hits == len(crowd)  # straight down onto each pedestrian's top
+    env.close()
