@@ -342,7 +342,7 @@ _DEFINITIONS = {
 
 #: Height of the main (first-screen) plot, inches at 100 dpi: with the verdict above it, it
 #: fits a 1280x800 screen.
-LEAD_PLOT_HEIGHT_IN = 4.3
+LEAD_PLOT_HEIGHT_IN = 4.1
 
 
 def _figures(data: ReportInput) -> list[tuple[str, Figure]]:

@@ -45,7 +45,8 @@ font-size:.92rem}#verdict .next.ok{background:#eaf6ee;border-left-color:#1b7e3c}
 figure.lead{margin:8px 0 0;padding:4px 8px}figure.lead figcaption{margin-top:0}
 details{margin:14px 0;background:#fff;border-radius:8px;padding:4px 12px;
 box-shadow:0 1px 3px rgba(0,0,0,.08)}summary{cursor:pointer;font-weight:600;padding:6px 0}
-details h2{margin-top:10px}
+details h2{margin-top:10px}.card{overflow-wrap:anywhere}
+#verdict p{overflow-wrap:anywhere}
 """
 
 _CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"

@@ -97,6 +97,12 @@ def test_readme_cli_tour_gives_the_demos_figures(
         assert values[0] == values[1], name
     # the demo's targets: on a session neither the fit nor the calibration saw
     assert summary["sysid"]["agreement"] >= 0.8 and summary["coverage"] >= 0.8
+    # and the README states these figures
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    pct = lambda x: f"{100 * x:.1f} %"  # noqa: E731
+    for figure in (summary["defaults"]["agreement"], tour["agreement"], tour["coverage"]):
+        assert f"**{pct(figure)}**" in readme, figure
+    assert f"(v {pct(tour['coverage_v'])}, w {pct(tour['coverage_w'])})" in readme
     # the robot-dependent default: v of an encoder base is averaged over one odometry period
     assert summary["odom_v_window_s"] == pytest.approx(1.0 / 30.0)
     out = tmp_path / "demo"

@@ -87,7 +87,9 @@ _FIRST_SCREEN_JS = """JSON.stringify({
     d => d.querySelector('summary').textContent),
   params_visible: [...document.querySelectorAll('details table')].some(
     t => t.checkVisibility()),
-  viewport: [window.innerWidth, window.innerHeight]
+  viewport: [window.innerWidth, window.innerHeight],
+  page_width: document.documentElement.scrollWidth,
+  client_width: document.documentElement.clientWidth
 })"""
 
 
@@ -134,6 +136,7 @@ def test_first_screen_holds_the_verdict_and_the_band_plot(
         browser.call("Emulation.clearDeviceMetricsOverride")
     assert browser.errors() == []
     assert state["viewport"] == [1280, 800]
+    assert state["page_width"] <= state["client_width"]  # no sideways scrolling
     assert state["first"] == "verdict"  # the page starts with the verdict
     v_left, v_top, v_right, v_bottom = state["boxes"]["verdict"]
     assert v_left >= 0
