@@ -33,7 +33,7 @@ dev: $(STAMP_DEV)
 ## make train-extra: install the [train] and [cluster] extras (CPU torch, SB3, TensorBoard, Ray)
 train-extra: $(STAMP_TRAIN)
 
-## make demo: fit sysid on the bundled training log, measure agreement, write sim2real-demo/report.html
+## make demo: the README tour on the bundled logs (fit, calibrate the band, agreement + coverage on a third session); writes sim2real-demo/report.html
 demo: $(STAMP_RUN)
 	$(BIN)/sim2real demo --out sim2real-demo
 

