@@ -138,6 +138,12 @@ def _list(args: argparse.Namespace) -> int:
         "Box(14): position, 5 distance sensors, steering, distances, lane, detections, heading",
         "Discrete(4) actions; scenario drawn from the seed",
     )
+    table.add_row(
+        "sim2real/Race-v0",
+        "turtlebot3_burger",
+        "Box(63): 36 ranges, odometry, v, w, goal d/bearing, 5 nearest movers",
+        "track: open, curve, cross, circuit; opponents 0-5 (ORCA)",
+    )
     console.print(table)
     presets = Table(title="RandomMap-v0 presets (paper 001, Table I)")
     for col in ("preset", "d_target m", "r_wall", "n cylinders", "paper rho_obs"):

@@ -13,7 +13,17 @@ from sim2real.cli import main
 def test_list_prints_ids_and_presets(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["envs", "list"]) == 0
     out = capsys.readouterr().out
-    for word in ("CrowdNav", "RandomMap", "TRAIN", "TEST4", "occluded", "6-10 %"):
+    for word in (
+        "CrowdNav",
+        "RandomMap",
+        "TRAIN",
+        "TEST4",
+        "occluded",
+        "6-10 %",
+        "Race-v0",
+        "CarCrossing-v0",
+        "circuit",
+    ):
         assert word in out
 
 
