@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,6 +135,15 @@ def _peak_wheel_meas(logs: Sequence[LogArrays], geometry: BaseGeometry) -> float
     )
 
 
+_TIE_NOTE = (
+    "backward Coulomb friction is not identifiable; tied to forward (coulomb_v_bwd_n = "
+    "coulomb_v_fwd_n)"
+)
+_UNTIED_NOTE = (
+    "backward Coulomb friction is barely informed by the log (its posterior stays near its prior)"
+)
+
+
 def _auto_free(
     logs: Sequence[LogArrays], geometry: BaseGeometry, base: DriveParams
 ) -> tuple[list[str], dict[str, str], list[str]]:
@@ -148,7 +157,7 @@ def _auto_free(
             fields = [f for f, c in COORDS.items() if c.axis == axis]
             notes.append(
                 f"the {what} axis is not excited (its command never changes or the robot never "
-                f"moves along it): {', '.join(fields)} not fitted (their posterior is their prior)"
+                f"moves along it): {', '.join(fields)} barely informed by the log (their posteriors stay near their priors)"
             )
             continue
         if axis == "v":
@@ -159,11 +168,7 @@ def _auto_free(
                 free.append("coulomb_v_bwd_n")
             else:
                 ties["coulomb_v_bwd_n"] = "coulomb_v_fwd_n"
-                notes.append(
-                    "no reversal in the log (cmd_v never changes sign): backward Coulomb "
-                    "friction is not identifiable; tied to forward (coulomb_v_bwd_n = "
-                    "coulomb_v_fwd_n)"
-                )
+                notes.append(f"no reversal in the log (cmd_v never changes sign): {_TIE_NOTE}")
         else:
             free += ["added_yaw_inertia_kgm2", "coulomb_w_nm"]
         cmd = cat["cmd_v" if axis == "v" else "cmd_w"]
@@ -180,7 +185,7 @@ def _auto_free(
             notes.append(
                 f"the log holds essentially one {'forward speed' if axis == 'v' else 'yaw rate'}"
                 f" level ({lvl:.2f} {'m/s' if axis == 'v' else 'rad/s'}): viscous and Coulomb "
-                f"friction trade off; {visc} not fitted (its posterior is its prior)"
+                f"friction trade off; {visc} barely informed by the log (its posterior stays near its prior)"
             )
         acc = "accel_lim_v_mps2" if axis == "v" else "accel_lim_w_radps2"
         step = STEP_V if axis == "v" else STEP_W
@@ -193,7 +198,7 @@ def _auto_free(
         else:
             notes.append(
                 f"no command step of {step:g} {'m/s' if axis == 'v' else 'rad/s'} or more on "
-                f"the {axis} axis (largest {jumps:.3g}): {acc} not fitted (its posterior is its prior)"
+                f"the {axis} axis (largest {jumps:.3g}): {acc} barely informed by the log (its posterior stays near its prior)"
             )
     if "added_mass_kg" in free or "added_yaw_inertia_kgm2" in free:
         # velocity data fix mass/gain ratios: the gain is fitted too, the priors split them
@@ -214,14 +219,36 @@ def _auto_free(
             notes.append(
                 "the forward command holds one level and drives the wheels into their speed "
                 "cap: Coulomb friction and the cap both explain the speed deficit; the cap is "
-                "fitted and coulomb_v_fwd_n / coulomb_v_bwd_n are not fitted (their posterior is their prior)"
+                "fitted and coulomb_v_fwd_n / coulomb_v_bwd_n are barely informed by the log (their posteriors stay near their priors)"
             )
     else:
         notes.append(
             f"no wheel near its speed cap (peak commanded wheel speed {peak_cmd:.1f} rad/s): "
-            "wheel_speed_max_radps not fitted (its posterior is its prior)"
+            "wheel_speed_max_radps barely informed by the log (its posterior stays near its prior)"
         )
     return free, ties, notes
+
+
+def _with_priors(
+    logs: Sequence[LogArrays],
+    names: list[str],
+    ties: dict[str, str],
+    informative: Collection[str],
+) -> tuple[list[str], dict[str, str]]:
+    """Add every field with an informative prior that an excited axis (or both) can feel.
+
+    MAP: a field the log barely informs is still fitted against its prior, so its posterior
+    is its prior and the others' intervals account for it (a fixed nuisance value would make
+    them too narrow). A tie is dropped when its field has a prior of its own."""
+    axes = {a for a in ("v", "w") if _axis_excited(logs, a)}
+    if axes:
+        axes.add("vw")
+    out = list(names)
+    for name, c in COORDS.items():
+        if name in informative and c.axis in axes and name not in out:
+            out.append(name)
+    kept_ties = {k: v for k, v in ties.items() if k not in informative}
+    return out, kept_ties
 
 
 def analyse(
@@ -229,17 +256,22 @@ def analyse(
     geometry: BaseGeometry,
     base: DriveParams,
     free: str | Sequence[str] | None,
+    informative: Collection[str] = (),
 ) -> Excitation:
     """Refuse logs with nothing to identify, then choose the free parameters.
 
-    ``free`` is ``None``/``"auto"`` (choose from the excitation) or a list of DriveParams
-    fields. Raises :class:`~sysid.errors.ExcitationError` (too short, no motion, flat commands)
-    or :class:`~sysid.errors.SysidValueError` (unknown or unidentifiable names).
+    ``free`` is ``None``/``"auto"`` (choose from the excitation, plus every field of an excited
+    axis with a prior in ``informative``) or a list of DriveParams fields. Raises
+    :class:`~sysid.errors.ExcitationError` (too short, no motion, flat commands) or
+    :class:`~sysid.errors.SysidValueError` (unknown or unidentifiable names).
     """
     _refuse_empty(logs)
     notes: list[str] = []
     if free is None or free == "auto":
         names, ties, notes = _auto_free(logs, geometry, base)
+        names, ties = _with_priors(logs, names, ties, informative)
+        if "coulomb_v_bwd_n" not in ties:
+            notes = [n.replace(_TIE_NOTE, _UNTIED_NOTE) for n in notes]
     elif isinstance(free, str):
         raise SysidValueError(
             f"free must be None, 'auto' or a list of parameter names, got {free!r}; "

@@ -9,8 +9,8 @@ A good start point makes the nonlinear fit converge in a few iterations (the 2 s
    measurement (:func:`sysid.metrics.xcorr_lag_s`, parabolic sub-sample peak). Correlating with
    the *model* rather than with the raw command removes the lag the first-order response itself
    adds, which would otherwise be read as dead time.
-3. **RTS smoothing** (filterpy ``KalmanFilter`` + ``rts_smoother``, constant-acceleration model
-   with irregular sample times): differentiating noisy, quantised odometry directly amplifies
+3. **RTS smoothing** (a compiled Kalman filter + Rauch-Tung-Striebel smoother of a
+   constant-acceleration model with irregular sample times): differentiating noisy, quantised odometry directly amplifies
    the noise; the fixed-interval smoother gives clean velocity *and* acceleration estimates using
    the samples on both sides of each instant.
 4. **Linear regression** of the smoothed acceleration on the delayed command, the velocity and
@@ -27,7 +27,6 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from filterpy.kalman import KalmanFilter
 from numpy.typing import NDArray
 from scipy.ndimage import median_filter
 
@@ -64,25 +63,71 @@ def spike_mask(x: FloatArray, floor: float) -> BoolArray:
     return mask
 
 
+@numba.njit(cache=True)
+def _rts_kernel(
+    dts: FloatArray,
+    z: FloatArray,
+    good: BoolArray,
+    x0: FloatArray,
+    p0: FloatArray,
+    q: float,
+    r: float,
+) -> FloatArray:  # pragma: no cover - compiled
+    """Kalman filter + Rauch-Tung-Striebel smoother of a constant-acceleration model (state
+    value, rate; white-jerk process noise ``q``; scalar measurement variance ``r``; samples
+    with ``good`` False are predicted only). Returns the smoothed states, shape (n, 2)."""
+    n = z.size
+    xf = np.empty((n, 2))
+    pf = np.empty((n, 2, 2))
+    x = x0.copy()
+    p = p0.copy()
+    for i in range(n):
+        d = dts[i]
+        # predict: x = F x, P = F P F^T + Q with F = [[1, d], [0, 1]]
+        x = np.array([x[0] + d * x[1], x[1]])
+        a = p[0, 0] + d * (p[1, 0] + p[0, 1]) + d * d * p[1, 1] + q * d**3 / 3.0
+        b = p[0, 1] + d * p[1, 1] + q * d * d / 2.0
+        c = p[1, 1] + q * d
+        p = np.array([[a, b], [b, c]])
+        if good[i]:
+            s = p[0, 0] + r
+            k0, k1 = p[0, 0] / s, p[1, 0] / s
+            y = z[i] - x[0]
+            x = np.array([x[0] + k0 * y, x[1] + k1 * y])
+            p = np.array(
+                [
+                    [(1.0 - k0) * p[0, 0], (1.0 - k0) * p[0, 1]],
+                    [p[1, 0] - k1 * p[0, 0], p[1, 1] - k1 * p[0, 1]],
+                ]
+            )
+        xf[i] = x
+        pf[i] = p
+    xs = xf.copy()
+    ps = pf.copy()
+    for i in range(n - 2, -1, -1):
+        d = dts[i + 1]
+        f = np.array([[1.0, d], [0.0, 1.0]])
+        qm = q * np.array([[d**3 / 3.0, d * d / 2.0], [d * d / 2.0, d]])
+        pp = f @ pf[i] @ f.T + qm
+        gain = pf[i] @ f.T @ np.linalg.inv(pp)
+        xs[i] = xf[i] + gain @ (xs[i + 1] - f @ xf[i])
+        ps[i] = pf[i] + gain @ (ps[i + 1] - pp) @ gain.T
+    return xs
+
+
 def _rts(t: FloatArray, z: FloatArray, good: BoolArray) -> tuple[FloatArray, FloatArray]:
-    """Smoothed value and derivative of ``z`` (constant-acceleration model, filterpy RTS)."""
+    """Smoothed value and derivative of ``z``: Kalman filter and RTS smoother of a
+    constant-acceleration model (Rauch, Tung & Striebel 1965) with irregular sample times."""
     dev = np.diff(z[good])
     sigma = max(1.4826 * float(np.median(np.abs(dev))) / math.sqrt(2.0), 1e-4)
     span = float(np.ptp(z[good])) or 1.0
     q = span**2 / 0.1**3  # jerk intensity of a step of size `span` through a 0.1 s lag
-    kf = KalmanFilter(dim_x=2, dim_z=1)
-    kf.x = np.array([[z[good][0]], [0.0]])
-    kf.P = np.diag([sigma**2, (span / 0.1) ** 2])
-    kf.H = np.array([[1.0, 0.0]])
-    kf.R = np.array([[sigma**2]])
-    dts = np.diff(t, prepend=t[0])
-    dts = np.maximum(dts, 1e-4)
-    fs = [np.array([[1.0, d], [0.0, 1.0]]) for d in dts]
-    qs = [q * np.array([[d**3 / 3, d**2 / 2], [d**2 / 2, d]]) for d in dts]
-    zs = [float(zi) if g else None for zi, g in zip(z, good, strict=True)]
-    xs, ps, _, _ = kf.batch_filter(zs, Fs=fs, Qs=qs)
-    xs, _, _, _ = kf.rts_smoother(xs, ps, Fs=fs, Qs=qs)
-    return np.asarray(xs[:, 0, 0]), np.asarray(xs[:, 1, 0])
+    dts = np.maximum(np.diff(t, prepend=t[0]), 1e-4)
+    x0 = np.array([float(z[good][0]), 0.0])
+    p0 = np.diag([sigma**2, (span / 0.1) ** 2])
+    zz = np.where(good, z, 0.0).astype(np.float64)
+    xs = _rts_kernel(dts, zz, good.astype(np.bool_), x0, p0, float(q), float(sigma**2))
+    return np.asarray(xs[:, 0]), np.asarray(xs[:, 1])
 
 
 def busiest_window(log: LogArrays, n: int) -> tuple[float, float]:

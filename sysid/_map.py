@@ -36,6 +36,12 @@ FloatArray = NDArray[np.float64]
 _COARSE_SPAN_S = 150.0
 #: Residual-evaluation cap of the polishing pass on all the data.
 _POLISH_NFEV = 3
+#: 95 % quantile of the chi-square distribution with one degree of freedom.
+_CHI2_1_95 = 3.84
+#: Evaluation cap of the refit without a limit (likelihood-ratio test).
+_LR_NFEV = 8
+#: Evaluation cap of the re-balancing pass when the residual scale moved a lot.
+_REBALANCE_NFEV = 5
 #: Limits that can be "never active" in a log.
 _LIMITS = (
     "accel_lim_v_mps2",
@@ -165,18 +171,38 @@ def _solve(
         )
 
 
+def _autocorr_time(r: FloatArray, max_lag: int = 400) -> float:
+    """Integrated autocorrelation time :math:`1 + 2\\sum_k \rho_k` of a residual series
+    (Geyer's initial positive sequence: pairs of lags are summed while their sum is > 0)."""
+    r = r - np.mean(r)
+    n = r.size
+    if n < 8 or not np.any(r):
+        return 1.0
+    spec = np.fft.rfft(r, 2 * n)
+    acov = np.fft.irfft(spec * np.conj(spec))[: min(max_lag, n - 1) + 1]
+    rho = acov / acov[0]
+    tau = 1.0
+    for k in range(1, rho.size - 1, 2):
+        pair = float(rho[k] + rho[k + 1])
+        if pair <= 0:
+            break
+        tau += 2.0 * pair
+    return tau
+
+
 def noise_scale(prob: Problem, f: FloatArray, n_params: int) -> tuple[float, float]:
-    """Robust residual variance :math:`s^2` and the autocorrelation factor :math:`c`."""
+    """Robust residual variance :math:`s^2` and the correlation factor :math:`c`.
+
+    :math:`c` is the integrated autocorrelation time of the residuals (mean over the v and w
+    channels): correlated residuals -- model error that lasts over several samples, stamp
+    jitter -- carry as much information as :math:`n/c` independent ones; counting them as
+    :math:`n` would make the intervals far too narrow.
+    """
     n = f.size
     s2 = (1.4826 * float(np.median(np.abs(f - np.median(f))))) ** 2 * n / max(n - n_params, 1)
-    rho = []
-    for rows in (prob.rows["v"], prob.rows["w"]):
-        r = f[rows] - np.mean(f[rows])
-        den = float(np.dot(r, r))
-        if den > 0:
-            rho.append(float(np.dot(r[1:], r[:-1]) / den))
-    rho1 = float(np.clip(np.mean(rho) if rho else 0.0, 0.0, 0.98))
-    return max(s2, 1e-12), (1.0 + rho1) / (1.0 - rho1)
+    taus = [_autocorr_time(f[rows]) for rows in (prob.rows["v"], prob.rows["w"]) if rows.size]
+    c = float(np.clip(np.mean(taus) if taus else 1.0, 1.0, 200.0))
+    return max(s2, 1e-12), c
 
 
 def _span(log: LogArrays) -> float:
@@ -205,22 +231,39 @@ def _optimise(
     return solve(prob, np.asarray(first.x), min(nfev, _POLISH_NFEV)), first.status != 0
 
 
-def _drop_inactive_limits(prob: Problem, x: FloatArray, notes: list[str]) -> list[int]:
-    """Limits without a prior that never shape the response are not identified: they stay
-    at "no limit" (their prior). Returns the indices of the coordinates to drop."""
+def _drop_inactive_limits(
+    prob: Problem,
+    res: Any,
+    s2c: float,
+    solve: Callable[[Problem, FloatArray, int], Any],
+    notes: list[str],
+) -> list[int]:
+    """Limits without a prior that the log does not show are not identified: they stay at
+    "no limit" (their prior). Likelihood-ratio test: the fit is redone without the limit (a few
+    steps from the solution) and the limit is kept only when that raises the objective by more
+    than the 95 % chi-square quantile of one degree of freedom (in residual-variance units) and
+    the response without it moves by 0.1 tolerance somewhere. Returns the indices to drop."""
+    x = np.asarray(res.x)
     params = prob.params(x)
     ref = prob.scaled_sim(params)
-    dropped = []
+    dropped: list[int] = []
     for j, field in enumerate(prob.free):
         if field not in _LIMITS or prob.mapper.prior(field) is not None:
             continue
         unlimited = prob.scaled_sim(params.replace(**{field: math.inf}))
-        if float(np.max(np.abs(unlimited - ref))) < 0.1:
+        gain = 0.0
+        if float(np.max(np.abs(unlimited - ref))) >= 0.1:
+            rest = [f for i, f in enumerate(prob.free) if i != j and i not in dropped]
+            sub = prob.subset(rest)
+            alt = solve(sub, np.array([x[prob.free.index(f)] for f in rest]), _LR_NFEV)
+            gain = 2.0 * (float(alt.cost) - float(res.cost)) / s2c
+        if gain < _CHI2_1_95:
             dropped.append(j)
             notes.append(
                 f"{field} never limited the response in the log (fitted "
-                f"{getattr(params, field):.3g} is not identifiable): its prior, "
-                f"{getattr(prob.mapper.base, field):g} (no limit), is kept"
+                f"{getattr(params, field):.3g} is not identifiable; chi2 of removing it "
+                f"{max(gain, 0.0):.2f}): its prior, {getattr(prob.mapper.base, field):g} "
+                "(no limit), is kept"
             )
     return dropped
 
@@ -254,6 +297,27 @@ def _posterior_cov(
     return z, cov, 0.5 * (info + info.T), cov_u, weak
 
 
+def _timing_floor(prob: Problem, z: FloatArray, cov: FloatArray, cov_u: FloatArray) -> None:
+    r"""Add the log's timing resolution to the delay's variance (in place).
+
+    A delay is a timing estimate: stamp jitter and irregular sample instants do not average
+    out of it when they are systematic, and the model's step quantises time. The floor is
+    :math:`\Delta t^2/12` (model step) plus half the robust variance of the sample-interval
+    irregularity; white residual statistics cannot see either.
+    """
+    if "delay_s" not in prob.free:
+        return
+    j = prob.free.index("delay_s")
+    jitter = []
+    for g in prob.logs:
+        d = np.diff(g.meas_t_s)
+        if d.size > 3:
+            jitter.append(1.4826 * float(np.median(np.abs(d - np.median(d)))))
+    floor = prob.dt_s**2 / 12.0 + 0.5 * float(np.mean(jitter) if jitter else 0.0) ** 2
+    cov[j, j] += floor
+    cov_u[j, j] += floor
+
+
 def map_fit(
     logs: Sequence[LogArrays],
     mapper: Mapper,
@@ -282,14 +346,17 @@ def map_fit(
         return _solve(pr, x, exc.coupled, loss, f_scale, nfev)
 
     res, converged = _optimise(prob, x0, solve, max_nfev)
+    message = str(res.message)
     s2, c = noise_scale(prob, prob.data_residuals(np.asarray(res.x)), len(free))
-    if not 2.0 / 3.0 <= math.sqrt(s2 * c) / prob.prior_weight <= 1.5:
-        # the prior's weight rests on the residual scale: re-balance at the solution
+    if not 0.5 <= math.sqrt(s2 * c) / prob.prior_weight <= 2.0:
+        # the prior's weight rests on the residual scale, first estimated at the start point:
+        # re-balance at the solution (a few steps from there)
         prob.prior_weight = math.sqrt(s2 * c)
-        res = solve(prob, np.asarray(res.x), min(max_nfev, 10))
+        res = solve(prob, np.asarray(res.x), min(max_nfev, _REBALANCE_NFEV))
+        message += " (then the prior weight was re-balanced at the solution)"
         s2, c = noise_scale(prob, prob.data_residuals(np.asarray(res.x)), len(free))
     x = np.asarray(res.x)
-    dropped = _drop_inactive_limits(prob, x, notes)
+    dropped = _drop_inactive_limits(prob, res, s2 * c, solve, notes)
     keep = [j for j in range(len(free)) if j not in dropped]
     kept = tuple(free[j] for j in keep)
     ties = {k: v for k, v in exc.ties.items() if v in kept}
@@ -298,6 +365,7 @@ def map_fit(
     jac = np.asarray(res.jac)[: prob.n_data][:, keep]
     with threadpool_limits(limits=1):
         z, cov, info, cov_u, weak = _posterior_cov(jac, final, x[keep], s2 * c)
+    _timing_floor(final, z, cov, cov_u)
     return Posterior(
         free=kept,
         ties=ties,
@@ -312,7 +380,7 @@ def map_fit(
         inflation=c,
         residuals=prob.data_residuals(x),
         converged=converged,
-        message=str(res.message),
+        message=message,
         cost=float(res.cost),
         evaluations=prob.n_evals,
         steps=prob.n_steps,

@@ -134,6 +134,19 @@ class Problem:
             "v_window_s": v_window_s,
         }
 
+    def subset(self, free: Sequence[str]) -> Problem:
+        """The same problem over fewer coordinates (the others at the base values)."""
+        ties = {k: v for k, v in self.ties.items() if v in free}
+        return Problem(
+            self.logs,
+            self.mapper,
+            free,
+            ties,
+            on_eval=self.on_eval,
+            prior_weight=self.prior_weight,
+            **self._settings,  # type: ignore[arg-type]
+        )
+
     def like(self, logs: Sequence[LogArrays]) -> Problem:
         """The same problem (coordinates, settings, prior weight) on other logs."""
         return Problem(

@@ -342,10 +342,10 @@ def _fleet(
     pop = population(sessions, prior_mu=mu_p, prior_prec=prec, session_cov=s0)
     ties: dict[str, str] = {}
     for p in posts:
-        ties |= {k: v for k, v in p.ties.items() if v in names}
+        ties |= {k: v for k, v in p.ties.items() if v in names and k not in names}
     prob = Problem(logs, mapper, names, ties, **problem_kw)
     values = {n: mapper.value(n, float(z)) for n, z in zip(names, pop.mean, strict=True)}
-    params = mapper.base.replace(**values, **{k: values[v] for k, v in ties.items()})
+    params = mapper.base.replace(**(values | {k: values[v] for k, v in ties.items()}))
     u = np.array([mapper.to_coord(params, n) for n in names])
     _, g = prob.schema_coords(u)
     g_inv = np.linalg.pinv(g)
@@ -505,6 +505,7 @@ def fit_drive(
     pri = _check_priors(priors, base_params, geometry)
     base = _prior_base(base_params, pri)
     mapper = Mapper(geometry, base, pri)
+    informative = {n for n, p in pri.items() if p.informative}
     notes = [
         f"{log_name(g, i)}: {w}" for i, g in enumerate([*logs, *validate]) for w in log_warnings(g)
     ]
@@ -521,7 +522,7 @@ def fit_drive(
     groups = [fit_logs] if len(fit_logs) == 1 else [[g] for g in fit_logs]
     posts: list[Posterior] = []
     for k, group in enumerate(groups):
-        exc = analyse(group, geometry, base, free)
+        exc = analyse(group, geometry, base, free, informative)
         prefix = f"{group[0].name}: " if len(groups) > 1 else ""
         notes += [prefix + w for w in exc.warnings]
         lo, span = 0.05 + 0.85 * k / len(groups), 0.85 / len(groups)
