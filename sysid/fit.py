@@ -63,6 +63,7 @@ from sysid._logs import LogArrays, as_log_arrays, log_name, log_warnings
 from sysid._map import Posterior, map_fit
 from sysid._problem import Problem
 from sysid._summary import distribution, estimate_noise, field_estimates, identifiable_estimates
+from sysid._timeout import fit_cmd_timeout
 from sysid.errors import SysidValueError
 from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
 
@@ -504,11 +505,13 @@ def fit_drive(
     val_logs = [as_log_arrays(g, len(fit_logs) + i) for i, g in enumerate(validate)]
     pri = _check_priors(priors, base_params, geometry)
     base = _prior_base(base_params, pri)
+    base, timeout_notes = fit_cmd_timeout(fit_logs, base)  # held or timed-out commands
     mapper = Mapper(geometry, base, pri)
     informative = {n for n, p in pri.items() if p.informative}
     notes = [
         f"{log_name(g, i)}: {w}" for i, g in enumerate([*logs, *validate]) for w in log_warnings(g)
     ]
+    notes += timeout_notes
     report("checking excitation", 0.0)
     sv, sw = _scales(fit_logs, scale, tol_v, tol_w)
     problem_kw: dict[str, Any] = {
