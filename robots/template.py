@@ -163,6 +163,15 @@ def _render(robot: NewRobot) -> str:
         f"name: {robot.name}",
         f"description: {robot.name}, {'skid-steer' if skid else 'differential-drive'} base "
         "(spec from published numbers and documented priors)",
+        *(
+            [
+                "# skid steer: this version models it as a differential drive on the geometric",
+                "# track (no slip / effective-track parameter yet); sysid's yaw parameters absorb",
+                "# part of the slip",
+            ]
+            if skid
+            else []
+        ),
         "sources:",
         f'  - "given: {", ".join(sorted(given))}"',
         '  - "priors: robots/template.py typical-value rules (TurtleBot3, Kobuki, Neato, '

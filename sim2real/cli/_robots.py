@@ -167,6 +167,11 @@ def _new(args: argparse.Namespace) -> int:
     with atomic_write(out, "w", what="spec file") as fh:
         fh.write(text)
     print(f"wrote {out}: robot '{args.name}', checks passed ({len(report.items)})")
+    if args.drive == "skid":
+        print(
+            "note: skid-steer slip is not modelled yet; the spec drives as a differential drive "
+            "on the geometric track (see the comment in the file)"
+        )
     print(f"use it with --robot {out}; edit any number you know better, then `robots check {out}`")
     return 0
 
