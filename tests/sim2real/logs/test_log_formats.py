@@ -281,3 +281,10 @@ def test_csv_times_are_exact_nanoseconds(tmp_path: Path) -> None:
     tr = read_trace(path)
     assert tr.meas_t_ns.tolist() == [1_700_000_000_000_000_001, 1_700_000_000_500_000_000]
     assert tr.pose_x is None and tr.meas_v.tolist() == [0.0, 0.1]
+
+
+def test_mistyped_topic_did_you_mean(formats: dict[str, Path]) -> None:
+    with pytest.raises(MissingTopicError, match=r"no topic '/odm'.*did you mean '/odom'\?"):
+        read_trace(formats["ros1"], odom_topic="/odm")
+    with pytest.raises(MissingTopicError, match=r"did you mean '/cmd_vel'\?"):
+        read_trace(formats["mcap"], cmd_topic="cmd_vel")
