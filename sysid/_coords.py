@@ -312,8 +312,9 @@ class Mapper:
         return SCHEMA[field].to_coord(value, self.geometry)
 
     def value(self, field: str, z: float) -> float:
-        """The value of ``field`` at schema coordinate ``z``."""
-        return SCHEMA[field].from_coord(z, self.geometry)
+        """The value of ``field`` at schema coordinate ``z`` (kept inside the schema's bounds)."""
+        lo, hi = SCHEMA[field].coord_bounds(self.geometry)
+        return SCHEMA[field].from_coord(min(max(float(z), lo), hi), self.geometry)
 
     def schema_coords(
         self, free: Sequence[str], ties: dict[str, str], u: FloatArray
