@@ -9,21 +9,28 @@ trace under the predictive distribution of the randomised simulation.
 
 Model
 -----
-For a dynamics factor :math:`s` the covariance is scaled by :math:`s^2`
-(:meth:`robots.randomization.DriveDistribution.scaled`), *N* robots are drawn (common random
-numbers: the same seed for every *s*) and the log is replayed with each. At every active
-measurement time :math:`t_k` and per axis the predictive distribution is Gaussian with the
-members' mean :math:`m_k(s)` and variance
+The covariance becomes :math:`\Sigma(a, b) = a^2 \Sigma_f + b^2 \Sigma_s`: the file's
+covariance :math:`\Sigma_f` (posterior plus the between-session spread the fit estimated)
+scaled by a dynamics factor *a*, plus the robot spec's default between-session covariance
+:math:`\Sigma_s = \mathrm{diag}(\text{session\_sd}^2)` (payload, floor, battery and latency
+change from day to day) scaled by *b*. The second block matters because a between-session
+covariance estimated from a few sessions is itself uncertain and often too small in some
+direction (e.g. latency); the likelihood of held-out sessions decides how much of the spec's
+belief to add. For given (a, b), *N* robots are drawn (common random numbers: the same seed
+for every (a, b)) and the log is replayed with each. At every active measurement time
+:math:`t_k` and per axis the predictive distribution is Gaussian with the members' mean
+:math:`m_k` and variance
 
-.. math:: V_k = (1 + 1/N)\,\widehat{\mathrm{var}}_k(s) + \sigma^2 + q^2/12,
+.. math:: V_k = (1 + 1/N)\,\widehat{\mathrm{var}}_k + \sigma^2 + q^2/12,
 
 the sample variance of the members (inflated for a new draw), the odometry white noise
 :math:`\sigma` and the quantisation :math:`q` of the noise model. The objective is the mean
 Gaussian log-likelihood of the real :math:`v_k` and :math:`\omega_k` over the active samples.
-:math:`\sigma_v` and :math:`\sigma_\omega` are maximised in closed 1-D searches for each
-*s*; *s* by a log-spaced grid refined with bounded Brent. The result keeps the mean (the point
-estimate) and scales the covariance by :math:`s^2` and sets the noise stds; the factors and
-the likelihood before and after are stored in a ``calibration:`` block of the output file.
+:math:`\sigma_v` and :math:`\sigma_\omega` are maximised by bounded 1-D searches for each
+(a, b); (a, b) by a grid refined with Nelder-Mead. The mean (the point estimate) is kept. The
+factors, noise stds and the likelihood before and after go into a ``calibration:`` block.
+Calibrate on logs of sessions the fit did not see; several sessions estimate the
+between-session spread better than one.
 
 Example
 -------
@@ -62,23 +69,32 @@ FloatArray = NDArray[np.float64]
 #: Name of the method in the output file's ``calibration`` block.
 CALIBRATION_METHOD = "gaussian-predictive-likelihood/1 (DROPO-style, Tiboni et al. 2023)"
 #: Search range of the dynamics factor.
-FACTOR_RANGE = (0.05, 20.0)
+FACTOR_RANGE = (0.05, 10.0)
 #: Search range of the odometry noise stds (m/s or rad/s).
 NOISE_RANGE = (1e-5, 1.0)
 #: Points of the initial log-spaced grid of the dynamics factor.
-GRID_POINTS = 11
+GRID_POINTS = 7
+#: Initial grid and upper bound of the session factor (times the spec's session spread).
+SESSION_GRID = (0.0, 0.5, 1.0, 2.0)
+SESSION_MAX = 4.0
+#: Likelihood evaluations of the Nelder-Mead refinement after the grid.
+REFINE_EVALUATIONS = 16
 #: Default ensemble size of the calibration.
 DEFAULT_N = 32
 
 
 @dataclass(frozen=True, kw_only=True)
 class CalibrationResult:
-    """The fitted spread of a distribution and how much it improved the likelihood.
+    r"""The fitted spread of a distribution and how much it improved the likelihood.
 
     Attributes
     ----------
     dynamics_factor : float
-        Factor on every standard deviation of the drive parameters (covariance x factor²).
+        Factor a on the file's covariance :math:`\Sigma_f` (calibrated covariance
+        :math:`a^2 \Sigma_f + b^2 \Sigma_s`).
+    session_factor : float
+        Factor b on the spec's between-session covariance :math:`\Sigma_s`
+        (:func:`session_covariance`).
     noise_std_v_mps, noise_std_w_radps : float
         Fitted odometry white-noise stds.
     noise_factor_v, noise_factor_w : float
@@ -103,6 +119,7 @@ class CalibrationResult:
     """
 
     dynamics_factor: float
+    session_factor: float
     noise_std_v_mps: float
     noise_std_w_radps: float
     noise_factor_v: float
@@ -127,6 +144,7 @@ class CalibrationResult:
         return {
             "method": CALIBRATION_METHOD,
             "dynamics_factor": float(self.dynamics_factor),
+            "session_factor": float(self.session_factor),
             "noise_std_v_mps": float(self.noise_std_v_mps),
             "noise_std_w_radps": float(self.noise_std_w_radps),
             "noise_factor_v": num(self.noise_factor_v),
@@ -257,17 +275,26 @@ def calibrate_traces(
             "20 (a log in which the robot moves and turns)"
         )
 
-    def members(factor: float) -> tuple[FloatArray, FloatArray]:
+    fitted = distribution.covariance_array
+    session = session_covariance(distribution, spec)
+
+    def mixed(factor: float, session_factor: float) -> Any:
+        cov = _capped(factor**2 * fitted + session_factor**2 * session, distribution)
+        return dataclasses.replace(
+            distribution, covariance=tuple(tuple(float(c) for c in row) for row in cov)
+        )
+
+    def members(factor: float, session_factor: float) -> tuple[FloatArray, FloatArray]:
         vs, ws = [], []
+        dist = mixed(factor, session_factor)
         for lg in logs:
             _, mv, mw = ensemble_members(
                 lg.trace,
                 robot=spec,
-                distribution=distribution,
+                distribution=dist,
                 n=n,
                 seed=seed,
                 engine=engine,
-                spread=factor,
                 odom_v_window_s=odom_v_window_s,
             )
             vs.append(mv[:, lg.active])
@@ -277,41 +304,49 @@ def calibrate_traces(
     real_v = np.concatenate([lg.v for lg in logs])
     real_w = np.concatenate([lg.w for lg in logs])
     noise = distribution.noise
-    cache: dict[float, tuple[float, float, float]] = {}
+    cache: dict[tuple[float, float], tuple[float, float, float]] = {}
 
-    def objective(log_factor: float) -> float:
-        key = round(log_factor, 9)
+    def evaluate(x: Sequence[float]) -> float:
+        """-loglik at (log factor, session factor); noise stds maximised inside."""
+        key = (round(float(x[0]), 6), round(min(max(float(x[1]), 0.0), SESSION_MAX), 6))
         if key not in cache:
-            mv, mw = members(math.exp(log_factor))
+            mv, mw = members(math.exp(key[0]), key[1])
             sv, llv = _best_noise(real_v, mv, noise.quantum_v_mps, NOISE_RANGE)
             sw, llw = _best_noise(real_w, mw, noise.quantum_w_radps, NOISE_RANGE)
             cache[key] = (llv + llw, sv, sw)
         return -cache[key][0]
 
-    grid = np.linspace(math.log(FACTOR_RANGE[0]), math.log(FACTOR_RANGE[1]), GRID_POINTS)
-    values = [objective(float(x)) for x in grid]
-    best = int(np.argmin(values))
-    lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, GRID_POINTS - 1)]
-    from scipy.optimize import minimize_scalar
+    log_lo, log_hi = math.log(FACTOR_RANGE[0]), math.log(FACTOR_RANGE[1])
+    for lf in np.linspace(log_lo, log_hi, GRID_POINTS):
+        for sf in SESSION_GRID:
+            evaluate((float(lf), sf))
+    best = min(cache, key=lambda k: -cache[k][0])
+    from scipy.optimize import minimize
 
-    res = minimize_scalar(
-        objective, bounds=(float(lo), float(hi)), method="bounded", options={"xatol": 0.01}
-    )
-    log_factor = float(res.x) if res.fun <= values[best] else float(grid[best])
-    ll, std_v, std_w = cache[round(log_factor, 9)]
-    factor = math.exp(log_factor)
-    mv1, mw1 = members(1.0)
+    minimize(
+        evaluate,
+        np.array(best),
+        method="Nelder-Mead",
+        bounds=[(log_lo, log_hi), (0.0, SESSION_MAX)],
+        options={"maxfev": REFINE_EVALUATIONS, "xatol": 0.02, "fatol": 1e-4,
+                 "initial_simplex": [best, (best[0] + 0.3, best[1]), (best[0], best[1] + 0.25)]},
+    )  # fmt: skip
+    best = min(cache, key=lambda k: -cache[k][0])
+    ll, std_v, std_w = cache[best]
+    factor, session_factor = math.exp(best[0]), best[1]
+    mv1, mw1 = members(1.0, 0.0)
     ll_before = predictive_log_likelihood(
         real_v, mv1, noise.std_v_mps**2 + noise.quantum_v_mps**2 / 12.0
     ) + predictive_log_likelihood(
         real_w, mw1, noise.std_w_radps**2 + noise.quantum_w_radps**2 / 12.0
     )
     calibrated = dataclasses.replace(
-        distribution.scaled(factor),
+        mixed(factor, session_factor),
         noise=dataclasses.replace(noise, std_v_mps=std_v, std_w_radps=std_w),
     )
     return CalibrationResult(
         dynamics_factor=factor,
+        session_factor=session_factor,
         noise_std_v_mps=std_v,
         noise_std_w_radps=std_w,
         noise_factor_v=std_v / noise.std_v_mps if noise.std_v_mps > 0 else math.nan,
@@ -329,6 +364,34 @@ def calibrate_traces(
             (str(getattr(t.meta, "path", "")), str(getattr(t.meta, "sha256", ""))) for t in traces
         ),
     )
+
+
+def _capped(cov: FloatArray, distribution: Any) -> FloatArray:
+    """``cov`` with each field's sd kept below the schema's absurd-spread limit (correlations
+    kept): a field the logs do not inform cannot be widened without bound."""
+    from robots.params import SCHEMA
+
+    limit = []
+    for name in distribution.names:
+        field = SCHEMA[name]
+        scale = max(field.prior_sd(distribution.geometry), 1e-12) if field.coord == "lin" else 1.0
+        limit.append(0.99 * field.absurd_sd * scale)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    shrink = np.minimum(1.0, np.asarray(limit) / np.maximum(sd, 1e-300))
+    out: FloatArray = cov * np.outer(shrink, shrink)
+    return out
+
+
+def session_covariance(distribution: Any, robot: Any) -> FloatArray:
+    """The spec's default between-session covariance of the varying fields (coordinates).
+
+    ``diag(session_sd**2)`` of the robot spec's priors (payload, floor, battery and latency
+    change from day to day; see ``robots/specs/*.yaml``); 0 for a field without a prior.
+    """
+    priors = getattr(robot, "priors", {}) or {}
+    sd = [priors[n].session_sd if n in priors else 0.0 for n in distribution.names]
+    out: FloatArray = np.diag(np.square(np.asarray(sd, dtype=np.float64)))
+    return out
 
 
 def _fit_logs(document: Any) -> set[str]:
