@@ -91,9 +91,12 @@ def test_calibrate_cli_writes_the_calibrated_block(
     assert cal["log_likelihood_per_sample"] > cal["log_likelihood_per_sample_before"]
     before = DriveDistribution.from_params_file(params, robot=ROBOT)
     after = DriveDistribution.from_params_file(out, robot=ROBOT)
-    np.testing.assert_allclose(
-        after.covariance_array, before.covariance_array * cal["dynamics_factor"] ** 2, rtol=1e-9
-    )
+    from robots.spec import load_spec
+    from sim2real.calibration import session_covariance
+
+    expected = before.covariance_array * cal["dynamics_factor"] ** 2
+    expected += session_covariance(before, load_spec(ROBOT)) * cal["session_factor"] ** 2
+    np.testing.assert_allclose(after.covariance_array, expected, rtol=1e-9, atol=1e-15)
     assert after.noise.std_v_mps == pytest.approx(cal["noise_std_v_mps"])
     assert after.noise.std_v_mps < 0.01  # the file's 0.03 was 10x the log's noise
     assert doc["parameters"] == yaml.safe_load(params.read_text())["parameters"]
@@ -125,3 +128,17 @@ def test_small_calibration_ensemble_is_refused(logs: tuple[Path, Path], n: int) 
     dist = distribution_around(hidden_params(), ROBOT)
     with pytest.raises(Sim2RealValueError, match="--ensemble"):
         calibrate_traces([read_trace(logs[0])], robot=ROBOT, distribution=dist, n=n)
+
+
+def test_the_spec_session_spread_widens_what_the_fit_pinned(logs: tuple[Path, Path]) -> None:
+    # the file's covariance is ~0 (a fit that saw one session), centred off the truth: no factor
+    # on it can reach the real robot, the spec's between-session block must
+    off = hidden_params().replace(delay_s=0.12)
+    dist = distribution_around(off, ROBOT, rel=1e-6, noise_v=0.003, noise_w=0.02)
+    val, test = (read_trace(p) for p in logs)
+    res = calibrate_traces([val], robot=ROBOT, distribution=dist, n=16, seed=0)
+    assert res.session_factor > 0.25
+    after = run_ensemble(
+        test, robot=ROBOT, distribution=res.distribution, n=20, seed=3, engine="reduced"
+    )
+    assert 0.8 <= after.coverage_v <= 0.99 and 0.8 <= after.coverage_w <= 0.99
