@@ -1,0 +1,177 @@
+"""Benchmark: does the calibrated band contain the real robot, on sessions no step has seen?
+
+Data (built here, written as ROS 2 MCAP and read back):
+
+1. A fleet of recording sessions of one Kobuki-sized base (``turtlebot2``) from the foreign
+   plant :mod:`sim2real.plants` (PI wheel loops, DC-motor torque-speed line with battery sag,
+   per-wheel asymmetric friction, caster scrub, quantised encoders, gyro, latency jitter),
+   whose payload, floor friction, battery charge and latency differ per session. It is *not*
+   the project's drive model. Sessions 0-2 are fitted (``sysid fit``, fleet / random effects),
+   sessions 3-4 calibrate the band's spread (``sysid calibrate``), sessions 5.. are checked.
+2. The shared real TurtleBot3 Waffle Pi log (``../shared/realdata/tb3wp_drexel_goal.mcap``,
+   skipped when absent) in halves: the first half is fitted, the band is built on the second
+   (uncalibrated: one log leaves nothing to calibrate on without touching the checked half).
+
+Measured on every checked session, in both engines (reduced and pybullet): coverage of the
+90 % band for v and w (share of active samples inside), median band widths, the point
+estimate's agreement, and the agreement of pybullet with the reduced model on the same
+parameters. Targets (issue 11): coverage 80-99 %, widths <= 0.10 m/s and <= 0.35 rad/s,
+point agreement >= 0.90, pybullet vs reduced >= 0.99.
+
+Run: ``.venv/bin/python benchmarks/bench_calibration.py [--sessions 8] [--pybullet-n 20]``
+(about 5 minutes on one core; pybullet replays dominate).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROBOT = "turtlebot2"
+FIT, CAL = (0, 1, 2), (3, 4)
+REALDATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
+
+
+def _row(label: str, ens: Any, point: Any) -> str:
+    return (
+        f"{label:<28} cov v {100 * ens.coverage_v:5.1f} %  cov w {100 * ens.coverage_w:5.1f} %"
+        f"  width v {ens.band_width_v_mps:.4f} m/s  width w {ens.band_width_w_radps:.3f} rad/s"
+        f"  point agreement {100 * point.agreement:5.1f} % (v {100 * point.agreement_v:.1f}"
+        f", w {100 * point.agreement_w:.1f})"
+    )
+
+
+def _check(trace: Any, spec: Any, dist: Any, engine: str, n: int, window_s: float) -> Any:
+    from sim2real.agreement import measure_agreement, run_ensemble
+    from sim2real.replay import replay
+
+    ens = run_ensemble(
+        trace, robot=spec, distribution=dist, n=n, seed=0, engine=engine, odom_v_window_s=window_s
+    )
+    sim = replay(
+        trace, robot=spec, params=dist.mean_params(), engine=engine, odom_v_window_s=window_s
+    )
+    return ens, sim, measure_agreement(trace, sim)
+
+
+def fleet(n_sessions: int, n_reduced: int, n_pybullet: int, folder: Path) -> None:
+    from robots.randomization import DriveDistribution
+    from robots.spec import load_spec
+    from sim2real.agreement import agreement_from_arrays, band_verdict
+    from sim2real.calibration import calibrate, write_calibrated
+    from sim2real.logs import read_trace
+    from sim2real.plants import write_fleet
+    from sysid import fit_drive
+
+    spec = load_spec(ROBOT)
+    window = spec.odometry.v_window_s
+    paths = write_fleet(folder, ROBOT, n_sessions, seed=11, duration_s=90.0)
+    traces = [read_trace(p) for p in paths]
+    t = time.perf_counter()
+    result = fit_drive(
+        [traces[i] for i in FIT],
+        geometry=spec.geometry,
+        base_params=spec.drive,
+        robot=spec.name,
+        odom_v_window_s=window,
+    )
+    fit_s = time.perf_counter() - t
+    params = folder / "params.yaml"
+    result.save(params)
+    t = time.perf_counter()
+    cal = calibrate(params, [paths[i] for i in CAL], robot=ROBOT, n=24, seed=0)
+    cal_s = time.perf_counter() - t
+    calibrated = write_calibrated(params, folder / "calibrated.yaml", cal)
+    print(f"fleet: {n_sessions} sessions x 90 s of {ROBOT} (foreign plant, seed 11)")
+    print(f"  fit on sessions {FIT}: {fit_s:.1f} s; calibrate on {CAL}: {cal_s:.1f} s")
+    print(
+        f"  calibration: dynamics factor a = {cal.dynamics_factor:.3f}, session factor b = "
+        f"{cal.session_factor:.3f}, noise v {cal.noise_std_v_mps:.4f} m/s, w "
+        f"{cal.noise_std_w_radps:.4f} rad/s, log-lik/sample {cal.log_likelihood_before:.3f} -> "
+        f"{cal.log_likelihood:.3f}"
+    )
+    fitted = DriveDistribution.from_params_file(params, robot=ROBOT)
+    dist = DriveDistribution.from_params_file(calibrated, robot=ROBOT)
+    for i in range(max(CAL) + 1, n_sessions):
+        trace = traces[i]
+        ens_f, _, point_f = _check(trace, spec, fitted, "reduced", n_reduced, window)
+        print(_row(f"session {i} reduced, fit", ens_f, point_f))
+        ens_r, sim_r, point_r = _check(trace, spec, dist, "reduced", n_reduced, window)
+        print(_row(f"session {i} reduced, calibrated", ens_r, point_r))
+        if n_pybullet:
+            ens_p, sim_p, point_p = _check(trace, spec, dist, "pybullet", n_pybullet, window)
+            print(_row(f"session {i} pybullet, calibrated", ens_p, point_p))
+            cmd_v, cmd_w = trace.cmd_at_meas()
+            same = agreement_from_arrays(
+                t_s=trace.meas_t_s, cmd_v=cmd_v, cmd_w=cmd_w, real_v=sim_r.v, real_w=sim_r.w,
+                sim_v=sim_p.v, sim_w=sim_p.w, robot=ROBOT,
+            )  # fmt: skip
+            print(f"  pybullet vs reduced, same params: agreement {100 * same.agreement:.1f} %")
+        print(
+            "  "
+            + band_verdict(
+                coverage_v=ens_r.coverage_v,
+                coverage_w=ens_r.coverage_w,
+                band_width_v_mps=ens_r.band_width_v_mps,
+                band_width_w_radps=ens_r.band_width_w_radps,
+            )
+        )
+        levels = ", ".join(
+            f"{100 * lv:.0f}%: {100 * cv:.0f}/{100 * cw:.0f}"
+            for lv, cv, cw in ens_r.coverage_by_level
+        )
+        print(f"  coverage v/w by level (reduced, calibrated): {levels}")
+
+
+def tb3_halves(n: int) -> None:
+    from robots.randomization import DriveDistribution
+    from robots.spec import load_spec
+    from sim2real.logs import read_trace
+    from sysid import fit_drive
+
+    path = REALDATA / "tb3wp_drexel_goal.mcap"
+    if not path.is_file():
+        print(f"real TB3 log: {path} absent, skipped")
+        return
+    spec = load_spec("turtlebot3_waffle_pi")
+    window = spec.odometry.v_window_s
+    trace = read_trace(path, time_source="header")
+    half = 0.5 * trace.duration_s
+    first, second = trace.window(0.0, half), trace.window(half, trace.duration_s + 1.0)
+    result = fit_drive(
+        [first], geometry=spec.geometry, base_params=spec.drive, robot=spec.name,
+        odom_v_window_s=window,
+    )  # fmt: skip
+    with tempfile.TemporaryDirectory() as tmp:
+        params = Path(tmp) / "tb3.yaml"
+        result.save(params)
+        dist = DriveDistribution.from_params_file(params, robot=spec.name)
+        print(
+            f"real TB3 Waffle Pi log in halves ({trace.duration_s:.1f} s): fit first, band on second"
+        )
+        for engine in ("reduced", "pybullet"):
+            ens, _, point = _check(second, spec, dist, engine, n, window)
+            print(_row(f"second half {engine}", ens, point))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sessions", type=int, default=8, help="fleet size (>= 6)")
+    parser.add_argument("--reduced-n", type=int, default=30, help="ensemble size, reduced")
+    parser.add_argument(
+        "--pybullet-n", type=int, default=20, help="ensemble size, pybullet (0: skip)"
+    )
+    args = parser.parse_args()
+    np.seterr(all="ignore")
+    with tempfile.TemporaryDirectory() as tmp:
+        fleet(args.sessions, args.reduced_n, args.pybullet_n, Path(tmp))
+    tb3_halves(args.reduced_n)
+
+
+if __name__ == "__main__":
+    main()
