@@ -52,11 +52,11 @@ test-train: $(STAMP_TRAIN)
 	$(BIN)/python -m pytest -q -m "train or cluster"
 
 ## make bench: the performance targets (prints ratios measured in the same run) and writes the
-## README's performance table from this run's headline figures
+## README's performance table from this run's headline figures (exit 1 if a bench failed)
 bench: $(STAMP_DEV)
 	rm -f benchmarks/.results.jsonl
-	cd benchmarks && for f in bench_*.py; do ../$(BIN)/python $$f || exit 1; done
-	cd benchmarks && ../$(BIN)/python readme_table.py
+	cd benchmarks && status=0 && for f in bench_*.py; do ../$(BIN)/python $$f || status=1; done; \
+	  ../$(BIN)/python readme_table.py && exit $$status
 
 ## make data: regenerate the synthetic sample logs in data/
 data: $(STAMP_RUN)

@@ -8,6 +8,7 @@ Not a public module (benchmarks are scripts); imported as ``from _timing import 
 from __future__ import annotations
 
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -17,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 __all__ = [
+    "CPU_S",
     "Stats",
     "alternate",
     "command_times",
@@ -28,6 +30,9 @@ __all__ = [
 
 REPO = Path(__file__).resolve().parents[1]
 #: Where :func:`record` appends headline figures (``make bench`` turns them into the README table).
+#: CPU seconds (user + system) of every command run by :func:`command_times`, by command line:
+#: on a loaded machine the wall time mostly measures the queue, the CPU time the work.
+CPU_S: dict[str, list[float]] = {}
 RESULTS = Path(os.environ.get("SIM2REAL_BENCH_RESULTS", REPO / "benchmarks" / ".results.jsonl"))
 
 
@@ -106,9 +111,14 @@ def command_times(
     base_env = {**os.environ, "PYTHONWARNINGS": "ignore"}
 
     def run(argv: Sequence[str], env: Mapping[str, str]) -> float:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         subprocess.run(argv, check=True, capture_output=True, env=dict(env), cwd=REPO)
-        return time.perf_counter() - t0
+        wall = time.perf_counter() - t0
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+        CPU_S.setdefault(" ".join(argv), []).append(cpu)
+        return wall
 
     cold: dict[str, float] = {}
     for name, argv in commands.items():
