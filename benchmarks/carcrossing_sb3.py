@@ -23,6 +23,11 @@ off-road rates and the mean return.
 
 from __future__ import annotations
 
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")  # small networks: one thread is fastest
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
 import argparse
 import time
 from typing import Any
