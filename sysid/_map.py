@@ -40,6 +40,8 @@ _POLISH_NFEV = 3
 _CHI2_1_95 = 3.84
 #: Evaluation cap of the refit without a limit (likelihood-ratio test).
 _LR_NFEV = 8
+#: A limit whose removal (without refit) costs this much chi-square is kept without a refit.
+_CHI2_OBVIOUS = 1e4
 #: Evaluation cap of the re-balancing pass when the residual scale moved a lot.
 _REBALANCE_NFEV = 5
 #: Limits that can be "never active" in a log.
@@ -220,15 +222,30 @@ def _optimise(
     if total_s <= _COARSE_SPAN_S:
         res = solve(prob, x0, nfev)
         return res, res.status != 0
-    windows = []
-    for g in logs:
-        rate = g.meas_t_s.size / max(_span(g), 1e-9)
-        n = max(int(rate * _COARSE_SPAN_S * _span(g) / total_s), 10)
-        windows.append(crop_log(g, *busiest_window(g, n)))
-    coarse = prob.like(windows)
+    coarse = prob.like(_windows(logs))
     first = solve(coarse, x0, nfev)
     prob.n_evals, prob.n_steps = coarse.n_evals, coarse.n_steps
     return solve(prob, np.asarray(first.x), min(nfev, _POLISH_NFEV)), first.status != 0
+
+
+def _windows(logs: Sequence[LogArrays]) -> list[LogArrays]:
+    """The busiest windows of ``logs``, at most :data:`_COARSE_SPAN_S` seconds in total."""
+    total_s = sum(_span(g) for g in logs)
+    if total_s <= _COARSE_SPAN_S:
+        return list(logs)
+    out = []
+    for g in logs:
+        rate = g.meas_t_s.size / max(_span(g), 1e-9)
+        n = max(int(rate * _COARSE_SPAN_S * _span(g) / total_s), 10)
+        out.append(crop_log(g, *busiest_window(g, n)))
+    return out
+
+
+def _cost(prob: Problem, x: FloatArray, loss: str, f_scale: float) -> float:
+    """The objective ``least_squares`` reports as ``cost`` at ``x`` (robust data rows)."""
+    r = prob.residuals(x)
+    rho = _loss(loss, prob.n_data)((r / f_scale) ** 2)
+    return 0.5 * f_scale**2 * float(np.sum(rho[0]))
 
 
 def _drop_inactive_limits(
@@ -237,6 +254,7 @@ def _drop_inactive_limits(
     s2c: float,
     solve: Callable[[Problem, FloatArray, int], Any],
     notes: list[str],
+    loss: tuple[str, float],
 ) -> list[int]:
     """Limits without a prior that the log does not show are not identified: they stay at
     "no limit" (their prior). Likelihood-ratio test: the fit is redone without the limit (a few
@@ -246,6 +264,7 @@ def _drop_inactive_limits(
     x = np.asarray(res.x)
     params = prob.params(x)
     ref = prob.scaled_sim(params)
+    ss_fit = float(np.sum((ref - prob.meas) ** 2))
     dropped: list[int] = []
     for j, field in enumerate(prob.free):
         if field not in _LIMITS or prob.mapper.prior(field) is not None:
@@ -253,10 +272,16 @@ def _drop_inactive_limits(
         unlimited = prob.scaled_sim(params.replace(**{field: math.inf}))
         gain = 0.0
         if float(np.max(np.abs(unlimited - ref))) >= 0.1:
+            # without refitting: an upper bound of the test statistic (cheap)
+            gain = (float(np.sum((unlimited - prob.meas) ** 2)) - ss_fit) / s2c
+        if _CHI2_1_95 <= gain < _CHI2_OBVIOUS:
+            # refit without the limit on the busiest windows (a few steps) and compare there
             rest = [f for i, f in enumerate(prob.free) if i != j and i not in dropped]
-            sub = prob.subset(rest)
+            win = prob.like(_windows(prob.logs))
+            sub = win.subset(rest)
             alt = solve(sub, np.array([x[prob.free.index(f)] for f in rest]), _LR_NFEV)
-            gain = 2.0 * (float(alt.cost) - float(res.cost)) / s2c
+            with_limit = _cost(win, x, *loss)
+            gain = 2.0 * (float(alt.cost) - with_limit) / s2c
         if gain < _CHI2_1_95:
             dropped.append(j)
             notes.append(
@@ -356,7 +381,7 @@ def map_fit(
         message += " (then the prior weight was re-balanced at the solution)"
         s2, c = noise_scale(prob, prob.data_residuals(np.asarray(res.x)), len(free))
     x = np.asarray(res.x)
-    dropped = _drop_inactive_limits(prob, res, s2 * c, solve, notes)
+    dropped = _drop_inactive_limits(prob, res, s2 * c, solve, notes, (loss, f_scale))
     keep = [j for j in range(len(free)) if j not in dropped]
     kept = tuple(free[j] for j in keep)
     ties = {k: v for k, v in exc.ties.items() if v in kept}
