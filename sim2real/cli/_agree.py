@@ -52,6 +52,8 @@ _EXAMPLES = """\
   sim2real agree val.mcap --robot turtlebot3_burger --engine reduced --sim-out sim.mcap
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml \
       --odom-v-window 0            # compare the instantaneous simulated v
+  sim2real agree 'fleet/*.mcap' --robot turtlebot3_burger --params params.yaml \
+      --json fleet.json --ray auto # one Ray task per log; {"logs": [...], "summary": {...}}
 """
 
 _DESCRIPTION = """\
@@ -90,7 +92,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         examples=_EXAMPLES,
     )
     p.add_argument(
-        "log", metavar="LOG", help="the real log: a .mcap file, ROS 1 .bag, rosbag2 folder or .csv"
+        "log",
+        metavar="LOG",
+        nargs="+",
+        help=(
+            "the real log(s): .mcap files, ROS 1 .bag, rosbag2 folders or .csv; paths or quoted "
+            "globs ('fleet/*.mcap'); several logs print one row each and a fleet summary"
+        ),
     )
     p.add_argument("--robot", required=True, help="robot name (see 'sim2real robots list')")
     p.add_argument("--params", metavar="PARAMS.yaml", help="sysid result (default: spec values)")
@@ -140,6 +148,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     p.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
     p.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
+    p.add_argument(
+        "--ray",
+        metavar="auto|ADDRESS",
+        help=(
+            "with several logs, run one Ray task per log: 'auto' joins the running cluster or "
+            "starts a local one, ADDRESS is a head node (needs the [cluster] extra)"
+        ),
+    )
     p.set_defaults(handler=_handle)
 
 
@@ -191,8 +207,14 @@ def run_agree(
     )
 
 
+def _single_log(args: argparse.Namespace) -> str:
+    """The one log of ``args`` (``log`` is a list of one after parsing)."""
+    log = args.log
+    return str(log[0]) if isinstance(log, list) else str(log)
+
+
 def _command_line(args: argparse.Namespace) -> str:
-    parts = ["sim2real", "agree", str(args.log), "--robot", args.robot]
+    parts = ["sim2real", "agree", _single_log(args), "--robot", args.robot]
     for flag, value in (
         ("--params", args.params),
         ("--engine", args.engine),
@@ -222,7 +244,7 @@ def study_config(args: argparse.Namespace) -> StudyConfig:
     the demo and the tour compute the same figures.
     """
     return StudyConfig(
-        log=args.log,
+        log=_single_log(args),
         robot=args.robot,
         params_path=args.params,
         engine=args.engine,
@@ -252,6 +274,14 @@ def _handle(args: argparse.Namespace) -> int:
             f"--min-agreement must be a fraction between 0 and 1, got {gate!r}; "
             "e.g. --min-agreement 0.9 for 90 %"
         )
+    from sim2real.cluster import expand_logs
+
+    logs = expand_logs(args.log)
+    if len(logs) > 1:
+        from sim2real.cli._agree_many import handle_many
+
+        return handle_many(args, logs, study_config(args))
+    args.log = str(logs[0])
     result = run_study(study_config(args))
     for warning in result.warnings:  # data repaired while reading: say so, do not hide it
         print(f"sim2real: warning: {args.log}: {warning}", file=sys.stderr)

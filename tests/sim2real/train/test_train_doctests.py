@@ -8,7 +8,7 @@ import importlib
 import pytest
 
 
-@pytest.mark.parametrize("name", ["sim2real.train", "sim2real.evaluation"])
+@pytest.mark.parametrize("name", ["sim2real.train", "sim2real.evaluation", "sim2real.cluster"])
 def test_docstring_examples(name: str) -> None:
     module = importlib.import_module(name)
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)

@@ -1,0 +1,108 @@
+"""`sim2real agree` with several logs: one study per log (serial or Ray tasks), fleet summary."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+from sim2real.errors import Sim2RealValueError
+
+__all__ = ["handle_many"]
+
+
+def _pct(x: Any) -> str:
+    return f"{100 * float(x):.1f} %" if x is not None and math.isfinite(float(x)) else "n/a"
+
+
+def _num(x: Any, spec: str) -> str:
+    return format(float(x), spec) if x is not None and math.isfinite(float(x)) else "n/a"
+
+
+def table(figures: list[dict[str, Any]], summary: dict[str, Any]) -> str:
+    """One row per log and a pooled summary row, plain text."""
+    head = ("log", "agreement", "agr. v", "agr. w", "FIT % v", "FIT % w", "active")
+    rows = [
+        (
+            Path(str(f.get("log_file"))).name,
+            _pct(f.get("agreement")),
+            _pct(f.get("agreement_v")),
+            _pct(f.get("agreement_w")),
+            _num(f.get("fit_percent_v"), ".1f"),
+            _num(f.get("fit_percent_w"), ".1f"),
+            str(f.get("n_active")),
+        )
+        for f in figures
+    ]
+    rows.append(
+        (
+            f"pooled ({summary['n_logs']} logs)",
+            _pct(summary["agreement"]),
+            _pct(summary["agreement_v"]),
+            _pct(summary["agreement_w"]),
+            "",
+            "",
+            str(summary["n_active"]),
+        )
+    )
+    widths = [max(len(r[i]) for r in (head, *rows)) for i in range(len(head))]
+    lines = [
+        "  ".join(
+            c.ljust(w) if i == 0 else c.rjust(w)
+            for i, (c, w) in enumerate(zip(r, widths, strict=True))
+        )
+        for r in (head, *rows)
+    ]
+    per_log = (
+        f"per log: mean {_pct(summary['agreement_mean'])}, min {_pct(summary['agreement_min'])} "
+        f"({Path(str(summary['worst_log'])).name}), max {_pct(summary['agreement_max'])}"
+    )
+    return "\n".join([*lines, per_log])
+
+
+def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
+    """Run ``base`` (a StudyConfig) on every log; print, write --json, apply --min-agreement."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from sim2real._io import check_output_path
+    from sim2real.cluster import agree_many, fleet_summary
+    from sim2real.study import write_json
+
+    if args.report is not None or args.sim_out is not None:
+        raise Sim2RealValueError(
+            f"--report and --sim-out take one log, got {len(logs)} logs; drop them, or run "
+            "agree once per log for its report"
+        )
+    if args.json:
+        check_output_path(args.json, what="--json file")
+    configs = [dataclasses.replace(base, log=str(p), json_path=None, command_line="") for p in logs]
+    console = Console(stderr=True)
+    with Progress(console=console, transient=True, disable=not console.is_terminal) as bar:
+        task = bar.add_task("logs", total=len(configs))
+        results = agree_many(
+            configs, address=args.ray, on_done=lambda n: bar.update(task, completed=n)
+        )
+    figures = [fig for fig, _ in results]
+    for path, (_, warnings) in zip(logs, results, strict=True):
+        for warning in warnings:
+            print(f"sim2real: warning: {path}: {warning}", file=sys.stderr)
+    summary = fleet_summary(figures)
+    where = "serial" if args.ray is None else f"Ray ({args.ray})"
+    print(f"{len(logs)} logs: robot {args.robot}, engine {args.engine}, {where}")
+    print(table(figures, summary))
+    if args.json:
+        write_json(args.json, {"logs": figures, "summary": summary})
+        print(f"wrote {args.json}")
+    gate = args.min_agreement
+    pooled = summary["agreement"]
+    if gate is not None and not (pooled is not None and pooled >= gate):
+        print(
+            f"pooled agreement {_pct(pooled)} is below --min-agreement {100 * gate:.1f} %",
+            file=sys.stderr,
+        )
+        return 1
+    return 0

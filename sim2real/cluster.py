@@ -1,0 +1,264 @@
+"""Many logs at once: glob expansion, per-log work as Ray tasks, fleet summaries.
+
+The per-log work is the library's own (:func:`sim2real.study.run_study` for ``agree``); this
+module only fans it out. Without Ray (``address=None``) the same function runs in a plain loop,
+so the serial and the Ray paths give identical figures. Ray is the optional ``[cluster]`` extra.
+
+``address``:
+
+- ``"auto"``: join the Ray cluster this machine belongs to (``ray start --head`` ran here, or
+  ``RAY_ADDRESS`` is set); when none is running, start a local one with every core;
+- ``"HOST:PORT"`` / ``"ray://HOST:10001"``: that cluster's head node.
+
+Example
+-------
+>>> from sim2real.cluster import map_tasks
+>>> map_tasks(abs, [-1, 2, -3])          # no address: a plain loop, results in input order
+[1, 2, 3]
+"""
+
+from __future__ import annotations
+
+import glob
+import math
+import os
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, TypeVar
+
+from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
+
+__all__ = [
+    "agree_many",
+    "connect",
+    "expand_logs",
+    "fleet_summary",
+    "map_tasks",
+    "write_synthetic_fleet",
+]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def expand_logs(patterns: Sequence[str | Path], *, what: str = "LOG") -> list[Path]:
+    """Paths and shell globs (``logs/*.mcap``, ``runs/**/*.bag``) as a sorted, de-duplicated list.
+
+    A glob that matches nothing, or a plain path that does not exist, is refused naming it.
+
+    Examples
+    --------
+    >>> expand_logs(["data/demo_*.mcap"])  # doctest: +SKIP
+    [PosixPath('data/demo_train.mcap'), PosixPath('data/demo_validate.mcap')]
+    """
+    out: list[Path] = []
+    for pattern in patterns:
+        text = str(pattern)
+        if glob.has_magic(text):
+            hits = sorted(glob.glob(text, recursive=True))
+            if not hits:
+                raise Sim2RealFileNotFoundError(
+                    f"{what} pattern '{text}' matches no file; check the folder and the pattern "
+                    "(quote it so the shell does not expand it first)"
+                )
+            out.extend(Path(h) for h in hits)
+        else:
+            out.append(Path(text))
+    seen: set[Path] = set()
+    unique = []
+    for p in out:
+        key = p.resolve()
+        if key not in seen:
+            seen.add(key)
+            unique.append(p)
+    return unique
+
+
+def connect(address: str) -> None:
+    """Initialise Ray for ``address`` (``auto`` or a head node); no-op when already initialised."""
+    try:
+        import ray
+    except ImportError:
+        raise Sim2RealValueError(
+            f"--ray {address} needs Ray, which is not installed; install the cluster extra with "
+            "`pip install -e '.[cluster]'` or drop --ray"
+        ) from None
+    if ray.is_initialized():
+        return
+    kw: dict[str, Any] = {"include_dashboard": False, "logging_level": "ERROR"}
+    if address == "auto":
+        try:
+            ray.init(address="auto", **kw)
+            return
+        except ConnectionError:  # none running: a local one on this machine
+            os.environ.pop("RAY_ADDRESS", None)
+            ray.init(**kw)
+            return
+    try:
+        ray.init(address=address, **kw)
+    except (ConnectionError, ValueError, RuntimeError) as exc:
+        raise Sim2RealValueError(
+            f"--ray {address}: cannot connect to a Ray cluster there ({' '.join(str(exc).split())}); "
+            "give the head node's HOST:PORT (see `ray status` on it) or 'auto'"
+        ) from None
+
+
+def map_tasks(
+    fn: Callable[[T], R],
+    items: Sequence[T],
+    *,
+    address: str | None = None,
+    on_done: Callable[[int], None] | None = None,
+) -> list[R]:
+    """``[fn(x) for x in items]``, as one Ray task per item when ``address`` is given.
+
+    Results come back in the order of ``items``. A task's exception is re-raised as itself
+    (e.g. a bad log's one-sentence error). ``on_done(n)`` is called as tasks finish (progress).
+    """
+    if address is None:
+        results = []
+        for x in items:
+            results.append(_pinned(fn, x))  # same thread count as a Ray task: same bits
+            if on_done is not None:
+                on_done(len(results))
+        return results
+    connect(address)
+    import ray
+
+    remote = ray.remote(num_cpus=1, max_retries=0)(_pinned)
+    fn_ref = ray.put(fn)
+    refs = [remote.remote(fn_ref, x) for x in items]
+    pending = list(refs)
+    while pending:
+        _, pending = ray.wait(pending, num_returns=1)
+        if on_done is not None:
+            on_done(len(refs) - len(pending))
+    try:
+        return list(ray.get(refs))
+    except ray.exceptions.RayTaskError as exc:
+        cause = getattr(exc, "cause", None)
+        if isinstance(cause, BaseException):
+            raise cause from None
+        raise
+
+
+def _pinned(fn: Callable[[Any], Any], x: Any) -> Any:
+    """``fn(x)`` with BLAS/OpenMP pinned to one thread (one task per core; a Ray task)."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1):
+        return fn(x)
+
+
+# --------------------------------------------------------------------------- agree
+
+
+def _study_figures(config: Any) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """One log's agreement figures and read warnings (a Ray task; light to ship back)."""
+    from sim2real.study import run_study
+
+    result = run_study(config)
+    return result.figures, result.warnings
+
+
+def agree_many(
+    configs: Sequence[Any],
+    *,
+    address: str | None = None,
+    on_done: Callable[[int], None] | None = None,
+) -> list[tuple[dict[str, Any], tuple[str, ...]]]:
+    """Run :func:`sim2real.study.run_study` for each config (one per log), serially or on Ray.
+
+    Returns each log's ``(figures, warnings)`` in input order.
+    """
+    return map_tasks(_study_figures, list(configs), address=address, on_done=on_done)
+
+
+def _finite(values: Sequence[Any]) -> list[float]:
+    return [float(v) for v in values if v is not None and math.isfinite(float(v))]
+
+
+def fleet_summary(figures: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Across logs: agreement pooled over active samples, and its mean / min / max per log.
+
+    Examples
+    --------
+    >>> s = fleet_summary([{"log_file": "a", "agreement": 0.8, "agreement_v": 0.9,
+    ...                     "agreement_w": 0.85, "n_active": 100},
+    ...                    {"log_file": "b", "agreement": 0.5, "agreement_v": 0.6,
+    ...                     "agreement_w": 0.7, "n_active": 300}])
+    >>> s["agreement"], s["agreement_min"], s["worst_log"]
+    (0.575, 0.5, 'b')
+    """
+    n_active = [int(f.get("n_active") or 0) for f in figures]
+    total = sum(n_active)
+    out: dict[str, Any] = {"n_logs": len(figures), "n_active": total}
+    for key in ("agreement", "agreement_v", "agreement_w"):
+        pairs = [
+            (float(f[key]), n)
+            for f, n in zip(figures, n_active, strict=True)
+            if f.get(key) is not None and math.isfinite(float(f[key]))
+        ]
+        weight = sum(n for _, n in pairs)
+        out[key] = sum(v * n for v, n in pairs) / weight if weight else None
+    per_log = _finite([f.get("agreement") for f in figures])
+    out["agreement_mean"] = sum(per_log) / len(per_log) if per_log else None
+    out["agreement_min"] = min(per_log) if per_log else None
+    out["agreement_max"] = max(per_log) if per_log else None
+    ranked = [f for f in figures if f.get("agreement") is not None]
+    out["worst_log"] = (
+        min(ranked, key=lambda f: float(f["agreement"])).get("log_file") if ranked else None
+    )
+    coverage = _finite([f.get("coverage") for f in figures])
+    if coverage:
+        out["coverage_mean"] = sum(coverage) / len(coverage)
+    return out
+
+
+def write_synthetic_fleet(
+    folder: str | Path,
+    n: int,
+    *,
+    duration_s: float = 60.0,
+    robot: str = "turtlebot3_burger",
+    seed: int = 0,
+) -> list[Path]:
+    """Write ``n`` synthetic sessions (ROS 2 MCAP) of a fleet, for benchmarks and tests.
+
+    Session i drives random step commands (:func:`sysid.synthetic.step_commands`, seed
+    ``seed + i``) on the reduced model with the robot's spec parameters, its command delay and
+    added mass varied per session, and records degraded odometry
+    (:func:`sysid.synthetic.synthetic_log`). Files are ``session_000.mcap``, ...
+
+    Examples
+    --------
+    >>> paths = write_synthetic_fleet("fleet", 3, duration_s=20.0)  # doctest: +SKIP
+    """
+    import numpy as np
+
+    from robots.spec import load_spec
+    from sim2real.logs import write_velocity_log
+    from sysid.synthetic import step_commands, synthetic_log
+
+    spec = load_spec(robot)
+    out = Path(folder)
+    paths = []
+    for i in range(n):
+        rng = np.random.default_rng(seed + i)
+        params = spec.drive.replace(
+            delay_s=float(rng.uniform(0.05, 0.2)), added_mass_kg=float(rng.uniform(0.0, 0.5))
+        )
+        t, v, w = step_commands(duration_s, seed=seed + i)
+        log = synthetic_log(params, spec.geometry, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed + i)
+        ns = 1_000_000_000
+        path = write_velocity_log(
+            out / f"session_{i:03d}.mcap",
+            cmd_t_ns=np.round(log.cmd_t_s * ns).astype(np.int64) + ns,
+            cmd_v=log.cmd_v,
+            cmd_w=log.cmd_w,
+            meas_t_ns=np.round(log.meas_t_s * ns).astype(np.int64) + ns,
+            meas_v=log.meas_v,
+            meas_w=log.meas_w,
+        )
+        paths.append(path)
+    return paths

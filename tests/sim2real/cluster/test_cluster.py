@@ -1,0 +1,107 @@
+"""Many logs: glob expansion, fleet summary, `agree` with several logs (serial and Ray)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from sim2real.cli import main
+from sim2real.cluster import expand_logs, fleet_summary, map_tasks, write_synthetic_fleet
+from sim2real.errors import Sim2RealFileNotFoundError
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("fleet")
+    write_synthetic_fleet(folder, 3, duration_s=20.0, seed=5)
+    return folder
+
+
+def test_expand_logs_globs_sorted_and_deduplicated(fleet: Path) -> None:
+    got = expand_logs([str(fleet / "session_001.mcap"), str(fleet / "*.mcap")])
+    assert [p.name for p in got] == ["session_001.mcap", "session_000.mcap", "session_002.mcap"]
+    with pytest.raises(Sim2RealFileNotFoundError, match=r"pattern '.*nothing_\*.bag' matches no"):
+        expand_logs([str(fleet / "nothing_*.bag")])
+    # a plain missing path passes through: the reader names it with its own error
+    assert expand_logs(["missing.mcap"]) == [Path("missing.mcap")]
+
+
+def test_fleet_summary_pools_over_active_samples() -> None:
+    figs = [
+        {"log_file": "a", "agreement": 1.0, "agreement_v": 1.0, "agreement_w": 1.0, "n_active": 1},
+        {"log_file": "b", "agreement": 0.0, "agreement_v": 0.5, "agreement_w": None, "n_active": 3},
+        {
+            "log_file": "c",
+            "agreement": None,
+            "agreement_v": None,
+            "agreement_w": None,
+            "n_active": 0,
+        },
+    ]
+    s = fleet_summary(figs)
+    assert s["n_logs"] == 3 and s["n_active"] == 4
+    assert s["agreement"] == pytest.approx(0.25)
+    assert s["agreement_v"] == pytest.approx((1.0 + 1.5) / 4)
+    assert s["agreement_w"] == pytest.approx(1.0)  # only a has w
+    assert (s["agreement_mean"], s["agreement_min"], s["agreement_max"]) == (0.5, 0.0, 1.0)
+    assert s["worst_log"] == "b"
+
+
+def test_map_tasks_serial_keeps_order() -> None:
+    seen: list[int] = []
+    assert map_tasks(str, [3, 1, 2], on_done=seen.append) == ["3", "1", "2"]
+    assert seen == [1, 2, 3]
+
+
+def _agree(fleet: Path, out: Path, *extra: str) -> int:
+    argv = ["agree", str(fleet / "*.mcap"), "--robot", "turtlebot3_burger"]
+    return main([*argv, "--engine", "reduced", "--json", str(out), *extra])
+
+
+def test_agree_many_logs_json_layout(
+    fleet: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert _agree(fleet, tmp_path / "fleet.json") == 0
+    doc = json.loads((tmp_path / "fleet.json").read_text())
+    assert sorted(doc) == ["logs", "summary"]
+    assert [Path(f["log_file"]).name for f in doc["logs"]] == [
+        f"session_00{i}.mcap" for i in range(3)
+    ]
+    assert doc["summary"]["n_logs"] == 3
+    assert doc["summary"]["n_active"] == sum(f["n_active"] for f in doc["logs"])
+    # each log's figures are exactly what agree reports for that log alone
+    single = tmp_path / "one.json"
+    argv = ["agree", str(fleet / "session_001.mcap"), "--robot", "turtlebot3_burger"]
+    assert main([*argv, "--engine", "reduced", "--json", str(single)]) == 0
+    one = json.loads(single.read_text())
+    many = doc["logs"][1]
+    for key in ("agreement", "agreement_v", "agreement_w", "n_active", "fit_percent_v"):
+        assert many[key] == pytest.approx(one[key], rel=1e-12)
+    out = capsys.readouterr().out
+    assert "pooled (3 logs)" in out and "serial" in out
+
+
+def test_agree_many_logs_refuses_report_and_gates(
+    fleet: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert _agree(fleet, tmp_path / "f.json", "--report", str(tmp_path / "r.html")) == 2
+    err = capsys.readouterr().err
+    assert "--report and --sim-out take one log, got 3 logs" in err and err.count("\n") == 1
+    assert _agree(fleet, tmp_path / "f.json", "--min-agreement", "0.999") == 1
+    assert "pooled agreement" in capsys.readouterr().err
+
+
+@pytest.mark.cluster
+@pytest.mark.slow
+def test_agree_on_ray_gives_the_serial_figures(fleet: Path, tmp_path: Path) -> None:
+    import ray
+
+    ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR")
+    try:
+        assert _agree(fleet, tmp_path / "serial.json") == 0
+        assert _agree(fleet, tmp_path / "ray.json", "--ray", "auto") == 0  # joins this one
+    finally:
+        ray.shutdown()
+    assert (tmp_path / "ray.json").read_bytes() == (tmp_path / "serial.json").read_bytes()
