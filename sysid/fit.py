@@ -409,6 +409,59 @@ def _bootstrap_std(
     return {f: float(np.std(values[:, j], ddof=1)) for j, f in enumerate(free)}
 
 
+@dataclass(frozen=True)
+class _Session:
+    """Fit of one session (a group of logs): excitation analysis, then the MAP fit.
+
+    A picklable callable, so that ``fit_drive(map_sessions=...)`` can run sessions as tasks
+    elsewhere (``sim2real sysid fit --ray``); it returns the posterior and the notes it adds.
+    """
+
+    geometry: BaseGeometry
+    base: DriveParams
+    free: Any
+    mapper: Mapper
+    problem_kw: dict[str, Any]
+    loss: str
+    f_scale: float
+    max_nfev: int
+    python: bool
+    several: bool
+    informative: frozenset[str] = frozenset()
+
+    def __call__(
+        self,
+        group: Sequence[LogArrays],
+        *,
+        on_eval: Callable[[int], None] | None = None,
+        notes: list[str] | None = None,
+    ) -> tuple[Posterior, list[str]]:
+        out = notes if notes is not None else []
+        start = len(out)
+        exc = analyse(group, self.geometry, self.base, self.free, set(self.informative))
+        prefix = f"{group[0].name}: " if self.several else ""
+        out += [prefix + w for w in exc.warnings]
+        post = map_fit(
+            group,
+            self.mapper,
+            exc,
+            problem_kw=self.problem_kw,
+            loss=self.loss,
+            f_scale=self.f_scale,
+            max_nfev=self.max_nfev,
+            python=self.python,
+            on_eval=on_eval,
+            notes=out,
+        )
+        out += [
+            f"{prefix}{post.free[j]} is not determined by the log and has no prior (flat "
+            "direction of the fit): it is kept at its value and not randomised; fix it (--free) "
+            "or record a richer log"
+            for j in post.weak
+        ]
+        return post, out[start:]
+
+
 def fit_drive(
     logs: Sequence[object],
     *,
@@ -432,6 +485,7 @@ def fit_drive(
     segment_s: float = 10.0,
     seed: int = 0,
     progress: Progress | None = None,
+    map_sessions: Callable[[Callable[[Any], Any], Sequence[Any]], Sequence[Any]] | None = None,
 ) -> SysidResult:
     r"""MAP fit of the drive parameters to velocity logs (one or several sessions).
 
@@ -485,6 +539,10 @@ def fit_drive(
         Seed of the bootstrap draws.
     progress : callable, optional
         ``progress(stage, fraction)``, called as the fit advances.
+    map_sessions : callable, optional
+        ``map_sessions(fn, groups) -> [fn(g) for g in groups]`` for several logs, e.g. one Ray
+        task per session (``sim2real.cluster.map_tasks``); the results are identical to the
+        default in-process loop.
 
     Returns
     -------
@@ -523,34 +581,33 @@ def fit_drive(
         "v_window_s": odom_v_window_s,
     }
     groups = [fit_logs] if len(fit_logs) == 1 else [[g] for g in fit_logs]
+    session = _Session(
+        geometry=geometry,
+        base=base,
+        free=free,
+        mapper=mapper,
+        problem_kw=problem_kw,
+        loss=loss,
+        f_scale=f_scale,
+        max_nfev=max_nfev,
+        python=python,
+        several=len(groups) > 1,
+        informative=frozenset(informative),
+    )
     posts: list[Posterior] = []
-    for k, group in enumerate(groups):
-        exc = analyse(group, geometry, base, free, informative)
-        prefix = f"{group[0].name}: " if len(groups) > 1 else ""
-        notes += [prefix + w for w in exc.warnings]
+    if map_sessions is not None and len(groups) > 1:
+        # one task per session (e.g. Ray): no per-evaluation progress, notes merged in order
+        report("fitting", 0.05)
+        for post, session_notes in map_sessions(session, groups):
+            posts.append(post)
+            notes += session_notes
+    for k, group in enumerate(groups if not posts else []):
         lo, span = 0.05 + 0.85 * k / len(groups), 0.85 / len(groups)
 
         def on_eval(n: int, lo: float = lo, span: float = span) -> None:
             report("fitting", lo + span * min(n / (4 * max_nfev), 1.0))
 
-        post = map_fit(
-            group,
-            mapper,
-            exc,
-            problem_kw=problem_kw,
-            loss=loss,
-            f_scale=f_scale,
-            max_nfev=max_nfev,
-            python=python,
-            on_eval=on_eval,
-            notes=notes,
-        )
-        notes += [
-            f"{prefix}{post.free[j]} is not determined by the log and has no prior (flat "
-            "direction of the fit): it is kept at its value and not randomised; fix it (--free) "
-            "or record a richer log"
-            for j in post.weak
-        ]
+        post, session_notes = session(group, on_eval=on_eval, notes=notes)
         posts.append(post)
     notes += _convergence_notes(
         posts, [g.name for g in fit_logs] if len(posts) > 1 else ["fit"], max_nfev

@@ -33,6 +33,7 @@ _FIT_EXAMPLES = """\
   sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --cmd-topic /mobile_base/cmd_vel
   sim2real sysid fit real.mcap --robot turtlebot3_burger -o p.yaml --odom-v-window auto
   sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --bootstrap 20 --seed 1
+  sim2real sysid fit 'fleet/*.mcap' --robot turtlebot3_burger -o fleet.yaml --ray auto
 """
 _SHOW_EXAMPLES = """\
   sim2real sysid show params.yaml
@@ -75,9 +76,20 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "logs",
         nargs="+",
         metavar="LOG",
-        help="fitting log(s): a .mcap file, ROS 1 .bag, rosbag2 folder or .csv",
+        help=(
+            "fitting log(s): .mcap files, ROS 1 .bag, rosbag2 folders or .csv; paths or quoted "
+            "globs ('fleet/*.mcap'); several logs are several sessions (a population)"
+        ),
     )
     fit.add_argument("--robot", required=True, help="robot spec name (see 'sim2real robots list')")
+    fit.add_argument(
+        "--ray",
+        metavar="auto|ADDRESS",
+        help=(
+            "with several sessions, fit each as a Ray task: 'auto' joins the running cluster or "
+            "starts a local one, ADDRESS is a head node (needs the [cluster] extra)"
+        ),
+    )
     fit.add_argument("-o", "--output", required=True, metavar="PARAMS.yaml", help="result file")
     fit.add_argument(
         "--validate", action="append", default=[], metavar="VAL.mcap", help="validation log(s)"
@@ -236,8 +248,11 @@ def _fit(args: argparse.Namespace) -> int:
 
     from robots.spec import load_spec
     from sim2real._io import atomic_write, check_not_an_input, check_output_path
+    from sim2real.cluster import expand_logs, map_tasks
     from sysid import fit_drive
 
+    args.logs = [str(p) for p in expand_logs(args.logs)]
+    args.validate = [str(p) for p in expand_logs(args.validate, what="--validate")]
     out = check_output_path(args.output, what="params file")
     check_not_an_input(out, [*args.logs, *args.validate], what="params file")
     spec = load_spec(args.robot)
@@ -276,6 +291,9 @@ def _fit(args: argparse.Namespace) -> int:
             bootstrap=args.bootstrap,
             seed=args.seed,
             progress=progress,
+            map_sessions=None
+            if args.ray is None
+            else lambda fn, groups: map_tasks(fn, groups, address=args.ray),
         )
     with atomic_write(out, "w", what="params file") as fh:
         fh.write(result.to_yaml())

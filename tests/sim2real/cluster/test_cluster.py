@@ -105,3 +105,54 @@ def test_agree_on_ray_gives_the_serial_figures(fleet: Path, tmp_path: Path) -> N
     finally:
         ray.shutdown()
     assert (tmp_path / "ray.json").read_bytes() == (tmp_path / "serial.json").read_bytes()
+
+
+def _fit_doc(path: Path) -> dict:
+    import yaml
+
+    doc = yaml.safe_load(path.read_text())
+    doc.pop("timing", None)
+    return {k: v for k, v in doc.items() if k not in ("timing", "seconds")}
+
+
+@pytest.mark.slow
+def test_fit_drive_map_sessions_gives_the_loop_result(fleet: Path) -> None:
+    """A session map (what --ray plugs in) changes nothing: same posterior, population, notes."""
+    from robots.spec import load_spec
+    from sim2real.logs import read_trace
+    from sysid import fit_drive
+
+    spec = load_spec("turtlebot3_burger")
+    logs = [read_trace(p) for p in sorted(fleet.glob("*.mcap"))[:2]]
+    kw = {"geometry": spec.geometry, "base_params": spec.drive, "priors": spec.priors}
+    calls: list[int] = []
+
+    def mapper(fn, groups):  # type: ignore[no-untyped-def]
+        calls.append(len(groups))
+        return [fn(g) for g in reversed(groups)][::-1]  # order of work must not matter
+
+    a = fit_drive(logs, **kw)
+    b = fit_drive(logs, **kw, map_sessions=mapper)
+    assert calls == [2]
+    assert a.params == b.params
+    assert a.warnings == b.warnings
+    assert a.to_dict()["randomization"] == b.to_dict()["randomization"]
+
+
+@pytest.mark.cluster
+@pytest.mark.slow
+def test_sysid_fit_on_ray_gives_the_serial_result(fleet: Path, tmp_path: Path) -> None:
+    import ray
+
+    argv = ["sysid", "fit", str(fleet / "session_00[01].mcap"), "--robot", "turtlebot3_burger"]
+    ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR")
+    try:
+        assert main([*argv, "-o", str(tmp_path / "serial.yaml")]) == 0
+        assert main([*argv, "-o", str(tmp_path / "ray.yaml"), "--ray", "auto"]) == 0
+    finally:
+        ray.shutdown()
+    serial, on_ray = _fit_doc(tmp_path / "serial.yaml"), _fit_doc(tmp_path / "ray.yaml")
+    serial["settings"].pop("seconds", None)
+    on_ray["settings"].pop("seconds", None)
+    assert serial == on_ray
+    assert len(serial["data"]) == 2
