@@ -69,7 +69,9 @@ PPO = {
     "batch_size": 256,
     "n_epochs": 4,
     "gamma": 0.99,
-    "policy_kwargs": {"net_arch": [64, 64]},
+    # std 0.22 at the start: with std 1 most draws of v (range [0, 0.21]) are clipped, and the
+    # deterministic policy (the mean) may stand still after a short budget
+    "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.5},
 }
 #: Drive-chain fields randomised (the speed caps stay: the action space is bounded anyway).
 DR_FIELDS = (
