@@ -2,7 +2,7 @@
 
 Run (needs the [train] extra; minutes to hours depending on the budget)::
 
-    nice .venv/bin/python benchmarks/bench_dr_experiment.py --timesteps 40000 --seeds 0 1 2 \\
+    nice .venv/bin/python benchmarks/bench_dr_experiment.py --timesteps 60000 --seeds 0 1 2 \\
         --episodes 30 --out bench-dr
 
 Protocol
@@ -184,7 +184,7 @@ def t_interval(x: list[float]) -> tuple[float, float, float]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--timesteps", type=int, default=40_000, help="PPO env steps per run")
+    ap.add_argument("--timesteps", type=int, default=60_000, help="PPO env steps per run")
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     ap.add_argument("--episodes", type=int, default=40, help="evaluation episodes per model")
     ap.add_argument("--n-envs", type=int, default=2)
