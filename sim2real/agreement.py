@@ -767,7 +767,7 @@ def band_verdict(
     Examples
     --------
     >>> band_verdict(coverage_v=0.42, coverage_w=0.9).split(":")[0]
-    'The 90 % band is too narrow'
+    'The 90 % band is too narrow on v'
     >>> band_verdict(coverage_v=0.9, coverage_w=0.93).split(":")[0]
     'The 90 % band is calibrated'
     """

@@ -171,7 +171,7 @@ def predictive_log_likelihood(real: FloatArray, members: FloatArray, noise_var: 
     >>> import numpy as np
     >>> members = np.array([[0.0, 1.0], [0.2, 1.2], [0.1, 1.1]])
     >>> round(predictive_log_likelihood(np.array([0.1, 1.1]), members, 0.01), 3)
-    1.262
+    0.96
     """
     n = members.shape[0]
     mean = members.mean(axis=0)

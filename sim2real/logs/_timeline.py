@@ -16,7 +16,7 @@ segment's measurements; farther commands are far outliers too.
 Example
 -------
 >>> import numpy as np
->>> t = np.array([0, 1, 2, 3, 4, 5, 10**18], dtype=np.int64) * 10**8
+>>> t = np.array([0, 1, 2, 3, 4, 5, 10**10], dtype=np.int64) * 10**8  # last: 32 years on
 >>> bounds = segment_bounds(t)
 >>> [(int(a), int(b)) for a, b in bounds]
 [(0, 6), (6, 7)]
