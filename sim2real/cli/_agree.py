@@ -264,6 +264,27 @@ def study_config(args: argparse.Namespace) -> StudyConfig:
     )
 
 
+def _refuse_ensemble_options(args: argparse.Namespace) -> None:
+    """Refuse --seed/--spread/--band-level without --ensemble (they would be silently ignored)."""
+    from sim2real.errors import Sim2RealValueError
+
+    given = [
+        flag
+        for flag, value, default in (
+            ("--seed", args.seed, 0),
+            ("--spread", args.spread, 1.0),
+            ("--band-level", args.band_level, 0.9),
+        )
+        if value != default
+    ]
+    if given:
+        raise Sim2RealValueError(
+            f"{', '.join(given)} only shape the ensemble's predictive band, which needs "
+            "--ensemble N; add e.g. --ensemble 20 --params params.yaml, or drop "
+            f"{', '.join(given)}"
+        )
+
+
 def _handle(args: argparse.Namespace) -> int:
     from sim2real.errors import Sim2RealValueError
     from sim2real.study import run_study
@@ -274,6 +295,8 @@ def _handle(args: argparse.Namespace) -> int:
             f"--min-agreement must be a fraction between 0 and 1, got {gate!r}; "
             "e.g. --min-agreement 0.9 for 90 %"
         )
+    if args.ensemble is None:
+        _refuse_ensemble_options(args)
     from sim2real.cluster import expand_logs
 
     logs = expand_logs(args.log)

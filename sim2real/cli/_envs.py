@@ -190,7 +190,10 @@ def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
             kw["num_opponents"] = opponents
         return gym.make(env_id, dynamics=args.dynamics, **kw), None
     if given:
-        raise Sim2RealValueError(f"{', '.join(given)} apply to Race-v0 only; drop them")
+        raise Sim2RealValueError(
+            f"{', '.join(given)} {'applies' if len(given) == 1 else 'apply'} to Race-v0 only, "
+            f"not {args.env}; drop {'it' if len(given) == 1 else 'them'}"
+        )
     if env_id.endswith("CarCrossing-v0"):
         if args.preset is not None or args.scenario is not None or args.complexity is not None:
             raise Sim2RealValueError(

@@ -539,6 +539,8 @@ def test_sysid_show_of_a_good_params_file_exits_0(
         (["--params", "OK", "--ensemble", "3", "--band-level", "0"], ["--band-level", "0.0"]),
         (["--params", "OK", "--ensemble", "3", "--band-level", "nan"], ["--band-level", "nan"]),
         (["--params", "OK", "--ensemble", "0"], ["--ensemble", "0"]),
+        (["--params", "OK", "--spread", "3"], ["--spread only shape", "needs --ensemble N"]),
+        (["--seed", "7", "--band-level", "0.8"], ["--seed, --band-level", "needs --ensemble N"]),
     ],
 )
 def test_bad_agree_argument_exits_2_before_writing(

@@ -71,7 +71,11 @@ def test_eval_prints_rates_and_writes_json(
         (["envs", "eval", "Race-v0", "--opponents", "-1"], "must be an integer in [0, 5]"),
         (["envs", "eval", "Race-v0", "--planner", "rrt"], "--planner must be one of astar"),
         (["envs", "eval", "CrowdNav-v0", "--complexity", "1.5"], "must be a number in [0, 1]"),
-        (["envs", "eval", "RandomMap-v0", "--track", "open"], "apply to Race-v0 only"),
+        (["envs", "eval", "RandomMap-v0", "--track", "open"], "--track applies to Race-v0 only"),
+        (
+            ["envs", "eval", "RandomMap-v0", "--track", "open", "--opponents", "2"],
+            "--track, --opponents apply to Race-v0 only, not RandomMap-v0; drop them",
+        ),
     ],
 )
 def test_bad_input_exits_2(
