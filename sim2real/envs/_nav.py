@@ -13,7 +13,12 @@ import gymnasium as gym
 import numpy as np
 
 from robots.params import DriveParams
-from sim2real.envs._robot import DYNAMICS, RobotBackend, footprint_radius_m, make_backend
+from sim2real.envs._robot import (
+    RobotBackend,
+    check_env_arguments,
+    footprint_radius_m,
+    make_backend,
+)
 from sim2real.envs._world import PybulletWorld
 from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, disc_clearance
 from sim2real.envs.metrics import EpisodeMetrics, MetricsTracker
@@ -73,26 +78,12 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
         needs_world: bool,
     ) -> None:
         super().__init__()
-        if dynamics not in DYNAMICS:
-            raise Sim2RealValueError(
-                f"dynamics (--dynamics) must be one of {', '.join(DYNAMICS)}, got {dynamics!r}; "
-                "use 'reduced' (fast) or 'pybullet' (full rigid-body robot)"
-            )
-        if not (
-            isinstance(control_dt, int | float) and math.isfinite(control_dt) and control_dt > 0
-        ):
-            raise Sim2RealValueError(
-                f"control_dt must be a finite number of seconds > 0, got {control_dt!r}; "
-                "the default is 0.1"
-            )
-        if not (isinstance(max_episode_steps, int) and max_episode_steps >= 1):
-            raise Sim2RealValueError(
-                f"max_episode_steps must be an integer >= 1, got {max_episode_steps!r}"
-            )
-        if drive_params is not None and not isinstance(drive_params, DriveParams):
-            raise Sim2RealValueError(
-                f"drive_params must be a robots.DriveParams, got {type(drive_params).__name__}"
-            )
+        check_env_arguments(
+            dynamics=dynamics,
+            control_dt=control_dt,
+            max_episode_steps=max_episode_steps,
+            drive_params=drive_params,
+        )
         self.robot_spec = _load_spec(robot)
         self.dynamics = dynamics
         #: Control period, s (the randomizers read ``env.unwrapped.control_dt``).

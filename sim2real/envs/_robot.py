@@ -16,10 +16,43 @@ from robots.params import DriveParams
 from robots.reduced import ReducedDrive
 from sim2real.errors import Sim2RealValueError
 
-__all__ = ["DYNAMICS", "RobotBackend", "footprint_radius_m", "make_backend"]
+__all__ = ["DYNAMICS", "RobotBackend", "check_env_arguments", "footprint_radius_m", "make_backend"]
 
 #: The dynamics back-ends an env accepts.
 DYNAMICS = ("reduced", "pybullet")
+
+
+def check_env_arguments(
+    *,
+    dynamics: str,
+    control_dt: float,
+    max_episode_steps: int,
+    drive_params: DriveParams | None,
+    pybullet_body: str = "full rigid-body robot",
+) -> None:
+    """Refuse an env constructor's common arguments that are out of range, in one sentence.
+
+    Shared by the navigation envs, CarCrossing-v0 and Race-v0; ``pybullet_body`` names what the
+    pybullet back-end simulates.
+    """
+    if dynamics not in DYNAMICS:
+        raise Sim2RealValueError(
+            f"dynamics (--dynamics) must be one of {', '.join(DYNAMICS)}, got {dynamics!r}; "
+            f"use 'reduced' (fast) or 'pybullet' ({pybullet_body})"
+        )
+    if not (isinstance(control_dt, int | float) and math.isfinite(control_dt) and control_dt > 0):
+        raise Sim2RealValueError(
+            f"control_dt must be a finite number of seconds > 0, got {control_dt!r}; "
+            "the default is 0.1"
+        )
+    if not (isinstance(max_episode_steps, int) and max_episode_steps >= 1):
+        raise Sim2RealValueError(
+            f"max_episode_steps must be an integer >= 1, got {max_episode_steps!r}"
+        )
+    if drive_params is not None and not isinstance(drive_params, DriveParams):
+        raise Sim2RealValueError(
+            f"drive_params must be a robots.DriveParams, got {type(drive_params).__name__}"
+        )
 
 
 def footprint_radius_m(spec: Any) -> float:

@@ -77,7 +77,7 @@ from gymnasium import spaces
 
 from robots.params import DriveParams
 from sim2real.envs._car import CAR, DEFAULT_CAR_PARAMS, CarModel, PybulletCar, ReducedCar
-from sim2real.envs._robot import DYNAMICS
+from sim2real.envs._robot import check_env_arguments
 from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, rectangle_segments
 from sim2real.envs.metrics import MetricsTracker
 from sim2real.errors import Sim2RealValueError
@@ -196,26 +196,13 @@ class CarCrossingEnv(gym.Env):  # type: ignore[type-arg]
         drive_params: DriveParams | None = None,
     ) -> None:
         super().__init__()
-        if dynamics not in DYNAMICS:
-            raise Sim2RealValueError(
-                f"dynamics (--dynamics) must be one of {', '.join(DYNAMICS)}, got {dynamics!r}; "
-                "use 'reduced' (fast) or 'pybullet' (rigid-body car)"
-            )
-        if not (
-            isinstance(control_dt, int | float) and math.isfinite(control_dt) and control_dt > 0
-        ):
-            raise Sim2RealValueError(
-                f"control_dt must be a finite number of seconds > 0, got {control_dt!r}; "
-                "the default is 0.1"
-            )
-        if not (isinstance(max_episode_steps, int) and max_episode_steps >= 1):
-            raise Sim2RealValueError(
-                f"max_episode_steps must be an integer >= 1, got {max_episode_steps!r}"
-            )
-        if drive_params is not None and not isinstance(drive_params, DriveParams):
-            raise Sim2RealValueError(
-                f"drive_params must be a robots.DriveParams, got {type(drive_params).__name__}"
-            )
+        check_env_arguments(
+            dynamics=dynamics,
+            control_dt=control_dt,
+            max_episode_steps=max_episode_steps,
+            drive_params=drive_params,
+            pybullet_body="rigid-body car",
+        )
         self.dynamics = dynamics
         #: Control period, s (the randomizers read ``env.unwrapped.control_dt``).
         self.control_dt = float(control_dt)

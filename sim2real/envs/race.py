@@ -59,7 +59,12 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from robots.params import DriveParams
-from sim2real.envs._robot import DYNAMICS, RobotBackend, footprint_radius_m, make_backend
+from sim2real.envs._robot import (
+    RobotBackend,
+    check_env_arguments,
+    footprint_radius_m,
+    make_backend,
+)
 from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, disc_clearance
 from sim2real.envs.metrics import MetricsTracker
 from sim2real.envs.orca import OrcaConfig, orca_velocities
@@ -168,19 +173,12 @@ class RaceCore:
     ) -> None:
         from robots.spec import load_spec
 
-        if dynamics not in DYNAMICS:
-            raise Sim2RealValueError(
-                f"dynamics (--dynamics) must be one of {', '.join(DYNAMICS)}, got {dynamics!r}; "
-                "use 'reduced' (fast) or 'pybullet' (full rigid-body robot)"
-            )
-        if not (
-            isinstance(control_dt, int | float) and math.isfinite(control_dt) and control_dt > 0
-        ):
-            raise Sim2RealValueError(f"control_dt must be a finite number > 0, got {control_dt!r}")
-        if not (isinstance(max_episode_steps, int) and max_episode_steps >= 1):
-            raise Sim2RealValueError(
-                f"max_episode_steps must be an integer >= 1, got {max_episode_steps!r}"
-            )
+        check_env_arguments(
+            dynamics=dynamics,
+            control_dt=control_dt,
+            max_episode_steps=max_episode_steps,
+            drive_params=drive_params,
+        )
         self.track_name, self.num_opponents, self.n_robots = _check_options(
             track, num_opponents, n_robots
         )
@@ -582,9 +580,9 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
     ) -> None:
         super().__init__()
         _check_options(track, num_opponents, 1)
-        if max_episode_steps is None:
-            length = get_track(track).length_m
-            max_episode_steps = math.ceil(3.0 * length / 0.22 / float(control_dt))
+        max_episode_steps = _episode_steps(
+            track, dynamics, control_dt, max_episode_steps, drive_params
+        )
         self.core = RaceCore(
             track=track,
             n_robots=1,
@@ -752,6 +750,28 @@ class RaceParallelEnv(ParallelEnv):  # type: ignore[misc]
         self.core.close()
 
 
+def _episode_steps(
+    track: str,
+    dynamics: str,
+    control_dt: float,
+    max_episode_steps: int | None,
+    drive_params: DriveParams | None,
+) -> int:
+    """``max_episode_steps``, by default three times the track at the Burger's 0.22 m/s.
+
+    The arguments are checked first, so a bad ``control_dt`` is one sentence, not a division error.
+    """
+    check_env_arguments(
+        dynamics=dynamics,
+        control_dt=control_dt,
+        max_episode_steps=1 if max_episode_steps is None else max_episode_steps,
+        drive_params=drive_params,
+    )
+    if max_episode_steps is not None:
+        return max_episode_steps
+    return math.ceil(3.0 * get_track(track).length_m / 0.22 / float(control_dt))
+
+
 def race_parallel_env(
     *,
     n_robots: int = 2,
@@ -774,8 +794,7 @@ def race_parallel_env(
     (['robot_0', 'robot_1'], (63,))
     """
     _check_options(track, num_opponents, n_robots)
-    if max_episode_steps is None:
-        max_episode_steps = math.ceil(3.0 * get_track(track).length_m / 0.22 / float(control_dt))
+    max_episode_steps = _episode_steps(track, dynamics, control_dt, max_episode_steps, drive_params)
     core = RaceCore(
         track=track,
         n_robots=n_robots,
