@@ -1,17 +1,41 @@
-"""Safe output: write to a temporary file beside the target, then rename over it."""
+"""Safe output: write to a temporary file beside the target, then rename over it.
+
+:func:`atomic_write` writes one file; :func:`output_set` writes several files as a set: they
+are staged in a temporary folder beside their destination and moved in together at the end,
+so a run that fails or is killed before the end leaves the previous outputs untouched. Files
+get the user's umask (``0666 & ~umask``, 0644 by default), like any file a program creates.
+
+Temp names carry the writer's process id; a later run removes the leftovers of runs that were
+killed (and finishes the moves of a set that was killed while moving in, so the folder ends
+with the complete new set, never a mix).
+"""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
+import shutil
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import IO
 
 from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
 
-__all__ = ["atomic_write", "check_not_an_input", "check_output_path"]
+__all__ = [
+    "OutputSet",
+    "atomic_write",
+    "check_not_an_input",
+    "check_output_path",
+    "clean_orphans",
+    "output_set",
+]
+
+_SET_PREFIX = ".sim2real-out-"
+_COMMIT = ".commit"
+_SET_RE = re.compile(r"^\.sim2real-out-(\d+)-")
+_FILE_RE = re.compile(r"^\..+\.(\d+)\.[^.]+\.tmp$")
 
 
 def check_output_path(path: str | Path, *, what: str = "output file") -> Path:
@@ -43,11 +67,59 @@ def check_not_an_input(
             )
 
 
+def _umask() -> int:
+    mask = os.umask(0o022)  # the only portable way to read it is to set it and set it back
+    os.umask(mask)
+    return mask
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def _finish_set(folder: Path) -> None:
+    """Move a committed staging folder's files into its parent (roll forward), then drop it."""
+    for item in sorted(folder.iterdir()):
+        if item.name != _COMMIT and item.is_file():
+            os.replace(item, folder.parent / item.name)
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+def clean_orphans(folder: str | Path) -> None:
+    """Remove the temp files and staging folders that killed runs left in ``folder``.
+
+    A staging folder whose set was already committed (killed while moving in) is finished
+    instead, so ``folder`` ends with the whole new set.
+    """
+    base = Path(folder)
+    with contextlib.suppress(OSError):
+        for item in base.iterdir():
+            m = _SET_RE.match(item.name) if item.is_dir() else _FILE_RE.match(item.name)
+            if m is None or _alive(int(m.group(1))):
+                continue
+            if item.is_dir():
+                if (item / _COMMIT).exists():
+                    _finish_set(item)
+                else:
+                    shutil.rmtree(item, ignore_errors=True)
+            else:
+                item.unlink(missing_ok=True)
+
+
 @contextlib.contextmanager
 def atomic_write(path: str | Path, mode: str = "wb", *, what: str = "output file") -> Iterator[IO]:  # type: ignore[type-arg]
     """Open a temp file next to ``path``; on success rename it to ``path``, else delete it.
 
     Nothing is left at ``path`` when the body raises, so a failed run loses no earlier output.
+    The file gets the mode ``0666 & ~umask`` (0644 under the usual umask 022).
 
     Examples
     --------
@@ -55,10 +127,10 @@ def atomic_write(path: str | Path, mode: str = "wb", *, what: str = "output file
     ...     fh.write("hello")
     """
     target = check_output_path(path, what=what)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent or ".")
-    umask = os.umask(0o022)  # mkstemp makes 0600 files; give the usual 0666 & ~umask instead
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
+    folder = target.parent if str(target.parent) else Path(".")
+    clean_orphans(folder)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=folder)
+    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600 files
     try:
         with os.fdopen(fd, mode) as fh:
             yield fh
@@ -67,3 +139,63 @@ def atomic_write(path: str | Path, mode: str = "wb", *, what: str = "output file
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+class OutputSet:
+    """The staged paths of an :func:`output_set`: write each output to ``staged(dest)``."""
+
+    def __init__(self, staged: dict[Path, Path]) -> None:
+        self._staged = staged
+
+    def staged(self, dest: str | Path) -> Path:
+        """Where to write the output whose destination is ``dest`` (inside the staging folder).
+
+        Extra files written beside it (e.g. a report's PNGs) move in with the set.
+        """
+        return self._staged[Path(dest).resolve()]
+
+    @property
+    def destinations(self) -> tuple[Path, ...]:
+        """The destinations, as given (resolved)."""
+        return tuple(self._staged)
+
+
+@contextlib.contextmanager
+def output_set(
+    paths: Sequence[str | Path | None], *, what: str = "output file"
+) -> Iterator[OutputSet]:
+    """Write several outputs as a set: all of them move in at the end, or none does.
+
+    Each destination's folder gets one staging folder ``.sim2real-out-<pid>-*``; the body writes
+    into :meth:`OutputSet.staged` paths; on success every file of each staging folder moves to
+    its destination folder (``os.replace``, after a commit marker is written so a run killed
+    while moving in is finished by the next one). When the body raises, the staging folders are
+    removed and the previous outputs stay as they were. ``None`` entries are skipped.
+
+    Examples
+    --------
+    >>> with output_set(["a.json", "report.html"]) as out:  # doctest: +SKIP
+    ...     out.staged("a.json").write_text("{}")
+    ...     out.staged("report.html").write_text("<html></html>")
+    """
+    dests = [check_output_path(p, what=what).resolve() for p in paths if p is not None]
+    for k, d in enumerate(dests):
+        if d in dests[:k]:
+            raise Sim2RealValueError(f"{what} '{d}' is given twice; give each output its own path")
+    folders: dict[Path, Path] = {}
+    try:
+        for d in dests:
+            if d.parent not in folders:
+                clean_orphans(d.parent)
+                folders[d.parent] = Path(
+                    tempfile.mkdtemp(prefix=f"{_SET_PREFIX}{os.getpid()}-", dir=d.parent)
+                )
+        yield OutputSet({d: folders[d.parent] / d.name for d in dests})
+    except BaseException:
+        for folder in folders.values():
+            shutil.rmtree(folder, ignore_errors=True)
+        raise
+    for folder in folders.values():
+        (folder / _COMMIT).touch()
+    for folder in folders.values():
+        _finish_set(folder)

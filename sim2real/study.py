@@ -23,7 +23,7 @@ import hashlib
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -34,6 +34,7 @@ if TYPE_CHECKING:  # the heavy modules are imported by run_study only
 __all__ = [
     "StudyConfig",
     "StudyResult",
+    "check_figures",
     "parse_odom_v_window",
     "provenance_rows",
     "run_study",
@@ -72,6 +73,8 @@ class StudyConfig:
         takes the robot's (:attr:`robots.spec.OdometrySpec.v_window_s`), like ``sysid fit``.
     cmd_topic, odom_topic : str, optional
         Topics (default: auto-detect).
+    time_source : {"auto", "header", "log"}
+        Message timing (see :func:`sim2real.logs.read_trace`).
     json_path, report_path, sim_out : str or Path, optional
         Outputs: the figures as JSON, the HTML report (+ PNGs), the simulated run as MCAP.
     command_line : str
@@ -93,6 +96,7 @@ class StudyConfig:
     odom_v_window: float | str = "auto"
     cmd_topic: str | None = None
     odom_topic: str | None = None
+    time_source: str = "auto"
     json_path: str | Path | None = None
     report_path: str | Path | None = None
     sim_out: str | Path | None = None
@@ -119,6 +123,8 @@ class StudyResult:
         Repairs made while reading the log (dropped NaN samples, re-sorted stamps, ...).
     written : tuple of Path
         Output files written (JSON, report HTML, simulated MCAP), in that order.
+    time_note : str
+        Which time base ``time_source="auto"`` chose and why ("" otherwise).
     """
 
     main: AgreementReport
@@ -127,6 +133,7 @@ class StudyResult:
     figures: dict[str, Any]
     warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
+    time_note: str = ""
 
 
 def _sha256(path: str | Path) -> str:
@@ -254,6 +261,7 @@ def run_study(config: StudyConfig) -> StudyResult:
     """
     from robots.params import load_drive_params
     from robots.spec import load_spec
+    from sim2real._io import output_set
     from sim2real.agreement import measure_agreement
     from sim2real.logs import read_trace
     from sim2real.replay import replay
@@ -267,7 +275,14 @@ def run_study(config: StudyConfig) -> StudyResult:
     params = None
     if config.params_path is not None:
         params = load_drive_params(config.params_path, robot=spec.name, base=spec.drive)
-    trace = read_trace(config.log, cmd_topic=config.cmd_topic, odom_topic=config.odom_topic)
+    trace = read_trace(
+        config.log,
+        cmd_topic=config.cmd_topic,
+        odom_topic=config.odom_topic,
+        time_source=config.time_source,
+    )
+    trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
+    trace.check_enough()
     runs = []
     configs: list[tuple[str, Any, str | None]] = [("spec defaults", spec.drive, None)]
     if params is not None:
@@ -280,16 +295,22 @@ def run_study(config: StudyConfig) -> StudyResult:
         runs.append(ReportRun(label=label, replay=sim, agreement=rep))
     ensemble = _ensemble(config, trace, spec, params, window_s)
     figures = study_figures(runs[-1].agreement, ensemble)
+    check_figures(figures, config.log)
     written: list[Path] = []
-    if config.json_path is not None:
-        write_json(config.json_path, figures)
-        written.append(Path(config.json_path))
-    if config.report_path is not None:
-        _write_report(config, trace, spec, tuple(runs), ensemble, window_s)
-        written.append(Path(config.report_path))
-    if config.sim_out is not None:
-        _write_sim_log(config.sim_out, trace, runs[-1].replay)
-        written.append(Path(config.sim_out))
+    # the outputs are one set: all move in at the end, or none (a kill keeps the old set)
+    with output_set([config.json_path, config.report_path, config.sim_out]) as out:
+        if config.json_path is not None:
+            write_json(out.staged(config.json_path), figures)
+            written.append(Path(config.json_path))
+        if config.report_path is not None:
+            staged = out.staged(config.report_path)
+            _write_report(
+                replace(config, report_path=staged), trace, spec, tuple(runs), ensemble, window_s
+            )
+            written.append(Path(config.report_path))
+        if config.sim_out is not None:
+            _write_sim_log(out.staged(config.sim_out), trace, runs[-1].replay)
+            written.append(Path(config.sim_out))
     return StudyResult(
         main=runs[-1].agreement,
         runs=tuple(runs),
@@ -297,6 +318,7 @@ def run_study(config: StudyConfig) -> StudyResult:
         figures=figures,
         warnings=tuple(trace.meta.warnings),
         written=tuple(written),
+        time_note=trace.meta.time_note,
     )
 
 
@@ -322,6 +344,40 @@ def _ensemble(
         odom_v_window_s=window_s,
         band_level=config.band_level,
     )
+
+
+#: JSON keys documented as possibly null (provenance: no params file, a trace built in memory).
+_MAY_BE_NULL = frozenset({"params_file", "log_file", "log_sha256"})
+
+_WHY = {
+    "agreement": "no sample is active (no command is held and the robot never moves)",
+    "rmse": "no sample is active (no command is held and the robot never moves)",
+    "fit_percent": "the measured value is constant over the active samples",
+    "lag_s": "the measured or simulated value is constant (or the log is too short)",
+    "coverage": "no sample is active or the band could not be built",
+}
+
+
+def check_figures(figures: dict[str, Any], log: str | Path) -> None:
+    """Refuse figures that could not be computed: no ``null`` where a number is documented.
+
+    Raises
+    ------
+    sim2real.errors.LogValueError
+        Naming the first missing figure, why it is undefined on this log and what to do, so
+        ``sim2real agree`` exits 2 instead of reporting success without a number.
+    """
+    from sim2real.errors import LogValueError
+
+    for key, value in figures.items():
+        missing = value is None and key not in _MAY_BE_NULL
+        if missing or (isinstance(value, float) and not math.isfinite(value)):
+            why = next((w for k, w in _WHY.items() if key.startswith(k)), "it is undefined")
+            raise LogValueError(
+                f"figure '{key}' cannot be computed on log file '{log}' because {why}; "
+                "compare on a log in which the robot drives and turns under command (or "
+                "choose the topics with --cmd-topic / --odom-topic)"
+            )
 
 
 def study_figures(main: AgreementReport, ensemble: EnsembleResult | None) -> dict[str, Any]:

@@ -78,7 +78,8 @@ coverage_v, coverage_w (share of active real samples inside the band), band_leve
 band_width_v_mps, band_width_w_radps (median width), ensemble_n and coverage_by_level, and a
 sentence says whether the band is too narrow, calibrated (80-99 % for a 90 % band) or too
 wide. Fit the spread to a validation log with 'sim2real sysid calibrate'.
-Exit codes: 0 ok, 1 agreement below --min-agreement, 2 bad input.
+Exit codes: 0 ok, 1 agreement below --min-agreement, 2 bad input (also when a figure cannot
+be computed on the log, e.g. no active sample: the JSON never holds null for a number).
 """
 
 
@@ -156,6 +157,15 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
             "starts a local one, ADDRESS is a head node (needs the [cluster] extra)"
         ),
     )
+    p.add_argument(
+        "--time-source",
+        choices=("auto", "header", "log"),
+        default="auto",
+        help=(
+            "message timing: header stamps, recorder log times, or 'auto' (default: header "
+            "stamps unless they run on another clock than the log times, which it says)"
+        ),
+    )
     p.set_defaults(handler=_handle)
 
 
@@ -231,6 +241,7 @@ def _command_line(args: argparse.Namespace) -> str:
         ("--odom-v-window", args.odom_v_window if args.odom_v_window != "auto" else None),
         ("--cmd-topic", args.cmd_topic),
         ("--odom-topic", args.odom_topic),
+        ("--time-source", args.time_source if args.time_source != "auto" else None),
     ):
         if value is not None:
             parts += [flag, str(value)]
@@ -257,6 +268,7 @@ def study_config(args: argparse.Namespace) -> StudyConfig:
         odom_v_window=args.odom_v_window,
         cmd_topic=args.cmd_topic,
         odom_topic=args.odom_topic,
+        time_source=args.time_source,
         json_path=args.json,
         report_path=args.report,
         sim_out=args.sim_out,
@@ -323,6 +335,8 @@ def _handle(args: argparse.Namespace) -> int:
                 band_width_w_radps=e.band_width_w_radps,
             )
         )
+    if result.time_note:
+        print(f"note: {result.time_note}")
     for path in result.written:
         print(f"wrote {path}")
     agreement = result.main.agreement
