@@ -36,8 +36,7 @@ def test_atomic_write_gives_the_users_umask(tmp_path: Path, umask: None, mask: i
         fh.write("x: 1\n")
     assert _mode(tmp_path / "params.yaml") == mode
     with output_set([tmp_path / "a.json"]) as out:
-        with atomic_write(out.staged(tmp_path / "a.json"), "w") as fh:
-            fh.write("{}")
+        out.staged(tmp_path / "a.json").write_text("{}")
     assert _mode(tmp_path / "a.json") == mode
 
 
