@@ -69,8 +69,9 @@ def test_a_failed_output_set_keeps_the_old_outputs(tmp_path: Path) -> None:
 
 
 def test_the_same_output_twice_is_refused(tmp_path: Path) -> None:
-    with pytest.raises(Sim2RealValueError, match=r"is given twice"), output_set(
-        [tmp_path / "x.json", tmp_path / "x.json"]
+    with (
+        pytest.raises(Sim2RealValueError, match=r"is given twice"),
+        output_set([tmp_path / "x.json", tmp_path / "x.json"]),
     ):
         pass
 
