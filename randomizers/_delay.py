@@ -30,6 +30,9 @@ from randomizers.errors import MissingProtocolError, RandomizerTypeError, Random
 __all__ = ["ActionDelay", "OdometryDelay", "steps_from_seconds"]
 
 _FILL = ("first", "zeros")
+#: Longest delay a wrapper accepts, in control steps: longer than any episode that can run
+#: (its buffer would hold a million observations before the first real one shows).
+MAX_DELAY_STEPS = 1_000_000
 
 
 def steps_from_seconds(delay_s: float, dt_s: float) -> int:
@@ -105,6 +108,7 @@ def _delay_spec(
         low, high = _bounds(delay_steps, "delay_steps", integer=True)
         known = dt_s if dt_s is not None else getattr(env.unwrapped, "control_dt", None)
         period = _period(known) if known is not None else None  # only to report seconds
+        _check_length(high, delay_steps, "delay_steps", wrapper, "")
         return _DelaySpec(low=low, high=high, in_seconds=False, dt_s=period)
     low, high = _bounds(delay_s, "delay_s", integer=False)
     if dt_s is None:
@@ -115,7 +119,20 @@ def _delay_spec(
                 f"{type(env.unwrapped).__name__} has no 'control_dt' attribute; pass dt_s=... "
                 "(seconds per step) or give the delay in steps with delay_steps"
             )
-    return _DelaySpec(low=low, high=high, in_seconds=True, dt_s=_period(dt_s))
+    period = _period(dt_s)
+    steps = high / period
+    _check_length(steps, delay_s, "delay_s", wrapper, f" ({steps:.3g} steps of {period:g} s)")
+    return _DelaySpec(low=low, high=high, in_seconds=True, dt_s=period)
+
+
+def _check_length(steps: float, value: Any, argument: str, wrapper: str, detail: str) -> None:
+    """Refuse a delay longer than :data:`MAX_DELAY_STEPS`, before any buffer is allocated."""
+    if steps > MAX_DELAY_STEPS:
+        raise RandomizerValueError(
+            f"{wrapper}: argument '{argument}' = {value!r}{detail} exceeds {MAX_DELAY_STEPS} "
+            "control steps, longer than any episode can run; give the delay of the real "
+            "system (e.g. delay_s=0.1)"
+        )
 
 
 def _period(dt_s: Any) -> float:
@@ -228,7 +245,8 @@ class OdometryDelay(ObservationRandomizer):
         """Fill the buffer with the first value (or zeros)."""
         first = np.array(self._sel.get(observation), copy=True)
         pad = first if self.fill == "first" else np.zeros_like(first)
-        self._queue = deque([pad] * self.delay_steps)
+        # one copy per slot: the observations handed out must never share an array
+        self._queue = deque(pad.copy() for _ in range(self.delay_steps))
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with the selected entry ``delay_steps`` steps old."""
@@ -325,7 +343,7 @@ class ActionDelay(gym.ActionWrapper[Any, Any, Any], Randomizer, gym.utils.Record
         action = _copy(action)
         if not self._filled:
             pad = action if self.fill == "first" else create_zero_array(self.action_space)
-            self._queue.extend([pad] * self.delay_steps)
+            self._queue.extend(_copy(pad) for _ in range(self.delay_steps))
             self._filled = True
         self._queue.append(action)
         return self._queue.popleft()

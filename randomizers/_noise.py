@@ -77,6 +77,7 @@ class ObservationNoise(ObservationRandomizer):
     ) -> None:
         sel = select(env.observation_space, key=key, index=index, wrapper="ObservationNoise")
         std_value = _check_std(std, sel.shape[-1] if sel.shape else 1, argument="std")
+        _check_std_scale(std_value, sel.low, sel.high, sel.dtype, "ObservationNoise", "std")
         scale = check_scale(scale)
         name = check_name(name, env, "ObservationNoise" + index_label(key, sel.index))
         gym.utils.RecordConstructorArgs.__init__(
@@ -267,6 +268,7 @@ class DepthNoise(ObservationRandomizer):
                 f"DepthNoise: argument 'far_m' must be > near_m={near_m} m, got {far_m!r}; "
                 "pass the camera's clip range"
             )
+        _check_std_scale(std_m, near_m, far_m, sel.dtype, "DepthNoise", "std_m")
         scale = check_scale(scale)
         name = check_name(name, env, "DepthNoise" + index_label(key, sel.index))
         gym.utils.RecordConstructorArgs.__init__(
@@ -420,6 +422,7 @@ class LidarNoise(ObservationRandomizer):
                 f"LidarNoise: the range must satisfy 0 <= range_min_m < range_max_m, got "
                 f"[{lo}, {hi}] m; pass the sensor's range_min_m and range_max_m"
             )
+        _check_std_scale(std_m, lo, hi, sel.dtype, "LidarNoise", "std_m")
         scale = check_scale(scale)
         name = check_name(name, env, "LidarNoise" + index_label(key, sel.index))
         gym.utils.RecordConstructorArgs.__init__(
@@ -483,6 +486,34 @@ def _bound(value: float | None, from_space: float, argument: str) -> float:
             )
         return from_space
     return check_number(value, argument=argument)
+
+
+#: A noise std beyond this many times the observation's range (finite bounds) is refused.
+MAX_STD_PER_RANGE = 1000.0
+
+
+def _check_std_scale(
+    std: float | np.ndarray, low: Any, high: Any, dtype: Any, wrapper: str, argument: str
+) -> None:
+    """Refuse a std orders of magnitude beyond the observation's range (or its dtype)."""
+    stds = np.atleast_1d(
+        np.broadcast_to(np.asarray(std, dtype=np.float64), np.shape(np.asarray(high))[-1:])
+    )
+    lo = np.asarray(low, dtype=np.float64)
+    hi = np.asarray(high, dtype=np.float64)
+    span = (hi - lo).reshape(-1, stds.size if stds.size else 1).max(axis=0)
+    limit = np.where(np.isfinite(span), MAX_STD_PER_RANGE * span, np.inf)
+    kind = np.dtype(dtype)
+    if kind.kind == "f":  # noise must stay representable after the cast
+        limit = np.minimum(limit, float(np.finfo(kind).max) * 1e-6)
+    bad = np.flatnonzero(stds > limit)
+    if bad.size:
+        i = int(bad[0])
+        raise RandomizerValueError(
+            f"{wrapper}: argument '{argument}' = {float(stds[i]):.3g} is more than "
+            f"{MAX_STD_PER_RANGE:g}x the observation's range ({float(span[i]):.3g}, element "
+            f"{i}) or too large for {kind.name}; give a std on the scale of the observation"
+        )
 
 
 def _check_std(std: Any, width: int, *, argument: str) -> float | np.ndarray:
