@@ -80,6 +80,7 @@ Example
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -583,22 +584,26 @@ def ensemble_members(
     engine: str = "reduced",
     spread: float = 1.0,
     odom_v_window_s: float = 0.0,
+    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[list[DriveParams], FloatArray, FloatArray]:
     """Draw ``n`` parameter sets and replay ``trace`` with each: ``(params, v, w)``.
 
     The draws are ``distribution.sample(stream_generator(seed, "DynamicsRandomizer"), n,
     spread=spread)`` -- the parameter sets of the first ``n`` episodes of a
     ``DynamicsRandomizer.from_sysid`` reset with ``seed``. ``v`` and ``w`` have shape
-    (n, samples).
+    (n, samples). ``progress(done, n)`` is called after each replay (a progress bar).
     """
     from randomizers._dynamics import stream_generator
 
     _check_ensemble_args(n, spread, 1)
     drawn = distribution.sample(stream_generator(seed, DYNAMICS_STREAM), n, spread=spread)
-    sims = [
-        replay(trace, robot=robot, params=p, engine=engine, odom_v_window_s=odom_v_window_s)
-        for p in drawn
-    ]
+    sims = []
+    for k, p in enumerate(drawn):
+        sims.append(
+            replay(trace, robot=robot, params=p, engine=engine, odom_v_window_s=odom_v_window_s)
+        )
+        if progress is not None:
+            progress(k + 1, n)
     return drawn, np.stack([s.v for s in sims]), np.stack([s.w for s in sims])
 
 
@@ -616,6 +621,7 @@ def run_ensemble(
     odom_v_window_s: float = 0.0,
     band_level: float = DEFAULT_BAND_LEVEL,
     noise_draws: int = NOISE_DRAWS,
+    progress: Callable[[int, int], None] | None = None,
 ) -> EnsembleResult:
     """Replay ``trace`` with ``n`` robots drawn from ``distribution``; band and coverage.
 
@@ -674,6 +680,7 @@ def run_ensemble(
         engine=engine,
         spread=spread,
         odom_v_window_s=odom_v_window_s,
+        progress=progress,
     )
     sv, sw = predictive_samples(
         mv,

@@ -22,7 +22,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -242,13 +242,17 @@ def _check_config(config: StudyConfig) -> None:
         )
 
 
-def run_study(config: StudyConfig) -> StudyResult:
+def run_study(
+    config: StudyConfig, *, progress: Callable[[int, int], None] | None = None
+) -> StudyResult:
     """Replay ``config.log`` with spec defaults (and the params file), measure, write outputs.
 
     Parameters
     ----------
     config : StudyConfig
         What to compare and what to write.
+    progress : callable, optional
+        ``progress(done, n)`` after each ensemble member (the CLI draws a bar with it).
 
     Returns
     -------
@@ -293,7 +297,7 @@ def run_study(config: StudyConfig) -> StudyResult:
             trace, sim, tol_v=config.tol_v, tol_w=config.tol_w, params_file=pfile
         )
         runs.append(ReportRun(label=label, replay=sim, agreement=rep))
-    ensemble = _ensemble(config, trace, spec, params, window_s)
+    ensemble = _ensemble(config, trace, spec, params, window_s, progress)
     figures = study_figures(runs[-1].agreement, ensemble)
     check_figures(figures, config.log)
     written: list[Path] = []
@@ -323,7 +327,12 @@ def run_study(config: StudyConfig) -> StudyResult:
 
 
 def _ensemble(
-    config: StudyConfig, trace: Any, spec: Any, params: Any, window_s: float
+    config: StudyConfig,
+    trace: Any,
+    spec: Any,
+    params: Any,
+    window_s: float,
+    progress: Callable[[int, int], None] | None = None,
 ) -> EnsembleResult | None:
     if config.ensemble_n is None or params is None or config.params_path is None:
         return None
@@ -343,6 +352,7 @@ def _ensemble(
         tol_w=config.tol_w,
         odom_v_window_s=window_s,
         band_level=config.band_level,
+        progress=progress,
     )
 
 

@@ -297,9 +297,29 @@ def _refuse_ensemble_options(args: argparse.Namespace) -> None:
         )
 
 
+def _run_with_bar(config: StudyConfig, n: int | None) -> StudyResult:
+    """Run the study; with an ensemble, a progress bar on a terminal (stderr), none in a pipe."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from sim2real.study import run_study
+
+    err = Console(stderr=True)
+    with Progress(
+        TextColumn("[bold]agree[/] ensemble"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=err,
+        transient=True,
+        disable=n is None or not err.is_terminal,
+    ) as bar:
+        task = bar.add_task("ensemble", total=n or 1)
+        return run_study(config, progress=lambda done, _: bar.update(task, completed=done))
+
+
 def _handle(args: argparse.Namespace) -> int:
     from sim2real.errors import Sim2RealValueError
-    from sim2real.study import run_study
 
     gate = args.min_agreement
     if gate is not None and not (math.isfinite(gate) and 0.0 <= gate <= 1.0):
@@ -317,7 +337,7 @@ def _handle(args: argparse.Namespace) -> int:
 
         return handle_many(args, logs, study_config(args))
     args.log = str(logs[0])
-    result = run_study(study_config(args))
+    result = _run_with_bar(study_config(args), args.ensemble)
     for warning in result.warnings:  # data repaired while reading: say so, do not hide it
         print(f"sim2real: warning: {args.log}: {warning}", file=sys.stderr)
     print(f"{args.log}: robot {args.robot}, engine {args.engine}")

@@ -1,0 +1,125 @@
+"""Long runs are observable on a terminal and quiet in a pipe; pybullet's banner never on stdout."""
+
+from __future__ import annotations
+
+import os
+import pty
+import re
+import select
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hostile_logs import ROBOT, base_arrays, write_faulty
+
+_LIVE = "\x1b[?25l"  # a live rich progress display hides the cursor while it draws
+_ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
+
+
+def _cli(*argv: str) -> list[str]:
+    return [sys.executable, "-m", "sim2real", *argv]
+
+
+def _env() -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("NO_COLOR", "CI", "FORCE_COLOR")}
+    env.update(TERM="xterm-256color", COLUMNS="120", LINES="40")
+    return env
+
+
+def _on_a_terminal(argv: list[str], cwd: Path) -> tuple[int, str]:
+    """Run ``argv`` with stdout and stderr on a pseudo-terminal; returns (exit code, output)."""
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(
+        argv, stdout=slave, stderr=slave, stdin=subprocess.DEVNULL, cwd=cwd, env=_env()
+    )
+    os.close(slave)
+    chunks = []
+    while True:
+        ready, _, _ = select.select([master], [], [], 1.0)
+        if ready:
+            try:
+                data = os.read(master, 65536)
+            except OSError:  # the child closed the terminal
+                break
+            if not data:
+                break
+            chunks.append(data)
+        elif proc.poll() is not None:
+            break
+    os.close(master)
+    return proc.wait(timeout=600), b"".join(chunks).decode("utf-8", "replace")
+
+
+def _piped(argv: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        argv, capture_output=True, text=True, cwd=cwd, env=_env(), check=False, timeout=600
+    )
+
+
+@pytest.fixture(scope="module")
+def log_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("tty")
+    write_faulty(folder / "run.mcap", [], base_arrays(duration_s=8.0, seed=2))
+    return folder
+
+
+@pytest.mark.slow
+def test_sysid_fit_shows_a_bar_on_a_terminal_and_nothing_in_a_pipe(log_dir: Path) -> None:
+    argv = _cli("sysid", "fit", "run.mcap", "--robot", ROBOT, "-o", "p.yaml", "--free", "delay_s")
+    code, shown = _on_a_terminal(argv, log_dir)
+    assert code == 0, shown
+    assert _LIVE in shown and "sysid" in shown
+    piped = _piped(argv, log_dir)
+    assert piped.returncode == 0, piped.stderr
+    assert not _ANSI.search(piped.stdout + piped.stderr)  # no bar, no colour, no cursor moves
+    assert "pybullet build time" not in piped.stdout
+
+
+@pytest.mark.slow
+def test_envs_eval_shows_a_bar_on_a_terminal_and_nothing_in_a_pipe(log_dir: Path) -> None:
+    argv = _cli("envs", "eval", "RandomMap-v0", "--episodes", "1")
+    code, shown = _on_a_terminal(argv, log_dir)
+    assert code == 0, shown
+    assert _LIVE in shown and "episodes" in shown
+    piped = _piped(argv, log_dir)
+    assert piped.returncode == 0, piped.stderr
+    assert not _ANSI.search(piped.stdout + piped.stderr)
+    assert "pybullet build time" not in piped.stdout
+
+
+def test_pybullet_banner_never_reaches_stdout(tmp_path: Path) -> None:
+    code = "import robots.pybullet_robot, sim2real.envs._world; print('ok')"
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=False, cwd=tmp_path
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout == "ok\n"
+    assert "pybullet build time" not in proc.stderr  # silenced at the descriptor level too
+
+
+@pytest.mark.slow
+def test_agree_ensemble_shows_a_bar_on_a_terminal_and_nothing_in_a_pipe(log_dir: Path) -> None:
+    from sim2real.cli import main
+
+    params = log_dir / "ens_params.yaml"
+    fit = ["sysid", "fit", str(log_dir / "run.mcap"), "--robot", ROBOT, "-o", str(params)]
+    assert main([*fit, "--free", "delay_s"]) == 0
+    argv = _cli(
+        "agree",
+        "run.mcap",
+        "--robot",
+        ROBOT,
+        "--params",
+        params.name,
+        "--engine",
+        "reduced",
+        "--ensemble",
+        "4",
+    )
+    code, shown = _on_a_terminal(argv, log_dir)
+    assert code == 0, shown
+    assert _LIVE in shown and "ensemble" in shown
+    piped = _piped(argv, log_dir)
+    assert piped.returncode == 0, piped.stderr
+    assert not _ANSI.search(piped.stdout + piped.stderr)
