@@ -1,0 +1,373 @@
+"""Hostile-but-plausible logs through ``logs info``, ``sysid fit`` and ``agree`` (issue 13).
+
+Every case ends as exit 2 with one sentence naming the file, or exit 0 with a note saying what
+was salvaged; never a traceback, never a null or non-finite figure on exit 0, and memory that
+follows the number of messages (a 30 s log with a one-year pause stays under 0.5 GB).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import stat
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from hostile_logs import ROBOT, Fault, base_arrays, figures_finite, read_json, write_faulty
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from sim2real.cli import main
+
+_BASE = base_arrays()
+_SYSID = ["sysid", "fit", "--robot", ROBOT]
+
+
+def _run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _judge(code: int, out: str, err: str, log: Path) -> None:
+    """Exit 0 or 2; no traceback; an exit 2 is one error line naming the file."""
+    assert code in (0, 2), (code, err)
+    assert "Traceback" not in out + err
+    if code == 2:
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        assert len(lines) == 1 and lines[0].startswith("sim2real: error: "), err
+        assert log.name in lines[0], lines[0]
+
+
+def _info(capsys, log: Path) -> tuple[int, str]:
+    code, out, err = _run(capsys, "logs", "info", str(log))
+    _judge(code, out, err, log)
+    return code, out + err
+
+
+def _fit(capsys, log: Path, tmp: Path) -> tuple[int, str]:
+    out_path = tmp / f"{log.stem}.params.yaml"
+    out_path.unlink(missing_ok=True)  # a file of an earlier example must not count
+    code, out, err = _run(capsys, *_SYSID, str(log), "-o", str(out_path))
+    _judge(code, out, err, log)
+    if code == 0:
+        result = yaml.safe_load(out_path.read_text())
+        scores = result["scores"]
+        for group in scores.values():
+            for entry in group:
+                for key, value in entry.items():
+                    if isinstance(value, float):
+                        assert np.isfinite(value), (key, value)
+        for name, p in result["parameters"].items():
+            assert p["value"] is not None and not np.isnan(float(p["value"])), name
+    else:
+        assert not out_path.exists()
+    return code, out + err
+
+
+def _agree(capsys, log: Path, tmp: Path, *extra: str) -> tuple[int, str]:
+    js = tmp / f"{log.stem}.agree.json"
+    js.unlink(missing_ok=True)
+    code, out, err = _run(
+        capsys,
+        "agree",
+        str(log),
+        "--robot",
+        ROBOT,
+        "--engine",
+        "reduced",
+        "--json",
+        str(js),
+        *extra,
+    )
+    _judge(code, out, err, log)
+    if code == 0:
+        assert figures_finite(read_json(js)) == []
+    else:
+        assert not js.exists()  # no half set of outputs on an error
+    return code, out + err
+
+
+# (name, faults, expected exit codes of (logs info, sysid fit, agree), note in the output)
+CASES = [
+    ("stamp_10_years_ahead", [Fault("stamp_outlier")], (0, 0, 0), "dropped 1 of"),
+    ("paused_for_a_night", [Fault("gap", size=8 / (365 * 24))], (0, 0, 0), "2 separate segments"),
+    ("paused_for_a_year", [Fault("gap", size=1.0)], (0, 0, 0), "2 separate segments"),
+    ("one_absurd_value", [Fault("absurd")], (0, 0, 0), "10x the robot's limits"),
+    ("absurd_command", [Fault("absurd", extra={"key": "cmd_v"})], (0, 0, 0), "command samples"),
+    ("all_absurd", [Fault("absurd", at=0.0, size=1000)], (0, 2, 2), "another unit"),
+    ("nan_values", [Fault("nan", size=2)], (0, 0, 0), "NaN/inf values"),
+    ("inf_values", [Fault("inf", extra={"key": "meas_w"})], (0, 0, 0), "NaN/inf values"),
+    ("all_nan", [Fault("nan", at=0.0, size=1000)], (0, 2, 2), "NaN or infinite"),
+    ("backwards_time", [Fault("backwards")], (0, 0, 0), "go backwards"),
+    ("duplicated_stamps", [Fault("duplicate")], (0, 0, 0), "duplicate timestamps"),
+    ("clock_offset_15_s", [Fault("clock_offset")], (0, 0, 0), "log times, because"),
+    ("command_years_before", [Fault("cmd_outlier")], (0, 0, 0), "60 s away"),
+    ("truncated_at_90_percent", [Fault("truncate", at=0.9)], (0, 0, 0), "truncated"),
+    ("truncated_at_10_percent", [Fault("truncate", at=0.1)], (2, 2, 2), "truncated"),
+]
+
+
+@pytest.fixture(scope="module")
+def case_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("hostile")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "faults", "codes", "note"), CASES, ids=[c[0] for c in CASES])
+def test_each_case_of_the_issue(capsys, case_dir: Path, name, faults, codes, note) -> None:
+    log = write_faulty(case_dir / f"{name}.mcap", faults, _BASE)
+    got = (_info(capsys, log), _fit(capsys, log, case_dir), _agree(capsys, log, case_dir))
+    assert tuple(code for code, _ in got) == codes
+    assert any(note in text for _, text in got), [text for _, text in got]
+
+
+def test_idle_log_cannot_be_compared_and_says_why(capsys, tmp_path: Path) -> None:
+    idle = {**_BASE, "cmd_v": np.zeros_like(_BASE["cmd_v"]), "cmd_w": np.zeros_like(_BASE["cmd_w"])}
+    idle["meas_v"] = np.zeros_like(_BASE["meas_v"])
+    idle["meas_w"] = np.zeros_like(_BASE["meas_w"])
+    log = write_faulty(tmp_path / "idle.mcap", [], idle)
+    code, text = _agree(capsys, log, tmp_path)
+    assert code == 2
+    assert "figure 'agreement' cannot be computed on log file" in text
+    assert "no sample is active" in text
+
+
+# --- container-level faults (the MCAP byte reader, by helper `perf`) -------------------------
+
+
+def test_a_file_without_crcs_gets_one_note_from_logs_info(capsys, tmp_path: Path) -> None:
+    log = write_faulty(tmp_path / "nocrc.mcap", [Fault("no_crc")], _BASE)
+    code, text = _info(capsys, log)
+    assert code == 0
+    assert text.count("this file has no checksums; corruption cannot be detected") == 1
+
+
+def test_a_file_without_crcs_still_reads(capsys, tmp_path: Path) -> None:
+    log = write_faulty(tmp_path / "nocrc.mcap", [Fault("no_crc")], _BASE)
+    assert _agree(capsys, log, tmp_path)[0] == 0
+
+
+def test_an_unknown_channel_id_is_an_error_naming_the_offset(capsys, tmp_path: Path) -> None:
+    log = write_faulty(tmp_path / "unknown.mcap", [Fault("unknown_channel")], _BASE)
+    code, text = _info(capsys, log)
+    assert code == 2 and "names channel id 99" in text and "at byte" in text
+    for command in (_fit(capsys, log, tmp_path), _agree(capsys, log, tmp_path)):
+        assert command[0] == 2
+
+
+# --- property: any mix of structured faults ----------------------------------------------------
+
+_FAULTS = st.builds(
+    Fault,
+    kind=st.sampled_from(
+        [
+            "stamp_outlier",
+            "gap",
+            "backwards",
+            "duplicate",
+            "nan",
+            "inf",
+            "absurd",
+            "clock_offset",
+            "cmd_outlier",
+            "truncate",
+            "no_crc",
+            "unknown_channel",
+        ]
+    ),
+    at=st.floats(0.0, 1.0),
+    size=st.floats(0.0, 2.0),
+    extra=st.sampled_from([{}, {"key": "meas_w"}, {"key": "cmd_v"}]),
+)
+
+
+@pytest.fixture(scope="module")
+def fuzz_dir(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    yield tmp_path_factory.mktemp("fuzz")
+
+
+@pytest.mark.slow
+@settings(max_examples=12, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(faults=st.lists(_FAULTS, min_size=1, max_size=3))
+def test_any_mix_of_faults_is_exit_0_or_2_with_finite_figures(capsys, fuzz_dir, faults) -> None:
+    log = write_faulty(fuzz_dir / "fuzz.mcap", faults, _BASE)
+    _info(capsys, log)
+    _agree(capsys, log, fuzz_dir)
+
+
+@pytest.mark.slow
+@settings(max_examples=4, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(faults=st.lists(_FAULTS, min_size=1, max_size=2))
+def test_any_mix_of_faults_fits_or_exits_2(capsys, fuzz_dir, faults) -> None:
+    log = write_faulty(fuzz_dir / "fuzz_fit.mcap", faults, _BASE)
+    _fit(capsys, log, fuzz_dir)
+
+
+# --- subprocess runs: real exit codes, stdout, peak memory -------------------------------------
+
+_LIMIT_AS = 6 * 2**30  # a blow-up dies fast instead of swapping; the assert is on peak RSS
+
+
+def _limit() -> None:
+    resource.setrlimit(resource.RLIMIT_AS, (_LIMIT_AS, _LIMIT_AS))
+
+
+def _sub(*argv: str, cwd: Path) -> tuple[subprocess.CompletedProcess[str], float]:
+    """Run the CLI in a fresh process; returns it and its peak RSS in MB."""
+    code = (
+        "import resource, sys; from sim2real.cli import main; rc = main(sys.argv[1:]); "
+        "sys.stdout.flush(); "
+        "print('PEAK_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr); "
+        "sys.exit(rc)"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code, *argv],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        preexec_fn=_limit,
+        check=False,
+        timeout=600,
+    )
+    peak = [ln for ln in proc.stderr.splitlines() if ln.startswith("PEAK_KB")]
+    return proc, (int(peak[-1].split()[1]) / 1024 if peak else float("inf"))
+
+
+@pytest.fixture(scope="module")
+def year_gap_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 30 s log whose odometry and commands pause for a year in the middle."""
+    folder = tmp_path_factory.mktemp("year")
+    return write_faulty(folder / "year.mcap", [Fault("gap", size=1.0)], _YEAR_BASE)
+
+
+_YEAR_BASE = base_arrays(duration_s=30.0, seed=3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", ["logs", "sysid", "agree"])
+def test_a_year_long_pause_stays_under_half_a_gigabyte(year_gap_log: Path, command: str) -> None:
+    folder = year_gap_log.parent
+    old = os.umask(0o022)
+    try:
+        argv = {
+            "logs": ["logs", "info", year_gap_log.name],
+            "sysid": [*_SYSID, year_gap_log.name, "-o", "p.yaml"],
+            "agree": ["agree", year_gap_log.name, "--robot", ROBOT, "--json", "a.json"],
+        }[command]
+        proc, peak_mb = _sub(*argv, cwd=folder)
+    finally:
+        os.umask(old)
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert peak_mb < 500, f"peak RSS {peak_mb:.0f} MB"
+    assert "pybullet build time" not in proc.stdout
+    if command == "sysid":
+        assert stat.S_IMODE((folder / "p.yaml").stat().st_mode) == 0o644
+    if command == "agree":  # pybullet engine: both segments replayed
+        figures = json.loads((folder / "a.json").read_text())
+        assert figures["n_samples"] == _YEAR_BASE["meas_t_ns"].size
+        assert figures_finite(figures) == []
+
+
+# --- a kill at any point of agree leaves the old or the new set of outputs -----------------------
+
+
+@pytest.mark.slow
+def test_a_killed_agree_leaves_the_old_or_the_new_set(tmp_path: Path) -> None:
+    import signal
+    import time
+
+    from sim2real._io import clean_orphans
+
+    log = write_faulty(tmp_path / "run.mcap", [], _BASE)
+    names = ("a.json", "r.html", "s.mcap")
+
+    def argv(tol: str) -> list[str]:
+        return [
+            sys.executable,
+            "-m",
+            "sim2real",
+            "agree",
+            log.name,
+            "--robot",
+            ROBOT,
+            "--engine",
+            "reduced",
+            "--tol-v",
+            tol,
+            "--json",
+            names[0],
+            "--report",
+            names[1],
+            "--sim-out",
+            names[2],
+        ]
+
+    start = time.perf_counter()
+    subprocess.run(argv("0.02"), cwd=tmp_path, check=True, capture_output=True)
+    full_s = time.perf_counter() - start
+    tol_before = 0.02
+    for fraction in (0.5, 0.9):
+        old = {n: (tmp_path / n).stat().st_ino for n in names}
+        proc = subprocess.Popen(
+            argv("0.03"), cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
+        time.sleep(fraction * full_s)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        clean_orphans(tmp_path)  # what the next run does first
+        now = {n: (tmp_path / n).stat().st_ino for n in names}
+        replaced = {n for n in names if now[n] != old[n]}
+        assert replaced in (set(), set(names)), (fraction, replaced)
+        tol = json.loads((tmp_path / names[0]).read_text())["tol_v"]
+        assert tol == (0.03 if replaced else tol_before)  # the JSON moved with the set
+        tol_before = tol
+        assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+# --- strict randomisation inputs (robots.randomization, by helpers sysidcore/band) -------------
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A params file written by ``sysid fit`` on the clean log."""
+    folder = tmp_path_factory.mktemp("fitted")
+    log = write_faulty(folder / "clean.mcap", [], _BASE)
+    assert main([*_SYSID, str(log), "-o", str(folder / "params.yaml")]) == 0
+    return folder / "params.yaml"
+
+
+def _corrupt(src: Path, dst: Path, edit) -> Path:
+    doc = yaml.safe_load(src.read_text())
+    edit(doc)
+    dst.write_text(yaml.safe_dump(doc))
+    return dst
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("edit", "needle"),
+    [
+        (lambda d: d["randomization"]["covariance"][0].__setitem__(0, float("nan")), "covariance"),
+        (lambda d: d["randomization"]["covariance"][0].__setitem__(0, 1e308), "covariance"),
+        (lambda d: d["randomization"]["mean"].__setitem__(0, float("inf")), "mean"),
+        (lambda d: d.__setitem__("robot", "turtlebot2"), "turtlebot2"),
+    ],
+    ids=["nan_covariance", "absurd_covariance", "inf_mean", "another_robot"],
+)
+def test_a_bad_randomization_block_is_refused_naming_the_field(
+    fitted: Path, tmp_path: Path, edit, needle: str
+) -> None:
+    from robots.errors import ParamsFileError
+    from robots.randomization import DriveDistribution
+
+    bad = _corrupt(fitted, tmp_path / "bad.yaml", edit)
+    with pytest.raises(ParamsFileError, match=needle):
+        DriveDistribution.from_params_file(bad, robot=ROBOT)
