@@ -14,7 +14,7 @@ from sysid._coords import COORDS, NOT_FITTABLE
 from sysid._logs import LogArrays
 from sysid.errors import ExcitationError, SysidValueError
 
-__all__ = ["Excitation", "analyse", "held_command"]
+__all__ = ["Excitation", "analyse", "held_command", "why_not_fittable"]
 
 FloatArray = NDArray[np.float64]
 
@@ -103,6 +103,19 @@ def _refuse_empty(logs: Sequence[LogArrays]) -> None:
             f"the robot never moves in {names} (95th percentile of |v| <= {MOVE_V} m/s and of "
             f"|w| <= {MOVE_W} rad/s); check the odometry topic or record a log with motion"
         )
+
+
+def why_not_fittable(log: LogArrays) -> str:
+    """Why ``log`` alone has nothing to identify (too short, flat commands, no motion), or "".
+
+    The same rules as the fit's own check, so a caller can set such a part aside (e.g. a
+    segment of a recording where the robot stood still) instead of failing the whole fit.
+    """
+    try:
+        _refuse_empty([log])
+    except ExcitationError as exc:
+        return str(exc)
+    return ""
 
 
 def _axis_excited(logs: Sequence[LogArrays], axis: str) -> bool:

@@ -220,8 +220,30 @@ def _read(
             notes.append(f"{path}: {trace.meta.time_note}")
         trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
         trace.check_enough()
-        logs.extend(_pieces(trace, window))
+        logs.extend(_fittable(_pieces(trace, window), notes))
     return logs
+
+
+def _fittable(pieces: list, notes: list[str]) -> list:  # type: ignore[type-arg]
+    """Of several segments of one file, those with something to identify (the rest noted).
+
+    A segment where the robot stood still (or too short) cannot be fitted on its own; it is
+    set aside with a note. A single piece, or a file none of whose segments can be fitted, is
+    returned as it is, so the fit's own error names the file.
+    """
+    from sysid._excitation import why_not_fittable
+    from sysid._logs import as_log_arrays
+
+    if len(pieces) < 2:
+        return pieces
+    kept = []
+    for k, piece in enumerate(pieces):
+        why = why_not_fittable(as_log_arrays(piece, k))
+        if why:
+            notes.append(f"set aside: {why}")
+        else:
+            kept.append(piece)
+    return kept or pieces
 
 
 def _pieces(trace: Any, window: tuple[float, float] | None) -> list:  # type: ignore[type-arg]
@@ -299,7 +321,7 @@ def _fit(args: argparse.Namespace) -> int:
         fh.write(result.to_yaml())
     _print_result(console, result)
     for note in notes:
-        console.print(f"[cyan]time:[/] {escape(note)}", highlight=False)
+        console.print(f"[cyan]note:[/] {escape(note)}", highlight=False)
     console.print(f"wrote [bold]{escape(str(out))}[/]")
     return 0
 
