@@ -48,9 +48,12 @@ KINDS = (
 LIMIT_AS = 6 * 2**30
 PEAK_LIMIT_MB = 500.0
 _CHILD = (
-    "import resource, sys; from sim2real.cli import main; rc = main(sys.argv[1:]); "
+    "import sys; from sim2real.cli import main; rc = main(sys.argv[1:]); "
     "sys.stdout.flush(); "
-    "print('PEAK_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr); "
+    # VmHWM is this process's own peak; ru_maxrss would also count the forked parent's
+    # pages from before exec (the whole pytest process, ~0.5 GB late in a suite run)
+    "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM')][0]; "
+    "print('PEAK_KB', int(hwm.split()[1]), file=sys.stderr); "
     "sys.exit(rc)"
 )
 

@@ -238,9 +238,12 @@ def _limit() -> None:
 def _sub(*argv: str, cwd: Path) -> tuple[subprocess.CompletedProcess[str], float]:
     """Run the CLI in a fresh process; returns it and its peak RSS in MB."""
     code = (
-        "import resource, sys; from sim2real.cli import main; rc = main(sys.argv[1:]); "
+        "import sys; from sim2real.cli import main; rc = main(sys.argv[1:]); "
         "sys.stdout.flush(); "
-        "print('PEAK_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr); "
+        # VmHWM is this process's own peak; ru_maxrss would also count the forked parent's
+        # pages from before exec (the whole pytest process, ~0.5 GB late in a suite run)
+        "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM')][0]; "
+        "print('PEAK_KB', int(hwm.split()[1]), file=sys.stderr); "
         "sys.exit(rc)"
     )
     proc = subprocess.run(
