@@ -212,15 +212,22 @@ class Trace:
             for k, ((a, b), (c0, c1)) in enumerate(zip(bounds, cmds, strict=True))
         )
 
-    def _slice(self, meas: slice, cmd: slice, *, segment: str | None = None) -> Trace:
+    def _slice(
+        self,
+        meas: slice | np.ndarray,
+        cmd: slice | np.ndarray,
+        *,
+        segment: str | None = None,
+    ) -> Trace:
+        """The samples picked by ``meas``/``cmd`` (slices or boolean masks), counts updated."""
         pose = {
             k: (None if getattr(self, k) is None else getattr(self, k)[meas])
             for k in ("pose_x", "pose_y", "pose_yaw")
         }
         meta = replace(
             self.meta,
-            cmd_count=len(range(*cmd.indices(self.cmd_t_ns.size))),
-            meas_count=len(range(*meas.indices(self.meas_t_ns.size))),
+            cmd_count=int(self.cmd_t_ns[cmd].size),
+            meas_count=int(self.meas_t_ns[meas].size),
         )
         if segment is not None:
             first = segment.startswith("1/")
@@ -301,25 +308,7 @@ class Trace:
         )
 
     def _mask(self, cmd_keep: np.ndarray, meas_keep: np.ndarray) -> Trace:
-        pose = {
-            k: (None if getattr(self, k) is None else getattr(self, k)[meas_keep])
-            for k in ("pose_x", "pose_y", "pose_yaw")
-        }
-        return replace(
-            self,
-            cmd_t_ns=self.cmd_t_ns[cmd_keep],
-            cmd_v=self.cmd_v[cmd_keep],
-            cmd_w=self.cmd_w[cmd_keep],
-            meas_t_ns=self.meas_t_ns[meas_keep],
-            meas_v=self.meas_v[meas_keep],
-            meas_w=self.meas_w[meas_keep],
-            meta=replace(
-                self.meta,
-                cmd_count=int(np.count_nonzero(cmd_keep)),
-                meas_count=int(np.count_nonzero(meas_keep)),
-            ),
-            **pose,
-        )
+        return self._slice(meas_keep, cmd_keep)
 
     def check_enough(self) -> None:
         """Raise :class:`~sim2real.errors.LogValueError` when too little data is left.
@@ -389,20 +378,4 @@ class Trace:
             )
         c0 = max(int(np.searchsorted(self.cmd_t_ns, lo, side="right")) - 1, 0)
         c1 = int(np.searchsorted(self.cmd_t_ns, hi, side="left"))
-        meas = slice(int(m0), int(m1))
-        cmd = slice(int(c0), int(c1))
-        pose = {
-            k: (None if getattr(self, k) is None else getattr(self, k)[meas])
-            for k in ("pose_x", "pose_y", "pose_yaw")
-        }
-        return replace(
-            self,
-            cmd_t_ns=self.cmd_t_ns[cmd],
-            cmd_v=self.cmd_v[cmd],
-            cmd_w=self.cmd_w[cmd],
-            meas_t_ns=self.meas_t_ns[meas],
-            meas_v=self.meas_v[meas],
-            meas_w=self.meas_w[meas],
-            meta=replace(self.meta, cmd_count=max(c1 - c0, 0), meas_count=int(m1 - m0)),
-            **pose,
-        )
+        return self._slice(slice(int(m0), int(m1)), slice(int(c0), int(c1)))
