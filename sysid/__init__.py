@@ -4,7 +4,7 @@ Fit the parameters of :class:`robots.params.DriveParams` (delay, friction, inert
 to logs of commanded and measured velocity, with uncertainty and validation scores.
 
 Names are loaded on first use (PEP 562): ``import sysid.errors`` or ``sysid.metrics`` does not
-pull in scipy, filterpy or python-control; :func:`fit_drive` does.
+pull in scipy or numba; :func:`fit_drive` does.
 
 Example
 -------
