@@ -19,6 +19,15 @@ is counted once, for :math:`\mu`:
 deviation -- and shrunk toward the spec's default between-session spread :math:`S_0` with
 :data:`PRIOR_SESSIONS` pseudo-sessions (an inverse-Wishart-like prior), so a fleet of two logs
 does not claim a zero or a huge spread; the result is projected onto the PSD cone.
+
+Each session only speaks where its data inform: :math:`L_i` and :math:`\eta_i` are first
+restricted to the directions in which the data carry at least :data:`MIN_INFO_RATIO` of the
+prior precision (eigen-directions of :math:`L_i` whitened by the prior). A short log (one
+segment of a paused recording) leaves nearly flat directions in which its MAP point still sits off the prior (a
+bound, an unconverged step): recovering a data estimate there divides that offset by an
+information near zero, puts the session astronomically far away and makes the EM estimate of
+:math:`T` grow without bound. Restricted, the session is treated as saying nothing there,
+which is what its data say.
 """
 
 from __future__ import annotations
@@ -29,13 +38,16 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["PRIOR_SESSIONS", "Population", "SessionInfo", "population"]
+__all__ = ["MIN_INFO_RATIO", "PRIOR_SESSIONS", "Population", "SessionInfo", "population"]
 
 FloatArray = NDArray[np.float64]
 
 #: Weight (in sessions) of the spec's default between-session spread in the estimate of T.
 PRIOR_SESSIONS = 3.0
 _EM_ITERATIONS = 200
+#: A session's data count in a direction only where they carry at least this fraction of the
+#: reference precision there (whitened eigenvalue); below it the session is blind there.
+MIN_INFO_RATIO = 0.05
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -84,26 +96,42 @@ def psd(a: FloatArray, floor: float = 0.0) -> FloatArray:
     return out
 
 
+@dataclass(frozen=True)
+class _Data:
+    r"""A session's data part restricted to the directions it informs: :math:`L_i, \eta_i`."""
+
+    info: FloatArray
+    eta: FloatArray
+
+
+def _data_part(s: SessionInfo, prior_mu: FloatArray, prior_prec: FloatArray) -> _Data:
+    r""":math:`L_i` and :math:`\eta_i = L_i\hat\theta_i + P(\hat\theta_i - \mu_p)` of ``s``,
+    restricted to the eigen-directions of :math:`D^{-1} L_i D^{-1}` with an eigenvalue of at
+    least :data:`MIN_INFO_RATIO`; :math:`D^2` is the prior precision (the session's own
+    information for a field without a prior: no pull, nothing to amplify)."""
+    fitted = np.any(s.info != 0, axis=0)
+    pull = np.where(fitted, prior_prec * (s.z - prior_mu), 0.0)
+    d = np.sqrt(np.where(prior_prec > 0, prior_prec, np.maximum(np.diag(s.info), 1e-300)))
+    w, v = np.linalg.eigh(0.5 * (s.info + s.info.T) / np.outer(d, d))
+    vk = v[:, w >= MIN_INFO_RATIO]
+    info = ((vk * w[w >= MIN_INFO_RATIO]) @ vk.T) * np.outer(d, d)
+    eta = info @ s.z + d * (vk @ (vk.T @ (pull / d)))
+    return _Data(info=info, eta=eta)
+
+
 def _mean(
-    sessions: Sequence[SessionInfo], t: FloatArray, prior_mu: FloatArray, prior_prec: FloatArray
+    data: Sequence[_Data], t: FloatArray, prior_mu: FloatArray, prior_prec: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
     k = prior_mu.size
     lam = np.diag(prior_prec).astype(np.float64)
     eta = prior_prec * prior_mu
-    for s in sessions:
+    for s in data:
         a = np.linalg.solve(np.eye(k) + s.info @ t, np.eye(k))  # (I + L T)^-1
         lam = lam + a @ s.info
-        eta = eta + a @ (s.info @ s.z + _prior_pull(s, prior_mu, prior_prec))
+        eta = eta + a @ s.eta
     lam = 0.5 * (lam + lam.T)
     cov = np.linalg.pinv(lam, hermitian=True)
     return cov @ eta, cov
-
-
-def _prior_pull(s: SessionInfo, prior_mu: FloatArray, prior_prec: FloatArray) -> FloatArray:
-    """:math:`P(\\hat\\theta_i - \\mu_p)` on the fields the session fitted (MAP condition)."""
-    fitted = np.any(s.info != 0, axis=0)
-    out: FloatArray = np.where(fitted, prior_prec * (s.z - prior_mu), 0.0)
-    return out
 
 
 def population(
@@ -132,20 +160,21 @@ def population(
     s0 = np.asarray(session_cov, dtype=np.float64)
     t = s0.copy()
     n = len(sessions)
+    data = [_data_part(s, prior_mu, prior_prec) for s in sessions]
     iterations = 0
     for step in range(1, _EM_ITERATIONS + 1):
         iterations = step
-        mu, _ = _mean(sessions, t, prior_mu, prior_prec)
+        mu, _ = _mean(data, t, prior_mu, prior_prec)
         acc = np.zeros((k, k))
-        for s in sessions:
+        for s in data:
             inv = np.linalg.solve(np.eye(k) + t @ s.info, np.eye(k))  # (I + T L)^-1
             v = inv @ t
-            b = inv @ (t @ (s.info @ s.z + _prior_pull(s, prior_mu, prior_prec) - s.info @ mu))
+            b = inv @ (t @ (s.eta - s.info @ mu))
             acc += np.outer(b, b) + v
         t_new = psd((acc + prior_sessions * s0) / (n + prior_sessions))
         done = np.allclose(t_new, t, rtol=1e-6, atol=1e-14)
         t = t_new
         if done:
             break
-    mu, mean_cov = _mean(sessions, t, prior_mu, prior_prec)
+    mu, mean_cov = _mean(data, t, prior_mu, prior_prec)
     return Population(mean=mu, mean_cov=psd(mean_cov), between=t, iterations=iterations)

@@ -16,15 +16,29 @@ from typing import Any
 
 import numpy as np
 
+from robots.params import DriveParams
 from robots.spec import load_spec
 from sim2real.logs import ODOMETRY, SCHEMA_TEXT, TWIST, _cdr, write_velocity_log
 from sysid.synthetic import step_commands, synthetic_log
 
-__all__ = ["ROBOT", "Fault", "base_arrays", "figures_finite", "read_json", "write_faulty"]
+__all__ = [
+    "ROBOT",
+    "Fault",
+    "base_arrays",
+    "figures_finite",
+    "read_json",
+    "truth",
+    "write_faulty",
+]
 
 ROBOT = "turtlebot3_burger"
 T0_NS = 1_000_000_000 * 10**9  # 2001: ten-year faults stay inside builtin_interfaces/Time
 YEAR_NS = 365 * 86_400 * 10**9
+
+
+def truth() -> DriveParams:
+    """The drive parameters of the base that :func:`base_arrays` records."""
+    return load_spec(ROBOT).drive.replace(delay_s=0.1)
 
 
 def base_arrays(duration_s: float = 12.0, seed: int = 1) -> dict[str, np.ndarray]:
@@ -32,7 +46,7 @@ def base_arrays(duration_s: float = 12.0, seed: int = 1) -> dict[str, np.ndarray
     spec = load_spec(ROBOT)
     t, v, w = step_commands(duration_s, seed=seed, v_max_mps=0.2, w_max_radps=1.5)
     log = synthetic_log(
-        spec.drive.replace(delay_s=0.1),
+        truth(),
         spec.geometry,
         cmd_t_s=t,
         cmd_v=v,

@@ -56,6 +56,27 @@ def test_population_shrinks_toward_the_default_spread_with_few_sessions() -> Non
     assert pop.between[0, 0] == pytest.approx(0.04, rel=1e-3)
 
 
+def test_a_session_blind_in_a_direction_says_nothing_there() -> None:
+    """A short log's MAP point off the prior where its data carry ~no information (a bound,
+    an unconverged step) must not be read as a data estimate astronomically far away: that
+    made the EM spread grow without bound (motor gain exp(-1392) = 0 on a paused log)."""
+    prior_mu, prior_prec = np.array([0.0, 0.0]), np.array([100.0, 100.0])
+    s0 = np.diag([0.01, 0.01])
+    sessions = [
+        SessionInfo(z=np.array([0.05, 0.1]), info=np.diag([1e4, 1e-27])),  # 1 prior sd off
+        SessionInfo(z=np.array([0.07, 0.0]), info=np.diag([1e4, 0.0])),
+    ]
+    pop = population(sessions, prior_mu=prior_mu, prior_prec=prior_prec, session_cov=s0)
+    assert pop.mean[1] == pytest.approx(0.0, abs=1e-12)  # the prior: no session informs it
+    assert pop.mean_cov[1, 1] == pytest.approx(0.01, rel=1e-6)
+    assert pop.between[1, 1] == pytest.approx(0.01, rel=1e-3)  # the default spread
+    assert 0.03 < pop.mean[0] < 0.07 and pop.between[0, 0] < 0.01
+    # informed well (eigenvalue >= MIN_INFO_RATIO of the prior), the pull is undone as before
+    informed = [SessionInfo(z=np.array([x, 0.0]), info=np.diag([1e4, 0.0])) for x in (0.05, 0.07)]
+    ref = population(informed, prior_mu=prior_mu, prior_prec=prior_prec, session_cov=s0)
+    assert ref.mean[0] == pytest.approx(pop.mean[0], rel=1e-9)
+
+
 @pytest.fixture(scope="module")
 def fleet() -> SysidResult:
     logs = []
