@@ -75,6 +75,8 @@ class StudyConfig:
         Topics (default: auto-detect).
     time_source : {"auto", "header", "log"}
         Message timing (see :func:`sim2real.logs.read_trace`).
+    odom_velocity : {"auto", "twist", "pose"}
+        Where the measured velocities come from (see :func:`sim2real.logs.read_trace`).
     json_path, report_path, sim_out : str or Path, optional
         Outputs: the figures as JSON, the HTML report (+ PNGs), the simulated run as MCAP.
     command_line : str
@@ -97,6 +99,7 @@ class StudyConfig:
     cmd_topic: str | None = None
     odom_topic: str | None = None
     time_source: str = "auto"
+    odom_velocity: str = "auto"
     json_path: str | Path | None = None
     report_path: str | Path | None = None
     sim_out: str | Path | None = None
@@ -284,6 +287,7 @@ def run_study(
         cmd_topic=config.cmd_topic,
         odom_topic=config.odom_topic,
         time_source=config.time_source,
+        odom_velocity=config.odom_velocity,
     )
     trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
     trace.check_enough()

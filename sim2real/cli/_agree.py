@@ -14,7 +14,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from sim2real.cli._common import add_command
+from sim2real.cli._common import add_command, add_odom_velocity_argument
 
 # light (stdlib-only at import); re-exported for callers of the old names (sim2real demo)
 from sim2real.study import (
@@ -52,6 +52,7 @@ _EXAMPLES = """\
   sim2real agree val.mcap --robot turtlebot3_burger --engine reduced --sim-out sim.mcap
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml \
       --odom-v-window 0            # compare the instantaneous simulated v
+  sim2real agree neato.bag --robot neato.yaml --params p.yaml --odom-velocity pose
   sim2real agree 'fleet/*.mcap' --robot turtlebot3_burger --params params.yaml \
       --json fleet.json --ray auto # one Ray task per log; {"logs": [...], "summary": {...}}
 """
@@ -166,6 +167,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
             "stamps unless they run on another clock than the log times, which it says)"
         ),
     )
+    add_odom_velocity_argument(p)
     p.set_defaults(handler=_handle)
 
 
@@ -242,6 +244,7 @@ def _command_line(args: argparse.Namespace) -> str:
         ("--cmd-topic", args.cmd_topic),
         ("--odom-topic", args.odom_topic),
         ("--time-source", args.time_source if args.time_source != "auto" else None),
+        ("--odom-velocity", args.odom_velocity if args.odom_velocity != "auto" else None),
     ):
         if value is not None:
             parts += [flag, str(value)]
@@ -269,6 +272,7 @@ def study_config(args: argparse.Namespace) -> StudyConfig:
         cmd_topic=args.cmd_topic,
         odom_topic=args.odom_topic,
         time_source=args.time_source,
+        odom_velocity=args.odom_velocity,
         json_path=args.json,
         report_path=args.report,
         sim_out=args.sim_out,

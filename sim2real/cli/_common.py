@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 from typing import NoReturn
 
-__all__ = ["EPILOG_MAIN", "HelpFormatter", "OneLineErrorParser", "add_command"]
+__all__ = [
+    "EPILOG_MAIN",
+    "HelpFormatter",
+    "OneLineErrorParser",
+    "add_command",
+    "add_odom_velocity_argument",
+]
 
 EPILOG_MAIN = """\
 examples:
@@ -52,3 +58,21 @@ def add_command(
         formatter_class=HelpFormatter,
     )
     return parser
+
+
+def add_odom_velocity_argument(parser: argparse.ArgumentParser) -> None:
+    """``--odom-velocity {auto,twist,pose}``: where a log's measured velocities come from.
+
+    The choices are those of :func:`sim2real.logs.read_trace` (``odom_velocity=``); every
+    command that reads velocity logs takes it.
+    """
+    parser.add_argument(
+        "--odom-velocity",
+        choices=("auto", "twist", "pose"),
+        default="auto",
+        help=(
+            "measured velocities from the Odometry twist, from its pose (smoothed "
+            "differentiation), or 'auto' (default: the pose when the twist is zero or spiky "
+            "while the pose moves, which it says)"
+        ),
+    )

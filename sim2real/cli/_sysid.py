@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from sim2real.cli._common import add_command
+from sim2real.cli._common import add_command, add_odom_velocity_argument
 from sim2real.errors import Sim2RealValueError
 from sysid.metrics import FIT_PERCENT_DEFINITION
 
@@ -32,6 +32,7 @@ _FIT_EXAMPLES = """\
   sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --free delay_s,added_mass_kg
   sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --cmd-topic /mobile_base/cmd_vel
   sim2real sysid fit real.mcap --robot turtlebot3_burger -o p.yaml --odom-v-window auto
+  sim2real sysid fit neato.bag --robot neato.yaml -o p.yaml --odom-velocity pose   # twist is junk
   sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --bootstrap 20 --seed 1
   sim2real sysid fit 'fleet/*.mcap' --robot turtlebot3_burger -o fleet.yaml --ray auto
 """
@@ -105,6 +106,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
             "stamps unless they run on another clock than the log times, which it says)"
         ),
     )
+    add_odom_velocity_argument(fit)
     fit.add_argument("--window", metavar="START:END", help="use only this part of the fit logs (s)")
     fit.add_argument(
         "--validate-window", metavar="START:END", help="use only this part of the validation logs"
@@ -215,6 +217,7 @@ def _read(
             cmd_topic=args.cmd_topic,
             odom_topic=args.odom_topic,
             time_source=args.time_source,
+            odom_velocity=args.odom_velocity,
         )
         if trace.meta.time_note:
             notes.append(f"{path}: {trace.meta.time_note}")

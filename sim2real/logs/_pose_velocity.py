@@ -144,7 +144,7 @@ def velocities_from_pose(
         warnings.append(
             f"the odometry twist of topic '{topic}' is {what}, so the measured velocities are "
             f"taken from the pose (local-linear derivative over {window:.2f} s windows); "
-            "read_trace(..., odom_velocity='twist') keeps the twist"
+            "--odom-velocity twist (read_trace(..., odom_velocity='twist')) keeps the twist"
         )
     else:
         warnings.append(
