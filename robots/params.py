@@ -70,20 +70,41 @@ class BaseGeometry:
         Drive-wheel radius r, m.
     wheel_separation_m : float
         Distance L between the two drive-wheel contact points, m.
+    wheels_mass_kg, wheels_yaw_inertia_kgm2 : float
+        The part of ``mass_kg`` and ``yaw_inertia_kgm2`` in the wheels (their mass, the
+        apparent mass of their spin, their yaw inertia about the base origin); 0 when unknown.
+        Payload (``added_mass_kg``, ``added_yaw_inertia_kgm2``) changes only the rest, the
+        base link, so a total may never fall to these (:meth:`FieldSchema.coord_bounds`).
     """
 
     mass_kg: float
     yaw_inertia_kgm2: float
     wheel_radius_m: float
     wheel_separation_m: float
+    wheels_mass_kg: float = 0.0
+    wheels_yaw_inertia_kgm2: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            wheel_part = f.name.startswith("wheels_")
+            if not (
+                isinstance(value, int | float)
+                and math.isfinite(value)
+                and (value >= 0 if wheel_part else value > 0)
+            ):
                 raise RobotsValueError(
-                    f"geometry key '{f.name}' must be a finite number > 0, got {value!r}; "
-                    "fix the robot spec file"
+                    f"geometry key '{f.name}' must be a finite number "
+                    f"{'>= 0' if wheel_part else '> 0'}, got {value!r}; fix the robot spec file"
+                )
+        for part, total in (
+            ("wheels_mass_kg", "mass_kg"),
+            ("wheels_yaw_inertia_kgm2", "yaw_inertia_kgm2"),
+        ):
+            if getattr(self, part) >= getattr(self, total):
+                raise RobotsValueError(
+                    f"geometry key '{part}' ({getattr(self, part)!r}) must be below '{total}' "
+                    f"({getattr(self, total)!r}): the base link carries the rest; fix the spec"
                 )
 
 
@@ -260,7 +281,9 @@ class FieldSchema:
         One of :data:`COORD_KINDS`: the coordinate of the fit, the prior and the sampler.
     lower, upper : float
         Physically plausible range of the value (natural units; for ``total_positive`` fields
-        the range of the *total* as a multiple of the spec value). Fits and draws stay inside.
+        the range of the *total* as a multiple of the spec value, where the lower one applies
+        to the base link's own part: the total stays above the wheels' part plus ``lower`` x
+        the base link's, :meth:`total_floor`). Fits and draws stay inside.
     axis : str
         ``"v"``, ``"w"`` or ``"vw"``: which measured channel the field shapes.
     fittable : bool
@@ -297,6 +320,21 @@ class FieldSchema:
             return geometry.yaw_inertia_kgm2
         return 0.0
 
+    def wheels_part(self, geometry: BaseGeometry) -> float:
+        """The part of :meth:`spec_value` in the wheels, which payload cannot remove."""
+        if self.coord == "log_total_mass":
+            return geometry.wheels_mass_kg
+        if self.coord == "log_total_inertia":
+            return geometry.wheels_yaw_inertia_kgm2
+        return 0.0
+
+    def total_floor(self, geometry: BaseGeometry, share: float = 1.0) -> float:
+        """Least plausible total of a ``total_positive`` field: the wheels' part plus
+        ``share`` x :attr:`lower` of the base link's own spec value (so the base link keeps
+        at least that share of it: pybullet needs its mass and yaw inertia > 0)."""
+        wheels = self.wheels_part(geometry)
+        return wheels + share * self.lower * (self.spec_value(geometry) - wheels)
+
     def to_coord(self, value: float, geometry: BaseGeometry) -> float:
         """The coordinate of ``value`` (inf stays inf for ``log`` fields).
 
@@ -324,7 +362,8 @@ class FieldSchema:
         if self.coord == "lin":
             return self.lower, self.upper
         scale = self.spec_value(geometry) or 1.0
-        return math.log(self.lower * scale), math.log(self.upper * scale)
+        low = self.total_floor(geometry) if self.spec_value(geometry) else self.lower
+        return math.log(low), math.log(self.upper * scale)
 
     def derivative(self, value: float, geometry: BaseGeometry) -> float:
         """d value / d coordinate at ``value`` (to turn a coordinate std into a value std)."""

@@ -412,12 +412,15 @@ def _effective_geometry(
     apparent = wheels.spin_inertia_kgm2 / (r * r)  # apparent mass of one spinning wheel
     mass = base_mass + sum(m for m, _ in extra) + 2.0 * (wheels.mass_kg + apparent)
     izz = base_izz + sum(m * (x * x + y * y) for m, (x, y, _) in extra)
-    izz += 2.0 * (wheels.cross_inertia_kgm2 + (wheels.mass_kg + apparent) * half * half)
+    wheels_izz = 2.0 * (wheels.cross_inertia_kgm2 + (wheels.mass_kg + apparent) * half * half)
+    izz += wheels_izz
     return BaseGeometry(
         mass_kg=mass,
         yaw_inertia_kgm2=izz,
         wheel_radius_m=r,
         wheel_separation_m=wheels.separation_m,
+        wheels_mass_kg=2.0 * (wheels.mass_kg + apparent),
+        wheels_yaw_inertia_kgm2=wheels_izz,
     )
 
 

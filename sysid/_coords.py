@@ -24,6 +24,12 @@ accel_lim_*, speed_lim_*,   log of the value                      log
 wheel_speed_max_radps
 ==========================  ====================================  =========
 
+A total mass or inertia never falls below the wheels' part plus half the schema's ``lower``
+share of the base link's own (:meth:`robots.params.FieldSchema.total_floor`): below the
+schema's plausible floor ``k`` (the full share) the map bends smoothly onto the hard floor
+``b`` (:func:`soft_floor`), so every fit leaves the pybullet base link a positive mass and yaw
+inertia whatever the robot, and the map is unchanged above ``k``.
+
 Velocity data only fix mass/gain ratios, so with every other coordinate held, moving
 :math:`\log K` scales masses, inertias, friction forces and the torque cap together and leaves
 the response unchanged (exactly so without a fixed finite torque cap): the data Jacobian column
@@ -43,9 +49,35 @@ from numpy.typing import NDArray
 
 from robots.params import SCHEMA, BaseGeometry, DriveParams, Prior, generic_priors
 
-__all__ = ["COORDS", "NOT_FITTABLE", "Coord", "Mapper"]
+__all__ = ["COORDS", "NOT_FITTABLE", "Coord", "Mapper", "soft_floor", "soft_floor_inverse"]
 
 FloatArray = NDArray[np.float64]
+
+
+def soft_floor(y: float, hard: float, knee: float) -> float:
+    r"""``y`` above ``knee``; below it :math:`b + (k - b)(y/k)^p`, :math:`p = k/(k - b)`.
+
+    Continuous with a continuous slope at the knee, increasing, and above ``hard`` (b) for
+    every ``y > 0``: a fit can approach the floor but never cross it.
+
+    Examples
+    --------
+    >>> soft_floor(2.0, 0.5, 1.0), round(soft_floor(1e-9, 0.5, 1.0), 6)
+    (2.0, 0.5)
+    """
+    if y >= knee:
+        return y
+    power = knee / (knee - hard)
+    return hard + (knee - hard) * (max(y, 0.0) / knee) ** power
+
+
+def soft_floor_inverse(total: float, hard: float, knee: float) -> float:
+    """The ``y`` with ``soft_floor(y, hard, knee) == total`` (a tiny y at or below ``hard``)."""
+    if total >= knee:
+        return total
+    power = knee / (knee - hard)
+    share = max((total - hard) / (knee - hard), 1e-300)
+    return float(knee * share ** (1.0 / power))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -261,10 +293,36 @@ class Mapper:
         if c.kind == "torque_ratio":
             return math.log(value / k) if math.isfinite(value) else c.upper
         if c.kind == "mass":
-            return math.log(params.total_mass_kg(self.geometry) / kv)
+            total = params.total_mass_kg(self.geometry)
+            return math.log(soft_floor_inverse(total, *self._floor(field)) / kv)
         if c.kind == "inertia":
-            return math.log(params.total_yaw_inertia_kgm2(self.geometry) / kw)
+            total = params.total_yaw_inertia_kgm2(self.geometry)
+            return math.log(soft_floor_inverse(total, *self._floor(field)) / kw)
         return value / (kv if c.kind == "ratio_v" else kw)
+
+    def floor_notes(self, params: DriveParams) -> list[str]:
+        """One sentence per total mass or inertia that the fit pressed below the schema's
+        plausible floor (the base link keeps less than ``lower`` x its spec value)."""
+        notes = []
+        for field, total in (
+            ("added_mass_kg", params.total_mass_kg(self.geometry)),
+            ("added_yaw_inertia_kgm2", params.total_yaw_inertia_kgm2(self.geometry)),
+        ):
+            hard, knee = self._floor(field)
+            if total < knee:
+                notes.append(
+                    f"{field} = {getattr(params, field):.4g} {SCHEMA[field].unit} pressed the "
+                    f"total to {total:.4g}, near the least the base link allows ({hard:.4g}: the "
+                    "wheels plus a share of the base link); the log asks for less mass or "
+                    "inertia than the spec's wheels hold: check the spec, the odometry source "
+                    "(--odom-velocity) and the time source"
+                )
+        return notes
+
+    def _floor(self, field: str) -> tuple[float, float]:
+        """(hard floor, knee) of a total mass or inertia (see the module docstring)."""
+        schema = SCHEMA[field]
+        return schema.total_floor(self.geometry, 0.5), schema.total_floor(self.geometry)
 
     def from_coords(self, values: dict[str, float], ties: dict[str, str]) -> DriveParams:
         """DriveParams with the given internal coordinates applied (``ties``: field -> source)."""
@@ -284,9 +342,11 @@ class Mapper:
             elif kind == "torque_ratio":
                 changes[field] = k * math.exp(x)
             elif kind == "mass":
-                changes[field] = kv * math.exp(x) - self.geometry.mass_kg
+                total = soft_floor(kv * math.exp(x), *self._floor(field))
+                changes[field] = total - self.geometry.mass_kg
             elif kind == "inertia":
-                changes[field] = kw * math.exp(x) - self.geometry.yaw_inertia_kgm2
+                total = soft_floor(kw * math.exp(x), *self._floor(field))
+                changes[field] = total - self.geometry.yaw_inertia_kgm2
             else:
                 changes[field] = x * (kv if kind == "ratio_v" else kw)
         for field, source in ties.items():

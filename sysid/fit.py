@@ -614,6 +614,7 @@ def fit_drive(
     )
     report("uncertainty", 0.92)
     summary = _single(posts[0]) if len(posts) == 1 else _fleet(posts, fit_logs, mapper, problem_kw)
+    notes += mapper.floor_notes(summary.params)
     res_v, res_w = (
         np.concatenate(parts) for parts in zip(*map(_channel_residuals, posts), strict=True)
     )
