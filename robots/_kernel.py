@@ -191,7 +191,7 @@ def drive_step(
 
 @numba.njit(cache=True)
 def pybullet_substep(
-    ref: FloatArray,
+    state: FloatArray,
     u_v: float,
     u_w: float,
     wl_meas: float,
@@ -199,40 +199,43 @@ def pybullet_substep(
     vx: float,
     vy: float,
     wz: float,
-    qx: float,
-    qy: float,
-    qz: float,
-    qw: float,
     dt: float,
     p: FloatArray,
     spin_inertia: float,
-) -> tuple[float, float, float, float, float, float, float, float]:  # pragma: no cover - compiled
-    r"""The drive arithmetic of one pybullet physics step (the chain of :func:`drive_step`).
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    r"""The wheel torques of one pybullet physics step (the chain of :func:`drive_step`).
 
-    ``ref`` holds the smoother's reference ``[ref_v, ref_w]`` and is advanced in place. Inputs
-    are the measured wheel speeds (rad/s), the base's world velocity and its orientation
-    quaternion. The wheel loops act on the measured wheel speeds: the model's torques (wheel
-    speeds from the base motion) plus :math:`K'` times each wheel's slip, with
-    :math:`K' = K/(1 + dt\,K/J_w)` the gain of a free wheel of spin inertia :math:`J_w`, clipped
-    to the torque cap. The axis friction is what the base needs beyond the model's wheel torques
-    to reach the model's end-of-step velocity: :math:`f = m (v_1 - v)/dt - (\tau_r+\tau_l)/r`.
+    ``state`` is ``[ref_v, ref_w, yaw]``, advanced in place: the smoother's reference and the
+    base's yaw one step earlier; the yaw advances by :math:`dt\,w_z` (what pybullet's
+    semi-implicit integrator did in the last step), so the robot reads the orientation once
+    per control step only. Inputs are the measured wheel speeds (rad/s, the encoders the
+    firmware's loops read) and the base's world velocity.
+
+    The torques are the model's wheel-loop torques (wheel speeds from the base motion) plus
+    :math:`K'` times each wheel's slip, with :math:`K' = K/(1 + dt\,K/J_w)` the gain of a
+    free wheel of spin inertia :math:`J_w`, clipped to the torque cap, plus the axis friction
+    carried by the wheels (as a drivetrain's and the tyres' rolling friction are): the force
+    :math:`f = m (v_1 - v)/dt - (\tau_r+\tau_l)/r` and yaw torque that take the base from
+    :math:`(v, w)` to the model's end-of-step :math:`(v_1, w_1)`, as wheel torques
+    :math:`r f/2 \pm r \tau/L`. While the tyres grip, the torques are thus the generalised
+    forces that take the rolling base (whose mass and yaw inertia count the wheels' spin
+    inertia) to :math:`(v_1, w_1)`.
 
     Returns
     -------
     tuple
-        (torque_l, torque_r, force_x, force_y, torque_z, v, w, yaw): wheel torques (N m), the
-        friction force along the heading in world x/y (N) and yaw torque (N m), and the base's
-        forward speed (m/s), yaw rate (rad/s) and yaw (rad) before the step.
+        (torque_l, torque_r), N m.
     """
-    yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    v = vx * cy + vy * sy
+    yaw = state[2] + dt * wz
+    state[2] = yaw
+    v = vx * math.cos(yaw) + vy * math.sin(yaw)
     w = wz
-    ref_v, ref_w, wr_ref, wl_ref = shape_command(u_v, u_w, ref[0], ref[1], dt, p)
-    ref[0] = ref_v
-    ref[1] = ref_w
+    ref_v, ref_w, wr_ref, wl_ref = shape_command(u_v, u_w, state[0], state[1], dt, p)
+    state[0] = ref_v
+    state[1] = ref_w
     v1, w1, tr_model, tl_model = wheel_loops(v, w, wr_ref, wl_ref, dt, p)
-    r, half_l, k, tmax = p[R], 0.5 * p[L], p[K], p[TMAX]
+    r, sep, k, tmax = p[R], p[L], p[K], p[TMAX]
+    half_l = 0.5 * sep
     slip_l = wl_meas - (v - w * half_l) / r
     slip_r = wr_meas - (v + w * half_l) / r
     k_slip = k / (1.0 + dt * k / spin_inertia)
@@ -241,4 +244,6 @@ def pybullet_substep(
     force, torque = axis_friction(
         v, w, v1, w1, tr_model, tl_model, dt, p[MASS], p[INERTIA], r, half_l
     )
-    return tl, tr, force * cy, force * sy, torque, v, w, yaw
+    common = 0.5 * r * force
+    differential = r * torque / sep
+    return tl + common - differential, tr + common + differential

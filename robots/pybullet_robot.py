@@ -5,23 +5,28 @@ the ground through wheel contacts. Each physics step applies the same chain as t
 model (:mod:`robots.reduced`):
 
 1. transport delay: commands are kept in a history and the delayed, zero-order-hold command is
-   averaged over each physics step (:func:`robots.reduced.delayed_step_average`), with the
+   averaged over each physics step (:func:`robots.reduced.delayed_step_average`; :meth:`step`
+   takes the same numbers from the short recent history in one compiled call), with the
    command timeout;
 2. firmware speed clamp, velocity-smoother rate limits, per-wheel speed cap (both wheels
    scaled together) -> wheel speed targets;
 3. per-wheel proportional speed loops :math:`\tau = \mathrm{clip}(K(\omega_{ref}-\omega),
    \pm\tau_{max})`, discretised exactly as the reduced model does (the shared kernel
    :func:`robots._kernel.pybullet_substep`: backward Euler while unsaturated, torques of the
-   current wheel speeds when saturated), applied with ``TORQUE_CONTROL`` (the default velocity motors are disabled).
+   current wheel speeds when saturated), applied with ``TORQUE_CONTROL`` (the default velocity
+   motors are disabled).
    The loops see the measured wheel speeds: while the tyres grip these equal the speeds implied
    by the base motion; a slipping wheel adds :math:`-K' s` for its slip :math:`s` (rad/s), with
    :math:`K' = K/(1 + dt\,K/J_w)` the gain of a free wheel of spin inertia :math:`J_w`;
-4. Coulomb and viscous friction of the forward and yaw axes, applied as an external force
-   along the heading and a yaw torque at the centre of mass (:func:`robots._kernel.
+4. Coulomb and viscous friction of the forward and yaw axes (:func:`robots._kernel.
    axis_friction`): :math:`-b v - c\,\mathrm{sgn}(v)` while moving, and while stuck just what
    holds the base (at most the Coulomb level), so it stops the base without reversing it and a
-   drive below breakaway does not move it. (Friction in the wheel joints could not give
-   independent forward and yaw Coulomb terms.)
+   drive below breakaway does not move it. It is carried by the wheels, as a drivetrain's and
+   the tyres' rolling friction are: force :math:`f` and yaw torque :math:`\tau` become wheel
+   torques :math:`r f/2 \pm r\tau/L` added to the loops' torques (computed from the forward
+   and yaw axes, so the two Coulomb terms stay independent). While the tyres grip, the wheel
+   torques are then exactly the generalised forces that take the rolling base to the reduced
+   model's end-of-step velocity;
 5. added mass and yaw inertia by ``changeDynamics`` on the base link (mass and
    ``localInertiaDiagonal``), read back with ``getDynamicsInfo``.
 
@@ -33,6 +38,9 @@ default 0.04 would add unmodelled drag), pyramid friction and 150 solver iterati
 Every physics step thus applies the reduced model's forces to a rigid multibody with real
 contacts; on flat ground the two agree to ~2e-4 m/s and ~3e-3 rad/s RMS (tests), and they part
 where the reduced model has no say: collisions, slopes, wheels leaving the ground.
+Each physics step costs two state reads (both wheels' speeds in one ``getJointStates``, the
+base velocity), one compiled kernel call and one ``setJointMotorControlArray`` besides
+``stepSimulation``; the yaw is read once per control step and advanced in the kernel.
 
 Synthetic ground truth for sysid: the default ``physics_hz=240`` equals
 ``1 / robots.reduced.DEFAULT_DT_S``, so both models step on the same grid: they then agree to
@@ -68,7 +76,7 @@ from robots._urdf import LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT, urdf_path
 from robots.check import ensure_spec_ok
 from robots.errors import RobotsError, RobotsValueError
 from robots.params import DriveParams
-from robots.reduced import _check_inputs, delayed_step_average
+from robots.reduced import _check_inputs, _delayed_commands, delayed_step_average
 from robots.spec import RobotSpec, load_spec, lumped_base_inertia, lumped_base_mass_kg
 from robots.world import add_ground
 
@@ -93,6 +101,9 @@ WHEEL_FRICTION = 1.5
 SOLVER_ITERATIONS = 150
 
 _WHEELS = [LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT]
+#: :meth:`PybulletRobot.replay` reads the base pose at least every this many physics steps, so
+#: its yaw unwraps (less than pi per 8 steps of 1/240 s below 94 rad/s).
+_YAW_SAMPLE_STEPS = 8
 _REL_TOL = 1e-6
 
 
@@ -204,8 +215,9 @@ class PybulletRobot:
             )
         )
         self._setup_contacts()
-        # the velocity smoother's reference [ref_v, ref_w], advanced in place by the kernel
-        self._ref = np.zeros(2)
+        # the velocity smoother's reference and the base yaw [ref_v, ref_w, yaw], advanced in
+        # place by the kernel
+        self._state = np.zeros(3)
         wheels = self.spec.wheels
         self._wheel_radius_m, self._wheel_separation_m = wheels.radius_m, wheels.separation_m
         self._spin_inertia = wheels.spin_inertia_kgm2
@@ -356,7 +368,7 @@ class PybulletRobot:
         p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=c)
         for j in _WHEELS:
             p.resetJointState(body, j, 0.0, 0.0, physicsClientId=c)
-        self._ref[:] = 0.0
+        self._state[:] = 0.0
         self.time_s = 0.0
         self._cmd_t: list[float] = []
         self._cmd_v: list[float] = []
@@ -381,7 +393,7 @@ class PybulletRobot:
         for j, side in ((LEFT_WHEEL_JOINT, -1.0), (RIGHT_WHEEL_JOINT, 1.0)):
             angle = p.getJointState(body, j, physicsClientId=c)[0]
             p.resetJointState(body, j, angle, (v + side * w * half) / r, physicsClientId=c)
-        self._ref[0], self._ref[1] = v, w
+        self._state[0], self._state[1] = v, w
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -404,7 +416,10 @@ class PybulletRobot:
 
     @property
     def wheel_torques(self) -> tuple[float, float]:
-        """(left, right) wheel torques applied in the last physics step, N m."""
+        """(left, right) wheel torques applied in the last physics step, N m.
+
+        The loops' torques plus the axis friction the wheels carry (see the module notes).
+        """
         return self._last_torques
 
     def odometry(self) -> tuple[float, float]:
@@ -447,16 +462,20 @@ class PybulletRobot:
         while len(self._cmd_t) > 2 and self._cmd_t[1] < horizon:
             del self._cmd_t[0], self._cmd_v[0], self._cmd_w[0]
         n = max(1, round(duration_s * self.physics_hz))
-        grid = self.time_s + self.dt_s * np.arange(n, dtype=np.float64)
         if self._cmd_t:
-            u_v, u_w = self._delayed(
-                np.asarray(self._cmd_t), np.asarray(self._cmd_v), np.asarray(self._cmd_w), grid
+            u_v, u_w = _delayed_commands(
+                np.array(self._cmd_t),
+                np.array(self._cmd_v),
+                np.array(self._cmd_w),
+                self.time_s,
+                self.dt_s,
+                n,
+                self._params.delay_s,
+                self._params.cmd_timeout_s,
             )
+            self._run(u_v.tolist(), u_w.tolist())
         else:
-            u_v = u_w = np.zeros(n)
-        physics_step = self._physics_step
-        for a, b in zip(u_v.tolist(), u_w.tolist(), strict=True):
-            physics_step(a, b)
+            self._run([0.0] * n, [0.0] * n)
         self.time_s += n * self.dt_s
         return self.velocity
 
@@ -511,15 +530,17 @@ class PybulletRobot:
         n = max(1, math.ceil((float(t_out_s[-1]) - t0) / self.dt_s))
         grid = t0 + self.dt_s * np.arange(n + 1, dtype=np.float64)
         u_v, u_w = self._delayed(cmd_t_s, cmd_v, cmd_w, grid[:-1])
-        rows = [
-            self._physics_step(a, b, record=True)
-            for a, b in zip(u_v.tolist(), u_w.tolist(), strict=True)
-        ]
-        rows.append(self._sample())
+        u_v_list, u_w_list = u_v.tolist(), u_w.tolist()
+        sampled = _sampled_steps(grid, t_out_s)
+        rows, start = [], 0
+        for k in sampled.tolist():
+            self._run(u_v_list[start:k], u_w_list[start:k])
+            rows.append(self._sample())
+            start = k
         rec = np.array(rows, dtype=np.float64)
         self.time_s = n * self.dt_s
         rec[:, 6] = np.unwrap(rec[:, 6])
-        col = [np.interp(t_out_s, grid, rec[:, j]) for j in range(7)]
+        col = [np.interp(t_out_s, grid[sampled], rec[:, j]) for j in range(7)]
         imu = self.spec.odometry.w_source == "imu"
         return PybulletResponse(
             t_s=t_out_s,
@@ -552,45 +573,44 @@ class PybulletRobot:
         v = lin[0] * math.cos(yaw) + lin[1] * math.sin(yaw)
         return (v, ang[2], 0.5 * r * (wr + wl), r * (wr - wl) / sep, pos[0], pos[1], yaw)
 
-    def _physics_step(
-        self, u_v: float, u_w: float, *, record: bool = False
-    ) -> tuple[float, ...] | None:
-        """One physics step with the delayed command (u_v, u_w).
+    def _run(self, u_v: list[float], u_w: list[float]) -> None:
+        """One physics step per delayed command (u_v[i], u_w[i]).
 
-        Three state reads, the drive arithmetic in one call of the shared kernel
-        (:func:`robots._kernel.pybullet_substep`), the wheel torques in one
-        ``setJointMotorControlArray``, the axis friction, ``stepSimulation``. With ``record``
-        returns the state before the step (as :meth:`_sample`).
+        Per step: two state reads (``getJointStates`` of both wheels, ``getBaseVelocity``), the
+        drive arithmetic in one call of the shared kernel
+        (:func:`robots._kernel.pybullet_substep`), both wheel torques in one
+        ``setJointMotorControlArray``, ``stepSimulation``. The yaw is read once here and
+        advanced by the kernel.
         """
-        c, body = self.client, self.body_id
-        (_, wl, _, _), (_, wr, _, _) = p.getJointStates(body, _WHEELS, physicsClientId=c)
-        lin, ang = p.getBaseVelocity(body, physicsClientId=c)
-        pos, orn = p.getBasePositionAndOrientation(body, physicsClientId=c)
-        tl, tr, fx, fy, tz, v, w, yaw = pybullet_substep(
-            self._ref,
-            u_v,
-            u_w,
-            wl,
-            wr,
-            lin[0],
-            lin[1],
-            ang[2],
-            orn[0],
-            orn[1],
-            orn[2],
-            orn[3],
-            self.dt_s,
-            self._packed,
-            self._spin_inertia,
-        )
-        p.setJointMotorControlArray(
-            body, _WHEELS, p.TORQUE_CONTROL, forces=(tl, tr), physicsClientId=c
-        )
+        if not u_v:
+            return
+        c, body, state, packed = self.client, self.body_id, self._state, self._packed
+        dt, spin = self.dt_s, self._spin_inertia
+        _, orn = p.getBasePositionAndOrientation(body, physicsClientId=c)
+        _, ang = p.getBaseVelocity(body, physicsClientId=c)
+        state[2] = _yaw_of(orn) - dt * ang[2]  # the kernel adds dt * w_z back first
+        wheels, base = p.getJointStates, p.getBaseVelocity
+        drive, simulate = p.setJointMotorControlArray, p.stepSimulation
+        kernel, mode = pybullet_substep, p.TORQUE_CONTROL
+        tl, tr = self._last_torques
+        for a, b in zip(u_v, u_w, strict=True):
+            (_, wl, _, _), (_, wr, _, _) = wheels(body, _WHEELS, physicsClientId=c)
+            (vx, vy, _), (_, _, wz) = base(body, physicsClientId=c)
+            tl, tr = kernel(state, a, b, wl, wr, vx, vy, wz, dt, packed, spin)
+            drive(body, _WHEELS, mode, forces=(tl, tr), physicsClientId=c)
+            simulate(physicsClientId=c)
         self._last_torques = (tl, tr)
-        p.applyExternalForce(body, -1, (fx, fy, 0.0), pos, p.WORLD_FRAME, physicsClientId=c)
-        p.applyExternalTorque(body, -1, (0.0, 0.0, tz), p.WORLD_FRAME, physicsClientId=c)
-        p.stepSimulation(physicsClientId=c)
-        if not record:
-            return None
-        r, sep = self._wheel_radius_m, self._wheel_separation_m
-        return (v, w, 0.5 * r * (wr + wl), r * (wr - wl) / sep, pos[0], pos[1], yaw)
+
+
+def _sampled_steps(grid: FloatArray, t_out_s: FloatArray) -> NDArray[np.intp]:
+    """Indices of the physics-grid times :meth:`PybulletRobot.replay` records.
+
+    The two grid times around each output time (so interpolating over the recorded ones gives
+    what interpolating over every step would) and every :data:`_YAW_SAMPLE_STEPS`-th step (so
+    the yaw unwraps), first and last included.
+    """
+    last = grid.size - 1
+    below = np.clip(np.searchsorted(grid, t_out_s, side="right") - 1, 0, max(last - 1, 0))
+    every = np.arange(0, last + 1, _YAW_SAMPLE_STEPS)
+    steps: NDArray[np.intp] = np.unique(np.concatenate((below, below + 1, every, [last])))
+    return steps[steps <= last]

@@ -110,6 +110,27 @@ def _integrate_python(
     return out_v, out_w
 
 
+@numba.njit(cache=True, inline="always")
+def _held_mean(
+    cmd_t: FloatArray, cmd_v: FloatArray, cmd_w: FloatArray, a: float, dt: float, timeout: float
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """Mean zero-order-hold command over ``[a, a + dt)``: the overlap of that window with each
+    held segment ``[t_i, min(t_{i+1}, t_i + timeout))``."""
+    m = cmd_t.shape[0]
+    b = a + dt
+    u_v = 0.0
+    u_w = 0.0
+    for i in range(m):
+        end = cmd_t[i + 1] if i + 1 < m else math.inf
+        end = min(end, cmd_t[i] + timeout)
+        lo = max(a, cmd_t[i])
+        hi = min(b, end)
+        if hi > lo:
+            u_v += cmd_v[i] * (hi - lo)
+            u_w += cmd_w[i] * (hi - lo)
+    return u_v / dt, u_w / dt
+
+
 @numba.njit(cache=True)
 def _advance_held(
     state: FloatArray,
@@ -126,24 +147,34 @@ def _advance_held(
     """``n`` steps from time ``t0`` with the delayed zero-order-hold command history.
 
     The same numbers as :func:`delayed_step_average` followed by ``n`` calls of :func:`_step`
-    (up to rounding), in one compiled call: the mean command over each step is the overlap of
-    ``[t - delay, t - delay + dt)`` with each held segment ``[t_i, min(t_{i+1}, t_i + timeout))``.
+    (up to rounding), in one compiled call (:func:`_held_mean` of each delayed step).
     """
-    m = cmd_t.shape[0]
     for k in range(n):
-        a = t0 + k * dt - delay
-        b = a + dt
-        u_v = 0.0
-        u_w = 0.0
-        for i in range(m):
-            end = cmd_t[i + 1] if i + 1 < m else math.inf
-            end = min(end, cmd_t[i] + timeout)
-            lo = max(a, cmd_t[i])
-            hi = min(b, end)
-            if hi > lo:
-                u_v += cmd_v[i] * (hi - lo)
-                u_w += cmd_w[i] * (hi - lo)
-        _step(state, u_v / dt, u_w / dt, dt, p)
+        u_v, u_w = _held_mean(cmd_t, cmd_v, cmd_w, t0 + k * dt - delay, dt, timeout)
+        _step(state, u_v, u_w, dt, p)
+
+
+@numba.njit(cache=True)
+def _delayed_commands(
+    cmd_t: FloatArray,
+    cmd_v: FloatArray,
+    cmd_w: FloatArray,
+    t0: float,
+    dt: float,
+    n: int,
+    delay: float,
+    timeout: float,
+) -> tuple[FloatArray, FloatArray]:  # pragma: no cover - compiled
+    """The delayed mean commands (u_v, u_w) of ``n`` steps of ``dt`` s from ``t0``.
+
+    What :func:`delayed_step_average` gives on that grid (up to rounding), in one compiled call
+    for a short history (:class:`robots.PybulletRobot` calls it once per control step).
+    """
+    u_v = np.empty(n)
+    u_w = np.empty(n)
+    for k in range(n):
+        u_v[k], u_w[k] = _held_mean(cmd_t, cmd_v, cmd_w, t0 + k * dt - delay, dt, timeout)
+    return u_v, u_w
 
 
 @numba.njit(cache=True)

@@ -62,17 +62,28 @@ def test_shaper_and_drive_step_match_the_reduced_kernel(
     assert math.isclose(shaper.ref_v, ref_v1, rel_tol=1e-12, abs_tol=1e-12)
     assert math.isclose(shaper.ref_w, ref_w1, rel_tol=1e-12, abs_tol=1e-12)
     assert abs(out.torque_l) <= tmax + 1e-12 and abs(out.torque_r) <= tmax + 1e-12
-    # the pybullet substep on a base heading along +x whose wheels roll without slip
+    # the pybullet substep on a base heading along +x whose wheels roll without slip: the
+    # model's torques plus the axis friction carried by the wheels
     r, half_l = geo.wheel_radius_m, 0.5 * geo.wheel_separation_m
-    ref = np.array([ref_v, ref_w])
+    dt_yaw = 0.25
+    state = np.array([ref_v, ref_w, -dt * w + dt_yaw])
     got = pybullet_substep(
-        ref, u_v, u_w, (v - w * half_l) / r, (v + w * half_l) / r, v, 0.0, w,
-        0.0, 0.0, 0.0, 1.0, dt, packed, SPEC.wheels.spin_inertia_kgm2,
+        state, u_v, u_w, (v - w * half_l) / r, (v + w * half_l) / r,
+        v * math.cos(dt_yaw), v * math.sin(dt_yaw), w, dt, packed, SPEC.wheels.spin_inertia_kgm2,
     )  # fmt: skip
     force, torque = friction_of(out, v, w, dt, packed[12], packed[13], geo)
-    assert np.allclose(ref, [ref_v1, ref_w1], rtol=1e-12, atol=1e-12)
-    assert np.allclose(got[:5], (tl, tr, force, 0.0, torque), rtol=1e-9, atol=1e-9)
-    assert got[5:] == (v, w, 0.0)
+    assert np.allclose(state, [ref_v1, ref_w1, dt_yaw], rtol=1e-12, atol=1e-12)
+    carried = (
+        0.5 * r * force - r * torque / (2 * half_l),
+        0.5 * r * force + r * torque / (2 * half_l),
+    )
+    assert np.allclose(got, (tl + carried[0], tr + carried[1]), rtol=1e-9, atol=1e-9)
+    # = the generalised forces that take the rolling base to the model's (v1, w1)
+    m, inertia = packed[12], packed[13]
+    assert math.isclose(sum(got), r * m * (v1 - v) / dt, rel_tol=1e-6, abs_tol=1e-9)
+    assert math.isclose(
+        got[1] - got[0], 2 * r * inertia * (w1 - w) / (2 * half_l * dt), rel_tol=1e-6, abs_tol=1e-9
+    )
 
 
 @settings(max_examples=200, deadline=None)

@@ -112,11 +112,11 @@ def test_wrong_body_spec_is_refused(neato_text: str, tmp_path: Path) -> None:
     assert not report.passed
     assert report.items[0].name == "body clear of the ground" and not report.items[0].passed
     assert "0.0151 m below the ground" in report.reason() and str(path) in report.reason()
-    # the physics agrees: this body makes the robot creep backwards and turn the wrong way
+    # the physics agrees: the wheels hardly touch, so the base barely moves and turns wrongly
     drive = {i.name: i for i in _drive_items(spec)}
-    assert (
-        not drive["forward drive"].passed and "drove the base at -" in drive["forward drive"].detail
-    )
+    assert not drive["forward drive"].passed
+    shortfall = re.search(r"\(([-+]\d+)% of the kinematic speed", drive["forward drive"].detail)
+    assert shortfall is not None and int(shortfall.group(1)) <= -50, drive["forward drive"].detail
     assert not drive["turn"].passed
     assert not drive["wheels touch the ground"].passed
     from robots.pybullet_robot import PybulletRobot
