@@ -1,5 +1,8 @@
-"""Golden traces of the drive chain (reduced model and pybullet robot), recorded from the code
-before the drive-step kernel was shared (issue 16) and compared bit for bit since.
+"""Golden traces of the drive chain (reduced model and pybullet robot), compared bit for bit.
+
+The reduced model's traces were recorded before the drive-step kernel was shared (issue 16);
+the pybullet robot's were re-recorded once since, when its axis friction moved from an external
+force at the centre of mass to the wheels (same flat-ground motion to 1e-4 m/s, 7e-5 rad/s).
 
 Regenerate (only after an intended change of the physics) with
 ``.venv/bin/python -m tests.robots._golden_drive``.

@@ -1,5 +1,5 @@
-"""The drive chain gives the same numbers, bit for bit, as the recorded golden traces (made
-before the reduced model and the pybullet robot shared one drive-step kernel, issue 16)."""
+"""The drive chain gives the same numbers, bit for bit, as the recorded golden traces
+(tests/robots/_golden_drive.py says when each was recorded)."""
 
 from __future__ import annotations
 
