@@ -17,6 +17,7 @@ __all__ = ["register"]
 _INFO_EXAMPLES = """\
   sim2real logs info run.mcap                       # topics, counts, rates, chosen topics
   sim2real logs info run.mcap --json                # the same as JSON
+  sim2real logs info run.mcap --sha256              # also hash the whole file
   sim2real logs info run.bag                        # a ROS 1 bag (or a rosbag2 folder)
   sim2real logs info run.mcap --cmd-topic /cmd_vel_nav --odom-topic /odometry/wheel
 """
@@ -54,6 +55,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     info.add_argument("--cmd-topic", metavar="TOPIC", help="command topic (default: detect)")
     info.add_argument("--odom-topic", metavar="TOPIC", help="measurement topic (default: detect)")
     info.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    info.add_argument(
+        "--sha256",
+        action="store_true",
+        help="also print the SHA-256 of the whole file (reads every byte; off by default)",
+    )
     info.set_defaults(handler=_info)
 
 
@@ -61,7 +67,10 @@ def _info(args: argparse.Namespace) -> int:
     from sim2real.logs import inspect_log
 
     info = inspect_log(args.log, cmd_topic=args.cmd_topic, odom_topic=args.odom_topic)
-    print(json.dumps(info.to_dict(), indent=2) if args.json else _table(info))
+    if args.json:
+        print(json.dumps(info.to_dict(sha256=args.sha256), indent=2))
+    else:
+        print(_table(info, sha256=args.sha256))
     return 0
 
 
@@ -69,9 +78,16 @@ def _when(t_ns: int) -> str:
     return datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
 
 
-def _table(info: LogInfo) -> str:
+def _table(info: LogInfo, *, sha256: bool = False) -> str:
+    digest = f", sha256 {info.sha256}" if sha256 else ""
+    how = (
+        "summary section and message indexes (no chunk decompressed)"
+        if info.source == "summary"
+        else "every record"
+    )
     lines = [
-        f"file:      {info.path} ({info.size_bytes / 1e6:.2f} MB, sha256 {info.sha256[:12]})",
+        f"file:      {info.path} ({info.size_bytes / 1e6:.2f} MB{digest})",
+        f"read from: {how}",
         f"profile:   {info.profile or '-'} (written by {info.library or 'unknown'})",
         f"duration:  {info.duration_s:.1f} s from {_when(info.start_ns)}, "
         f"{info.message_count} messages",

@@ -47,11 +47,14 @@ _ROS1_MAGIC = b"#ROSBAG V"
 
 @dataclass(frozen=True)
 class LogSource:
-    """A log picked by the factory: its kind, the bytes to hash and how to scan it."""
+    """A log picked by the factory: its kind, its bytes, the files its digest covers and how
+    to scan it."""
 
     kind: str  # "mcap", "ros1", "rosbag2" or "csv"
     path: Path
     data: bytes
+    #: The files whose concatenated bytes the log's SHA-256 covers (see open_log_source).
+    digest_paths: tuple[Path, ...] = ()
 
     def scan(self) -> Container:
         """The log's container (channels, schemas, message segments, warnings)."""
@@ -90,14 +93,14 @@ def source_kind(path: Path) -> str:
 
 
 def open_log_source(path: Path) -> LogSource:
-    """The factory: pick the reader for ``path`` and load the bytes to hash.
+    """The factory: pick the reader for ``path`` and load its bytes.
 
     For a rosbag2 folder the hashed bytes are its ``metadata.yaml`` followed by its storage
-    files in the order the metadata lists them.
+    files in name order.
     """
     kind = source_kind(path)
     if kind != "rosbag2":
-        return LogSource(kind=kind, path=path, data=path.read_bytes())
+        return LogSource(kind=kind, path=path, data=path.read_bytes(), digest_paths=(path,))
     meta = path / "metadata.yaml"
     if not meta.is_file():
         found = ", ".join(sorted(p.name for p in path.iterdir())[:5]) or "nothing"
@@ -106,9 +109,9 @@ def open_log_source(path: Path) -> LogSource:
             f"bag (found: {found}); give an .mcap, .bag or .csv file, or recreate the "
             f"metadata with `ros2 bag reindex {path}`"
         )
-    parts = [meta.read_bytes()]
-    parts += [p.read_bytes() for p in sorted(path.iterdir()) if p.suffix in (".db3", ".mcap")]
-    return LogSource(kind=kind, path=path, data=b"".join(parts))
+    files = (meta, *(p for p in sorted(path.iterdir()) if p.suffix in (".db3", ".mcap")))
+    data = b"".join(p.read_bytes() for p in files)
+    return LogSource(kind=kind, path=path, data=data, digest_paths=files)
 
 
 # ------------------------------------------------------------------------------- shared
@@ -214,6 +217,7 @@ def _ros1_container(reader: Any, data: bytes) -> Container:
     if extra is not None:
         table.container.segments.append(extra)
     table.container.profile = "ros1"
+    table.container.format = "ros1"
     table.container.library = "rosbags"
     _note_unknown(table.container, unknown)
     return table.container
@@ -291,6 +295,7 @@ def _rosbag2_container(reader: Any) -> Container:
     if extra is not None:
         table.container.segments.append(extra)
     table.container.profile = "ros2"
+    table.container.format = "rosbag2"
     table.container.library = "rosbags"
     _note_unknown(table.container, unknown)
     return table.container

@@ -2,20 +2,43 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from sim2real.errors import MissingTopicError
+from sim2real.errors import MissingTopicError, Sim2RealFileNotFoundError
 from sim2real.logs._channels import Chan, choose_topic
-from sim2real.logs._reader import load_log
+from sim2real.logs._digest import FileDigest, LazyText
+from sim2real.logs._schemas import normalize_type
 
-__all__ = ["NO_CHECKSUMS", "LogInfo", "TopicInfo", "inspect_log"]
+__all__ = [
+    "NO_CHECKSUMS",
+    "ROS1_NO_CHECKSUMS",
+    "ROSBAG2_MCAP_NO_CHECKSUMS",
+    "ROSBAG2_NO_CHECKSUMS",
+    "LogInfo",
+    "TopicInfo",
+    "inspect_log",
+]
 
-#: The note of a log without any CRC (chunk or data section).
+#: The note of an MCAP log without any CRC (chunk or data section).
 NO_CHECKSUMS = "this file has no checksums; corruption cannot be detected"
+#: The note of a ROS 1 bag: the format has no checksums at all.
+ROS1_NO_CHECKSUMS = (
+    "ROS 1 bags carry no checksums (the format has none); corruption of message data "
+    "cannot be detected"
+)
+#: The note of a rosbag2 bag with sqlite3 storage (sqlite3 keeps no checksum of a row).
+ROSBAG2_NO_CHECKSUMS = (
+    "this rosbag2 bag's sqlite3 storage carries no checksums of its messages; corruption of "
+    "message data cannot be detected"
+)
+#: The note of a rosbag2 bag whose mcap storage files were written without CRCs.
+ROSBAG2_MCAP_NO_CHECKSUMS = (
+    "this rosbag2 bag's mcap storage files have no checksums; corruption cannot be detected"
+)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -52,8 +75,10 @@ class LogInfo:
 
     Attributes
     ----------
-    path, sha256 : str
-        The file and the hex SHA-256 of its bytes.
+    path : str
+        The file.
+    sha256 : str
+        Hex SHA-256 of its bytes, computed on first access (``logs info --sha256``).
     size_bytes : int
         File size.
     profile, library : str
@@ -72,23 +97,28 @@ class LogInfo:
         Why a topic is None (the error a read would raise), else "".
     warnings : tuple of str
         Repairs or problems met while scanning (e.g. a truncated file).
+    source : str
+        ``"summary"`` when the answer comes from the MCAP summary section and message indexes
+        (no chunk decompressed, so chunk CRCs were not checked), ``"scan"`` when every
+        record was read.
     """
 
     path: str
-    sha256: str
-    size_bytes: int
-    profile: str
-    library: str
-    topics: tuple[TopicInfo, ...]
-    message_count: int
-    start_ns: int
-    end_ns: int
-    duration_s: float
-    cmd_topic: str | None
-    meas_topic: str | None
+    sha256: LazyText = LazyText()  # noqa: RUF009 (a descriptor, see _digest)
+    size_bytes: int = 0
+    profile: str = ""
+    library: str = ""
+    topics: tuple[TopicInfo, ...] = ()
+    message_count: int = 0
+    start_ns: int = 0
+    end_ns: int = 0
+    duration_s: float = 0.0
+    cmd_topic: str | None = None
+    meas_topic: str | None = None
     cmd_note: str = ""
     meas_note: str = ""
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    source: str = "scan"
 
     def topic(self, name: str) -> TopicInfo:
         """The :class:`TopicInfo` of topic ``name`` (KeyError when absent)."""
@@ -97,9 +127,11 @@ class LogInfo:
                 return t
         raise KeyError(name)
 
-    def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-ready dict."""
-        return asdict(self)
+    def to_dict(self, *, sha256: bool = True) -> dict[str, Any]:
+        """Plain JSON-ready dict (``sha256=False``: its ``sha256`` is None, the file unhashed)."""
+        out = asdict(replace(self, sha256=""))
+        out["sha256"] = self.sha256 if sha256 else None
+        return out
 
 
 def _topic_info(chan: Chan) -> TopicInfo:
@@ -117,10 +149,97 @@ def _topic_info(chan: Chan) -> TopicInfo:
     )
 
 
+@dataclass(frozen=True)
+class _Scanned:
+    """What :func:`inspect_log` needs of a log, however it was read."""
+
+    name: str
+    size_bytes: int
+    digest: FileDigest
+    profile: str
+    library: str
+    chans: list[Chan]
+    warnings: list[str]
+    source: str
+
+
+def _from_summary(path: Path) -> _Scanned | None:
+    """The MCAP summary-section answer (None: not an MCAP file with a usable summary)."""
+    from sim2real.logs._bags import source_kind
+    from sim2real.logs._summary import read_summary
+
+    if not path.is_file() or source_kind(path) != "mcap":
+        return None
+    view = read_summary(path)
+    if view is None:
+        return None
+    chans = []
+    for cid, rec in sorted(view.channels.items()):
+        schema = view.schemas.get(rec.schema_id)
+        type_name = normalize_type(schema.name) if schema is not None else ""
+        chans.append(
+            Chan(record=rec, schema=schema, type=type_name, log_time_ns=view.log_times[cid])
+        )
+    return _Scanned(
+        name=str(path),
+        size_bytes=path.stat().st_size,
+        digest=FileDigest((path,), name=str(path)),
+        profile=view.profile,
+        library=view.library,
+        chans=chans,
+        warnings=[] if view.checksums else [NO_CHECKSUMS],
+        source="summary",
+    )
+
+
+def _from_scan(path: Path) -> _Scanned:
+    from sim2real.logs._reader import load_log
+
+    log = load_log(path)
+    warnings = list(log.container.warnings)
+    note = _checksum_note(path, log.container.format, log.container.checksums)
+    if note:
+        warnings.append(note)
+    return _Scanned(
+        name=log.name,
+        size_bytes=log.size_bytes,
+        digest=log.digest,
+        profile=log.container.profile,
+        library=log.container.library,
+        chans=log.chans,
+        warnings=warnings,
+        source="scan",
+    )
+
+
+def _checksum_note(path: Path, kind: str, checksums: bool) -> str:
+    """The sentence saying that a log cannot be checked for corruption, in its format's terms
+    ("" when it can)."""
+    if kind == "ros1":
+        return ROS1_NO_CHECKSUMS
+    if kind == "rosbag2":
+        from sim2real.logs._summary import read_summary
+
+        storage = [p for p in path.iterdir() if p.suffix in (".db3", ".mcap")]
+        if any(p.suffix == ".db3" for p in storage):
+            return ROSBAG2_NO_CHECKSUMS
+        views = [read_summary(p) for p in storage]  # rosbags checks chunk CRCs where present
+        return (
+            ""
+            if views and all(v is not None and v.checksums for v in views)
+            else (ROSBAG2_MCAP_NO_CHECKSUMS)
+        )
+    return "" if checksums else NO_CHECKSUMS
+
+
 def inspect_log(
     path: str | Path, *, cmd_topic: str | None = None, odom_topic: str | None = None
 ) -> LogInfo:
-    """Scan an MCAP log and describe it (no message payload is decoded).
+    """Describe a log: topics, types, counts, rates, time range, the topics a read would use.
+
+    An MCAP file with a summary section is answered from it and its message indexes, without
+    decompressing a chunk or decoding a payload (``info.source == "summary"``); other files
+    and formats are scanned. The file's SHA-256 is only computed when ``info.sha256`` is read.
 
     An explicit ``cmd_topic``/``odom_topic`` that does not exist or has the wrong type raises
     :class:`~sim2real.errors.MissingTopicError`; when auto-detection finds no topic the info
@@ -132,7 +251,12 @@ def inspect_log(
     >>> info.topic("/odom").count  # doctest: +SKIP
     893
     """
-    log = load_log(path)
+    p = Path(path)
+    if not p.exists():
+        raise Sim2RealFileNotFoundError(
+            f"log file '{p}' does not exist; check the path (e.g. `ls {p.parent}`)"
+        )
+    log = _from_summary(p) or _from_scan(p)
     chosen: dict[str, str | None] = {}
     notes: dict[str, str] = {}
     for role, explicit in (("command", cmd_topic), ("measurement", odom_topic)):
@@ -143,9 +267,7 @@ def inspect_log(
             if explicit is not None:
                 raise
             chosen[role], notes[role] = None, str(exc)
-    warnings = list(log.container.warnings)
-    if not log.container.checksums:
-        warnings.append(NO_CHECKSUMS)
+    warnings = list(log.warnings)
     for role, topic in chosen.items():
         if topic is not None and not any(c.count for c in log.chans if c.topic == topic):
             warnings.append(
@@ -157,10 +279,10 @@ def inspect_log(
     end = int(max(int(t[-1]) for t in times)) if times else 0
     return LogInfo(
         path=log.name,
-        sha256=log.sha256,
+        sha256=log.digest,
         size_bytes=log.size_bytes,
-        profile=log.container.profile,
-        library=log.container.library,
+        profile=log.profile,
+        library=log.library,
         topics=tuple(sorted((_topic_info(c) for c in log.chans), key=lambda t: t.topic)),
         message_count=int(np.sum([c.count for c in log.chans])) if log.chans else 0,
         start_ns=start,
@@ -171,4 +293,5 @@ def inspect_log(
         cmd_note=notes["command"],
         meas_note=notes["measurement"],
         warnings=tuple(warnings),
+        source=log.source,
     )

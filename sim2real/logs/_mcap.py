@@ -94,6 +94,8 @@ class Container:
     warnings: list[str] = field(default_factory=list)
     #: True when the file carries a data-section CRC or a CRC on every chunk it has.
     checksums: bool = False
+    #: The container format: "mcap", "ros1" (ROS 1 bag) or "rosbag2".
+    format: str = "mcap"
 
     def message_count(self) -> int:
         """Total number of message records found."""

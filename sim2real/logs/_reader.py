@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
-import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,6 +16,7 @@ from sim2real.errors import (
 from sim2real.logs._bags import open_log_source, source_kind
 from sim2real.logs._channels import Chan, channel_table, choose_topic
 from sim2real.logs._decode import decode_channel, infer_json_type
+from sim2real.logs._digest import FileDigest
 from sim2real.logs._mcap import Container
 from sim2real.logs._pose_velocity import velocities_from_pose
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY
@@ -38,42 +37,20 @@ TIME_SOURCES = ("auto", "header", "log")
 _CLOCK_GAP_S = 0.5
 
 
-class _Sha256:
-    """SHA-256 of a bytes object, computed in a background thread."""
-
-    def __init__(self, data: bytes) -> None:
-        self._data: bytes | None = data
-        self._hex = ""
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        if self._data is not None:
-            self._hex = hashlib.sha256(self._data).hexdigest()
-
-    def hexdigest(self) -> str:
-        """Wait for the hash and return it as hex (hashed here if the thread failed)."""
-        self._thread.join()
-        if not self._hex and self._data is not None:
-            self._hex = hashlib.sha256(self._data).hexdigest()
-        self._data = None  # do not keep the file's bytes alive for the digest
-        return self._hex
-
-
 @dataclass(frozen=True)
 class LoadedLog:
-    """A scanned log: its bytes' digest, container and channel table."""
+    """A scanned log: its file digest (computed when called), container and channel table."""
 
     name: str
     size_bytes: int
-    digest: _Sha256
+    digest: FileDigest
     container: Container
     chans: list[Chan]
 
     @property
     def sha256(self) -> str:
-        """Hex SHA-256 of the file's bytes (waits for the hashing thread)."""
-        return self.digest.hexdigest()
+        """Hex SHA-256 of the file's bytes (hashes the file now)."""
+        return self.digest()
 
 
 def load_log(path: str | Path) -> LoadedLog:
@@ -89,8 +66,7 @@ def load_log(path: str | Path) -> LoadedLog:
             f"log file '{p}' is a CSV trace, which has no channels to list; read it with "
             "read_trace (sysid fit, agree) instead"
         )
-    # hashed in a thread (hashlib releases the GIL) while we scan and decode
-    digest = _Sha256(source.data)
+    digest = FileDigest(source.digest_paths, name=str(p))  # hashed only if someone asks
     container = source.scan()
     if container.warnings and container.message_count() == 0:
         raise LogFormatError(
@@ -211,7 +187,7 @@ def read_trace(
     meas_cols = velocities_from_pose(meas_t, meas_cols, meas.topic, warnings, mode=odom_velocity)
     meta = TraceMeta(
         path=log.name,
-        sha256=log.sha256,
+        sha256=log.digest,
         cmd_topic=cmd.topic,
         cmd_type=cmd.type,
         meas_topic=meas.topic,

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from sim2real.errors import LogValueError, Sim2RealValueError
+from sim2real.logs._digest import LazyText, lazy_value
 from sim2real.logs._timeline import command_windows, segment_bounds
 
 __all__ = ["ABSURD_FACTOR", "MIN_MEAS_SAMPLES", "Trace", "TraceMeta"]
@@ -43,7 +44,9 @@ class TraceMeta:
         The log file ("" for a trace built in memory); a segment made by
         :meth:`Trace.segments` is named ``"<file> (segment k/n)"``.
     sha256 : str
-        Hex SHA-256 of the file bytes.
+        Hex SHA-256 of the file bytes, computed on first access (reading a log does not hash
+        it; only what writes the digest pays for it). May be given as a str or as a
+        zero-argument callable returning it.
     cmd_topic, cmd_type, meas_topic, meas_type : str
         Topics used for commands and measurements and their ROS 2 message types.
     cmd_count, meas_count : int
@@ -65,7 +68,7 @@ class TraceMeta:
     """
 
     path: str = ""
-    sha256: str = ""
+    sha256: LazyText = LazyText()  # noqa: RUF009 (a descriptor, see _digest)
     cmd_topic: str = ""
     cmd_type: str = ""
     meas_topic: str = ""
@@ -81,6 +84,11 @@ class TraceMeta:
     warnings: tuple[str, ...] = field(default_factory=tuple)
     time_note: str = ""
     segment: str = ""
+
+
+def _meta_replace(meta: TraceMeta, **changes: object) -> TraceMeta:
+    """``dataclasses.replace`` that keeps a not yet computed digest lazy."""
+    return replace(meta, sha256=lazy_value(meta, "sha256"), **changes)  # type: ignore[arg-type]
 
 
 def _frozen(a: np.ndarray | None, dtype: type, name: str) -> np.ndarray | None:
@@ -224,14 +232,14 @@ class Trace:
             k: (None if getattr(self, k) is None else getattr(self, k)[meas])
             for k in ("pose_x", "pose_y", "pose_yaw")
         }
-        meta = replace(
+        meta = _meta_replace(
             self.meta,
             cmd_count=int(self.cmd_t_ns[cmd].size),
             meas_count=int(self.meas_t_ns[meas].size),
         )
         if segment is not None:
             first = segment.startswith("1/")
-            meta = replace(
+            meta = _meta_replace(
                 meta,
                 segment=segment,
                 path=f"{self.meta.path or 'trace'} (segment {segment})",
@@ -292,7 +300,7 @@ class Trace:
         if all(np.all(k) for k in keep.values()):
             return self
         out = self._mask(keep["command"], keep["measurement"])
-        out = replace(out, meta=replace(out.meta, warnings=tuple(notes)))
+        out = replace(out, meta=_meta_replace(out.meta, warnings=tuple(notes)))
         out.check_enough()
         return out
 

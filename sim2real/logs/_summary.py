@@ -1,0 +1,222 @@
+"""What an MCAP file's summary section says, without decompressing a chunk (private).
+
+An MCAP file written to the end (``ros2 bag record``, the ``mcap`` writers) carries a
+*summary section* after its data (MCAP spec, "Summary Section"): the Schema and Channel
+records again, a ``Statistics`` record (message counts per channel), and a ``ChunkIndex``
+record per chunk giving the file offsets of the chunk's ``MessageIndex`` records. Those
+list the log time and offset of every message of one channel in one chunk, uncompressed, right
+after the chunk. So the topics, types, counts and per-channel log times (hence rates and the
+time range) of a log come from the summary and the message indexes alone: a few reads near
+the chunks, no decompression and no message payload (``sim2real logs info``).
+
+The summary is only used when it checks out: footer and summary parse, the summary CRC
+matches when the writer filled it in, every chunk has its message indexes, the indexes list
+exactly the counts of the ``Statistics`` record, every channel id they name has a Channel
+record, and no channel is JSON without a schema (its type is guessed from a payload).
+Otherwise :func:`read_summary` returns None and the caller scans the whole file, which gives
+the precise error when something is wrong.
+
+What this path does not do: check chunk CRCs (no chunk is read). Whether the file *has*
+checksums is still known (the DataEnd record and the chunk headers are a few bytes each).
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import BinaryIO
+
+import numpy as np
+
+from sim2real.logs._mcap import (
+    MAGIC,
+    ChannelRecord,
+    SchemaRecord,
+    _channel,
+    _Corrupt,
+    _Cursor,
+    _schema,
+)
+
+__all__ = ["SummaryView", "read_summary"]
+
+_FOOTER_BYTES = 9 + 20  # opcode, length, summary_start u64, summary_offset_start u64, crc u32
+_HEADER, _FOOTER, _SCHEMA, _CHANNEL = 0x01, 0x02, 0x03, 0x04
+_MESSAGE_INDEX, _CHUNK_INDEX, _STATISTICS, _DATA_END = 0x07, 0x08, 0x0B, 0x0F
+_OP_LEN = struct.Struct("<BQ")
+#: Chunk record body before ``uncompressed_crc``: start/end time and uncompressed size.
+_CHUNK_CRC_AT = 9 + 24
+
+
+@dataclass
+class SummaryView:
+    """Channels, schemas and per-channel log times of an MCAP file, from its summary."""
+
+    profile: str = ""
+    library: str = ""
+    schemas: dict[int, SchemaRecord] = field(default_factory=dict)
+    channels: dict[int, ChannelRecord] = field(default_factory=dict)
+    #: Sorted log times (ns) of each channel's messages.
+    log_times: dict[int, np.ndarray] = field(default_factory=dict)
+    #: True when the file carries a data-section CRC or a CRC on every chunk.
+    checksums: bool = False
+
+
+@dataclass(frozen=True)
+class _ChunkIndex:
+    start: int  # file offset of the Chunk record
+    length: int  # its length in bytes
+    index_offsets: dict[int, int]  # channel id -> file offset of its MessageIndex record
+    index_length: int  # bytes of all MessageIndex records after the chunk
+
+
+@dataclass
+class _Stats:
+    message_count: int
+    chunk_count: int
+    per_channel: dict[int, int]
+
+
+def read_summary(path: Path) -> SummaryView | None:
+    """The summary of the MCAP file at ``path``, or None when it has none that checks out."""
+    try:
+        with path.open("rb") as fh:
+            return _read(fh, path.stat().st_size)
+    except (_Corrupt, OSError, struct.error, ValueError):
+        return None
+
+
+def _read(fh: BinaryIO, size: int) -> SummaryView | None:
+    tail_at = size - len(MAGIC) - _FOOTER_BYTES
+    if tail_at < len(MAGIC) + 9:
+        return None
+    fh.seek(tail_at)
+    tail = fh.read(_FOOTER_BYTES + len(MAGIC))
+    op, length = _OP_LEN.unpack_from(tail, 0)
+    if op != _FOOTER or length != 20 or tail[_FOOTER_BYTES:] != MAGIC:
+        return None
+    start, _, crc = struct.unpack_from("<QQI", tail, 9)
+    if not len(MAGIC) + 13 <= start <= tail_at:
+        return None
+    fh.seek(start)
+    summary = fh.read(tail_at - start)
+    if crc != 0 and zlib.crc32(tail[:25], zlib.crc32(summary)) != crc:
+        return None
+    out = SummaryView()
+    chunks: list[_ChunkIndex] = []
+    stats = _summary_records(summary, out, chunks)
+    if stats is None or stats.chunk_count != len(chunks):
+        return None
+    fh.seek(start - 13)  # the DataEnd record ends the data section
+    op, length, data_crc = struct.unpack("<BQI", fh.read(13))
+    if op != _DATA_END or length != 4:
+        return None
+    if not _index_times(fh, chunks, out, stats):
+        return None
+    out.checksums = data_crc != 0 or (bool(chunks) and _chunk_crcs(fh, chunks))
+    fh.seek(len(MAGIC))
+    head = fh.read(9)
+    op, length = _OP_LEN.unpack_from(head, 0)
+    if op == _HEADER and length <= start:
+        c = _Cursor(fh.read(length), 0, length)
+        out.profile, out.library = c.string(), c.string()
+    return out
+
+
+def _summary_records(data: bytes, out: SummaryView, chunks: list[_ChunkIndex]) -> _Stats | None:
+    """Parse the summary section's records into ``out``/``chunks``; its Statistics or None."""
+    pos, stats = 0, None
+    while pos < len(data):
+        if pos + 9 > len(data):
+            return None
+        op, length = _OP_LEN.unpack_from(data, pos)
+        end = pos + 9 + length
+        if end > len(data):
+            return None
+        if op == _SCHEMA:
+            rec = _schema(data, pos + 9, end)
+            out.schemas[rec.id] = rec
+        elif op == _CHANNEL:
+            ch = _channel(data, pos + 9, end)
+            out.channels[ch.id] = ch
+        elif op == _STATISTICS:
+            stats = _statistics(data, pos + 9, end)
+        elif op == _CHUNK_INDEX:
+            chunks.append(_chunk_index(data, pos + 9, end))
+        pos = end
+    return stats
+
+
+def _u16_u64_map(c: _Cursor) -> dict[int, int]:
+    raw = c.take(c.u32())
+    if len(raw) % 10:
+        raise _Corrupt("a map<uint16, uint64> field has a partial entry")
+    return {k: v for k, v in struct.iter_unpack("<HQ", raw)}
+
+
+def _statistics(data: bytes, pos: int, end: int) -> _Stats:
+    c = _Cursor(data, pos, end)
+    count = c.u64()
+    c.take(2 + 4 + 4 + 4)  # schema, channel, attachment and metadata counts
+    chunk_count = c.u32()
+    c.take(16)  # message start and end time
+    return _Stats(message_count=count, chunk_count=chunk_count, per_channel=_u16_u64_map(c))
+
+
+def _chunk_index(data: bytes, pos: int, end: int) -> _ChunkIndex:
+    c = _Cursor(data, pos, end)
+    c.take(16)  # message start and end time
+    start, length = c.u64(), c.u64()
+    offsets = _u16_u64_map(c)
+    return _ChunkIndex(start=start, length=length, index_offsets=offsets, index_length=c.u64())
+
+
+def _index_times(fh: BinaryIO, chunks: list[_ChunkIndex], out: SummaryView, stats: _Stats) -> bool:
+    """Read every chunk's MessageIndex records into ``out.log_times``; False if they do not
+    account for exactly the messages the Statistics record counts."""
+    parts: dict[int, list[np.ndarray]] = {}
+    for chunk in chunks:
+        if not chunk.index_offsets:
+            continue  # an empty chunk, or one without indexes (caught by the counts below)
+        at = chunk.start + chunk.length
+        fh.seek(at)
+        block = fh.read(chunk.index_length)
+        for cid, off in chunk.index_offsets.items():
+            rel = off - at
+            if rel < 0 or rel + 15 > len(block):
+                return False
+            op, _, rec_cid, size = struct.unpack_from("<BQHI", block, rel)
+            if op != _MESSAGE_INDEX or rec_cid != cid or size % 16 or rel + 15 + size > len(block):
+                return False
+            pairs = np.frombuffer(block, dtype="<u8", count=size // 8, offset=rel + 15)
+            parts.setdefault(cid, []).append(pairs[0::2].astype(np.int64))
+    counts = {cid: sum(p.size for p in ps) for cid, ps in parts.items()}
+    if sum(counts.values()) != stats.message_count:
+        return False  # messages outside chunks, or chunks without indexes
+    if stats.per_channel and {k: v for k, v in counts.items() if v} != {
+        k: v for k, v in stats.per_channel.items() if v
+    }:
+        return False
+    if any(cid not in out.channels for cid in counts):
+        return False  # the full scan names the offending message
+    for cid, rec in out.channels.items():
+        schema = out.schemas.get(rec.schema_id)
+        if rec.message_encoding == "json" and (schema is None or not schema.name):
+            return False  # its type is guessed from a payload
+        ps = parts.get(cid, [])
+        out.log_times[cid] = np.sort(np.concatenate(ps)) if ps else np.zeros(0, np.int64)
+    return True
+
+
+def _chunk_crcs(fh: BinaryIO, chunks: list[_ChunkIndex]) -> bool:
+    """True when every chunk record carries a (non-zero) CRC of its records."""
+    for chunk in chunks:
+        fh.seek(chunk.start)
+        head = fh.read(_CHUNK_CRC_AT + 4)
+        if len(head) < _CHUNK_CRC_AT + 4 or head[0] != 0x06:
+            return False
+        if struct.unpack_from("<I", head, _CHUNK_CRC_AT)[0] == 0:
+            return False
+    return True
