@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -12,6 +12,9 @@ from sim2real.errors import MissingTopicError, Sim2RealFileNotFoundError
 from sim2real.logs._channels import Chan, choose_topic
 from sim2real.logs._digest import FileDigest, LazyText
 from sim2real.logs._schemas import normalize_type
+
+if TYPE_CHECKING:
+    from sim2real.logs._summary import SummaryView
 
 __all__ = [
     "NO_CHECKSUMS",
@@ -187,9 +190,21 @@ def _from_summary(path: Path) -> _Scanned | None:
         profile=view.profile,
         library=view.library,
         chans=chans,
-        warnings=[] if view.checksums else [NO_CHECKSUMS],
+        warnings=_summary_notes(view),
         source="summary",
     )
+
+
+def _summary_notes(view: SummaryView) -> list[str]:
+    if not view.checksums:
+        return [NO_CHECKSUMS]
+    if view.unchecked_chunks:
+        return [
+            f"the CRCs of its {view.unchecked_chunks} compressed chunk(s) were not checked "
+            "(logs info reads the summary section and decompresses nothing); reading the log "
+            "(sysid fit, agree) checks them"
+        ]
+    return []
 
 
 def _from_scan(path: Path) -> _Scanned:

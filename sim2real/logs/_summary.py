@@ -16,8 +16,11 @@ record, and no channel is JSON without a schema (its type is guessed from a payl
 Otherwise :func:`read_summary` returns None and the caller scans the whole file, which gives
 the precise error when something is wrong.
 
-What this path does not do: check chunk CRCs (no chunk is read). Whether the file *has*
-checksums is still known (the DataEnd record and the chunk headers are a few bytes each).
+Integrity is checked as far as it goes without decompressing: the data-section CRC (one
+pass of CRC-32 over the file's bytes) when the writer filled it in, else the CRC of every
+uncompressed chunk (its records are file bytes). A mismatch makes :func:`read_summary` return
+None, so the scan reports it. Only the CRCs of compressed chunks in a file without a data CRC
+stay unchecked; :attr:`SummaryView.unchecked_chunks` counts them.
 """
 
 from __future__ import annotations
@@ -48,6 +51,7 @@ _MESSAGE_INDEX, _CHUNK_INDEX, _STATISTICS, _DATA_END = 0x07, 0x08, 0x0B, 0x0F
 _OP_LEN = struct.Struct("<BQ")
 #: Chunk record body before ``uncompressed_crc``: start/end time and uncompressed size.
 _CHUNK_CRC_AT = 9 + 24
+_BLOCK = 1 << 20
 
 
 @dataclass
@@ -62,6 +66,8 @@ class SummaryView:
     log_times: dict[int, np.ndarray] = field(default_factory=dict)
     #: True when the file carries a data-section CRC or a CRC on every chunk.
     checksums: bool = False
+    #: Compressed chunks whose CRC was not checked (only possible without a data CRC).
+    unchecked_chunks: int = 0
 
 
 @dataclass(frozen=True)
@@ -115,7 +121,15 @@ def _read(fh: BinaryIO, size: int) -> SummaryView | None:
         return None
     if not _index_times(fh, chunks, out, stats):
         return None
-    out.checksums = data_crc != 0 or (bool(chunks) and _chunk_crcs(fh, chunks))
+    if data_crc != 0:
+        if _crc_of(fh, 0, start - 13) != data_crc:
+            return None  # the scan says which check failed
+        out.checksums = True
+    else:
+        checked = _check_chunks(fh, chunks, out)
+        if checked is None:
+            return None
+        out.checksums = bool(chunks) and checked
     fh.seek(len(MAGIC))
     head = fh.read(9)
     op, length = _OP_LEN.unpack_from(head, 0)
@@ -210,13 +224,37 @@ def _index_times(fh: BinaryIO, chunks: list[_ChunkIndex], out: SummaryView, stat
     return True
 
 
-def _chunk_crcs(fh: BinaryIO, chunks: list[_ChunkIndex]) -> bool:
-    """True when every chunk record carries a (non-zero) CRC of its records."""
+def _crc_of(fh: BinaryIO, start: int, size: int) -> int:
+    """CRC-32 of ``size`` bytes of the file from ``start``, read in blocks."""
+    fh.seek(start)
+    crc = 0
+    while size > 0:
+        block = fh.read(min(size, _BLOCK))
+        if not block:
+            raise _Corrupt("the file ends before a checked range")
+        crc = zlib.crc32(block, crc)
+        size -= len(block)
+    return crc
+
+
+def _check_chunks(fh: BinaryIO, chunks: list[_ChunkIndex], out: SummaryView) -> bool | None:
+    """Whether every chunk has a CRC; the CRCs of uncompressed chunks are checked (their
+    records are file bytes), those of compressed ones counted in ``out.unchecked_chunks``.
+    None when a CRC does not match (the caller scans, which names the broken chunk)."""
+    all_crcs = True
     for chunk in chunks:
         fh.seek(chunk.start)
-        head = fh.read(_CHUNK_CRC_AT + 4)
-        if len(head) < _CHUNK_CRC_AT + 4 or head[0] != 0x06:
-            return False
-        if struct.unpack_from("<I", head, _CHUNK_CRC_AT)[0] == 0:
-            return False
-    return True
+        head = fh.read(_CHUNK_CRC_AT + 8)
+        if len(head) < _CHUNK_CRC_AT + 8 or head[0] != 0x06:
+            raise _Corrupt("a chunk index does not point at a chunk")
+        crc, name_len = struct.unpack_from("<II", head, _CHUNK_CRC_AT)
+        if crc == 0:
+            all_crcs = False
+            continue
+        if name_len:
+            out.unchecked_chunks += 1
+            continue
+        size = struct.unpack("<Q", fh.read(8))[0]
+        if _crc_of(fh, chunk.start + _CHUNK_CRC_AT + 16, size) != crc:
+            return None
+    return all_crcs

@@ -43,6 +43,7 @@ def _write(
     *,
     compression: CompressionType = CompressionType.ZSTD,
     crcs: bool = True,
+    data_crc: bool | None = None,
     use_chunking: bool = True,
 ) -> Path:
     """Commands, odometry and a busy /scan channel, small chunks, a summary section."""
@@ -51,7 +52,7 @@ def _write(
             fh,
             compression=compression,
             enable_crcs=crcs,
-            enable_data_crcs=crcs,
+            enable_data_crcs=crcs if data_crc is None else data_crc,
             chunk_size=3000,
             use_chunking=use_chunking,
         )
@@ -160,6 +161,24 @@ def test_a_summary_that_does_not_check_out_falls_back_to_the_scan(tmp_path, how,
         return
     info = inspect_log(path)
     assert info.source == "scan" and info.message_count == 230
+
+
+def test_chunk_crcs_are_checked_where_no_decompression_is_needed(tmp_path):
+    """Without a data CRC: uncompressed chunks' CRCs are checked, compressed ones noted."""
+    path = _write(tmp_path / "z.mcap", data_crc=False)
+    info = inspect_log(path)
+    assert info.source == "summary"
+    (note,) = info.warnings
+    assert "compressed chunk(s) were not checked" in note
+    plain = _write(tmp_path / "p.mcap", compression=CompressionType.NONE, data_crc=False)
+    assert inspect_log(plain).warnings == ()
+    data = bytearray(plain.read_bytes())
+    mid = len(data) // 3  # inside a chunk's records: its CRC no longer matches
+    data[mid] ^= 0xFF
+    plain.write_bytes(bytes(data))
+    assert _summary.read_summary(plain) is None
+    with pytest.raises(LogFormatError, match="is corrupt"):
+        inspect_log(plain)
 
 
 def test_a_file_without_chunks_is_scanned(tmp_path):
