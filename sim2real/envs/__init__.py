@@ -37,6 +37,7 @@ from sim2real.envs.metrics import EpisodeMetrics
 from sim2real.envs.orca import OrcaAgents, OrcaConfig, orca_velocities
 from sim2real.envs.race import RaceEnv, RaceParallelEnv, RaceReward, race_parallel_env
 from sim2real.envs.random_map import RandomMapEnv, RandomMapReward
+from sim2real.envs.vector import NavVectorEnv, RandomMapVectorEnv
 
 __all__ = [
     "ENV_IDS",
@@ -51,6 +52,7 @@ __all__ = [
     "EpisodeMetrics",
     "EvalSummary",
     "MapConfig",
+    "NavVectorEnv",
     "OrcaAgents",
     "OrcaConfig",
     "RaceEnv",
@@ -58,6 +60,7 @@ __all__ = [
     "RaceReward",
     "RandomMapEnv",
     "RandomMapReward",
+    "RandomMapVectorEnv",
     "evaluate",
     "generate_map",
     "orca_velocities",
@@ -74,9 +77,16 @@ ENV_IDS = (
 
 # The envs end episodes themselves (metrics need the outcome), so no TimeLimit wrapper.
 if "sim2real/CrowdNav-v0" not in gym.registry:
-    gym.register(id="sim2real/CrowdNav-v0", entry_point="sim2real.envs.crowd_nav:CrowdNavEnv")
+    gym.register(
+        id="sim2real/CrowdNav-v0",
+        entry_point="sim2real.envs.crowd_nav:CrowdNavEnv",
+    )
 if "sim2real/RandomMap-v0" not in gym.registry:
-    gym.register(id="sim2real/RandomMap-v0", entry_point="sim2real.envs.random_map:RandomMapEnv")
+    gym.register(
+        id="sim2real/RandomMap-v0",
+        entry_point="sim2real.envs.random_map:RandomMapEnv",
+        vector_entry_point="sim2real.envs.vector:RandomMapVectorEnv",
+    )
 if "sim2real/Race-v0" not in gym.registry:
     gym.register(id="sim2real/Race-v0", entry_point="sim2real.envs.race:RaceEnv")
 if "sim2real/CarCrossing-v0" not in gym.registry:

@@ -95,7 +95,7 @@ def rectangle_segments(
     hl, hw = 0.5 * length_m, 0.5 * width_m
     local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
     corners = local @ np.array([[c, s], [-s, c]]) + np.array([cx, cy])
-    return np.hstack([corners, np.roll(corners, -1, axis=0)])
+    return np.hstack([corners, corners[[1, 2, 3, 0]]])
 
 
 def cast_rays_multi(

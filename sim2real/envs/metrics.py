@@ -19,13 +19,13 @@ Example
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
 from sim2real.errors import Sim2RealValueError
 
-__all__ = ["OUTCOMES", "EpisodeMetrics", "MetricsTracker"]
+__all__ = ["OUTCOMES", "EpisodeMetrics", "MetricsTracker", "episode_metrics"]
 
 #: Episode outcomes: reached the goal, touched an obstacle or person, ran out of time.
 OUTCOMES = ("success", "collision", "timeout")
@@ -70,7 +70,7 @@ class EpisodeMetrics:
 
     def to_dict(self) -> dict[str, float | bool | str | int]:
         """Plain mapping (for ``info`` and tables)."""
-        return asdict(self)
+        return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
 class MetricsTracker:
@@ -106,26 +106,57 @@ class MetricsTracker:
 
     def finish(self, outcome: str) -> EpisodeMetrics:
         """The metrics of the episode ending now with ``outcome`` (one of :data:`OUTCOMES`)."""
-        if outcome not in OUTCOMES:
-            raise Sim2RealValueError(f"outcome must be one of {OUTCOMES}, got {outcome!r}")
-        v, w = np.asarray(self._v), np.asarray(self._w)
-        dt = self.control_dt_s
-        t = self.steps * dt
-
-        def mean_abs(x: np.ndarray) -> float:
-            return float(np.mean(np.abs(x))) if x.size else 0.0
-
-        return EpisodeMetrics(
-            outcome=outcome,
-            success=outcome == "success",
-            collision=outcome == "collision",
-            timeout=outcome == "timeout",
-            steps=self.steps,
-            episode_time_s=t,
+        return episode_metrics(
+            outcome,
+            np.asarray(self._v),
+            np.asarray(self._w),
             path_length_m=self._path,
-            time_to_goal_s=t if outcome == "success" else math.nan,
-            mean_abs_dv_mps=mean_abs(np.diff(v)),
-            mean_abs_dw_radps=mean_abs(np.diff(w)),
-            mean_abs_jerk_v_mps3=mean_abs(np.diff(v, 2)) / dt**2,
-            mean_abs_jerk_w_radps3=mean_abs(np.diff(w, 2)) / dt**2,
+            control_dt_s=self.control_dt_s,
         )
+
+
+def episode_metrics(
+    outcome: str,
+    v: np.ndarray,
+    w: np.ndarray,
+    *,
+    path_length_m: float,
+    control_dt_s: float,
+) -> EpisodeMetrics:
+    """The metrics of an episode from its measured ``v`` (m/s) and ``w`` (rad/s) per control
+    step (index 0 = the start, at rest) and its path length (m).
+
+    What :meth:`MetricsTracker.finish` returns; the native vector envs call it with their
+    arrays.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> m = episode_metrics("timeout", np.array([0.0, 1.0, 1.0]), np.zeros(3),
+    ...                     path_length_m=0.2, control_dt_s=0.1)
+    >>> m.steps, round(m.mean_abs_dv_mps, 3)
+    (2, 0.5)
+    """
+    if outcome not in OUTCOMES:
+        raise Sim2RealValueError(f"outcome must be one of {OUTCOMES}, got {outcome!r}")
+    dt = float(control_dt_s)
+    steps = v.shape[0] - 1
+    t = steps * dt
+
+    def mean_abs(x: np.ndarray) -> float:
+        return float(np.mean(np.abs(x))) if x.size else 0.0
+
+    return EpisodeMetrics(
+        outcome=outcome,
+        success=outcome == "success",
+        collision=outcome == "collision",
+        timeout=outcome == "timeout",
+        steps=steps,
+        episode_time_s=t,
+        path_length_m=path_length_m,
+        time_to_goal_s=t if outcome == "success" else math.nan,
+        mean_abs_dv_mps=mean_abs(np.diff(v)),
+        mean_abs_dw_radps=mean_abs(np.diff(w)),
+        mean_abs_jerk_v_mps3=mean_abs(np.diff(v, 2)) / dt**2,
+        mean_abs_jerk_w_radps3=mean_abs(np.diff(w, 2)) / dt**2,
+    )

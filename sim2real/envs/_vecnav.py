@@ -1,0 +1,325 @@
+"""Compiled kernels of the native vector envs: N reduced-dynamics robots stepped in one call.
+
+Every per-env computation here is the single env's, operation for operation, so that a vector
+env and N single envs with the same seeds give the same numbers:
+
+- the drive: :class:`robots.reduced.ReducedDrive` (command history, transport delay, the shared
+  kernel through :func:`robots.reduced._advance_history`) inside the kinematic pose integration
+  of :class:`sim2real.envs._robot.ReducedBackend`;
+- the lidar: :func:`sim2real.envs.geometry.ray_distance` from the mount of
+  :meth:`sim2real.envs._nav.NavEnvBase._lidar_ranges`, against each env's own obstacles (held
+  padded to a common count, with the count per env);
+- the goal (distance and bearing) and the clearance of :func:`sim2real.envs.geometry.disc_clearance`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from robots.reduced import _advance_history
+from sim2real.envs.geometry import FloatArray, ray_distance
+
+__all__ = ["finish_random_map", "history_rows", "move_robots", "sense"]
+
+IntArray = np.ndarray
+
+
+def history_rows(max_delay_s: float, substep_s: float) -> int:
+    """Command-history rows per env that always leave room after a compaction.
+
+    A compaction keeps the commands of the last ``delay + 1 s`` (see
+    :meth:`robots.reduced.ReducedDrive._compact_history`); one row is added per sub-step.
+    """
+    return max(256, math.ceil((max_delay_s + 1.0) / substep_s) + 64)
+
+
+@numba.njit(cache=True)
+def _compact(
+    i: int, hist: FloatArray, n_hist: IntArray, time_s: float, delay_s: float
+) -> None:  # pragma: no cover - compiled
+    """Forget env ``i``'s commands that can no longer act (ReducedDrive._compact_history)."""
+    n = n_hist[i]
+    horizon = time_s - delay_s - 1.0
+    first = max(np.searchsorted(hist[i, :n, 0], horizon, side="right") - 1, 0)
+    if first == 0:
+        return
+    kept = n - first
+    for k in range(kept):
+        hist[i, k, 0] = hist[i, first + k, 0]
+        hist[i, k, 1] = hist[i, first + k, 1]
+        hist[i, k, 2] = hist[i, first + k, 2]
+    n_hist[i] = kept
+
+
+@numba.njit(cache=True)
+def _drive_and_move(
+    i: int,
+    cmd_v: float,
+    cmd_w: float,
+    n_sub: int,
+    h: float,
+    n_inner: int,
+    dt_inner: float,
+    state: FloatArray,
+    hist: FloatArray,
+    n_hist: IntArray,
+    time_s: FloatArray,
+    delay_s: FloatArray,
+    timeout_s: FloatArray,
+    packed: FloatArray,
+    pose: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """One control step of env ``i``'s robot: ReducedBackend.step, sub-step by sub-step."""
+    x, y, yaw = pose[i, 0], pose[i, 1], pose[i, 2]
+    v0, w0 = state[i, 0], state[i, 1]
+    for _ in range(n_sub):
+        if n_hist[i] == hist.shape[1]:
+            _compact(i, hist, n_hist, time_s[i], delay_s[i])
+        k = n_hist[i]
+        hist[i, k, 0] = time_s[i]
+        hist[i, k, 1] = cmd_v
+        hist[i, k, 2] = cmd_w
+        n_hist[i] = k + 1
+        _advance_history(
+            state[i],
+            hist[i],
+            k + 1,
+            time_s[i],
+            dt_inner,
+            n_inner,
+            delay_s[i],
+            timeout_s[i],
+            packed[i],
+        )
+        time_s[i] += h
+        v1, w1 = state[i, 0], state[i, 1]
+        v, w = 0.5 * (v0 + v1), 0.5 * (w0 + w1)
+        dth = w * h
+        if abs(dth) < 1e-9:
+            x += v * h * math.cos(yaw + 0.5 * dth)
+            y += v * h * math.sin(yaw + 0.5 * dth)
+        else:
+            x += v / w * (math.sin(yaw + dth) - math.sin(yaw))
+            y -= v / w * (math.cos(yaw + dth) - math.cos(yaw))
+        yaw = math.atan2(math.sin(yaw + dth), math.cos(yaw + dth))
+        v0, w0 = v1, w1
+    pose[i, 0], pose[i, 1], pose[i, 2] = x, y, yaw
+
+
+@numba.njit(cache=True)
+def move_robots(
+    active: np.ndarray,
+    cmd: FloatArray,
+    n_sub: int,
+    h: float,
+    n_inner: int,
+    dt_inner: float,
+    state: FloatArray,
+    hist: FloatArray,
+    n_hist: IntArray,
+    time_s: FloatArray,
+    delay_s: FloatArray,
+    timeout_s: FloatArray,
+    packed: FloatArray,
+    pose: FloatArray,
+    path_m: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """One control step of the robots of the ``active`` envs; ``path_m`` grows by the distance.
+
+    ``cmd`` (N, 2) holds the clipped commands; the other envs are left untouched.
+    """
+    for i in range(active.shape[0]):
+        if not active[i]:
+            continue
+        x0, y0 = pose[i, 0], pose[i, 1]
+        _drive_and_move(
+            i,
+            cmd[i, 0],
+            cmd[i, 1],
+            n_sub,
+            h,
+            n_inner,
+            dt_inner,
+            state,
+            hist,
+            n_hist,
+            time_s,
+            delay_s,
+            timeout_s,
+            packed,
+            pose,
+        )
+        path_m[i] += math.hypot(pose[i, 0] - x0, pose[i, 1] - y0)
+
+
+@numba.njit(cache=True)
+def _segment_distance(
+    x: float, y: float, ax: float, ay: float, bx: float, by: float
+) -> float:  # pragma: no cover - compiled
+    """Distance from (x, y) to the segment a-b (point_segment_distance's arithmetic)."""
+    ex, ey = bx - ax, by - ay
+    ee = max(ex * ex + ey * ey, 1e-300)
+    apx, apy = x - ax, y - ay
+    s = min(max((apx * ex + apy * ey) / ee, 0.0), 1.0)
+    dx, dy = apx - s * ex, apy - s * ey
+    return float(np.sqrt(dx * dx + dy * dy))
+
+
+@numba.njit(cache=True)
+def _clearance(
+    x: float,
+    y: float,
+    cxy: FloatArray,
+    cr: FloatArray,
+    sa: FloatArray,
+    sb: FloatArray,
+) -> float:  # pragma: no cover - compiled
+    """Gap between (x, y) and the nearest obstacle (disc_clearance before the robot radius)."""
+    gap = np.inf
+    for c in range(cr.shape[0]):
+        gap = min(gap, np.hypot(cxy[c, 0] - x, cxy[c, 1] - y) - cr[c])
+    for k in range(sa.shape[0]):
+        gap = min(gap, _segment_distance(x, y, sa[k, 0], sa[k, 1], sb[k, 0], sb[k, 1]))
+    return gap
+
+
+#: Obstacles farther than the lidar range plus this margin (m) cannot change a ray's reading.
+_CULL_MARGIN_M = 1e-6
+
+
+@numba.njit(cache=True)
+def sense(
+    active: np.ndarray,
+    pose: FloatArray,
+    lidar_xy: FloatArray,
+    beam_angles: FloatArray,
+    range_min: float,
+    range_max: float,
+    cxy: FloatArray,
+    cr: FloatArray,
+    n_circles: IntArray,
+    sa: FloatArray,
+    sb: FloatArray,
+    n_segments: IntArray,
+    goal: FloatArray,
+    radius: float,
+    ranges: FloatArray,
+    goal_polar: FloatArray,
+    clearance: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """Lidar, goal and clearance of the ``active`` envs' robots against their obstacles.
+
+    ``ranges`` (N, beams) gets the lidar (below ``range_min`` reads ``range_max``),
+    ``goal_polar`` (N, 2) the goal distance and bearing, ``clearance`` (N,) the gap between
+    the footprint disc and the nearest obstacle. The rays are cast against the obstacles
+    within the lidar's range only (the others cannot change a reading: each hit lies at least
+    as far as the obstacle), which gives the same numbers as casting against all.
+    """
+    lx, ly = lidar_xy[0], lidar_xy[1]
+    offset = math.hypot(lx, ly)
+    reach = range_max + _CULL_MARGIN_M
+    cap_c, cap_s = max(cr.shape[1], 1), max(sa.shape[1], 1)
+    near_cxy, near_cr = np.empty((cap_c, 2)), np.empty(cap_c)
+    near_sa, near_sb = np.empty((cap_s, 2)), np.empty((cap_s, 2))
+    for i in range(active.shape[0]):
+        if not active[i]:
+            continue
+        x, y, yaw = pose[i, 0], pose[i, 1], pose[i, 2]
+        c, s = math.cos(yaw), math.sin(yaw)
+        ox = x + c * lx - s * ly
+        oy = y + s * lx + c * ly
+        m = 0
+        for k in range(n_circles[i]):
+            fx, fy, lim = cxy[i, k, 0] - ox, cxy[i, k, 1] - oy, reach + cr[i, k]
+            if fx * fx + fy * fy <= lim * lim:
+                near_cxy[m, 0], near_cxy[m, 1], near_cr[m] = cxy[i, k, 0], cxy[i, k, 1], cr[i, k]
+                m += 1
+        q = 0
+        for k in range(n_segments[i]):
+            d = _segment_distance(ox, oy, sa[i, k, 0], sa[i, k, 1], sb[i, k, 0], sb[i, k, 1])
+            if d <= reach:
+                near_sa[q, 0], near_sa[q, 1] = sa[i, k, 0], sa[i, k, 1]
+                near_sb[q, 0], near_sb[q, 1] = sb[i, k, 0], sb[i, k, 1]
+                q += 1
+        ci, ri, ai, bi = near_cxy[:m], near_cr[:m], near_sa[:q], near_sb[:q]
+        for k in range(beam_angles.shape[0]):
+            a = beam_angles[k] + yaw
+            r = ray_distance(ox, oy, np.cos(a), np.sin(a), ci, ri, ai, bi, range_max)
+            ranges[i, k] = range_max if r < range_min else r
+        dx, dy = goal[i, 0] - x, goal[i, 1] - y
+        goal_polar[i, 0] = math.hypot(dx, dy)
+        b = math.atan2(dy, dx) - yaw
+        goal_polar[i, 1] = math.atan2(math.sin(b), math.cos(b))
+        # the nearest obstacle is among the near ones unless all lie beyond range - offset
+        gap = _clearance(x, y, ci, ri, ai, bi)
+        if not gap <= range_max - offset - _CULL_MARGIN_M:
+            nc, ns = n_circles[i], n_segments[i]
+            gap = _clearance(x, y, cxy[i, :nc], cr[i, :nc], sa[i, :ns], sb[i, :ns])
+        clearance[i] = gap - radius
+
+
+@numba.njit(cache=True)
+def finish_random_map(
+    active: np.ndarray,
+    ranges: FloatArray,
+    goal_polar: FloatArray,
+    state: FloatArray,
+    clearance: FloatArray,
+    steps: IntArray,
+    vw_hist: FloatArray,
+    prev_goal: FloatArray,
+    max_steps: int,
+    goal_tol: float,
+    goal_dist_max: float,
+    range_max: float,
+    obs_low: FloatArray,
+    obs_high: FloatArray,
+    consts: FloatArray,
+    obs: np.ndarray,
+    rewards: FloatArray,
+    outcome: IntArray,
+) -> None:  # pragma: no cover - compiled
+    """Observation, outcome and reward of RandomMap-v0 for the ``active`` envs.
+
+    ``consts`` = (reach, progress_per_m, 3 crash band edges, 3 penalties, free_weight,
+    step_penalty) of :class:`~sim2real.envs.RandomMapReward`. ``outcome``: 0 running,
+    1 collision, 2 success, 3 timeout. Also counts the step, records (v, w) for the episode
+    metrics and moves the previous goal distance on. Inactive envs get reward 0, outcome 0.
+    """
+    nb = ranges.shape[1]
+    for i in range(active.shape[0]):
+        rewards[i] = 0.0
+        outcome[i] = 0
+        if not active[i]:
+            continue
+        steps[i] += 1
+        vw_hist[i, steps[i], 0] = state[i, 0]
+        vw_hist[i, steps[i], 1] = state[i, 1]
+        d = goal_polar[i, 0]
+        free = 0.0
+        for k in range(nb):
+            r = ranges[i, k]
+            obs[i, k] = np.float32(min(max(r, obs_low[k]), obs_high[k]))
+            u = 1.0 - r / range_max
+            free += u * u * u * u
+        tail = (min(d, goal_dist_max), goal_polar[i, 1], state[i, 0], state[i, 1])
+        for k in range(4):
+            obs[i, nb + k] = np.float32(min(max(tail[k], obs_low[nb + k]), obs_high[nb + k]))
+        c = clearance[i]
+        if c <= 0.0:
+            outcome[i] = 1
+        elif d < goal_tol:
+            outcome[i] = 2
+        elif steps[i] >= max_steps:
+            outcome[i] = 3
+        r_goal = consts[0] if outcome[i] == 2 else consts[1] * (prev_goal[i] - d)
+        r_crash = 0.0
+        for b in range(3):
+            if c <= consts[2 + b]:
+                r_crash = -consts[5 + b]
+                break
+        rewards[i] = r_goal + r_crash - consts[8] * free - consts[9]
+        prev_goal[i] = d

@@ -1,0 +1,519 @@
+r"""Native vector envs: N reduced-dynamics navigation envs stepped as arrays in one process.
+
+``gym.make_vec("sim2real/RandomMap-v0", num_envs=N, vectorization_mode="vector_entry_point")``
+builds a :class:`RandomMapVectorEnv`. It steps the N robots (drive model, command history,
+pose), their lidars (each env's obstacles held as padded arrays) and their goals in compiled
+loops (:mod:`sim2real.envs._vecnav`) instead of N Python ``step`` calls. The numbers are the
+single env's: env *i* of the vector env and a :class:`~sim2real.envs.RandomMapEnv` reset with
+the same seed and given the same actions produce the same observations, rewards, ends and
+infos (tested against gymnasium's ``SyncVectorEnv``).
+
+Gymnasium conventions
+---------------------
+- ``reset(seed=s)`` seeds sub-env *i* with ``s + i`` (a list gives one seed per sub-env);
+  ``options`` go to every sub-env, ``options={"reset_mask": mask}`` resets only some.
+- Autoreset: ``metadata["autoreset_mode"]`` is ``AutoresetMode.NEXT_STEP`` (gymnasium's
+  default): the step after a sub-env's episode ended resets it (its action is ignored, its
+  reward is 0 and it is neither terminated nor truncated) and returns its first observation.
+- Infos are gymnasium's vector infos: one array per key and a boolean mask ``"_key"`` of the
+  sub-envs that have it (``info["outcome"]``, ``info["metrics"]`` at episode ends, ...).
+- Maps are drawn per sub-env by the single env's own code from the sub-env's ``np_random``
+  (only the step runs as arrays); ``envs.envs[i]`` is sub-env *i* (for its map, ``layout``).
+- Drive parameters: :meth:`NavVectorEnv.set_drive_params` (one per sub-env, or one for all)
+  take effect at the next step and persist across resets, as in the single env.
+
+The observation randomizers of :mod:`randomizers` apply per sub-env with
+:class:`randomizers.VectorObservationRandomizer` (each sub-env gets its own wrapper stack and
+stream, seeded as the single env's: same seeds, same noise).
+
+Example
+-------
+>>> import gymnasium as gym
+>>> import numpy as np
+>>> import sim2real.envs
+>>> envs = gym.make_vec("sim2real/RandomMap-v0", num_envs=4,
+...                     vectorization_mode="vector_entry_point", preset="TEST1")
+>>> obs, info = envs.reset(seed=0)
+>>> obs.shape, obs.dtype
+((4, 40), dtype('float32'))
+>>> actions = np.tile(np.array([0.2, 0.0], np.float32), (4, 1))
+>>> obs, rewards, terminated, truncated, info = envs.step(actions)
+>>> rewards.shape, terminated.dtype
+((4,), dtype('bool'))
+>>> envs.close()
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from robots.params import DriveParams
+from robots.reduced import _HISTORY_ROWS, ReducedDrive
+from sim2real.envs._nav import NavEnvBase
+from sim2real.envs._robot import ReducedBackend
+from sim2real.envs._vecnav import finish_random_map, history_rows, move_robots, sense
+from sim2real.envs.geometry import FloatArray, Scene2D
+from sim2real.envs.metrics import episode_metrics
+from sim2real.envs.random_map import _GOAL_DIST_MAX_M, RandomMapEnv
+from sim2real.errors import Sim2RealValueError
+
+__all__ = ["NavVectorEnv", "RandomMapVectorEnv"]
+
+
+def _check_num_envs(num_envs: Any) -> int:
+    if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
+        raise Sim2RealValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+    return int(num_envs)
+
+
+def _info_dtype(value: Any) -> Any:
+    """The array dtype gymnasium's vector infos use for ``value`` (``VectorEnv._add_info``)."""
+    if type(value) in (int, float, bool) or isinstance(value, np.number):
+        return type(value)
+    return object
+
+
+class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
+    """Shared machinery of the native vector navigation envs (reduced dynamics only).
+
+    Sub-env objects (the single envs) draw the worlds at reset; the vector env copies each
+    new world and robot into arrays and steps all robots in compiled loops.
+    """
+
+    metadata: dict[str, Any] = {  # noqa: RUF012
+        "render_modes": [],
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+
+    def __init__(self, envs: Sequence[NavEnvBase]) -> None:
+        super().__init__()
+        self.envs = list(envs)
+        first = self.envs[0]
+        if first.dynamics != "reduced":
+            raise Sim2RealValueError(
+                f"the native vector env steps the reduced drive model only, got "
+                f"dynamics={first.dynamics!r}; use dynamics='reduced' or "
+                "vectorization_mode='sync' for pybullet"
+            )
+        self.num_envs = len(self.envs)
+        self.autoreset_mode = AutoresetMode.NEXT_STEP
+        self.single_observation_space = first.observation_space
+        self.single_action_space = first.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        #: Control period, s (as the single env's ``control_dt``).
+        self.control_dt = first.control_dt
+        self.max_episode_steps = first.max_episode_steps
+        n = self.num_envs
+        backend = first._backend
+        assert isinstance(backend, ReducedBackend)
+        self._substep_s = backend._substep_s
+        # the sub-step split of ReducedBackend.step and ReducedDrive.step (same arithmetic)
+        self._n_sub = max(1, math.ceil(self.control_dt / self._substep_s - 1e-9))
+        self._h = self.control_dt / self._n_sub
+        drive = backend._drive
+        self._n_inner = max(1, round(self._h / drive.dt_s))
+        self._dt_inner = self._h / self._n_inner
+        lid = first.robot_spec.lidar
+        self._lidar_xy = np.array([lid.xyz_m[0], lid.xyz_m[1]], dtype=np.float64)
+        self._range_min = float(lid.range_min_m)
+        self._range_max = float(lid.range_max_m)
+        self._radius = float(first.robot_radius_m)
+        self._goal_tol = float(first.goal_tolerance_m)
+        self._act_low = np.asarray(self.single_action_space.low, dtype=np.float64)  # type: ignore[attr-defined]
+        self._act_high = np.asarray(self.single_action_space.high, dtype=np.float64)  # type: ignore[attr-defined]
+        # robot state
+        self._pose = np.zeros((n, 3))
+        self._state = np.zeros((n, 4))
+        self._hist = np.zeros((n, _HISTORY_ROWS, 3))
+        self._n_hist = np.zeros(n, dtype=np.int64)
+        self._time = np.zeros(n)
+        self._packed = np.zeros((n, drive._packed.shape[0]))
+        self._delay = np.zeros(n)
+        self._timeout = np.zeros(n)
+        # world
+        self._cxy = np.zeros((n, 0, 2))
+        self._cr = np.zeros((n, 0))
+        self._nc = np.zeros(n, dtype=np.int64)
+        self._sa = np.zeros((n, 0, 2))
+        self._sb = np.zeros((n, 0, 2))
+        self._ns = np.zeros(n, dtype=np.int64)
+        self._goal = np.zeros((n, 2))
+        # episode
+        self._prev_goal = np.zeros(n)
+        self._steps = np.zeros(n, dtype=np.int64)
+        self._path = np.zeros(n)
+        self._vw_hist = np.zeros((n, self.max_episode_steps + 1, 2))
+        self._autoreset = np.zeros(n, dtype=np.bool_)
+        self._extra: dict[str, np.ndarray] = {}
+        for i in range(n):
+            self._load_drive(i)
+        self._ranges = np.zeros((n, 0))
+        self._goal_polar = np.zeros((n, 2))
+        self._clearance = np.zeros(n)
+
+    # ------------------------------------------------------------------ drive protocol
+    def get_drive_params(self) -> tuple[DriveParams, ...]:
+        """The drive parameters of every sub-env's robot."""
+        return tuple(env.get_drive_params() for env in self.envs)
+
+    def set_drive_params(self, params: DriveParams | Sequence[DriveParams | None]) -> None:
+        """Use ``params`` from the next step on: one ``DriveParams`` for all sub-envs, or one
+        per sub-env (``None`` keeps that sub-env's)."""
+        if isinstance(params, DriveParams):
+            seq: list[DriveParams | None] = [params] * self.num_envs
+        else:
+            seq = list(params)
+            if len(seq) != self.num_envs:
+                raise Sim2RealValueError(
+                    f"set_drive_params needs one DriveParams or a sequence of {self.num_envs} "
+                    f"(one per sub-env), got {len(seq)}"
+                )
+        for i, p in enumerate(seq):
+            if p is not None:
+                self.envs[i].set_drive_params(p)
+                self._load_drive(i)
+
+    def _load_drive(self, i: int) -> None:
+        """Copy sub-env ``i``'s drive parameters into the arrays."""
+        drive = self._drive(i)
+        self._packed[i] = drive._packed
+        self._delay[i] = drive.params.delay_s
+        self._timeout[i] = drive.params.cmd_timeout_s
+        rows = history_rows(float(self._delay.max()), self._h)
+        if rows > self._hist.shape[1]:
+            grown = np.zeros((self.num_envs, rows, 3))
+            grown[:, : self._hist.shape[1]] = self._hist
+            self._hist = grown
+
+    def _drive(self, i: int) -> ReducedDrive:
+        backend = self.envs[i]._backend
+        assert isinstance(backend, ReducedBackend)
+        return backend._drive
+
+    # ------------------------------------------------------------------ world arrays
+    def _load_scene(self, i: int, scene: Scene2D) -> None:
+        """Copy sub-env ``i``'s obstacles into the padded arrays (grown when needed)."""
+        nc, ns = scene.circles_r.shape[0], scene.seg_a.shape[0]
+        if nc > self._cr.shape[1]:
+            cap = max(nc, 2 * self._cr.shape[1])
+            cxy, cr = np.zeros((self.num_envs, cap, 2)), np.zeros((self.num_envs, cap))
+            cxy[:, : self._cr.shape[1]] = self._cxy
+            cr[:, : self._cr.shape[1]] = self._cr
+            self._cxy, self._cr = cxy, cr
+        if ns > self._sa.shape[1]:
+            cap = max(ns, 2 * self._sa.shape[1])
+            sa, sb = np.zeros((self.num_envs, cap, 2)), np.zeros((self.num_envs, cap, 2))
+            sa[:, : self._sa.shape[1]] = self._sa
+            sb[:, : self._sb.shape[1]] = self._sb
+            self._sa, self._sb = sa, sb
+        self._cxy[i, :nc] = scene.circles_xy
+        self._cr[i, :nc] = scene.circles_r
+        self._nc[i] = nc
+        self._sa[i, :ns] = scene.seg_a
+        self._sb[i, :ns] = scene.seg_b
+        self._ns[i] = ns
+
+    def _load_episode(self, i: int) -> None:
+        """Copy sub-env ``i``'s freshly reset episode (robot, world, goal) into the arrays."""
+        env = self.envs[i]
+        backend = env._backend
+        drive = self._drive(i)
+        self._pose[i] = backend.pose
+        self._state[i] = drive._state
+        n = drive._n
+        if n > self._hist.shape[1]:
+            grown = np.zeros((self.num_envs, n, 3))
+            grown[:, : self._hist.shape[1]] = self._hist
+            self._hist = grown
+        self._hist[i, :n] = drive._hist[:n]
+        self._n_hist[i] = n
+        self._time[i] = drive.time_s
+        self._load_drive(i)
+        self._load_scene(i, env._dynamic_scene())
+        self._goal[i] = env._goal
+        self._prev_goal[i] = env._prev_goal_dist
+        self._steps[i] = 0
+        self._path[i] = 0.0
+        self._vw_hist[i, 0] = 0.0
+        self._autoreset[i] = False
+        for key, value in env._extra_info().items():
+            column = self._extra.get(key)
+            if column is None:
+                column = np.zeros(self.num_envs, dtype=_info_dtype(value))
+                if column.dtype == object:
+                    column[:] = None
+                self._extra[key] = column
+            column[i] = value
+
+    # ------------------------------------------------------------------ hooks
+    def _advance(self, active: np.ndarray) -> None:
+        """Move the dynamic parts of the active sub-envs' worlds (after the robots moved)."""
+
+    def _finish(self, active: np.ndarray) -> tuple[Any, FloatArray, np.ndarray]:
+        """Batched observation (fresh), rewards and outcome codes (0 running, 1 collision,
+        2 success, 3 timeout) of the active sub-envs after sensing; also counts their step,
+        records (v, w) for the metrics and moves their previous goal distance on. Inactive
+        sub-envs get reward 0 and outcome 0 (their rows are overwritten by a reset)."""
+        raise NotImplementedError
+
+    def _set_row(self, obs: Any, i: int, single: Any) -> None:
+        """Put sub-env ``i``'s single observation into the batch."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ gym API
+    @property
+    def np_random_seed(self) -> tuple[int, ...]:  # type: ignore[override]
+        """The seeds of the sub-envs' generators."""
+        return tuple(env.np_random_seed for env in self.envs)
+
+    @property  # type: ignore[misc]
+    def np_random(self) -> tuple[np.random.Generator, ...]:  # type: ignore[override]
+        """The sub-envs' generators (each draws its own worlds)."""
+        return tuple(env.np_random for env in self.envs)
+
+    def _seeds(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
+        if seed is None:
+            return [None] * self.num_envs
+        if isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+            return [int(seed) + i for i in range(self.num_envs)]
+        seeds = list(seed)  # type: ignore[arg-type]
+        if len(seeds) != self.num_envs:
+            raise Sim2RealValueError(
+                f"reset(seed=...) needs an int, None or a list of {self.num_envs} seeds "
+                f"(one per sub-env), got {len(seeds)}"
+            )
+        return seeds
+
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[Any, dict[str, Any]]:
+        """Reset every sub-env (or those of ``options["reset_mask"]``); sub-env i gets seed
+        ``seed + i``."""
+        seeds = self._seeds(seed)
+        opts = dict(options or {})
+        mask = opts.pop("reset_mask", None)
+        if mask is None:
+            mask = np.ones(self.num_envs, dtype=np.bool_)
+        else:
+            mask = np.asarray(mask)
+            if mask.shape != (self.num_envs,) or mask.dtype != np.bool_ or not mask.any():
+                raise Sim2RealValueError(
+                    f"options['reset_mask'] must be a bool array of shape ({self.num_envs},) "
+                    f"with at least one True, got {mask!r}"
+                )
+        infos: dict[str, Any] = {}
+        obs = self._copy_obs(self._batch)  # untouched sub-envs keep their last observation
+        for i in np.flatnonzero(mask):
+            single, info = self.envs[i].reset(seed=seeds[i], options=opts or None)
+            self._load_episode(int(i))
+            self._set_row(obs, int(i), single)
+            infos = self._add_info(infos, info, int(i))
+        self._batch = obs
+        return self._copy_obs(obs), infos
+
+    def step(self, actions: Any) -> tuple[Any, FloatArray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every sub-env (autoresetting those whose episode ended at the last step)."""
+        n = self.num_envs
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != (n, 2) or not np.all(np.isfinite(a)):
+            raise Sim2RealValueError(
+                f"actions must be {n} rows of 2 finite numbers (v [m/s], w [rad/s]), "
+                f"got shape {a.shape}" + ("" if a.shape != (n, 2) else " with NaN or inf")
+            )
+        cmd = np.clip(a, self._act_low, self._act_high)
+        resets = np.flatnonzero(self._autoreset)
+        active = ~self._autoreset
+        move_robots(
+            active,
+            cmd,
+            self._n_sub,
+            self._h,
+            self._n_inner,
+            self._dt_inner,
+            self._state,
+            self._hist,
+            self._n_hist,
+            self._time,
+            self._delay,
+            self._timeout,
+            self._packed,
+            self._pose,
+            self._path,
+        )
+        self._advance(active)
+        self._sense(active)
+        obs, rewards, outcome = self._finish(active)
+        terminated = (outcome == 1) | (outcome == 2)
+        truncated = outcome == 3
+        metrics = {int(i): self._metrics(int(i), int(outcome[i])) for i in np.flatnonzero(outcome)}
+        reset_infos: list[tuple[int, dict[str, Any]]] = []
+        for k in resets:
+            i = int(k)
+            single, info = self.envs[i].reset()
+            self._load_episode(i)
+            self._set_row(obs, i, single)
+            reset_infos.append((i, info))
+        infos = self._step_infos(active, outcome, metrics)
+        for j, reset_info in reset_infos:  # keys only a reset gives (common ones are in)
+            for key, value in reset_info.items():
+                if key not in infos:
+                    infos = self._add_info(infos, {key: value}, j)
+        self._autoreset = terminated | truncated
+        self._batch = obs
+        return obs, rewards, terminated, truncated, infos
+
+    def _sense(self, active: np.ndarray) -> None:
+        sense(
+            active,
+            self._pose,
+            self._lidar_xy,
+            self._beam_angles,
+            self._range_min,
+            self._range_max,
+            self._cxy,
+            self._cr,
+            self._nc,
+            self._sa,
+            self._sb,
+            self._ns,
+            self._goal,
+            self._radius,
+            self._ranges,
+            self._goal_polar,
+            self._clearance,
+        )
+
+    _beam_angles: FloatArray
+    _batch: Any
+
+    def _copy_obs(self, obs: Any) -> Any:
+        if isinstance(obs, dict):
+            return {k: v.copy() for k, v in obs.items()}
+        return obs.copy()
+
+    _OUTCOME_KEYS = ("collision", "success", "timeout")
+
+    def _metrics(self, i: int, outcome: int) -> dict[str, Any]:
+        """``info["metrics"]`` of sub-env ``i``'s episode, ending now."""
+        k = int(self._steps[i])
+        return episode_metrics(
+            self._OUTCOME_KEYS[outcome - 1],
+            self._vw_hist[i, : k + 1, 0],
+            self._vw_hist[i, : k + 1, 1],
+            path_length_m=float(self._path[i]),
+            control_dt_s=self.control_dt,
+        ).to_dict()
+
+    def _step_infos(
+        self, active: np.ndarray, outcome: np.ndarray, metrics: dict[int, dict[str, Any]]
+    ) -> dict[str, Any]:
+        """Vector infos of one step, as gymnasium's SyncVectorEnv gathers the sub-envs' infos."""
+        n = self.num_envs
+        names = np.full(n, None, dtype=object)
+        first = self.envs[0]
+        for i in metrics:
+            names[i] = first._outcome_name(self._OUTCOME_KEYS[outcome[i] - 1])
+        everyone = np.ones(n, dtype=np.bool_)
+        infos: dict[str, Any] = {"outcome": names, "_outcome": everyone}
+        if active.any():  # a step info (the sub-envs that reset now give their reset info)
+            infos["clearance_m"] = np.where(active, self._clearance, 0.0)
+            infos["_clearance_m"] = active.copy()
+        for key, column in self._extra.items():
+            infos[key] = column.copy()
+            infos["_" + key] = everyone.copy()
+        for i, m in metrics.items():
+            infos = self._add_info(infos, {"metrics": m}, i)
+        return infos
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Call method ``name`` of every sub-env (read-only use: the arrays hold the state)."""
+        out = []
+        for env in self.envs:
+            attr = getattr(env, name)
+            out.append(attr(*args, **kwargs) if callable(attr) else attr)
+        return tuple(out)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """Attribute ``name`` of every sub-env."""
+        return tuple(getattr(env, name) for env in self.envs)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for env in self.envs:
+            env.close()
+
+
+class RandomMapVectorEnv(NavVectorEnv):
+    """``num_envs`` :class:`~sim2real.envs.RandomMapEnv` stepped as arrays (see the module doc).
+
+    Parameters
+    ----------
+    num_envs : int
+        Number of sub-envs.
+    **kwargs
+        The single env's arguments (``preset``, ``map_config``, ``control_dt``, ...);
+        ``dynamics`` must be ``"reduced"``.
+    """
+
+    def __init__(self, num_envs: int = 1, **kwargs: Any) -> None:
+        n = _check_num_envs(num_envs)
+        super().__init__([RandomMapEnv(**kwargs) for _ in range(n)])
+        first = self.envs[0]
+        assert isinstance(first, RandomMapEnv)
+        self._beam_angles = np.asarray(first.beam_angles_rad, dtype=np.float64)
+        self._ranges = np.zeros((n, self._beam_angles.shape[0]))
+        space = first.observation_space
+        self._obs_low = np.asarray(space.low, dtype=np.float64)  # type: ignore[attr-defined]
+        self._obs_high = np.asarray(space.high, dtype=np.float64)  # type: ignore[attr-defined]
+        self._batch = np.zeros((n, *space.shape), dtype=np.float32)  # type: ignore[misc]
+        cfg = first.reward_config
+        self._consts = np.array(
+            [
+                cfg.reach,
+                cfg.progress_per_m,
+                *cfg.crash_bands_m,
+                *cfg.crash_penalties,
+                cfg.free_weight,
+                cfg.step_penalty,
+            ],
+            dtype=np.float64,
+        )
+
+    def _set_row(self, obs: Any, i: int, single: Any) -> None:
+        obs[i] = single
+
+    def _finish(self, active: np.ndarray) -> tuple[Any, FloatArray, np.ndarray]:
+        n = self.num_envs
+        obs = np.empty((n, *self.single_observation_space.shape), dtype=np.float32)  # type: ignore[misc]
+        rewards = np.empty(n)
+        outcome = np.empty(n, dtype=np.int64)
+        finish_random_map(
+            active,
+            self._ranges,
+            self._goal_polar,
+            self._state,
+            self._clearance,
+            self._steps,
+            self._vw_hist,
+            self._prev_goal,
+            self.max_episode_steps,
+            self._goal_tol,
+            _GOAL_DIST_MAX_M,
+            self._range_max,
+            self._obs_low,
+            self._obs_high,
+            self._consts,
+            obs,
+            rewards,
+            outcome,
+        )
+        return obs, rewards, outcome

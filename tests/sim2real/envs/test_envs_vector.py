@@ -1,0 +1,191 @@
+"""Native vector envs: the same numbers as N single envs, gymnasium's vector API, bad input."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from gymnasium.vector.utils import batch_space
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import sim2real.envs  # noqa: F401  (registers the ids)
+from robots.spec import load_spec
+from sim2real.envs import RandomMapEnv, RandomMapVectorEnv
+from sim2real.errors import Sim2RealValueError
+
+
+def make_pair(n: int, **kw: Any) -> tuple[Any, SyncVectorEnv]:
+    """The native vector env and gymnasium's SyncVectorEnv over the single env, same args."""
+    vec = gym.make_vec(
+        "sim2real/RandomMap-v0", num_envs=n, vectorization_mode="vector_entry_point", **kw
+    )
+    sync = SyncVectorEnv([lambda: RandomMapEnv(**kw) for _ in range(n)])
+    return vec, sync
+
+
+def assert_infos_equal(a: dict[str, Any], b: dict[str, Any], where: str) -> None:
+    """Same keys and masks; same values where a sub-env has the key (NaN equals NaN)."""
+    assert sorted(a) == sorted(b), f"{where}: info keys {sorted(a)} vs {sorted(b)}"
+    for key in a:
+        if key.startswith("_"):
+            np.testing.assert_array_equal(a[key], b[key], err_msg=f"{where}: mask {key}")
+            continue
+        if isinstance(a[key], dict):
+            assert_infos_equal(a[key], b[key], f"{where}/{key}")
+            continue
+        mask = a["_" + key]
+        x, y = a[key][mask], b[key][mask]
+        assert a[key].dtype == b[key].dtype, f"{where}: dtype of {key}"
+        if x.dtype == object:
+            assert list(x) == list(y), f"{where}: {key}"
+        else:
+            np.testing.assert_allclose(
+                x, y, rtol=1e-12, atol=1e-12, equal_nan=True, err_msg=f"{where}: {key}"
+            )
+
+
+def run_both(vec: Any, sync: SyncVectorEnv, steps: int, seed: int, rng_seed: int) -> np.ndarray:
+    """Step both with the same random actions; assert equal results; return end counts."""
+    ov, iv = vec.reset(seed=seed)
+    os_, is_ = sync.reset(seed=seed)
+    np.testing.assert_array_equal(ov, os_)
+    assert_infos_equal(iv, is_, "reset")
+    rng = np.random.default_rng(rng_seed)
+    space = sync.single_action_space
+    ends = np.zeros(3, dtype=int)  # terminated, truncated, autoresets
+    for t in range(steps):
+        actions = rng.uniform(space.low, space.high, (vec.num_envs, 2)).astype(np.float32)
+        rv = vec.step(actions)
+        rs = sync.step(actions)
+        np.testing.assert_array_equal(rv[0], rs[0], err_msg=f"observation, step {t}")
+        np.testing.assert_allclose(rv[1], rs[1], rtol=1e-12, atol=1e-12, err_msg=f"reward {t}")
+        np.testing.assert_array_equal(rv[2], rs[2], err_msg=f"terminated, step {t}")
+        np.testing.assert_array_equal(rv[3], rs[3], err_msg=f"truncated, step {t}")
+        assert_infos_equal(rv[4], rs[4], f"step {t}")
+        assert rv[1].dtype == np.float64 and rv[2].dtype == np.bool_
+        stepped = rv[4].get("_clearance_m", np.zeros(vec.num_envs, dtype=bool))
+        ends += [rv[2].sum(), rv[3].sum(), int((~stepped).sum())]
+    return ends
+
+
+def test_vector_env_equals_n_single_envs_over_episodes_and_autoresets() -> None:
+    # short episodes: collisions (terminated), traps (truncated) and autoresets all occur
+    vec, sync = make_pair(4, preset="TEST4", max_episode_steps=120)
+    ends = run_both(vec, sync, steps=500, seed=7, rng_seed=1)
+    assert ends[0] >= 3 and ends[1] >= 3 and ends[2] >= 6, ends
+    vec.close()
+    sync.close()
+
+
+def test_vector_env_equals_single_envs_with_per_env_drive_params() -> None:
+    """Different robots per sub-env (a long delay grows the command history) stay equal."""
+    base = load_spec("turtlebot3_burger").drive
+    params = [base.replace(delay_s=d, coulomb_v_fwd_n=c) for d, c in ((0.0, 0.5), (5.0, 2.0))]
+    vec, sync = make_pair(2, preset="TEST1", max_episode_steps=300)
+    vec.unwrapped.set_drive_params(params)
+    for env, p in zip(sync.envs, params, strict=True):
+        env.unwrapped.set_drive_params(p)
+    assert vec.unwrapped.get_drive_params() == tuple(params)
+    run_both(vec, sync, steps=320, seed=3, rng_seed=2)
+
+
+def test_make_vec_gives_the_native_env_with_batched_spaces() -> None:
+    envs = gym.make_vec(
+        "sim2real/RandomMap-v0", num_envs=3, vectorization_mode="vector_entry_point"
+    )
+    base = envs.unwrapped
+    assert isinstance(base, RandomMapVectorEnv)
+    assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    assert envs.num_envs == 3
+    assert envs.observation_space == batch_space(envs.single_observation_space, 3)
+    assert envs.action_space == batch_space(envs.single_action_space, 3)
+    assert envs.single_observation_space == RandomMapEnv().observation_space
+    obs, info = envs.reset(seed=0)
+    assert obs.shape == (3, 40) and obs.dtype == np.float32
+    assert envs.observation_space.contains(obs)
+    obs, rew, term, trunc, info = envs.step(envs.action_space.sample())
+    assert envs.observation_space.contains(obs)
+    assert rew.shape == term.shape == trunc.shape == (3,)
+    assert info["_outcome"].all() and info["preset"].tolist() == ["TRAIN"] * 3
+    assert base.control_dt == 0.1
+    envs.close()
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**31 - 10), n=st.integers(1, 4))
+def test_seeding_is_per_sub_env_and_reproducible(seed: int, n: int) -> None:
+    a = RandomMapVectorEnv(num_envs=n, preset="TEST1")
+    b = RandomMapVectorEnv(num_envs=n, preset="TEST1")
+    oa, _ = a.reset(seed=seed)
+    ob, _ = b.reset(seed=seed)
+    np.testing.assert_array_equal(oa, ob)
+    for i in range(n):  # sub-env i is the single env seeded seed + i
+        single, _ = RandomMapEnv(preset="TEST1").reset(seed=seed + i)
+        np.testing.assert_array_equal(oa[i], single)
+    actions = np.tile(np.array([0.2, 0.4], np.float32), (n, 1))
+    for _ in range(5):
+        np.testing.assert_array_equal(a.step(actions)[0], b.step(actions)[0])
+    assert a.np_random_seed == tuple(seed + i for i in range(n))
+    oc, _ = a.reset(seed=[seed] * n)  # a list gives each sub-env its seed
+    assert all(np.array_equal(oc[i], oc[0]) for i in range(n))
+
+
+def test_reset_mask_resets_only_the_masked_sub_envs() -> None:
+    envs = RandomMapVectorEnv(num_envs=3, preset="TEST1")
+    obs0, _ = envs.reset(seed=5)
+    for _ in range(3):
+        obs, *_ = envs.step(np.tile(np.array([0.2, 0.5], np.float32), (3, 1)))
+    mask = np.array([False, True, False])
+    obs1, info = envs.reset(seed=5, options={"reset_mask": mask})
+    np.testing.assert_array_equal(obs1[1], obs0[1])  # seed 5 + 1 again
+    np.testing.assert_array_equal(obs1[[0, 2]], obs[[0, 2]])  # untouched
+    np.testing.assert_array_equal(info["_outcome"], mask)
+
+
+def test_autoreset_follows_next_step_mode() -> None:
+    envs = RandomMapVectorEnv(num_envs=2, preset="TEST1", max_episode_steps=3)
+    envs.reset(seed=1)
+    act = np.zeros((2, 2), np.float32)
+    for _ in range(2):
+        _, _, term, trunc, _ = envs.step(act)
+        assert not (term | trunc).any()
+    obs, rew, term, trunc, info = envs.step(act)
+    assert trunc.all() and info["outcome"].tolist() == ["trap", "trap"]
+    assert info["metrics"]["steps"].tolist() == [3, 3]
+    obs, rew, term, trunc, info = envs.step(act)  # the reset step
+    np.testing.assert_array_equal(rew, 0.0)
+    assert not (term | trunc).any() and "clearance_m" not in info
+    single, _ = RandomMapEnv(preset="TEST1", max_episode_steps=3).reset(seed=1)
+    assert not np.array_equal(obs[0], single)  # a fresh map from the sub-env's own stream
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"num_envs": 0}, "num_envs must be an integer >= 1, got 0"),
+        ({"num_envs": 2, "dynamics": "pybullet"}, "reduced drive model only"),
+        ({"num_envs": 2, "preset": "HARD"}, "unknown map preset 'HARD'"),
+    ],
+)
+def test_bad_constructor_arguments_name_the_argument(kwargs: dict[str, Any], match: str) -> None:
+    with pytest.raises(Sim2RealValueError, match=match):
+        RandomMapVectorEnv(**kwargs)
+
+
+def test_bad_actions_seeds_and_masks_are_refused_in_one_sentence() -> None:
+    envs = RandomMapVectorEnv(num_envs=2, preset="TEST1")
+    envs.reset(seed=0)
+    with pytest.raises(Sim2RealValueError, match=r"actions must be 2 rows .* got shape \(2,\)"):
+        envs.step(np.zeros(2))
+    with pytest.raises(Sim2RealValueError, match="with NaN or inf"):
+        envs.step(np.array([[0.1, 0.0], [np.nan, 0.0]]))
+    with pytest.raises(Sim2RealValueError, match="list of 2 seeds"):
+        envs.reset(seed=[1, 2, 3])
+    with pytest.raises(Sim2RealValueError, match="reset_mask"):
+        envs.reset(options={"reset_mask": np.zeros(2, dtype=bool)})
+    with pytest.raises(Sim2RealValueError, match="sequence of 2"):
+        envs.set_drive_params([load_spec("turtlebot3_burger").drive])
