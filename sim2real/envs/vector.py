@@ -22,10 +22,6 @@ Gymnasium conventions
 - Drive parameters: :meth:`NavVectorEnv.set_drive_params` (one per sub-env, or one for all)
   take effect at the next step and persist across resets, as in the single env.
 
-The observation randomizers of :mod:`randomizers` apply per sub-env with
-:class:`randomizers.VectorObservationRandomizer` (each sub-env gets its own wrapper stack and
-stream, seeded as the single env's: same seeds, same noise).
-
 Example
 -------
 >>> import gymnasium as gym
