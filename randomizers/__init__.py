@@ -9,7 +9,9 @@ last axis), draws from its own seeded generator, records what it drew in
   (observation level);
 - :class:`OdometryDelay`, :class:`ActionDelay` (delays in seconds or steps);
 - :class:`CameraPoseJitter`, :class:`DynamicsRandomizer` (physics level; they need the camera or
-  drive protocol on ``env.unwrapped``, see docs/ARCHITECTURE.md).
+  drive protocol on ``env.unwrapped``, see docs/ARCHITECTURE.md);
+- :class:`VectorObservationRandomizer` applies a stack of observation randomizers to every
+  sub-env of a vector env (one stack and stream per sub-env, as N wrapped single envs).
 
 Stacks are built from and saved to YAML with :func:`from_config` / :func:`save_config`, and
 :class:`SuccessRateCurriculum` raises every scale as the policy improves.
@@ -53,6 +55,7 @@ if TYPE_CHECKING:
     from randomizers._goal import GoalNoise
     from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
     from randomizers._odometry_noise import VelocityObservationNoise
+    from randomizers._vector import VectorObservationRandomizer
 
 __all__ = [
     "CONFIG_FORMAT",
@@ -68,6 +71,7 @@ __all__ = [
     "OdometryDelay",
     "Randomizer",
     "SuccessRateCurriculum",
+    "VectorObservationRandomizer",
     "VelocityObservationNoise",
     "default_bounds",
     "fill_standard_normal",
@@ -91,6 +95,7 @@ _MODULES = (
     "randomizers._goal",
     "randomizers._noise",
     "randomizers._odometry_noise",
+    "randomizers._vector",
 )
 
 

@@ -189,3 +189,51 @@ def test_bad_actions_seeds_and_masks_are_refused_in_one_sentence() -> None:
         envs.reset(options={"reset_mask": np.zeros(2, dtype=bool)})
     with pytest.raises(Sim2RealValueError, match="sequence of 2"):
         envs.set_drive_params([load_spec("turtlebot3_burger").drive])
+
+
+def lidar_and_odometry_noise(env: gym.Env[Any, Any]) -> gym.Env[Any, Any]:
+    """A stack of two observation randomizers on RandomMap-v0's Box(40)."""
+    from randomizers import LidarNoise, ObservationNoise
+
+    env = LidarNoise(env, std_m=0.02, dropout=0.1, index=[0, 36])
+    return ObservationNoise(env, std=[0.01, 0.05], index=[38, 40])
+
+
+def test_observation_randomizers_per_sub_env_equal_wrapped_single_envs() -> None:
+    from randomizers import VectorObservationRandomizer, set_scale
+
+    kw = {"preset": "TEST4", "max_episode_steps": 40}
+    vec = VectorObservationRandomizer(
+        RandomMapVectorEnv(num_envs=3, **kw), lidar_and_odometry_noise
+    )
+    sync = SyncVectorEnv([lambda: lidar_and_odometry_noise(RandomMapEnv(**kw)) for _ in range(3)])
+    ov, iv = vec.reset(seed=11)
+    os_, is_ = sync.reset(seed=11)
+    np.testing.assert_array_equal(ov, os_)
+    clean, _ = RandomMapVectorEnv(num_envs=3, **kw).reset(seed=11)
+    assert not np.array_equal(ov, clean)  # the noise is there
+    assert_infos_equal(iv["randomization"], is_["randomization"], "reset")
+    rng = np.random.default_rng(4)
+    resets = 0
+    for t in range(100):
+        actions = rng.uniform([0.0, -1.0], [0.21, 1.0], (3, 2)).astype(np.float32)
+        rv, rs = vec.step(actions), sync.step(actions)
+        np.testing.assert_array_equal(rv[0], rs[0], err_msg=f"step {t}")
+        np.testing.assert_array_equal(rv[2] | rv[3], rs[2] | rs[3])
+        assert_infos_equal(rv[4]["randomization"], rs[4]["randomization"], f"step {t}")
+        resets += int((rv[2] | rv[3]).sum())
+    assert resets >= 3  # autoresets happened (the stacks' streams continue across them)
+    assert set_scale(vec, 0.5) == 2  # per sub-env stack: two randomizers
+    assert [s.scale for s in vec.stacks] == [1.0, 1.0, 1.0]  # from the next reset on
+    vec.reset()
+    assert [s.scale for s in vec.stacks] == [0.5, 0.5, 0.5]
+
+
+def test_vector_randomizer_refuses_non_observation_wrappers() -> None:
+    from randomizers import ActionDelay, VectorObservationRandomizer
+    from randomizers.errors import RandomizerTypeError
+
+    with pytest.raises(RandomizerTypeError, match=r"observation randomizers only.*ActionDelay"):
+        VectorObservationRandomizer(
+            RandomMapVectorEnv(num_envs=2), lambda e: ActionDelay(e, delay_steps=1)
+        )
