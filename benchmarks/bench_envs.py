@@ -197,53 +197,63 @@ def _record_rate(figure: str, stats: Stats, runner: Runner, target: float) -> No
     )
 
 
-def bench_random_map(repeats: int, scale: float) -> None:
-    n = 64
-    steps = max(n, int(n * 160 * scale))
-    kw = {"preset": "TRAIN", "dynamics": "reduced"}
+def bench_vector(
+    env_id: str, n: int, steps: int, kw: dict[str, Any], target: float, repeats: int
+) -> None:
+    """One env, gymnasium's SyncVectorEnv and the native vector env, same env steps."""
+    name = env_id.split("/")[1]
     runners = {
-        "one env": Runner.make(gym.make("sim2real/RandomMap-v0", **kw), 1, steps),
+        "one env": Runner.make(gym.make(env_id, **kw), 1, steps),
         f"SyncVectorEnv, {n} envs": Runner.make(
-            gym.make_vec("sim2real/RandomMap-v0", num_envs=n, vectorization_mode="sync", **kw),
-            n,
-            steps,
+            gym.make_vec(env_id, num_envs=n, vectorization_mode="sync", **kw), n, steps
         ),
         f"native vector env, {n} envs": Runner.make(
-            gym.make_vec(
-                "sim2real/RandomMap-v0",
-                num_envs=n,
-                vectorization_mode="vector_entry_point",
-                **kw,
-            ),
+            gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kw),
             n,
             steps,
         ),
     }
     t = alternate(runners, repeats)  # type: ignore[arg-type]
-    single, _, native = runners.values()
-    names = list(runners)
-    print(f"RandomMap-v0 TRAIN, reduced, random actions ({steps} env steps per repeat):")
-    for name in names:
-        print(_rate_line(name, t[name], runners[name]))
-    print(f"    one env {_verdict(single, 1000)[0]}")
-    print(f"    native vector, 64 envs {_verdict(native, 50_000)[0]}")
-    print(f"    speed-up vs one env (time ratio)        {fmt_ratio(t[names[0]], t[names[2]])}")
-    print(f"    speed-up vs SyncVectorEnv (time ratio)  {fmt_ratio(t[names[1]], t[names[2]])}")
-    _record_rate("RandomMap-v0 one env (reduced)", t[names[0]], single, 1000)
-    _record_rate("RandomMap-v0 native vector env, 64 envs", t[names[2]], native, 50_000)
-    ratio = paired_ratios(t[names[1]], t[names[2]])[1]
+    one, sync, native = list(runners)
+    print(f"{name} {kw}, random actions ({steps} env steps per repeat):")
+    for label in runners:
+        print(_rate_line(label, t[label], runners[label]))
+    print(f"    native vector, {n} envs {_verdict(runners[native], target)[0]}")
+    print(f"    speed-up vs one env (time ratio)        {fmt_ratio(t[one], t[native])}")
+    print(f"    speed-up vs SyncVectorEnv (time ratio)  {fmt_ratio(t[sync], t[native])}")
+    _record_rate(f"{name} native vector env, {n} envs", t[native], runners[native], target)
+    ratio = paired_ratios(t[one], t[native])[1]
     record(
-        BENCH, "RandomMap-v0 native vector / SyncVectorEnv (64 envs)", f"{ratio:.1f}x", "-", None
+        BENCH, f"{name} native vector ({n} envs) / one env, time ratio", f"{ratio:.1f}x", "-", None
     )
     for r in runners.values():
         r.env.close()
+
+
+def bench_random_map(repeats: int, scale: float) -> None:
+    n = 64
+    steps = max(n, int(n * 160 * scale))
+    bench_vector(
+        "sim2real/RandomMap-v0",
+        n,
+        steps,
+        {"preset": "TRAIN", "dynamics": "reduced"},
+        50_000,
+        repeats,
+    )
+
+
+def bench_crowd_nav(repeats: int, scale: float) -> None:
+    n = 16
+    steps = max(n, int(n * 40 * scale))
+    bench_vector("sim2real/CrowdNav-v0", n, steps, dict(CROWD_OPTIONS), 5_000, repeats)
 
 
 def bench_backends(repeats: int, scale: float) -> None:
     """Reduced vs pybullet back-end, one env each (RandomMap-v0 and CrowdNav-v0)."""
     steps = max(20, int(200 * scale))
     for env_id, options, target in (
-        ("sim2real/RandomMap-v0", None, None),
+        ("sim2real/RandomMap-v0", None, 1000),
         ("sim2real/CrowdNav-v0", CROWD_OPTIONS, 300),
     ):
         runners = {
@@ -275,6 +285,7 @@ def main() -> None:
     bench_lidar(repeats)
     bench_depth(repeats)
     bench_random_map(repeats, scale)
+    bench_crowd_nav(repeats, scale)
     bench_backends(repeats, scale)
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 

@@ -37,7 +37,7 @@ from sim2real.envs.metrics import EpisodeMetrics
 from sim2real.envs.orca import OrcaAgents, OrcaConfig, orca_velocities
 from sim2real.envs.race import RaceEnv, RaceParallelEnv, RaceReward, race_parallel_env
 from sim2real.envs.random_map import RandomMapEnv, RandomMapReward
-from sim2real.envs.vector import NavVectorEnv, RandomMapVectorEnv
+from sim2real.envs.vector import CrowdNavVectorEnv, NavVectorEnv, RandomMapVectorEnv
 
 __all__ = [
     "ENV_IDS",
@@ -48,6 +48,7 @@ __all__ = [
     "CarCrossingReward",
     "CrowdNavEnv",
     "CrowdNavReward",
+    "CrowdNavVectorEnv",
     "DWAController",
     "EpisodeMetrics",
     "EvalSummary",
@@ -80,6 +81,7 @@ if "sim2real/CrowdNav-v0" not in gym.registry:
     gym.register(
         id="sim2real/CrowdNav-v0",
         entry_point="sim2real.envs.crowd_nav:CrowdNavEnv",
+        vector_entry_point="sim2real.envs.vector:CrowdNavVectorEnv",
     )
 if "sim2real/RandomMap-v0" not in gym.registry:
     gym.register(

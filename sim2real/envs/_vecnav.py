@@ -22,7 +22,7 @@ import numpy as np
 from robots.reduced import _advance_history
 from sim2real.envs.geometry import FloatArray, ray_distance
 
-__all__ = ["finish_random_map", "history_rows", "move_robots", "sense"]
+__all__ = ["finish_crowd_nav", "finish_random_map", "history_rows", "move_robots", "sense"]
 
 IntArray = np.ndarray
 
@@ -322,4 +322,68 @@ def finish_random_map(
                 r_crash = -consts[5 + b]
                 break
         rewards[i] = r_goal + r_crash - consts[8] * free - consts[9]
+        prev_goal[i] = d
+
+
+@numba.njit(cache=True)
+def finish_crowd_nav(
+    active: np.ndarray,
+    ranges: FloatArray,
+    goal_polar: FloatArray,
+    state: FloatArray,
+    clearance: FloatArray,
+    steps: IntArray,
+    vw_hist: FloatArray,
+    prev_goal: FloatArray,
+    prev_vw: FloatArray,
+    max_steps: int,
+    goal_tol: float,
+    vel_low: FloatArray,
+    vel_high: FloatArray,
+    consts: FloatArray,
+    lidar: np.ndarray,
+    goal_obs: np.ndarray,
+    vel_obs: np.ndarray,
+    rewards: FloatArray,
+    outcome: IntArray,
+) -> None:  # pragma: no cover - compiled
+    """Lidar, goal and velocity observations, outcome and reward of CrowdNav-v0.
+
+    ``consts`` = (reach, collision, progress_per_m, proximity, safe_clearance_m, dv_per_mps,
+    dw_per_radps, step_penalty) of :class:`~sim2real.envs.CrowdNavReward`, applied in the
+    single env's order. Outcome codes and bookkeeping as :func:`finish_random_map`; the
+    previous velocity (smoothness terms) moves on too.
+    """
+    for i in range(active.shape[0]):
+        rewards[i] = 0.0
+        outcome[i] = 0
+        if not active[i]:
+            continue
+        steps[i] += 1
+        v, w = state[i, 0], state[i, 1]
+        vw_hist[i, steps[i], 0] = v
+        vw_hist[i, steps[i], 1] = w
+        for k in range(ranges.shape[1]):
+            lidar[i, k] = np.float32(ranges[i, k])
+        d = goal_polar[i, 0]
+        goal_obs[i, 0] = np.float32(min(d, 20.0))
+        goal_obs[i, 1] = np.float32(goal_polar[i, 1])
+        vel_obs[i, 0] = np.float32(min(max(v, vel_low[0]), vel_high[0]))
+        vel_obs[i, 1] = np.float32(min(max(w, vel_low[1]), vel_high[1]))
+        c = clearance[i]
+        if c <= 0.0:
+            outcome[i] = 1
+        elif d < goal_tol:
+            outcome[i] = 2
+        elif steps[i] >= max_steps:
+            outcome[i] = 3
+        r = consts[2] * (prev_goal[i] - d) - consts[7]
+        if outcome[i] == 2:
+            r += consts[0]
+        elif outcome[i] == 1:
+            r -= consts[1]
+        r -= consts[3] * max(0.0, 1.0 - c / consts[4])
+        r -= consts[5] * abs(v - prev_vw[i, 0]) + consts[6] * abs(w - prev_vw[i, 1])
+        rewards[i] = r
+        prev_vw[i, 0], prev_vw[i, 1] = v, w
         prev_goal[i] = d

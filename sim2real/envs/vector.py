@@ -1,12 +1,14 @@
 r"""Native vector envs: N reduced-dynamics navigation envs stepped as arrays in one process.
 
 ``gym.make_vec("sim2real/RandomMap-v0", num_envs=N, vectorization_mode="vector_entry_point")``
-builds a :class:`RandomMapVectorEnv`. It steps the N robots (drive model, command history,
-pose), their lidars (each env's obstacles held as padded arrays) and their goals in compiled
-loops (:mod:`sim2real.envs._vecnav`) instead of N Python ``step`` calls. The numbers are the
-single env's: env *i* of the vector env and a :class:`~sim2real.envs.RandomMapEnv` reset with
-the same seed and given the same actions produce the same observations, rewards, ends and
-infos (tested against gymnasium's ``SyncVectorEnv``).
+builds a :class:`RandomMapVectorEnv` (``"sim2real/CrowdNav-v0"``: :class:`CrowdNavVectorEnv`).
+It steps the N robots (drive model, command history, pose), their lidars (each env's
+obstacles held as padded arrays) and their goals in compiled loops
+(:mod:`sim2real.envs._vecnav`) instead of N Python ``step`` calls. The numbers are the single
+env's: env *i* of the vector env and the single env reset with the same seed and given the
+same actions produce the same observations, rewards, ends and infos (tested against
+gymnasium's ``SyncVectorEnv``). CrowdNav's pedestrians and depth images are stepped and
+rendered per sub-env by the single env's own objects.
 
 Gymnasium conventions
 ---------------------
@@ -53,13 +55,20 @@ from robots.params import DriveParams
 from robots.reduced import _HISTORY_ROWS, ReducedDrive
 from sim2real.envs._nav import NavEnvBase
 from sim2real.envs._robot import ReducedBackend
-from sim2real.envs._vecnav import finish_random_map, history_rows, move_robots, sense
+from sim2real.envs._vecnav import (
+    finish_crowd_nav,
+    finish_random_map,
+    history_rows,
+    move_robots,
+    sense,
+)
+from sim2real.envs.crowd_nav import CrowdNavEnv
 from sim2real.envs.geometry import FloatArray, Scene2D
 from sim2real.envs.metrics import episode_metrics
 from sim2real.envs.random_map import _GOAL_DIST_MAX_M, RandomMapEnv
 from sim2real.errors import Sim2RealValueError
 
-__all__ = ["NavVectorEnv", "RandomMapVectorEnv"]
+__all__ = ["CrowdNavVectorEnv", "NavVectorEnv", "RandomMapVectorEnv"]
 
 
 def _check_num_envs(num_envs: Any) -> int:
@@ -247,8 +256,12 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
                     column[:] = None
                 self._extra[key] = column
             column[i] = value
+        self._load_more(i)
 
     # ------------------------------------------------------------------ hooks
+    def _load_more(self, i: int) -> None:
+        """Copy what else the subclass tracks of sub-env ``i``'s fresh episode."""
+
     def _advance(self, active: np.ndarray) -> None:
         """Move the dynamic parts of the active sub-envs' worlds (after the robots moved)."""
 
@@ -512,4 +525,111 @@ class RandomMapVectorEnv(NavVectorEnv):
             rewards,
             outcome,
         )
+        return obs, rewards, outcome
+
+
+class CrowdNavVectorEnv(NavVectorEnv):
+    """``num_envs`` :class:`~sim2real.envs.CrowdNavEnv` with their robots, lidars, goals and
+    rewards stepped as arrays (see the module doc).
+
+    The pedestrians and the depth image are still stepped and rendered per sub-env by the
+    single env's own objects (``envs.envs[i].crowd``, ``.camera``) in a Python loop.
+
+    Parameters
+    ----------
+    num_envs : int
+        Number of sub-envs.
+    **kwargs
+        The single env's arguments (``scenario``, ``complexity``, ``pedestrians``, ...);
+        ``dynamics`` must be ``"reduced"``.
+    """
+
+    def __init__(self, num_envs: int = 1, **kwargs: Any) -> None:
+        n = _check_num_envs(num_envs)
+        super().__init__([CrowdNavEnv(**kwargs) for _ in range(n)])
+        first = self.envs[0]
+        assert isinstance(first, CrowdNavEnv)
+        self._beam_angles = np.asarray(first.lidar_angles_rad, dtype=np.float64)
+        self._ranges = np.zeros((n, self._beam_angles.shape[0]))
+        space: Any = first.observation_space
+        self._vel_low = np.asarray(space["velocity"].low, dtype=np.float64)
+        self._vel_high = np.asarray(space["velocity"].high, dtype=np.float64)
+        self._batch = {k: np.zeros((n, *sub.shape), dtype=sub.dtype) for k, sub in space.items()}
+        self._prev_vw = np.zeros((n, 2))
+        cfg = first.reward_config
+        self._consts = np.array(
+            [
+                cfg.reach,
+                cfg.collision,
+                cfg.progress_per_m,
+                cfg.proximity,
+                cfg.safe_clearance_m,
+                cfg.dv_per_mps,
+                cfg.dw_per_radps,
+                cfg.step_penalty,
+            ],
+            dtype=np.float64,
+        )
+
+    def _load_more(self, i: int) -> None:
+        env = self.envs[i]
+        assert isinstance(env, CrowdNavEnv)
+        self._prev_vw[i] = env._prev_velocity
+
+    def _set_row(self, obs: Any, i: int, single: Any) -> None:
+        for key, value in single.items():
+            obs[key][i] = value
+
+    def _advance(self, active: np.ndarray) -> None:
+        """The pedestrians of each active sub-env walk (its own crowd, as the single env)."""
+        for k in np.flatnonzero(active):
+            i = int(k)
+            env = self.envs[i]
+            assert isinstance(env, CrowdNavEnv) and env.crowd is not None
+            x, y, yaw = (float(c) for c in self._pose[i])
+            v = float(self._state[i, 0])
+            env.crowd.step(
+                self.control_dt,
+                env._scene,
+                robot_xy=np.array([x, y]),
+                robot_radius_m=env.robot_radius_m,
+                robot_velocity_mps=np.array([v * math.cos(yaw), v * math.sin(yaw)]),
+            )
+            env._sync_pedestrians()
+            self._load_scene(i, env._full_scene)
+
+    def _finish(self, active: np.ndarray) -> tuple[Any, FloatArray, np.ndarray]:
+        n = self.num_envs
+        space: Any = self.single_observation_space
+        obs = {k: np.empty((n, *sub.shape), dtype=sub.dtype) for k, sub in space.items()}
+        rewards = np.empty(n)
+        outcome = np.empty(n, dtype=np.int64)
+        finish_crowd_nav(
+            active,
+            self._ranges,
+            self._goal_polar,
+            self._state,
+            self._clearance,
+            self._steps,
+            self._vw_hist,
+            self._prev_goal,
+            self._prev_vw,
+            self.max_episode_steps,
+            self._goal_tol,
+            self._vel_low,
+            self._vel_high,
+            self._consts,
+            obs["lidar"],
+            obs["goal"],
+            obs["velocity"],
+            rewards,
+            outcome,
+        )
+        depth = obs["depth"]
+        for k in np.flatnonzero(active):
+            i = int(k)
+            env = self.envs[i]
+            assert isinstance(env, CrowdNavEnv)
+            x, y, yaw = (float(c) for c in self._pose[i])
+            depth[i] = env.camera.render(env._depth_scene, x, y, yaw)
         return obs, rewards, outcome

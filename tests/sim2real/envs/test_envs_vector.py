@@ -237,3 +237,42 @@ def test_vector_randomizer_refuses_non_observation_wrappers() -> None:
         VectorObservationRandomizer(
             RandomMapVectorEnv(num_envs=2), lambda e: ActionDelay(e, delay_steps=1)
         )
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"scenario": "dynamic", "complexity": 1.0},
+        {"scenario": "occluded", "complexity": 0.7},
+        {"scenario": "dynamic", "pedestrians": "orca"},
+    ],
+)
+def test_crowd_nav_vector_env_equals_single_envs(kwargs: dict[str, Any]) -> None:
+    from sim2real.envs import CrowdNavEnv, CrowdNavVectorEnv
+
+    kw = {**kwargs, "max_episode_steps": 50}
+    vec = gym.make_vec(
+        "sim2real/CrowdNav-v0", num_envs=3, vectorization_mode="vector_entry_point", **kw
+    )
+    assert isinstance(vec.unwrapped, CrowdNavVectorEnv)
+    sync = SyncVectorEnv([lambda: CrowdNavEnv(**kw) for _ in range(3)])
+    ov, iv = vec.reset(seed=21)
+    os_, is_ = sync.reset(seed=21)
+    for key in os_:
+        np.testing.assert_array_equal(ov[key], os_[key], err_msg=key)
+    assert_infos_equal(iv, is_, "reset")
+    assert vec.observation_space.contains(ov)
+    rng = np.random.default_rng(8)
+    space = sync.single_action_space
+    ends = 0
+    for t in range(110):
+        actions = rng.uniform(space.low, space.high, (3, 2)).astype(np.float32)
+        rv, rs = vec.step(actions), sync.step(actions)
+        for key in rs[0]:
+            np.testing.assert_array_equal(rv[0][key], rs[0][key], err_msg=f"{key}, step {t}")
+        np.testing.assert_allclose(rv[1], rs[1], rtol=1e-12, atol=1e-12, err_msg=f"step {t}")
+        np.testing.assert_array_equal(rv[2], rs[2])
+        np.testing.assert_array_equal(rv[3], rs[3])
+        assert_infos_equal(rv[4], rs[4], f"step {t}")
+        ends += int((rv[2] | rv[3]).sum())
+    assert ends >= 4  # autoresets happened
