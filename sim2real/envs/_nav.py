@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 
 from robots.params import DriveParams
+from robots.randomization import DriveDistribution
 from sim2real.envs._robot import (
     RobotBackend,
     check_env_arguments,
@@ -36,6 +37,30 @@ def _load_spec(robot: str) -> Any:
     from robots.spec import load_spec
 
     return load_spec(robot)
+
+
+def _check_distribution(distribution: Any, spread: Any, robot: str) -> DriveDistribution | None:
+    """Refuse a drive distribution of another robot or a spread that is not a number >= 0."""
+    if isinstance(spread, bool) or not (
+        isinstance(spread, int | float) and math.isfinite(spread) and spread >= 0
+    ):
+        raise Sim2RealValueError(
+            f"drive_spread must be a finite number >= 0 (1 = the distribution as given), "
+            f"got {spread!r}"
+        )
+    if distribution is None:
+        return None
+    if not isinstance(distribution, DriveDistribution):
+        raise Sim2RealValueError(
+            f"drive_distribution must be a robots.randomization.DriveDistribution, got "
+            f"{type(distribution).__name__}; load one with DriveDistribution.from_params_file"
+        )
+    if distribution.robot != robot:
+        raise Sim2RealValueError(
+            f"drive_distribution is for robot '{distribution.robot}' but the env drives "
+            f"'{robot}'; load the distribution of '{robot}'"
+        )
+    return distribution
 
 
 class StepInfo:
@@ -76,6 +101,8 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
         goal_tolerance_m: float,
         drive_params: DriveParams | None,
         needs_world: bool,
+        drive_distribution: DriveDistribution | None = None,
+        drive_spread: float = 1.0,
     ) -> None:
         super().__init__()
         check_env_arguments(
@@ -85,6 +112,10 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
             drive_params=drive_params,
         )
         self.robot_spec = _load_spec(robot)
+        self._drive_distribution = _check_distribution(
+            drive_distribution, drive_spread, self.robot_spec.name
+        )
+        self._drive_spread = float(drive_spread)
         self.dynamics = dynamics
         #: Control period, s (the randomizers read ``env.unwrapped.control_dt``).
         self.control_dt = float(control_dt)
@@ -170,6 +201,9 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
         if self._world is not None:
             self._world.reset_simulation()
         x, y, yaw = self._build(dict(options or {}))
+        if self._drive_distribution is not None:  # this episode's robot, from np_random
+            drawn = self._drive_distribution.sample(self.np_random, 1, spread=self._drive_spread)
+            self._backend.set_drive_params(drawn[0])
         self._backend.reset(x, y, yaw)
         self._tracker.reset(x, y)
         self._prev_goal_dist = self._goal_polar()[0]

@@ -77,6 +77,7 @@ import numpy as np
 from gymnasium import spaces
 
 from robots.params import DriveParams
+from robots.randomization import DriveDistribution
 from sim2real.envs._nav import NavEnvBase, StepInfo
 from sim2real.envs.depth import DepthCamera, DepthScene
 from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, rectangle_segments
@@ -178,6 +179,13 @@ class CrowdNavEnv(NavEnvBase):
         Reward constants.
     drive_params : DriveParams, optional
         Drive parameters (default: the robot spec's).
+    drive_distribution : robots.randomization.DriveDistribution, optional
+        Draw each episode's robot from it at reset, from the env's ``np_random`` (after the
+        world; same seed, same robot), e.g.
+        ``DriveDistribution.from_params_file("params.yaml", robot=...)``. The native vector
+        env's sub-envs draw the same robots as single envs with the same seeds.
+    drive_spread : float
+        Multiplies every standard deviation of ``drive_distribution`` (1 = as given).
     robot : str
         Robot spec name (needs a lidar and a depth camera).
     """
@@ -196,6 +204,8 @@ class CrowdNavEnv(NavEnvBase):
         max_episode_steps: int = 600,
         reward: CrowdNavReward | None = None,
         drive_params: DriveParams | None = None,
+        drive_distribution: DriveDistribution | None = None,
+        drive_spread: float = 1.0,
         robot: str = "turtlebot2",
     ) -> None:
         self.scenario, self.complexity = self._check_scenario(scenario, complexity)
@@ -216,6 +226,8 @@ class CrowdNavEnv(NavEnvBase):
             goal_tolerance_m=0.3,
             drive_params=drive_params,
             needs_world=False,
+            drive_distribution=drive_distribution,
+            drive_spread=drive_spread,
         )
         cam = self.robot_spec.depth_camera
         if cam is None:

@@ -47,6 +47,7 @@ import numpy as np
 from gymnasium import spaces
 
 from robots.params import DriveParams
+from robots.randomization import DriveDistribution
 from sim2real.envs._nav import NavEnvBase, StepInfo
 from sim2real.envs.geometry import FloatArray
 from sim2real.envs.maps import MapConfig, MapLayout, generate_map, get_preset
@@ -90,6 +91,13 @@ class RandomMapEnv(NavEnvBase):
         Reward constants.
     drive_params : DriveParams, optional
         Drive parameters (default: the robot spec's).
+    drive_distribution : robots.randomization.DriveDistribution, optional
+        Draw each episode's robot from it at reset, from the env's ``np_random`` (after the
+        world; same seed, same robot), e.g.
+        ``DriveDistribution.from_params_file("params.yaml", robot=...)``. The native vector
+        env's sub-envs draw the same robots as single envs with the same seeds.
+    drive_spread : float
+        Multiplies every standard deviation of ``drive_distribution`` (1 = as given).
     robot : str
         Robot spec name.
 
@@ -108,6 +116,8 @@ class RandomMapEnv(NavEnvBase):
         max_episode_steps: int = 1000,
         reward: RandomMapReward | None = None,
         drive_params: DriveParams | None = None,
+        drive_distribution: DriveDistribution | None = None,
+        drive_spread: float = 1.0,
         robot: str = "turtlebot3_burger",
     ) -> None:
         self.map_config = map_config if map_config is not None else get_preset(preset)
@@ -120,6 +130,8 @@ class RandomMapEnv(NavEnvBase):
             goal_tolerance_m=self.map_config.goal_tolerance_m,
             drive_params=drive_params,
             needs_world=False,
+            drive_distribution=drive_distribution,
+            drive_spread=drive_spread,
         )
         self.reward_config = reward if reward is not None else RandomMapReward()
         lid = self.robot_spec.lidar

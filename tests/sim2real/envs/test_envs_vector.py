@@ -276,3 +276,44 @@ def test_crowd_nav_vector_env_equals_single_envs(kwargs: dict[str, Any]) -> None
         assert_infos_equal(rv[4], rs[4], f"step {t}")
         ends += int((rv[2] | rv[3]).sum())
     assert ends >= 4  # autoresets happened
+
+
+def burger_distribution() -> Any:
+    from robots.randomization import DriveDistribution
+
+    spec = load_spec("turtlebot3_burger")
+    return DriveDistribution.from_priors(spec.name, spec.geometry, spec.priors)
+
+
+def test_each_episode_draws_its_robot_from_np_random_in_single_and_vector_envs() -> None:
+    dist = burger_distribution()
+    env = RandomMapEnv(preset="TEST1", drive_distribution=dist)
+    env.reset(seed=4)
+    first = env.get_drive_params()
+    env.reset(seed=4)
+    assert env.get_drive_params() == first  # same seed, same robot
+    env.reset(seed=5)
+    assert env.get_drive_params() != first
+    assert first != load_spec("turtlebot3_burger").drive
+    plain = RandomMapEnv(preset="TEST1")
+    plain.reset(seed=5)
+    assert env.layout is not None and plain.layout is not None  # the robot is drawn after
+    np.testing.assert_array_equal(env.layout.cylinders, plain.layout.cylinders)  # the map
+    # the vector env's sub-envs draw the single envs' robots, also at autoresets
+    kw = {"preset": "TEST4", "max_episode_steps": 30, "drive_distribution": dist}
+    vec, sync = make_pair(3, **kw)
+    run_both(vec, sync, steps=70, seed=9, rng_seed=3)
+    drawn = vec.unwrapped.get_drive_params()
+    assert drawn == tuple(e.unwrapped.get_drive_params() for e in sync.envs)
+    assert len(set(drawn)) == 3
+
+
+def test_drive_distribution_of_another_robot_or_a_bad_spread_is_refused() -> None:
+    from robots.randomization import DriveDistribution
+
+    spec = load_spec("turtlebot2")
+    other = DriveDistribution.from_priors(spec.name, spec.geometry, spec.priors)
+    with pytest.raises(Sim2RealValueError, match="is for robot 'turtlebot2' but the env drives"):
+        RandomMapEnv(drive_distribution=other)
+    with pytest.raises(Sim2RealValueError, match="drive_spread must be a finite number >= 0"):
+        RandomMapEnv(drive_distribution=burger_distribution(), drive_spread=-1.0)
