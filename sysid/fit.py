@@ -341,11 +341,17 @@ def _fleet(
         info[np.ix_(rows, rows)] = p.info[np.ix_(cols, cols)]
         sessions.append(SessionInfo(z=z, info=info))
     pop = population(sessions, prior_mu=mu_p, prior_prec=prec, session_cov=s0)
+    # the population mean is unconstrained; keep it inside the schema's range (its sign rules),
+    # as every single-log MAP point is, so params, intervals and the randomisation mean agree
+    bounds = [SCHEMA[n].coord_bounds(mapper.geometry) for n in names]
+    mean = np.array(
+        [min(max(float(z), lo), hi) for z, (lo, hi) in zip(pop.mean, bounds, strict=True)]
+    )
     ties: dict[str, str] = {}
     for p in posts:
         ties |= {k: v for k, v in p.ties.items() if v in names and k not in names}
     prob = Problem(logs, mapper, names, ties, **problem_kw)
-    values = {n: mapper.value(n, float(z)) for n, z in zip(names, pop.mean, strict=True)}
+    values = {n: mapper.value(n, float(z)) for n, z in zip(names, mean, strict=True)}
     params = mapper.base.replace(**(values | {k: values[v] for k, v in ties.items()}))
     u = np.array([mapper.to_coord(params, n) for n in names])
     _, g = prob.schema_coords(u)
@@ -356,7 +362,7 @@ def _fleet(
         ties=ties,
         u=u,
         cov_u=g_inv @ pop.mean_cov @ g_inv.T,
-        z=pop.mean,
+        z=mean,
         cov=pop.mean_cov,
         weak=(),
         between=pop.between,

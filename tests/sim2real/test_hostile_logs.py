@@ -15,6 +15,7 @@ import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -31,6 +32,8 @@ from hostile_logs import (
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from robots.params import SCHEMA
+from robots.spec import load_spec
 from sim2real.cli import main
 
 _BASE = base_arrays()
@@ -150,9 +153,56 @@ _RECOVERED = (
 )
 
 
+@pytest.fixture(scope="module")
+def paused_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The clean log with a night's pause in the middle: two segments of 6 s."""
+    folder = tmp_path_factory.mktemp("paused")
+    return write_faulty(folder / "paused.mcap", [Fault("gap", size=8 / (365 * 24))], _BASE)
+
+
+def _fit_doc(capsys, log: Path, *extra: str) -> tuple[dict[str, Any], str]:
+    out_path = log.with_suffix(f".{len(extra)}.yaml")
+    code, out, err = _run(capsys, *_SYSID, str(log), "-o", str(out_path), *extra)
+    _judge(code, out, err, log)
+    assert code == 0, err
+    return yaml.safe_load(out_path.read_text()), out + err
+
+
+def _sign_violations(doc: dict[str, Any]) -> list[tuple[str, str, float]]:
+    """Written numbers of a result that break the schema's sign rules (where, field, value)."""
+    geo = load_spec(ROBOT).geometry
+    bad = []
+
+    def check(where: str, name: str, value: float | None) -> None:
+        rule = SCHEMA[name]
+        if value is None or (value == float("inf") and rule.may_be_inf):
+            return
+        ok = {
+            "positive": value > 0,
+            "nonneg": value >= 0,
+            "total_positive": value + rule.spec_value(geo) > 0,
+        }[rule.sign]
+        if not (ok and np.isfinite(value)):
+            bad.append((where, name, value))
+
+    for name, p in doc["parameters"].items():
+        check("value", name, p["value"])
+        for bound in p["ci95"] or ():
+            check("ci95", name, bound)
+    for session in doc.get("sessions", []):
+        for name, p in session["parameters"].items():
+            check(session["log"], name, p["value"])
+    block = doc["randomization"]
+    for name, z in zip(block["names"], block["mean"], strict=True):
+        check("randomization.mean", name, SCHEMA[name].from_coord(z, geo))
+    for name, value in block["fixed"].items():
+        check("randomization.fixed", name, value)
+    return bad
+
+
 @pytest.mark.slow
 def test_a_paused_recording_fits_each_segment_and_recovers_the_plant(
-    capsys, tmp_path: Path
+    capsys, paused_log: Path
 ) -> None:
     """Two 6 s segments (a night's pause): a population of two short sessions, not motor gain 0.
 
@@ -160,10 +210,8 @@ def test_a_paused_recording_fits_each_segment_and_recovers_the_plant(
     not inform as a data estimate astronomically far away; its EM spread then grew without
     bound (sysid._fleet).
     """
-    log = write_faulty(tmp_path / "paused.mcap", [Fault("gap", size=8 / (365 * 24))], _BASE)
-    code, text = _fit(capsys, log, tmp_path)
-    assert code == 0 and "2 separate segments" in text
-    result = yaml.safe_load((tmp_path / "paused.params.yaml").read_text())
+    result, text = _fit_doc(capsys, paused_log)
+    assert "2 separate segments" in text
     assert len(result["sessions"]) == 2
     true = truth()
     for name in _RECOVERED:
@@ -174,6 +222,18 @@ def test_a_paused_recording_fits_each_segment_and_recovers_the_plant(
     assert abs(result["parameters"]["delay_s"]["value"] - true.delay_s) < 0.03
     for score in result["scores"]["fit"]:
         assert score["agreement"] > 0.9 and score["fit_percent_v"] > 85, score
+    assert _sign_violations(result) == []
+
+
+@pytest.mark.slow
+def test_free_fields_on_a_paused_recording_keep_the_sign_rules(capsys, paused_log: Path) -> None:
+    """``--free`` with friction the short segments barely inform: the population mean of the
+    viscous coefficient was written negative (-5e-4 N s/m) in the randomisation block."""
+    free = "delay_s,viscous_v_ns_per_m,viscous_w_nms_per_rad,coulomb_v_fwd_n"
+    result, _ = _fit_doc(capsys, paused_log, "--free", free)
+    assert sorted(result["settings"]["free"]) == sorted(free.split(","))
+    assert _sign_violations(result) == []
+    assert abs(result["parameters"]["delay_s"]["value"] - truth().delay_s) < 0.03
 
 
 def test_idle_log_cannot_be_compared_and_says_why(capsys, tmp_path: Path) -> None:
