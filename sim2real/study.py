@@ -22,7 +22,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -83,6 +83,10 @@ class StudyConfig:
         The command line shown in the report's provenance.
     title : str
         The report's title.
+    params_shown : str, optional
+        How the outputs (JSON ``params_file``, report) name the params file when it is read
+        from elsewhere (``sim2real demo`` reads it from its staging folder); default
+        ``params_path``.
     """
 
     log: str | Path
@@ -105,6 +109,7 @@ class StudyConfig:
     sim_out: str | Path | None = None
     command_line: str = ""
     title: str = "sim2real agreement report"
+    params_shown: str | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -168,9 +173,16 @@ def provenance_rows(
     seed: int | None,
     command_line: str,
     odom_v_window_s: float = 0.0,
+    shown: Mapping[str, str] | None = None,
 ) -> list[tuple[str, str]]:
-    """Provenance lines of a report: files with SHA-256, spec, versions, seed, command."""
-    rows = [(role, f"{path}  (sha256 {_sha256(path)})") for role, path in files]
+    """Provenance lines of a report: files with SHA-256, spec, versions, seed, command.
+
+    ``shown`` maps a file's path to the name the report gives it (default: the path).
+    """
+    names = shown or {}
+    rows = [
+        (role, f"{names.get(str(path), path)}  (sha256 {_sha256(path)})") for role, path in files
+    ]
     spec_path = getattr(robot, "path", None)
     rows.append(("robot spec", f"{robot.name}" + (f"  ({spec_path})" if spec_path else "")))
     rows.append(("engine", engine))
@@ -294,7 +306,7 @@ def run_study(
     runs = []
     configs: list[tuple[str, Any, str | None]] = [("spec defaults", spec.drive, None)]
     if params is not None:
-        configs.append(("sysid params", params, str(config.params_path)))
+        configs.append(("sysid params", params, config.params_shown or str(config.params_path)))
     for label, p, pfile in configs:
         sim = replay(trace, robot=spec, params=p, engine=config.engine, odom_v_window_s=window_s)
         rep = measure_agreement(
@@ -430,6 +442,7 @@ def _write_report(
     files: list[tuple[str, str | Path]] = [("log", config.log)]
     if config.params_path is not None:
         files.append(("params", config.params_path))
+    shown = {str(config.params_path): config.params_shown} if config.params_shown else {}
     write_report(
         config.report_path,
         ReportInput(
@@ -439,6 +452,7 @@ def _write_report(
             params=param_rows(spec.drive, runs[-1].replay.params, config.params_path),
             provenance=provenance_rows(
                 files=files,
+                shown=shown,
                 robot=spec,
                 engine=config.engine,
                 seed=config.seed if ensemble is not None else None,

@@ -25,11 +25,14 @@ model that is fitted (see ``data/README.md``); they are looked up in
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import math
 import os
 import shlex
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -159,6 +162,24 @@ def _check_out(out: Path) -> None:
             break
 
 
+def _outputs(out: Path) -> list[Path]:
+    """Every file the demo writes in OUT (one set)."""
+    names = ("params.yaml", "calibrated.yaml", "report.html", "agreement.json", "summary.json")
+    return [out / name for name in names]
+
+
+@contextlib.contextmanager
+def _showing(stage: Path, out: Path) -> Iterator[None]:
+    """Print what the body prints with the staging folder named as OUT (where it moves to)."""
+    buffer = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(buffer):
+            yield
+    finally:
+        sys.stdout.write(buffer.getvalue().replace(str(stage), str(out)))
+        sys.stdout.flush()
+
+
 def run_demo(
     out_dir: str | Path,
     *,
@@ -167,9 +188,15 @@ def run_demo(
     seed: int = 0,
     data_dir: str | Path | None = None,
 ) -> dict[str, Any]:
-    """Run the demo (the README tour's two commands); returns ``OUT/summary.json``'s content."""
+    """Run the demo (the README tour's commands); returns ``OUT/summary.json``'s content.
+
+    All outputs are one set (:func:`sim2real._io.output_set`): the tour runs in a staging
+    folder inside OUT and its files move in together at the end, so a failed or killed run
+    leaves the previous demo's outputs as they were (and the next run removes its leftovers).
+    """
     import dataclasses
 
+    from sim2real._io import output_set
     from sim2real.cli import build_parser
     from sim2real.cli._agree import study_config
     from sim2real.cli._calibrate import _handle as _calibrate
@@ -183,26 +210,34 @@ def run_demo(
     _check_out(out)
     for name in _LOGS:  # a bad log fails here, before OUT is created or written
         read_trace(data / name)
-    fit_argv, calibrate_argv, agree_argv = tour_commands(
-        out, data, engine=engine, ensemble_n=ensemble_n, seed=seed
-    )
+    shown = tour_commands(out, data, engine=engine, ensemble_n=ensemble_n, seed=seed)
     parser = build_parser()
-    print(f"1/3 sim2real {shlex.join(fit_argv)}", flush=True)
     out.mkdir(parents=True, exist_ok=True)
-    _fit(parser.parse_args(fit_argv))
-    fit_s = time.perf_counter() - start
-    print(f"2/3 sim2real {shlex.join(calibrate_argv)}", flush=True)
-    _calibrate(parser.parse_args(calibrate_argv))
-    print(f"3/3 sim2real {shlex.join(agree_argv)}", flush=True)
-    config = dataclasses.replace(
-        study_config(parser.parse_args(agree_argv)),
-        title="sim2real demo: TurtleBot3 Burger (foreign plant), spec defaults vs calibrated sysid fit",
-    )
-    outcome = run_study(config)
-    summary = _summary(outcome, [fit_argv, calibrate_argv, agree_argv], data, out)
-    summary["fit_s"] = round(fit_s, 2)
-    summary["elapsed_s"] = round(time.perf_counter() - start, 2)
-    write_json(out / "summary.json", summary)
+    with output_set(_outputs(out), what="demo output") as staged:
+        stage = staged.staged(out / "summary.json").parent
+        fit_argv, calibrate_argv, agree_argv = tour_commands(
+            stage, data, engine=engine, ensemble_n=ensemble_n, seed=seed
+        )
+        print(f"1/3 sim2real {shlex.join(shown[0])}", flush=True)
+        with _showing(stage, out):
+            _fit(parser.parse_args(fit_argv))
+        fit_s = time.perf_counter() - start
+        print(f"2/3 sim2real {shlex.join(shown[1])}", flush=True)
+        with _showing(stage, out):
+            _calibrate(parser.parse_args(calibrate_argv))
+        print(f"3/3 sim2real {shlex.join(shown[2])}", flush=True)
+        config = dataclasses.replace(
+            study_config(parser.parse_args(agree_argv)),
+            title="sim2real demo: TurtleBot3 Burger (foreign plant), spec defaults vs calibrated "
+            "sysid fit",
+            command_line=f"sim2real {shlex.join(shown[2])}",
+            params_shown=str(out / "calibrated.yaml"),
+        )
+        outcome = run_study(config)
+        summary = _summary(outcome, list(shown), data, out)
+        summary["fit_s"] = round(fit_s, 2)
+        summary["elapsed_s"] = round(time.perf_counter() - start, 2)
+        write_json(staged.staged(out / "summary.json"), summary)
     print(summary_table(outcome.runs, outcome.ensemble))
     before, after = summary["defaults"]["agreement"], summary["sysid"]["agreement"]
     cov = summary["coverage"]
@@ -212,7 +247,7 @@ def run_demo(
     )
     print(
         f"wrote {out / 'params.yaml'}, {out / 'calibrated.yaml'}, {out / 'report.html'}, "
-        f"{out / 'summary.json'}"
+        f"{out / 'agreement.json'}, {out / 'summary.json'}"
     )
     return summary
 
