@@ -99,11 +99,20 @@ class LogInfo:
     cmd_note, meas_note : str
         Why a topic is None (the error a read would raise), else "".
     warnings : tuple of str
-        Repairs or problems met while scanning (e.g. a truncated file).
+        Repairs or problems met while scanning (e.g. a truncated file), and one line each
+        for the pauses and the far-outlier stamps below.
     source : str
         ``"summary"`` when the answer comes from the MCAP summary section and message indexes
         (no chunk decompressed, so chunk CRCs were not checked), ``"scan"`` when every
         record was read.
+    segments : int
+        Runs of the measurement topic split by its pauses (by log time; 0 without one);
+        ``sysid fit`` and ``agree`` use each on its own.
+    pauses_s : tuple of float
+        Length of each pause that splits the measurement topic, s.
+    far_stamps : dict
+        ``{topic: count}`` of the measurement and command stamps (log time) that lie far
+        outside the recording; reading the log drops them.
     """
 
     path: str
@@ -122,6 +131,9 @@ class LogInfo:
     meas_note: str = ""
     warnings: tuple[str, ...] = field(default_factory=tuple)
     source: str = "scan"
+    segments: int = 0
+    pauses_s: tuple[float, ...] = ()
+    far_stamps: dict[str, int] = field(default_factory=dict)
 
     def topic(self, name: str) -> TopicInfo:
         """The :class:`TopicInfo` of topic ``name`` (KeyError when absent)."""
@@ -247,6 +259,60 @@ def _checksum_note(path: Path, kind: str, checksums: bool) -> str:
     return "" if checksums else NO_CHECKSUMS
 
 
+@dataclass(frozen=True)
+class _Timeline:
+    segments: int = 0
+    pauses_s: tuple[float, ...] = ()
+    far_stamps: dict[str, int] = field(default_factory=dict)
+
+
+def _duration_text(seconds: float) -> str:
+    for unit, size in (("d", 86_400.0), ("h", 3_600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
+
+
+def _timeline(
+    chans: list[Chan], cmd: str | None, meas: str | None, warnings: list[str]
+) -> _Timeline:
+    """Pauses and far-outlier stamps (by log time) of the topics a read would use, with notes.
+
+    The rules are the reader's (:mod:`sim2real.logs._timeline`).
+    """
+    from sim2real.logs._timeline import drop_far_commands, drop_isolated, segment_bounds
+
+    def times(topic: str | None) -> np.ndarray:
+        found = [c.log_time_ns for c in chans if c.topic == topic and c.count]
+        return np.sort(np.concatenate(found)).astype(np.int64) if found else np.zeros(0, np.int64)
+
+    t_meas, t_cmd = times(meas), times(cmd)
+    if t_meas.size == 0:
+        return _Timeline()
+    keep = drop_isolated(t_meas)
+    far = {meas: int(keep.size - keep.sum())} if meas else {}
+    if t_cmd.size:
+        keep_cmd = drop_far_commands(t_cmd, t_meas[keep])
+        far[str(cmd)] = int(keep_cmd.size - keep_cmd.sum())
+    far = {topic: n for topic, n in far.items() if n}
+    for topic, n in far.items():
+        total = (t_meas if topic == meas else t_cmd).size
+        warnings.append(
+            f"{n} of {total} log times of '{topic}' lie far outside the recording (a corrupt "
+            "stamp); reading the log drops them"
+        )
+    kept = t_meas[keep]
+    bounds = segment_bounds(kept)
+    pauses = tuple(float(kept[a] - kept[a - 1]) / 1e9 for a, _ in bounds[1:])
+    if pauses:
+        warnings.append(
+            f"'{meas}' pauses {len(pauses)} time(s) "
+            f"({', '.join(_duration_text(p) for p in pauses)}), splitting the log into "
+            f"{len(bounds)} segments that sysid fit and agree use one by one"
+        )
+    return _Timeline(segments=len(bounds), pauses_s=pauses, far_stamps=far)
+
+
 def inspect_log(
     path: str | Path, *, cmd_topic: str | None = None, odom_topic: str | None = None
 ) -> LogInfo:
@@ -289,6 +355,7 @@ def inspect_log(
                 f"the {role} topic '{topic}' has no messages, so reading this log as a trace "
                 "(sysid fit, agree) will fail; record the topic or choose another one"
             )
+    timeline = _timeline(log.chans, chosen["command"], chosen["measurement"], warnings)
     times = [c.log_time_ns for c in log.chans if c.count]
     start = int(min(int(t[0]) for t in times)) if times else 0
     end = int(max(int(t[-1]) for t in times)) if times else 0
@@ -309,4 +376,7 @@ def inspect_log(
         meas_note=notes["measurement"],
         warnings=tuple(warnings),
         source=log.source,
+        segments=timeline.segments,
+        pauses_s=timeline.pauses_s,
+        far_stamps=timeline.far_stamps,
     )

@@ -247,6 +247,55 @@ def test_idle_log_cannot_be_compared_and_says_why(capsys, tmp_path: Path) -> Non
     assert "no sample is active" in text
 
 
+# --- logs info: pauses and far-outlier stamps (by log time), one line each and in --json ----
+
+
+def _info_json(capsys, log: Path) -> dict[str, Any]:
+    code, out, err = _run(capsys, "logs", "info", str(log), "--json")
+    _judge(code, out, err, log)
+    return json.loads(out)  # type: ignore[no-any-return]
+
+
+def test_logs_info_reports_the_pauses_that_split_a_log(capsys, tmp_path: Path) -> None:
+    log = write_faulty(tmp_path / "year.mcap", [Fault("gap", size=1.0)], _BASE)
+    info = _info_json(capsys, log)
+    assert info["segments"] == 2
+    assert len(info["pauses_s"]) == 1
+    assert info["pauses_s"][0] == pytest.approx(365 * 86_400, rel=1e-4)
+    assert info["far_stamps"] == {}
+    lines = [w for w in info["warnings"] if "pauses" in w]
+    assert len(lines) == 1 and "(365 d)" in lines[0] and "2 segments" in lines[0], lines
+    code, text = _info(capsys, log)
+    assert code == 0 and sum("pauses 1 time(s)" in ln for ln in text.splitlines()) == 1
+    clean = _info_json(capsys, write_faulty(tmp_path / "clean.mcap", [], _BASE))
+    assert (clean["segments"], clean["pauses_s"], clean["far_stamps"]) == (1, [], {})
+
+
+def test_logs_info_counts_far_outlier_stamps(capsys, tmp_path: Path) -> None:
+    """One odometry and two command log times ten years off (flipped bytes in the recorder's
+    log time): counted per topic, one line each, the span of the rest unsplit."""
+    from sim2real.logs import write_velocity_log
+
+    meas_log = _BASE["meas_t_ns"].copy()
+    cmd_log = _BASE["cmd_t_ns"].copy()
+    meas_log[100] += 10 * 365 * 86_400 * 10**9
+    cmd_log[[5, 50]] -= 10 * 365 * 86_400 * 10**9
+    log = tmp_path / "far.mcap"
+    write_velocity_log(log, **_BASE, meas_log_t_ns=meas_log, cmd_log_t_ns=cmd_log)
+    info = _info_json(capsys, log)
+    assert info["far_stamps"] == {"/odom": 1, "/cmd_vel": 2}
+    assert info["segments"] == 1 and info["pauses_s"] == []
+    lines = [w for w in info["warnings"] if "far outside" in w]
+    assert sorted(lines) == sorted(
+        [
+            f"1 of {meas_log.size} log times of '/odom' lie far outside the recording (a "
+            "corrupt stamp); reading the log drops them",
+            f"2 of {cmd_log.size} log times of '/cmd_vel' lie far outside the recording (a "
+            "corrupt stamp); reading the log drops them",
+        ]
+    )
+
+
 # --- container-level faults (the MCAP byte reader, by helper `perf`) -------------------------
 
 
