@@ -31,10 +31,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from robots._jit import njit
 from robots.params import BaseGeometry, DriveParams
 
 __all__ = [
@@ -79,7 +79,7 @@ def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
     return p
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def clip(x: float, lim: float) -> float:  # pragma: no cover - compiled
     """``x`` limited to ``[-lim, lim]``."""
     if x > lim:
@@ -89,7 +89,7 @@ def clip(x: float, lim: float) -> float:  # pragma: no cover - compiled
     return x
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _coulomb_prox(
     x_nc: float, impulse_pos: float, impulse_neg: float
 ) -> float:  # pragma: no cover - compiled
@@ -101,7 +101,7 @@ def _coulomb_prox(
     return 0.0
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def shape_command(
     u_v: float, u_w: float, ref_v: float, ref_w: float, dt: float, p: FloatArray
 ) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
@@ -121,7 +121,7 @@ def shape_command(
     return ref_v, ref_w, wr_ref, wl_ref
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def wheel_loops(
     v: float, w: float, wr_ref: float, wl_ref: float, dt: float, p: FloatArray
 ) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
@@ -154,7 +154,7 @@ def wheel_loops(
     return v1, w1, tr, tl
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def axis_friction(
     v: float,
     w: float,
@@ -179,7 +179,7 @@ def axis_friction(
     return force, torque
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def drive_step(
     v: float, w: float, ref_v: float, ref_w: float, u_v: float, u_w: float, dt: float, p: FloatArray
 ) -> tuple[float, float, float, float, float, float]:  # pragma: no cover - compiled
@@ -189,7 +189,7 @@ def drive_step(
     return v1, w1, ref_v, ref_w, tr, tl
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def pybullet_substep(
     state: FloatArray,
     u_v: float,

@@ -33,10 +33,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from robots import _jit
+from robots._jit import njit
 from robots._kernel import drive_step, pack_params
 from robots.errors import RobotsValueError
 from robots.params import BaseGeometry, DriveParams
@@ -54,6 +55,13 @@ __all__ = [
 #: longer span means a log with a long pause; split it into its segments instead.
 MAX_SIM_STEPS = 5_000_000
 
+#: ``simulate(..., python=None)`` interprets while the kernels are not compiled and this process
+#: has interpreted fewer steps than this (~0.25 s of CPU, about half of what loading numba and
+#: its compiled kernels costs): a one-off replay of a short log never imports numba, a process
+#: that simulates more compiles once.
+INTERPRET_BUDGET_STEPS = 45_000
+_interpreted_steps = 0
+
 # Initial rows of ReducedDrive's command history (it compacts or grows when full).
 _HISTORY_ROWS = 256
 
@@ -64,7 +72,7 @@ DEFAULT_DT_S = 1.0 / 240.0
 FloatArray = NDArray[np.float64]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _step(
     state: FloatArray, u_v: float, u_w: float, dt: float, p: FloatArray
 ) -> None:  # pragma: no cover - compiled
@@ -76,7 +84,7 @@ def _step(
     state[0], state[1], state[2], state[3] = v1, w1, rv, rw
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _integrate(
     u_v: FloatArray, u_w: FloatArray, dt: float, p: FloatArray, v0: float, w0: float
 ) -> tuple[FloatArray, FloatArray]:  # pragma: no cover - compiled
@@ -96,21 +104,24 @@ def _integrate(
 def _integrate_python(
     u_v: FloatArray, u_w: FloatArray, dt: float, p: FloatArray, v0: float, w0: float
 ) -> tuple[FloatArray, FloatArray]:
-    """The same loop in Python, one kernel call per step (the benchmark baseline)."""
+    """The same loop in Python, one kernel call per step (the benchmark baseline).
+
+    On Python floats and lists (numpy scalars would triple the cost of the arithmetic).
+    """
     step = _step.py_func
     n = u_v.shape[0]
-    out_v = np.empty(n + 1)
-    out_w = np.empty(n + 1)
-    state = np.array([v0, w0, v0, w0])
-    out_v[0], out_w[0] = v0, w0
-    for i in range(n):
-        step(state, float(u_v[i]), float(u_w[i]), dt, p)
-        out_v[i + 1] = state[0]
-        out_w[i + 1] = state[1]
-    return out_v, out_w
+    out_v = [v0] * (n + 1)
+    out_w = [w0] * (n + 1)
+    state = [v0, w0, v0, w0]
+    packed = p.tolist()
+    for i, (a, b) in enumerate(zip(u_v.tolist(), u_w.tolist(), strict=True), start=1):
+        step(state, a, b, dt, packed)
+        out_v[i] = state[0]
+        out_w[i] = state[1]
+    return np.array(out_v), np.array(out_w)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _held_mean(
     cmd_t: FloatArray, cmd_v: FloatArray, cmd_w: FloatArray, a: float, dt: float, timeout: float
 ) -> tuple[float, float]:  # pragma: no cover - compiled
@@ -131,7 +142,7 @@ def _held_mean(
     return u_v / dt, u_w / dt
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _advance_held(
     state: FloatArray,
     cmd_t: FloatArray,
@@ -154,7 +165,7 @@ def _advance_held(
         _step(state, u_v, u_w, dt, p)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _delayed_commands(
     cmd_t: FloatArray,
     cmd_v: FloatArray,
@@ -177,7 +188,7 @@ def _delayed_commands(
     return u_v, u_w
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _advance_history(
     state: FloatArray,
     hist: FloatArray,
@@ -313,7 +324,7 @@ def simulate(
     dt_s: float = DEFAULT_DT_S,
     v0: float = 0.0,
     w0: float = 0.0,
-    python: bool = False,
+    python: bool | None = False,
 ) -> ReducedResponse:
     """Simulate the drive chain for a logged command sequence.
 
@@ -328,8 +339,12 @@ def simulate(
         The simulation starts at ``t_out_s[0]`` in state (``v0``, ``w0``).
     dt_s : float
         Integration step, s.
-    python : bool
-        Run the plain-Python loop instead of the numba kernel (same numbers, ~100x slower).
+    python : bool or None
+        ``True``: run the plain-Python loop instead of the numba kernel (same numbers, ~100x
+        slower per step, but no numba to load). ``None``: choose; plain Python while the
+        kernels are not compiled yet and the process has interpreted fewer than
+        :data:`INTERPRET_BUDGET_STEPS` steps (a one-off replay of a short log, e.g.
+        ``sim2real agree --engine reduced``), numba otherwise.
 
     Returns
     -------
@@ -351,12 +366,26 @@ def simulate(
         cmd_t_s, cmd_w, grid, dt_s, delay_s=params.delay_s, timeout_s=params.cmd_timeout_s
     )
     packed = pack_params(params, geometry)
-    run = _integrate_python if python else _integrate
-    out_v, out_w = run(u_v, u_w, float(dt_s), packed, float(v0), float(w0))
+    if python is None:
+        python = _within_interpret_budget(n)
+    if python:
+        with _jit.interpreted():
+            out_v, out_w = _integrate_python(u_v, u_w, float(dt_s), packed, float(v0), float(w0))
+    else:
+        out_v, out_w = _integrate(u_v, u_w, float(dt_s), packed, float(v0), float(w0))
     t_grid = t0 + dt_s * np.arange(n + 1, dtype=np.float64)
     return ReducedResponse(
         t_s=t_out_s, v=np.interp(t_out_s, t_grid, out_v), w=np.interp(t_out_s, t_grid, out_w)
     )
+
+
+def _within_interpret_budget(n_steps: int) -> bool:
+    """Whether ``simulate(python=None)`` interprets a run of ``n_steps`` (and count them)."""
+    global _interpreted_steps
+    if _jit.compiled() or _interpreted_steps + n_steps > INTERPRET_BUDGET_STEPS:
+        return False
+    _interpreted_steps += n_steps
+    return True
 
 
 class ReducedDrive:

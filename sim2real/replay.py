@@ -267,6 +267,7 @@ def replay(
             t_out_s=t_out,
             v0=initial[0],
             w0=initial[1],
+            python=None,  # a short one-off replay runs without loading numba
         )
         v, w = np.asarray(resp.v, dtype=np.float64), np.asarray(resp.w, dtype=np.float64)
     else:

@@ -1,0 +1,120 @@
+"""Numba kernels that are compiled on first use, so a process that never runs one never imports
+numba (about 0.5 s of CPU: the import and its first-call set-up).
+
+``@njit(**options)`` marks a kernel (numba's ``njit`` options: ``cache``, ``inline``, ...). The
+first call of any kernel from Python compiles (or loads from numba's cache) all of them at once
+(:func:`compile_all`) and rebinds every module-level name in the ``robots`` package that held a
+kernel to its numba dispatcher, so compiled kernels call and inline each other as plain numba
+functions. Inside :func:`interpreted`, a kernel that is not compiled yet runs as plain Python
+(its ``py_func``) instead, calling the other kernels the same way: the same arithmetic without
+numba, for one short run where compiling would cost more than it saves
+(:func:`robots.reduced.simulate` with ``python=None``).
+
+Example
+-------
+>>> @njit(cache=False)
+... def twice(x):
+...     return 2.0 * x
+>>> with interpreted():
+...     twice(1.5)  # plain Python while nothing is compiled
+3.0
+"""
+
+from __future__ import annotations
+
+import functools
+import sys
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+__all__ = ["Kernel", "compile_all", "compiled", "interpreted", "njit"]
+
+_KERNELS: list[Kernel] = []
+_LOCK = threading.RLock()
+_LOCAL = threading.local()
+#: Packages whose module-level names are rebound to the dispatchers by :func:`compile_all`.
+_PACKAGES = ("robots", "sysid", "randomizers", "sim2real", "tests")
+
+
+class Kernel:
+    """A numba kernel before it is compiled: calls compile it (or interpret it, see module).
+
+    Attributes
+    ----------
+    py_func : callable
+        The plain-Python function.
+    options : dict
+        The options for ``numba.njit``.
+    dispatcher : numba dispatcher or None
+        The compiled kernel once :func:`compile_all` ran.
+    """
+
+    def __init__(self, py_func: Callable[..., Any], options: dict[str, Any]) -> None:
+        self.py_func = py_func
+        self.options = options
+        self.dispatcher: Any = None
+        functools.update_wrapper(self, py_func)
+
+    def __call__(self, *args: Any) -> Any:
+        if self.dispatcher is not None:
+            return self.dispatcher(*args)
+        if getattr(_LOCAL, "interpreting", 0):
+            return self.py_func(*args)
+        compile_all()
+        dispatcher: Any = self.dispatcher
+        return dispatcher(*args)
+
+    def __repr__(self) -> str:
+        state = "compiled" if self.dispatcher is not None else "not compiled yet"
+        return f"<robots kernel {self.py_func.__qualname__} ({state})>"
+
+
+def njit(**options: Any) -> Any:
+    """Decorator: a :class:`Kernel` compiled with ``numba.njit(**options)`` on first use."""
+
+    def mark(py_func: Callable[..., Any]) -> Kernel:
+        kernel = Kernel(py_func, options)
+        with _LOCK:
+            _KERNELS.append(kernel)
+        return kernel
+
+    return mark
+
+
+def compiled() -> bool:
+    """Whether the kernels are compiled (numba imported) in this process."""
+    return bool(_KERNELS) and all(k.dispatcher is not None for k in _KERNELS)
+
+
+def compile_all() -> None:
+    """Compile every kernel (lazily, per numba: on its first call or from its cache) and rebind
+    the module-level names that held them to the numba dispatchers."""
+    with _LOCK:
+        if compiled():
+            return
+        import numba
+
+        swap: dict[int, Any] = {}
+        for kernel in _KERNELS:
+            if kernel.dispatcher is None:
+                kernel.dispatcher = numba.njit(**kernel.options)(kernel.py_func)
+            swap[id(kernel)] = kernel.dispatcher
+        for name, module in list(sys.modules.items()):
+            if module is None or name.split(".")[0] not in _PACKAGES:
+                continue
+            namespace = vars(module)
+            for attr, value in list(namespace.items()):
+                if isinstance(value, Kernel):
+                    namespace[attr] = swap[id(value)]
+
+
+@contextmanager
+def interpreted() -> Iterator[None]:
+    """Run kernels that are not compiled yet as plain Python inside this block (this thread)."""
+    _LOCAL.interpreting = getattr(_LOCAL, "interpreting", 0) + 1
+    try:
+        yield
+    finally:
+        _LOCAL.interpreting -= 1

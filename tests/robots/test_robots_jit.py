@@ -1,0 +1,74 @@
+"""Kernels compiled on first use (robots._jit): a short one-off simulation never loads numba
+and gives the compiled numbers bit for bit; past the budget, or once compiled, numba runs."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from robots import _jit, _kernel, load_spec, simulate
+from robots import reduced as reduced_mod
+
+REPO = Path(__file__).resolve().parents[2]
+
+_CHILD = """
+import json, sys
+import numpy as np
+from robots import load_spec, reduced
+spec = load_spec("turtlebot3_burger")
+rng = np.random.default_rng(3)
+t = 0.1 * np.arange(300)
+kw = dict(cmd_t_s=t, cmd_v=rng.uniform(-0.3, 0.3, 300), cmd_w=rng.uniform(-3, 3, 300),
+          t_out_s=np.arange(0.0, 30.0, 1 / 30), v0=0.05, w0=-0.2)
+params = spec.drive.replace(wheel_torque_max_nm=0.03, accel_lim_v_mps2=1.5, delay_s=0.07)
+auto = reduced.simulate(params, spec.geometry, python=None, **kw)
+loaded_after_auto = "numba" in sys.modules
+compiled = reduced.simulate(params, spec.geometry, **kw)
+print(json.dumps({
+    "numba_after_auto": loaded_after_auto,
+    "numba_after_compiled": "numba" in sys.modules,
+    "same_v": bool(np.array_equal(auto.v, compiled.v)),
+    "same_w": bool(np.array_equal(auto.w, compiled.w)),
+    "moves": float(np.ptp(auto.v)),
+}))
+"""
+
+
+def test_short_one_off_simulation_runs_without_numba_and_equals_compiled_bit_for_bit() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-c", _CHILD], capture_output=True, text=True, check=True, cwd=REPO
+    )
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert got == {**got, "numba_after_auto": False, "numba_after_compiled": True}
+    assert got["same_v"] and got["same_w"] and got["moves"] > 0.1
+
+
+def test_auto_mode_compiles_past_the_budget_or_once_compiled() -> None:
+    spec = load_spec("turtlebot3_burger")
+    t = np.arange(0.0, 5.0, 0.1)
+    kw = {"cmd_t_s": t, "cmd_v": np.full(t.size, 0.2), "cmd_w": np.zeros(t.size), "t_out_s": t}
+    simulate(spec.drive, spec.geometry, **kw)  # compiled in this process now
+    assert _jit.compiled()
+    assert not reduced_mod._within_interpret_budget(10)
+    # every module-level name that held a kernel is the numba dispatcher now
+    assert not isinstance(_kernel.drive_step, _jit.Kernel)
+    assert not isinstance(reduced_mod.drive_step, _jit.Kernel)
+    assert hasattr(_kernel.drive_step, "signatures")
+
+
+def test_interpreted_block_runs_an_uncompiled_kernel_as_python() -> None:
+    calls: list[float] = []
+
+    def double(x: float) -> float:
+        calls.append(x)
+        return 2.0 * x
+
+    kernel = _jit.Kernel(double, {})  # not registered: never compiled
+    with _jit.interpreted():
+        assert kernel(1.5) == 3.0
+    assert calls == [1.5]
+    assert "not compiled yet" in repr(kernel)
