@@ -303,10 +303,12 @@ def _refuse_ensemble_options(args: argparse.Namespace) -> None:
 
 def _run_with_bar(config: StudyConfig, n: int | None) -> StudyResult:
     """Run the study; with an ensemble, a progress bar on a terminal (stderr), none in a pipe."""
+    from sim2real.study import run_study
+
+    if n is None:  # one replay: no bar (and no rich to import)
+        return run_study(config)
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from sim2real.study import run_study
 
     err = Console(stderr=True)
     with Progress(
@@ -316,9 +318,9 @@ def _run_with_bar(config: StudyConfig, n: int | None) -> StudyResult:
         TimeElapsedColumn(),
         console=err,
         transient=True,
-        disable=n is None or not err.is_terminal,
+        disable=not err.is_terminal,
     ) as bar:
-        task = bar.add_task("ensemble", total=n or 1)
+        task = bar.add_task("ensemble", total=n)
         return run_study(config, progress=lambda done, _: bar.update(task, completed=done))
 
 
