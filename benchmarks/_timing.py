@@ -19,6 +19,7 @@ from pathlib import Path
 
 __all__ = [
     "CPU_S",
+    "QUICK",
     "Stats",
     "alternate",
     "command_times",
@@ -34,13 +35,28 @@ REPO = Path(__file__).resolve().parents[1]
 #: on a loaded machine the wall time mostly measures the queue, the CPU time the work.
 CPU_S: dict[str, list[float]] = {}
 RESULTS = Path(os.environ.get("SIM2REAL_BENCH_RESULTS", REPO / "benchmarks" / ".results.jsonl"))
+#: ``BENCH_QUICK=1`` (``make bench BENCH_QUICK=1``): fewer repeats and shorter runs, for checking
+#: that every benchmark runs; the figures are then noisier (the README table says so).
+QUICK = os.environ.get("BENCH_QUICK", "") not in ("", "0")
 
 
 @dataclass(frozen=True, kw_only=True)
 class Stats:
-    """Wall-clock seconds of the repeats of one contender."""
+    """Wall-clock seconds of the repeats of one contender (and their CPU seconds).
+
+    ``cpu_s`` is the process CPU time (user + system, :func:`time.process_time`) of each
+    repeat, when measured: on a shared machine the wall time also counts the queue, the CPU
+    time only this process's work (see :meth:`cpu`).
+    """
 
     times_s: tuple[float, ...]
+    cpu_s: tuple[float, ...] = ()
+
+    def cpu(self) -> Stats:
+        """The same repeats by CPU time (``times_s`` = ``cpu_s``)."""
+        if not self.cpu_s:
+            raise ValueError("no CPU times were measured for these repeats")
+        return Stats(times_s=self.cpu_s, cpu_s=self.cpu_s)
 
     @property
     def min(self) -> float:
@@ -69,19 +85,25 @@ class Stats:
 def alternate(
     contenders: Mapping[str, Callable[[], object]], repeats: int, *, warmup: bool = True
 ) -> dict[str, Stats]:
-    """Time each contender ``repeats`` times, interleaved (a, b, a, b, ...) in one process."""
+    """Time each contender ``repeats`` times, interleaved (a, b, a, b, ...) in one process.
+
+    Wall and CPU time of each repeat (:class:`Stats`); the order flips every round, so neither
+    contender always runs right after the other.
+    """
     names = list(contenders)
     if warmup:
         for name in names:
             contenders[name]()
     times: dict[str, list[float]] = {name: [] for name in names}
+    cpu: dict[str, list[float]] = {name: [] for name in names}
     for i in range(repeats):
         order = names if i % 2 == 0 else names[::-1]
         for name in order:
-            t0 = time.perf_counter()
+            c0, t0 = time.process_time(), time.perf_counter()
             contenders[name]()
             times[name].append(time.perf_counter() - t0)
-    return {name: Stats(times_s=tuple(ts)) for name, ts in times.items()}
+            cpu[name].append(time.process_time() - c0)
+    return {name: Stats(times_s=tuple(times[name]), cpu_s=tuple(cpu[name])) for name in names}
 
 
 def fmt_ratio(num: Stats, den: Stats) -> str:
@@ -104,13 +126,14 @@ def command_times(
     "Cold": the first run with empty bytecode and numba caches (``PYTHONPYCACHEPREFIX`` and
     ``NUMBA_CACHE_DIR`` pointed at fresh folders, so every module is compiled and every numba
     kernel built again; the OS file cache is not dropped). "Warm": ``repeats`` runs with the
-    normal caches after one unmeasured run, the commands alternated.
+    normal caches after one unmeasured run, the commands alternated (wall and CPU time of
+    each, the CPU time being the child's user + system time).
     """
     import tempfile
 
     base_env = {**os.environ, "PYTHONWARNINGS": "ignore"}
 
-    def run(argv: Sequence[str], env: Mapping[str, str]) -> float:
+    def run(argv: Sequence[str], env: Mapping[str, str]) -> tuple[float, float]:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         subprocess.run(argv, check=True, capture_output=True, env=dict(env), cwd=REPO)
@@ -118,19 +141,26 @@ def command_times(
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
         CPU_S.setdefault(" ".join(argv), []).append(cpu)
-        return wall
+        return wall, cpu
 
     cold: dict[str, float] = {}
     for name, argv in commands.items():
         with tempfile.TemporaryDirectory() as pyc, tempfile.TemporaryDirectory() as nb:
-            cold[name] = run(argv, {**base_env, "PYTHONPYCACHEPREFIX": pyc, "NUMBA_CACHE_DIR": nb})
+            env = {**base_env, "PYTHONPYCACHEPREFIX": pyc, "NUMBA_CACHE_DIR": nb}
+            cold[name] = run(argv, env)[0]
         run(argv, base_env)  # fill the normal caches
-    warm: dict[str, list[float]] = {name: [] for name in commands}
+    warm: dict[str, list[tuple[float, float]]] = {name: [] for name in commands}
     names = list(commands)
     for i in range(repeats):
         for name in names if i % 2 == 0 else names[::-1]:
             warm[name].append(run(commands[name], base_env))
-    return {name: (cold[name], Stats(times_s=tuple(warm[name]))) for name in names}
+    return {
+        name: (
+            cold[name],
+            Stats(times_s=tuple(w for w, _ in warm[name]), cpu_s=tuple(c for _, c in warm[name])),
+        )
+        for name in names
+    }
 
 
 def machine() -> str:
