@@ -10,7 +10,10 @@ are whole processes as a user runs them, cold (empty bytecode and numba caches) 
    ``data/demo_validate.mcap``) (target: < 0.8 s);
 3. ``PybulletRobot.step`` at 10 Hz control (24 physics steps of 1/240 s each) against bare
    ``stepSimulation`` on the same robot and substeps, wheel torques set once per control step
-   (target: >= 80 % of the bare rate);
+   (target: >= 80 % of the bare rate), and against replaying the very torques it sets (one
+   ``setJointMotorControlArray`` per physics step and nothing else: the floor of any
+   torque-level drive loop); wall and CPU time; ``sim2real agree --engine pybullet`` on the
+   1-minute log as the whole-command figure;
 4. ``DepthNoise`` on a 640x480 float32 image against its floor, the random bits of one frame plus
    one add (target: >= 1,800 frames/s).
 """
@@ -24,7 +27,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _timing import CPU_S, REPO, alternate, command_times, machine, paired_ratios, record
+from _timing import CPU_S, QUICK, REPO, alternate, command_times, machine, paired_ratios, record
 
 PY = sys.executable
 
@@ -46,6 +49,10 @@ def bench_cli(repeats: int) -> None:
             "sim2real agree --engine reduced (60 s log)": [
                 PY, "-m", "sim2real", "agree", str(log), "--robot", "turtlebot3_burger",
                 "--engine", "reduced",
+            ],
+            "sim2real agree --engine pybullet (60 s log)": [
+                PY, "-m", "sim2real", "agree", str(log), "--robot", "turtlebot3_burger",
+                "--engine", "pybullet",
             ],
         }  # fmt: skip
         res = command_times(cmds, repeats)
@@ -73,15 +80,50 @@ def bench_cli(repeats: int) -> None:
         )
     agree = "sim2real agree --engine reduced (60 s log)"
     cold, warm = res[agree]
-    print(f"   agree --engine reduced, 60 s log: warm median {warm.median:.2f} s (target < 0.8 s)")
+    cpu_warm = warm.cpu()
+    print(
+        f"   agree --engine reduced, 60 s log: warm median {warm.median:.2f} s, CPU "
+        f"{cpu_warm.median:.2f} s (target < 0.8 s)"
+    )
     record(
         "cli",
         "`sim2real agree --engine reduced`, 1-minute log, whole process",
         f"warm {warm.median:.2f} s (min {warm.min:.2f}, max {warm.max:.2f}), CPU "
-        f"{cpu[agree]:.2f} s; cold {cold:.2f} s",
+        f"{cpu_warm.median:.2f} s; cold {cold:.2f} s",
         "< 0.8 s",
         warm.median < 0.8,
     )
+    pyb = "sim2real agree --engine pybullet (60 s log)"
+    cold, warm = res[pyb]
+    record(
+        "robots",
+        "`sim2real agree --engine pybullet`, 1-minute log, whole process",
+        f"warm {warm.median:.2f} s (min {warm.min:.2f}, max {warm.max:.2f}), CPU "
+        f"{warm.cpu().median:.2f} s; cold {cold:.2f} s",
+        "-",
+        None,
+    )
+
+
+def _recorded_torques(robot: object, cmd: np.ndarray) -> list[tuple[float, float]]:
+    """The wheel torques ``PybulletRobot.step`` sets in every physics step for ``cmd``."""
+    import pybullet as p
+
+    seen: list[tuple[float, float]] = []
+    real = p.setJointMotorControlArray
+
+    def spy(*args: object, **kw: object) -> object:
+        seen.append(kw["forces"])  # type: ignore[arg-type]
+        return real(*args, **kw)
+
+    p.setJointMotorControlArray = spy
+    try:
+        robot.reset()  # type: ignore[attr-defined]
+        for v, w in cmd:
+            robot.step(float(v), float(w), 0.1)  # type: ignore[attr-defined]
+    finally:
+        p.setJointMotorControlArray = real
+    return seen
 
 
 def bench_pybullet_loop(repeats: int, control_steps: int) -> None:
@@ -94,6 +136,7 @@ def bench_pybullet_loop(repeats: int, control_steps: int) -> None:
     c, body, wheels = robot.client, robot.body_id, [LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT]
     substeps = round(0.1 * robot.physics_hz)
     cmd = np.random.default_rng(0).uniform(-1.0, 1.0, (control_steps, 2)) * (0.22, 2.8)
+    torques = _recorded_torques(robot, cmd)
 
     def bare() -> None:
         robot.reset()
@@ -105,24 +148,50 @@ def bench_pybullet_loop(repeats: int, control_steps: int) -> None:
             for _ in range(substeps):
                 p.stepSimulation(physicsClientId=c)
 
+    def replayed() -> None:
+        robot.reset()
+        for forces in torques:
+            p.setJointMotorControlArray(
+                body, wheels, p.TORQUE_CONTROL, forces=forces, physicsClientId=c
+            )
+            p.stepSimulation(physicsClientId=c)
+
     def ours() -> None:
         robot.reset()
         for k in range(control_steps):
             robot.step(float(cmd[k, 0]), float(cmd[k, 1]), 0.1)
 
-    st = alternate({"bare stepSimulation": bare, "PybulletRobot.step": ours}, repeats)
+    st = alternate(
+        {"bare stepSimulation": bare, "its torques replayed": replayed, "PybulletRobot.step": ours},
+        repeats,
+    )
     robot.close()
     n = control_steps * substeps
     print(f"3. pybullet loop, {control_steps} control steps x {substeps} substeps, {repeats} reps")
+    print("   bare: constant wheel torques set once per control step; replayed: the torques")
+    print("   PybulletRobot sets, one setJointMotorControlArray per physics step, nothing else")
     for name, s in st.items():
         slow, med, fast = s.rate(n)
-        print(f"   {name:<22} {slow:8.0f}/{med:8.0f}/{fast:8.0f} physics steps/s (min/med/max)")
-    lo, med, hi = paired_ratios(st["bare stepSimulation"], st["PybulletRobot.step"])
-    print(f"   PybulletRobot / bare rate: {lo:.2f}/{med:.2f}/{hi:.2f} (target >= 0.80)")
+        cslow, cmed, cfast = s.cpu().rate(n)
+        print(
+            f"   {name:<22} wall {slow:6.0f}/{med:6.0f}/{fast:6.0f}  CPU {cslow:6.0f}/{cmed:6.0f}/"
+            f"{cfast:6.0f} physics steps/s (min/median/max)"
+        )
+    ours_st, bare_st = st["PybulletRobot.step"], st["bare stepSimulation"]
+    lo, med, hi = paired_ratios(bare_st, ours_st)
+    clo, cmed, chi = paired_ratios(bare_st.cpu(), ours_st.cpu())
+    flo, fmed, fhi = paired_ratios(st["its torques replayed"].cpu(), ours_st.cpu())
+    rlo, rmed, rhi = paired_ratios(bare_st.cpu(), st["its torques replayed"].cpu())
+    print(
+        f"   PybulletRobot / bare rate: wall {lo:.2f}/{med:.2f}/{hi:.2f}, CPU {clo:.2f}/{cmed:.2f}/"
+    )
+    print(f"   {chi:.2f} (target >= 0.80); its torques replayed / bare: CPU {rlo:.2f}/{rmed:.2f}/")
+    print(f"   {rhi:.2f}; PybulletRobot / its torques replayed: CPU {flo:.2f}/{fmed:.2f}/{fhi:.2f}")
     record(
         "robots",
         "`PybulletRobot.step` rate / bare `stepSimulation` (same robot, 24 substeps)",
-        f"{med:.2f} (min {lo:.2f}, max {hi:.2f})",
+        f"wall {med:.2f} (min {lo:.2f}, max {hi:.2f}); CPU {cmed:.2f}; replaying the same "
+        f"torques with nothing else reaches CPU {rmed:.2f} of bare, ours {fmed:.2f} of that",
         ">= 0.80",
         med >= 0.8,
     )
@@ -170,8 +239,9 @@ def bench_depth_noise(repeats: int, frames: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer repeats")
+    parser.add_argument("--quick", action="store_true", help="fewer repeats (or BENCH_QUICK=1)")
     args = parser.parse_args()
+    args.quick = args.quick or QUICK
     reps = 5 if args.quick else 11
     print(f"machine: {machine()}")
     bench_cli(reps)
