@@ -9,21 +9,27 @@ Prints:
 - depth render cost per frame at 64x48, 160x120 and 640x480 (TinyRenderer, DIRECT mode);
 - the reduced model measured in the same run: ``ReducedDrive.step`` at the same control rates
   and ``simulate`` on the whole command log, with the speed-up over pybullet (target >= 100x).
+
+Every figure is the median of 5 repeats (2 with ``BENCH_QUICK=1``), the contenders alternated
+in one process (``_timing.alternate``); ratios print min/median/max.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from _timing import QUICK, alternate, paired_ratios, record
 
 from robots import DepthCamera, Lidar, PybulletRobot, ReducedDrive, load_spec, simulate
 from robots.spec import CameraSpec, RobotSpec
 from robots.world import add_box, add_cylinder
+
+#: Alternated repeats of every timing (``BENCH_QUICK=1``: 2).
+REPEATS = 2 if QUICK else 5
 
 
 def _commands(spec: RobotSpec, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -33,13 +39,10 @@ def _commands(spec: RobotSpec, n: int, seed: int = 0) -> tuple[np.ndarray, np.nd
     return v, w
 
 
-def _best_of(fn: Callable[[], object], repeats: int) -> float:
-    best = math.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+def _per_call(fn: Callable[[], object], calls: int) -> float:
+    """Median seconds per call over :data:`REPEATS` timed batches of ``calls`` calls."""
+    st = alternate({"f": lambda: [fn() for _ in range(calls)]}, REPEATS)
+    return st["f"].median / calls
 
 
 def _obstacles(client: int) -> None:
@@ -83,12 +86,13 @@ def bench_drive(spec: RobotSpec, seconds: float) -> None:
             for a, b in zip(v, w, strict=True):
                 drive.step(float(a), float(b), dt)
 
-        t_pb = _best_of(run_pb, 2)
-        t_red = _best_of(run_red, 3)
+        st = alternate({"pybullet": run_pb, "reduced": run_red}, REPEATS)
         robot.close()
+        t_pb, t_red = st["pybullet"].median, st["reduced"].median
+        lo, med, hi = paired_ratios(st["pybullet"], st["reduced"])
         print(
             f"{rate:6.0f}Hz {n / t_pb:17.0f} {seconds / t_pb:7.1f} {n / t_red:16.0f} "
-            f"{seconds / t_red:8.1f} {t_pb / t_red:6.0f}x"
+            f"{seconds / t_red:8.1f} {med:6.0f}x (min {lo:.0f}, max {hi:.0f})"
         )
     # whole-log simulation (what sysid calls thousands of times)
     n = round(seconds * 10)
@@ -97,18 +101,34 @@ def bench_drive(spec: RobotSpec, seconds: float) -> None:
     t_out = np.arange(0.0, seconds, 1.0 / 30.0)
     kw: dict[str, Any] = {"cmd_t_s": cmd_t, "cmd_v": v, "cmd_w": w, "t_out_s": t_out}
     simulate(spec.drive, spec.geometry, **kw)  # compile
-    t_sim = _best_of(lambda: simulate(spec.drive, spec.geometry, **kw), 5)
-    t_py = _best_of(lambda: simulate(spec.drive, spec.geometry, python=True, **kw), 1)
     robot = PybulletRobot(spec)
-    t_rep = _best_of(lambda: robot.replay(**kw), 2)
+    st = alternate(
+        {
+            "replay": lambda: robot.replay(**kw),
+            "numba": lambda: simulate(spec.drive, spec.geometry, **kw),
+            "python": lambda: simulate(spec.drive, spec.geometry, python=True, **kw),
+        },
+        REPEATS,
+    )
     robot.close()
-    print(f"whole log ({seconds:g} s, 10 Hz commands, 30 Hz outputs):")
+    t_rep, t_sim, t_py = (st[k].median for k in ("replay", "numba", "python"))
+    print(
+        f"whole log ({seconds:g} s, 10 Hz commands, 30 Hz outputs), medians of {REPEATS} alternated:"
+    )
     print(f"  PybulletRobot.replay     {t_rep * 1e3:9.2f} ms   (RTF {seconds / t_rep:8.1f})")
     print(
         f"  simulate (numba)         {t_sim * 1e3:9.3f} ms   (RTF {seconds / t_sim:8.0f}) "
         f"-> {t_rep / t_sim:,.0f}x faster than pybullet"
     )
     print(f"  simulate (plain Python)  {t_py * 1e3:9.2f} ms   -> numba {t_py / t_sim:,.0f}x faster")
+    lo, med, hi = paired_ratios(st["replay"], st["numba"])
+    record(
+        "robots",
+        f"reduced `simulate` vs `PybulletRobot.replay`, {seconds:g} s log",
+        f"{med:,.0f}x faster (min {lo:,.0f}, max {hi:,.0f})",
+        ">= 100x",
+        med >= 100,
+    )
 
 
 def bench_sensors(spec: RobotSpec) -> None:
@@ -116,7 +136,7 @@ def bench_sensors(spec: RobotSpec) -> None:
     _obstacles(robot.client)
     lidar = Lidar(spec.lidar, robot)
     lidar.scan()
-    t = _best_of(lambda: [lidar.scan() for _ in range(100)], 3) / 100
+    t = _per_call(lidar.scan, 100)
     print(
         f"lidar ({spec.lidar.beams} beams, 20 obstacles): {t * 1e3:.3f} ms per scan "
         f"({1 / t:,.0f} scans/s)"
@@ -134,13 +154,7 @@ def bench_sensors(spec: RobotSpec) -> None:
     for width, height in ((64, 48), (160, 120), (640, 480)):
         cam = DepthCamera(cam_spec, robot, width=width, height=height)
         cam.render()
-        reps = 20 if width < 640 else 5
-
-        def frames(cam: DepthCamera = cam, reps: int = reps) -> None:
-            for _ in range(reps):
-                cam.render()
-
-        t = _best_of(frames, 2) / reps
+        t = _per_call(cam.render, 20 if width < 640 else 5)
         print(f"depth {width}x{height}: {t * 1e3:8.2f} ms per frame ({1 / t:7.1f} frames/s)")
     robot.close()
 
@@ -148,7 +162,7 @@ def bench_sensors(spec: RobotSpec) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="turtlebot3_burger")
-    parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--seconds", type=float, default=5.0 if QUICK else 20.0)
     args = parser.parse_args()
     spec = load_spec(args.robot)
     bench_drive(spec, args.seconds)
