@@ -8,23 +8,37 @@ machine and the date.
 
 from __future__ import annotations
 
+import argparse
 import datetime as dt
 import json
 import os
 import sys
 
-from _timing import REPO, RESULTS, machine
+from _timing import QUICK, REPO, RESULTS, machine
 
 START, END = "<!-- perf-table:start -->", "<!-- perf-table:end -->"
 
 
-def table(rows: list[dict[str, object]]) -> str:
+def table(rows: list[dict[str, object]], failed: list[str]) -> str:
     when = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    load = os.getloadavg()[0]
+    cores = os.cpu_count() or 1
+    notes = []
+    if QUICK:
+        notes.append("**quick run** (`BENCH_QUICK=1`: fewer repeats, noisier figures)")
+    if load > 0.5 * cores:
+        notes.append(
+            f"**measured under load** (load average {load:.1f} on {cores} cores: wall times "
+            "include the queue; CPU figures are the better guide)"
+        )
+    if failed:
+        notes.append("benchmarks that failed (no figures): " + ", ".join(f"`{f}`" for f in failed))
     lines = [
         START,
         f"Measured by one `make bench` run on {machine()}, {when} "
-        f"(load average {os.getloadavg()[0]:.1f} at the end). Ratios alternate ours and the "
+        f"(load average {load:.1f} at the end). Ratios alternate ours and the "
         "baseline in one process with the same repeat count; command times are whole processes.",
+        *(["", "Note: " + "; ".join(notes) + "."] if notes else []),
         "",
         "| area | figure | measured | target | met |",
         "|---|---|---|---|---|",
@@ -37,13 +51,16 @@ def table(rows: list[dict[str, object]]) -> str:
 
 
 def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--failed", default="", help="space-separated benchmarks that failed")
+    failed = parser.parse_args().failed.split()
     if not RESULTS.is_file():
         print(f"no results in {RESULTS}; run `make bench`", file=sys.stderr)
         return 1
     rows = [json.loads(line) for line in RESULTS.read_text(encoding="utf-8").splitlines() if line]
     readme = REPO / "README.md"
     text = readme.read_text(encoding="utf-8")
-    block = table(rows)
+    block = table(rows, failed)
     if START in text and END in text:
         head, rest = text.split(START, 1)
         text = head + block + rest.split(END, 1)[1]
