@@ -108,6 +108,7 @@ __all__ = [
     "DEFAULT_TOL_V",
     "DEFAULT_TOL_W",
     "DYNAMICS_STREAM",
+    "MAX_ENSEMBLE",
     "NOISE_DRAWS",
     "NOISE_STREAM",
     "AgreementReport",
@@ -117,8 +118,10 @@ __all__ = [
     "band_verdict",
     "calibrated_range",
     "check_band_level",
+    "check_ensemble_size",
     "check_tolerances",
     "ensemble_members",
+    "lag_phrase",
     "measure_agreement",
     "predictive_band",
     "predictive_samples",
@@ -126,6 +129,9 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+
+#: Largest ensemble (``--ensemble``): each member is one full replay of the log.
+MAX_ENSEMBLE = 10_000
 
 #: The keys of :meth:`AgreementReport.to_dict` (and of ``sim2real agree --json``), in order.
 AGREEMENT_KEYS: tuple[str, ...] = (
@@ -557,11 +563,23 @@ def _median_width(lo: FloatArray, hi: FloatArray, active: NDArray[np.bool_]) -> 
     return float(np.median((hi - lo)[active])) if active.any() else math.nan
 
 
-def _check_ensemble_args(n: Any, spread: Any, noise_draws: Any) -> None:
-    if isinstance(n, bool) or not isinstance(n, int) or n < 2:
+def check_ensemble_size(n: Any) -> None:
+    """Refuse an ensemble size that is not a whole number from 2 to :data:`MAX_ENSEMBLE`.
+
+    Examples
+    --------
+    >>> check_ensemble_size(20)
+    """
+    if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= MAX_ENSEMBLE:
         raise Sim2RealValueError(
-            f"ensemble size (--ensemble) must be an integer >= 2, got {n!r}; e.g. --ensemble 20"
+            f"ensemble size (--ensemble) must be a whole number from 2 to {MAX_ENSEMBLE} (each "
+            "member is one full replay of the log; a 90 % band needs 19, and its quantiles "
+            f"settle within a few hundred), got {n!r}; e.g. --ensemble 20"
         )
+
+
+def _check_ensemble_args(n: Any, spread: Any, noise_draws: Any) -> None:
+    check_ensemble_size(n)
     if isinstance(spread, bool) or not (
         isinstance(spread, int | float) and math.isfinite(spread) and spread >= 0
     ):
@@ -757,6 +775,21 @@ def _axis_state(coverage: float, level: float) -> str:
     if coverage > hi:
         return "wide"
     return "ok"
+
+
+def lag_phrase(lag_s: float) -> str:
+    """``"sim lags real by 0.120 s"`` (sim late), ``"sim leads real by 0.038 s"`` (sim early).
+
+    Examples
+    --------
+    >>> lag_phrase(0.12), lag_phrase(-0.0381), lag_phrase(0.001)
+    ('sim lags real by 0.120 s', 'sim leads real by 0.038 s', 'sim and real in step (< 5 ms)')
+    """
+    if not math.isfinite(lag_s):
+        return "lag unknown (a constant signal)"
+    if abs(lag_s) < 0.005:
+        return "sim and real in step (< 5 ms)"
+    return f"sim {'lags' if lag_s > 0 else 'leads'} real by {abs(lag_s):.3f} s"
 
 
 def band_verdict(

@@ -238,10 +238,10 @@ def _check_config(config: StudyConfig) -> None:
             check_output_path(path, what=what)
             check_not_an_input(path, [config.log, config.params_path], what=what)
     n = config.ensemble_n
-    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 2):
-        raise Sim2RealValueError(
-            f"--ensemble must be an integer >= 2, got {n!r}; e.g. --ensemble 20"
-        )
+    if n is not None:
+        from sim2real.agreement import check_ensemble_size
+
+        check_ensemble_size(n)
     if n is not None and config.params_path is None:
         raise Sim2RealValueError(
             "--ensemble needs --params: the ensemble draws parameters from the randomisation "
@@ -492,6 +492,7 @@ def write_json(path: str | Path, figures: dict[str, Any]) -> None:
 
 def summary_table(runs: Sequence[Any], ensemble: Any = None) -> str:
     """A plain-text table of the agreement figures, one column per replay."""
+    from sim2real.agreement import lag_phrase
 
     def pct(x: float) -> str:
         return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"
@@ -509,8 +510,8 @@ def summary_table(runs: Sequence[Any], ensemble: Any = None) -> str:
         ("FIT % w", [num(x.fit_percent_w, ".1f") for x in a]),
         ("RMSE v [m/s]", [num(x.rmse_v, ".4f") for x in a]),
         ("RMSE w [rad/s]", [num(x.rmse_w, ".4f") for x in a]),
-        ("lag v [s]", [num(x.lag_s_v, "+.3f") for x in a]),
-        ("lag w [s]", [num(x.lag_s_w, "+.3f") for x in a]),
+        ("timing v", [lag_phrase(x.lag_s_v) for x in a]),  # the report's words
+        ("timing w", [lag_phrase(x.lag_s_w) for x in a]),
         ("active/samples", [f"{x.n_active}/{x.n_samples}" for x in a]),
     ]
     if ensemble is not None:

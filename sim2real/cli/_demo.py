@@ -208,6 +208,10 @@ def run_demo(
     data = find_data_dir(data_dir)
     out = Path(out_dir)
     _check_out(out)
+    if ensemble_n >= 2:  # a bad size fails here, not after the fit
+        from sim2real.agreement import check_ensemble_size
+
+        check_ensemble_size(ensemble_n)
     for name in _LOGS:  # a bad log fails here, before OUT is created or written
         read_trace(data / name)
     shown = tour_commands(out, data, engine=engine, ensemble_n=ensemble_n, seed=seed)

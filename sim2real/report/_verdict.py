@@ -15,6 +15,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+from sim2real.agreement import lag_phrase  # the one wording of a lag (also the CLI table)
 from sim2real.report._html import Stat, Verdict
 
 __all__ = ["GOOD_AGREEMENT", "LAG_LIMIT_S", "lag_phrase", "make_verdict"]
@@ -23,21 +24,6 @@ __all__ = ["GOOD_AGREEMENT", "LAG_LIMIT_S", "lag_phrase", "make_verdict"]
 GOOD_AGREEMENT = 0.8
 #: A lag beyond this is a timing error worth fixing before anything else, s.
 LAG_LIMIT_S = 0.05
-
-
-def lag_phrase(lag_s: float) -> str:
-    """``"sim lags real by 0.120 s"`` (sim late), ``"sim leads real by 0.038 s"`` (sim early).
-
-    Examples
-    --------
-    >>> lag_phrase(0.12), lag_phrase(-0.0381), lag_phrase(0.001)
-    ('sim lags real by 0.120 s', 'sim leads real by 0.038 s', 'sim and real in step (< 5 ms)')
-    """
-    if not math.isfinite(lag_s):
-        return "lag unknown (a constant signal)"
-    if abs(lag_s) < 0.005:
-        return "sim and real in step (< 5 ms)"
-    return f"sim {'lags' if lag_s > 0 else 'leads'} real by {abs(lag_s):.3f} s"
 
 
 def _lag(agreement: Any) -> float:

@@ -539,6 +539,7 @@ def test_sysid_show_of_a_good_params_file_exits_0(
         (["--params", "OK", "--ensemble", "3", "--band-level", "0"], ["--band-level", "0.0"]),
         (["--params", "OK", "--ensemble", "3", "--band-level", "nan"], ["--band-level", "nan"]),
         (["--params", "OK", "--ensemble", "0"], ["--ensemble", "0"]),
+        (["--params", "OK", "--ensemble", "10001"], ["--ensemble", "from 2 to 10000", "10001"]),
         (["--params", "OK", "--spread", "3"], ["--spread only shape", "needs --ensemble N"]),
         (["--seed", "7", "--band-level", "0.8"], ["--seed, --band-level", "needs --ensemble N"]),
     ],
@@ -760,6 +761,15 @@ def test_envs_list_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
     run = cli(capsys, "envs", "list")
     assert run.code == 0
     assert "sim2real/RandomMap-v0" in run.out and "TEST4" in run.out
+
+
+def test_an_absurd_demo_ensemble_exits_2_before_anything(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "demo"
+    run = cli(capsys, "demo", "--out", out, "--engine", "reduced", "--ensemble", 20000)
+    assert_bad_input(run, "--ensemble", "from 2 to 10000", "20000")
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("case", ["no data folder", "out is a file", "out under a file"])

@@ -111,3 +111,27 @@ def test_coverage_counts_a_sample_on_a_quantised_band_edge() -> None:
     active = np.ones(k.size, bool)
     assert band_coverage(real, edge, edge, active) == 1.0
     assert band_coverage(real + 1e-6, edge, edge, active) == 0.0  # a real miss still misses
+
+
+def test_the_cli_table_words_the_lag_like_the_report() -> None:
+    """``agree``'s table says "sim lags/leads real by X s", not a signed number."""
+    from types import SimpleNamespace
+
+    from sim2real.study import summary_table
+
+    def run(label: str, lag_v: float, lag_w: float) -> SimpleNamespace:
+        figures = dict.fromkeys(
+            ("agreement", "agreement_v", "agreement_w", "fit_percent_v", "fit_percent_w"), 0.9
+        )
+        figures |= {"rmse_v": 0.01, "rmse_w": 0.1, "n_active": 5, "n_samples": 9}
+        return SimpleNamespace(
+            label=label, agreement=SimpleNamespace(**figures, lag_s_v=lag_v, lag_s_w=lag_w)
+        )
+
+    table = summary_table([run("spec defaults", 0.12, -0.0381), run("sysid", 0.001, math.nan)])
+    rows = {line.split("  ")[0]: line for line in table.splitlines()}
+    assert "sim lags real by 0.120 s" in rows["timing v"]
+    assert "sim and real in step (< 5 ms)" in rows["timing v"]
+    assert "sim leads real by 0.038 s" in rows["timing w"]
+    assert lag_phrase(math.nan) in rows["timing w"]
+    assert "lag v" not in table and "+0.120" not in table
