@@ -13,7 +13,7 @@ import resource
 import stat
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -105,10 +105,12 @@ def _agree(capsys, log: Path, tmp: Path, *extra: str) -> tuple[int, str]:
     return code, out + err
 
 
+_NIGHT = [Fault("gap", size=8 / (365 * 24))]  # two segments of 6 s
+
 # (name, faults, expected exit codes of (logs info, sysid fit, agree), note in the output)
 CASES = [
     ("stamp_10_years_ahead", [Fault("stamp_outlier")], (0, 0, 0), "dropped 1 of"),
-    ("paused_for_a_night", [Fault("gap", size=8 / (365 * 24))], (0, 0, 0), "2 separate segments"),
+    ("paused_for_a_night", _NIGHT, (0, 0, 0), "2 separate segments"),
     ("paused_for_a_year", [Fault("gap", size=1.0)], (0, 0, 0), "2 separate segments"),
     ("one_absurd_value", [Fault("absurd")], (0, 0, 0), "10x the robot's limits"),
     ("absurd_command", [Fault("absurd", extra={"key": "cmd_v"})], (0, 0, 0), "command samples"),
@@ -130,11 +132,29 @@ def case_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return tmp_path_factory.mktemp("hostile")
 
 
+_Outcome = tuple[Path, tuple[tuple[int, str], ...]]
+
+
+@pytest.fixture(scope="module")
+def run_case(case_dir: Path) -> Callable[..., _Outcome]:
+    """``run_case(capsys, name, faults)``: the log and its (code, output) of logs info, sysid
+    fit and agree, computed once per case for every test that looks at it."""
+    done: dict[str, _Outcome] = {}
+
+    def run(capsys: pytest.CaptureFixture[str], name: str, faults: list[Fault]) -> _Outcome:
+        if name not in done:
+            log = write_faulty(case_dir / f"{name}.mcap", faults, _BASE)
+            got = (_info(capsys, log), _fit(capsys, log, case_dir), _agree(capsys, log, case_dir))
+            done[name] = (log, got)
+        return done[name]
+
+    return run
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(("name", "faults", "codes", "note"), CASES)
-def test_each_case_of_the_issue(capsys, case_dir: Path, name, faults, codes, note) -> None:
-    log = write_faulty(case_dir / f"{name}.mcap", faults, _BASE)
-    got = (_info(capsys, log), _fit(capsys, log, case_dir), _agree(capsys, log, case_dir))
+def test_each_case_of_the_issue(capsys, run_case, name, faults, codes, note) -> None:
+    _, got = run_case(capsys, name, faults)
     assert tuple(code for code, _ in got) == codes
     assert any(note in text for _, text in got), [text for _, text in got]
 
@@ -153,15 +173,8 @@ _RECOVERED = (
 )
 
 
-@pytest.fixture(scope="module")
-def paused_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The clean log with a night's pause in the middle: two segments of 6 s."""
-    folder = tmp_path_factory.mktemp("paused")
-    return write_faulty(folder / "paused.mcap", [Fault("gap", size=8 / (365 * 24))], _BASE)
-
-
 def _fit_doc(capsys, log: Path, *extra: str) -> tuple[dict[str, Any], str]:
-    out_path = log.with_suffix(f".{len(extra)}.yaml")
+    out_path = log.with_suffix(".free.yaml")
     code, out, err = _run(capsys, *_SYSID, str(log), "-o", str(out_path), *extra)
     _judge(code, out, err, log)
     assert code == 0, err
@@ -201,17 +214,16 @@ def _sign_violations(doc: dict[str, Any]) -> list[tuple[str, str, float]]:
 
 
 @pytest.mark.slow
-def test_a_paused_recording_fits_each_segment_and_recovers_the_plant(
-    capsys, paused_log: Path
-) -> None:
+def test_a_paused_recording_fits_each_segment_and_recovers_the_plant(capsys, run_case) -> None:
     """Two 6 s segments (a night's pause): a population of two short sessions, not motor gain 0.
 
     The fleet fit used to read a segment's MAP point off its prior in a direction its data do
     not inform as a data estimate astronomically far away; its EM spread then grew without
     bound (sysid._fleet).
     """
-    result, text = _fit_doc(capsys, paused_log)
-    assert "2 separate segments" in text
+    log, got = run_case(capsys, "paused_for_a_night", _NIGHT)  # the case of the issue
+    assert got[1][0] == 0 and "2 separate segments" in got[1][1]
+    result = yaml.safe_load(log.with_suffix(".params.yaml").read_text())
     assert len(result["sessions"]) == 2
     true = truth()
     for name in _RECOVERED:
@@ -226,11 +238,12 @@ def test_a_paused_recording_fits_each_segment_and_recovers_the_plant(
 
 
 @pytest.mark.slow
-def test_free_fields_on_a_paused_recording_keep_the_sign_rules(capsys, paused_log: Path) -> None:
+def test_free_fields_on_a_paused_recording_keep_the_sign_rules(capsys, run_case) -> None:
     """``--free`` with friction the short segments barely inform: the population mean of the
     viscous coefficient was written negative (-5e-4 N s/m) in the randomisation block."""
     free = "delay_s,viscous_v_ns_per_m,viscous_w_nms_per_rad,coulomb_v_fwd_n"
-    result, _ = _fit_doc(capsys, paused_log, "--free", free)
+    log, _ = run_case(capsys, "paused_for_a_night", _NIGHT)
+    result, _ = _fit_doc(capsys, log, "--free", free)
     assert sorted(result["settings"]["free"]) == sorted(free.split(","))
     assert _sign_violations(result) == []
     assert abs(result["parameters"]["delay_s"]["value"] - truth().delay_s) < 0.03
@@ -440,56 +453,48 @@ def test_a_year_long_pause_stays_under_half_a_gigabyte(year_gap_log: Path, comma
 
 
 @pytest.mark.slow
-def test_a_killed_agree_leaves_the_old_or_the_new_set(tmp_path: Path) -> None:
+def test_a_killed_agree_leaves_the_old_or_the_new_set(capsys, tmp_path: Path) -> None:
+    """Killed while its outputs are being written (the JSON staged, the report not yet): the
+    old set stays whole; the next run removes the leftovers and moves its whole set in."""
     import signal
     import time
-
-    from sim2real._io import clean_orphans
 
     log = write_faulty(tmp_path / "run.mcap", [], _BASE)
     names = ("a.json", "r.html", "s.mcap")
 
     def argv(tol: str) -> list[str]:
+        outputs = ["--json", "--report", "--sim-out"]
+        paths = [str(tmp_path / n) for n in names]
         return [
-            sys.executable,
-            "-m",
-            "sim2real",
-            "agree",
-            log.name,
-            "--robot",
-            ROBOT,
-            "--engine",
-            "reduced",
-            "--tol-v",
-            tol,
-            "--json",
-            names[0],
-            "--report",
-            names[1],
-            "--sim-out",
-            names[2],
+            *["agree", str(log), "--robot", ROBOT, "--engine", "reduced", "--tol-v", tol],
+            *(x for pair in zip(outputs, paths, strict=True) for x in pair),
         ]
 
-    start = time.perf_counter()
-    subprocess.run(argv("0.02"), cwd=tmp_path, check=True, capture_output=True)
-    full_s = time.perf_counter() - start
-    tol_before = 0.02
-    for fraction in (0.5, 0.9):
-        old = {n: (tmp_path / n).stat().st_ino for n in names}
-        proc = subprocess.Popen(
-            argv("0.03"), cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
-        )
-        time.sleep(fraction * full_s)
+    def state() -> dict[str, int]:
+        return {n: (tmp_path / n).stat().st_ino for n in names}
+
+    assert _run(capsys, *argv("0.02"))[0] == 0  # the old set, in-process
+    old = state()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sim2real", *argv("0.03")],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + 300
+    try:
+        while not list(tmp_path.glob(".sim2real-out-*/a.json")):
+            assert proc.poll() is None and time.monotonic() < deadline, "agree ended before"
+            time.sleep(0.005)
+    finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait()
-        clean_orphans(tmp_path)  # what the next run does first
-        now = {n: (tmp_path / n).stat().st_ino for n in names}
-        replaced = {n for n in names if now[n] != old[n]}
-        assert replaced in (set(), set(names)), (fraction, replaced)
-        tol = json.loads((tmp_path / names[0]).read_text())["tol_v"]
-        assert tol == (0.03 if replaced else tol_before)  # the JSON moved with the set
-        tol_before = tol
-        assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+    assert state() == old  # nothing of the killed set moved in
+    assert json.loads((tmp_path / names[0]).read_text())["tol_v"] == 0.02
+    assert [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # its staging folder
+    assert _run(capsys, *argv("0.03"))[0] == 0  # the next run
+    assert all(state()[n] != old[n] for n in names)  # the whole new set
+    assert json.loads((tmp_path / names[0]).read_text())["tol_v"] == 0.03
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
 
 
 # --- strict randomisation inputs (robots.randomization, by helpers sysidcore/band) -------------
