@@ -156,6 +156,7 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self._path = np.zeros(n)
         self._vw_hist = np.zeros((n, self.max_episode_steps + 1, 2))
         self._autoreset = np.zeros(n, dtype=np.bool_)
+        self._was_reset = np.zeros(n, dtype=np.bool_)
         self._extra: dict[str, np.ndarray] = {}
         for i in range(n):
             self._load_drive(i)
@@ -245,6 +246,7 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self._goal[i] = env._goal
         self._prev_goal[i] = env._prev_goal_dist
         self._steps[i] = 0
+        self._was_reset[i] = True
         self._path[i] = 0.0
         self._vw_hist[i, 0] = 0.0
         self._autoreset[i] = False
@@ -338,6 +340,11 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
             raise Sim2RealValueError(
                 f"actions must be {n} rows of 2 finite numbers (v [m/s], w [rad/s]), "
                 f"got shape {a.shape}" + ("" if a.shape != (n, 2) else " with NaN or inf")
+            )
+        if not self._was_reset.all():
+            missing = np.flatnonzero(~self._was_reset).tolist()
+            raise Sim2RealValueError(
+                f"step() called before sub-env(s) {missing} were reset; call reset() first"
             )
         cmd = np.clip(a, self._act_low, self._act_high)
         resets = np.flatnonzero(self._autoreset)

@@ -178,6 +178,8 @@ def test_bad_constructor_arguments_name_the_argument(kwargs: dict[str, Any], mat
 
 def test_bad_actions_seeds_and_masks_are_refused_in_one_sentence() -> None:
     envs = RandomMapVectorEnv(num_envs=2, preset="TEST1")
+    with pytest.raises(Sim2RealValueError, match=r"before sub-env\(s\) \[0, 1\] were reset"):
+        envs.step(np.zeros((2, 2)))
     envs.reset(seed=0)
     with pytest.raises(Sim2RealValueError, match=r"actions must be 2 rows .* got shape \(2,\)"):
         envs.step(np.zeros(2))
