@@ -120,39 +120,43 @@ class ObservationNoise(ObservationRandomizer):
 
 
 @numba.njit(cache=True, nogil=True)
-def _noisy_depth_fused(
-    img: np.ndarray,
-    words: np.ndarray,
-    out: np.ndarray,
-    rejected: np.ndarray,
-    width: np.ndarray,
-    accept: np.ndarray,
-    std: float,
-    near: float,
-    far: float,
+def _depth_samples(
+    words: np.ndarray, z: np.ndarray, rejected: np.ndarray, width: np.ndarray, accept: np.ndarray
 ) -> int:  # pragma: no cover - compiled
-    """Valid pixels: ``out = clip(img + std * z, near, far)``; invalid ones are copied.
+    """``z[i]`` = the ziggurat fast-pass sample of word ``i`` in ``z``'s precision (as
+    :func:`randomizers._gauss.fill_standard_normal` maps words to samples; ``width`` comes in
+    that dtype). Lists the pixels whose word needs the slow test (about 1.2 %) in ``rejected``
+    and returns their count; :func:`_noisy_depth_fix` redoes them.
 
-    ``z`` of pixel ``i`` is the ziggurat fast-pass sample of word ``i`` (as in
-    :func:`randomizers._gauss.fill_standard_normal`), computed in place in the image's precision
-    (``width``, ``std``, ``near`` and ``far`` come in the image's dtype, so float32 frames run
-    in float32). Lists the pixels whose word needs the slow test (about 1.2 %) in
-    ``rejected`` and returns their count; :func:`_noisy_depth_fix` redoes them.
+    The table look-ups keep this loop scalar; the noise itself is added by the vectorised
+    :func:`_noisy_depth_add`.
     """
     k = 0
-    zero = img.dtype.type(0.0)
-    for i in range(img.size):
+    for i in range(z.size):
         u = words[i]
         mag = np.int32(u >> np.uint32(9))
-        z = img.dtype.type(mag) * width[u & np.uint32(511)]
-        d = img[i]
-        v = min(max(d + std * z, near), far)
-        # NaN and +-inf fail one of the two tests
-        out[i] = v if (d > zero) & (d < far) else d
+        z[i] = z.dtype.type(mag) * width[u & np.uint32(511)]
         if mag >= accept[u & np.uint32(255)]:
             rejected[k] = i
             k += 1
     return k
+
+
+@numba.njit(cache=True, nogil=True)
+def _noisy_depth_add(
+    img: np.ndarray, z: np.ndarray, out: np.ndarray, std: float, near: float, far: float
+) -> None:  # pragma: no cover - compiled
+    """Valid pixels: ``out = clip(img + std * z, near, far)``; invalid ones are copied.
+
+    In the image's precision (``z``, ``std``, ``near`` and ``far`` come in its dtype); no
+    look-ups or stores that depend on the data, so it compiles to SIMD code.
+    """
+    zero = img.dtype.type(0.0)
+    for i in range(img.size):
+        d = img[i]
+        v = min(max(d + std * z[i], near), far)
+        # NaN and +-inf fail one of the two tests
+        out[i] = v if (d > zero) & (d < far) else d
 
 
 @numba.njit(cache=True, nogil=True)
@@ -165,12 +169,12 @@ def _noisy_depth_fix(
     near: float,
     far: float,
 ) -> None:  # pragma: no cover - compiled
-    """Redo ``out`` at ``pixels`` with their finished samples ``z[pixel]``."""
+    """Redo ``out`` at ``pixels`` with their finished samples (``z[j]`` for ``pixels[j]``)."""
     for j in range(pixels.size):
         i = pixels[j]
         d = img[i]
         if d > 0.0 and d < far:
-            out[i] = min(max(d + std * z[i], near), far)
+            out[i] = min(max(d + std * z[j], near), far)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -287,8 +291,10 @@ class DepthNoise(ObservationRandomizer):
         self.std_m = std_m
         self.near_m = near_m
         self.far_m = far_m
-        self._scratch = np.empty(0)  # samples of the rejected pixels, by pixel index
+        self._scratch = np.empty(0)  # finished samples of the rejected pixels, in order
         self._rejected = np.empty(0, dtype=np.int64)
+        self._z = np.empty(0, dtype=np.float32)  # fast-pass samples of a frame (reused)
+        self._width = _SIGNED_WIDTH.astype(np.float32)
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with noise on the depth image (a new object)."""
@@ -305,37 +311,36 @@ class DepthNoise(ObservationRandomizer):
     def _noisy(self, img: np.ndarray, out: np.ndarray, std: float) -> None:
         """``out = clip(img + std z, near, far)`` on valid pixels, ``z`` i.i.d. N(0, 1).
 
-        One pass over the frame: the generator's raw words of the whole frame in one call, the
-        ziggurat fast pass fused with the noise (word ``i`` gives pixel ``i``'s sample, as
-        :func:`randomizers._gauss.fill_standard_normal` maps words to samples), then the few
-        rejected samples finished with further words and their pixels redone.
+        The generator's raw words of the whole frame in one call; the ziggurat fast pass
+        turns word ``i`` into pixel ``i``'s sample (as
+        :func:`randomizers._gauss.fill_standard_normal` maps words to samples) into a reused
+        buffer, a vectorised pass adds the noise, then the few rejected samples are finished
+        with further words and their pixels redone.
         """
         n = img.size
+        ftype = img.dtype.type
         if self._scratch.size < n:
             self._scratch = np.empty(n)
             self._rejected = np.empty(n, dtype=np.int64)
+        if self._z.size < n or self._z.dtype != img.dtype:
+            self._z = np.empty(n, dtype=img.dtype)
+            self._width = _SIGNED_WIDTH.astype(img.dtype)
         bits = self.rng.bit_generator
         words = bits.random_raw((n + 1) // 2).view(np.uint32)
-        ftype = img.dtype.type
-        k = _noisy_depth_fused(
-            img,
-            words,
-            out,
-            self._rejected,
-            _SIGNED_WIDTH.astype(img.dtype),
-            _ACCEPT_I32,
-            ftype(std),
-            ftype(self.near_m),
-            ftype(self.far_m),
-        )
+        zf = self._z[:n]
+        k = _depth_samples(words, zf, self._rejected, self._width, _ACCEPT_I32)
+        _noisy_depth_add(img, zf, out, ftype(std), ftype(self.near_m), ftype(self.far_m))
         if k == 0:
             return
         todo = self._rejected[:k]
-        z = self._scratch
+        # the rejected pixels' words and samples side by side (no scattered writes)
+        first = words[todo]
+        z = self._scratch[:k]
+        order = np.arange(k)
         done = 0
         while done < k:
             extra = bits.random_raw(2 * (k - done) + 8).view(np.uint32)
-            done = _slow_pass(words, todo, done, z, extra, _WIDTH, _ACCEPT_I64, _FX, _R)
+            done = _slow_pass(first, order, done, z, extra, _WIDTH, _ACCEPT_I64, _FX, _R)
         _noisy_depth_fix(img, z, out, todo, std, self.near_m, self.far_m)
 
     def episode_record(self) -> dict[str, Any]:

@@ -1,4 +1,4 @@
-"""DepthNoise's fused one-pass kernel (issue 16) gives the ziggurat samples of its generator's
+"""DepthNoise's compiled passes (issue 16) gives the ziggurat samples of its generator's
 words (to float32 rounding): pixel ``i`` gets the sample of word ``i``, rejected words finished with the
 words drawn after the frame's, invalid pixels untouched."""
 
