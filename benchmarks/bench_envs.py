@@ -37,7 +37,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pybullet as p
-from _timing import Stats, alternate, fmt_ratio, machine, paired_ratios, record
+from _timing import QUICK, Stats, alternate, fmt_ratio, machine, paired_ratios, record
 
 import sim2real.envs  # noqa: F401  (registers the ids)
 from sim2real.envs._world import PybulletWorld, render_pybullet_depth
@@ -277,10 +277,11 @@ def bench_backends(repeats: int, scale: float) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer steps (smoke run)")
+    parser.add_argument("--quick", action="store_true", help="fewer steps (or BENCH_QUICK=1)")
     args = parser.parse_args()
-    scale = 0.1 if args.quick else 1.0
-    repeats = 3 if args.quick else 7
+    quick = args.quick or QUICK
+    scale = 0.1 if quick else 1.0
+    repeats = 3 if quick else 7
     print(f"machine: {machine()}; load average {os.getloadavg()[0]:.2f}")
     bench_lidar(repeats)
     bench_depth(repeats)

@@ -26,7 +26,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from _timing import alternate, fmt_ratio, record
+from _timing import QUICK, alternate, fmt_ratio, record
 
 import randomizers
 from randomizers import DepthNoise
@@ -250,9 +250,9 @@ class _StepTimer(gym.Wrapper[Any, Any, Any, Any]):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer repetitions (smoke run)")
+    parser.add_argument("--quick", action="store_true", help="fewer repetitions (or BENCH_QUICK=1)")
     args = parser.parse_args()
-    scale = 0.1 if args.quick else 1.0
+    scale = 0.1 if (args.quick or QUICK) else 1.0
     print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
     bench_stack(steps=int(3000 * scale) or 100, repeats=7)
     bench_depth(frames=int(100 * scale) or 10, repeats=7)
