@@ -19,7 +19,9 @@ from robots.params import MAY_BE_NEGATIVE, MUST_BE_POSITIVE, DriveParams, read_p
 from robots.randomization import DriveDistribution
 
 __all__ = [
+    "MAX_SPREAD",
     "DynamicsRandomizer",
+    "check_spread",
     "default_bounds",
     "load_distribution",
     "stream_generator",
@@ -30,6 +32,28 @@ _POSITIVE = MUST_BE_POSITIVE
 _SIGNED = MAY_BE_NEGATIVE
 #: Floor of a must-be-positive parameter, as a fraction of its range centre / fitted value.
 POSITIVE_FLOOR_FRACTION = 0.01
+#: Largest ``spread`` of a sysid distribution: ten times its standard deviations. Wider than
+#: that the identified covariance no longer shapes the draws (they pile up at the schema's
+#: plausible-range edges); give the ranges by hand with ``uniform``/``normal`` instead.
+MAX_SPREAD = 10.0
+
+
+def check_spread(spread: Any) -> float:
+    """Return ``spread`` as a float after checking it is a number in [0, :data:`MAX_SPREAD`].
+
+    Examples
+    --------
+    >>> check_spread(3)
+    3.0
+    """
+    value = check_number(spread, argument="spread")
+    if not 0.0 <= value <= MAX_SPREAD:
+        raise RandomizerValueError(
+            f"DynamicsRandomizer: argument 'spread' must be in [0, {MAX_SPREAD:g}] (a multiplier "
+            f"on the sysid distribution's standard deviations, 1 = as identified), got "
+            f"{spread!r}; for wider ranges give 'uniform' or 'normal' by hand"
+        )
+    return value
 
 
 def default_bounds(name: str, centre: float) -> tuple[float, float]:
@@ -141,10 +165,13 @@ class DynamicsRandomizer(
 
     - **a sysid result** (``sysid=params.yaml``, see :meth:`from_sysid`): every episode is one
       draw of the file's ``randomization`` block,
-      :meth:`robots.randomization.DriveDistribution.sample` with ``spread`` = the curriculum
-      scale c -- the one sampler ``sim2real agree --ensemble`` uses too (same seed, same
-      robots). The whole parameter set comes from the file (the env's own values are
-      replaced), so the env simulates the identified robot population.
+      :meth:`robots.randomization.DriveDistribution.sample` with ``spread`` = s x c (s the
+      ``spread`` argument, c the curriculum scale) -- the one sampler ``sim2real agree
+      --ensemble`` uses too (same seed, same robots). The whole parameter set comes from the
+      file (the env's own values are replaced), so the env simulates the identified robot
+      population; ``spread`` > 1 widens it (every standard deviation in the fit coordinates
+      times s, up to :data:`MAX_SPREAD`; draws stay inside the schema's plausible ranges),
+      e.g. for a policy that must also survive robots the sessions did not show.
     - **by hand**, field by field, then clipped to ``bounds[name]`` or :func:`default_bounds`:
 
       - ``uniform={name: [low, high]}``: :math:`m + c\,(u - m)` with
@@ -180,6 +207,9 @@ class DynamicsRandomizer(
     fields : sequence of str, optional
         With ``sysid``: only these fields vary (their marginal); the others stay at the
         distribution's mean.
+    spread : float
+        With ``sysid``: multiplier s on the distribution's standard deviations, in
+        [0, :data:`MAX_SPREAD`] (1 = as identified).
     scale : float
         Curriculum scale c in [0, 1].
     name : str, optional
@@ -221,9 +251,11 @@ class DynamicsRandomizer(
         sysid: str | Path | None = None,
         robot: str | None = None,
         fields: Iterable[str] | None = None,
+        spread: float = 1.0,
         scale: float = 1.0,
         name: str | None = None,
     ) -> None:
+        spread = check_spread(spread)
         uni = _pairs(uniform, "uniform", "[low, high]")
         nor = _pairs(normal, "normal", "[mean, std]")
         lim = _pairs(bounds, "bounds", "[low, high]", allow_inf=True)
@@ -240,10 +272,11 @@ class DynamicsRandomizer(
             robot = robot if robot is not None else env_robot(env)
             dist = _marginal(load_distribution(sysid, robot=robot), fields, sysid)
         else:
-            if fields is not None or robot is not None:
+            if fields is not None or robot is not None or spread != 1.0:
                 raise RandomizerValueError(
-                    "DynamicsRandomizer: arguments 'fields' and 'robot' need 'sysid' (a params "
-                    "file); pass sysid='params.yaml' or drop them"
+                    "DynamicsRandomizer: arguments 'fields', 'robot' and 'spread' need 'sysid' "
+                    "(a params file); pass sysid='params.yaml' or drop them (with 'uniform'/"
+                    "'normal' give the width itself)"
                 )
             _check_distributions(uni, nor, lim)
         name = check_name(name, env, "DynamicsRandomizer")
@@ -262,6 +295,7 @@ class DynamicsRandomizer(
                 sysid=str(sysid),
                 robot=dist.robot,
                 fields=None if fields is None else list(dist.names),
+                spread=spread,
                 scale=scale,
                 name=name,
             )
@@ -273,6 +307,8 @@ class DynamicsRandomizer(
         self._order = [f for f in DriveParams.names() if f in uni or f in nor]
         #: The distribution drawn from (with ``sysid``), else None.
         self.distribution: DriveDistribution | None = dist
+        #: Multiplier on the sysid distribution's standard deviations.
+        self.spread = spread
         self.nominal: DriveParams | None = None
         self.params: DriveParams | None = None
         self.sampled: dict[str, float] = {}
@@ -286,26 +322,36 @@ class DynamicsRandomizer(
         robot: str | None = None,
         scale: float = 1.0,
         fields: Iterable[str] | None = None,
+        spread: float = 1.0,
         name: str | None = None,
     ) -> Any:
         """Randomise with the ``randomization`` block of a sysid result (see the class doc).
 
-        Each episode is ``DriveDistribution.sample(rng, 1, spread=scale)``. The file must be
+        Each episode is ``DriveDistribution.sample(rng, 1, spread=spread * scale)``: ``spread``
+        (in [0, :data:`MAX_SPREAD`], 1 = as identified) widens the identified population, the
+        curriculum ``scale`` (in [0, 1]) shrinks it during training. The file must be
         for the env's robot (``robot``, else ``env.unwrapped.robot_spec.name`` when the env
         has one). Without ``env`` it returns a picklable ``env -> wrapper`` callable for
         ``gymnasium.make_vec(..., wrappers=[...])``; with ``env`` it returns the wrapper.
 
         Examples
         --------
-        >>> make = DynamicsRandomizer.from_sysid("params.yaml", scale=1.0)  # doctest: +SKIP
+        >>> make = DynamicsRandomizer.from_sysid("params.yaml", spread=3.0)  # doctest: +SKIP
         >>> env = make(base_env)  # doctest: +SKIP
         """
         check_scale(scale)
+        check_spread(spread)
         dist = load_distribution(path, robot=robot)  # fail here, not in a worker
         _marginal(dist, fields, path)
         wanted = None if fields is None else list(fields)
         factory = functools.partial(
-            cls, sysid=str(path), robot=robot, fields=wanted, scale=scale, name=name
+            cls,
+            sysid=str(path),
+            robot=robot,
+            fields=wanted,
+            spread=spread,
+            scale=scale,
+            name=name,
         )
         return factory if env is None else factory(env)
 
@@ -343,7 +389,7 @@ class DynamicsRandomizer(
 
     def _episode_params(self) -> DriveParams:
         if self.distribution is not None:
-            params = self.distribution.sample(self.rng, 1, spread=self.scale)[0]
+            params = self.distribution.sample(self.rng, 1, spread=self.spread * self.scale)[0]
             self.sampled = {f: float(getattr(params, f)) for f in self.distribution.names}
             return params
         assert self.nominal is not None

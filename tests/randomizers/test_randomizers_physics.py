@@ -209,6 +209,62 @@ def test_from_sysid_with_env_fields_and_scale(tmp_path: Path) -> None:
     assert env.spec is None or env.spec.kwargs.get("fields") in (None, ["delay_s"])
 
 
+def test_from_sysid_spread_widens_the_same_draws(tmp_path: Path) -> None:
+    """spread s: the draws of spread 1 moved s times as far from the mean, same seeds."""
+    from randomizers import stream_generator
+    from robots.params import SCHEMA
+    from robots.randomization import DriveDistribution
+
+    path = _params_file(tmp_path)
+    dist = DriveDistribution.from_params_file(path, robot="turtlebot2")
+    one = DynamicsRandomizer.from_sysid(path, env=NavDouble(), fields=["delay_s"])
+    three = DynamicsRandomizer.from_sysid(path, env=NavDouble(), fields=["delay_s"], spread=3)
+    centre = dist.mean_params().delay_s
+    for seed in range(30):
+        a = one.reset(seed=seed)[1]["randomization"]["DynamicsRandomizer"]["delay_s"]
+        b = three.reset(seed=seed)[1]["randomization"]["DynamicsRandomizer"]["delay_s"]
+        wide = centre + 3 * (a - centre)
+        lo, hi = SCHEMA["delay_s"].coord_bounds(dist.geometry)  # draws stay in the schema range
+        assert b == pytest.approx(min(max(wide, lo), hi), rel=1e-9, abs=1e-12)
+    # the one sampler: the same draw as DriveDistribution.sample(spread=3) on the stream
+    marginal = three.distribution
+    want = marginal.sample(stream_generator(29, "DynamicsRandomizer"), 1, spread=3.0)[0]
+    assert want.delay_s == pytest.approx(b)
+    # curriculum scale composes: spread 3 at scale 0.5 is spread 1.5
+    half = DynamicsRandomizer.from_sysid(
+        path, env=NavDouble(), fields=["delay_s"], spread=3, scale=0.5
+    )
+    c = half.reset(seed=29)[1]["randomization"]["DynamicsRandomizer"]["delay_s"]
+    assert c == pytest.approx(min(max(centre + 1.5 * (a - centre), lo), hi), rel=1e-9)
+    assert half.spec is None or half.spec.kwargs.get("spread") in (None, 3.0)
+
+
+@pytest.mark.parametrize("bad", [10.5, -1.0, math.inf, "3"])
+def test_spread_is_bounded_and_needs_sysid(tmp_path: Path, bad: object) -> None:
+    path = _params_file(tmp_path)
+    with pytest.raises((ValueError, TypeError), match="spread"):
+        DynamicsRandomizer.from_sysid(path, spread=bad)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"'spread' need 'sysid'"):
+        DynamicsRandomizer(NavDouble(), normal={"delay_s": [0.1, 0.01]}, spread=2.0)
+
+
+def test_spread_from_config_round_trips(tmp_path: Path) -> None:
+    import randomizers
+
+    path = _params_file(tmp_path)
+    cfg = {
+        "format": "sim2real.randomizers/1",
+        "randomizers": [{"type": "DynamicsRandomizer", "sysid": str(path), "spread": 2.5}],
+    }
+    env = randomizers.from_config(NavDouble(), cfg)
+    assert env.spread == 2.5
+    assert randomizers.to_config(env)["randomizers"][0]["spread"] == 2.5
+    with pytest.raises(ValueError, match=r"randomizers\[0\].*'spread' must be in \[0, 10\]"):
+        randomizers.from_config(
+            NavDouble(), {**cfg, "randomizers": [{**cfg["randomizers"][0], "spread": 11}]}
+        )
+
+
 def test_from_sysid_refuses_a_field_that_does_not_vary(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"cmd_timeout_s.*do not vary"):
         DynamicsRandomizer.from_sysid(_params_file(tmp_path), fields=["cmd_timeout_s"])
