@@ -3,13 +3,22 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from sim2real.cli import main
-from sim2real.cluster import expand_logs, fleet_summary, map_tasks, write_synthetic_fleet
-from sim2real.errors import Sim2RealFileNotFoundError
+from sim2real.cluster import (
+    expand_logs,
+    fleet_summary,
+    guided_batches,
+    map_tasks,
+    write_synthetic_fleet,
+)
+from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
 
 
 @pytest.fixture(scope="module")
@@ -53,6 +62,28 @@ def test_map_tasks_serial_keeps_order() -> None:
     seen: list[int] = []
     assert map_tasks(str, [3, 1, 2], on_done=seen.append) == ["3", "1", "2"]
     assert seen == [1, 2, 3]
+
+
+@given(n=st.integers(0, 600), workers=st.integers(1, 64))
+def test_guided_batches_cover_the_items_in_order_shrinking(n: int, workers: int) -> None:
+    batches = guided_batches(n, workers)
+    assert [i for b in batches for i in b] == list(range(n))
+    sizes = [len(b) for b in batches]
+    assert sizes == sorted(sizes, reverse=True)
+    assert all(s >= 1 for s in sizes)
+    if n:
+        assert sizes[0] == -(-n // (2 * workers)) and sizes[-1] == 1
+        # few tasks: about 2 * workers * ln(n / workers) + the single-item tail
+        assert len(batches) <= n
+        assert len(batches) <= 2 * workers * (2 + max(0.0, math.log(n / workers)))
+
+
+def test_guided_batches_known_split_and_bad_input() -> None:
+    assert [len(b) for b in guided_batches(100, 2)] == [
+        25, 19, 14, 11, 8, 6, 5, 3, 3, 2, 1, 1, 1, 1
+    ]  # fmt: skip
+    with pytest.raises(Sim2RealValueError, match="workers >= 1, got n=3, workers=0"):
+        guided_batches(3, 0)
 
 
 def _agree(fleet: Path, out: Path, *extra: str) -> int:
@@ -105,6 +136,31 @@ def test_agree_on_ray_gives_the_serial_figures(fleet: Path, tmp_path: Path) -> N
     finally:
         ray.shutdown()
     assert (tmp_path / "ray.json").read_bytes() == (tmp_path / "serial.json").read_bytes()
+
+
+def _neg_or_fail(x: int) -> int:
+    if x == 17:
+        raise Sim2RealValueError("item 17 is bad")
+    return -x
+
+
+@pytest.mark.cluster
+@pytest.mark.slow
+def test_map_tasks_on_ray_batches_keep_order_progress_and_errors() -> None:
+    import ray
+
+    ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR")
+    try:
+        seen: list[int] = []
+        items = list(range(40))
+        assert map_tasks(_neg_or_fail, items[18:], address="auto", on_done=seen.append) == [
+            -x for x in items[18:]
+        ]
+        assert seen == sorted(seen) and seen[-1] == 22 and len(seen) == len(guided_batches(22, 2))
+        with pytest.raises(Sim2RealValueError, match="item 17 is bad"):
+            map_tasks(_neg_or_fail, items, address="auto")
+    finally:
+        ray.shutdown()
 
 
 def _fit_doc(path: Path) -> dict:
