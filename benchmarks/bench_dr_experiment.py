@@ -1,34 +1,40 @@
 """Does randomisation from a sysid result help a policy survive a robot it never saw?
 
-Run (needs the [train] extra; minutes to hours depending on the budget)::
+Run (needs the [train] extra; the defaults take ~40 min of one core)::
 
-    nice .venv/bin/python benchmarks/bench_dr_experiment.py --timesteps 60000 --seeds 0 1 2 \\
-        --episodes 30 --out bench-dr
+    nice -n 10 .venv/bin/python benchmarks/bench_dr_experiment.py --out bench-dr
+    .venv/bin/python benchmarks/bench_dr_experiment.py --timesteps 3000 --seeds 0 --episodes 4 \\
+        --out /tmp/dr-smoke                                  # a minute: does it run
 
 Protocol
 --------
 1. **Identify** the simulated robot: ``sim2real sysid fit`` on the bundled training log
    (``data/demo_train.mcap``, TurtleBot3 Burger) gives the sim robot's drive parameters, their
    uncertainty and its odometry noise (the result's ``randomization`` block).
-2. **Train** the same algorithm (SB3 PPO, same hyperparameters, same seeds) twice per seed on
-   RandomMap-v0 (reduced dynamics, a 2 m course with 3-10 cylinders so that a small budget
-   learns something) with the identified parameters:
+2. **Train** the same algorithm (SB3, same hyperparameters, same seeds) twice per seed on
+   RandomMap-v0 (reduced dynamics) with the identified parameters, on a course this budget can
+   learn (``--course``: 2 m to the goal through a few cylinders, no walls, 200 steps), with
+   observations and actions scaled to [-1, 1] and rewards normalised (``normalize`` of the
+   training config):
 
    - ``nominal``: no randomisation;
-   - ``DR``: dynamics + sensor randomisation built from the sysid result --
-     ``DynamicsRandomizer`` with each varying field ~ N(fitted value, s^2) where s is the
-     result's marginal std times ``--spread`` with a floor (delay 0.05 s, added mass 0.3 kg,
-     20 % of the value otherwise), odometry noise ``ObservationNoise`` with the result's
-     odometry noise std times ``--noise-factor``, and ``OdometryDelay`` of 0-0.1 s.
+   - ``DR``: dynamics + sensor randomisation from the sysid result --
+     ``DynamicsRandomizer(sysid=..., spread=--spread)`` (the one sampler,
+     :meth:`robots.randomization.DriveDistribution.sample`, every identified standard deviation
+     times the spread), odometry noise ``ObservationNoise`` with the result's odometry noise
+     std times ``--noise-factor``, and ``OdometryDelay`` of 0-0.1 s.
 
+   Each run's training curve (success rate of its training episodes per tenth of the budget)
+   is printed: the nominal policy must learn on its own robot for the comparison to mean
+   anything.
 3. **Evaluate** both on the identified sim robot and on a "real" robot the policies never saw:
    the identified parameters with a heavier payload (``--real-added-mass-kg`` more), a longer
    command delay (``--real-extra-delay-s`` more) and noisier odometry (``--real-noise-factor``
    times the identified noise std), on the same ``--episodes`` seeded maps per model.
 
-Reported: success and collision rates per condition as mean over seeds with a 95 % Student-t
-interval across seeds, and the pooled Wilson 95 % interval over all episodes. Training time per
-run is printed. Everything (configs, models, per-episode results) stays in ``--out``.
+Reported: success and collision rates per condition, per seed and pooled over the seeds with
+the Wilson 95 % interval over all episodes, the budget and the wall time. Everything
+(configs, models, curves, per-episode results) stays in ``--out``.
 """
 
 from __future__ import annotations
@@ -40,7 +46,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse
-import math
+import itertools
 import sys
 import time
 from pathlib import Path
@@ -48,48 +54,41 @@ from typing import Any
 
 import numpy as np
 import yaml
-from scipy import stats
 
-from robots.params import read_params_file
 from robots.randomization import DriveDistribution
-from robots.spec import load_spec
 from sim2real.cli import main as cli_main
-from sim2real.evaluation import PolicyController, evaluate_controller, load_policy, wilson_interval
+from sim2real.evaluation import evaluate_controller, load_policy, wilson_interval
 from sim2real.train import build_env, config_from_dict, train
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOT = "turtlebot3_burger"
-#: A course a small budget can learn: 2 m to the goal, 3-10 cylinders, half the walls.
-MAP = {"d_target_m": 2.0, "n_min": 3, "n_max": 10, "area_m": 5.0, "r_wall": 0.5}
-MAX_STEPS = 200
-#: Cheap updates (few gradient steps per sample): the env, not the optimiser, takes the time.
-PPO = {
-    "learning_rate": 1e-3,
-    "n_steps": 512,
-    "batch_size": 256,
-    "n_epochs": 4,
-    "gamma": 0.99,
-    # std 0.22 at the start: with std 1 most draws of v (range [0, 0.21]) are clipped, and the
-    # deterministic policy (the mean) may stand still after a short budget
-    "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.5},
+#: Courses (RandomMap MapConfig fields): 2 m to the goal, a few cylinders, no walls.
+COURSES = {
+    "sparse": {"d_target_m": 2.0, "n_min": 0, "n_max": 4, "area_m": 5.0, "r_wall": 0.0},
+    "open": {"d_target_m": 2.0, "n_min": 0, "n_max": 0, "area_m": 5.0, "r_wall": 0.0},
 }
-#: Drive-chain fields randomised (the speed caps stay: the action space is bounded anyway).
-DR_FIELDS = (
-    "delay_s",
-    "added_mass_kg",
-    "added_yaw_inertia_kgm2",
-    "motor_gain_nms_per_rad",
-    "accel_lim_v_mps2",
-    "accel_lim_w_radps2",
-    "coulomb_v_fwd_n",
-    "coulomb_v_bwd_n",
-    "coulomb_w_nm",
-    "viscous_v_ns_per_m",
-    "viscous_w_nms_per_rad",
-)
-#: Floors of the dynamics randomisation std (value units).
-FLOORS = {"delay_s": 0.05, "added_mass_kg": 0.3}
-REL_FLOOR = 0.2
+MAX_STEPS = 200
+#: Many small updates (8 envs x 64 steps per rollout) and a short horizon: the env, not the
+#: optimiser, takes the time; initial action std 0.37 of the [-1, 1] range.
+HYPERPARAMETERS = {
+    "PPO": {
+        "learning_rate": 1e-3,
+        "n_steps": 64,
+        "batch_size": 128,
+        "n_epochs": 10,
+        "gamma": 0.98,
+        "gae_lambda": 0.95,
+        "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.0},
+    },
+    "SAC": {
+        "learning_rate": 1e-3,
+        "buffer_size": 100_000,
+        "batch_size": 256,
+        "gamma": 0.98,
+        "learning_starts": 1000,
+        "policy_kwargs": {"net_arch": [64, 64]},
+    },
+}
 ODOM = [38, 40]  # RandomMap-v0 observation: measured v (m/s), w (rad/s)
 
 
@@ -101,23 +100,6 @@ def fit(out: Path) -> Path:
         if cli_main([*argv, "-o", str(path)]) != 0:
             raise SystemExit("sysid fit failed")
     return path
-
-
-def marginals(path: Path, spread: float) -> tuple[dict[str, list[float]], dict[str, float]]:
-    """Per-field N(mean, std) in value units of the result's distribution (widened), and noise."""
-    dist = DriveDistribution.from_params_file(path, robot=ROBOT)
-    draws = dist.sample(np.random.default_rng(0), 4000)
-    values = read_params_file(path).values
-    normal = {}
-    for name in (n for n in dist.names if n in DR_FIELDS):
-        x = np.array([getattr(d, name) for d in draws])
-        if not np.all(np.isfinite(x)):
-            continue
-        centre = float(values.get(name, float(np.mean(x))))
-        floor = FLOORS.get(name, REL_FLOOR * abs(centre))
-        normal[name] = [centre, max(spread * float(np.std(x)), floor)]
-    noise = {"v": dist.noise.std_v_mps, "w": dist.noise.std_w_radps}
-    return normal, noise
 
 
 def real_robot(path: Path, out: Path, *, extra_mass: float, extra_delay: float) -> Path:
@@ -136,24 +118,33 @@ def real_robot(path: Path, out: Path, *, extra_mass: float, extra_delay: float) 
     return target
 
 
-def dr_stack(normal: dict[str, list[float]], noise: dict[str, float], k: float) -> dict[str, Any]:
-    geo = load_spec(ROBOT).geometry
-    # total mass and yaw inertia stay above 20 % of the bare robot's
-    bounds = {
-        "added_mass_kg": [-0.8 * geo.mass_kg, math.inf],
-        "added_yaw_inertia_kgm2": [-0.8 * geo.yaw_inertia_kgm2, math.inf],
-    }
+def dr_stack(sim: Path, noise_std: list[float], spread: float) -> dict[str, Any]:
     return {
         "format": "sim2real.randomizers/1",
         "randomizers": [
-            {"type": "DynamicsRandomizer", "normal": normal, "bounds": bounds},
-            {"type": "ObservationNoise", "index": ODOM, "std": [k * noise["v"], k * noise["w"]]},
+            {"type": "DynamicsRandomizer", "sysid": str(sim.resolve()), "spread": spread},
+            {"type": "ObservationNoise", "index": ODOM, "std": noise_std},
             {"type": "OdometryDelay", "index": ODOM, "delay_s": [0.0, 0.1]},
         ],
     }
 
 
-def evaluate_on(model_zip: Path, params: Path, noise_std: list[float] | None, n: int) -> Any:
+def learning_curve(episodes_csv: Path, total: int, parts: int = 10) -> list[float]:
+    """Success rate of the training episodes ending in each tenth of the budget (NaN: none)."""
+    rows = [line.split(",") for line in episodes_csv.read_text().splitlines()[1:]]
+    steps = np.array([int(r[0]) for r in rows])
+    success = np.array([r[1] == "success" for r in rows])
+    edges = np.linspace(0, total, parts + 1)
+    out = []
+    for lo, hi in itertools.pairwise(edges):
+        pick = (steps > lo) & (steps <= hi)
+        out.append(float(success[pick].mean()) if pick.any() else float("nan"))
+    return out
+
+
+def evaluate_on(
+    model_zip: Path, env_kwargs: dict[str, Any], noise_std: list[float] | None, n: int
+) -> Any:
     policy = load_policy(model_zip)
     rand = None
     if noise_std is not None:
@@ -161,37 +152,53 @@ def evaluate_on(model_zip: Path, params: Path, noise_std: list[float] | None, n:
             "format": "sim2real.randomizers/1",
             "randomizers": [{"type": "ObservationNoise", "index": ODOM, "std": noise_std}],
         }
-    env = build_env(
-        "sim2real/RandomMap-v0",
-        {"map_config": MAP, "max_episode_steps": MAX_STEPS, "params": str(params)},
-        randomizers=rand,
-    )
+    env = policy.wrap(build_env("sim2real/RandomMap-v0", env_kwargs, randomizers=rand))
     try:
-        return evaluate_controller(env, PolicyController(policy.model), episodes=n, seed=900_000)
+        return evaluate_controller(env, policy.controller(), episodes=n, seed=900_000)
     finally:
         env.close()
 
 
-def t_interval(x: list[float]) -> tuple[float, float, float]:
-    """Mean and 95 % Student-t interval across seeds."""
-    a = np.asarray(x, dtype=float)
-    m = float(a.mean())
-    if a.size < 2:
-        return m, math.nan, math.nan
-    half = float(stats.t.ppf(0.975, a.size - 1) * a.std(ddof=1) / math.sqrt(a.size))
-    return m, max(0.0, m - half), min(1.0, m + half)
+def train_run(
+    args: argparse.Namespace, out: Path, env_kwargs: dict[str, Any], stack: Any, seed: int
+) -> float:
+    """Train one model into ``out`` (skipped when its model exists); wall seconds."""
+    if (out / "model.zip").is_file():
+        return float(yaml.safe_load((out / "run.yaml").read_text())["wall_s"])
+    cfg = config_from_dict(
+        {
+            "env": {"id": "sim2real/RandomMap-v0", "kwargs": env_kwargs},
+            "randomizers": stack,
+            "algorithm": args.algorithm,
+            "hyperparameters": HYPERPARAMETERS[args.algorithm],
+            "timesteps": args.timesteps,
+            "n_envs": args.n_envs,
+            "vec_env": "dummy",
+            "seed": seed,
+            "out": str(out),
+            "evaluation": {"episodes": 0},
+            "normalize": True,
+        }
+    )
+    t0 = time.perf_counter()
+    result = train(cfg)
+    wall = time.perf_counter() - t0
+    curve = learning_curve(out / "episodes.csv", result.timesteps)
+    (out / "run.yaml").write_text(
+        yaml.safe_dump({"wall_s": wall, "timesteps": result.timesteps, "curve": curve})
+    )
+    return wall
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--timesteps", type=int, default=60_000, help="PPO env steps per run")
+    ap.add_argument("--algorithm", choices=sorted(HYPERPARAMETERS), default="PPO")
+    ap.add_argument("--timesteps", type=int, default=100_000, help="env steps per run")
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    ap.add_argument("--episodes", type=int, default=40, help="evaluation episodes per model")
-    ap.add_argument("--n-envs", type=int, default=2)
-    ap.add_argument(
-        "--vec-env", default="dummy", help="dummy (one process; best on a shared 2-core box)"
-    )
-    ap.add_argument("--spread", type=float, default=3.0, help="x the result's std (dynamics)")
+    ap.add_argument("--episodes", type=int, default=50, help="evaluation episodes per model")
+    ap.add_argument("--n-envs", type=int, default=8, help="envs in one process (DummyVecEnv)")
+    ap.add_argument("--course", choices=sorted(COURSES), default="sparse")
+    ap.add_argument("--spread", type=float, default=3.0, help="x the identified std (dynamics)")
     ap.add_argument("--noise-factor", type=float, default=10.0, help="x odometry noise std (DR)")
     ap.add_argument("--real-added-mass-kg", type=float, default=0.6)
     ap.add_argument("--real-extra-delay-s", type=float, default=0.12)
@@ -199,83 +206,78 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=Path("bench-dr"))
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
+    t_start = time.perf_counter()
     sim = fit(args.out)
-    normal, noise = marginals(sim, args.spread)
+    noise = DriveDistribution.from_params_file(sim, robot=ROBOT).noise
     real = real_robot(
         sim, args.out, extra_mass=args.real_added_mass_kg, extra_delay=args.real_extra_delay_s
     )
-    real_noise = [args.real_noise_factor * noise["v"], args.real_noise_factor * noise["w"]]
-    print(f"sim robot: {sim}; DR dynamics (value, std): {normal}; odometry noise std {noise}")
+    dr_noise = [args.noise_factor * noise.std_v_mps, args.noise_factor * noise.std_w_radps]
+    real_noise = [
+        args.real_noise_factor * noise.std_v_mps,
+        args.real_noise_factor * noise.std_w_radps,
+    ]
+    course = COURSES[args.course]
+    base = {"map_config": course, "max_episode_steps": MAX_STEPS}
+    print(
+        f"sim robot: {sim}; odometry noise std v {noise.std_v_mps:.4g} m/s, w {noise.std_w_radps:.4g} rad/s"
+    )
     print(
         f"real robot: {real} (+{args.real_added_mass_kg} kg, +{args.real_extra_delay_s} s, "
         f"odometry noise std {real_noise})"
     )
-    conditions = {"nominal": None, "DR": dr_stack(normal, noise, args.noise_factor)}
-    results: dict[str, dict[str, list[Any]]] = {}
+    conditions = {"nominal": None, "DR": dr_stack(sim, dr_noise, args.spread)}
+    rows: dict[str, dict[str, list[int]]] = {}
+    walls: list[float] = []
     for seed in args.seeds:
         for name, stack in conditions.items():
             out = args.out / f"{name}_seed{seed}"
-            if not (out / "model.zip").is_file():
-                cfg = config_from_dict(
-                    {
-                        "env": {
-                            "id": "sim2real/RandomMap-v0",
-                            "kwargs": {
-                                "map_config": MAP,
-                                "max_episode_steps": MAX_STEPS,
-                                "params": str(sim.resolve()),
-                            },
-                        },
-                        "randomizers": stack,
-                        "algorithm": "PPO",
-                        "hyperparameters": PPO,
-                        "timesteps": args.timesteps,
-                        "n_envs": args.n_envs,
-                        "vec_env": args.vec_env,
-                        "seed": seed,
-                        "out": str(out),
-                        "evaluation": {"episodes": 0},
-                    }
-                )
-                t0 = time.perf_counter()
-                train(cfg)
-                print(f"trained {name} seed {seed}: {time.perf_counter() - t0:.0f} s", flush=True)
+            wall = train_run(args, out, {**base, "params": str(sim.resolve())}, stack, seed)
+            walls.append(wall)
+            curve = yaml.safe_load((out / "run.yaml").read_text())["curve"]
+            print(
+                f"trained {name} seed {seed}: {wall:.0f} s; training success per tenth: "
+                + " ".join("-" if c != c else f"{c:.2f}" for c in curve),
+                flush=True,
+            )
             for where, params, nstd in (("sim", sim, None), ("real", real, real_noise)):
-                s = evaluate_on(out / "model.zip", params, nstd, args.episodes)
-                row = results.setdefault(
-                    f"{name}@{where}", {"success": [], "collision": [], "n_success": [], "n": []}
-                )
-                row["success"].append(s.success_rate)
-                row["collision"].append(s.collision_rate)
-                row["n_success"].append(round(s.success_rate * s.episodes))
+                kwargs = {**base, "params": str(params.resolve())}
+                s = evaluate_on(out / "model.zip", kwargs, nstd, args.episodes)
+                row = rows.setdefault(f"{name}@{where}", {"success": [], "collision": [], "n": []})
+                row["success"].append(round(s.success_rate * s.episodes))
+                row["collision"].append(round(s.collision_rate * s.episodes))
                 row["n"].append(s.episodes)
                 print(
                     f"  {name} seed {seed} on {where}: success {s.success_rate:.2f} "
                     f"collision {s.collision_rate:.2f}",
                     flush=True,
                 )
+    total_s = time.perf_counter() - t_start
     lines = [
-        f"PPO, {args.timesteps} steps x seeds {args.seeds}, {args.episodes} eval episodes per "
-        "model and robot",
+        f"{args.algorithm}, {args.timesteps} env steps per run, seeds {args.seeds}, course "
+        f"'{args.course}' {course}, {MAX_STEPS} steps per episode, {args.episodes} evaluation "
+        f"episodes per model and robot (seeds 900000-{900000 + args.episodes - 1}); training "
+        f"wall time per run {min(walls):.0f}-{max(walls):.0f} s, whole experiment "
+        f"{total_s / 60:.0f} min",
         "",
-        "| trained | evaluated on | success (mean, 95 % t-CI over seeds) | success pooled "
-        "(Wilson 95 %) | collision (mean, 95 % t-CI) |",
+        "| trained | evaluated on | success per seed | success pooled (Wilson 95 %) "
+        "| collision pooled (Wilson 95 %) |",
         "|---|---|---|---|---|",
     ]
-    for key, row in results.items():
+    for key, row in rows.items():
         name, where = key.split("@")
-        m, lo, hi = t_interval(row["success"])
-        cm, clo, chi = t_interval(row["collision"])
-        wl, wh = wilson_interval(sum(row["n_success"]), sum(row["n"]))
+        n = sum(row["n"])
+        ks, kc = sum(row["success"]), sum(row["collision"])
+        (sl, sh), (cl, ch) = wilson_interval(ks, n), wilson_interval(kc, n)
+        per_seed = ", ".join(f"{k}/{m}" for k, m in zip(row["success"], row["n"], strict=True))
         lines.append(
-            f"| {name} | {where} | {m:.2f} [{lo:.2f}, {hi:.2f}] | "
-            f"{sum(row['n_success'])}/{sum(row['n'])} [{wl:.2f}, {wh:.2f}] | "
-            f"{cm:.2f} [{clo:.2f}, {chi:.2f}] |"
+            f"| {name} | {where} | {per_seed} | {ks}/{n} = {ks / n:.2f} [{sl:.2f}, {sh:.2f}] | "
+            f"{kc}/{n} = {kc / n:.2f} [{cl:.2f}, {ch:.2f}] |"
         )
     table = "\n".join(lines)
     print(table)
     (args.out / "results.md").write_text(table + "\n")
-    (args.out / "results.yaml").write_text(yaml.safe_dump(results, sort_keys=False))
+    (args.out / "results.yaml").write_text(yaml.safe_dump(rows, sort_keys=False))
     return 0
 
 

@@ -129,11 +129,15 @@ class LoadedPolicy:
         return PolicyController(self.model)
 
     def wrap(self, env: Any) -> Any:
-        """``env`` with the policy's discrete action grid applied (unchanged otherwise)."""
-        from sim2real.train import DiscreteActions
+        """``env`` with the policy's discrete action grid and space scaling applied."""
+        from sim2real.train import DiscreteActions, normalize_spaces
 
         grid = self.discrete_actions
-        return env if grid is None else DiscreteActions(env, **grid)
+        env = env if grid is None else DiscreteActions(env, **grid)
+        scaling = self.metadata.get("normalize")
+        if isinstance(scaling, Mapping):
+            env = normalize_spaces(env, {k: bool(v) for k, v in scaling.items()}, where="policy")
+        return env
 
 
 def _read_metadata(path: Path) -> dict[str, Any]:

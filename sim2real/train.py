@@ -11,6 +11,8 @@ outputs into one folder::
     OUT/checkpoints/        model_<steps>_steps.zip every ``checkpoint_every`` steps
     OUT/tensorboard/        TensorBoard event files (``tensorboard --logdir OUT/tensorboard``)
     OUT/evaluation.yaml     a short seeded evaluation of the final policy
+    OUT/episodes.csv        every training episode: env step at its end, outcome, return, length
+                            (the learning curve)
 
 Config file (``format: sim2real.train/1``; relative paths are relative to the config file)::
 
@@ -32,6 +34,14 @@ Config file (``format: sim2real.train/1``; relative paths are relative to the co
     checkpoint_every: 10000            # env steps between checkpoints; 0 = none
     evaluation: {episodes: 10, seed: 10000, kwargs: {preset: TEST1}, randomize: false}
     discrete_actions: {v_mps: [0.0, 0.1, 0.21], w_radps: [-1.0, 0.0, 1.0]}  # for DQN
+    normalize: {observations: true, actions: true, rewards: true}   # all false by default
+
+``normalize``: ``observations`` and ``actions`` rescale Box spaces to [-1, 1] from their bounds
+(fixed, stateless wrappers outermost in the stack, recorded in ``model.zip`` so that
+evaluation applies them too); ``rewards`` divides the training reward by a running estimate of
+the discounted return's std (SB3 ``VecNormalize(norm_obs=False)``; training only). PPO's
+Gaussian policy starts at mean 0 and std ~1 in the action space, so on RandomMap-v0 (v in
+[0, 0.21] m/s) unscaled actions mostly clip; rescaled ones start at half speed.
 
 Needs the ``[train]`` extra (``pip install torch==2.13.0 && pip install -e '.[train]'``).
 
@@ -73,10 +83,12 @@ __all__ = [
     "config_from_dict",
     "describe_space",
     "load_config",
+    "normalize_spaces",
     "require_train_extra",
     "resolve_env_id",
     "set_params_file",
     "train",
+    "write_episodes",
 ]
 
 #: ``format:`` key of a training config.
@@ -102,7 +114,9 @@ _KEYS = (
     "checkpoint_every",
     "evaluation",
     "discrete_actions",
+    "normalize",
 )
+_NORMALIZE = ("observations", "actions", "rewards")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -143,6 +157,8 @@ class TrainConfig:
         Evaluate under the randomizer stack too.
     discrete_actions : dict or None
         ``{v_mps: [...], w_radps: [...]}`` grid for DQN on a Box action space.
+    normalize : dict
+        ``{observations: bool, actions: bool, rewards: bool}`` (see the module docstring).
     source : str
         Where the config came from (for messages).
     """
@@ -164,6 +180,7 @@ class TrainConfig:
     eval_kwargs: dict[str, Any] = field(default_factory=dict)
     eval_randomize: bool = False
     discrete_actions: dict[str, list[float]] | None = None
+    normalize: dict[str, bool] = field(default_factory=lambda: dict.fromkeys(_NORMALIZE, False))
     source: str = "config"
 
     def to_dict(self) -> dict[str, Any]:
@@ -188,6 +205,7 @@ class TrainConfig:
                 "randomize": self.eval_randomize,
             },
             "discrete_actions": self.discrete_actions,
+            "normalize": dict(self.normalize),
         }
 
 
@@ -374,6 +392,22 @@ def _discrete(value: Any, where: str) -> dict[str, list[float]] | None:
     return grids
 
 
+def _normalize(value: Any, where: str) -> dict[str, bool]:
+    out = dict.fromkeys(_NORMALIZE, False)
+    if value is None or value is False:
+        return out
+    if value is True:
+        return dict.fromkeys(_NORMALIZE, True)
+    ok = isinstance(value, Mapping) and set(value) <= set(_NORMALIZE)
+    ok = ok and all(isinstance(v, bool) for v in value.values())
+    if not ok:
+        raise Sim2RealValueError(
+            f"{where}: key 'normalize' must be true, false or a mapping of "
+            f"{', '.join(_NORMALIZE)} to true/false, got {value!r}"
+        )
+    return {**out, **{str(k): bool(v) for k, v in value.items()}}
+
+
 def load_config(
     path: str | Path,
     *,
@@ -450,6 +484,7 @@ def config_from_dict(
         eval_kwargs=eval_kwargs,
         eval_randomize=bool(evaluation.get("randomize", False)),
         discrete_actions=_discrete(doc.get("discrete_actions"), where),
+        normalize=_normalize(doc.get("normalize"), where),
         source=where,
     )
     if cfg.vec_env not in _VEC_ENVS:
@@ -513,10 +548,12 @@ def build_env(
     *,
     randomizers: Mapping[str, Any] | None = None,
     discrete_actions: Mapping[str, list[float]] | None = None,
+    normalize: Mapping[str, bool] | None = None,
     where: str = "env",
 ) -> Any:
-    """``gymnasium.make(env_id, **env_kwargs)`` wrapped in the randomizer stack (innermost first)
-    and, for a discrete-action algorithm, :class:`DiscreteActions` (outermost).
+    """``gymnasium.make(env_id, **env_kwargs)`` wrapped in the randomizer stack (innermost first),
+    for a discrete-action algorithm :class:`DiscreteActions`, and the ``observations`` /
+    ``actions`` entries of ``normalize`` (:func:`normalize_spaces`, outermost).
 
     Examples
     --------
@@ -555,6 +592,39 @@ def build_env(
         env = dr.from_config(env, randomizers)
     if discrete_actions is not None:
         env = DiscreteActions(env, **discrete_actions)
+    if normalize is not None:
+        env = normalize_spaces(env, normalize, where=where)
+    return env
+
+
+def normalize_spaces(env: Any, normalize: Mapping[str, bool], *, where: str = "env") -> Any:
+    """``env`` with its Box observation / action space rescaled to [-1, 1] from their bounds.
+
+    ``normalize["observations"]`` adds ``gymnasium.wrappers.RescaleObservation``,
+    ``normalize["actions"]`` ``gymnasium.wrappers.RescaleAction`` (a Box action space only; a
+    discrete one is left alone). Both are fixed affine maps, so a saved policy evaluates with
+    exactly its training scaling.
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> import sim2real.envs
+    >>> env = normalize_spaces(gym.make("sim2real/RandomMap-v0"),
+    ...                        {"observations": True, "actions": True})
+    >>> float(env.observation_space.low.min()), env.action_space.high.tolist()
+    (-1.0, [1.0, 1.0])
+    """
+    if normalize.get("observations"):
+        space = env.observation_space
+        box = isinstance(space, gym.spaces.Box)
+        if not (box and np.all(np.isfinite(space.low)) and np.all(np.isfinite(space.high))):
+            raise Sim2RealValueError(
+                f"{where}: normalize 'observations' needs a Box observation space with finite "
+                f"bounds, got {describe_space(space)}; set normalize.observations: false"
+            )
+        env = gym.wrappers.RescaleObservation(env, np.float32(-1.0), np.float32(1.0))
+    if normalize.get("actions") and isinstance(env.action_space, gym.spaces.Box):
+        env = gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0))
     return env
 
 
@@ -577,7 +647,12 @@ def _env_factory(cfg: TrainConfig, *, rank: int) -> Callable[[], Any]:
     from functools import partial
 
     return partial(
-        _make_monitored, cfg.env_id, cfg.env_kwargs, cfg.randomizers, cfg.discrete_actions
+        _make_monitored,
+        cfg.env_id,
+        cfg.env_kwargs,
+        cfg.randomizers,
+        cfg.discrete_actions,
+        cfg.normalize,
     )
 
 
@@ -586,10 +661,14 @@ def _make_monitored(
     kwargs: Mapping[str, Any],
     randomizers: Mapping[str, Any] | None,
     discrete: Mapping[str, list[float]] | None,
+    normalize: Mapping[str, bool] | None = None,
 ) -> Any:
     from stable_baselines3.common.monitor import Monitor
 
-    return Monitor(build_env(env_id, kwargs, randomizers=randomizers, discrete_actions=discrete))
+    env = build_env(
+        env_id, kwargs, randomizers=randomizers, discrete_actions=discrete, normalize=normalize
+    )
+    return Monitor(env)
 
 
 # --------------------------------------------------------------------------- training
@@ -652,6 +731,39 @@ def _progress_callback(base: type, total: int) -> Any:
     return RichProgress()
 
 
+def _episode_log_callback(base: type) -> Any:
+    """An SB3 callback keeping (env step, outcome, return, length) of every training episode."""
+
+    class EpisodeLog(base):  # type: ignore[misc, valid-type]
+        rows: list[tuple[int, str, float, int]]
+
+        def _on_training_start(self) -> None:
+            self.rows = []
+
+        def _on_step(self) -> bool:
+            for info, done in zip(self.locals["infos"], self.locals["dones"], strict=True):
+                episode = info.get("episode")
+                if done and episode is not None:
+                    outcome = str(info.get("outcome", ""))
+                    self.rows.append(
+                        (int(self.num_timesteps), outcome, float(episode["r"]), int(episode["l"]))
+                    )
+            return True
+
+    return EpisodeLog()
+
+
+def write_episodes(path: Path, rows: Sequence[tuple[int, str, float, int]]) -> Path:
+    """``OUT/episodes.csv``: one line per training episode (see the module docstring)."""
+    from sim2real._io import atomic_write
+
+    with atomic_write(path, "w", what="episodes file") as fh:
+        fh.write("step,outcome,return,length\n")
+        for step, outcome, ret, length in rows:
+            fh.write(f"{step},{outcome},{ret:.6g},{length}\n")
+    return path
+
+
 def _vec_env(cfg: TrainConfig) -> Any:
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
@@ -661,6 +773,11 @@ def _vec_env(cfg: TrainConfig) -> Any:
     else:
         vec = DummyVecEnv(thunks)
     vec.seed(cfg.seed)
+    if cfg.normalize.get("rewards"):
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        gamma = float(cfg.hyperparameters.get("gamma", 0.99))
+        vec = VecNormalize(vec, norm_obs=False, norm_reward=True, gamma=gamma)
     return vec
 
 
@@ -710,6 +827,7 @@ def model_metadata(cfg: TrainConfig, env: Any) -> dict[str, Any]:
         "env_id": cfg.env_id,
         "env_kwargs": dict(cfg.env_kwargs),
         "discrete_actions": cfg.discrete_actions,
+        "normalize": {k: bool(cfg.normalize.get(k)) for k in ("observations", "actions")},
         "observation_space": describe_space(env.observation_space),
         "timesteps": cfg.timesteps,
         "seed": cfg.seed,
@@ -761,6 +879,7 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
         )
     if cfg.discrete_actions is not None:
         probe = DiscreteActions(probe, **cfg.discrete_actions)
+    probe = normalize_spaces(probe, cfg.normalize, where=cfg.source)
     cfg.out.mkdir(parents=True, exist_ok=True)
     resolved = cfg.to_dict()
     if cfg.randomizers is not None:
@@ -772,7 +891,10 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
     vec = _vec_env(cfg)
     try:
         model = _model(cfg, vec, probe)
-        callbacks: list[Any] = []
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        episode_log = _episode_log_callback(BaseCallback)
+        callbacks: list[Any] = [episode_log]
         if cfg.checkpoint_every > 0:
             callbacks.append(
                 CheckpointCallback(
@@ -782,8 +904,6 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
                 )
             )
         if progress:
-            from stable_baselines3.common.callbacks import BaseCallback
-
             callbacks.append(_progress_callback(BaseCallback, cfg.timesteps))
         t0 = time.perf_counter()
         model.learn(total_timesteps=cfg.timesteps, callback=callbacks, tb_log_name="run")
@@ -791,6 +911,7 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
     finally:
         vec.close()
     model_path = save_model(model, cfg.out / "model.zip", model_metadata(cfg, probe))
+    write_episodes(cfg.out / "episodes.csv", episode_log.rows)
     probe.close()
     evaluation = final_evaluation(cfg, model)
     _write_yaml(cfg.out / "evaluation.yaml", evaluation, "evaluation file")
@@ -815,6 +936,7 @@ def final_evaluation(cfg: TrainConfig, model: Any) -> dict[str, Any]:
         kwargs,
         randomizers=cfg.randomizers if cfg.eval_randomize else None,
         discrete_actions=cfg.discrete_actions,
+        normalize=cfg.normalize,
         where=cfg.source,
     )
     try:

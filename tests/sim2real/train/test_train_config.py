@@ -68,6 +68,8 @@ def test_example_configs_load_with_overrides() -> None:
         ({"lr": 1}, r"unknown key\(s\) \['lr'\]"),
         ({"format": "other/1"}, r"key 'format' must be 'sim2real.train/1'"),
         ({"discrete_actions": {"v_mps": []}}, r"key 'discrete_actions' must be"),
+        ({"normalize": {"obs": True}}, r"key 'normalize' must be true, false or a mapping of"),
+        ({"normalize": {"rewards": "yes"}}, r"key 'normalize' must be .* got \{'rewards': 'yes'\}"),
     ],
 )
 def test_bad_config_is_one_sentence(change: dict, match: str) -> None:
@@ -96,6 +98,27 @@ def test_cli_bad_config_exits_2(
 def test_cli_unknown_env_in_eval_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["envs", "eval", "Nowhere-v0", "--episodes", "1"]) == 2
     assert "unknown env 'Nowhere-v0'" in capsys.readouterr().err
+
+
+def test_normalize_rescales_the_spaces_to_unit_bounds() -> None:
+    import numpy as np
+
+    cfg = config_from_dict({"env": {"id": "RandomMap-v0"}, "normalize": True})
+    assert cfg.normalize == {"observations": True, "actions": True, "rewards": True}
+    part = config_from_dict({"env": {"id": "RandomMap-v0"}, "normalize": {"actions": True}})
+    assert part.normalize == {"observations": False, "actions": True, "rewards": False}
+    raw = build_env("sim2real/RandomMap-v0", {"preset": "TEST1"})
+    env = build_env("sim2real/RandomMap-v0", {"preset": "TEST1"}, normalize=cfg.normalize)
+    assert env.observation_space.low.min() == -1.0 and env.observation_space.high.max() == 1.0
+    obs_raw, _ = raw.reset(seed=3)
+    obs, _ = env.reset(seed=3)
+    low, high = raw.observation_space.low, raw.observation_space.high
+    np.testing.assert_allclose(obs, 2 * (obs_raw - low) / (high - low) - 1, atol=1e-6)
+    # action -1 is the env's lowest command (v 0 m/s, w -1 rad/s), +1 its highest
+    assert env.action_space.low.tolist() == [-1.0, -1.0]
+    assert env.unwrapped.action_space.high.tolist() == pytest.approx([0.21, 1.0])
+    with pytest.raises(Sim2RealValueError, match="normalize 'observations' needs a Box"):
+        build_env("sim2real/CrowdNav-v0", {}, normalize={"observations": True})
 
 
 def test_override_values_are_checked() -> None:

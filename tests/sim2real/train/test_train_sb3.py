@@ -106,6 +106,41 @@ def test_eval_policy_and_mismatched_env(tmp_path: Path, capsys: pytest.CaptureFi
     assert "is not a zip file" in capsys.readouterr().err
 
 
+def test_normalized_policy_logs_episodes_and_evaluates_scaled(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from sim2real.evaluation import evaluate_controller, load_policy
+    from sim2real.train import _vec_env, build_env, load_config
+
+    cfg = _config(tmp_path, checkpoint_every=0, timesteps=256, randomizers=None, normalize=True)
+    assert isinstance(_vec_env(load_config(cfg)), VecNormalize)  # rewards: training only
+    assert main(["train", str(cfg)]) == 0
+    out = tmp_path / "run"
+    lines = (out / "episodes.csv").read_text().splitlines()
+    assert lines[0] == "step,outcome,return,length"
+    rows = [line.split(",") for line in lines[1:]]
+    assert len(rows) >= 256 // 40  # 40-step episodes at most
+    steps = [int(r[0]) for r in rows]
+    assert steps == sorted(steps) and steps[-1] <= 256
+    assert {r[1] for r in rows} <= {"success", "crash", "trap"}
+    assert sum(int(r[3]) for r in rows) <= 256
+    policy = load_policy(out / "model.zip")
+    assert policy.metadata["normalize"] == {"observations": True, "actions": True}
+    assert policy.model.observation_space.high.max() == 1.0
+    # envs eval applies the policy's scaling: the same episodes as by hand
+    capsys.readouterr()
+    report = tmp_path / "eval.json"
+    argv = ["envs", "eval", "RandomMap-v0", "--policy", str(out / "model.zip")]
+    assert main([*argv, "--episodes", "2", "--seed", "7", "--json", str(report)]) == 0
+    by_cli = json.loads(report.read_text())["episodes"]
+    env = policy.wrap(build_env("sim2real/RandomMap-v0", {}))
+    by_hand = evaluate_controller(env, policy.controller(), episodes=2, seed=7).per_episode
+    assert [e["success"] for e in by_cli] == [e["success"] for e in by_hand]
+    assert [e["return"] for e in by_cli] == pytest.approx([e["return"] for e in by_hand])
+
+
 def test_dqn_gets_an_action_grid_and_evaluates(tmp_path: Path) -> None:
     cfg = _config(
         tmp_path,
