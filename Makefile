@@ -5,11 +5,14 @@ BIN    := $(VENV)/bin
 STAMP_RUN := $(VENV)/.installed-run
 STAMP_DEV := $(VENV)/.installed-dev
 STAMP_TRAIN := $(VENV)/.installed-train
+# RLlib (ray[rllib] 2.60) pins gymnasium==1.2.2, the main venv has gymnasium 1.4: its own venv
+VENV_RLLIB := .venv-rllib
+STAMP_RLLIB := $(VENV_RLLIB)/.installed-rllib
 # CPU torch first: this exact release is a ~190 MB CPU wheel; a bare `torch` requirement would
 # pull a multi-GB CUDA build. Override e.g. TORCH='torch==2.9.1' on another platform.
 TORCH ?= torch==2.13.0
 
-.PHONY: demo test lint venv dev bench clean data train-extra test-train
+.PHONY: demo test lint venv dev bench clean data train-extra rllib-extra test-train
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -28,10 +31,19 @@ $(STAMP_TRAIN): pyproject.toml $(STAMP_DEV)
 	$(BIN)/python -m pip install -q -e '.[dev,train,cluster]'
 	touch $@
 
+$(STAMP_RLLIB): pyproject.toml
+	$(PYTHON) -m venv $(VENV_RLLIB)
+	$(VENV_RLLIB)/bin/python -m pip install -q --upgrade pip
+	$(VENV_RLLIB)/bin/python -m pip install -q '$(TORCH)'
+	$(VENV_RLLIB)/bin/python -m pip install -q -e '.[dev,train,rllib]'
+	touch $@
+
 venv: $(STAMP_RUN)
 dev: $(STAMP_DEV)
 ## make train-extra: install the [train] and [cluster] extras (CPU torch, SB3, TensorBoard, Ray)
 train-extra: $(STAMP_TRAIN)
+## make rllib-extra: a second venv (.venv-rllib) with ray[rllib], which pins gymnasium 1.2.2
+rllib-extra: $(STAMP_RLLIB)
 
 ## make demo: the README tour on the bundled logs (fit, calibrate the band, agreement + coverage on a third session); writes sim2real-demo/report.html
 demo: $(STAMP_RUN)
@@ -47,9 +59,11 @@ lint: $(STAMP_DEV)
 test: lint
 	$(BIN)/python -m pytest -q
 
-## make test-train: install the [train]/[cluster] extras, then run the tests that need them
-test-train: $(STAMP_TRAIN)
+## make test-train: install the [train]/[cluster] extras (and .venv-rllib), then run the tests
+## that need them; the RLlib tests run in .venv-rllib (gymnasium 1.2.2)
+test-train: $(STAMP_TRAIN) $(STAMP_RLLIB)
 	$(BIN)/python -m pytest -q -m "train or cluster"
+	$(VENV_RLLIB)/bin/python -m pytest -q tests/sim2real/train/test_train_rllib.py
 
 ## make bench: the performance targets (prints ratios measured in the same run) and writes the
 ## README's performance table from this run's headline figures; every bench runs even if one
@@ -73,4 +87,4 @@ data: $(STAMP_RUN)
 	$(BIN)/python -m sim2real._samples data
 
 clean:
-	rm -rf $(VENV) sim2real-demo build *.egg-info
+	rm -rf $(VENV) $(VENV_RLLIB) sim2real-demo build *.egg-info

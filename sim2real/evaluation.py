@@ -124,8 +124,12 @@ class LoadedPolicy:
         grid = self.metadata.get("discrete_actions")
         return dict(grid) if isinstance(grid, Mapping) else None
 
-    def controller(self) -> PolicyController:
-        """A :class:`PolicyController` of the model."""
+    def controller(self) -> Any:
+        """A :class:`PolicyController` of the model (an RLlib one for ``rllib-ppo``)."""
+        if self.algorithm == "rllib-ppo":
+            from sim2real._rllib import RLlibController
+
+            return RLlibController(self.model)
         return PolicyController(self.model)
 
     def wrap(self, env: Any) -> Any:
@@ -168,9 +172,19 @@ def load_policy(path: str | Path, *, algorithm: str | None = None) -> LoadedPoli
     >>> policy.algorithm  # doctest: +SKIP
     'PPO'
     """
-    from sim2real.train import ALGORITHMS, require_train_extra
+    from sim2real.train import ALGORITHMS, RLLIB_PPO, require_train_extra
 
     p = Path(path)
+    if p.is_dir() and (p / "sim2real.yaml").is_file():  # an rllib-ppo policy folder
+        from sim2real._rllib import load_rllib_policy
+
+        meta = dict(yaml.safe_load((p / "sim2real.yaml").read_text(encoding="utf-8")) or {})
+        if meta.get("algorithm") != RLLIB_PPO:
+            raise Sim2RealValueError(
+                f"policy folder '{p}' names algorithm {meta.get('algorithm')!r}; a folder policy "
+                f"must be {RLLIB_PPO}'s OUT/model (SB3 policies are model.zip files)"
+            )
+        return LoadedPolicy(model=load_rllib_policy(p), algorithm=RLLIB_PPO, metadata=meta, path=p)
     if not p.is_file():
         raise Sim2RealFileNotFoundError(
             f"policy '{p}' does not exist; give the model.zip that `sim2real train` wrote"

@@ -23,7 +23,7 @@ Config file (``format: sim2real.train/1``; relative paths are relative to the co
                                        # map_config: {...} (RandomMap MapConfig fields) and
                                        # params: RESULT.yaml (drive parameters) are understood
     randomizers: randommap_randomizers.yaml  # a randomizer config file, an inline one, or null
-    algorithm: PPO                     # PPO, SAC, TD3, DQN (stable-baselines3)
+    algorithm: PPO                     # PPO, SAC, TD3, DQN (stable-baselines3) or rllib-ppo
     policy: auto                       # MlpPolicy for Box observations, MultiInputPolicy for Dict
     hyperparameters: {n_steps: 256, batch_size: 64}   # SB3 constructor keyword arguments
     timesteps: 20000
@@ -35,6 +35,9 @@ Config file (``format: sim2real.train/1``; relative paths are relative to the co
     evaluation: {episodes: 10, seed: 10000, kwargs: {preset: TEST1}, randomize: false}
     discrete_actions: {v_mps: [0.0, 0.1, 0.21], w_radps: [-1.0, 0.0, 1.0]}  # for DQN
     normalize: {observations: true, actions: true, rewards: true}   # all false by default
+
+``algorithm: rllib-ppo`` trains with Ray RLlib's PPO instead (:mod:`sim2real._rllib`: the
+``rllib`` key names the Ray cluster and the env runners; the final policy is ``OUT/model/``).
 
 ``normalize``: ``observations`` and ``actions`` rescale Box spaces to [-1, 1] from their bounds
 (fixed, stateless wrappers outermost in the stack, recorded in ``model.zip`` so that
@@ -76,6 +79,7 @@ __all__ = [
     "ALGORITHMS",
     "CONFIG_FORMAT",
     "METADATA_ENTRY",
+    "RLLIB_PPO",
     "DiscreteActions",
     "TrainConfig",
     "TrainResult",
@@ -95,6 +99,8 @@ __all__ = [
 CONFIG_FORMAT = "sim2real.train/1"
 #: Algorithms by their config name (stable-baselines3 class names).
 ALGORITHMS = ("PPO", "SAC", "TD3", "DQN")
+#: RLlib's PPO (``ray[rllib]``; see :mod:`sim2real._rllib`).
+RLLIB_PPO = "rllib-ppo"
 #: Name of the metadata entry added to ``model.zip``.
 METADATA_ENTRY = "sim2real.yaml"
 _CONTINUOUS_ONLY = ("SAC", "TD3")
@@ -115,6 +121,7 @@ _KEYS = (
     "evaluation",
     "discrete_actions",
     "normalize",
+    "rllib",
 )
 _NORMALIZE = ("observations", "actions", "rewards")
 
@@ -159,6 +166,8 @@ class TrainConfig:
         ``{v_mps: [...], w_radps: [...]}`` grid for DQN on a Box action space.
     normalize : dict
         ``{observations: bool, actions: bool, rewards: bool}`` (see the module docstring).
+    rllib : dict
+        ``{address, num_env_runners, num_envs_per_env_runner}`` for ``algorithm: rllib-ppo``.
     source : str
         Where the config came from (for messages).
     """
@@ -181,6 +190,7 @@ class TrainConfig:
     eval_randomize: bool = False
     discrete_actions: dict[str, list[float]] | None = None
     normalize: dict[str, bool] = field(default_factory=lambda: dict.fromkeys(_NORMALIZE, False))
+    rllib: dict[str, Any] = field(default_factory=dict)
     source: str = "config"
 
     def to_dict(self) -> dict[str, Any]:
@@ -206,6 +216,7 @@ class TrainConfig:
             },
             "discrete_actions": self.discrete_actions,
             "normalize": dict(self.normalize),
+            **({"rllib": dict(self.rllib)} if self.algorithm == RLLIB_PPO else {}),
         }
 
 
@@ -320,12 +331,12 @@ def _mapping(value: Any, key: str, where: str) -> dict[str, Any]:
 
 
 def _algorithm(value: Any, where: str) -> str:
-    for name in ALGORITHMS:
+    for name in (*ALGORITHMS, RLLIB_PPO):
         if str(value).lower() == name.lower():
             return name
     raise Sim2RealValueError(
         f"{where}: key 'algorithm' is {value!r}, which is not supported; use one of "
-        f"{', '.join(ALGORITHMS)}"
+        f"{', '.join(ALGORITHMS)} (stable-baselines3) or {RLLIB_PPO} (Ray RLlib)"
     )
 
 
@@ -408,6 +419,12 @@ def _normalize(value: Any, where: str) -> dict[str, bool]:
     return {**out, **{str(k): bool(v) for k, v in value.items()}}
 
 
+def _rllib_options(value: Any, where: str) -> dict[str, Any]:
+    from sim2real._rllib import rllib_options
+
+    return rllib_options(value, where)
+
+
 def load_config(
     path: str | Path,
     *,
@@ -485,6 +502,7 @@ def config_from_dict(
         eval_randomize=bool(evaluation.get("randomize", False)),
         discrete_actions=_discrete(doc.get("discrete_actions"), where),
         normalize=_normalize(doc.get("normalize"), where),
+        rllib=_rllib_options(doc.get("rllib"), where),
         source=where,
     )
     if cfg.vec_env not in _VEC_ENVS:
@@ -866,6 +884,8 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
     >>> result.evaluation["success_rate"]  # doctest: +SKIP
     0.0
     """
+    if cfg.algorithm == RLLIB_PPO:
+        return _train_rllib(cfg)
     require_train_extra()
     import torch
     from stable_baselines3.common.callbacks import CheckpointCallback
@@ -924,7 +944,40 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
     )
 
 
-def final_evaluation(cfg: TrainConfig, model: Any) -> dict[str, Any]:
+def _train_rllib(cfg: TrainConfig) -> TrainResult:
+    """``algorithm: rllib-ppo``: RLlib's PPO on the same env construction (sim2real._rllib)."""
+    from sim2real._rllib import RLlibController, require_rllib, train_rllib
+
+    require_rllib()
+    if cfg.normalize.get("rewards"):
+        raise Sim2RealValueError(
+            f"{cfg.source}: normalize 'rewards' is SB3's VecNormalize and does not apply to "
+            f"{RLLIB_PPO}; set normalize.rewards: false"
+        )
+    probe = build_env(cfg.env_id, cfg.env_kwargs, randomizers=cfg.randomizers, where=cfg.source)
+    cfg = _check_action_space(replace(cfg, algorithm="PPO"), probe)
+    cfg = replace(cfg, algorithm=RLLIB_PPO)
+    cfg.out.mkdir(parents=True, exist_ok=True)
+    resolved = cfg.to_dict()
+    if cfg.randomizers is not None:
+        import randomizers as dr
+
+        resolved["randomizers"] = dr.to_config(probe)
+    probe.close()
+    _write_yaml(cfg.out / "config.yaml", resolved, "resolved config")
+    policy_dir, steps, train_s, module = train_rllib(cfg, cfg.rllib)
+    evaluation = final_evaluation(cfg, None, controller=RLlibController(module))
+    _write_yaml(cfg.out / "evaluation.yaml", evaluation, "evaluation file")
+    return TrainResult(
+        out=cfg.out,
+        model_path=policy_dir,
+        timesteps=steps,
+        train_time_s=train_s,
+        evaluation=evaluation,
+    )
+
+
+def final_evaluation(cfg: TrainConfig, model: Any, *, controller: Any = None) -> dict[str, Any]:
     """Seeded episodes of the trained policy (``evaluation`` keys of the config)."""
     from sim2real.evaluation import PolicyController, evaluate_controller
 
@@ -941,7 +994,10 @@ def final_evaluation(cfg: TrainConfig, model: Any) -> dict[str, Any]:
     )
     try:
         summary = evaluate_controller(
-            env, PolicyController(model), episodes=cfg.eval_episodes, seed=cfg.eval_seed
+            env,
+            PolicyController(model) if controller is None else controller,
+            episodes=cfg.eval_episodes,
+            seed=cfg.eval_seed,
         )
     finally:
         env.close()

@@ -15,6 +15,7 @@ _EXAMPLES = """\
   sim2real train examples/randommap_ppo.yaml --timesteps 2000    # a quick smoke run
   sim2real train examples/crowdnav_ppo.yaml --seed 3 --out runs/crowd_s3
   sim2real train examples/carcrossing_dqn.yaml
+  .venv-rllib/bin/sim2real train examples/randommap_rllib_ppo.yaml   # RLlib env runners
   sim2real envs eval RandomMap-v0 --policy runs/randommap_ppo/model.zip --episodes 20
   tensorboard --logdir runs/randommap_ppo/tensorboard
 """
@@ -25,14 +26,16 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = add_command(
         sub,
         "train",
-        help="train a policy (SB3 PPO/SAC/TD3/DQN) with a randomizer stack from one YAML file",
+        help="train a policy (SB3 PPO/SAC/TD3/DQN, RLlib PPO) with a randomizer stack from YAML",
         description=(
             "Read a training config (format sim2real.train/1: env id and options, randomizer "
             "stack, algorithm, timesteps, parallel envs, seed, output folder; see "
             "sim2real.train), train with stable-baselines3 and write OUT/config.yaml (resolved), "
             "OUT/model.zip, OUT/checkpoints/, OUT/tensorboard/ and OUT/evaluation.yaml (a "
             "short seeded evaluation). Needs the [train] extra: pip install torch==2.13.0 && "
-            "pip install -e '.[train]'."
+            "pip install -e '.[train]'. algorithm: rllib-ppo trains with Ray RLlib instead "
+            "(env runners on a Ray cluster; the policy is OUT/model/; needs ray[rllib], which "
+            "pins gymnasium 1.2.2: make rllib-extra)."
         ),
         examples=_EXAMPLES,
     )
@@ -53,10 +56,15 @@ def _fmt(value: object) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from sim2real.train import load_config, require_train_extra, train
+    from sim2real.train import RLLIB_PPO, load_config, require_train_extra, train
 
     cfg = load_config(args.config, timesteps=args.timesteps, seed=args.seed, out=args.out)
-    require_train_extra()
+    if cfg.algorithm == RLLIB_PPO:
+        from sim2real._rllib import require_rllib
+
+        require_rllib()
+    else:
+        require_train_extra()
     progress = sys.stderr.isatty() and not args.no_progress
     print(
         f"training {cfg.algorithm} on {cfg.env_id} for {cfg.timesteps} steps "
