@@ -138,12 +138,6 @@ def test_agree_on_ray_gives_the_serial_figures(fleet: Path, tmp_path: Path) -> N
     assert (tmp_path / "ray.json").read_bytes() == (tmp_path / "serial.json").read_bytes()
 
 
-def _neg_or_fail(x: int) -> int:
-    if x == 17:
-        raise Sim2RealValueError("item 17 is bad")
-    return -x
-
-
 @pytest.mark.cluster
 @pytest.mark.slow
 def test_map_tasks_on_ray_batches_keep_order_progress_and_errors() -> None:
@@ -151,14 +145,16 @@ def test_map_tasks_on_ray_batches_keep_order_progress_and_errors() -> None:
 
     ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR")
     try:
+        # a library function (workers import it by name): plain paths pass through, in order
         seen: list[int] = []
-        items = list(range(40))
-        assert map_tasks(_neg_or_fail, items[18:], address="auto", on_done=seen.append) == [
-            -x for x in items[18:]
-        ]
+        items = [[f"log_{i:02d}.mcap"] for i in range(22)]
+        got = map_tasks(expand_logs, items, address="auto", on_done=seen.append)
+        assert got == [[Path(x[0])] for x in items]
         assert seen == sorted(seen) and seen[-1] == 22 and len(seen) == len(guided_batches(22, 2))
-        with pytest.raises(Sim2RealValueError, match="item 17 is bad"):
-            map_tasks(_neg_or_fail, items, address="auto")
+        # a bad item's one-sentence error comes back as itself
+        items[17] = ["nothing_*.bag"]
+        with pytest.raises(Sim2RealFileNotFoundError, match=r"pattern 'nothing_\*.bag' matches"):
+            map_tasks(expand_logs, items, address="auto")
     finally:
         ray.shutdown()
 
