@@ -19,52 +19,53 @@ ROS 2 CDR like MCAP's. Both then go through the same decoders as MCAP messages.
 from __future__ import annotations
 
 import itertools
+import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
 from sim2real.errors import LogFormatError, Sim2RealFileNotFoundError
+from sim2real.logs._accum import DRIVE_TYPES, add_segment, times_only
 from sim2real.logs._cdr import gather
 from sim2real.logs._mcap import MAGIC, ChannelRecord, Container, SchemaRecord, Segment
 from sim2real.logs._schemas import (
-    JOINT_STATE,
-    ODOMETRY,
     SCHEMA_TEXT,
-    TWIST,
-    TWIST_STAMPED,
     normalize_type,
 )
 
 __all__ = ["DRIVE_TYPES", "LogSource", "open_log_source", "source_kind"]
 
-#: Message types a trace is built from; every other channel is only counted.
-DRIVE_TYPES = (TWIST, TWIST_STAMPED, ODOMETRY, JOINT_STATE)
 _ROS1_MAGIC = b"#ROSBAG V"
 
 
 @dataclass(frozen=True)
 class LogSource:
-    """A log picked by the factory: its kind, its bytes, the files its digest covers and how
-    to scan it."""
+    """A log picked by the factory: its kind, the files its digest covers and how to scan it."""
 
     kind: str  # "mcap", "ros1", "rosbag2" or "csv"
     path: Path
-    data: bytes
     #: The files whose concatenated bytes the log's SHA-256 covers (see open_log_source).
     digest_paths: tuple[Path, ...] = ()
 
-    def scan(self) -> Container:
-        """The log's container (channels, schemas, message segments, warnings)."""
+    def scan(self, *, times_only: bool = False) -> Container:
+        """The log's container: channels, schemas, warnings, and per channel the log times
+        and the messages decoded chunk by chunk (:func:`sim2real.logs._accum.add_segment`);
+        ``times_only`` keeps log times alone."""
+        container = Container(name=str(self.path), times_only=times_only)
         if self.kind == "mcap":
-            from sim2real.logs._mcap import scan_mcap
+            from sim2real.logs._mcap import stream_mcap
 
-            return scan_mcap(self.data, name=str(self.path))
+            with self.path.open("rb") as fh:
+                size = os.fstat(fh.fileno()).st_size
+                return stream_mcap(
+                    fh, size, name=str(self.path), sink=add_segment, container=container
+                )
         if self.kind == "ros1":
-            return _scan_ros1(self.path, self.data)
-        return _scan_rosbag2(self.path)
+            return _scan_ros1(self.path, container)
+        return _scan_rosbag2(self.path, container)
 
 
 def source_kind(path: Path) -> str:
@@ -93,14 +94,14 @@ def source_kind(path: Path) -> str:
 
 
 def open_log_source(path: Path) -> LogSource:
-    """The factory: pick the reader for ``path`` and load its bytes.
+    """The factory: pick the reader for ``path`` (nothing is read yet but its first bytes).
 
     For a rosbag2 folder the hashed bytes are its ``metadata.yaml`` followed by its storage
     files in name order.
     """
     kind = source_kind(path)
     if kind != "rosbag2":
-        return LogSource(kind=kind, path=path, data=path.read_bytes(), digest_paths=(path,))
+        return LogSource(kind=kind, path=path, digest_paths=(path,))
     meta = path / "metadata.yaml"
     if not meta.is_file():
         found = ", ".join(sorted(p.name for p in path.iterdir())[:5]) or "nothing"
@@ -110,8 +111,7 @@ def open_log_source(path: Path) -> LogSource:
             f"metadata with `ros2 bag reindex {path}`"
         )
     files = (meta, *(p for p in sorted(path.iterdir()) if p.suffix in (".db3", ".mcap")))
-    data = b"".join(p.read_bytes() for p in files)
-    return LogSource(kind=kind, path=path, data=data, digest_paths=files)
+    return LogSource(kind=kind, path=path, digest_paths=files)
 
 
 # ------------------------------------------------------------------------------- shared
@@ -120,8 +120,8 @@ def open_log_source(path: Path) -> LogSource:
 class _Table:
     """Channels (one per topic and type) and schemas being built for a container."""
 
-    def __init__(self) -> None:
-        self.container = Container()
+    def __init__(self, container: Container) -> None:
+        self.container = container
         self._ids: dict[tuple[str, str], int] = {}
 
     def channel(self, topic: str, type_name: str, encoding: str, msgdef: str) -> int:
@@ -148,16 +148,6 @@ def _segment(
     )
 
 
-def _times_only(entries: list[tuple[int, np.ndarray]]) -> Segment | None:
-    """A segment holding log times but no payloads (channels that are never decoded)."""
-    if not entries:
-        return None
-    cid = np.concatenate([np.full(t.size, c) for c, t in entries])
-    t = np.concatenate([t for _, t in entries])
-    zero = np.zeros(t.size, np.int64)
-    return _segment(b"", cid, t, zero, zero)
-
-
 def _note_unknown(container: Container, unknown: Iterable[tuple[str, str]]) -> None:
     items = sorted(set(unknown))
     if items:
@@ -177,12 +167,12 @@ def _known_type(type_name: str) -> bool:
 # ------------------------------------------------------------------------------- ROS 1 bag
 
 
-def _scan_ros1(path: Path, data: bytes) -> Container:
+def _scan_ros1(path: Path, container: Container) -> Container:
     from rosbags.rosbag1 import Reader, ReaderError
 
     try:
-        with Reader(path) as reader:
-            return _ros1_container(reader, data)
+        with Reader(path) as reader, path.open("rb") as fh:
+            return _ros1_container(reader, fh, container)
     except (ReaderError, KeyError, ValueError, OSError) as exc:
         raise LogFormatError(
             f"log file '{path}' is not a readable ROS 1 bag ({exc}); check that the "
@@ -190,8 +180,9 @@ def _scan_ros1(path: Path, data: bytes) -> Container:
         ) from None
 
 
-def _ros1_container(reader: Any, data: bytes) -> Container:
-    table = _Table()
+def _ros1_container(reader: Any, fh: BinaryIO, container: Container) -> Container:
+    """The bag's channels; the drive channels decoded one bag chunk at a time."""
+    table = _Table(container)
     by_chunk: dict[int, list[tuple[int, np.ndarray, np.ndarray]]] = {}
     others: list[tuple[int, np.ndarray]] = []
     unknown = []
@@ -211,11 +202,12 @@ def _ros1_container(reader: Any, data: bytes) -> Container:
             by_chunk.setdefault(pos, []).append((cid, sel[:, 0], sel[:, 2]))
     for pos, parts in by_chunk.items():
         chunk = reader.chunks[pos]
-        raw = chunk.decompressor(data[chunk.datapos : chunk.datapos + chunk.datasize])
-        table.container.segments.append(_ros1_segment(bytes(raw), parts))
-    extra = _times_only(others)
-    if extra is not None:
-        table.container.segments.append(extra)
+        fh.seek(chunk.datapos)
+        raw = chunk.decompressor(fh.read(chunk.datasize))
+        seg = _ros1_segment(bytes(raw), parts)
+        table.container.count += int(seg.channel_id.size)
+        add_segment(table.container, seg)
+    times_only(table.container, others)
     table.container.profile = "ros1"
     table.container.format = "ros1"
     table.container.library = "rosbags"
@@ -249,12 +241,12 @@ def _ros1_segment(buf: bytes, parts: list[tuple[int, np.ndarray, np.ndarray]]) -
 # ------------------------------------------------------------------------------- rosbag2
 
 
-def _scan_rosbag2(path: Path) -> Container:
+def _scan_rosbag2(path: Path, container: Container) -> Container:
     from rosbags.rosbag2 import Reader, ReaderError
 
     try:
         with Reader(path) as reader:
-            return _rosbag2_container(reader)
+            return _rosbag2_container(reader, container)
     except (ReaderError, KeyError, ValueError, OSError) as exc:
         raise LogFormatError(
             f"log folder '{path}' is not a readable rosbag2 bag ({exc}); check its "
@@ -262,8 +254,10 @@ def _scan_rosbag2(path: Path) -> Container:
         ) from None
 
 
-def _rosbag2_container(reader: Any) -> Container:
-    table = _Table()
+def _rosbag2_container(reader: Any, container: Container) -> Container:
+    """The bag's channels; the drive channels' messages decoded in batches of
+    :data:`_BATCH` messages, so memory follows the output rather than the bag."""
+    table = _Table(container)
     wanted, cids = [], {}
     others: dict[int, list[int]] = {}
     unknown = []
@@ -277,28 +271,38 @@ def _rosbag2_container(reader: Any) -> Container:
             others[cid] = []
             if not _known_type(type_name):
                 unknown.append((conn.topic, type_name))
-    bufs, cid_l, t_l, ln_l = [], [], [], []
+    batch: list[tuple[int, int, bytes]] = []
     for conn, t, raw in _messages(reader, wanted):
-        bufs.append(raw)
-        cid_l.append(cids[conn.id])
-        t_l.append(t)
-        ln_l.append(len(raw))
-    if bufs:
-        ln = np.array(ln_l, np.int64)
-        off = np.concatenate(([0], np.cumsum(ln)[:-1]))
-        seg = _segment(b"".join(bufs), np.array(cid_l), np.array(t_l, np.int64), off, ln)
-        table.container.segments.append(seg)
+        batch.append((cids[conn.id], t, raw))
+        if len(batch) >= _BATCH:
+            _add_batch(table.container, batch)
+            batch = []
+    _add_batch(table.container, batch)
     other_conns = [c for c in reader.connections if cids[c.id] in others]
     for conn, t, _ in _messages(reader, other_conns):
         others[cids[conn.id]].append(t)
-    extra = _times_only([(c, np.array(t, np.int64)) for c, t in others.items()])
-    if extra is not None:
-        table.container.segments.append(extra)
+    times_only(table.container, [(c, np.array(t, np.int64)) for c, t in others.items()])
     table.container.profile = "ros2"
     table.container.format = "rosbag2"
     table.container.library = "rosbags"
     _note_unknown(table.container, unknown)
     return table.container
+
+
+#: Messages of a rosbag2 bag decoded together.
+_BATCH = 4096
+
+
+def _add_batch(container: Container, batch: list[tuple[int, int, bytes]]) -> None:
+    if not batch:
+        return
+    ln = np.fromiter((len(raw) for _, _, raw in batch), np.int64, len(batch))
+    off = np.concatenate(([0], np.cumsum(ln)[:-1]))
+    cid = np.fromiter((c for c, _, _ in batch), np.int64, len(batch))
+    t = np.fromiter((t for _, t, _ in batch), np.int64, len(batch))
+    seg = _segment(b"".join(raw for _, _, raw in batch), cid, t, off, ln)
+    container.count += len(batch)
+    add_segment(container, seg)
 
 
 def _messages(reader: Any, conns: list[Any]) -> Iterator[tuple[Any, int, bytes]]:

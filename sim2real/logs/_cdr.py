@@ -32,6 +32,7 @@ __all__ = [
     "encode_twist_stamped",
     "gather",
     "is_little_endian",
+    "rows",
     "stamp_ns",
 ]
 
@@ -67,6 +68,51 @@ def gather(u8: np.ndarray, offsets: np.ndarray, dtype: str) -> np.ndarray:
     return np.ascontiguousarray(u8[idx]).view(dt).reshape(-1).astype(dt.newbyteorder("="))
 
 
+def rows(u8: np.ndarray, offsets: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """The ``dtype`` record (a structured, packed little-endian layout) at each byte offset.
+
+    One row copy of ``dtype.itemsize`` bytes per offset through a sliding window over ``u8``
+    (every offset must leave room for a whole record), instead of one gather per field.
+
+    Examples
+    --------
+    >>> u8 = np.frombuffer(np.array([1.5, 2.5, 3.5]).tobytes(), dtype=np.uint8)
+    >>> rows(u8, np.array([8, 0]), np.dtype([("a", "<f8"), ("b", "<f8")]))["b"]
+    array([3.5, 2.5])
+    """
+    size = dtype.itemsize
+    if offsets.size == 0 or u8.size < size:
+        return np.zeros(0, dtype=dtype)
+    window = np.lib.stride_tricks.as_strided(
+        u8,
+        shape=(u8.size - size + 1, size),
+        strides=(u8.strides[0], u8.strides[0]),
+        writeable=False,
+    )
+    return window[offsets].view(dtype).reshape(-1)
+
+
+def _f64(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+#: ``std_msgs/Header`` head: stamp (sec, nanosec) and the length of ``frame_id``.
+_HEADER_ROW = np.dtype([("sec", "<i4"), ("nanosec", "<u4"), ("frame_len", "<u4")])
+#: ``geometry_msgs/Twist``: linear xyz, angular xyz.
+_TWIST_ROW = np.dtype(
+    {"names": ["v", "w"], "formats": ["<f8", "<f8"], "offsets": [0, 40], "itemsize": 48}
+)
+#: ``nav_msgs/Odometry`` from ``pose.pose``: position, orientation, covariance, then twist.
+_ODOM_ROW = np.dtype(
+    {
+        "names": ["x", "y", "qx", "qy", "qz", "qw", "v", "w"],
+        "formats": ["<f8"] * 8,
+        "offsets": [0, 8, 24, 32, 40, 48, _POSE_COV_BYTES, _POSE_COV_BYTES + 40],
+        "itemsize": _POSE_COV_BYTES + _TWIST_BYTES,
+    }
+)
+
+
 def _need(ok: np.ndarray, reason: str) -> None:
     if not bool(np.all(ok)):
         raise CdrLayoutError(int(np.argmin(ok)), reason)
@@ -93,15 +139,17 @@ def decode_twist(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dict[str, n
     """``geometry_msgs/msg/Twist`` payloads -> ``v`` (linear.x, m/s), ``w`` (angular.z, rad/s)."""
     body = off + 4
     _need(ln - 4 >= _TWIST_BYTES, "is shorter than a Twist (48 bytes after the header)")
-    return {"v": gather(u8, body, "<f8"), "w": gather(u8, body + 40, "<f8")}
+    row = rows(u8, body, _TWIST_ROW)
+    return {"v": _f64(row["v"]), "w": _f64(row["w"])}
 
 
 def _header(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Stamp (ns) and the body-relative offset just past ``header.frame_id``."""
     body, size = off + 4, ln - 4
     _need(size >= 12, "is shorter than a std_msgs/Header")
-    stamp = stamp_ns(gather(u8, body, "<i4"), gather(u8, body + 4, "<u4"))
-    rel = 12 + gather(u8, body + 8, "<u4").astype(np.int64)
+    head = rows(u8, body, _HEADER_ROW)
+    stamp = stamp_ns(head["sec"], head["nanosec"])
+    rel = 12 + head["frame_len"].astype(np.int64)
     _need(rel <= size, "has a header.frame_id longer than the message")
     return stamp, rel
 
@@ -111,8 +159,8 @@ def decode_twist_stamped(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dic
     stamp, rel = _header(u8, off, ln)
     rel = _align(rel, 8)
     _need(rel + _TWIST_BYTES <= ln - 4, "is cut short inside its twist")
-    at = off + 4 + rel
-    return {"stamp_ns": stamp, "v": gather(u8, at, "<f8"), "w": gather(u8, at + 40, "<f8")}
+    row = rows(u8, off + 4 + rel, _TWIST_ROW)
+    return {"stamp_ns": stamp, "v": _f64(row["v"]), "w": _f64(row["w"])}
 
 
 def decode_odometry(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dict[str, np.ndarray]:
@@ -127,13 +175,13 @@ def decode_odometry(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dict[str
     _need(rel + 4 <= size, "is cut short before child_frame_id")
     rel = rel + 4 + gather(u8, body + rel, "<u4").astype(np.int64)
     pose = _align(rel, 8)
-    twist = pose + _POSE_COV_BYTES
-    _need(twist + _TWIST_COV_BYTES <= size, "is cut short inside its pose or twist")
-    p, t = body + pose, body + twist
-    out = {"stamp_ns": stamp, "v": gather(u8, t, "<f8"), "w": gather(u8, t + 40, "<f8")}
-    for i, key in enumerate(("x", "y", "z", "qx", "qy", "qz", "qw")):
-        if key != "z":
-            out[key] = gather(u8, p + 8 * i, "<f8")
+    _need(
+        pose + _POSE_COV_BYTES + _TWIST_COV_BYTES <= size, "is cut short inside its pose or twist"
+    )
+    row = rows(u8, body + pose, _ODOM_ROW)
+    out = {"stamp_ns": stamp}
+    for key in ("v", "w", "x", "y", "qx", "qy", "qz", "qw"):
+        out[key] = _f64(row[key])
     return out
 
 

@@ -54,15 +54,11 @@ class Chan:
 
 def channel_table(container: Container) -> list[Chan]:
     """Every channel of the container with its type and sorted log times."""
-    times: dict[int, list[np.ndarray]] = {cid: [] for cid in container.channels}
-    for seg in container.segments:
-        for cid in np.unique(seg.channel_id):
-            if int(cid) in times:
-                times[int(cid)].append(seg.log_time_ns[seg.channel_id == cid])
     out = []
     for cid, rec in sorted(container.channels.items()):
         schema = container.schemas.get(rec.schema_id)
-        t = np.sort(np.concatenate(times[cid])) if times[cid] else np.zeros(0, np.int64)
+        parts = container.times.get(cid, [])
+        t = np.sort(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
         type_name = normalize_type(schema.name) if schema is not None else ""
         out.append(Chan(record=rec, schema=schema, type=type_name, log_time_ns=t))
     return out

@@ -20,6 +20,7 @@ import numpy as np
 
 from sim2real.errors import LogFormatError, LogValueError
 from sim2real.logs import _cdr
+from sim2real.logs._accum import BULK_CDR
 from sim2real.logs._channels import Chan
 from sim2real.logs._mcap import Container, Segment
 from sim2real.logs._ros1 import BULK_ROS1
@@ -27,11 +28,6 @@ from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED
 
 __all__ = ["decode_channel", "infer_json_type"]
 
-_BULK: dict[str, Callable[[np.ndarray, np.ndarray, np.ndarray], dict[str, np.ndarray]]] = {
-    TWIST: _cdr.decode_twist,
-    TWIST_STAMPED: _cdr.decode_twist_stamped,
-    ODOMETRY: _cdr.decode_odometry,
-}
 _POSE_KEYS = ("x", "y", "qx", "qy", "qz", "qw")
 
 
@@ -42,16 +38,27 @@ def decode_channel(
     name: str,
     type_name: str,
     wheel_joints: tuple[str, str] | None = None,
+    release: bool = False,
 ) -> dict[str, np.ndarray]:
-    """All messages of ``chan`` as arrays (in file order, not yet sorted)."""
+    """All messages of ``chan`` as arrays (in file order, not yet sorted).
+
+    The container's sink (:func:`sim2real.logs._accum.add_segment`) decoded the fixed-layout
+    types while the file streamed past; kept payloads are decoded here. ``release`` drops
+    the channel's parts from the container as they are joined (memory: one copy, not two).
+    """
+    cid = chan.record.id
+    if cid in container.failed:
+        raise LogFormatError(container.failed[cid])
+    items = container.parts.pop(cid, []) if release else container.parts.get(cid, [])
     parts: list[dict[str, np.ndarray]] = []
-    for seg in container.segments:
-        mask = seg.channel_id == chan.record.id
-        if not np.any(mask):
+    for item in items:
+        if isinstance(item, dict):
+            parts.append(item)
             continue
-        off, ln = seg.payload_off[mask], seg.payload_len[mask]
         try:
-            part = _decode_part(seg, off, ln, chan, type_name, wheel_joints)
+            part = _decode_part(
+                item, item.payload_off, item.payload_len, chan, type_name, wheel_joints
+            )
         except _cdr.CdrLayoutError as exc:
             raise LogFormatError(
                 f"message {exc.index} of topic '{chan.topic}' in log file '{name}' does not "
@@ -63,11 +70,22 @@ def decode_channel(
                 f"a message of topic '{chan.topic}' in log file '{name}' cannot be decoded as "
                 f"{type_name} ({exc}); the file is corrupt or its schema is wrong"
             ) from None
-        part["log_ns"] = seg.log_time_ns[mask]
+        part["log_ns"] = item.log_time_ns
         parts.append(part)
+    del items
+    return _joined(parts, release=release)
+
+
+def _joined(parts: list[dict[str, np.ndarray]], *, release: bool) -> dict[str, np.ndarray]:
+    """The parts joined field by field (``release``: each field's pieces dropped once joined)."""
     if not parts:
         return {"log_ns": np.zeros(0, np.int64)}
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    if len(parts) == 1:
+        return dict(parts[0])
+    out = {}
+    for key in list(parts[0]):
+        out[key] = np.concatenate([p.pop(key) if release else p[key] for p in parts])
+    return out
 
 
 class _BadMessage(Exception):
@@ -84,8 +102,8 @@ def _decode_part(
 ) -> dict[str, np.ndarray]:
     if chan.encoding == "cdr":
         u8 = seg.u8
-        if type_name in _BULK and _cdr.is_little_endian(u8, off, ln):
-            return _BULK[type_name](u8, off, ln)
+        if type_name in BULK_CDR and _cdr.is_little_endian(u8, off, ln):
+            return BULK_CDR[type_name](u8, off, ln)
         decode = _generic_cdr(chan)
     elif chan.encoding == "ros1":  # ROS 1 bags (sim2real.logs._bags)
         if type_name in BULK_ROS1:
@@ -98,7 +116,7 @@ def _decode_part(
     msgs = []
     for o, n in zip(off.tolist(), ln.tolist(), strict=True):
         try:
-            msgs.append(decode(seg.buf[o : o + n]))
+            msgs.append(decode(bytes(seg.buf[o : o + n])))
         except Exception as exc:  # third-party decoders raise many types on corrupt bytes
             raise _BadMessage(f"{type(exc).__name__}: {exc}") from None
     return _fields(msgs, type_name, wheel_joints, topic=chan.topic)

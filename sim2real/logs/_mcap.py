@@ -1,10 +1,15 @@
-"""Low-level MCAP container scan (private): records, chunks and message offsets.
+"""Low-level MCAP container scan (private): records, chunks and message offsets, streamed.
 
 The scan walks the records of the file itself (``opcode u8, length u64, body``, MCAP spec
-"Records") instead of going through :class:`mcap.reader.McapReader`, for two reasons: message
-records are located with one light loop per chunk and their fields gathered with numpy (no
-Python object per message), and every length is checked against the bytes that are really
-there, so a truncated or corrupt file gives a precise error instead of a short read.
+"Records") instead of going through :class:`mcap.reader.McapReader`, for three reasons:
+message records are located with one light loop per chunk and their fields gathered with
+numpy (no Python object per message); every length is checked against the bytes that are
+really there, so a truncated or corrupt file gives a precise error instead of a short read;
+and the file is *streamed*: :func:`stream_mcap` reads it record by record and holds one chunk
+at a time (mapped read-only when it is large, decompressed when it is compressed), hands the
+chunk's messages to a sink as a :class:`Segment` and drops it. The reader's sink
+(:func:`sim2real.logs._accum.add_segment`) decodes the wanted channels into small typed
+arrays right away, so memory follows the output and the largest chunk, not the file.
 
 Chunks are read through their ``MessageIndex`` records (written right after each chunk; they
 list every message's offset in the decompressed chunk) when these check out: every listed
@@ -14,25 +19,39 @@ result is exactly what a full walk gives, without a Python step per message. A c
 index is missing, partial or wrong is walked record by record as before.
 
 Integrity: chunk CRCs (``uncompressed_crc``) and the data-section CRC (``DataEnd``) are checked
-when the writer filled them in (non-zero). Without a data CRC the message count is checked
-against the ``Statistics`` record of the summary when there is one. A file with no CRC at all
-(what rosbags and several recorders write) is flagged (``Container.checksums`` is False, and
-``logs info`` says that corruption cannot be detected). A message whose channel id no Channel
-record defines is an error naming its byte offset (it used to be dropped silently).
+when the writer filled them in (non-zero); the data CRC runs over the bytes as they stream past
+(the footer says up front whether there is one). Without a data CRC the message count is
+checked against the ``Statistics`` record of the summary when there is one. A file with no
+CRC at all (what rosbags and several recorders write) is flagged (``Container.checksums`` is
+False, and ``logs info`` says that corruption cannot be detected). A message whose channel id
+no Channel record defines is an error naming its byte offset (it used to be dropped silently).
 """
 
 from __future__ import annotations
 
+import io
+import mmap
 import struct
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import BinaryIO
 
 import numpy as np
 
 from sim2real.errors import LogFormatError
 from sim2real.logs._cdr import gather
 
-__all__ = ["MAGIC", "ChannelRecord", "Container", "SchemaRecord", "Segment", "scan_mcap"]
+__all__ = [
+    "MAGIC",
+    "ChannelRecord",
+    "Container",
+    "SchemaRecord",
+    "Segment",
+    "Sink",
+    "scan_mcap",
+    "stream_mcap",
+]
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -40,6 +59,8 @@ _HEADER, _FOOTER, _SCHEMA, _CHANNEL, _MESSAGE, _CHUNK = 0x01, 0x02, 0x03, 0x04, 
 _MESSAGE_INDEX, _STATISTICS, _DATA_END = 0x07, 0x0B, 0x0F
 _MESSAGE_FIXED = 22  # channel_id u16, sequence u32, log_time u64, publish_time u64
 _OP_LEN = struct.Struct("<BQ")
+#: A record buffer: bytes read from the file, or a read-only mapping of it (``mmap``).
+Buf = bytes | memoryview
 
 
 @dataclass(frozen=True)
@@ -70,7 +91,7 @@ class Segment:
     ``payload_off`` and ``payload_len`` locate each message's payload inside ``buf``.
     """
 
-    buf: bytes
+    buf: Buf
     channel_id: np.ndarray
     log_time_ns: np.ndarray
     payload_off: np.ndarray
@@ -96,10 +117,24 @@ class Container:
     checksums: bool = False
     #: The container format: "mcap", "ros1" (ROS 1 bag) or "rosbag2".
     format: str = "mcap"
+    #: Message records found (with or without kept segments).
+    count: int = 0
+    #: Per channel id: its log-time arrays, one per segment (filled by a sink).
+    times: dict[int, list[np.ndarray]] = field(default_factory=dict)
+    #: Per channel id: its decoded parts (dicts of arrays) or kept payload segments, in order.
+    parts: dict[int, list[dict[str, np.ndarray] | Segment]] = field(default_factory=dict)
+    #: Per channel id: why its messages cannot be decoded (raised when it is asked for).
+    failed: dict[int, str] = field(default_factory=dict)
+    #: Per channel id: how a sink keeps its messages (sink's own cache).
+    plans: dict[int, str] = field(default_factory=dict)
+    #: The log's name for messages (set by the reader).
+    name: str = ""
+    #: True: a sink keeps log times only (``logs info``), no payload is decoded.
+    times_only: bool = False
 
     def message_count(self) -> int:
         """Total number of message records found."""
-        return int(sum(s.channel_id.size for s in self.segments))
+        return self.count
 
 
 class _Corrupt(Exception):
@@ -109,13 +144,13 @@ class _Corrupt(Exception):
 class _Cursor:
     """Bounded little-endian reader over ``buf[pos:end]``; overruns raise ``_Corrupt``."""
 
-    def __init__(self, buf: bytes, pos: int, end: int) -> None:
+    def __init__(self, buf: Buf, pos: int, end: int) -> None:
         self.buf, self.pos, self.end = buf, pos, end
 
     def take(self, n: int) -> bytes:
         if n < 0 or self.pos + n > self.end:
             raise _Corrupt(f"a field of {n} bytes runs past its record end")
-        out = self.buf[self.pos : self.pos + n]
+        out = bytes(self.buf[self.pos : self.pos + n])
         self.pos += n
         return out
 
@@ -136,19 +171,19 @@ class _Cursor:
             raise _Corrupt("a string field is not valid UTF-8") from exc
 
 
-def _schema(buf: bytes, pos: int, end: int) -> SchemaRecord:
+def _schema(buf: Buf, pos: int, end: int) -> SchemaRecord:
     c = _Cursor(buf, pos, end)
     sid, name, enc = c.u16(), c.string(), c.string()
     return SchemaRecord(id=sid, name=name, encoding=enc, data=c.take(c.u32()))
 
 
-def _channel(buf: bytes, pos: int, end: int) -> ChannelRecord:
+def _channel(buf: Buf, pos: int, end: int) -> ChannelRecord:
     c = _Cursor(buf, pos, end)
     cid, sid, topic, enc = c.u16(), c.u16(), c.string(), c.string()
     return ChannelRecord(id=cid, schema_id=sid, topic=topic, message_encoding=enc)
 
 
-def _decompress(compression: str, data: bytes, size: int) -> bytes:
+def _decompress(compression: str, data: Buf, size: int) -> bytes:
     try:
         if compression == "zstd":
             import zstandard
@@ -163,7 +198,7 @@ def _decompress(compression: str, data: bytes, size: int) -> bytes:
     raise _Corrupt(f"it uses compression '{compression}', which is not zstd, lz4 or none")
 
 
-def _chunk_records(buf: bytes, pos: int, end: int) -> tuple[bytes, int, int, bool]:
+def _chunk_records(buf: Buf, pos: int, end: int) -> tuple[Buf, int, int, bool]:
     """The records of the Chunk record ``buf[pos:end]`` as ``(records_buf, lo, hi, has_crc)``.
 
     Uncompressed records stay where they are in ``buf`` (no copy); compressed ones are
@@ -189,7 +224,7 @@ def _chunk_records(buf: bytes, pos: int, end: int) -> tuple[bytes, int, int, boo
     return data, lo, hi, crc != 0
 
 
-def _segment(buf: bytes, starts: list[int]) -> Segment:
+def _segment(buf: Buf, starts: list[int]) -> Segment:
     """Gather the fixed message fields of the message records starting at ``starts``."""
     u8 = np.frombuffer(buf, dtype=np.uint8)
     pos = np.asarray(starts, dtype=np.int64)
@@ -206,7 +241,7 @@ def _segment(buf: bytes, starts: list[int]) -> Segment:
     )
 
 
-def _scan_chunk(buf: bytes, lo: int, hi: int, out: Container) -> None:
+def _scan_chunk(buf: Buf, lo: int, hi: int, out: Container) -> None:
     """Walk the records of one chunk, ``buf[lo:hi]``, one by one.
 
     The hot loop only records where message records start; a record running past the chunk
@@ -246,7 +281,7 @@ def _index_offsets(data: bytes, pos: int, end: int) -> np.ndarray | None:
 
 
 def _scan_chunk_indexed(
-    buf: bytes, lo: int, hi: int, offsets: list[np.ndarray], out: Container
+    buf: Buf, lo: int, hi: int, offsets: list[np.ndarray], out: Container
 ) -> bool:
     """Read one chunk, ``buf[lo:hi]``, through its message index; False if that does not check out.
 
@@ -302,7 +337,7 @@ _FIXED_HEAD = np.dtype(
 )
 
 
-def _fixed_fields(buf: bytes, starts: np.ndarray) -> np.ndarray:
+def _fixed_fields(buf: Buf, starts: np.ndarray) -> np.ndarray:
     """The :data:`_FIXED_HEAD` fields of the records at ``starts`` (each needs 23 bytes in buf).
 
     One row copy per record through a sliding window of the buffer, instead of one gather
@@ -316,7 +351,7 @@ def _fixed_fields(buf: bytes, starts: np.ndarray) -> np.ndarray:
     return window[starts].view(_FIXED_HEAD).reshape(-1)
 
 
-def _walk_gap(buf: bytes, pos: int, end: int, meta: list[tuple[int, int]]) -> bool:
+def _walk_gap(buf: Buf, pos: int, end: int, meta: list[tuple[int, int]]) -> bool:
     """Walk the records of ``buf[pos:end]``; False on a message or when they do not fit."""
     while pos < end:
         if pos + 9 > end:
@@ -330,7 +365,7 @@ def _walk_gap(buf: bytes, pos: int, end: int, meta: list[tuple[int, int]]) -> bo
     return pos == end
 
 
-def _chunk_meta(buf: bytes, op: int, pos: int, hi: int, out: Container) -> None:
+def _chunk_meta(buf: Buf, op: int, pos: int, hi: int, out: Container) -> None:
     end = pos + 9 + _OP_LEN.unpack_from(buf, pos)[1]
     if end > hi:
         raise _Corrupt("a record inside it runs past the chunk end")
@@ -354,111 +389,325 @@ def _add_channel(out: Container, rec: ChannelRecord) -> None:
     out.channels[rec.id] = rec
 
 
-def scan_mcap(data: bytes, *, name: str) -> Container:
-    """Scan the bytes of an MCAP file; raise :class:`LogFormatError` when they are not safe.
+#: Receives each segment of a streamed scan (after its channel ids are checked).
+Sink = Callable[[Container, Segment], None]
+_BLOCK = 1 << 20
+#: Messages outside chunks are batched into segments of about this many bytes.
+_LOOSE_BATCH = 1 << 20
 
-    A file cut short (a recorder killed mid-write) keeps every complete record before the cut,
-    with a warning; any other broken record makes the whole file unusable.
+
+def scan_mcap(data: bytes, *, name: str) -> Container:
+    """Scan the bytes of an MCAP file held in memory, keeping every segment in
+    ``Container.segments`` (tools and tests; :func:`stream_mcap` is what reading uses)."""
+    return stream_mcap(io.BytesIO(data), len(data), name=name)
+
+
+def stream_mcap(
+    fh: BinaryIO,
+    size: int,
+    *,
+    name: str,
+    sink: Sink | None = None,
+    container: Container | None = None,
+) -> Container:
+    """Scan an MCAP file record by record from ``fh`` (``size`` bytes); raise
+    :class:`LogFormatError` when it is not safe.
+
+    Only one chunk is held at a time: it is read, decompressed, CRC-checked, its message
+    records located (through its MessageIndex records when they check out), and each
+    resulting :class:`Segment` is handed to ``sink`` and dropped. Without a sink the segments
+    are kept in ``Container.segments``. A file cut short (a recorder killed mid-write) keeps
+    every complete record before the cut, with a warning; any other broken record makes the
+    whole file unusable.
     """
-    if len(data) == 0:
+    out = container if container is not None else Container(name=name)
+    head = fh.read(len(MAGIC))
+    if size == 0:
         raise LogFormatError(
             f"log file '{name}' is empty (0 bytes); record a log or pick another file"
         )
-    if data[: len(MAGIC)] != MAGIC:
+    if head != MAGIC:
         raise LogFormatError(
-            f"log file '{name}' is not an MCAP file (its first bytes are {data[:8]!r}, an MCAP "
+            f"log file '{name}' is not an MCAP file (its first bytes are {head[:8]!r}, an MCAP "
             f"file starts with {MAGIC!r}); convert it with `ros2 bag convert` or "
             "`rosbags-convert --dst-storage mcap`"
         )
-    out, pos, n = Container(), len(MAGIC), len(data)
-    top_starts: list[int] = []
-    data_end: int | None = None
-    data_crc = 0
-    stats_count: int | None = None
-    pending: list[_Pending] = []
-    origins: list[_Origin] = []
-    chunk_crcs: list[bool] = []
-    while True:
-        if pos + 9 > n:
-            _truncated(out, name, pos, n, data_end)
-            break
-        op, length = _OP_LEN.unpack_from(data, pos)
-        end = pos + 9 + length
-        if end > n:
-            _truncated(out, name, pos, n, data_end)
-            break
+    scan = _Stream(fh, size, name, sink, out)
+    scan.run(head)
+    return scan.out
+
+
+def _peek_data_crc(fh: BinaryIO, size: int) -> int | None:
+    """The data-section CRC from the DataEnd record the footer leads to (None: not found)."""
+    tail_at = size - len(MAGIC) - 29
+    if tail_at < len(MAGIC):
+        return None
+    fh.seek(tail_at)
+    tail = fh.read(29)
+    op, length, start = struct.unpack_from("<BQQ", tail)
+    if op != _FOOTER or length != 20:
+        return None
+    end_at = (start if start else tail_at) - 13
+    if end_at < len(MAGIC):
+        return None
+    fh.seek(end_at)
+    op, length, crc = struct.unpack("<BQI", fh.read(13))
+    return int(crc) if (op, length) == (_DATA_END, 4) else None
+
+
+class _Stream:
+    """State of one streamed scan (see :func:`stream_mcap`)."""
+
+    def __init__(
+        self, fh: BinaryIO, size: int, name: str, sink: Sink | None, out: Container
+    ) -> None:
+        self.fh, self.size, self.name, self.sink = fh, size, name, sink
+        self.out = out
+        self.fileno = _fileno(fh)
+        self.known = np.zeros(1 << 16, dtype=bool)
+        self.n_known = 0
+        self.pending: list[_Pending] = []
+        self.loose: list[tuple[int, bytes]] = []  # (file offset, record) outside chunks
+        self.loose_bytes = 0
+        self.stray: list[tuple[Segment, _Origin, np.ndarray]] = []
+        self.chunk_crcs: list[bool] = []
+        self.data_end: int | None = None
+        self.data_crc = 0
+        self.stats_count: int | None = None
+        self.kept: list[Segment] = []
+
+    def run(self, head: bytes) -> None:
+        fh, n = self.fh, self.size
+        want_crc = _peek_data_crc(fh, n)
+        crc: int | None = zlib.crc32(head) if want_crc != 0 else None  # None: not computed
+        fh.seek(len(MAGIC))
+        pos = len(MAGIC)
+        while True:
+            if pos + 9 > n:
+                self._truncated(pos)
+                break
+            rec_head = fh.read(9)
+            op, length = _OP_LEN.unpack(rec_head)
+            end = pos + 9 + length
+            if end > n:
+                self._truncated(pos)
+                break
+            in_data = self.data_end is None
+            body: bytes | memoryview
+            if op in _SKIPPED and not (in_data and crc is not None):
+                fh.seek(end)
+                body = b""
+            elif op == _CHUNK and in_data and self.fileno is not None and length >= _MAP_MIN:
+                body = _mapped(self.fileno, pos + 9, length)  # no copy of the chunk
+                fh.seek(end)
+            else:
+                body = _read_exact(fh, length)
+            if in_data and crc is not None and op != _DATA_END:
+                crc = zlib.crc32(body, zlib.crc32(rec_head, crc))
+            try:
+                if in_data:
+                    self._data_record(op, pos, rec_head, body)
+                elif op == _STATISTICS:
+                    self.stats_count = _Cursor(body, 0, length).u64()
+            except _Corrupt as exc:
+                raise LogFormatError(
+                    f"log file '{self.name}' is corrupt: the record at byte {pos} is broken "
+                    f"({exc}); the file cannot be read safely, re-export or re-record it"
+                ) from None
+            if op == _DATA_END and in_data:
+                self.data_end = pos
+                self._check_data_crc(crc, pos)
+            if op == _FOOTER:
+                break
+            pos = end
+        self._flush_chunks()
+        self._flush_loose()
+        self._finish()
+
+    def _data_record(self, op: int, pos: int, rec_head: bytes, body: Buf) -> None:
+        if op == _MESSAGE_INDEX:
+            _add_index(self.pending, rec_head + body, 0, 9 + len(body))
+            return
+        self._flush_chunks()
+        if op == _MESSAGE:
+            self.loose.append((pos, rec_head + body))
+            self.loose_bytes += 9 + len(body)
+            if self.loose_bytes >= _LOOSE_BATCH:
+                self._flush_loose()
+            return
+        if op == _CHUNK:
+            self._flush_loose()  # keep the file order of the messages
+            buf, lo, hi, has_crc = _chunk_records(body, 0, len(body))
+            self.pending.append(_Pending(pos, buf, lo, hi, has_crc=has_crc, in_place=buf is body))
+        elif op == _SCHEMA:
+            _add_schema(self.out, _schema(body, 0, len(body)))
+        elif op == _CHANNEL:
+            _add_channel(self.out, _channel(body, 0, len(body)))
+        elif op == _HEADER:
+            c = _Cursor(body, 0, len(body))
+            self.out.profile, self.out.library = c.string(), c.string()
+        elif op == _DATA_END:
+            self.data_crc = _Cursor(body, 0, len(body)).u32()
+
+    def _check_data_crc(self, crc: int | None, pos: int) -> None:
+        if self.data_crc == 0:
+            return
+        if crc is None:  # the footer did not lead to this DataEnd: hash the section now
+            crc = _crc_range(self.fh, 0, pos)
+            self.fh.seek(pos + 13)
+        if crc != self.data_crc:
+            raise LogFormatError(
+                f"log file '{self.name}' is corrupt: its data section does not match its "
+                "CRC; the file cannot be read safely, re-export or re-record it"
+            )
+
+    def _flush_chunks(self) -> None:
+        """Scan the pending chunk (its MessageIndex records are complete) and emit it."""
+        for chunk in self.pending:
+            self.chunk_crcs.append(chunk.has_crc)
+            try:
+                if not (chunk.usable and chunk.offsets) or not _scan_chunk_indexed(
+                    chunk.buf, chunk.lo, chunk.hi, chunk.offsets, self.out
+                ):
+                    _scan_chunk(chunk.buf, chunk.lo, chunk.hi, self.out)
+            except _Corrupt as exc:
+                raise LogFormatError(
+                    f"log file '{self.name}' is corrupt: the record at byte {chunk.pos} is "
+                    f"broken ({exc}); the file cannot be read safely, re-export or re-record it"
+                ) from None
+            # records of an in-place chunk are file bytes from pos + 9 on (the record body)
+            origin = _Origin(chunk.pos, chunk.lo, chunk.pos + 9 if chunk.in_place else -1)
+            self._emit(origin)
+        self.pending.clear()
+
+    def _flush_loose(self) -> None:
+        if not self.loose:
+            return
+        buf = b"".join(rec for _, rec in self.loose)
+        lens = np.fromiter((len(rec) for _, rec in self.loose), np.int64, len(self.loose))
+        starts = np.concatenate(([0], np.cumsum(lens)[:-1]))
+        files = np.fromiter((p for p, _ in self.loose), np.int64, len(self.loose))
+        self.loose, self.loose_bytes = [], 0
         try:
-            if data_end is None and op == _MESSAGE_INDEX:
-                _add_index(pending, data, pos, end)
-            elif data_end is None:
-                _flush(pending, out, name, origins, chunk_crcs)
-                data_crc = _data_record(data, op, pos, end, out, top_starts, pending)
-            elif op == _STATISTICS:
-                stats_count = _Cursor(data, pos + 9, end).u64()
+            self.out.segments.append(_segment(buf, starts.tolist()))
         except _Corrupt as exc:
             raise LogFormatError(
-                f"log file '{name}' is corrupt: the record at byte {pos} is broken ({exc}); "
-                "the file cannot be read safely, re-export or re-record it"
+                f"log file '{self.name}' is corrupt ({exc}); re-export it"
             ) from None
-        if op == _DATA_END and data_end is None:
-            data_end = pos
-            if data_crc != 0 and zlib.crc32(memoryview(data)[:pos]) != data_crc:
+        self._emit(_Origin(-1, 0, -1, starts=starts, files=files))
+
+    def _emit(self, origin: _Origin) -> None:
+        """Check the staged segments' channel ids and hand them on (or keep them)."""
+        staged, self.out.segments = self.out.segments, []
+        for seg in staged:
+            if len(self.out.channels) != self.n_known:  # a table of the defined channel ids
+                self.known[list(self.out.channels)] = True
+                self.n_known = len(self.out.channels)
+            bad = ~self.known[seg.channel_id]  # ids are u16: always inside the table
+            if bad.any():  # defined later in the file, or never (an error at the end)
+                self.stray.append((_pick(seg, bad), origin, seg.payload_off[bad]))
+                seg = _pick(seg, ~bad)
+            self._deliver(seg)
+
+    def _deliver(self, seg: Segment) -> None:
+        self.out.count += int(seg.channel_id.size)
+        if self.sink is None:
+            self.kept.append(seg)
+        elif seg.channel_id.size:
+            self.sink(self.out, seg)
+
+    def _finish(self) -> None:
+        out = self.out
+        known = np.fromiter(out.channels, np.int64, len(out.channels))
+        for seg, origin, offs in self.stray:
+            bad = np.flatnonzero(~np.isin(seg.channel_id, known))
+            if bad.size:
+                i = int(bad[0])
                 raise LogFormatError(
-                    f"log file '{name}' is corrupt: its data section does not match its CRC; "
-                    "the file cannot be read safely, re-export or re-record it"
+                    f"log file '{self.name}' is corrupt: {origin.where(int(offs[i]))} names "
+                    f"channel id {int(seg.channel_id[i])}, which no Channel record defines "
+                    f"({bad.size} such message(s)); the file cannot be read safely, re-export "
+                    "or re-record it"
                 )
-        if op == _FOOTER:
-            break
-        pos = end
-    _flush(pending, out, name, origins, chunk_crcs)
-    if top_starts:
-        out.segments.append(_segment_safe(data, top_starts, name))
-        origins.append(_Origin(-1, 0, data))
-    _check_channel_ids(out, origins, data, name)
-    out.checksums = data_crc != 0 or (bool(chunk_crcs) and all(chunk_crcs))
-    if data_end is not None and data_crc == 0 and stats_count is not None:
-        found = out.message_count()
-        if found != stats_count:
+            self._deliver(seg)
+        out.segments = self.kept
+        out.checksums = self.data_crc != 0 or (bool(self.chunk_crcs) and all(self.chunk_crcs))
+        counted = self.data_end is not None and self.data_crc == 0
+        if counted and self.stats_count is not None and out.count != self.stats_count:
             raise LogFormatError(
-                f"log file '{name}' is corrupt: its summary counts {stats_count} messages but "
-                f"its data section holds {found}; re-export or re-record it"
+                f"log file '{self.name}' is corrupt: its summary counts "
+                f"{self.stats_count} messages but its data section holds {out.count}; "
+                "re-export or re-record it"
             )
-    out.segments = _merged(out.segments)
-    return out
+
+    def _truncated(self, pos: int) -> None:
+        name, n = self.name, self.size
+        if self.data_end is not None:
+            self.out.warnings.append(
+                f"log file '{name}' ends inside its summary section (byte {pos} of {n}); "
+                "every message was read, only the index is missing"
+            )
+            return
+        self.out.warnings.append(
+            f"log file '{name}' is truncated at byte {n} (the recording stopped mid-write); "
+            f"read the complete records before byte {pos} and dropped the rest"
+        )
 
 
-def _merged(segments: list[Segment]) -> list[Segment]:
-    """Join neighbouring segments over the same buffer (in-place chunks of one file), in order.
-
-    Fewer, longer segments keep the per-segment numpy work of the decoders small.
-    """
-    runs: list[list[Segment]] = []
-    for seg in segments:
-        if runs and runs[-1][0].buf is seg.buf:
-            runs[-1].append(seg)
-        else:
-            runs.append([seg])
-    return [run[0] if len(run) == 1 else _join(run) for run in runs]
+#: Records whose bodies the scan never looks at (read only to CRC the data section).
+_SKIPPED = frozenset({0x09, 0x0A, 0x0C, 0x0D, 0x0E, 0x08, 0x10})
 
 
-def _join(run: list[Segment]) -> Segment:
-    def cat(key: str) -> np.ndarray:
-        return np.concatenate([getattr(s, key) for s in run])
-
-    return Segment(
-        buf=run[0].buf,
-        channel_id=cat("channel_id"),
-        log_time_ns=cat("log_time_ns"),
-        payload_off=cat("payload_off"),
-        payload_len=cat("payload_len"),
-    )
+#: Chunk records at least this long are mapped (``mmap``) rather than read into a copy.
+_MAP_MIN = 1 << 16
 
 
-def _segment_safe(data: bytes, starts: list[int], name: str) -> Segment:
+def _fileno(fh: BinaryIO) -> int | None:
     try:
-        return _segment(data, starts)
-    except _Corrupt as exc:
-        raise LogFormatError(f"log file '{name}' is corrupt ({exc}); re-export it") from None
+        return fh.fileno()
+    except (OSError, AttributeError, io.UnsupportedOperation):
+        return None  # an in-memory file
+
+
+def _mapped(fileno: int, start: int, length: int) -> memoryview:
+    """File bytes ``[start, start + length)`` mapped read-only, without copying them.
+
+    The mapping lives as long as something refers to it (the chunk's segments), so a chunk's
+    pages leave memory with the chunk. Mapped page-cache pages cost no page-zeroing and no
+    copy, unlike a fresh buffer read per chunk.
+    """
+    base = start - start % mmap.ALLOCATIONGRANULARITY
+    mapping = mmap.mmap(fileno, start - base + length, offset=base, access=mmap.ACCESS_READ)
+    return memoryview(mapping)[start - base : start - base + length]
+
+
+def _read_exact(fh: BinaryIO, n: int) -> bytes:
+    data = fh.read(n)
+    if len(data) != n:
+        raise LogFormatError("the file became shorter while it was read")
+    return data
+
+
+def _crc_range(fh: BinaryIO, start: int, size: int) -> int:
+    fh.seek(start)
+    crc = 0
+    while size > 0:
+        block = fh.read(min(size, _BLOCK))
+        if not block:
+            break
+        crc = zlib.crc32(block, crc)
+        size -= len(block)
+    return crc
+
+
+def _pick(seg: Segment, mask: np.ndarray) -> Segment:
+    return Segment(
+        buf=seg.buf,
+        channel_id=seg.channel_id[mask],
+        log_time_ns=seg.log_time_ns[mask],
+        payload_off=seg.payload_off[mask],
+        payload_len=seg.payload_len[mask],
+    )
 
 
 @dataclass
@@ -466,12 +715,13 @@ class _Pending:
     """A decompressed chunk waiting for the MessageIndex records that follow it."""
 
     pos: int
-    buf: bytes
+    buf: Buf
     lo: int
     hi: int
     offsets: list[np.ndarray] = field(default_factory=list)
     usable: bool = True
     has_crc: bool = False
+    in_place: bool = False
 
 
 def _add_index(pending: list[_Pending], data: bytes, pos: int, end: int) -> None:
@@ -485,103 +735,30 @@ def _add_index(pending: list[_Pending], data: bytes, pos: int, end: int) -> None
         pending[-1].offsets.append(offsets)
 
 
-def _flush(
-    pending: list[_Pending], out: Container, name: str, origins: list[_Origin], crcs: list[bool]
-) -> None:
-    """Scan the pending chunks: through their index when it checks out, else record by record.
-
-    Each new segment's origin (the chunk's file offset) goes to ``origins``, each chunk's
-    CRC presence to ``crcs``.
-    """
-    for chunk in pending:
-        before = len(out.segments)
-        crcs.append(chunk.has_crc)
-        try:
-            if not (chunk.usable and chunk.offsets) or not _scan_chunk_indexed(
-                chunk.buf, chunk.lo, chunk.hi, chunk.offsets, out
-            ):
-                _scan_chunk(chunk.buf, chunk.lo, chunk.hi, out)
-        except _Corrupt as exc:
-            raise LogFormatError(
-                f"log file '{name}' is corrupt: the record at byte {chunk.pos} is broken ({exc}); "
-                "the file cannot be read safely, re-export or re-record it"
-            ) from None
-        origins.extend(_Origin(chunk.pos, chunk.lo, chunk.buf) for _ in out.segments[before:])
-    pending.clear()
-
-
 @dataclass(frozen=True)
 class _Origin:
-    """Where a segment's records are: in the chunk record at ``chunk_pos`` (``lo`` is where the
-    chunk's records start in ``buf``), or outside chunks (``chunk_pos`` -1, ``buf`` the file)."""
+    """Where a segment's records are in the file, to name a message's byte offset.
+
+    In a compressed chunk at ``chunk_pos`` (``lo``: where its records start in the buffer);
+    in an uncompressed chunk whose buffer starts at file byte ``file_base``; or outside
+    chunks (``chunk_pos`` -1), batched: record ``i`` starts at buffer offset ``starts[i]``
+    and file offset ``files[i]``.
+    """
 
     chunk_pos: int
     lo: int
-    buf: bytes
+    file_base: int
+    starts: np.ndarray | None = None
+    files: np.ndarray | None = None
 
-
-def _check_channel_ids(out: Container, origins: list[_Origin], data: bytes, name: str) -> None:
-    """Every message names a defined channel; else a LogFormatError naming its byte offset."""
-    known = np.fromiter(out.channels, dtype=np.int64, count=len(out.channels))
-    for seg, origin in zip(out.segments, origins, strict=True):
-        bad = np.flatnonzero(~np.isin(seg.channel_id, known))
-        if bad.size == 0:
-            continue
-        i = int(bad[0])
-        record = int(seg.payload_off[i]) - 9 - _MESSAGE_FIXED
-        if origin.buf is data:
-            where = f"the message record at byte {record}"
-        else:
-            where = (
-                f"the message record at byte {record - origin.lo} of the decompressed chunk "
-                f"at byte {origin.chunk_pos}"
-            )
-        raise LogFormatError(
-            f"log file '{name}' is corrupt: {where} names channel id {int(seg.channel_id[i])}, "
-            f"which no Channel record defines ({bad.size} such message(s)); the file cannot be "
-            "read safely, re-export or re-record it"
+    def where(self, payload_off: int) -> str:
+        record = payload_off - 9 - _MESSAGE_FIXED
+        if self.starts is not None and self.files is not None:
+            i = int(np.searchsorted(self.starts, record))
+            return f"the message record at byte {int(self.files[i])}"
+        if self.file_base >= 0:
+            return f"the message record at byte {self.file_base + record}"
+        return (
+            f"the message record at byte {record - self.lo} of the decompressed chunk "
+            f"at byte {self.chunk_pos}"
         )
-
-
-def _data_record(
-    data: bytes,
-    op: int,
-    pos: int,
-    end: int,
-    out: Container,
-    top_starts: list[int],
-    pending: list[_Pending],
-) -> int:
-    """Handle one record of the data section; return the data CRC when it is DataEnd.
-
-    A chunk is decompressed and checked now, and scanned by :func:`_flush` once the
-    MessageIndex records after it are known.
-    """
-    if op == _MESSAGE:
-        top_starts.append(pos)
-    elif op == _CHUNK:
-        buf, lo, hi, has_crc = _chunk_records(data, pos + 9, end)
-        pending.append(_Pending(pos, buf, lo, hi, has_crc=has_crc))
-    elif op == _SCHEMA:
-        _add_schema(out, _schema(data, pos + 9, end))
-    elif op == _CHANNEL:
-        _add_channel(out, _channel(data, pos + 9, end))
-    elif op == _HEADER:
-        c = _Cursor(data, pos + 9, end)
-        out.profile, out.library = c.string(), c.string()
-    elif op == _DATA_END:
-        return _Cursor(data, pos + 9, end).u32()
-    return 0
-
-
-def _truncated(out: Container, name: str, pos: int, n: int, data_end: int | None) -> None:
-    if data_end is not None:
-        out.warnings.append(
-            f"log file '{name}' ends inside its summary section (byte {pos} of {n}); "
-            "every message was read, only the index is missing"
-        )
-        return
-    out.warnings.append(
-        f"log file '{name}' is truncated at byte {n} (the recording stopped mid-write); "
-        f"read the complete records before byte {pos} and dropped the rest"
-    )

@@ -17,7 +17,7 @@ from sim2real.logs._bags import open_log_source, source_kind
 from sim2real.logs._channels import Chan, channel_table, choose_topic
 from sim2real.logs._decode import decode_channel, infer_json_type
 from sim2real.logs._digest import FileDigest
-from sim2real.logs._mcap import Container
+from sim2real.logs._mcap import Container, Segment
 from sim2real.logs._pose_velocity import velocities_from_pose
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY
 from sim2real.logs._timeline import (
@@ -53,8 +53,13 @@ class LoadedLog:
         return self.digest()
 
 
-def load_log(path: str | Path) -> LoadedLog:
-    """Read and scan a log: MCAP file, ROS 1 bag or rosbag2 folder (clear errors for bad ones)."""
+def load_log(path: str | Path, *, decode: bool = True) -> LoadedLog:
+    """Stream a log through its reader: MCAP file, ROS 1 bag or rosbag2 folder.
+
+    The messages of the channels a trace can use are decoded chunk by chunk as they stream
+    past (``decode=False``: only log times are kept, for ``logs info``). Bad files give one
+    clear error.
+    """
     p = Path(path)
     if not p.exists():
         raise Sim2RealFileNotFoundError(
@@ -67,7 +72,7 @@ def load_log(path: str | Path) -> LoadedLog:
             "read_trace (sysid fit, agree) instead"
         )
     digest = FileDigest(source.digest_paths, name=str(p))  # hashed only if someone asks
-    container = source.scan()
+    container = source.scan(times_only=not decode)
     if container.warnings and container.message_count() == 0:
         raise LogFormatError(
             f"{container.warnings[-1]}, and no complete message remains before the cut; "
@@ -77,7 +82,7 @@ def load_log(path: str | Path) -> LoadedLog:
     chans = [_with_json_type(c, container) for c in chans]
     return LoadedLog(
         name=str(p),
-        size_bytes=len(source.data),
+        size_bytes=sum(f.stat().st_size for f in source.digest_paths),
         digest=digest,
         container=container,
         chans=chans,
@@ -88,11 +93,10 @@ def _with_json_type(chan: Chan, container: Container) -> Chan:
     """Give schema-less JSON channels the type their first message's keys suggest."""
     if chan.type or chan.encoding != "json" or chan.count == 0:
         return chan
-    for seg in container.segments:
-        hit = np.flatnonzero(seg.channel_id == chan.record.id)
-        if hit.size:
-            o, n = int(seg.payload_off[hit[0]]), int(seg.payload_len[hit[0]])
-            guess = infer_json_type(seg.buf[o : o + n])
+    for seg in container.parts.get(chan.record.id, []):
+        if isinstance(seg, Segment) and seg.payload_off.size:
+            o, n = int(seg.payload_off[0]), int(seg.payload_len[0])
+            guess = infer_json_type(bytes(seg.buf[o : o + n]))
             return Chan(chan.record, chan.schema, guess, chan.log_time_ns)
     return chan
 
@@ -165,9 +169,14 @@ def read_trace(
             )
     if meas.type == JOINT_STATE:
         _check_wheels(wheel_radius_m, wheel_separation_m, meas.topic)
-    cmd_raw = decode_channel(log.container, cmd, name=log.name, type_name=cmd.type)
+    cmd_raw = decode_channel(log.container, cmd, name=log.name, type_name=cmd.type, release=True)
     meas_raw = decode_channel(
-        log.container, meas, name=log.name, type_name=meas.type, wheel_joints=wheel_joints
+        log.container,
+        meas,
+        name=log.name,
+        type_name=meas.type,
+        wheel_joints=wheel_joints,
+        release=True,
     )
     time_note = ""
     source = time_source

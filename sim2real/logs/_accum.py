@@ -1,0 +1,115 @@
+"""Decode a log's segments as they stream past, keeping only typed arrays (private).
+
+:func:`add_segment` is the sink of the streamed MCAP scan (:func:`sim2real.logs._mcap.stream_mcap`)
+and of the bag readers: for every segment (the messages of one chunk) it keeps each channel's
+log times, and for the channels a trace can be built from (Twist, TwistStamped, Odometry,
+JointState) it decodes the fixed-layout CDR/ROS 1 types at once into small arrays with the
+numpy bulk decoders; the chunk's bytes are then free to go. So memory follows the output,
+not the file. Payloads that need a generic decoder (JointState, big-endian CDR, JSON) are
+copied out compactly and decoded when the channel is asked for. A channel whose messages do
+not fit their layout records the error, raised only if that channel is read.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sim2real.logs import _cdr
+from sim2real.logs._mcap import Buf, Container, Segment
+from sim2real.logs._ros1 import BULK_ROS1
+from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED, normalize_type
+
+__all__ = ["BULK_CDR", "DRIVE_TYPES", "add_segment", "times_only"]
+
+#: Message types a trace is built from; other channels only keep their log times.
+DRIVE_TYPES = (TWIST, TWIST_STAMPED, ODOMETRY, JOINT_STATE)
+BULK_CDR = {
+    TWIST: _cdr.decode_twist,
+    TWIST_STAMPED: _cdr.decode_twist_stamped,
+    ODOMETRY: _cdr.decode_odometry,
+}
+
+
+def _plan(container: Container, cid: int) -> str:
+    """How the messages of channel ``cid`` are kept: "skip", "bulk" or "raw"."""
+    rec = container.channels[cid]
+    schema = container.schemas.get(rec.schema_id)
+    type_name = normalize_type(schema.name) if schema is not None else ""
+    enc = rec.message_encoding
+    if enc == "json" and not type_name:
+        return "raw"  # its type is guessed from a payload
+    if container.times_only or type_name not in DRIVE_TYPES:
+        return "skip"
+    if (enc == "cdr" and type_name in BULK_CDR) or (enc == "ros1" and type_name in BULK_ROS1):
+        return "bulk"
+    return "raw"
+
+
+def add_segment(container: Container, seg: Segment) -> None:
+    """Keep the log times of every message of ``seg`` and decode the wanted channels now."""
+    ids = seg.channel_id
+    if ids.size == 0:
+        return
+    uniq = np.flatnonzero(np.bincount(ids)).tolist()  # channel ids are u16
+    for cid in uniq:
+        mask = None if len(uniq) == 1 else ids == cid
+        times = seg.log_time_ns if mask is None else seg.log_time_ns[mask]
+        earlier = container.times.setdefault(cid, [])
+        before = sum(t.size for t in earlier)
+        earlier.append(times)
+        plan = container.plans.get(cid) or container.plans.setdefault(cid, _plan(container, cid))
+        if plan == "skip" or cid in container.failed:
+            continue
+        off = seg.payload_off if mask is None else seg.payload_off[mask]
+        ln = seg.payload_len if mask is None else seg.payload_len[mask]
+        part = _bulk(container, cid, seg, off, ln, before) if plan == "bulk" else None
+        if part is not None:
+            part["log_ns"] = times
+            container.parts.setdefault(cid, []).append(part)
+        elif cid not in container.failed:
+            container.parts.setdefault(cid, []).append(_compact(seg.buf, off, ln, times, cid))
+
+
+def _bulk(
+    container: Container, cid: int, seg: Segment, off: np.ndarray, ln: np.ndarray, before: int
+) -> dict[str, np.ndarray] | None:
+    """The bulk-decoded part, or None when it needs the generic decoder (big-endian CDR)."""
+    rec = container.channels[cid]
+    schema = container.schemas.get(rec.schema_id)
+    type_name = normalize_type(schema.name) if schema is not None else ""
+    u8 = seg.u8
+    try:
+        if rec.message_encoding == "ros1":
+            return BULK_ROS1[type_name](u8, off, ln)
+        if not _cdr.is_little_endian(u8, off, ln):
+            return None
+        return BULK_CDR[type_name](u8, off, ln)
+    except _cdr.CdrLayoutError as exc:
+        container.failed[cid] = (
+            f"message {before + exc.index} of topic '{rec.topic}' in log file "
+            f"'{container.name}' does not fit the {type_name} layout (it {exc.reason}); the "
+            "file is corrupt or its schema is wrong"
+        )
+        container.parts.pop(cid, None)
+        return None
+
+
+def _compact(buf: Buf, off: np.ndarray, ln: np.ndarray, times: np.ndarray, cid: int) -> Segment:
+    """The payloads at ``off``/``ln`` copied into one small buffer of their own."""
+    view = memoryview(buf)
+    data = b"".join(view[o : o + n] for o, n in zip(off.tolist(), ln.tolist(), strict=True))
+    new_off = np.concatenate(([0], np.cumsum(ln)[:-1])).astype(np.int64)
+    return Segment(
+        buf=data,
+        channel_id=np.full(ln.size, cid, dtype=np.int64),
+        log_time_ns=times,
+        payload_off=new_off,
+        payload_len=ln.astype(np.int64),
+    )
+
+
+def times_only(container: Container, entries: list[tuple[int, np.ndarray]]) -> None:
+    """Count messages known only by their log times (bag channels that are never decoded)."""
+    for cid, t in entries:
+        container.times.setdefault(cid, []).append(t.astype(np.int64))
+        container.count += int(t.size)
