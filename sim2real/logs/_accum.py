@@ -19,7 +19,7 @@ from sim2real.logs._mcap import Buf, Container, Segment
 from sim2real.logs._ros1 import BULK_ROS1
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED, normalize_type
 
-__all__ = ["BULK_CDR", "DRIVE_TYPES", "add_segment", "times_only"]
+__all__ = ["BULK_CDR", "DRIVE_TYPES", "add_segment", "times_only", "with_yaw"]
 
 #: Message types a trace is built from; other channels only keep their log times.
 DRIVE_TYPES = (TWIST, TWIST_STAMPED, ODOMETRY, JOINT_STATE)
@@ -64,6 +64,7 @@ def add_segment(container: Container, seg: Segment) -> None:
         ln = seg.payload_len if mask is None else seg.payload_len[mask]
         part = _bulk(container, cid, seg, off, ln, before) if plan == "bulk" else None
         if part is not None:
+            part = with_yaw(part)
             part["log_ns"] = times
             container.parts.setdefault(cid, []).append(part)
         elif cid not in container.failed:
@@ -92,6 +93,16 @@ def _bulk(
         )
         container.parts.pop(cid, None)
         return None
+
+
+def with_yaw(part: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """An Odometry part with its quaternion replaced by the yaw (rotation about z, ZYX
+    convention): one array kept per message instead of four."""
+    if "qw" not in part:
+        return part
+    qx, qy, qz, qw = (part.pop(k) for k in ("qx", "qy", "qz", "qw"))
+    part["yaw"] = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    return part
 
 
 def _compact(buf: Buf, off: np.ndarray, ln: np.ndarray, times: np.ndarray, cid: int) -> Segment:

@@ -6,7 +6,7 @@ mcap-ros2-support's generic decoder, and JSON messages through :func:`json.loads
 payloads (from ``.bag`` files) take the bulk decoders of :mod:`sim2real.logs._ros1` or
 rosbags' ROS 1 deserialiser. All paths
 return the same keys: ``log_ns``, ``v``, ``w``, plus ``stamp_ns`` for stamped types, pose
-fields ``x``, ``y``, ``qx``, ``qy``, ``qz``, ``qw`` for Odometry, and ``left``/``right`` wheel
+fields ``x``, ``y``, ``yaw`` for Odometry (the quaternion becomes the yaw per chunk), and ``left``/``right`` wheel
 speeds (rad/s) for JointState.
 """
 
@@ -20,7 +20,7 @@ import numpy as np
 
 from sim2real.errors import LogFormatError, LogValueError
 from sim2real.logs import _cdr
-from sim2real.logs._accum import BULK_CDR
+from sim2real.logs._accum import BULK_CDR, with_yaw
 from sim2real.logs._channels import Chan
 from sim2real.logs._mcap import Container, Segment
 from sim2real.logs._ros1 import BULK_ROS1
@@ -70,6 +70,7 @@ def decode_channel(
                 f"a message of topic '{chan.topic}' in log file '{name}' cannot be decoded as "
                 f"{type_name} ({exc}); the file is corrupt or its schema is wrong"
             ) from None
+        part = with_yaw(part)
         part["log_ns"] = item.log_time_ns
         parts.append(part)
     del items

@@ -448,7 +448,7 @@ def _peek_data_crc(fh: BinaryIO, size: int) -> int | None:
     if op != _FOOTER or length != 20:
         return None
     end_at = (start if start else tail_at) - 13
-    if end_at < len(MAGIC):
+    if not len(MAGIC) <= end_at <= tail_at - 13:
         return None
     fh.seek(end_at)
     op, length, crc = struct.unpack("<BQI", fh.read(13))

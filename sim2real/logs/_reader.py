@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -178,6 +178,11 @@ def read_trace(
         wheel_joints=wheel_joints,
         release=True,
     )
+    # from here on only the decoded arrays are needed: let the channel table and the log
+    # times of every channel go (memory follows the output)
+    name, digest = log.name, log.digest
+    cmd, meas = (replace(c, log_time_ns=c.log_time_ns[:0]) for c in (cmd, meas))
+    del log
     time_note = ""
     source = time_source
     if time_source == "auto":
@@ -188,15 +193,16 @@ def read_trace(
         _check_clocks(cmd_raw if cmd_src == "header" else meas_raw, cmd, meas, warnings)
     meas_cols = _meas_columns(meas_raw, meas.type, wheel_radius_m, wheel_separation_m)
     cmd_cols = {"v": cmd_raw["v"], "w": cmd_raw["w"]}
-    cmd_t, cmd_cols = _clean(cmd_t, cmd_cols, cmd.topic, warnings, name=log.name)
-    meas_t, meas_cols = _clean(meas_t, meas_cols, meas.topic, warnings, name=log.name)
+    del cmd_raw, meas_raw  # the columns keep what they need
+    cmd_t, cmd_cols = _clean(cmd_t, cmd_cols, cmd.topic, warnings, name=name)
+    meas_t, meas_cols = _clean(meas_t, meas_cols, meas.topic, warnings, name=name)
     meas_t, meas_cols = drop_outliers(meas_t, meas_cols, meas.topic, warnings)
     cmd_t, cmd_cols = _drop_far_commands(cmd_t, cmd_cols, meas_t, cmd.topic, warnings)
     _note_gaps(meas_t, meas.topic, warnings)
     meas_cols = velocities_from_pose(meas_t, meas_cols, meas.topic, warnings, mode=odom_velocity)
     meta = TraceMeta(
-        path=log.name,
-        sha256=log.digest,
+        path=name,
+        sha256=digest,
         cmd_topic=cmd.topic,
         cmd_type=cmd.type,
         meas_topic=meas.topic,
@@ -348,11 +354,8 @@ def _meas_columns(
             "w": r * (raw["right"] - raw["left"]) / b,
         }
     cols = {"v": raw["v"], "w": raw["w"]}
-    if type_name == ODOMETRY:
-        qx, qy, qz, qw = raw["qx"], raw["qy"], raw["qz"], raw["qw"]
-        cols["x"], cols["y"] = raw["x"], raw["y"]
-        # Yaw (rotation about z) of a unit quaternion, ZYX convention.
-        cols["yaw"] = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    if type_name == ODOMETRY:  # the decoder turned the quaternion into the yaw
+        cols["x"], cols["y"], cols["yaw"] = raw["x"], raw["y"], raw["yaw"]
     return cols
 
 

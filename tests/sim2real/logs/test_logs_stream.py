@@ -177,3 +177,47 @@ def test_a_channel_never_read_is_not_decoded_and_its_errors_do_not_matter(tmp_pa
     ]
     empty = decode_channel(log.container, log.chans[1], name="x", type_name=ODOMETRY)
     assert list(empty) == ["log_ns"] and empty["log_ns"].size == 0  # nothing was kept
+
+
+@pytest.mark.slow
+def test_decode_peak_of_an_odometry_heavy_log_follows_its_output(tmp_path):
+    """The reader's own stage (stream, decode the two channels, join): when the output is
+    most of the data (only odometry and commands), its peak stays within the bound too."""
+    from sim2real.logs import write_velocity_log
+    from sim2real.logs._reader import load_log
+
+    n = 60_000
+    rng = np.random.default_rng(3)
+    t = T0_NS + np.arange(n, dtype=np.int64) * 20_000_000
+    path = write_velocity_log(
+        tmp_path / "odom.mcap",
+        cmd_t_ns=t[::2] + 7,
+        cmd_v=rng.uniform(-0.2, 0.2, n // 2),
+        cmd_w=rng.uniform(-1, 1, n // 2),
+        meas_t_ns=t,
+        meas_v=rng.normal(0.1, 0.05, n),
+        meas_w=rng.normal(0, 0.3, n),
+    )
+    load_log(path)
+    tracemalloc.start()
+    try:
+        log = load_log(path)
+        raw = [
+            decode_channel(log.container, c, name="x", type_name=c.type, release=True)
+            for c in log.chans
+        ]
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    output = sum(a.nbytes for d in raw for a in d.values())
+    assert raw[1]["v"].size == n and set(raw[1]) == {
+        "log_ns",
+        "stamp_ns",
+        "v",
+        "w",
+        "x",
+        "y",
+        "yaw",
+    }
+    bound = 2 * (output + _largest_chunk_bytes(path))
+    assert peak <= bound, f"peak {peak / 2**20:.1f} MiB > bound {bound / 2**20:.1f} MiB"
