@@ -53,8 +53,9 @@ FloatArray = NDArray[np.float64]
 # Index of each entry of the packed parameter vector.
 SPEED_V, SPEED_W, ACC_V, ACC_W, WMAX, K, TMAX = 0, 1, 2, 3, 4, 5, 6
 CFWD, CBWD, CW, BV, BW, MASS, INERTIA, R, L = 7, 8, 9, 10, 11, 12, 13, 14, 15
+TRACK = 16  # skid steer: effective / geometric track (1 = differential drive)
 #: Length of the packed parameter vector.
-N_PACKED = 16
+N_PACKED = 17
 
 
 def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
@@ -76,6 +77,7 @@ def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
     p[INERTIA] = params.total_yaw_inertia_kgm2(geometry)
     p[R] = geometry.wheel_radius_m
     p[L] = geometry.wheel_separation_m
+    p[TRACK] = params.track_factor
     return p
 
 
@@ -105,8 +107,11 @@ def _coulomb_prox(
 def shape_command(
     u_v: float, u_w: float, ref_v: float, ref_w: float, dt: float, p: FloatArray
 ) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
-    """Clamp, rate-limit and cap command (u_v, u_w); returns (ref_v, ref_w, wr_ref, wl_ref)."""
-    r, half_l = p[R], 0.5 * p[L]
+    """Clamp, rate-limit and cap command (u_v, u_w); returns (ref_v, ref_w, wr_ref, wl_ref).
+
+    The wheel targets use the effective track (a skid steer's driver is calibrated with it).
+    """
+    r, half_l = p[R], 0.5 * (p[L] * p[TRACK])
     u_v = clip(u_v, p[SPEED_V])
     u_w = clip(u_w, p[SPEED_W])
     ref_v += clip(u_v - ref_v, p[ACC_V] * dt)
@@ -125,24 +130,29 @@ def shape_command(
 def wheel_loops(
     v: float, w: float, wr_ref: float, wl_ref: float, dt: float, p: FloatArray
 ) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
-    """Wheel loops and axis friction over one step; returns (v1, w1, torque_r, torque_l)."""
-    r, half_l = p[R], 0.5 * p[L]
+    r"""Wheel loops and axis friction over one step; returns (v1, w1, torque_r, torque_l).
+
+    Skid steer (``p[TRACK]`` = :math:`\chi > 1`): the wheel speeds follow the body through
+    the effective track :math:`\chi L` (the treads slip), while the wheel forces act at the
+    geometric half-track, so the yaw loop gain is :math:`K L \chi L / (2 r^2)`.
+    """
+    r, half_l, half_e = p[R], 0.5 * p[L], 0.5 * (p[L] * p[TRACK])
     m, inertia, k = p[MASS], p[INERTIA], p[K]
     ref_v = 0.5 * r * (wr_ref + wl_ref)
-    ref_w = r * (wr_ref - wl_ref) / p[L]
+    ref_w = r * (wr_ref - wl_ref) / (p[L] * p[TRACK])
     kv = 2.0 * k / (r * r)
-    kw = k * p[L] * p[L] / (2.0 * r * r)
+    kw = k * p[L] * (p[L] * p[TRACK]) / (2.0 * r * r)
     den_v = m + dt * (kv + p[BV])
     den_w = inertia + dt * (kw + p[BW])
     v_nc = (m * v + dt * kv * ref_v) / den_v
     w_nc = (inertia * w + dt * kw * ref_w) / den_w
     v1 = _coulomb_prox(v_nc, dt * p[CFWD] / den_v, dt * p[CBWD] / den_v)
     w1 = _coulomb_prox(w_nc, dt * p[CW] / den_w, dt * p[CW] / den_w)
-    tr = k * (wr_ref - (v1 + w1 * half_l) / r)
-    tl = k * (wl_ref - (v1 - w1 * half_l) / r)
+    tr = k * (wr_ref - (v1 + w1 * half_e) / r)
+    tl = k * (wl_ref - (v1 - w1 * half_e) / r)
     if max(abs(tr), abs(tl)) > p[TMAX]:
-        tr = clip(k * (wr_ref - (v + w * half_l) / r), p[TMAX])
-        tl = clip(k * (wl_ref - (v - w * half_l) / r), p[TMAX])
+        tr = clip(k * (wr_ref - (v + w * half_e) / r), p[TMAX])
+        tl = clip(k * (wl_ref - (v - w * half_e) / r), p[TMAX])
         force = (tr + tl) / r
         torque = (tr - tl) * half_l / r
         den_v = m + dt * p[BV]

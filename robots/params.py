@@ -152,6 +152,17 @@ class DriveParams:
         Viscous friction on the forward axis (N s/m) and about yaw (N m s/rad).
     added_mass_kg, added_yaw_inertia_kgm2 : float
         Payload beyond the spec (laptop, arm), kg and kg m^2; may be negative.
+    track_factor : float
+        Skid steer: effective track over the geometric one, :math:`\chi \ge 1` (1 = wheels
+        that roll without lateral slip, a differential drive). The wheels' speeds and the body
+        motion are linked through the effective track :math:`\chi L` (the instantaneous
+        centres of rotation of the treads lie outside the wheels: Mandow et al. 2007,
+        "Experimental kinematics for wheeled skid-steer mobile robots", IROS), so
+        :math:`\omega = r(\omega_r - \omega_l)/(\chi L)`; the driver computes its wheel
+        targets with the same effective track (ROS ``diff_drive_controller``'s
+        ``wheel_separation_multiplier``), and the wheel forces act at the geometric half-track.
+        The turning resistance of the treads' lateral scrub is the yaw Coulomb torque
+        ``coulomb_w_nm``.
     """
 
     delay_s: float = 0.0
@@ -170,6 +181,7 @@ class DriveParams:
     viscous_w_nms_per_rad: float = 0.0
     added_mass_kg: float = 0.0
     added_yaw_inertia_kgm2: float = 0.0
+    track_factor: float = 1.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -577,6 +589,19 @@ SCHEMA: dict[str, FieldSchema] = {
             prior_sd=_abs(0.4),
             session_sd=_abs(0.15),
             doc="payload yaw inertia beyond the spec",
+        ),
+        # Differential drive: 1 exactly (no prior spread). Skid steer: Mandow et al. 2007
+        # measured chi ~1.5-2 on their four-wheel base; Clearpath ships a separation
+        # multiplier of 1.875 for Husky and 1.5 for Jackal (robots/template.py's skid prior).
+        _field(
+            "track_factor",
+            "1",
+            "positive",
+            "log",
+            (1.0, 4.0),
+            prior_sd=_abs(0.0),
+            session_sd=_abs(0.0),
+            doc="skid steer: effective / geometric track (ICR spread; 1 = differential drive)",
         ),
     )
 }

@@ -12,7 +12,8 @@ Neato, Jackal, Husky; see ``/work/shared/robot-specs.md``):
 - wheel radius ``r = 0.2 b`` for wheel separation ``b`` (those bases span 0.12-0.30 b);
 - total mass ``m = 250 b^3`` kg (a base's volume grows with its size cubed; those bases sit
   within a factor 3 of it), clipped to 0.5-200 kg;
-- top speed 0.5 m/s, top yaw rate ``2 v_max / b`` (both wheels at the cap, opposite);
+- top speed 0.5 m/s, top yaw rate ``2 v_max / b`` (both wheels at the cap, opposite; over the
+  effective track ``1.6 b`` for a skid steer);
 - footprint radius ``0.7 b`` (at least ``b/2`` plus half a wheel width);
 - wheel speed loop time constant 0.1 s, traction ``mu = 0.5``, Coulomb friction 1 % of the
   weight, viscous drag 0.1 /s of the mass.
@@ -36,6 +37,7 @@ __all__ = ["DRIVES", "NewRobot", "spec_text"]
 #: ``--drive`` choices: differential drive, skid steer.
 DRIVES = ("diff", "skid")
 _G = 9.81
+_SKID_CHI = 1.6  # prior track factor of a skid steer (see _render)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -105,7 +107,8 @@ class NewRobot:
             wheel_radius_m=r,
             mass_kg=mass_kg or min(max(250.0 * b**3, 0.5), 200.0),
             max_speed_mps=v,
-            max_turn_rate_radps=max_turn_rate_radps or 2.0 * v / b,
+            max_turn_rate_radps=max_turn_rate_radps
+            or 2.0 * v / (b * (_SKID_CHI if drive == "skid" else 1.0)),
             footprint_radius_m=footprint_radius_m or max(0.7 * b, min_footprint),
             drive=drive,
             given=frozenset(k for k, val in facts.items() if val is not None),
@@ -154,6 +157,23 @@ def _render(robot: NewRobot) -> str:
     tau_max = 0.5 * m * _G / 2 * r
     given = robot.given
     skid = robot.drive == "skid"
+    # Skid steer (Mandow et al. 2007, "Experimental kinematics for wheeled skid-steer mobile
+    # robots": chi ~1.5-2 for their four-wheel base; Clearpath's separation multipliers are
+    # 1.5 (Jackal) and 1.875 (Husky)); the treads' lateral scrub resists turning with about
+    # a tenth of the weight at half the track (differential drive: 1 % for a caster's drag).
+    chi, chi_rule = (
+        (_SKID_CHI, "skid steer, effective track ~1.6 x the geometric one (Mandow 2007, Clearpath)")
+        if skid
+        else (1.0, "differential drive, the wheels roll without lateral slip")
+    )
+    scrub_share = 0.1 if skid else 0.01
+    scrub = scrub_share * m * _G * b / 2
+    scrub_rule = (
+        "tread scrub, 10 % of the weight at half the track"
+        if skid
+        else "1 % of the weight at half the track"
+    )
+    scrub_sd = (0.1 if skid else 0.05) * m * _G * b / 2
     lines = [
         f"# {robot.name}: a spec written by `sim2real robots new` from the numbers given below;",
         "# every other fact is a documented prior (comments say which rule made it; see",
@@ -165,9 +185,9 @@ def _render(robot: NewRobot) -> str:
         "(spec from published numbers and documented priors)",
         *(
             [
-                "# skid steer: this version models it as a differential drive on the geometric",
-                "# track (no slip / effective-track parameter yet); sysid's yaw parameters absorb",
-                "# part of the slip",
+                "# skid steer: the two wheels below stand for the two sides' wheel sets; the",
+                "# treads' slip is the drive's track_factor (effective / geometric track, fitted",
+                "# by sysid) and their lateral scrub the yaw Coulomb torque coulomb_w_nm",
             ]
             if skid
             else []
@@ -215,11 +235,12 @@ def _render(robot: NewRobot) -> str:
         f"  wheel_torque_max_nm: {_g(tau_max)}  # prior: traction mu = 0.5 on half the weight",
         f"  coulomb_v_fwd_n: {_g(0.01 * m * _G)}  # prior: 1 % of the weight",
         f"  coulomb_v_bwd_n: {_g(0.01 * m * _G)}",
-        f"  coulomb_w_nm: {_g(0.01 * m * _G * b / 2)}  # prior: 1 % of the weight at half the track",
+        f"  coulomb_w_nm: {_g(scrub)}  # prior: {scrub_rule}",
         f"  viscous_v_ns_per_m: {_g(0.1 * m)}  # prior: 0.1 /s of the mass",
         f"  viscous_w_nms_per_rad: {_g(0.1 * i_eff)}  # prior: 0.1 /s of the yaw inertia",
         "  added_mass_kg: 0.0",
         "  added_yaw_inertia_kgm2: 0.0",
+        f"  track_factor: {_g(chi)}  # prior: {chi_rule}",
         "# Priors (robots.params.SCHEMA coordinates: lin = the unit of the value; log and",
         "# log_total_* = a relative spread, 0.7 ~ a factor 2). Wide where a number was not given.",
         "priors:",
@@ -237,13 +258,14 @@ def _render(robot: NewRobot) -> str:
         f"  coulomb_v_fwd_n: {{sd: {_g(0.04 * m * _G)}, session_sd: {_g(0.005 * m * _G)}}}"
         "  # 0-8 % of the weight",
         f"  coulomb_v_bwd_n: {{sd: {_g(0.04 * m * _G)}, session_sd: {_g(0.005 * m * _G)}}}",
-        f"  coulomb_w_nm: {{sd: {_g(0.05 * m * _G * b / 2)}, session_sd: "
-        f"{_g(0.01 * m * _G * b / 2)}}}",
+        f"  coulomb_w_nm: {{sd: {_g(scrub_sd)}, session_sd: {_g(0.2 * scrub_sd)}}}",
         f"  viscous_v_ns_per_m: {{sd: {_g(1.5 * m)}, session_sd: {_g(0.2 * m)}}}",
         f"  viscous_w_nms_per_rad: {{sd: {_g(1.5 * i_eff)}, session_sd: {_g(0.2 * i_eff)}}}",
         f"  added_mass_kg: {{sd: {0.3 if 'mass_kg' in given else 0.7}, session_sd: 0.1}}"
         "  # payload; a factor 2 when the mass was not given",
         "  added_yaw_inertia_kgm2: {sd: 0.7, session_sd: 0.15}  # body shape is a guess",
+        f"  track_factor: {{sd: {0.3 if skid else 0.0}, session_sd: {0.1 if skid else 0.0}}}  "
+        f"# {'1.2-2.5, the surface changes it' if skid else 'a differential drive: exactly 1'}",
         "lidar:  # placeholder: a typical 360-beam 2D lidar on top; edit to your sensor",
         "  beams: 360",
         "  angle_min_rad: 0.0",

@@ -20,6 +20,7 @@ viscous_w_nms_per_rad       b_w / k_w                             1
 coulomb_v_fwd_n (bwd)       F_c / k_v  (steady-state speed loss)  m/s
 coulomb_w_nm                T_c / k_w                             rad/s
 wheel_torque_max_nm         log(tau_max / K)                      log rad/s
+track_factor                log chi (skid steer)                  log
 accel_lim_*, speed_lim_*,   log of the value                      log
 wheel_speed_max_radps
 ==========================  ====================================  =========
@@ -213,6 +214,15 @@ _TABLE: dict[str, Coord] = {
             step=1e-3,
             axis="vw",
             unit="N m",
+        ),
+        Coord(
+            field="track_factor",
+            kind="log",
+            lower=0.0,
+            upper=math.log(4.0),
+            step=1e-3,
+            axis="vw",
+            unit="1",
         ),
         Coord(
             field="motor_gain_nms_per_rad",
