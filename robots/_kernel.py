@@ -54,8 +54,9 @@ FloatArray = NDArray[np.float64]
 SPEED_V, SPEED_W, ACC_V, ACC_W, WMAX, K, TMAX = 0, 1, 2, 3, 4, 5, 6
 CFWD, CBWD, CW, BV, BW, MASS, INERTIA, R, L = 7, 8, 9, 10, 11, 12, 13, 14, 15
 TRACK = 16  # skid steer: effective / geometric track (1 = differential drive)
+CMD_TRACK = 17  # the driver's track multiplier for its wheel targets
 #: Length of the packed parameter vector.
-N_PACKED = 17
+N_PACKED = 18
 
 
 def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
@@ -78,6 +79,7 @@ def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
     p[R] = geometry.wheel_radius_m
     p[L] = geometry.wheel_separation_m
     p[TRACK] = params.track_factor
+    p[CMD_TRACK] = params.driver_track_factor
     return p
 
 
@@ -109,9 +111,9 @@ def shape_command(
 ) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
     """Clamp, rate-limit and cap command (u_v, u_w); returns (ref_v, ref_w, wr_ref, wl_ref).
 
-    The wheel targets use the effective track (a skid steer's driver is calibrated with it).
+    The wheel targets use the driver's track (``driver_track_factor`` x the geometric one).
     """
-    r, half_l = p[R], 0.5 * (p[L] * p[TRACK])
+    r, half_l = p[R], 0.5 * (p[L] * p[CMD_TRACK])
     u_v = clip(u_v, p[SPEED_V])
     u_w = clip(u_w, p[SPEED_W])
     ref_v += clip(u_v - ref_v, p[ACC_V] * dt)

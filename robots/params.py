@@ -158,11 +158,14 @@ class DriveParams:
         motion are linked through the effective track :math:`\chi L` (the instantaneous
         centres of rotation of the treads lie outside the wheels: Mandow et al. 2007,
         "Experimental kinematics for wheeled skid-steer mobile robots", IROS), so
-        :math:`\omega = r(\omega_r - \omega_l)/(\chi L)`; the driver computes its wheel
-        targets with the same effective track (ROS ``diff_drive_controller``'s
-        ``wheel_separation_multiplier``), and the wheel forces act at the geometric half-track.
-        The turning resistance of the treads' lateral scrub is the yaw Coulomb torque
-        ``coulomb_w_nm``.
+        :math:`\omega = r(\omega_r - \omega_l)/(\chi L)`, while the wheel forces act at the
+        geometric half-track. The turning resistance of the treads' lateral scrub is the yaw
+        Coulomb torque ``coulomb_w_nm``.
+    driver_track_factor : float
+        The multiplier of the track with which the base's driver turns a (v, w) command into
+        wheel targets (ROS ``diff_drive_controller``'s ``wheel_separation_multiplier``: 1.875
+        on the Husky); a driver setting, not fitted. A yaw command w then turns the base at
+        about ``w * driver_track_factor / track_factor``.
     """
 
     delay_s: float = 0.0
@@ -182,6 +185,7 @@ class DriveParams:
     added_mass_kg: float = 0.0
     added_yaw_inertia_kgm2: float = 0.0
     track_factor: float = 1.0
+    driver_track_factor: float = 1.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -602,6 +606,17 @@ SCHEMA: dict[str, FieldSchema] = {
             prior_sd=_abs(0.0),
             session_sd=_abs(0.0),
             doc="skid steer: effective / geometric track (ICR spread; 1 = differential drive)",
+        ),
+        _field(
+            "driver_track_factor",
+            "1",
+            "positive",
+            "log",
+            (1.0, 4.0),
+            fittable=False,
+            prior_sd=_abs(0.0),
+            session_sd=_abs(0.0),
+            doc="the driver's track multiplier for its wheel targets (a driver setting)",
         ),
     )
 }

@@ -166,6 +166,12 @@ def _render(robot: NewRobot) -> str:
         if skid
         else (1.0, "differential drive, the wheels roll without lateral slip")
     )
+    driver_rule = (
+        "prior: the driver's wheel_separation_multiplier, assumed calibrated to the slip "
+        "(Husky ships 1.875, Jackal 1.5); give your driver's value"
+        if skid
+        else "the driver's wheel targets use the geometric track"
+    )
     scrub_share = 0.1 if skid else 0.01
     scrub = scrub_share * m * _G * b / 2
     scrub_rule = (
@@ -241,6 +247,7 @@ def _render(robot: NewRobot) -> str:
         "  added_mass_kg: 0.0",
         "  added_yaw_inertia_kgm2: 0.0",
         f"  track_factor: {_g(chi)}  # prior: {chi_rule}",
+        f"  driver_track_factor: {_g(chi)}  # {driver_rule}",
         "# Priors (robots.params.SCHEMA coordinates: lin = the unit of the value; log and",
         "# log_total_* = a relative spread, 0.7 ~ a factor 2). Wide where a number was not given.",
         "priors:",
@@ -266,6 +273,7 @@ def _render(robot: NewRobot) -> str:
         "  added_yaw_inertia_kgm2: {sd: 0.7, session_sd: 0.15}  # body shape is a guess",
         f"  track_factor: {{sd: {0.3 if skid else 0.0}, session_sd: {0.1 if skid else 0.0}}}  "
         f"# {'1.2-2.5, the surface changes it' if skid else 'a differential drive: exactly 1'}",
+        "  driver_track_factor: {sd: 0.0, session_sd: 0.0}  # a driver setting: edit it above",
         "lidar:  # placeholder: a typical 360-beam 2D lidar on top; edit to your sensor",
         "  beams: 360",
         "  angle_min_rad: 0.0",

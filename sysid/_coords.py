@@ -242,7 +242,7 @@ COORDS: dict[str, Coord] = {n: _TABLE[n] for n in SCHEMA if n in _TABLE}
 
 #: Fields that velocity data cannot inform (with the reason, used in error messages).
 NOT_FITTABLE: dict[str, str] = {
-    n: "the command timeout is a firmware setting; set it in the robot spec"
+    n: f"it is a firmware or driver setting ({f.doc}); set it in the robot spec"
     for n, f in SCHEMA.items()
     if not f.fittable
 }
