@@ -28,7 +28,11 @@ model (:mod:`robots.reduced`):
    torques are then exactly the generalised forces that take the rolling base to the reduced
    model's end-of-step velocity;
 5. added mass and yaw inertia by ``changeDynamics`` on the base link (mass and
-   ``localInertiaDiagonal``), read back with ``getDynamicsInfo``.
+   ``localInertiaDiagonal``), read back with ``getDynamicsInfo``;
+6. skid steer (``track_factor`` > 1): the two tyres grip and roll on the geometric track; the
+   treads' slip is in the kernel's wheel loops (wheel speeds through the effective track) and
+   its torques and axis friction take the base where the reduced model goes, so the wheel
+   odometry reports the body's true yaw rate (a driver calibrated to the slip).
 
 Contacts: tyre friction 1.5 x ground 1.0 (the specs' torque caps need at most 0.5, so the tyres
 grip), casters frictionless (the base link has zero friction), link damping zero (pybullet's

@@ -3,8 +3,9 @@ r"""A foreign skid-steer plant: four wheels that slip, *not* the project's drive
 :mod:`sim2real.plants` checks the tools on a differential drive whose wheels roll. This module
 simulates a Husky-like four-wheel skid steer whose slip comes out of tyre-ground friction, so
 ``sysid`` and the agreement can be judged on a base whose turning the model only approximates
-(its ``track_factor`` is one number; here the slip changes with the turn rate, the speed and
-the load):
+(the model's slip is one number, ``track_factor``; here it comes out of tyre forces, builds up
+and decays with the body's lateral and yaw dynamics, the driver's multiplier does not match
+it, and the encoder speed sees the longitudinal slip):
 
 - **contacts**: four wheels at :math:`(\pm a, \pm B/2)` (half wheelbase, half track), each
   pressed by a quarter of the weight. The ground force on a wheel opposes its contact's slip
@@ -14,10 +15,13 @@ the load):
   longitudinal and lateral parts sharing one budget). Turning drags the wheels sideways
   (lateral scrub, which resists the turn) and the traction that overcomes the scrub makes the
   outer wheels spin ahead of the ground and the inner ones behind it: the instantaneous
-  centres of rotation of the two sides move outwards, the effective track exceeds the
-  geometric one, and by how much depends on the turn (Mandow et al. 2007, "Experimental
-  kinematics for wheeled skid-steer mobile robots", IROS: ICR-based kinematics of a
-  four-wheel skid steer, effective track about 1.5-2 times the geometric one);
+  centres of rotation of the two sides move outwards and the effective track exceeds the
+  geometric one (Mandow et al. 2007, "Experimental kinematics for wheeled skid-steer mobile
+  robots", IROS: ICR-based kinematics of a four-wheel skid steer, ICRs nearly constant on
+  one surface). With this ellipse a steady turn's ratio is set by the tyre stiffnesses and
+  the wheel layout, not by the turn rate (1.53 for :func:`husky_like`,
+  :func:`effective_track_factor`); it moves in transients and with the ground's ``mu`` only
+  through them;
 - **rigid body** in the plane (forward, lateral and yaw velocity) with the wheels' forces;
   each side's two wheels turn together (one motor and a chain per side, as on the Husky)
   with their spin inertia and a rolling resistance;
@@ -54,7 +58,13 @@ from numpy.typing import NDArray
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace, TraceMeta
 
-__all__ = ["SkidPlantParams", "husky_like", "make_skid_sessions", "run_skid_plant"]
+__all__ = [
+    "SkidPlantParams",
+    "effective_track_factor",
+    "husky_like",
+    "make_skid_sessions",
+    "run_skid_plant",
+]
 
 FloatArray = NDArray[np.float64]
 _G = 9.81
@@ -314,6 +324,44 @@ def _simulate(
         t = t_new
 
 
+def _states(
+    params: SkidPlantParams,
+    arrival: FloatArray,
+    cmd_v: FloatArray,
+    cmd_w: FloatArray,
+    ticks: FloatArray,
+) -> FloatArray:
+    """(v, lateral v, w, left and right wheel speed) at ``ticks`` (numba kernel)."""
+    out = np.zeros((ticks.size, 5))
+    packed = np.array([float(getattr(params, f)) for f in _P_FIELDS])
+    dt, ctrl_dt = params.physics_dt_s, 1.0 / params.control_rate_hz
+    _simulate(packed, arrival, cmd_v, cmd_w, ticks, dt, ctrl_dt, out)
+    return out
+
+
+def effective_track_factor(
+    params: SkidPlantParams, v_mps: float, w_radps: float, *, settle_s: float = 4.0
+) -> float:
+    r"""The plant's slip in a steady turn: :math:`r(\omega_r - \omega_l) / (B\,\omega)`.
+
+    The ratio of the effective track (the one the wheel speeds imply for the body's yaw rate)
+    to the geometric one, after ``settle_s`` seconds of the command (v, w): what the drive
+    model's ``track_factor`` stands for (Mandow et al. 2007).
+
+    Examples
+    --------
+    >>> round(effective_track_factor(husky_like(), 0.0, 1.0), 1)
+    1.5
+    """
+    t = np.arange(0.0, settle_s, 0.05)
+    steady = params.replace(cmd_timeout_s=2.0 * settle_s)
+    last = _states(
+        steady, t, np.full(t.size, v_mps), np.full(t.size, w_radps), np.array([settle_s])
+    )
+    _, _, w, left, right = last[0]
+    return float(params.wheel_radius_m * (right - left) / (params.track_m * w))
+
+
 def run_skid_plant(
     params: SkidPlantParams,
     cmd_t_s: FloatArray,
@@ -342,11 +390,7 @@ def run_skid_plant(
     phase = rng.uniform(0.0, period)
     n_ticks = int((duration_s - phase) / period) + 1
     ticks = (phase + period * np.arange(n_ticks)).astype(np.float64)
-    out = np.zeros((ticks.size, 5))
-    packed = np.array([float(getattr(params, f)) for f in _P_FIELDS])
-    _simulate(
-        packed, arrival, cv, cw, ticks, params.physics_dt_s, 1.0 / params.control_rate_hz, out
-    )
+    out = _states(params, arrival, cv, cw, ticks)
     r = params.wheel_radius_m
     meas_v = 0.5 * r * (out[:, 3] + out[:, 4])
     meas_v = meas_v + params.v_noise_mps * rng.standard_normal(ticks.size)

@@ -107,7 +107,12 @@ def _register_new(group_sub: argparse._SubParsersAction) -> None:  # type: ignor
     new.add_argument(
         "--footprint-radius", type=float, metavar="M", help="radius of the base's outline, m"
     )
-    new.add_argument("--drive", choices=("diff", "skid"), default="diff", help="drive type")
+    new.add_argument(
+        "--drive",
+        choices=("diff", "skid"),
+        default="diff",
+        help="drive type: 'skid' adds the skid steer's slip (track_factor) and tread scrub priors",
+    )
     new.add_argument("--force", action="store_true", help="overwrite an existing output file")
     new.set_defaults(handler=_new)
 
@@ -169,8 +174,9 @@ def _new(args: argparse.Namespace) -> int:
     print(f"wrote {out}: robot '{args.name}', checks passed ({len(report.items)})")
     if args.drive == "skid":
         print(
-            "note: skid-steer slip is not modelled yet; the spec drives as a differential drive "
-            "on the geometric track (see the comment in the file)"
+            "note: skid steer: track_factor (effective / geometric track, prior 1.6) is fitted "
+            "by 'sysid fit'; set driver_track_factor to your driver's "
+            "wheel_separation_multiplier (Husky: 1.875, Jackal: 1.5)"
         )
     print(f"use it with --robot {out}; edit any number you know better, then `robots check {out}`")
     return 0

@@ -1,0 +1,127 @@
+"""The foreign skid-steer plant and issue 12's skid target.
+
+Target: on a synthetic skid steer with slip, the fit with the skid fields reaches agreement
+>= 0.9 on a held-out session where the plain differential-drive fit (geometric track, both
+track factors 1) stays below 0.7. The robot spec is what ``sim2real robots new --drive skid``
+writes from the Husky A200's published numbers, with the driver's published settings
+(``husky_control/config/control.yaml``: ``cmd_vel_timeout`` 0.25 s, 3.0 m/s^2, 6.0 rad/s^2,
+``wheel_separation_multiplier`` 1.875).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import statistics
+
+import numpy as np
+import pytest
+
+from robots.params import Prior
+from robots.spec import RobotSpec, load_spec
+from robots.template import spec_text
+from sim2real.agreement import measure_agreement
+from sim2real.errors import Sim2RealValueError
+from sim2real.replay import replay
+from sim2real.skid_plant import (
+    effective_track_factor,
+    husky_like,
+    make_skid_sessions,
+    run_skid_plant,
+)
+from sysid.fit import fit_drive
+
+
+@pytest.fixture(scope="module")
+def husky(tmp_path_factory: pytest.TempPathFactory) -> RobotSpec:
+    path = tmp_path_factory.mktemp("skidplant") / "husky.yaml"
+    path.write_text(
+        spec_text(
+            "husky",
+            wheel_separation_m=0.555,
+            wheel_radius_m=0.165,
+            mass_kg=50.0,
+            max_speed_mps=1.0,
+            drive="skid",
+        )
+    )
+    spec = load_spec(path)
+    drive = spec.drive.replace(
+        cmd_timeout_s=0.25, accel_lim_v_mps2=3.0, accel_lim_w_radps2=6.0, driver_track_factor=1.875
+    )
+    return dataclasses.replace(spec, drive=drive)
+
+
+def _fixed(spec: RobotSpec, **values: float) -> dict[str, Prior]:
+    priors = dict(spec.priors)
+    for name, value in values.items():
+        priors[name] = Prior(name=name, nominal=value, sd=0.0, session_sd=0.0, source="spec")
+    return priors
+
+
+def test_the_slip_comes_out_of_the_tyres() -> None:
+    """A steady turn's wheel speeds imply a track ~1.5 x the geometric one (Mandow et al.
+    2007 found 1.5-2 on their base; Clearpath calibrates the Husky's driver to 1.875)."""
+    p = husky_like()
+    chi = effective_track_factor(p, 0.0, 1.0)
+    assert 1.3 < chi < 1.9
+    # stiffer lateral grip (slip_lat smaller) scrubs harder and slips more
+    assert effective_track_factor(p.replace(slip_lat_mps=0.04), 0.0, 1.0) > chi + 0.2
+    # the driver's 1.875 turns the base faster than a geometric-track driver would, and the
+    # scrub's droop of the P loops keeps it under the kinematic w x 1.875 / chi
+    t = np.arange(0.0, 5.0, 0.1)
+    quiet = p.replace(gyro_noise_radps=0.0, gyro_bias_radps=0.0, v_noise_mps=0.0)
+    tr = run_skid_plant(
+        quiet,
+        t,
+        np.zeros(t.size),
+        np.full(t.size, 1.5),
+        duration_s=5.0,
+        rng=np.random.default_rng(0),
+    )
+    assert 1.2 * 1.5 / chi < float(np.mean(tr.meas_w[-50:])) < 1.5 * 1.875 / chi
+
+
+def test_sessions_are_seeded_and_bad_input_is_refused() -> None:
+    a = make_skid_sessions(husky_like(), 2, seed=5, duration_s=8.0)
+    b = make_skid_sessions(husky_like(), 1, seed=5, duration_s=8.0)
+    assert np.array_equal(a[0].meas_w, b[0].meas_w) and not np.array_equal(
+        a[0].meas_w[:100], a[1].meas_w[:100]
+    )
+    with pytest.raises(Sim2RealValueError, match="n_sessions"):
+        make_skid_sessions(husky_like(), 0, seed=0)
+    with pytest.raises(Sim2RealValueError, match="mu"):
+        husky_like().replace(mu=-1.0)
+
+
+@pytest.mark.slow
+def test_skid_fit_meets_the_target_where_the_differential_fit_does_not(husky: RobotSpec) -> None:
+    """Three seeds, each: fit one 90 s teleop session (the driver's top speed and yaw rate),
+    measure on the other. Medians over the seeds meet the target; the skid fit wins on each."""
+    skid, diff = [], []
+    plain = husky.drive.replace(track_factor=1.0, driver_track_factor=1.0)
+    for seed in (1, 2, 3):
+        fit_log, held_out = make_skid_sessions(
+            husky_like(), 2, seed=seed, duration_s=90.0, profile="teleop"
+        )
+        scores = []
+        for base, priors in (
+            (husky.drive, _fixed(husky, driver_track_factor=1.875)),
+            (plain, _fixed(husky, driver_track_factor=1.0, track_factor=1.0)),
+        ):
+            result = fit_drive([fit_log], geometry=husky.geometry, base_params=base, priors=priors)
+            sim = replay(held_out, robot=husky, params=result.params, engine="reduced")
+            scores.append(measure_agreement(held_out, sim).agreement)
+            if base is husky.drive:
+                assert 1.3 < result.params.track_factor < 2.0  # the plant's 1.53, roughly
+                skid_params = result.params
+        skid.append(scores[0])
+        diff.append(scores[1])
+        assert scores[0] > scores[1] + 0.1, (seed, scores)
+    assert statistics.median(skid) >= 0.9, skid
+    assert statistics.median(diff) < 0.7, diff
+    # the pybullet engine with the same (last) fit agrees with the reduced one on the log
+    sim_pb = replay(held_out, robot=husky, params=skid_params, engine="pybullet")
+    sim_red = replay(held_out, robot=husky, params=skid_params, engine="reduced")
+    assert np.sqrt(np.mean((sim_pb.v - sim_red.v) ** 2)) < 0.005
+    assert np.sqrt(np.mean((sim_pb.w - sim_red.w) ** 2)) < 0.02
+    assert measure_agreement(held_out, sim_pb).agreement > scores[1] + 0.1
