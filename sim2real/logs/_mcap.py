@@ -125,6 +125,8 @@ class Container:
     parts: dict[int, list[dict[str, np.ndarray] | Segment]] = field(default_factory=dict)
     #: Per channel id: why its messages cannot be decoded (raised when it is asked for).
     failed: dict[int, str] = field(default_factory=dict)
+    #: Schema and Channel records already taken in, byte for byte (repeated in each chunk).
+    seen_meta: set[bytes] = field(default_factory=set)
     #: Per channel id: how a sink keeps its messages (sink's own cache).
     plans: dict[int, str] = field(default_factory=dict)
     #: The log's name for messages (set by the reader).
@@ -369,10 +371,14 @@ def _chunk_meta(buf: Buf, op: int, pos: int, hi: int, out: Container) -> None:
     end = pos + 9 + _OP_LEN.unpack_from(buf, pos)[1]
     if end > hi:
         raise _Corrupt("a record inside it runs past the chunk end")
+    raw = bytes(buf[pos:end])
+    if raw in out.seen_meta:
+        return  # the same record again (writers repeat them in every chunk): nothing new
     if op == _SCHEMA:
         _add_schema(out, _schema(buf, pos + 9, end))
     else:
         _add_channel(out, _channel(buf, pos + 9, end))
+    out.seen_meta.add(raw)
 
 
 def _add_schema(out: Container, rec: SchemaRecord) -> None:
