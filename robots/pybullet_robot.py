@@ -536,11 +536,16 @@ class PybulletRobot:
         u_v, u_w = self._delayed(cmd_t_s, cmd_v, cmd_w, grid[:-1])
         u_v_list, u_w_list = u_v.tolist(), u_w.tolist()
         sampled = _sampled_steps(grid, t_out_s)
-        rows, start = [], 0
-        for k in sampled.tolist():
-            self._run(u_v_list[start:k], u_w_list[start:k])
+        if 4 * sampled.size > grid.size:  # dense outputs (e.g. an odometry window): every step
+            rows = self._run_recording(u_v_list, u_w_list)
             rows.append(self._sample())
-            start = k
+            sampled = np.arange(grid.size)
+        else:
+            rows, start = [], 0
+            for k in sampled.tolist():
+                self._run(u_v_list[start:k], u_w_list[start:k])
+                rows.append(self._sample())
+                start = k
         rec = np.array(rows, dtype=np.float64)
         self.time_s = n * self.dt_s
         rec[:, 6] = np.unwrap(rec[:, 6])
@@ -604,6 +609,33 @@ class PybulletRobot:
             drive(body, _WHEELS, mode, forces=(tl, tr), physicsClientId=c)
             simulate(physicsClientId=c)
         self._last_torques = (tl, tr)
+
+    def _run_recording(self, u_v: list[float], u_w: list[float]) -> list[tuple[float, ...]]:
+        """:meth:`_run` that also returns the state before each step (as :meth:`_sample`).
+
+        Three state reads per step (the pose too, whose yaw then replaces the advanced one).
+        """
+        c, body, state, packed = self.client, self.body_id, self._state, self._packed
+        dt, spin = self.dt_s, self._spin_inertia
+        r, sep = self._wheel_radius_m, self._wheel_separation_m
+        wheels, base, pose = p.getJointStates, p.getBaseVelocity, p.getBasePositionAndOrientation
+        drive, simulate = p.setJointMotorControlArray, p.stepSimulation
+        kernel, mode = pybullet_substep, p.TORQUE_CONTROL
+        rows: list[tuple[float, ...]] = []
+        tl, tr = self._last_torques
+        for a, b in zip(u_v, u_w, strict=True):
+            (_, wl, _, _), (_, wr, _, _) = wheels(body, _WHEELS, physicsClientId=c)
+            (vx, vy, _), (_, _, wz) = base(body, physicsClientId=c)
+            (x, y, _), orn = pose(body, physicsClientId=c)
+            yaw = _yaw_of(orn)
+            state[2] = yaw - dt * wz  # the kernel adds dt * w_z back first
+            tl, tr = kernel(state, a, b, wl, wr, vx, vy, wz, dt, packed, spin)
+            v = vx * math.cos(yaw) + vy * math.sin(yaw)
+            rows.append((v, wz, 0.5 * r * (wr + wl), r * (wr - wl) / sep, x, y, yaw))
+            drive(body, _WHEELS, mode, forces=(tl, tr), physicsClientId=c)
+            simulate(physicsClientId=c)
+        self._last_torques = (tl, tr)
+        return rows
 
 
 def _sampled_steps(grid: FloatArray, t_out_s: FloatArray) -> NDArray[np.intp]:

@@ -1,0 +1,67 @@
+"""The pybullet robot's physics-step loop (issue 16): how many pybullet calls a physics step
+costs, and replay's sampled and every-step recordings give the same numbers."""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any
+
+import numpy as np
+import pytest
+
+from robots import PybulletRobot, load_spec
+from robots._pybullet import pybullet as p
+from tests.robots._golden_drive import commands
+
+SPEC = load_spec("turtlebot3_burger")
+_CALLS = (
+    "getJointStates",
+    "getBaseVelocity",
+    "getBasePositionAndOrientation",
+    "setJointMotorControlArray",
+    "applyExternalForce",
+    "applyExternalTorque",
+    "stepSimulation",
+)
+
+
+def test_a_physics_step_costs_two_reads_one_torque_write_and_the_step(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    count: Counter[str] = Counter()
+    for name in _CALLS:
+        real = getattr(p, name)
+
+        def spy(*args: Any, _real: Any = real, _name: str = name, **kw: Any) -> Any:
+            count[_name] += 1
+            return _real(*args, **kw)
+
+        monkeypatch.setattr(p, name, spy)
+    with PybulletRobot(SPEC) as robot:
+        robot.step(0.1, 0.5, 0.1)  # compile, settle
+        count.clear()
+        control_steps, substeps = 10, 24
+        for _ in range(control_steps):
+            robot.step(0.15, -0.8, 0.1)
+    steps = control_steps * substeps
+    assert count["stepSimulation"] == steps
+    assert count["setJointMotorControlArray"] == steps
+    assert count["getJointStates"] == steps
+    # per substep one base-velocity read; per control step one more, and one for the result
+    assert count["getBaseVelocity"] == steps + 2 * control_steps
+    # the pose (yaw) once per control step for the kernel and once for the result
+    assert count["getBasePositionAndOrientation"] == 2 * control_steps
+    assert count["applyExternalForce"] == count["applyExternalTorque"] == 0
+
+
+def test_replay_every_step_equals_replay_at_sparse_times() -> None:
+    cmd = commands(SPEC, seconds=4.0)
+    every_step = {**cmd, "t_out_s": np.arange(0.0, 4.0, 1.0 / 240.0)}
+    with PybulletRobot(SPEC) as robot:
+        dense = robot.replay(**every_step, v0=0.05, w0=-0.1)
+    with PybulletRobot(SPEC) as robot:
+        sparse = robot.replay(**cmd, v0=0.05, w0=-0.1)
+    for name in ("v", "w", "odom_v", "odom_w", "x_m", "y_m", "yaw_rad"):
+        at_sparse = np.interp(cmd["t_out_s"], every_step["t_out_s"], getattr(dense, name))
+        np.testing.assert_allclose(at_sparse, getattr(sparse, name), rtol=0, atol=1e-12)
+    assert np.ptp(sparse.v) > 0.1 and np.ptp(sparse.yaw_rad) > 0.5
