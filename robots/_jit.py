@@ -2,7 +2,8 @@
 numba (about 0.5 s of CPU: the import and its first-call set-up).
 
 ``@njit(**options)`` marks a kernel (numba's ``njit`` options: ``cache``, ``inline``, ...). The
-first call of any kernel from Python compiles (or loads from numba's cache) all of them at once
+first call of any kernel from Python compiles (or loads from numba's cache; without a writable
+cache folder it just compiles) all of them at once
 (:func:`compile_all`) and rebinds every module-level name in the ``robots`` package that held a
 kernel to its numba dispatcher, so compiled kernels call and inline each other as plain numba
 functions. Inside :func:`interpreted`, a kernel that is not compiled yet runs as plain Python
@@ -99,7 +100,7 @@ def compile_all() -> None:
         swap: dict[int, Any] = {}
         for kernel in _KERNELS:
             if kernel.dispatcher is None:
-                kernel.dispatcher = numba.njit(**kernel.options)(kernel.py_func)
+                kernel.dispatcher = _dispatcher(numba, kernel)
             swap[id(kernel)] = kernel.dispatcher
         for name, module in list(sys.modules.items()):
             if module is None or name.split(".")[0] not in _PACKAGES:
@@ -108,6 +109,17 @@ def compile_all() -> None:
             for attr, value in list(namespace.items()):
                 if isinstance(value, Kernel):
                     namespace[attr] = swap[id(value)]
+
+
+def _dispatcher(numba: Any, kernel: Kernel) -> Any:
+    """``numba.njit(**options)(py_func)``; without the on-disk cache if numba finds no writable
+    cache folder (neither beside the source nor ``NUMBA_CACHE_DIR`` / the user cache)."""
+    try:
+        return numba.njit(**kernel.options)(kernel.py_func)
+    except RuntimeError as exc:
+        if not kernel.options.get("cache") or "cannot cache" not in str(exc):
+            raise
+        return numba.njit(**{**kernel.options, "cache": False})(kernel.py_func)
 
 
 @contextmanager

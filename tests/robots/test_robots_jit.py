@@ -7,8 +7,10 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import pytest
 
 from robots import _jit, _kernel, load_spec, simulate
 from robots import reduced as reduced_mod
@@ -72,3 +74,26 @@ def test_interpreted_block_runs_an_uncompiled_kernel_as_python() -> None:
         assert kernel(1.5) == 3.0
     assert calls == [1.5]
     assert "not compiled yet" in repr(kernel)
+
+
+def test_a_kernel_compiles_without_the_disk_cache_when_numba_has_no_cache_folder(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import numba
+
+    real = numba.njit
+
+    def no_cache_folder(**options: Any) -> Any:
+        if options.get("cache"):
+            raise RuntimeError("cannot cache function 'twice': no locator available for file 'x'")
+        return real(**options)
+
+    monkeypatch.setattr(numba, "njit", no_cache_folder)
+    kernel = _jit.Kernel(lambda x: 2.0 * x, {"cache": True})
+    compiled = _jit._dispatcher(numba, kernel)
+    assert compiled(1.5) == 3.0
+    assert hasattr(compiled, "signatures")
+    other = _jit.Kernel(lambda x: x, {"cache": True})
+    monkeypatch.setattr(numba, "njit", lambda **o: (_ for _ in ()).throw(RuntimeError("boom")))
+    with pytest.raises(RuntimeError, match="boom"):
+        _jit._dispatcher(numba, other)
