@@ -536,6 +536,7 @@ class PybulletRobot:
         u_v, u_w = self._delayed(cmd_t_s, cmd_v, cmd_w, grid[:-1])
         u_v_list, u_w_list = u_v.tolist(), u_w.tolist()
         sampled = _sampled_steps(grid, t_out_s)
+        self._sync_yaw()  # once: the kernel's yaw then advances over the whole run
         if 4 * sampled.size > grid.size:  # dense outputs (e.g. an odometry window): every step
             rows = self._run_recording(u_v_list, u_w_list)
             rows.append(self._sample())
@@ -543,7 +544,7 @@ class PybulletRobot:
         else:
             rows, start = [], 0
             for k in sampled.tolist():
-                self._run(u_v_list[start:k], u_w_list[start:k])
+                self._run(u_v_list[start:k], u_w_list[start:k], sync_yaw=False)
                 rows.append(self._sample())
                 start = k
         rec = np.array(rows, dtype=np.float64)
@@ -582,22 +583,28 @@ class PybulletRobot:
         v = lin[0] * math.cos(yaw) + lin[1] * math.sin(yaw)
         return (v, ang[2], 0.5 * r * (wr + wl), r * (wr - wl) / sep, pos[0], pos[1], yaw)
 
-    def _run(self, u_v: list[float], u_w: list[float]) -> None:
+    def _sync_yaw(self) -> None:
+        """Read the base's yaw into the kernel state (which then advances it by dt * w_z)."""
+        c, body = self.client, self.body_id
+        _, orn = p.getBasePositionAndOrientation(body, physicsClientId=c)
+        _, ang = p.getBaseVelocity(body, physicsClientId=c)
+        self._state[2] = _yaw_of(orn) - self.dt_s * ang[2]  # the kernel adds dt * w_z first
+
+    def _run(self, u_v: list[float], u_w: list[float], *, sync_yaw: bool = True) -> None:
         """One physics step per delayed command (u_v[i], u_w[i]).
 
         Per step: two state reads (``getJointStates`` of both wheels, ``getBaseVelocity``), the
         drive arithmetic in one call of the shared kernel
         (:func:`robots._kernel.pybullet_substep`), both wheel torques in one
-        ``setJointMotorControlArray``, ``stepSimulation``. The yaw is read once here and
-        advanced by the kernel.
+        ``setJointMotorControlArray``, ``stepSimulation``. The yaw is read once first
+        (``sync_yaw``) and advanced by the kernel.
         """
         if not u_v:
             return
+        if sync_yaw:
+            self._sync_yaw()
         c, body, state, packed = self.client, self.body_id, self._state, self._packed
         dt, spin = self.dt_s, self._spin_inertia
-        _, orn = p.getBasePositionAndOrientation(body, physicsClientId=c)
-        _, ang = p.getBaseVelocity(body, physicsClientId=c)
-        state[2] = _yaw_of(orn) - dt * ang[2]  # the kernel adds dt * w_z back first
         wheels, base = p.getJointStates, p.getBaseVelocity
         drive, simulate = p.setJointMotorControlArray, p.stepSimulation
         kernel, mode = pybullet_substep, p.TORQUE_CONTROL
@@ -613,7 +620,8 @@ class PybulletRobot:
     def _run_recording(self, u_v: list[float], u_w: list[float]) -> list[tuple[float, ...]]:
         """:meth:`_run` that also returns the state before each step (as :meth:`_sample`).
 
-        Three state reads per step (the pose too, whose yaw then replaces the advanced one).
+        Three state reads per step (the pose too); the kernel keeps advancing its own yaw, so
+        the numbers equal :meth:`_run`'s whatever is recorded.
         """
         c, body, state, packed = self.client, self.body_id, self._state, self._packed
         dt, spin = self.dt_s, self._spin_inertia
@@ -628,7 +636,6 @@ class PybulletRobot:
             (vx, vy, _), (_, _, wz) = base(body, physicsClientId=c)
             (x, y, _), orn = pose(body, physicsClientId=c)
             yaw = _yaw_of(orn)
-            state[2] = yaw - dt * wz  # the kernel adds dt * w_z back first
             tl, tr = kernel(state, a, b, wl, wr, vx, vy, wz, dt, packed, spin)
             v = vx * math.cos(yaw) + vy * math.sin(yaw)
             rows.append((v, wz, 0.5 * r * (wr + wl), r * (wr - wl) / sep, x, y, yaw))

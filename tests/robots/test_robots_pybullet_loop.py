@@ -11,6 +11,7 @@ import pytest
 
 from robots import PybulletRobot, load_spec
 from robots._pybullet import pybullet as p
+from robots.pybullet_robot import _sampled_steps
 from tests.robots._golden_drive import commands
 
 SPEC = load_spec("turtlebot3_burger")
@@ -56,6 +57,7 @@ def test_a_physics_step_costs_two_reads_one_torque_write_and_the_step(
 
 def test_replay_every_step_equals_replay_at_sparse_times() -> None:
     cmd = commands(SPEC, seconds=4.0)
+    cmd["t_out_s"] = np.arange(0.0, 4.0, 0.25)  # sparse: read the state only around these
     every_step = {**cmd, "t_out_s": np.arange(0.0, 4.0, 1.0 / 240.0)}
     with PybulletRobot(SPEC) as robot:
         dense = robot.replay(**every_step, v0=0.05, w0=-0.1)
@@ -63,5 +65,12 @@ def test_replay_every_step_equals_replay_at_sparse_times() -> None:
         sparse = robot.replay(**cmd, v0=0.05, w0=-0.1)
     for name in ("v", "w", "odom_v", "odom_w", "x_m", "y_m", "yaw_rad"):
         at_sparse = np.interp(cmd["t_out_s"], every_step["t_out_s"], getattr(dense, name))
-        np.testing.assert_allclose(at_sparse, getattr(sparse, name), rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(at_sparse, getattr(sparse, name), err_msg=name)
     assert np.ptp(sparse.v) > 0.1 and np.ptp(sparse.yaw_rad) > 0.5
+    assert 4 * robots_sampled(every_step["t_out_s"]) > 961 > 4 * robots_sampled(cmd["t_out_s"])
+
+
+def robots_sampled(t_out_s: np.ndarray) -> int:
+    """How many physics steps replay reads the state at for these output times (4 s run)."""
+    grid = np.arange(961) / 240.0
+    return int(_sampled_steps(grid, t_out_s).size)
