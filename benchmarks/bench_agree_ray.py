@@ -138,6 +138,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.address is None:
         os.environ.pop("RAY_ADDRESS", None)
         os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+        # workers at the driver's priority, as sim2real.cluster.connect starts a local Ray
+        os.environ.setdefault("RAY_worker_niceness", str(os.nice(0)))
         ray.init(include_dashboard=False, logging_level="ERROR")
     else:
         connect(args.address)

@@ -78,8 +78,12 @@ def expand_logs(patterns: Sequence[str | Path], *, what: str = "LOG") -> list[Pa
 def connect(address: str) -> None:
     """Initialise Ray for ``address`` (``auto`` or a head node); no-op when already initialised.
 
-    A local Ray started here runs without the dashboard and without usage reporting: background
-    work that would otherwise take CPU from the tasks on a small machine.
+    A local Ray started here runs without the dashboard and without usage reporting (background
+    work that would otherwise take CPU from the tasks on a small machine), and its workers at
+    this process's scheduling priority: Ray's default (``RAY_worker_niceness`` 15) runs every
+    task at nice 15, so on a machine doing anything else the per-log tasks got a fraction of the
+    CPU the serial loop gets (measured: 0.8x the serial speed at load ~10). An explicit
+    ``RAY_worker_niceness`` in the environment is kept.
     """
     try:
         import ray
@@ -91,6 +95,7 @@ def connect(address: str) -> None:
     if ray.is_initialized():
         return
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    os.environ.setdefault("RAY_worker_niceness", str(os.nice(0)))
     kw: dict[str, Any] = {"include_dashboard": False, "logging_level": "ERROR"}
     if address == "auto":
         try:

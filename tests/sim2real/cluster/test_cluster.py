@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 
 import pytest
@@ -143,7 +144,10 @@ def test_agree_on_ray_gives_the_serial_figures(fleet: Path, tmp_path: Path) -> N
 def test_map_tasks_on_ray_batches_keep_order_progress_and_errors() -> None:
     import ray
 
-    ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR")
+    from sim2real.cluster import connect
+
+    os.environ.pop("RAY_worker_niceness", None)
+    connect("auto")  # a local Ray, as agree --ray auto starts it
     try:
         # a library function (workers import it by name): plain paths pass through, in order
         seen: list[int] = []
@@ -151,6 +155,8 @@ def test_map_tasks_on_ray_batches_keep_order_progress_and_errors() -> None:
         got = map_tasks(expand_logs, items, address="auto", on_done=seen.append)
         assert got == [[Path(x[0])] for x in items]
         assert seen == sorted(seen) and seen[-1] == 22 and len(seen) == len(guided_batches(22, 2))
+        # the workers run at the driver's priority (Ray's default is nice 15)
+        assert map_tasks(os.nice, [0, 0, 0], address="auto") == [os.nice(0)] * 3
         # a bad item's one-sentence error comes back as itself
         items[17] = ["nothing_*.bag"]
         with pytest.raises(Sim2RealFileNotFoundError, match=r"pattern 'nothing_\*.bag' matches"):
