@@ -1,6 +1,6 @@
 """Does randomisation from a sysid result help a policy survive a robot it never saw?
 
-Run (needs the [train] extra; the defaults take ~40 min of one core)::
+Run (needs the [train] extra; the defaults took 50 min on 2 shared cores)::
 
     nice -n 10 .venv/bin/python benchmarks/bench_dr_experiment.py --out bench-dr
     .venv/bin/python benchmarks/bench_dr_experiment.py --timesteps 3000 --seeds 0 --episodes 4 \\
