@@ -25,7 +25,9 @@ under it (GCS, raylet, agents, workers; read from ``/proc``, Linux only). From t
 the driver) / Ray CPU, and the wall time Ray would take on ``k`` free cores
 is at least max(Ray CPU / k, busiest worker's CPU): ``projected speed-up on k free cores`` =
 serial CPU / that bound (serial on an idle core takes its CPU time). On an idle machine the
-measured wall-clock speed-up is the figure; on a loaded one the projection is.
+measured wall-clock speed-up is the figure; on a loaded one the projection is: Linux schedules
+by session (``sched_autogroup``) and the Ray workers share the driver's session, so under load
+the whole benchmark gets one session's share of the CPU however many processes it runs.
 """
 
 from __future__ import annotations
