@@ -271,6 +271,7 @@ def _fit(args: argparse.Namespace) -> int:
     from rich.markup import escape
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from robots.errors import RobotsError
     from robots.spec import load_spec
     from sim2real._io import atomic_write, check_not_an_input, check_output_path
     from sim2real.cluster import expand_logs, map_tasks
@@ -302,24 +303,27 @@ def _fit(args: argparse.Namespace) -> int:
         def progress(stage: str, fraction: float) -> None:
             bar.update(task, completed=fraction, description=stage)
 
-        result = fit_drive(
-            logs,
-            geometry=spec.geometry,
-            base_params=spec.drive,
-            priors=spec.priors,
-            free=free,
-            validate=val,
-            robot=spec.name,
-            loss=args.loss,
-            **({} if args.dt is None else {"dt_s": args.dt}),
-            odom_v_window_s=_v_window(args.odom_v_window, spec.odometry.v_window_s),
-            bootstrap=args.bootstrap,
-            seed=args.seed,
-            progress=progress,
-            map_sessions=None
-            if args.ray is None
-            else lambda fn, groups: map_tasks(fn, groups, address=args.ray),
-        )
+        try:
+            result = fit_drive(
+                logs,
+                geometry=spec.geometry,
+                base_params=spec.drive,
+                priors=spec.priors,
+                free=free,
+                validate=val,
+                robot=spec.name,
+                loss=args.loss,
+                **({} if args.dt is None else {"dt_s": args.dt}),
+                odom_v_window_s=_v_window(args.odom_v_window, spec.odometry.v_window_s),
+                bootstrap=args.bootstrap,
+                seed=args.seed,
+                progress=progress,
+                map_sessions=None
+                if args.ray is None
+                else lambda fn, groups: map_tasks(fn, groups, address=args.ray),
+            )
+        except RobotsError as exc:  # the fit itself made a model the schema refuses
+            raise _fit_failure(args.logs, exc) from exc
     with atomic_write(out, "w", what="params file") as fh:
         fh.write(result.to_yaml())
     _print_result(console, result)
@@ -327,6 +331,20 @@ def _fit(args: argparse.Namespace) -> int:
         console.print(f"[cyan]note:[/] {escape(note)}", highlight=False)
     console.print(f"wrote [bold]{escape(str(out))}[/]")
     return 0
+
+
+def _fit_failure(paths: list[str], exc: Exception) -> Sim2RealValueError:
+    """The error of a fit whose result breaks a rule of the drive-parameter schema.
+
+    That is a failure of the fit on these logs (not bad input, which is checked before): the
+    sentence names the logs, the rule and what to try.
+    """
+    rule = str(exc).split("; ")[0]  # the rule and the value, without a fix meant for a file
+    names = ", ".join(f"'{p}'" for p in paths)
+    return Sim2RealValueError(
+        f"sysid fit of {names} gave a drive model the schema refuses ({rule}); fit fewer "
+        "parameters (--free) or a longer, richer log, and please report it with the log"
+    )
 
 
 def _show(args: argparse.Namespace) -> int:

@@ -8,6 +8,7 @@ follows the number of messages (a 30 s log with a one-year pause stays under 0.5
 from __future__ import annotations
 
 import json
+import math
 import os
 import resource
 import stat
@@ -247,6 +248,24 @@ def test_free_fields_on_a_paused_recording_keep_the_sign_rules(capsys, run_case)
     assert sorted(result["settings"]["free"]) == sorted(free.split(","))
     assert _sign_violations(result) == []
     assert abs(result["parameters"]["delay_s"]["value"] - truth().delay_s) < 0.03
+
+
+@pytest.mark.slow
+def test_a_fit_that_breaks_the_schema_exits_2_naming_the_log(
+    capsys, run_case, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The old flaw recreated (every flat direction of a short segment counted): the fit's
+    absurd model is refused in one sentence naming the log and what to try, not in a message
+    about a params file that does not exist (was: motor_gain ... must be > 0, got 0.0)."""
+    import sysid._fleet
+
+    log, _ = run_case(capsys, "paused_for_a_night", _NIGHT)
+    monkeypatch.setattr(sysid._fleet, "MIN_INFO_RATIO", -math.inf)
+    out = log.with_suffix(".flawed.yaml")
+    code, stdout, err = _run(capsys, *_SYSID, str(log), "-o", str(out))
+    _judge(code, stdout, err, log)
+    assert code == 2 and not out.exists()
+    assert "gave a drive model the schema refuses" in err and "--free" in err
 
 
 def test_idle_log_cannot_be_compared_and_says_why(capsys, tmp_path: Path) -> None:
