@@ -1,7 +1,7 @@
 """The drive chain step by step from Python: a view of the shared kernel :mod:`robots._kernel`.
 
 :class:`CommandShaper` (firmware speed clamp, velocity-smoother rate limit, wheel targets with
-the per-wheel speed cap), :func:`drive_step` (per-wheel proportional speed loops with torque
+the per-wheel speed cap), :func:`drive_step` (per-wheel PI speed loops with torque
 saturation and the axis friction as a proximal step) and :func:`friction_of` call the same
 compiled arithmetic as the reduced model (:mod:`robots.reduced`) and the pybullet robot
 (:func:`robots._kernel.pybullet_substep`), so there is one copy of it.
@@ -73,7 +73,7 @@ class CommandShaper:
 
 @dataclass(frozen=True, kw_only=True)
 class DriveStep:
-    """Result of one step of the drive: next velocities and the wheel torques.
+    """Result of one step of the drive: next velocities, wheel torques and integrators.
 
     Attributes
     ----------
@@ -81,12 +81,16 @@ class DriveStep:
         Forward (m/s) and yaw (rad/s) velocity at the end of the step.
     torque_l, torque_r : float
         Left and right wheel torques over the step, N m.
+    integral_l_rad, integral_r_rad : float
+        The wheel loops' integrators (integrated wheel-speed error) at the end of the step.
     """
 
     v1: float
     w1: float
     torque_l: float
     torque_r: float
+    integral_l_rad: float = 0.0
+    integral_r_rad: float = 0.0
 
 
 def drive_step(
@@ -97,17 +101,22 @@ def drive_step(
     dt: float,
     params: DriveParams,
     geometry: BaseGeometry,
+    *,
+    integral_r_rad: float = 0.0,
+    integral_l_rad: float = 0.0,
 ) -> DriveStep:
     r"""One step of the wheel loops and axis friction (:func:`robots._kernel.wheel_loops`).
 
-    Unsaturated: backward Euler of the P loops and viscous friction, then Coulomb friction as a
-    proximal step; the torques are the loops' torques at the end-of-step wheel speeds.
+    Unsaturated: backward Euler of the PI loops and viscous friction, then Coulomb friction as
+    a proximal step; the torques are the loops' torques at the end-of-step wheel speeds.
     Saturated (a torque above ``wheel_torque_max_nm``): clipped torques of the current wheel
-    speeds.
+    speeds. ``integral_*_rad`` are the wheel integrators before the step.
     """
     packed = _kernel.pack_params(params, geometry)
-    v1, w1, tr, tl = _kernel.wheel_loops(v, w, wr_ref, wl_ref, dt, packed)
-    return DriveStep(v1=v1, w1=w1, torque_l=tl, torque_r=tr)
+    v1, w1, ir, il, tr, tl = _kernel.wheel_loops(
+        v, w, wr_ref, wl_ref, integral_r_rad, integral_l_rad, dt, packed
+    )
+    return DriveStep(v1=v1, w1=w1, torque_l=tl, torque_r=tr, integral_l_rad=il, integral_r_rad=ir)
 
 
 def friction_of(

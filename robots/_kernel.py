@@ -5,11 +5,17 @@ packed parameter vector (:func:`pack_params`), compiled with numba and callable 
 
 1. :func:`shape_command`: firmware speed clamp, velocity-smoother rate limit, wheel speed
    targets with the per-wheel speed cap (both wheels scaled together);
-2. :func:`wheel_loops`: per-wheel proportional speed loops with torque saturation and the axis
-   friction. Unsaturated: backward Euler of the P loops and viscous friction, then Coulomb
+2. :func:`wheel_loops`: per-wheel PI speed loops with torque saturation and the axis
+   friction. Unsaturated: backward Euler of the PI loops and viscous friction, then Coulomb
    friction as a proximal step (it stops the base but never reverses it); the torques are the
    loops' torques at the end-of-step wheel speeds. Saturated (a torque above
    ``wheel_torque_max_nm``): clipped torques of the current wheel speeds, viscous term implicit.
+   Each wheel's integrator (its integrated speed error, rad) is advanced by the trapezoidal
+   rule (a step's start and end errors; backward Euler would damp the loop's overshoot by
+   O(dt k_i) and bias a fitted integral gain), except while that wheel's torque is clipped and
+   the error pushes further into the limit (conditional-integration anti-windup); a zero wheel
+   target clears it (a stop). With ``speed_loop_ki_per_s = 0`` the loops are P loops and the
+   arithmetic is exactly theirs.
 
 :func:`drive_step` chains the two (what :mod:`robots.reduced` integrates) and
 :func:`pybullet_substep` adds what the rigid-body robot needs around it (the yaw of its
@@ -24,7 +30,8 @@ Example
 >>> from robots import load_spec
 >>> spec = load_spec("turtlebot3_burger")
 >>> p = pack_params(spec.drive, spec.geometry)
->>> v1, w1, ref_v, ref_w, tr, tl = drive_step(0.0, 0.0, 0.0, 0.0, 0.22, 0.0, 0.005, p)
+>>> v1, w1, ref_v, ref_w, ir, il, tr, tl = drive_step(
+...     0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.22, 0.0, 0.005, p)
 >>> round(v1, 4), round(tr, 4)  # 5 ms later: m/s, N m (cap 0.081)
 (0.0196, 0.0688)
 """
@@ -57,8 +64,9 @@ SPEED_V, SPEED_W, ACC_V, ACC_W, WMAX, K, TMAX = 0, 1, 2, 3, 4, 5, 6
 CFWD, CBWD, CW, BV, BW, MASS, INERTIA, R, L = 7, 8, 9, 10, 11, 12, 13, 14, 15
 TRACK = 16  # skid steer: effective / geometric track (1 = differential drive)
 CMD_TRACK = 17  # the driver's track multiplier for its wheel targets
+KI = 18  # the wheel loops' integral gain over the P gain, 1/s (0 = P loops)
 #: Length of the packed parameter vector.
-N_PACKED = 18
+N_PACKED = 19
 
 
 def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
@@ -82,6 +90,7 @@ def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
     p[L] = geometry.wheel_separation_m
     p[TRACK] = params.track_factor
     p[CMD_TRACK] = params.driver_track_factor
+    p[KI] = params.speed_loop_ki_per_s
     return p
 
 
@@ -131,32 +140,69 @@ def shape_command(
 
 
 @njit(cache=True, inline="always")
+def _integrate(
+    integ: float, err: float, torque_raw: float, clipped: bool, dt: float
+) -> float:  # pragma: no cover - compiled
+    """Advance one wheel's integrator by ``err`` over ``dt`` unless that winds it up further."""
+    if clipped and err * torque_raw > 0.0:
+        return integ
+    return integ + dt * err
+
+
+@njit(cache=True, inline="always")
 def wheel_loops(
-    v: float, w: float, wr_ref: float, wl_ref: float, dt: float, p: FloatArray
-) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
-    r"""Wheel loops and axis friction over one step; returns (v1, w1, torque_r, torque_l).
+    v: float,
+    w: float,
+    wr_ref: float,
+    wl_ref: float,
+    ir: float,
+    il: float,
+    dt: float,
+    p: FloatArray,
+) -> tuple[float, float, float, float, float, float]:  # pragma: no cover - compiled
+    r"""Wheel loops and axis friction over one step.
+
+    ``ir``, ``il``: the right and left integrators (integrated wheel-speed error, rad). The
+    torque of a wheel is :math:`K(e_1 + k_i I_1)` with :math:`I_1 = I + (e_0 + e_1)\,dt/2`,
+    :math:`e_0`, :math:`e_1` its speed errors at the start and end of the step (implicit in
+    :math:`e_1`). Returns (v1, w1, ir1, il1, torque_r, torque_l).
 
     Skid steer (``p[TRACK]`` = :math:`\chi > 1`): the wheel speeds follow the body through
     the effective track :math:`\chi L` (the treads slip), while the wheel forces act at the
     geometric half-track, so the yaw loop gain is :math:`K L \chi L / (2 r^2)`.
     """
     r, half_l, half_e = p[R], 0.5 * p[L], 0.5 * (p[L] * p[TRACK])
-    m, inertia, k = p[MASS], p[INERTIA], p[K]
+    m, inertia, k, ki = p[MASS], p[INERTIA], p[K], p[KI]
+    if wr_ref == 0.0:
+        ir = 0.0
+    if wl_ref == 0.0:
+        il = 0.0
+    a = 1.0 + 0.5 * ki * dt
+    er0 = wr_ref - (v + w * half_e) / r
+    el0 = wl_ref - (v - w * half_e) / r
+    ir_half = ir + 0.5 * dt * er0
+    il_half = il + 0.5 * dt * el0
     ref_v = 0.5 * r * (wr_ref + wl_ref)
     ref_w = r * (wr_ref - wl_ref) / (p[L] * p[TRACK])
+    int_v = 0.5 * r * (ir_half + il_half)
+    int_w = r * (ir_half - il_half) / (p[L] * p[TRACK])
     kv = 2.0 * k / (r * r)
     kw = k * p[L] * (p[L] * p[TRACK]) / (2.0 * r * r)
-    den_v = m + dt * (kv + p[BV])
-    den_w = inertia + dt * (kw + p[BW])
-    v_nc = (m * v + dt * kv * ref_v) / den_v
-    w_nc = (inertia * w + dt * kw * ref_w) / den_w
+    den_v = m + dt * (kv * a + p[BV])
+    den_w = inertia + dt * (kw * a + p[BW])
+    v_nc = (m * v + dt * kv * (a * ref_v + ki * int_v)) / den_v
+    w_nc = (inertia * w + dt * kw * (a * ref_w + ki * int_w)) / den_w
     v1 = _coulomb_prox(v_nc, dt * p[CFWD] / den_v, dt * p[CBWD] / den_v)
     w1 = _coulomb_prox(w_nc, dt * p[CW] / den_w, dt * p[CW] / den_w)
-    tr = k * (wr_ref - (v1 + w1 * half_e) / r)
-    tl = k * (wl_ref - (v1 - w1 * half_e) / r)
+    er = wr_ref - (v1 + w1 * half_e) / r
+    el = wl_ref - (v1 - w1 * half_e) / r
+    tr = k * (a * er + ki * ir_half)
+    tl = k * (a * el + ki * il_half)
     if max(abs(tr), abs(tl)) > p[TMAX]:
-        tr = clip(k * (wr_ref - (v + w * half_e) / r), p[TMAX])
-        tl = clip(k * (wl_ref - (v - w * half_e) / r), p[TMAX])
+        tr_raw = k * (a * er0 + ki * ir_half)
+        tl_raw = k * (a * el0 + ki * il_half)
+        tr = clip(tr_raw, p[TMAX])
+        tl = clip(tl_raw, p[TMAX])
         force = (tr + tl) / r
         torque = (tr - tl) * half_l / r
         den_v = m + dt * p[BV]
@@ -165,7 +211,14 @@ def wheel_loops(
         w_nc = (inertia * w + dt * torque) / den_w
         v1 = _coulomb_prox(v_nc, dt * p[CFWD] / den_v, dt * p[CBWD] / den_v)
         w1 = _coulomb_prox(w_nc, dt * p[CW] / den_w, dt * p[CW] / den_w)
-    return v1, w1, tr, tl
+        er = wr_ref - (v1 + w1 * half_e) / r
+        el = wl_ref - (v1 - w1 * half_e) / r
+        ir = _integrate(ir, er0 + er, tr_raw, abs(tr_raw) > p[TMAX], 0.5 * dt)
+        il = _integrate(il, el0 + el, tl_raw, abs(tl_raw) > p[TMAX], 0.5 * dt)
+    else:
+        ir = ir_half + 0.5 * dt * er
+        il = il_half + 0.5 * dt * el
+    return v1, w1, ir, il, tr, tl
 
 
 @njit(cache=True, inline="always")
@@ -195,12 +248,21 @@ def axis_friction(
 
 @njit(cache=True)
 def drive_step(
-    v: float, w: float, ref_v: float, ref_w: float, u_v: float, u_w: float, dt: float, p: FloatArray
-) -> tuple[float, float, float, float, float, float]:  # pragma: no cover - compiled
-    """One step of the chain; returns (v1, w1, ref_v, ref_w, torque_r, torque_l)."""
+    v: float,
+    w: float,
+    ref_v: float,
+    ref_w: float,
+    ir: float,
+    il: float,
+    u_v: float,
+    u_w: float,
+    dt: float,
+    p: FloatArray,
+) -> tuple[float, float, float, float, float, float, float, float]:  # pragma: no cover - compiled
+    """One step of the chain; returns (v1, w1, ref_v, ref_w, ir, il, torque_r, torque_l)."""
     ref_v, ref_w, wr_ref, wl_ref = shape_command(u_v, u_w, ref_v, ref_w, dt, p)
-    v1, w1, tr, tl = wheel_loops(v, w, wr_ref, wl_ref, dt, p)
-    return v1, w1, ref_v, ref_w, tr, tl
+    v1, w1, ir, il, tr, tl = wheel_loops(v, w, wr_ref, wl_ref, ir, il, dt, p)
+    return v1, w1, ref_v, ref_w, ir, il, tr, tl
 
 
 @njit(cache=True)
@@ -219,8 +281,8 @@ def pybullet_substep(
 ) -> tuple[float, float]:  # pragma: no cover - compiled
     r"""The wheel torques of one pybullet physics step (the chain of :func:`drive_step`).
 
-    ``state`` is ``[ref_v, ref_w, yaw]``, advanced in place: the smoother's reference and the
-    base's yaw one step earlier; the yaw advances by :math:`dt\,w_z` (what pybullet's
+    ``state`` is ``[ref_v, ref_w, yaw, ir, il]``, advanced in place: the smoother's reference,
+    the base's yaw one step earlier and the wheel loops' integrators (rad); the yaw advances by :math:`dt\,w_z` (what pybullet's
     semi-implicit integrator did in the last step), so the robot reads the orientation once
     per control step only. Inputs are the measured wheel speeds (rad/s, the encoders the
     firmware's loops read) and the base's world velocity.
@@ -245,9 +307,13 @@ def pybullet_substep(
     v = vx * math.cos(yaw) + vy * math.sin(yaw)
     w = wz
     ref_v, ref_w, wr_ref, wl_ref = shape_command(u_v, u_w, state[0], state[1], dt, p)
+    v1, w1, ir, il, tr_model, tl_model = wheel_loops(
+        v, w, wr_ref, wl_ref, state[3], state[4], dt, p
+    )
     state[0] = ref_v
     state[1] = ref_w
-    v1, w1, tr_model, tl_model = wheel_loops(v, w, wr_ref, wl_ref, dt, p)
+    state[3] = ir
+    state[4] = il
     r, sep, k, tmax = p[R], p[L], p[K], p[TMAX]
     half_l = 0.5 * sep
     slip_l = wl_meas - (v - w * half_l) / r

@@ -4,7 +4,7 @@ The drive model is the chain described in ``shared/notes/drive-model.md``::
 
     command (v, w) -> transport delay -> firmware speed clamp -> velocity smoother
     (acceleration limits) -> wheel targets (per-wheel speed cap, both wheels scaled
-    together) -> per-wheel proportional speed loop with torque saturation -> base
+    together) -> per-wheel PI speed loop with torque saturation -> base
     dynamics with mass, yaw inertia, Coulomb and viscous friction -> measured (v, w)
 
 The same :class:`DriveParams` drive the numpy/numba reduced model (:mod:`robots.reduced`)
@@ -113,7 +113,9 @@ class DriveParams:
     r"""Physical parameters of the drive chain (SI units; see the module docstring).
 
     Per-wheel speed loop: each wheel motor produces the torque
-    :math:`\tau_i = \mathrm{clip}(K(\omega_i^{ref} - \omega_i), \pm\tau_{max})`; the base obeys
+    :math:`\tau_i = \mathrm{clip}(K(e_i + k_i \int e_i\,dt), \pm\tau_{max})` with
+    :math:`e_i = \omega_i^{ref} - \omega_i` (a P loop when :math:`k_i = 0`; the integrator holds
+    while its wheel's torque is saturated and clears at a zero wheel target); the base obeys
 
     .. math::
 
@@ -122,10 +124,11 @@ class DriveParams:
         (I + \Delta I)\dot\omega = \frac{L(\tau_r - \tau_l)}{2r} - b_\omega\omega
             - T_c\,\mathrm{sgn}(\omega)
 
-    Unsaturated, each axis is first order with time constant
+    Unsaturated with :math:`k_i = 0`, each axis is first order with time constant
     :math:`T_v = (m+\Delta m) r^2 / (2K + b_v r^2)` and steady state
     :math:`v_{ss} = (2K v_{ref}/r^2 - F_c) / (2K/r^2 + b_v)`: Coulomb friction and a finite loop
-    gain make the base run under the command, as real bases do.
+    gain make the base run under the command; the integral term (:math:`k_i > 0`) removes that
+    offset and makes step responses overshoot, as real bases' PI wheel loops do.
 
     Parameters
     ----------
@@ -142,6 +145,9 @@ class DriveParams:
         together (curvature kept).
     motor_gain_nms_per_rad : float
         Proportional gain K of each wheel's speed loop, N m s/rad.
+    speed_loop_ki_per_s : float
+        Integral gain of each wheel's speed loop relative to ``K`` (:math:`k_i = K_I/K =
+        1/T_i`, the reset rate; :math:`T_i` the integral time), 1/s; 0 = a pure P loop.
     wheel_torque_max_nm : float
         Per-wheel torque saturation, N m.
     coulomb_v_fwd_n, coulomb_v_bwd_n : float
@@ -176,6 +182,7 @@ class DriveParams:
     accel_lim_w_radps2: float = math.inf
     wheel_speed_max_radps: float = math.inf
     motor_gain_nms_per_rad: float = 0.01
+    speed_loop_ki_per_s: float = 0.0
     wheel_torque_max_nm: float = math.inf
     coulomb_v_fwd_n: float = 0.0
     coulomb_v_bwd_n: float = 0.0
@@ -410,7 +417,10 @@ def _field(
 #: Generic priors (used when a spec has no ``priors`` entry): typical command latencies are
 #: 0.05-0.3 s (seed paper 000; Kobuki issue #389 measures ~0.2 s), so the delay prior is
 #: 0.1 s wide; a motor gain nobody publishes is known to a factor e (log sd 1); payload changes
-#: the total mass by ~30 % (log sd 0.3); floor friction is a few % of the weight.
+#: the total mass by ~30 % (log sd 0.3); floor friction is a few % of the weight. Wheel-speed
+#: loops in base firmware are PI/PID (Kobuki's protocol sets P, I, D wheel-controller gains;
+#: Dynamixel servos in velocity mode run a PI loop with a nonzero default I gain), tuned with
+#: integral times of ~0.05-0.5 s: the reset rate ``speed_loop_ki_per_s`` gets an 8 /s prior sd.
 SCHEMA: dict[str, FieldSchema] = {
     f.name: f
     for f in (
@@ -505,6 +515,16 @@ SCHEMA: dict[str, FieldSchema] = {
             prior_sd=_abs(1.0),
             session_sd=_abs(0.05),
             doc="P gain of each wheel's speed loop",
+        ),
+        _field(
+            "speed_loop_ki_per_s",
+            "1/s",
+            "nonneg",
+            "lin",
+            (0.0, 200.0),
+            prior_sd=_abs(8.0),
+            session_sd=_abs(0.0),
+            doc="integral gain of each wheel's speed loop over its P gain (1/integral time)",
         ),
         _field(
             "wheel_torque_max_nm",

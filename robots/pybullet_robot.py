@@ -10,8 +10,8 @@ model (:mod:`robots.reduced`):
    command timeout;
 2. firmware speed clamp, velocity-smoother rate limits, per-wheel speed cap (both wheels
    scaled together) -> wheel speed targets;
-3. per-wheel proportional speed loops :math:`\tau = \mathrm{clip}(K(\omega_{ref}-\omega),
-   \pm\tau_{max})`, discretised exactly as the reduced model does (the shared kernel
+3. per-wheel PI speed loops :math:`\tau = \mathrm{clip}(K(e + k_i\int e\,dt), \pm\tau_{max})`,
+   :math:`e = \omega_{ref}-\omega`, discretised exactly as the reduced model does (the shared kernel
    :func:`robots._kernel.pybullet_substep`: backward Euler while unsaturated, torques of the
    current wheel speeds when saturated), applied with ``TORQUE_CONTROL`` (the default velocity
    motors are disabled).
@@ -219,9 +219,9 @@ class PybulletRobot:
             )
         )
         self._setup_contacts()
-        # the velocity smoother's reference and the base yaw [ref_v, ref_w, yaw], advanced in
-        # place by the kernel
-        self._state = np.zeros(3)
+        # the velocity smoother's reference, the base yaw and the wheel-loop integrators
+        # [ref_v, ref_w, yaw, ir, il], advanced in place by the kernel
+        self._state = np.zeros(5)
         wheels = self.spec.wheels
         self._wheel_radius_m, self._wheel_separation_m = wheels.radius_m, wheels.separation_m
         self._spin_inertia = wheels.spin_inertia_kgm2
@@ -398,6 +398,7 @@ class PybulletRobot:
             angle = p.getJointState(body, j, physicsClientId=c)[0]
             p.resetJointState(body, j, angle, (v + side * w * half) / r, physicsClientId=c)
         self._state[0], self._state[1] = v, w
+        self._state[3], self._state[4] = 0.0, 0.0
 
     @property
     def pose(self) -> tuple[float, float, float]:

@@ -10,7 +10,7 @@ The command is a zero-order-hold signal (each command holds until the next one, 
 step of length ``dt_s`` (through its running integral), so the response is a smooth function of
 the delay, which the least-squares fit needs for sub-sample delays.
 Each step then applies the speed clamp, the rate limiter, the per-wheel speed cap and a
-backward-Euler step of the proportional wheel loop and viscous friction; Coulomb friction is
+backward-Euler step of the PI wheel loops and viscous friction; Coulomb friction is
 applied as a proximal step (it can stop the base but never reverse it). When a wheel's torque
 would exceed ``wheel_torque_max_nm`` the step uses the saturated torques instead.
 
@@ -76,12 +76,15 @@ FloatArray = NDArray[np.float64]
 def _step(
     state: FloatArray, u_v: float, u_w: float, dt: float, p: FloatArray
 ) -> None:  # pragma: no cover - compiled
-    """Advance ``state = [v, w, ref_v, ref_w]`` by one step with (delayed) command (u_v, u_w).
+    """Advance ``state = [v, w, ref_v, ref_w, ir, il]`` by one step with command (u_v, u_w).
 
-    The arithmetic is the shared kernel :func:`robots._kernel.drive_step`.
+    ``ir``, ``il`` are the wheel-loop integrators. The arithmetic is the shared kernel
+    :func:`robots._kernel.drive_step`.
     """
-    v1, w1, rv, rw, _, _ = drive_step(state[0], state[1], state[2], state[3], u_v, u_w, dt, p)
-    state[0], state[1], state[2], state[3] = v1, w1, rv, rw
+    v1, w1, rv, rw, ir, il, _, _ = drive_step(
+        state[0], state[1], state[2], state[3], state[4], state[5], u_v, u_w, dt, p
+    )
+    state[0], state[1], state[2], state[3], state[4], state[5] = v1, w1, rv, rw, ir, il
 
 
 @njit(cache=True)
@@ -92,7 +95,7 @@ def _integrate(
     n = u_v.shape[0]
     out_v = np.empty(n + 1)
     out_w = np.empty(n + 1)
-    state = np.array([v0, w0, v0, w0])
+    state = np.array([v0, w0, v0, w0, 0.0, 0.0])
     out_v[0], out_w[0] = v0, w0
     for i in range(n):
         _step(state, u_v[i], u_w[i], dt, p)
@@ -112,7 +115,7 @@ def _integrate_python(
     n = u_v.shape[0]
     out_v = [v0] * (n + 1)
     out_w = [w0] * (n + 1)
-    state = [v0, w0, v0, w0]
+    state = [v0, w0, v0, w0, 0.0, 0.0]
     packed = p.tolist()
     for i, (a, b) in enumerate(zip(u_v.tolist(), u_w.tolist(), strict=True), start=1):
         step(state, a, b, dt, packed)
@@ -429,7 +432,7 @@ class ReducedDrive:
     def reset(self, v: float = 0.0, w: float = 0.0) -> None:
         """Set the base velocity and clear the command history."""
         self.time_s = 0.0
-        self._state = np.array([v, w, v, w], dtype=np.float64)
+        self._state = np.array([v, w, v, w, 0.0, 0.0], dtype=np.float64)
         # command history: rows of (time s, v m/s, w rad/s); the first self._n rows are used
         self._hist = np.empty((_HISTORY_ROWS, 3), dtype=np.float64)
         self._n = 0

@@ -238,6 +238,7 @@ def _render(robot: NewRobot) -> str:
         " wheels together (as most drivers do), keeping the turn radius",
         f"  motor_gain_nms_per_rad: {_g(k_motor)}  # prior: speed-loop time constant 0.1 s,"
         " K = m_eff r^2 / (2 T)",
+        "  speed_loop_ki_per_s: 0.0  # a P loop until sysid identifies the integral term",
         f"  wheel_torque_max_nm: {_g(tau_max)}  # prior: traction mu = 0.5 on half the weight",
         f"  coulomb_v_fwd_n: {_g(0.01 * m * _G)}  # prior: 1 % of the weight",
         f"  coulomb_v_bwd_n: {_g(0.01 * m * _G)}",
@@ -261,6 +262,8 @@ def _render(robot: NewRobot) -> str:
         f"  wheel_speed_max_radps: {{sd: {0.15 if 'max_speed_mps' in given else 0.7}, "
         "session_sd: 0.05}  # battery sag",
         "  motor_gain_nms_per_rad: {sd: 1.5, session_sd: 0.05}  # time constant 0.02-0.5 s",
+        "  speed_loop_ki_per_s: {nominal: 10.0, sd: 10.0, session_sd: 0.0}  # firmware PI loops:"
+        " integral time ~ the 0.1 s loop time constant",
         "  wheel_torque_max_nm: {sd: 1.0, session_sd: 0.15}  # floor and tyres",
         f"  coulomb_v_fwd_n: {{sd: {_g(0.04 * m * _G)}, session_sd: {_g(0.005 * m * _G)}}}"
         "  # 0-8 % of the weight",

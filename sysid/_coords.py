@@ -12,6 +12,7 @@ Two coordinate systems meet here:
 DriveParams field           internal coordinate                   unit
 ==========================  ====================================  =========
 delay_s                     delay                                 s
+speed_loop_ki_per_s         k_i (a ratio of gains: scale-free)    1/s
 motor_gain_nms_per_rad      log K                                 log
 added_mass_kg               log((m + dm) / k_v)                   log s
 added_yaw_inertia_kgm2      log((I + dI) / k_w)                   log s
@@ -223,6 +224,15 @@ _TABLE: dict[str, Coord] = {
             step=1e-3,
             axis="vw",
             unit="1",
+        ),
+        Coord(
+            field="speed_loop_ki_per_s",
+            kind="lin",
+            lower=0.0,
+            upper=200.0,
+            step=1e-2,
+            axis="vw",
+            unit="1/s",
         ),
         Coord(
             field="motor_gain_nms_per_rad",

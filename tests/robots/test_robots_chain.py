@@ -28,6 +28,9 @@ SPEC = load_spec("turtlebot3_burger")
     dt=st.floats(1e-3, 0.02),
     added=st.floats(0.0, 2.0),
     tmax=st.sampled_from([0.02, 0.081, math.inf]),
+    ki=st.sampled_from([0.0, 12.0]),
+    ir=st.floats(-0.5, 0.5),
+    il=st.floats(-0.5, 0.5),
 )
 def test_shaper_and_drive_step_match_the_reduced_kernel(
     v: float,
@@ -39,25 +42,33 @@ def test_shaper_and_drive_step_match_the_reduced_kernel(
     dt: float,
     added: float,
     tmax: float,
+    ki: float,
+    ir: float,
+    il: float,
 ) -> None:
     params = SPEC.drive.replace(
-        added_mass_kg=added, wheel_torque_max_nm=tmax, accel_lim_v_mps2=2.0, accel_lim_w_radps2=9.0
+        added_mass_kg=added,
+        wheel_torque_max_nm=tmax,
+        accel_lim_v_mps2=2.0,
+        accel_lim_w_radps2=9.0,
+        speed_loop_ki_per_s=ki,
     )
     geo = SPEC.geometry
     packed = pack_params(params, geo)
     # the reduced model's compiled step
-    state = np.array([v, w, ref_v, ref_w])
+    state = np.array([v, w, ref_v, ref_w, ir, il])
     _step(state, u_v, u_w, dt, packed)
     # the same arithmetic interpreted by Python (numba's py_func all the way down)
     ref_v1, ref_w1, wr, wl = _kernel.shape_command.py_func(u_v, u_w, ref_v, ref_w, dt, packed)
-    v1, w1, tr, tl = _kernel.wheel_loops.py_func(v, w, wr, wl, dt, packed)
-    assert np.allclose(state, [v1, w1, ref_v1, ref_w1], rtol=1e-12, atol=1e-12)
+    v1, w1, ir1, il1, tr, tl = _kernel.wheel_loops.py_func(v, w, wr, wl, ir, il, dt, packed)
+    assert np.allclose(state, [v1, w1, ref_v1, ref_w1, ir1, il1], rtol=1e-12, atol=1e-12)
     # the Python view used step by step
     shaper = CommandShaper(params, geo)
     shaper.reset(ref_v, ref_w)
     assert np.allclose(shaper.wheel_targets(u_v, u_w, dt), (wr, wl), rtol=1e-12, atol=1e-12)
-    out = drive_step(v, w, wr, wl, dt, params, geo)
+    out = drive_step(v, w, wr, wl, dt, params, geo, integral_r_rad=ir, integral_l_rad=il)
     assert math.isclose(out.v1, v1, rel_tol=1e-12, abs_tol=1e-12)
+    assert (out.integral_r_rad, out.integral_l_rad) == (ir1, il1)
     assert math.isclose(out.w1, w1, rel_tol=1e-12, abs_tol=1e-12)
     assert math.isclose(shaper.ref_v, ref_v1, rel_tol=1e-12, abs_tol=1e-12)
     assert math.isclose(shaper.ref_w, ref_w1, rel_tol=1e-12, abs_tol=1e-12)
@@ -66,13 +77,13 @@ def test_shaper_and_drive_step_match_the_reduced_kernel(
     # model's torques plus the axis friction carried by the wheels
     r, half_l = geo.wheel_radius_m, 0.5 * geo.wheel_separation_m
     dt_yaw = 0.25
-    state = np.array([ref_v, ref_w, -dt * w + dt_yaw])
+    state = np.array([ref_v, ref_w, -dt * w + dt_yaw, ir, il])
     got = pybullet_substep(
         state, u_v, u_w, (v - w * half_l) / r, (v + w * half_l) / r,
         v * math.cos(dt_yaw), v * math.sin(dt_yaw), w, dt, packed, SPEC.wheels.spin_inertia_kgm2,
     )  # fmt: skip
     force, torque = friction_of(out, v, w, dt, packed[12], packed[13], geo)
-    assert np.allclose(state, [ref_v1, ref_w1, dt_yaw], rtol=1e-12, atol=1e-12)
+    assert np.allclose(state, [ref_v1, ref_w1, dt_yaw, ir1, il1], rtol=1e-12, atol=1e-12)
     carried = (
         0.5 * r * force - r * torque / (2 * half_l),
         0.5 * r * force + r * torque / (2 * half_l),
