@@ -28,12 +28,22 @@ def distribution_around(
     noise_v: float = 0.003,
     noise_w: float = 0.02,
 ) -> DriveDistribution:
-    """A distribution centred on ``params`` (spec prior covariance x ``rel**2``)."""
+    """A distribution centred on ``params`` (spec prior covariance x ``rel**2``).
+
+    A term that ``params`` switch off (a ``lin`` field at 0 on its lower bound, e.g. the P loop's
+    ``speed_loop_ki_per_s = 0``) is fixed: a spread centred on the bound only draws one side.
+    """
     spec = load_spec(robot)
     prior = DriveDistribution.from_priors(spec.name, spec.geometry, spec.priors, session=False)
-    names = prior.names
+    off = {
+        n
+        for n in prior.names
+        if SCHEMA[n].coord == "lin" and float(getattr(params, n)) == SCHEMA[n].lower == 0.0
+    }
+    keep = [i for i, n in enumerate(prior.names) if n not in off]
+    names = tuple(prior.names[i] for i in keep)
     mean = tuple(SCHEMA[n].to_coord(float(getattr(params, n)), spec.geometry) for n in names)
-    cov = prior.covariance_array * rel**2
+    cov = prior.covariance_array[np.ix_(keep, keep)] * rel**2
     return DriveDistribution(
         robot=spec.name,
         geometry=spec.geometry,
