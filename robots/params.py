@@ -319,6 +319,16 @@ class FieldSchema:
         refused as absurd when a distribution is read.
     doc : str
         One line on what it is.
+    fit_kind : str
+        How velocity data see the field, the kind of sysid's internal fit coordinate
+        (``sysid._coords``): ``lin`` or ``log`` (the value, its log), ``mass`` / ``inertia``
+        (log of the total over the loop gain: a time constant), ``ratio_v`` / ``ratio_w``
+        (friction over the loop gain), ``torque_ratio`` (log of the torque cap over the gain).
+    fit_range : tuple of float or None
+        Bounds of that internal coordinate; None: :attr:`lower`, :attr:`upper` (logs of them
+        for ``log``).
+    fit_step : float
+        Finite-difference step of the internal coordinate.
     """
 
     name: str
@@ -334,6 +344,9 @@ class FieldSchema:
     session_sd: Callable[[BaseGeometry], float]
     absurd_sd: float
     doc: str
+    fit_kind: str = "lin"
+    fit_range: tuple[float, float] | None = None
+    fit_step: float = 1e-3
 
     def spec_value(self, geometry: BaseGeometry) -> float:
         """The spec quantity a ``total_positive`` field adds to (0 for the others)."""
@@ -409,6 +422,7 @@ def _field(
         axis=kw.pop("axis", "vw"),
         fittable=kw.pop("fittable", True),
         absurd_sd=kw.pop("absurd_sd", 3.0 if coord != "lin" else 100.0),
+        fit_kind=kw.pop("fit_kind", "lin" if coord == "lin" else "log"),
         **kw,
     )
 
@@ -524,6 +538,7 @@ SCHEMA: dict[str, FieldSchema] = {
             (0.0, 200.0),
             prior_sd=_abs(8.0),
             session_sd=_abs(0.0),
+            fit_step=1e-2,
             doc="integral gain of each wheel's speed loop over its P gain (1/integral time)",
         ),
         _field(
@@ -535,6 +550,8 @@ SCHEMA: dict[str, FieldSchema] = {
             may_be_inf=True,
             prior_sd=_abs(0.7),
             session_sd=_abs(0.1),
+            fit_kind="torque_ratio",
+            fit_range=(math.log(1e-3), math.log(1e4)),
             doc="per-wheel torque saturation",
         ),
         _field(
@@ -546,6 +563,9 @@ SCHEMA: dict[str, FieldSchema] = {
             axis="v",
             prior_sd=_weight(0.02),
             session_sd=_weight(0.005),
+            fit_kind="ratio_v",
+            fit_range=(0.0, 0.5),
+            fit_step=1e-4,
             doc="Coulomb friction force, moving forward",
         ),
         _field(
@@ -557,6 +577,9 @@ SCHEMA: dict[str, FieldSchema] = {
             axis="v",
             prior_sd=_weight(0.02),
             session_sd=_weight(0.005),
+            fit_kind="ratio_v",
+            fit_range=(0.0, 0.5),
+            fit_step=1e-4,
             doc="Coulomb friction force, moving backward",
         ),
         _field(
@@ -568,6 +591,9 @@ SCHEMA: dict[str, FieldSchema] = {
             axis="w",
             prior_sd=_weight_arm(0.03),
             session_sd=_weight_arm(0.008),
+            fit_kind="ratio_w",
+            fit_range=(0.0, 3.0),
+            fit_step=5e-4,
             doc="Coulomb friction torque about yaw",
         ),
         _field(
@@ -579,6 +605,8 @@ SCHEMA: dict[str, FieldSchema] = {
             axis="v",
             prior_sd=_per_mass(1.0),
             session_sd=_per_mass(0.2),
+            fit_kind="ratio_v",
+            fit_range=(0.0, 5.0),
             doc="viscous friction, forward",
         ),
         _field(
@@ -590,6 +618,8 @@ SCHEMA: dict[str, FieldSchema] = {
             axis="w",
             prior_sd=_per_inertia(1.0),
             session_sd=_per_inertia(0.2),
+            fit_kind="ratio_w",
+            fit_range=(0.0, 5.0),
             doc="viscous friction about yaw",
         ),
         _field(
@@ -601,6 +631,8 @@ SCHEMA: dict[str, FieldSchema] = {
             axis="v",
             prior_sd=_abs(0.3),
             session_sd=_abs(0.1),
+            fit_kind="mass",
+            fit_range=(math.log(2e-3), math.log(20.0)),
             doc="payload beyond the spec mass",
         ),
         _field(
@@ -612,6 +644,8 @@ SCHEMA: dict[str, FieldSchema] = {
             axis="w",
             prior_sd=_abs(0.4),
             session_sd=_abs(0.15),
+            fit_kind="inertia",
+            fit_range=(math.log(2e-3), math.log(20.0)),
             doc="payload yaw inertia beyond the spec",
         ),
         # Differential drive: 1 exactly (no prior spread). Skid steer: Mandow et al. 2007

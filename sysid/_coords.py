@@ -6,7 +6,9 @@ Two coordinate systems meet here:
   friction, ``log`` gains and limits, ``log_total_mass``, ``log_total_inertia``): the priors,
   the posterior, the population and the randomisation distribution live in them;
 * the **internal fit coordinates** :math:`u` the optimiser moves, chosen so that velocity data
-  see each one alone. With :math:`k_v = 2K/r^2` and :math:`k_\omega = K L^2/(2 r^2)`:
+  see each one alone; their kind, bounds and step come from the schema too
+  (``FieldSchema.fit_kind``, ``fit_range``, ``fit_step``). With :math:`k_v = 2K/r^2` and
+  :math:`k_\omega = K L^2/(2 r^2)`:
 
 ==========================  ====================================  =========
 DriveParams field           internal coordinate                   unit
@@ -49,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from robots.params import SCHEMA, BaseGeometry, DriveParams, Prior, generic_priors
+from robots.params import SCHEMA, BaseGeometry, DriveParams, FieldSchema, Prior, generic_priors
 
 __all__ = ["COORDS", "NOT_FITTABLE", "Coord", "Mapper", "soft_floor", "soft_floor_inverse"]
 
@@ -95,160 +97,28 @@ class Coord:
     unit: str
 
 
-_TABLE: dict[str, Coord] = {
-    c.field: c
-    for c in (
-        Coord(field="delay_s", kind="lin", lower=0.0, upper=1.0, step=1e-3, axis="vw", unit="s"),
-        Coord(
-            field="added_mass_kg",
-            kind="mass",
-            lower=math.log(2e-3),
-            upper=math.log(20.0),
-            step=1e-3,
-            axis="v",
-            unit="kg",
-        ),
-        Coord(
-            field="added_yaw_inertia_kgm2",
-            kind="inertia",
-            lower=math.log(2e-3),
-            upper=math.log(20.0),
-            step=1e-3,
-            axis="w",
-            unit="kg m^2",
-        ),
-        Coord(
-            field="viscous_v_ns_per_m",
-            kind="ratio_v",
-            lower=0.0,
-            upper=5.0,
-            step=1e-3,
-            axis="v",
-            unit="N s/m",
-        ),
-        Coord(
-            field="viscous_w_nms_per_rad",
-            kind="ratio_w",
-            lower=0.0,
-            upper=5.0,
-            step=1e-3,
-            axis="w",
-            unit="N m s/rad",
-        ),
-        Coord(
-            field="coulomb_v_fwd_n",
-            kind="ratio_v",
-            lower=0.0,
-            upper=0.5,
-            step=1e-4,
-            axis="v",
-            unit="N",
-        ),
-        Coord(
-            field="coulomb_v_bwd_n",
-            kind="ratio_v",
-            lower=0.0,
-            upper=0.5,
-            step=1e-4,
-            axis="v",
-            unit="N",
-        ),
-        Coord(
-            field="coulomb_w_nm",
-            kind="ratio_w",
-            lower=0.0,
-            upper=3.0,
-            step=5e-4,
-            axis="w",
-            unit="N m",
-        ),
-        Coord(
-            field="accel_lim_v_mps2",
-            kind="log",
-            lower=math.log(0.02),
-            upper=math.log(50.0),
-            step=1e-3,
-            axis="v",
-            unit="m/s^2",
-        ),
-        Coord(
-            field="accel_lim_w_radps2",
-            kind="log",
-            lower=math.log(0.1),
-            upper=math.log(300.0),
-            step=1e-3,
-            axis="w",
-            unit="rad/s^2",
-        ),
-        Coord(
-            field="speed_lim_v_mps",
-            kind="log",
-            lower=math.log(0.01),
-            upper=math.log(10.0),
-            step=1e-3,
-            axis="v",
-            unit="m/s",
-        ),
-        Coord(
-            field="speed_lim_w_radps",
-            kind="log",
-            lower=math.log(0.05),
-            upper=math.log(50.0),
-            step=1e-3,
-            axis="w",
-            unit="rad/s",
-        ),
-        Coord(
-            field="wheel_speed_max_radps",
-            kind="log",
-            lower=math.log(0.3),
-            upper=math.log(300.0),
-            step=1e-3,
-            axis="vw",
-            unit="rad/s",
-        ),
-        Coord(
-            field="wheel_torque_max_nm",
-            kind="torque_ratio",
-            lower=math.log(1e-3),
-            upper=math.log(1e4),
-            step=1e-3,
-            axis="vw",
-            unit="N m",
-        ),
-        Coord(
-            field="track_factor",
-            kind="log",
-            lower=0.0,
-            upper=math.log(4.0),
-            step=1e-3,
-            axis="vw",
-            unit="1",
-        ),
-        Coord(
-            field="speed_loop_ki_per_s",
-            kind="lin",
-            lower=0.0,
-            upper=200.0,
-            step=1e-2,
-            axis="vw",
-            unit="1/s",
-        ),
-        Coord(
-            field="motor_gain_nms_per_rad",
-            kind="log",
-            lower=math.log(1e-5),
-            upper=math.log(1e3),
-            step=1e-3,
-            axis="vw",
-            unit="N m s/rad",
-        ),
+def _coord(field: FieldSchema) -> Coord:
+    """The internal coordinate of a schema field (its ``fit_kind``, ``fit_range``, ``fit_step``)."""
+    if field.fit_range is not None:
+        lower, upper = field.fit_range
+    elif field.fit_kind == "log":
+        lower, upper = math.log(field.lower), math.log(field.upper)
+    else:
+        lower, upper = field.lower, field.upper
+    return Coord(
+        field=field.name,
+        kind=field.fit_kind,
+        lower=lower,
+        upper=upper,
+        step=field.fit_step,
+        axis=field.axis,
+        unit=field.unit,
     )
-}
 
 
-#: Fields a fit can free (velocity logs can inform them), in DriveParams order.
-COORDS: dict[str, Coord] = {n: _TABLE[n] for n in SCHEMA if n in _TABLE}
+#: Fields a fit can free (velocity logs can inform them), in DriveParams order; derived from
+#: :data:`robots.params.SCHEMA` (its ``fittable``, ``axis``, ``unit`` and ``fit_*`` entries).
+COORDS: dict[str, Coord] = {n: _coord(f) for n, f in SCHEMA.items() if f.fittable}
 
 #: Fields that velocity data cannot inform (with the reason, used in error messages).
 NOT_FITTABLE: dict[str, str] = {

@@ -32,6 +32,21 @@ BASE = DriveParams(
 )
 
 
+def test_fit_coordinates_are_the_schemas() -> None:
+    """One table: the fit's coordinates are the schema's fittable fields, units and axes."""
+    from robots.params import SCHEMA
+
+    assert list(COORDS) == [n for n, f in SCHEMA.items() if f.fittable]
+    for name, c in COORDS.items():
+        f = SCHEMA[name]
+        assert (c.unit, c.axis, c.kind, c.step) == (f.unit, f.axis, f.fit_kind, f.fit_step)
+        assert c.lower < c.upper
+        if c.kind == "log":
+            assert (c.lower, c.upper) == f.coord_bounds(GEO)
+    assert COORDS["speed_loop_ki_per_s"].kind == "lin"  # a ratio of gains: scale-free
+    assert COORDS["added_mass_kg"].kind == "mass"
+
+
 def test_coordinates_round_trip_every_field() -> None:
     mapper = Mapper(GEO, BASE)
     coords = {f: mapper.to_coord(BASE, f) for f in COORDS if math.isfinite(getattr(BASE, f))}
