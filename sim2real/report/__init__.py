@@ -30,9 +30,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from robots.params import DriveParams
+from robots.params import DriveParams, load_params_document
 from sim2real._io import atomic_write, check_output_path
 from sim2real.agreement import AgreementReport, EnsembleResult, band_verdict
 from sim2real.errors import Sim2RealValueError
@@ -161,7 +160,7 @@ def param_rows(
     """
     entries: Mapping[str, Any] = {}
     if params_file is not None:
-        doc = yaml.safe_load(Path(params_file).read_text(encoding="utf-8"))
+        doc = load_params_document(params_file)
         if isinstance(doc, dict) and isinstance(doc.get("parameters"), dict):
             entries = doc["parameters"]
     rows = []

@@ -85,6 +85,18 @@ def test_param_rows_read_intervals_and_status(tmp_path: Path) -> None:
     assert rows["coulomb_w_nm"].unit == "N m" and rows["viscous_v_ns_per_m"].unit == "N s/m"
 
 
+def test_param_rows_read_the_file_through_the_one_parser(tmp_path: Path) -> None:
+    """robots.params.load_params_document: a bad file is named in one sentence."""
+    from robots.errors import ParamsFileError
+
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("parameters: [unclosed\n")
+    with pytest.raises(ParamsFileError, match=r"bad\.yaml' is not valid YAML"):
+        param_rows(DriveParams(), DriveParams(), bad)
+    with pytest.raises(ParamsFileError, match="is a folder"):
+        param_rows(DriveParams(), DriveParams(), tmp_path)
+
+
 def test_page_is_self_contained_and_escapes_text(tmp_path: Path) -> None:
     log = write_log(tmp_path / "a&b<c>.mcap", duration_s=12.0)
     trace = read_trace(log)
