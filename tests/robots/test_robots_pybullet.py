@@ -242,13 +242,15 @@ def test_pybullet_agrees_with_the_reduced_model(name: str) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ROBOTS)
 def test_replay_agrees_with_simulate_for_other_params(name: str) -> None:
-    """Irregular command times, payload and longer delay: RMS < 0.003 m/s and < 0.015 rad/s."""
+    """Irregular command times, payload, longer delay and PI wheel loops (the spec's prior
+    integral gain): RMS < 0.003 m/s and < 0.015 rad/s."""
     spec = load_spec(name)
     rng = np.random.default_rng(7)
     params = spec.drive.replace(
         added_mass_kg=0.4 * spec.geometry.mass_kg,
         added_yaw_inertia_kgm2=0.3 * spec.geometry.yaw_inertia_kgm2,
         delay_s=0.13,
+        speed_loop_ki_per_s=spec.priors["speed_loop_ki_per_s"].nominal,
     )
     cmd_t = np.cumsum(rng.uniform(0.05, 0.15, 80))
     cmd_v = np.repeat(rng.uniform(-1.0, 1.0, 8), 10) * spec.max_v_mps

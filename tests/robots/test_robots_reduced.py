@@ -166,3 +166,55 @@ def test_stepping_drive_keeps_its_history_right_past_the_buffer(delay_s: float) 
     )
     assert np.abs(got).max() > 0.05
     assert np.allclose(got, batch.v[1:], atol=1e-9)
+
+
+def _pi_params(ki: float, **kw: float) -> DriveParams:
+    return DriveParams(motor_gain_nms_per_rad=0.0054, speed_loop_ki_per_s=ki, **kw)
+
+
+def test_integral_term_gives_the_continuous_pi_loops_step_response() -> None:
+    """PI on an inertia: V/V_ref = k_v (s + k_i) / (m s^2 + k_v s + k_v k_i), an overshoot."""
+    from scipy import signal
+
+    ki = 20.0
+    t, r = _step_response(_pi_params(ki), 0.2, 0.0)
+    kv = 2 * 0.0054 / GEO.wheel_radius_m**2
+    _, exact = signal.step(([kv, kv * ki], [GEO.mass_kg, kv, kv * ki]), T=t)
+    assert np.max(np.abs(r.v - 0.2 * exact)) < 2e-3
+    assert float(np.max(r.v)) > 1.3 * 0.2  # a clear overshoot
+    assert r.v[-1] == pytest.approx(0.2, abs=1e-4)
+    # k_i = 0 is the P loop: first order, no overshoot
+    _, p_only = _step_response(_pi_params(0.0), 0.2, 0.0)
+    assert float(np.max(p_only.v)) <= 0.2 + 1e-12
+
+
+def test_integral_term_removes_the_coulomb_droop() -> None:
+    kw = {"coulomb_v_fwd_n": 0.3, "coulomb_w_nm": 0.01}
+    _, p_only = _step_response(_pi_params(0.0, **kw), 0.2, 1.0)
+    _, pi = _step_response(_pi_params(10.0, **kw), 0.2, 1.0)
+    assert p_only.v[-1] < 0.2 - 0.01 and p_only.w[-1] < 1.0 - 0.05
+    assert pi.v[-1] == pytest.approx(0.2, abs=1e-3) and pi.w[-1] == pytest.approx(1.0, abs=5e-3)
+
+
+def test_integrator_does_not_wind_up_at_the_torque_cap() -> None:
+    """A step that saturates the torque for ~1 s overshoots no more than the linear loop."""
+    ki = 20.0
+    _, linear = _step_response(_pi_params(ki), 0.2, 0.0)
+    _, capped = _step_response(_pi_params(ki, wheel_torque_max_nm=0.002), 0.2, 0.0, t_end=5.0)
+    ramp = 2 * 0.002 / GEO.wheel_radius_m / GEO.mass_kg  # m/s^2 at the cap
+    assert 0.2 / ramp > 1.0  # saturated for over a second
+    assert float(np.max(capped.v)) <= float(np.max(linear.v)) + 1e-9
+    assert capped.v[-1] == pytest.approx(0.2, abs=1e-3)
+
+
+def test_a_stop_clears_the_integrator() -> None:
+    """Coulomb friction loads the integrator; after a stop the same step gives the same run."""
+    params = _pi_params(10.0, coulomb_v_fwd_n=0.3, coulomb_v_bwd_n=0.3)
+    t = np.arange(0.0, 6.0, 0.01)
+    r = simulate(
+        params, GEO, cmd_t_s=np.array([0.0, 2.0, 3.0, 5.0]), cmd_v=np.array([0.2, 0.0, 0.2, 0.0]),
+        cmd_w=np.zeros(4), t_out_s=t, dt_s=0.001,
+    )  # fmt: skip
+    first, again = r.v[(t >= 0.0) & (t < 2.0)], r.v[(t >= 3.0) & (t < 5.0)]
+    assert np.max(np.abs(first - again)) < 1e-9
+    assert np.all(r.v[(t > 2.8) & (t < 3.0)] == 0.0)  # no creep at rest

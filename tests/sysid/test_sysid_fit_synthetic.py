@@ -173,3 +173,25 @@ def test_two_logs_fit_jointly() -> None:
     assert [d.role for d in res.data] == ["fit", "fit"]
     assert abs(res.params.delay_s - TRUTH.delay_s) < 0.01
     assert all(s.fit_percent_v > 85 for s in res.scores_fit)
+
+
+@pytest.mark.parametrize("truth_ki", [0.0, 15.0])
+def test_integral_gain_of_the_wheel_loops_is_identified(truth_ki: float) -> None:
+    """The overshoot of each step fixes k_i: a PI plant gives it back, a P plant gives ~0
+    although the spec's prior is centred on 20 /s."""
+    from robots.spec import load_spec
+
+    spec = load_spec("turtlebot3_burger")
+    truth = spec.drive.replace(speed_loop_ki_per_s=truth_ki, delay_s=0.08)
+    t, v, w = step_commands(25.0, seed=5, v_max_mps=0.2, w_max_radps=1.5)
+    log = synthetic_log(truth, spec.geometry, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=6, spike_mps=None)
+    res = fit_drive(
+        [log], geometry=spec.geometry, base_params=spec.drive, priors=spec.priors,
+        odom_v_window_s=0.02,
+    )  # fmt: skip
+    est = res.estimate("speed_loop_ki_per_s")
+    assert est.status == "fitted"
+    assert est.ci95_low is not None and est.ci95_high is not None
+    assert est.ci95_low - 0.5 <= truth_ki <= est.ci95_high + 0.5
+    assert abs(est.value - truth_ki) < 0.15 * truth_ki + 1.0
+    assert est.ci95_high - est.ci95_low < 0.5 * spec.priors["speed_loop_ki_per_s"].sd
