@@ -18,8 +18,15 @@ estimate's agreement, and the agreement of pybullet with the reduced model on th
 parameters. Targets (issue 11): coverage 80-99 %, widths <= 0.10 m/s and <= 0.35 rad/s,
 point agreement >= 0.90, pybullet vs reduced >= 0.99.
 
-Run: ``.venv/bin/python benchmarks/bench_calibration.py [--sessions 8] [--pybullet-n 20]``
-(about 5 minutes on one core; pybullet replays dominate).
+3. Plant variants the drive model was not tuned on (``--variants``): the same base with a
+   faster, more aggressive PI loop (integral time 0.05 s instead of 0.1 s, other fleet seed),
+   and a fleet of another base (``turtlebot3_burger``, gyro w, no smoother).
+
+The fit uses the spec's priors, as ``sim2real sysid fit`` does. A table of every checked
+session closes the output.
+
+Run: ``.venv/bin/python benchmarks/bench_calibration.py [--sessions 8] [--pybullet-n 20]
+[--variants]`` (about 5 minutes on one core per fleet; pybullet replays dominate).
 """
 
 from __future__ import annotations
@@ -34,6 +41,9 @@ import numpy as np
 
 ROBOT = "turtlebot2"
 FIT, CAL = (0, 1, 2), (3, 4)
+#: Rows of the closing table: (fleet, session, engine, band, point agreement, cov v, cov w,
+#: width v, width w).
+TABLE: list[tuple[Any, ...]] = []
 REALDATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
 
 
@@ -59,24 +69,46 @@ def _check(trace: Any, spec: Any, dist: Any, engine: str, n: int, window_s: floa
     return ens, sim, measure_agreement(trace, sim)
 
 
-def fleet(n_sessions: int, n_reduced: int, n_pybullet: int, folder: Path) -> None:
+def _table_row(fleet_name: str, i: int, engine: str, band: str, ens: Any, point: Any) -> None:
+    TABLE.append(
+        (fleet_name, i, engine, band, point.agreement, ens.coverage_v, ens.coverage_w,
+         ens.band_width_v_mps, ens.band_width_w_radps)
+    )  # fmt: skip
+
+
+def fleet(
+    n_sessions: int,
+    n_reduced: int,
+    n_pybullet: int,
+    folder: Path,
+    *,
+    robot: str = ROBOT,
+    seed: int = 11,
+    integral_time_s: float | None = None,
+    name: str = "turtlebot2 seed 11",
+) -> None:
     from robots.randomization import DriveDistribution
     from robots.spec import load_spec
     from sim2real.agreement import agreement_from_arrays, band_verdict
     from sim2real.calibration import calibrate, write_calibrated
     from sim2real.logs import read_trace
-    from sim2real.plants import write_fleet
+    from sim2real.plants import plant_from_spec, write_fleet
     from sysid import fit_drive
 
-    spec = load_spec(ROBOT)
+    spec = load_spec(robot)
     window = spec.odometry.v_window_s
-    paths = write_fleet(folder, ROBOT, n_sessions, seed=11, duration_s=90.0)
+    plant: Any = robot
+    if integral_time_s is not None:
+        base = plant_from_spec(robot)
+        plant = base.replace(ki_nm_per_rad=base.kp_nms_per_rad / integral_time_s)
+    paths = write_fleet(folder, plant, n_sessions, seed=seed, duration_s=90.0)
     traces = [read_trace(p) for p in paths]
     t = time.perf_counter()
     result = fit_drive(
         [traces[i] for i in FIT],
         geometry=spec.geometry,
         base_params=spec.drive,
+        priors=spec.priors,
         robot=spec.name,
         odom_v_window_s=window,
     )
@@ -84,10 +116,15 @@ def fleet(n_sessions: int, n_reduced: int, n_pybullet: int, folder: Path) -> Non
     params = folder / "params.yaml"
     result.save(params)
     t = time.perf_counter()
-    cal = calibrate(params, [paths[i] for i in CAL], robot=ROBOT, n=24, seed=0)
+    cal = calibrate(params, [paths[i] for i in CAL], robot=robot, n=24, seed=0)
     cal_s = time.perf_counter() - t
     calibrated = write_calibrated(params, folder / "calibrated.yaml", cal)
-    print(f"fleet: {n_sessions} sessions x 90 s of {ROBOT} (foreign plant, seed 11)")
+    print(f"fleet {name}: {n_sessions} sessions x 90 s of {robot} (foreign plant)")
+    p = result.params
+    print(
+        f"  fitted population mean: delay {p.delay_s:.3f} s, k_i {p.speed_loop_ki_per_s:.2f} /s, "
+        f"total mass {p.total_mass_kg(spec.geometry):.2f} kg"
+    )
     print(f"  fit on sessions {FIT}: {fit_s:.1f} s; calibrate on {CAL}: {cal_s:.1f} s")
     print(
         f"  calibration: dynamics factor a = {cal.dynamics_factor:.3f}, session factor b = "
@@ -95,21 +132,23 @@ def fleet(n_sessions: int, n_reduced: int, n_pybullet: int, folder: Path) -> Non
         f"{cal.noise_std_w_radps:.4f} rad/s, log-lik/sample {cal.log_likelihood_before:.3f} -> "
         f"{cal.log_likelihood:.3f}"
     )
-    fitted = DriveDistribution.from_params_file(params, robot=ROBOT)
-    dist = DriveDistribution.from_params_file(calibrated, robot=ROBOT)
+    fitted = DriveDistribution.from_params_file(params, robot=robot)
+    dist = DriveDistribution.from_params_file(calibrated, robot=robot)
     for i in range(max(CAL) + 1, n_sessions):
         trace = traces[i]
         ens_f, _, point_f = _check(trace, spec, fitted, "reduced", n_reduced, window)
         print(_row(f"session {i} reduced, fit", ens_f, point_f))
         ens_r, sim_r, point_r = _check(trace, spec, dist, "reduced", n_reduced, window)
         print(_row(f"session {i} reduced, calibrated", ens_r, point_r))
+        _table_row(name, i, "reduced", "calibrated", ens_r, point_r)
         if n_pybullet:
             ens_p, sim_p, point_p = _check(trace, spec, dist, "pybullet", n_pybullet, window)
             print(_row(f"session {i} pybullet, calibrated", ens_p, point_p))
+            _table_row(name, i, "pybullet", "calibrated", ens_p, point_p)
             cmd_v, cmd_w = trace.cmd_at_meas()
             same = agreement_from_arrays(
                 t_s=trace.meas_t_s, cmd_v=cmd_v, cmd_w=cmd_w, real_v=sim_r.v, real_w=sim_r.w,
-                sim_v=sim_p.v, sim_w=sim_p.w, robot=ROBOT,
+                sim_v=sim_p.v, sim_w=sim_p.w, robot=robot,
             )  # fmt: skip
             print(f"  pybullet vs reduced, same params: agreement {100 * same.agreement:.1f} %")
         print(
@@ -144,8 +183,8 @@ def tb3_halves(n: int) -> None:
     half = 0.5 * trace.duration_s
     first, second = trace.window(0.0, half), trace.window(half, trace.duration_s + 1.0)
     result = fit_drive(
-        [first], geometry=spec.geometry, base_params=spec.drive, robot=spec.name,
-        odom_v_window_s=window,
+        [first], geometry=spec.geometry, base_params=spec.drive, priors=spec.priors,
+        robot=spec.name, odom_v_window_s=window,
     )  # fmt: skip
     with tempfile.TemporaryDirectory() as tmp:
         params = Path(tmp) / "tb3.yaml"
@@ -154,9 +193,28 @@ def tb3_halves(n: int) -> None:
         print(
             f"real TB3 Waffle Pi log in halves ({trace.duration_s:.1f} s): fit first, band on second"
         )
+        p = result.params
+        print(
+            f"  fitted on the first half: k_i {p.speed_loop_ki_per_s:.2f} /s, total mass "
+            f"{p.total_mass_kg(spec.geometry):.2f} kg (spec {spec.geometry.mass_kg:.2f} kg)"
+        )
         for engine in ("reduced", "pybullet"):
             ens, _, point = _check(second, spec, dist, engine, n, window)
             print(_row(f"second half {engine}", ens, point))
+            _table_row("real TB3 Waffle Pi", 2, engine, "fit", ens, point)
+
+
+def print_table() -> None:
+    """The closing Markdown table of every checked session."""
+    print()
+    print("| fleet | session | engine | band | point agreement | coverage v | coverage w |"
+          " width v m/s | width w rad/s |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, i, engine, band, agree, cv, cw, wv, ww in TABLE:
+        print(
+            f"| {name} | {i} | {engine} | {band} | {100 * agree:.1f} % | {100 * cv:.1f} % |"
+            f" {100 * cw:.1f} % | {wv:.4f} | {ww:.3f} |"
+        )
 
 
 def main() -> None:
@@ -166,11 +224,28 @@ def main() -> None:
     parser.add_argument(
         "--pybullet-n", type=int, default=20, help="ensemble size, pybullet (0: skip)"
     )
+    parser.add_argument(
+        "--variants", action="store_true", help="also the plant variants the model was not tuned on"
+    )
+    parser.add_argument("--no-real", action="store_true", help="skip the real TB3 log")
     args = parser.parse_args()
     np.seterr(all="ignore")
     with tempfile.TemporaryDirectory() as tmp:
         fleet(args.sessions, args.reduced_n, args.pybullet_n, Path(tmp))
-    tb3_halves(args.reduced_n)
+    if args.variants:
+        with tempfile.TemporaryDirectory() as tmp:
+            fleet(
+                args.sessions, args.reduced_n, args.pybullet_n, Path(tmp), seed=23,
+                integral_time_s=0.05, name="turtlebot2 seed 23, T_i 0.05 s",
+            )  # fmt: skip
+        with tempfile.TemporaryDirectory() as tmp:
+            fleet(
+                args.sessions, args.reduced_n, args.pybullet_n, Path(tmp),
+                robot="turtlebot3_burger", seed=5, name="turtlebot3_burger seed 5",
+            )  # fmt: skip
+    if not args.no_real:
+        tb3_halves(args.reduced_n)
+    print_table()
 
 
 if __name__ == "__main__":
