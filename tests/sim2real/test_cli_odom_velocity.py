@@ -26,8 +26,11 @@ T0_NS = 1_700_000_000 * 10**9
 def zero_twist_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     spec = load_spec("turtlebot3_burger")
     t, v, w = step_commands(20.0, seed=3, v_max_mps=0.2, w_max_radps=1.5)
+    # the spec's nominal robot: what '--free delay_s' holds the other fields at (their prior
+    # nominals, e.g. the wheel loops' integral gain)
+    nominal = {"speed_loop_ki_per_s": spec.priors["speed_loop_ki_per_s"].nominal}
     log = synthetic_log(
-        spec.drive.replace(delay_s=0.1),
+        spec.drive.replace(delay_s=0.1, **nominal),
         spec.geometry,
         cmd_t_s=t,
         cmd_v=v,
