@@ -135,7 +135,7 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self._act_high = np.asarray(self.single_action_space.high, dtype=np.float64)  # type: ignore[attr-defined]
         # robot state
         self._pose = np.zeros((n, 3))
-        self._state = np.zeros((n, 4))
+        self._state = np.zeros((n, 6))  # ReducedDrive._state: [v, w, ref_v, ref_w, ir, il]
         self._hist = np.zeros((n, _HISTORY_ROWS, 3))
         self._n_hist = np.zeros(n, dtype=np.int64)
         self._time = np.zeros(n)
