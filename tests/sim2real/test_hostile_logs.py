@@ -7,6 +7,8 @@ follows the number of messages (a 30 s log with a one-year pause stays under 0.5
 
 from __future__ import annotations
 
+import dataclasses
+
 import json
 import math
 import os
@@ -259,8 +261,20 @@ def test_a_fit_that_breaks_the_schema_exits_2_naming_the_log(
     about a params file that does not exist (was: motor_gain ... must be > 0, got 0.0)."""
     import sysid._fleet
 
+    import robots.spec
+    from robots.params import Prior
+
     log, _ = run_case(capsys, "paused_for_a_night", _NIGHT)
     monkeypatch.setattr(sysid._fleet, "MIN_INFO_RATIO", -math.inf)
+    # and the drive model as it was when the flaw was found (P wheel loops: k_i held at 0)
+    real_load = robots.spec.load_spec
+
+    def p_loop_spec(name):  # type: ignore[no-untyped-def]
+        spec = real_load(name)
+        ki = Prior(name="speed_loop_ki_per_s", nominal=0.0, sd=0.0, session_sd=0.0, source="spec")
+        return dataclasses.replace(spec, priors={**spec.priors, "speed_loop_ki_per_s": ki})
+
+    monkeypatch.setattr(robots.spec, "load_spec", p_loop_spec)
     out = log.with_suffix(".flawed.yaml")
     code, stdout, err = _run(capsys, *_SYSID, str(log), "-o", str(out))
     _judge(code, stdout, err, log)
