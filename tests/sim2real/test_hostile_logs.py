@@ -8,7 +8,6 @@ follows the number of messages (a 30 s log with a one-year pause stays under 0.5
 from __future__ import annotations
 
 import dataclasses
-
 import json
 import math
 import os
@@ -259,9 +258,8 @@ def test_a_fit_that_breaks_the_schema_exits_2_naming_the_log(
     """The old flaw recreated (every flat direction of a short segment counted): the fit's
     absurd model is refused in one sentence naming the log and what to try, not in a message
     about a params file that does not exist (was: motor_gain ... must be > 0, got 0.0)."""
-    import sysid._fleet
-
     import robots.spec
+    import sysid._fleet
     from robots.params import Prior
 
     log, _ = run_case(capsys, "paused_for_a_night", _NIGHT)
