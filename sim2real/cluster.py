@@ -95,7 +95,10 @@ def connect(address: str) -> None:
     if ray.is_initialized():
         return
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-    os.environ.setdefault("RAY_worker_niceness", str(os.nice(0)))
+    # Ray applies RAY_worker_niceness as an increment (os.nice) to the niceness its workers
+    # inherit from the local raylet, which inherits this process's: 0 keeps the caller's
+    # priority (an absolute value here doubled it under `nice -n 5`: workers ran at 10).
+    os.environ.setdefault("RAY_worker_niceness", "0")
     kw: dict[str, Any] = {"include_dashboard": False, "logging_level": "ERROR"}
     if address == "auto":
         try:
