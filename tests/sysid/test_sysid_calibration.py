@@ -17,23 +17,18 @@ from robots.spec import load_spec
 from sysid import fit_drive
 from sysid.synthetic import step_commands, synthetic_log
 
-N_PLANTS = 20
-#: Fields whose 95 % intervals cover the truth less often than the 85 % target on these plants
-#: (measured 75-83 %): an open problem, reported, not hidden. Checked against a lower floor.
-#: The wheel loop's integral gain: 12 of 20 (60 %); its misses sit with torque-saturated plants
-#: and a wrong mass split (the log is simulated at 1 ms, the fit steps at 1/240 s). The three
-#: Coulomb terms fell from >= 85 % to 80 % (v fwd, bwd) and 70 % (w) when that gain was fitted
-#: with them (the integral term removes the Coulomb droop, so only transients show friction):
-#: a regression of issue 11's interval calibration, reported.
-SHORT = {
-    "wheel_torque_max_nm": 0.7,
-    "added_yaw_inertia_kgm2": 0.7,
-    "viscous_w_nms_per_rad": 0.7,
-    "speed_loop_ki_per_s": 0.55,
-    "coulomb_v_fwd_n": 0.75,
-    "coulomb_v_bwd_n": 0.75,
-    "coulomb_w_nm": 0.65,
-}
+N_PLANTS = 24
+#: Seed of the plants' truths and logs: not one the interval statistics were tuned on (those
+#: were 11, 12, 13 and 21 with other command seeds).
+PLANT_SEED = 29
+#: Every fitted field's 95 % interval must hold the truth at least this often. (Even exact
+#: intervals miss 85 % on 24 plants for some one of 13 fields with a few per cent chance each.)
+COVERAGE = 0.85
+#: Open problem, reported, not hidden: the per-wheel speed cap, pinned to ~0.2 % by the
+#: plateaus of a 20 s log, covers 79-88 % (61 of 72 on the tuning seeds, 19 of 24 here); its
+#: misses sit on fits as good as the truth (a ridge with a bounded neighbour, e.g. a delay
+#: drawn at 0, or the cap's non-smooth clamp). Checked against a lower floor.
+SHORT = {"wheel_speed_max_radps": 0.75}
 #: Limits without a prior (the spec says "no limit") may still be fitted when a log seems to
 #: show one; on these plants (truth: no limit) at most this share of the two acceleration
 #: limits x plants is claimed (measured 7 of 40): an open problem, reported.
@@ -45,13 +40,14 @@ def test_95_percent_intervals_cover_plants_drawn_from_the_priors() -> None:
     spec = load_spec("turtlebot3_burger")
     geo = spec.geometry
     prior = DriveDistribution.from_priors(spec.name, geo, spec.priors, session=False)
-    truths = prior.sample(np.random.default_rng(11), N_PLANTS)
+    truths = prior.sample(np.random.default_rng(PLANT_SEED), N_PLANTS)
     hits: collections.Counter[str] = collections.Counter()
     fits: collections.Counter[str] = collections.Counter()
     spurious = 0
     for i, truth in enumerate(truths):
-        t, v, w = step_commands(20.0, seed=100 + i, v_max_mps=0.2, w_max_radps=1.5)
-        log = synthetic_log(truth, geo, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=100 + i, spike_mps=None)
+        seed = 100 * PLANT_SEED + i
+        t, v, w = step_commands(20.0, seed=seed, v_max_mps=0.2, w_max_radps=1.5)
+        log = synthetic_log(truth, geo, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed, spike_mps=None)
         res = fit_drive(
             [log], geometry=geo, base_params=spec.drive, priors=spec.priors, odom_v_window_s=0.02
         )
@@ -68,7 +64,7 @@ def test_95_percent_intervals_cover_plants_drawn_from_the_priors() -> None:
     coverage = {name: hits[name] / fits[name] for name in fits}
     assert {"delay_s", "added_mass_kg", "motor_gain_nms_per_rad", "coulomb_v_fwd_n"} <= set(fits)
     for name, share in coverage.items():
-        assert share >= SHORT.get(name, 0.85), (name, share, coverage)
+        assert share >= SHORT.get(name, COVERAGE), (name, share, coverage)
     assert spurious <= SPURIOUS_LIMITS * 2 * N_PLANTS
 
 
