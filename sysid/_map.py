@@ -377,13 +377,14 @@ def data_information(jac: FloatArray, meat: FloatArray) -> FloatArray:
 
 
 def _posterior_cov(
-    info_u: FloatArray, prob: Problem, u: FloatArray
+    info_u: FloatArray, prob: Problem, u: FloatArray, session_info_u: FloatArray
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, list[int]]:
     r"""Posterior from the data information in internal coordinates.
 
     Returns (z, cov_z, info_z, cov_u, undetermined columns): the precision is the data
     information plus :math:`G_p^T \Sigma_p^{-1} G_p` in :math:`u`, mapped to the schema
-    coordinates with :math:`G = \partial z/\partial u`.
+    coordinates with :math:`G = \partial z/\partial u`; ``info_z`` is ``session_info_u`` mapped
+    to the schema coordinates (what the population weighs the session by).
     """
     z, g = prob.schema_coords(u)
     gp = g[prob.prior_idx]
@@ -397,7 +398,7 @@ def _posterior_cov(
     weak = [j for j in range(p) if np.diag(prec)[j] == 0 or float(np.sum(null[j] ** 2)) > 1e-3]
     cov = g @ cov_u @ g.T
     g_inv = np.linalg.pinv(g)
-    info = g_inv.T @ info_u @ g_inv
+    info = g_inv.T @ session_info_u @ g_inv
     for j in weak:
         cov_u[j, j] = math.inf
         cov[j, j] = math.inf
@@ -510,7 +511,10 @@ def map_fit(
         sizes = [g.meas_t_s.size for g in prob.logs]
         meat = score_covariance(sizes, _row_scores(jac, f, loss, f_scale), _bandwidth(prob, f))
         info_u = data_information(jac, meat)
-        z, cov, info, cov_u, weak = _posterior_cov(info_u, final, x[keep])
+        # the population (sysid._fleet) weighs sessions by the Gauss-Newton information with
+        # the autocorrelation factor, as it was tuned on; the sandwich is this log's posterior
+        session_info = jac.T @ jac / (s2 * c)
+        z, cov, info, cov_u, weak = _posterior_cov(info_u, final, x[keep], session_info)
     bias = _discretisation_bias(final, x[keep], jac, problem_kw)
     bias[list(weak)] = 0.0
     _, g = final.schema_coords(x[keep])

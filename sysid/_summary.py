@@ -14,6 +14,7 @@ from robots.randomization import DriveDistribution, ObservationNoise
 from sysid import metrics
 from sysid._coords import Mapper
 from sysid._excitation import held_command
+from sysid._fleet import new_session_factor
 from sysid._logs import LogArrays
 from sysid._problem import Problem
 from sysid.result import ParameterEstimate
@@ -163,21 +164,31 @@ def distribution(
     noise: ObservationNoise,
     *,
     between: FloatArray | None = None,
+    sessions: int = 1,
 ) -> DriveDistribution:
-    """The ``randomization`` distribution.
+    r"""The ``randomization`` distribution: the predictive of a *new* session.
 
-    Fitted coordinates: mean ``z``, covariance ``cov`` + ``between`` (the between-session
-    covariance; the priors' default session spreads when None). Fields the fit did not free but
-    whose prior is informative: prior mean, prior variance + default session variance. Tied
-    fields copy their source's row. Everything else (known exactly, "no limit", undetermined
+    A new session is :math:`\theta_{new} = \mu + b_{new}`, :math:`b \sim N(0, T)`.
+    Several logs (``between`` = the population's :math:`T`, ``cov`` = the covariance of its
+    mean :math:`\hat\mu`): ``cov`` + :math:`f T`. One log (``between`` None): ``cov`` is the
+    posterior of *that* session, :math:`\theta_1 = \mu + b_1`, so the mean is uncertain by
+    :math:`T` more, and :math:`T` is the spec's default between-session spread :math:`S_0`:
+    ``cov`` + :math:`(1 + f) S_0`. :math:`f` (:func:`sysid._fleet.new_session_factor`) widens
+    the Gaussian to the Student-t predictive of a spread known from few sessions (2.05 for
+    one, 1.5 for three, 1.17 for ten). Fields the fit did not free but whose prior is
+    informative: prior mean, prior variance + :math:`f` x default session variance. Tied fields
+    copy their source's row. Everything else (known exactly, "no limit", undetermined
     coordinates) is fixed at its value in ``params``.
     """
     geo = mapper.geometry
+    factor = new_session_factor(sessions)
     finite = [j for j, f in enumerate(free) if math.isfinite(float(cov[j, j]))]
     names = [free[j] for j in finite]
     session = np.array([mapper.priors[n].session_sd ** 2 for n in names])
     block = cov[np.ix_(finite, finite)] + (
-        np.diag(session) if between is None else between[np.ix_(finite, finite)]
+        (1.0 + factor) * np.diag(session)
+        if between is None
+        else factor * between[np.ix_(finite, finite)]
     )
     means = [float(z[j]) for j in finite]
     extra = [
@@ -190,7 +201,7 @@ def distribution(
     full[:k0, :k0] = block
     for i, n in enumerate(extra, start=k0):
         p = mapper.priors[n]
-        full[i, i] = p.sd**2 + p.session_sd**2
+        full[i, i] = p.sd**2 + factor * p.session_sd**2
         means.append(p.mean(geo))
     names += extra
     tied = [(n, s) for n, s in ties.items() if s in names]

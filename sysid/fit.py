@@ -24,9 +24,11 @@ Several logs
 Each log is fitted on its own (per-session estimates in :attr:`SysidResult.sessions`), then a
 random-effects model gives the population mean and the between-session covariance
 (:mod:`sysid._fleet`). :attr:`SysidResult.randomization` holds the distribution to train on:
-mean, covariance = between-session + uncertainty of the mean (one log: posterior + the spec's
-default between-session spread), the priors of the fields no log informed, and the odometry
-noise.
+the predictive of a new session: uncertainty of the mean + between-session covariance,
+widened to the Student-t of a spread known from few sessions (one log: its posterior + the
+spec's default between-session spread, once for the unknown deviation of the logged session
+from the mean and once, widened, for the new one), the priors of the fields no log informed,
+and the odometry noise.
 
 Example
 -------
@@ -675,7 +677,16 @@ def _finish(
     estimates = field_estimates(mapper, s.params, s.free, s.z, s.cov, s.ties)
     identifiable = identifiable_estimates(s.problem, s.u, s.cov_u, s.weak)
     dist: DriveDistribution = distribution(
-        robot, mapper, s.params, s.free, s.z, s.cov, s.ties, noise, between=s.between
+        robot,
+        mapper,
+        s.params,
+        s.free,
+        s.z,
+        s.cov,
+        s.ties,
+        noise,
+        between=s.between,
+        sessions=len(posts),
     )
     replicates, segment_s, seed, loss, f_scale = bootstrap
     boot_std: dict[str, float] = {}

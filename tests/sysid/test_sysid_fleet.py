@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -126,3 +127,19 @@ def test_fleet_draws_cover_the_sessions(fleet: SysidResult) -> None:
     lo, hi = np.percentile(delays, [2.5, 97.5])
     assert lo < min(DELAYS) and hi > max(DELAYS)
     assert all(p.total_mass_kg(GEO) > 0 for p in draws)
+
+
+def test_new_session_widening_falls_to_one_as_sessions_accumulate() -> None:
+    from scipy.stats import norm, t
+
+    from sysid._fleet import PRIOR_SESSIONS, new_session_factor
+
+    factors = [new_session_factor(n) for n in (1, 2, 3, 5, 10, 100, 10_000)]
+    assert all(a > b for a, b in itertools.pairwise(factors))
+    assert factors[-1] == pytest.approx(1.0, abs=1e-3)
+    # the Gaussian with this variance has the Student-t predictive's central 90 % interval
+    for n in (1, 3, 8):
+        dof = n - 1 + PRIOR_SESSIONS
+        assert math.sqrt(new_session_factor(n)) * norm.ppf(0.95) == pytest.approx(
+            t.ppf(0.95, dof), rel=1e-9
+        )

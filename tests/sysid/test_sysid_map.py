@@ -108,12 +108,16 @@ def test_result_carries_distribution_priors_and_noise(fitted: SysidResult, tmp_p
     dist = fitted.randomization
     assert dist is not None and dist.robot == SPEC.name
     assert set(dist.names) | set(dist.fixed) == set(SCHEMA)
-    # one log: covariance = posterior + the spec's default between-session spread
+    # one log, a new session: posterior + the spec's default between-session spread, once for
+    # the logged session's own deviation from the mean and once, Student-t widened (3 degrees
+    # of freedom: the spread is known from the spec's pseudo-sessions only), for the new one
     sd = dist.std()
     post = fitted.estimate("delay_s").coord_std
     assert post is not None
-    expect = math.hypot(post, SPEC.priors["delay_s"].session_sd)
-    assert sd["delay_s"] == pytest.approx(expect, rel=1e-9)
+    factor = (2.3533634 / 1.6448536) ** 2  # (t_{3, 0.95} / z_{0.95})^2
+    session = SPEC.priors["delay_s"].session_sd
+    expect = math.sqrt(post**2 + (1.0 + factor) * session**2)
+    assert sd["delay_s"] == pytest.approx(expect, rel=1e-6)
     # the odometry noise of the synthetic log: v 4 mm/s (plus encoder ticks), gyro 0.02 rad/s
     assert dist.noise.std_v_mps == pytest.approx(0.004, rel=0.35)
     assert dist.noise.std_w_radps == pytest.approx(0.02, rel=0.2)
