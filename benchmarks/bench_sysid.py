@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -157,30 +156,28 @@ def _write(path: Path, log: object) -> Path:
 
 def whole_command() -> None:
     """``sim2real sysid fit`` in a fresh process, as users run it (robot: the Waffle Pi spec,
-    whose geometry the synthetic base shares).
+    whose geometry the synthetic base shares): cold (empty bytecode and numba caches) and warm,
+    wall and CPU time (:func:`_timing.command_times`)."""
+    from _timing import command_times
 
-    Cold: the first run with an empty numba cache (``NUMBA_CACHE_DIR`` a new folder: every
-    kernel is compiled, as on the first run after installing). Warm: the following runs, which
-    load the compiled kernels from that cache (every later run of a user)."""
     t, v, w = step_commands(DURATION_S, seed=3)
     long_log = synthetic_log(TRUTH, GEO, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=4, dt_s=0.005)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         one = [str(_write(folder / "long.mcap", long_log))]
         fleet = [str(_write(folder / f"s{i}.mcap", g)) for i, g in enumerate(_fleet_logs())]
-        for label, files, target in (("10-min log", one, 2.0), ("5 x 90 s fleet", fleet, 10.0)):
-            env = os.environ | {"NUMBA_CACHE_DIR": str(folder / f"numba-{len(files)}")}
-            cmd = [sys.executable, "-m", "sim2real", "sysid", "fit", *files]
-            cmd += ["--robot", "turtlebot3_waffle_pi", "-o", str(folder / "p.yaml")]
-            times = []
-            for _ in range(REPEATS + 1):
-                start = time.perf_counter()
-                subprocess.run(cmd, check=True, capture_output=True, env=env)
-                times.append(time.perf_counter() - start)
-            print(
-                f"command {label:15s}: cold {times[0]:.3f} s; warm {_stats(times[1:])}  "
-                f"(target <= {target:g} s for the fit)"
-            )
+        fit = [sys.executable, "-m", "sim2real", "sysid", "fit"]
+        robot = ["--robot", "turtlebot3_waffle_pi"]
+        commands = {
+            "10-min log": [*fit, *one, *robot, "-o", str(folder / "p1.yaml")],
+            "5 x 90 s fleet": [*fit, *fleet, *robot, "-o", str(folder / "p5.yaml")],
+        }
+        whole = command_times(commands, REPEATS)
+    for label, (cold, warm) in whole.items():
+        print(
+            f"command {label:15s}: cold {cold:.2f} s; warm {warm.fmt(1.0, 's')}, "
+            f"CPU median {warm.cpu().median:.2f} s"
+        )
 
 
 if __name__ == "__main__":

@@ -335,9 +335,9 @@ def score_covariance(sizes: Sequence[int], scores: FloatArray, lags: int) -> Flo
     Examples
     --------
     >>> import numpy as np
-    >>> g = np.random.default_rng(0).normal(size=(2000, 1))
-    >>> round(float(score_covariance([1000], g, 0)[0, 0] / 2000), 1)
-    1.0
+    >>> ones = np.ones((6, 1))  # one log of 3 instants: v rows then w rows, all scores 1
+    >>> float(score_covariance([3], ones, 0)[0, 0]), float(score_covariance([3], ones, 1)[0, 0])
+    (12.0, 20.0)
     """
     p = scores.shape[1]
     out = np.zeros((p, p))
