@@ -319,29 +319,6 @@ def _xcorr_delay(prob: Problem, params: DriveParams, axes: Sequence[str]) -> flo
     return float(np.median(lags)) if lags else None
 
 
-def _scan_wheel_cap(
-    prob: Problem, params: DriveParams, logs: Sequence[LogArrays], geometry: BaseGeometry
-) -> DriveParams:
-    """Start the wheel-speed cap where the log's wheel speeds top out, when that fits better.
-
-    A cap above every commanded wheel speed has a zero gradient (it never acts), so a fit
-    started there cannot find a cap the log does show near its peaks; one started just above
-    the measured top wheel speed can. The candidates (the spec's value and 1.00-1.10 x the
-    measured 99.5th percentile) are compared by the busiest windows' cost.
-    """
-    half, r = 0.5 * geometry.wheel_separation_m, geometry.wheel_radius_m
-    top = max(
-        float(np.percentile(np.abs(g.meas_v) + np.abs(g.meas_w) * half, 99.5)) / r for g in logs
-    )
-    best, best_cost = params, _window_cost(prob, params)
-    for scale in (1.0, 1.03, 1.06, 1.1):
-        cand = params.replace(wheel_speed_max_radps=max(scale * top, 0.5))
-        cost = _window_cost(prob, cand)
-        if cost < best_cost:
-            best, best_cost = cand, cost
-    return best
-
-
 def initial_coords(
     logs: Sequence[LogArrays],
     geometry: BaseGeometry,
@@ -408,8 +385,6 @@ def initial_coords(
             params = _params_at(max(refined, 0.0), data, acc, start, mapper, free) or params
     else:
         params = _params_at(base.delay_s, data, acc, start, mapper, free) or fallback
-    if "wheel_speed_max_radps" in free:
-        params = _scan_wheel_cap(prob, params, logs, geometry)
     for field, source in ties.items():
         params = params.replace(**{field: getattr(params, source)})
     coords = {}
