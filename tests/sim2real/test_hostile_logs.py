@@ -273,6 +273,7 @@ def test_a_fit_that_breaks_the_schema_exits_2_naming_the_log(
         return dataclasses.replace(spec, priors={**spec.priors, "speed_loop_ki_per_s": ki})
 
     monkeypatch.setattr(robots.spec, "load_spec", p_loop_spec)
+    monkeypatch.setattr(sysid._fleet, "_at_most_prior", lambda t, prior_prec: t)  # no cap
     out = log.with_suffix(".flawed.yaml")
     code, stdout, err = _run(capsys, *_SYSID, str(log), "-o", str(out))
     _judge(code, stdout, err, log)
