@@ -72,6 +72,24 @@ def footprint_radius_m(spec: Any) -> float:
     return max(r_body, r_wheel)
 
 
+def arc_step(
+    x: float, y: float, yaw: float, v: float, w: float, h: float
+) -> tuple[float, float, float]:
+    """Pose after ``h`` seconds at constant ``v`` (m/s) and ``w`` (rad/s): the exact arc.
+
+    The vector envs compile this same function (``sim2real.envs._vecnav``), so one source
+    integrates every reduced robot's pose.
+    """
+    dth = w * h
+    if abs(dth) < 1e-9:
+        x += v * h * math.cos(yaw + 0.5 * dth)
+        y += v * h * math.sin(yaw + 0.5 * dth)
+    else:
+        x += v / w * (math.sin(yaw + dth) - math.sin(yaw))
+        y -= v / w * (math.cos(yaw + dth) - math.cos(yaw))
+    return x, y, math.atan2(math.sin(yaw + dth), math.cos(yaw + dth))
+
+
 class RobotBackend(Protocol):
     """What the envs need from a robot back-end."""
 
@@ -130,15 +148,7 @@ class ReducedBackend:
         v0, w0 = self._drive.velocity
         for _ in range(n):
             v1, w1 = self._drive.step(cmd_v, cmd_w, h)
-            v, w = 0.5 * (v0 + v1), 0.5 * (w0 + w1)
-            dth = w * h
-            if abs(dth) < 1e-9:
-                x += v * h * math.cos(yaw + 0.5 * dth)
-                y += v * h * math.sin(yaw + 0.5 * dth)
-            else:
-                x += v / w * (math.sin(yaw + dth) - math.sin(yaw))
-                y -= v / w * (math.cos(yaw + dth) - math.cos(yaw))
-            yaw = math.atan2(math.sin(yaw + dth), math.cos(yaw + dth))
+            x, y, yaw = arc_step(x, y, yaw, 0.5 * (v0 + v1), 0.5 * (w0 + w1), h)
             v0, w0 = v1, w1
         self._pose = (x, y, yaw)
         return self._drive.velocity

@@ -20,7 +20,11 @@ import numba
 import numpy as np
 
 from robots.reduced import _advance_history
+from sim2real.envs._robot import arc_step
 from sim2real.envs.geometry import FloatArray, ray_distance
+
+#: the single env's pose integration, compiled: one source for both
+_arc_step = numba.njit(cache=True)(arc_step)
 
 __all__ = ["finish_crowd_nav", "finish_random_map", "history_rows", "move_robots", "sense"]
 
@@ -96,15 +100,7 @@ def _drive_and_move(
         )
         time_s[i] += h
         v1, w1 = state[i, 0], state[i, 1]
-        v, w = 0.5 * (v0 + v1), 0.5 * (w0 + w1)
-        dth = w * h
-        if abs(dth) < 1e-9:
-            x += v * h * math.cos(yaw + 0.5 * dth)
-            y += v * h * math.sin(yaw + 0.5 * dth)
-        else:
-            x += v / w * (math.sin(yaw + dth) - math.sin(yaw))
-            y -= v / w * (math.cos(yaw + dth) - math.cos(yaw))
-        yaw = math.atan2(math.sin(yaw + dth), math.cos(yaw + dth))
+        x, y, yaw = _arc_step(x, y, yaw, 0.5 * (v0 + v1), 0.5 * (w0 + w1), h)
         v0, w0 = v1, w1
     pose[i, 0], pose[i, 1], pose[i, 2] = x, y, yaw
 
