@@ -65,8 +65,10 @@ CFWD, CBWD, CW, BV, BW, MASS, INERTIA, R, L = 7, 8, 9, 10, 11, 12, 13, 14, 15
 TRACK = 16  # skid steer: effective / geometric track (1 = differential drive)
 CMD_TRACK = 17  # the driver's track multiplier for its wheel targets
 KI = 18  # the wheel loops' integral gain over the P gain, 1/s (0 = P loops)
+TS = 19  # the motors' stall torque at the wheel, N m (the torque-speed line)
+W0 = 20  # the motors' no-load wheel speed, rad/s (inf: no line, a flat torque cap)
 #: Length of the packed parameter vector.
-N_PACKED = 19
+N_PACKED = 21
 
 
 def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
@@ -91,6 +93,12 @@ def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
     p[TRACK] = params.track_factor
     p[CMD_TRACK] = params.driver_track_factor
     p[KI] = params.speed_loop_ki_per_s
+    # the torque-speed line needs both ends: without either there is none (a flat cap)
+    line = math.isfinite(params.wheel_stall_torque_nm) and math.isfinite(
+        params.wheel_no_load_speed_radps
+    )
+    p[TS] = params.wheel_stall_torque_nm if line else math.inf
+    p[W0] = params.wheel_no_load_speed_radps if line else math.inf
     return p
 
 
@@ -140,11 +148,66 @@ def shape_command(
 
 
 @njit(cache=True, inline="always")
+def torque_limits(
+    omega: float, tmax: float, stall: float, w0: float
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    r"""(lowest, highest) torque a wheel motor can give at wheel speed ``omega``, N m.
+
+    A DC motor on an H-bridge at full drive voltage :math:`\pm V` gives
+    :math:`k_t(\pm V - k_e\omega)/R`: the available torque falls linearly with speed from the
+    stall torque :math:`\tau_s` at rest to zero at the no-load speed :math:`\omega_0 = V/k_e`
+    (Hughes & Drury, *Electric Motors and Drives*, 4th ed., ch. 3), and the traction or the
+    driver's current limit caps it at :math:`\tau_{max}`: the torque lies in
+    :math:`[\max(-\tau_{max}, -\tau_s(1 + \omega/\omega_0)),
+    \min(\tau_{max}, \tau_s(1 - \omega/\omega_0))]`. ``w0 = inf``: :math:`\pm\tau_{max}`.
+    """
+    if w0 == math.inf:
+        return -tmax, tmax
+    drive = omega / w0
+    hi = max(min(tmax, stall * (1.0 - drive)), -tmax)
+    lo = min(max(-tmax, -stall * (1.0 + drive)), tmax)
+    return lo, hi
+
+
+@njit(cache=True, inline="always")
+def _on_line(limit: float, tmax: float) -> bool:  # pragma: no cover - compiled
+    """True when a torque limit lies on the sloped torque-speed line, not on the cap."""
+    return -tmax < limit < tmax
+
+
+@njit(cache=True, inline="always")
+def _segment(
+    raw: float, omega: float, end: float, omega_end: float, tmax: float, stall: float, w0: float
+) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """A wheel's torque over a saturated step as ``a + s * omega_end``, and its clip side.
+
+    ``raw``: the loop's torque at the start speed ``omega``; ``end``: the unsaturated step's
+    torque at its end speed ``omega_end``. Returns (a, s, side): ``side`` +1 / -1 when the
+    torque is clipped at the top / bottom limit, 0 when not (then ``a = raw``, s = 0). The
+    cap clips ``raw`` at the start speed; on the torque-speed line the torque follows the
+    end-of-step speed (``a = +-stall``, ``s = -stall / w0``: the back-EMF implicit, stable
+    at any step), whenever the step would end beyond it.
+    """
+    lo, hi = torque_limits(omega, tmax, stall, w0)
+    lo1, hi1 = torque_limits(omega_end, tmax, stall, w0)
+    if _on_line(hi1, tmax) and (raw > hi or end > hi1):
+        return stall, -stall / w0, 1.0
+    if _on_line(lo1, tmax) and (raw < lo or end < lo1):
+        return -stall, -stall / w0, -1.0
+    if raw > hi:
+        return hi, 0.0, 1.0
+    if raw < lo:
+        return lo, 0.0, -1.0
+    return raw, 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
 def _integrate(
-    integ: float, err: float, torque_raw: float, clipped: bool, dt: float
+    integ: float, err: float, side: float, dt: float
 ) -> float:  # pragma: no cover - compiled
-    """Advance one wheel's integrator by ``err`` over ``dt`` unless that winds it up further."""
-    if clipped and err * torque_raw > 0.0:
+    """Advance one wheel's integrator by ``err`` over ``dt`` unless that winds it up further
+    (``side``: +1 / -1 the torque is clipped at its top / bottom limit, 0 not clipped)."""
+    if side * err > 0.0:
         return integ
     return integ + dt * err
 
@@ -198,23 +261,39 @@ def wheel_loops(
     el = wl_ref - (v1 - w1 * half_e) / r
     tr = k * (a * er + ki * ir_half)
     tl = k * (a * el + ki * il_half)
-    if max(abs(tr), abs(tl)) > p[TMAX]:
+    tmax, stall, w0 = p[TMAX], p[TS], p[W0]
+    lo_r, hi_r = torque_limits((v1 + w1 * half_e) / r, tmax, stall, w0)
+    lo_l, hi_l = torque_limits((v1 - w1 * half_e) / r, tmax, stall, w0)
+    if tr > hi_r or tr < lo_r or tl > hi_l or tl < lo_l:
         tr_raw = k * (a * er0 + ki * ir_half)
         tl_raw = k * (a * el0 + ki * il_half)
-        tr = clip(tr_raw, p[TMAX])
-        tl = clip(tl_raw, p[TMAX])
-        force = (tr + tl) / r
-        torque = (tr - tl) * half_l / r
-        den_v = m + dt * p[BV]
-        den_w = inertia + dt * p[BW]
-        v_nc = (m * v + dt * force) / den_v
-        w_nc = (inertia * w + dt * torque) / den_w
-        v1 = _coulomb_prox(v_nc, dt * p[CFWD] / den_v, dt * p[CBWD] / den_v)
-        w1 = _coulomb_prox(w_nc, dt * p[CW] / den_w, dt * p[CW] / den_w)
+        omega_r, omega_l = (v + w * half_e) / r, (v - w * half_e) / r
+        omega_r1, omega_l1 = (v1 + w1 * half_e) / r, (v1 - w1 * half_e) / r
+        ar, sr, side_r = _segment(tr_raw, omega_r, tr, omega_r1, tmax, stall, w0)
+        al, sl, side_l = _segment(tl_raw, omega_l, tl, omega_l1, tmax, stall, w0)
+        # tau_i = a_i + s_i omega_i(end), omega_r,l = (v1 +- half_e w1) / r: one linear
+        # 2x2 step (s_i <= 0 only adds damping, so it is always solvable)
+        ss, sd = (sr + sl) / (r * r), (sr - sl) / (r * r)
+        a11 = m + dt * (p[BV] - ss)
+        a12 = -dt * sd * half_e
+        a21 = -dt * half_l * sd
+        a22 = inertia + dt * (p[BW] - half_l * half_e * ss)
+        b1 = m * v + dt * ((ar + al) / r)
+        b2 = inertia * w + dt * ((ar - al) * half_l / r)
+        if sr == 0.0 and sl == 0.0:  # flat caps only: two decoupled axes
+            v_nc, w_nc = b1 / a11, b2 / a22
+        else:
+            det = a11 * a22 - a12 * a21
+            v_nc = (b1 * a22 - a12 * b2) / det
+            w_nc = (a11 * b2 - a21 * b1) / det
+        v1 = _coulomb_prox(v_nc, dt * p[CFWD] / a11, dt * p[CBWD] / a11)
+        w1 = _coulomb_prox(w_nc, dt * p[CW] / a22, dt * p[CW] / a22)
+        tr = ar + sr * (v1 + w1 * half_e) / r
+        tl = al + sl * (v1 - w1 * half_e) / r
         er = wr_ref - (v1 + w1 * half_e) / r
         el = wl_ref - (v1 - w1 * half_e) / r
-        ir = _integrate(ir, er0 + er, tr_raw, abs(tr_raw) > p[TMAX], 0.5 * dt)
-        il = _integrate(il, el0 + el, tl_raw, abs(tl_raw) > p[TMAX], 0.5 * dt)
+        ir = _integrate(ir, er0 + er, side_r, 0.5 * dt)
+        il = _integrate(il, el0 + el, side_l, 0.5 * dt)
     else:
         ir = ir_half + 0.5 * dt * er
         il = il_half + 0.5 * dt * el
@@ -319,8 +398,12 @@ def pybullet_substep(
     slip_l = wl_meas - (v - w * half_l) / r
     slip_r = wr_meas - (v + w * half_l) / r
     k_slip = k / (1.0 + dt * k / spin_inertia)
-    tl = clip(tl_model - k_slip * slip_l, tmax)
-    tr = clip(tr_model - k_slip * slip_r, tmax)
+    lo_l, hi_l = torque_limits(wl_meas, tmax, p[TS], p[W0])
+    lo_r, hi_r = torque_limits(wr_meas, tmax, p[TS], p[W0])
+    # the slip correction stays inside the motor's limits at the encoders' speed (the model's
+    # own torque is already inside them at the end-of-step speed)
+    tl = min(max(tl_model - k_slip * slip_l, min(lo_l, tl_model)), max(hi_l, tl_model))
+    tr = min(max(tr_model - k_slip * slip_r, min(lo_r, tr_model)), max(hi_r, tr_model))
     force, torque = axis_friction(
         v, w, v1, w1, tr_model, tl_model, dt, p[MASS], p[INERTIA], r, half_l
     )

@@ -149,7 +149,16 @@ class DriveParams:
         Integral gain of each wheel's speed loop relative to ``K`` (:math:`k_i = K_I/K =
         1/T_i`, the reset rate; :math:`T_i` the integral time), 1/s; 0 = a pure P loop.
     wheel_torque_max_nm : float
-        Per-wheel torque saturation, N m.
+        Per-wheel torque saturation, N m (traction or the driver's current limit).
+    wheel_stall_torque_nm, wheel_no_load_speed_radps : float
+        The wheel motors' torque-speed line at the battery's voltage (N m at the wheel, rad/s
+        of the wheel): a DC motor at full drive voltage gives :math:`\tau_s(1 -
+        \omega/\omega_0)`, falling linearly from the stall torque at rest to zero at the
+        no-load speed (and more, up to the cap, while it brakes), so a loaded wheel tops out
+        below :math:`\omega_0`, lower on a tired battery. The torque is limited to
+        :math:`[\max(-\tau_{max}, -\tau_s(1 + \omega/\omega_0)),
+        \min(\tau_{max}, \tau_s(1 - \omega/\omega_0))]`; inf (either) = no such line,
+        the flat cap ``wheel_torque_max_nm`` at every speed.
     coulomb_v_fwd_n, coulomb_v_bwd_n : float
         Coulomb friction force on the forward axis when moving forward / backward, N.
     coulomb_w_nm : float
@@ -184,6 +193,8 @@ class DriveParams:
     motor_gain_nms_per_rad: float = 0.01
     speed_loop_ki_per_s: float = 0.0
     wheel_torque_max_nm: float = math.inf
+    wheel_stall_torque_nm: float = math.inf
+    wheel_no_load_speed_radps: float = math.inf
     coulomb_v_fwd_n: float = 0.0
     coulomb_v_bwd_n: float = 0.0
     coulomb_w_nm: float = 0.0
@@ -552,7 +563,38 @@ SCHEMA: dict[str, FieldSchema] = {
             session_sd=_abs(0.1),
             fit_kind="torque_ratio",
             fit_range=(math.log(1e-3), math.log(1e4)),
-            doc="per-wheel torque saturation",
+            doc="per-wheel torque saturation (traction or the driver's current limit)",
+        ),
+        # A DC motor at full drive voltage V gives k_t (V - k_e omega) / R: its torque falls
+        # linearly from stall to zero at the no-load speed omega_0 = V / k_e, and both scale
+        # with V (Hughes & Drury, Electric Motors and Drives, 4th ed., ch. 3). Datasheets
+        # quote them at the wheel at a nominal voltage, e.g. ROBOTIS XL430-W250 (TurtleBot3
+        # Burger): 1.4 N m stall and 57 rev/min no-load at 11.1 V, 1.5 N m and 61 rev/min at
+        # 12 V. A battery between tired and full moves both by ~+-8 % (Li-ion 3.6-4.2 V per
+        # cell): a between-session spread. Generic priors: known to ~35 % (log sd 0.3).
+        _field(
+            "wheel_stall_torque_nm",
+            "N m",
+            "positive",
+            "log",
+            (1e-4, 100.0),
+            may_be_inf=True,
+            prior_sd=_abs(0.3),
+            session_sd=_abs(0.05),
+            fit_kind="torque_ratio",
+            fit_range=(math.log(1e-3), math.log(1e4)),
+            doc="the wheel motors' stall torque (their torque-speed line; at the battery's voltage)",
+        ),
+        _field(
+            "wheel_no_load_speed_radps",
+            "rad/s",
+            "positive",
+            "log",
+            (0.3, 300.0),
+            may_be_inf=True,
+            prior_sd=_abs(0.3),
+            session_sd=_abs(0.05),
+            doc="the motors' no-load wheel speed (their torque-speed line; at the battery's voltage)",
         ),
         _field(
             "coulomb_v_fwd_n",

@@ -240,6 +240,8 @@ def _render(robot: NewRobot) -> str:
         " K = m_eff r^2 / (2 T)",
         "  speed_loop_ki_per_s: 0.0  # a P loop until sysid identifies the integral term",
         f"  wheel_torque_max_nm: {_g(tau_max)}  # prior: traction mu = 0.5 on half the weight",
+        "  wheel_stall_torque_nm: .inf  # the motors' torque-speed line: none modelled",
+        "  wheel_no_load_speed_radps: .inf",
         f"  coulomb_v_fwd_n: {_g(0.01 * m * _G)}  # prior: 1 % of the weight",
         f"  coulomb_v_bwd_n: {_g(0.01 * m * _G)}",
         f"  coulomb_w_nm: {_g(scrub)}  # prior: {scrub_rule}",
@@ -265,6 +267,8 @@ def _render(robot: NewRobot) -> str:
         "  speed_loop_ki_per_s: {nominal: 10.0, sd: 10.0, session_sd: 0.0}  # firmware PI loops:"
         " integral time ~ the 0.1 s loop time constant",
         "  wheel_torque_max_nm: {sd: 1.0, session_sd: 0.15}  # floor and tyres",
+        "  wheel_stall_torque_nm: {sd: 0.0, session_sd: 0.0}  # no line (inf above)",
+        "  wheel_no_load_speed_radps: {sd: 0.0, session_sd: 0.0}",
         f"  coulomb_v_fwd_n: {{sd: {_g(0.04 * m * _G)}, session_sd: {_g(0.005 * m * _G)}}}"
         "  # 0-8 % of the weight",
         f"  coulomb_v_bwd_n: {{sd: {_g(0.04 * m * _G)}, session_sd: {_g(0.005 * m * _G)}}}",
