@@ -116,6 +116,9 @@ class CalibrationResult:
         The distribution as read.
     validation : tuple of (str, str)
         (file, sha256) of each validation log.
+    notes : tuple of str
+        What reading the logs repaired or chose (time source, velocities from the pose), one
+        sentence each, prefixed by the file (:func:`calibrate` fills it; printed by the CLI).
     """
 
     dynamics_factor: float
@@ -134,6 +137,7 @@ class CalibrationResult:
     distribution: Any
     original: Any
     validation: tuple[tuple[str, str], ...] = ()
+    notes: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The ``calibration`` block of the output file (plain YAML types)."""
@@ -423,12 +427,19 @@ def calibrate(
     odom_v_window_s: float | None = None,
     tol_v: float = 0.02,
     tol_w: float = 0.1,
+    cmd_topic: str | None = None,
+    odom_topic: str | None = None,
+    time_source: str = "auto",
+    odom_velocity: str = "auto",
 ) -> CalibrationResult:
     """Read a params file and validation logs and fit the spread (:func:`calibrate_traces`).
 
     The odometry window defaults to the fit's (``settings.odom_v_window_s`` of the file). A
     validation log the params file was fitted on is refused: a spread fitted to the fit's own
-    residuals is too narrow for any other session.
+    residuals is too narrow for any other session. The logs are read as ``sysid fit`` and
+    ``agree`` read them: ``cmd_topic``, ``odom_topic``, ``time_source`` and ``odom_velocity``
+    are those of :func:`sim2real.logs.read_trace` (default: auto-detected topics, header
+    stamps unless they run on another clock, velocities from the pose when the twist is junk).
     """
     from robots.params import read_params_file
     from robots.randomization import DriveDistribution
@@ -439,15 +450,35 @@ def calibrate(
     distribution = DriveDistribution.from_params_file(params_path, robot=spec.name)
     document = read_params_file(params_path).document
     fitted_on = _fit_logs(document)
-    traces = [read_trace(path) for path in logs]
+    traces = [
+        read_trace(
+            path,
+            cmd_topic=cmd_topic,
+            odom_topic=odom_topic,
+            time_source=time_source,
+            odom_velocity=odom_velocity,
+        )
+        for path in logs
+    ]
+    traces = [
+        t.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps) for t in traces
+    ]
+    for trace in traces:
+        trace.check_enough()
     for path, trace in zip(logs, traces, strict=True):
         if getattr(trace.meta, "sha256", None) in fitted_on:
             raise Sim2RealValueError(
                 f"validation log '{path}' is one of the logs params file '{params_path}' was "
                 "fitted on; calibrate on a log (session) the fit never saw"
             )
+    notes = tuple(
+        f"{path}: {note}"
+        for path, trace in zip(logs, traces, strict=True)
+        for note in (trace.meta.time_note, *trace.meta.warnings)
+        if note
+    )
     window = _window_of(document) if odom_v_window_s is None else odom_v_window_s
-    return calibrate_traces(
+    result = calibrate_traces(
         traces,
         robot=spec,
         distribution=distribution,
@@ -458,6 +489,7 @@ def calibrate(
         tol_v=tol_v,
         tol_w=tol_w,
     )
+    return dataclasses.replace(result, notes=notes)
 
 
 def write_calibrated(

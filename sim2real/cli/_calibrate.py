@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from sim2real.cli._common import add_command
+from sim2real.cli._common import add_command, add_odom_velocity_argument
 
 __all__ = ["register"]
 
@@ -18,6 +18,9 @@ _EXAMPLES = """\
   sim2real sysid calibrate params.yaml day4.mcap --robot turtlebot2 -o calibrated.yaml
   sim2real agree day5.mcap --robot turtlebot2 --params calibrated.yaml --ensemble 30 \\
       --json agree.json            # coverage of the 90 % band on a session neither step saw
+  sim2real sysid calibrate p.yaml neato_val.bag --robot neato.yaml -o cal.yaml \\
+      --odom-velocity pose          # the driver's twist is junk: velocities from the pose
+  sim2real sysid calibrate p.yaml val.mcap --robot turtlebot2 -o cal.yaml --time-source log
 """
 
 _DESCRIPTION = """\
@@ -70,6 +73,19 @@ def register(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
         metavar="S|auto",
         help="odometry window of v, s, or 'auto' (default: the fit's, from the params file)",
     )
+    p.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
+    p.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
+    p.add_argument(
+        "--time-source",
+        choices=("auto", "header", "log"),
+        default="auto",
+        help=(
+            "message timing: header stamps, recorder log times, or 'auto' (default: header "
+            "stamps unless they run on another clock than the log times, which it says); "
+            "read the validation logs as the fit read its logs"
+        ),
+    )
+    add_odom_velocity_argument(p)
     p.set_defaults(handler=_handle)
 
 
@@ -92,8 +108,14 @@ def _handle(args: argparse.Namespace) -> int:
         seed=args.seed,
         engine=args.engine,
         odom_v_window_s=window,
+        cmd_topic=args.cmd_topic,
+        odom_topic=args.odom_topic,
+        time_source=args.time_source,
+        odom_velocity=args.odom_velocity,
     )
     write_calibrated(args.params, args.out, result)
+    for note in result.notes:  # what reading the logs chose or repaired: say it
+        print(f"note: {note}")
 
     def factor(x: float) -> str:
         return f"x{x:.3g}" if math.isfinite(x) else "(file had none)"
