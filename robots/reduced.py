@@ -31,6 +31,7 @@ Example
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,11 +45,13 @@ from robots.params import BaseGeometry, DriveParams
 
 __all__ = [
     "DEFAULT_DT_S",
+    "GridCommands",
     "ReducedDrive",
     "ReducedResponse",
     "delayed_step_average",
     "pack_params",
     "simulate",
+    "simulate_grid",
 ]
 
 #: Most integration steps one simulation call may take (~5.8 h at the default 240 Hz): a
@@ -87,40 +90,132 @@ def _step(
     state[0], state[1], state[2], state[3], state[4], state[5] = v1, w1, rv, rw, ir, il
 
 
+@njit(cache=True, inline="always")
+def _lerp(x: float, x0: float, x1: float, y0: float, y1: float) -> float:  # pragma: no cover
+    """``np.interp``'s arithmetic on one interval ``x0 <= x < x1`` (the same bits)."""
+    if x == x0:
+        return y0
+    slope = (y1 - y0) / (x1 - x0)
+    y = slope * (x - x0) + y0
+    if math.isnan(y):  # numpy tries the other end, then the common value
+        y = slope * (x - x1) + y1
+        if math.isnan(y) and y0 == y1:
+            y = y0
+    return y
+
+
 @njit(cache=True)
-def _integrate(
-    u_v: FloatArray, u_w: FloatArray, dt: float, p: FloatArray, v0: float, w0: float
-) -> tuple[FloatArray, FloatArray]:  # pragma: no cover - compiled
-    """Integrate over all steps; returns v, w at the n+1 grid times (index 0 = initial)."""
-    n = u_v.shape[0]
-    out_v = np.empty(n + 1)
-    out_w = np.empty(n + 1)
-    state = np.array([v0, w0, v0, w0, 0.0, 0.0])
-    out_v[0], out_w[0] = v0, w0
-    for i in range(n):
-        _step(state, u_v[i], u_w[i], dt, p)
-        out_v[i + 1] = state[0]
-        out_w[i + 1] = state[1]
-    return out_v, out_w
+def _run(
+    u_v: FloatArray,
+    u_w: FloatArray,
+    offset: int,
+    n: int,
+    t0: float,
+    dt: float,
+    p: FloatArray,
+    v0: float,
+    w0: float,
+    t_out: FloatArray,
+    shift: float,
+    out_v: FloatArray,
+    out_w: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """Integrate ``n`` steps of ``dt`` from ``t0`` with commands ``u[offset:offset + n]`` and
+    write v, w at the times ``t_out - shift`` (sorted) into ``out_v``, ``out_w``: linear
+    interpolation between the grid's states, held at its ends, bit for bit what ``np.interp``
+    gives on the grid ``t0 + dt * arange(n + 1)``.
 
-
-def _integrate_python(
-    u_v: FloatArray, u_w: FloatArray, dt: float, p: FloatArray, v0: float, w0: float
-) -> tuple[FloatArray, FloatArray]:
-    """The same loop in Python, one kernel call per step (the benchmark baseline).
-
-    On Python floats and lists (numpy scalars would triple the cost of the arithmetic).
+    One pass and no trajectory: each time is read while its grid interval is integrated.
     """
-    step = _step.py_func
-    n = u_v.shape[0]
-    out_v = [v0] * (n + 1)
-    out_w = [w0] * (n + 1)
+    m = t_out.shape[0]
+    j = 0
+    while j < m and t_out[j] - shift < t0:
+        out_v[j], out_w[j] = v0, w0
+        j += 1
+    cur_v, cur_w, rv, rw, ir, il = v0, w0, v0, w0, 0.0, 0.0
+    x1 = t0
+    for k in range(1, n + 1):
+        if j == m:
+            return
+        prev_v, prev_w, x0 = cur_v, cur_w, x1
+        cur_v, cur_w, rv, rw, ir, il, _, _ = drive_step(
+            cur_v, cur_w, rv, rw, ir, il, u_v[offset + k - 1], u_w[offset + k - 1], dt, p
+        )
+        x1 = t0 + dt * float(k)
+        while j < m and t_out[j] - shift < x1:
+            x = t_out[j] - shift
+            out_v[j] = _lerp(x, x0, x1, prev_v, cur_v)
+            out_w[j] = _lerp(x, x0, x1, prev_w, cur_w)
+            j += 1
+    while j < m:
+        out_v[j], out_w[j] = cur_v, cur_w
+        j += 1
+
+
+@njit(cache=True)
+def _run_many(
+    u_v: FloatArray,
+    u_w: FloatArray,
+    which: NDArray[np.int64],
+    n: int,
+    t0: float,
+    dt: float,
+    packed: FloatArray,
+    v0: float,
+    w0: float,
+    t_out: FloatArray,
+    shifts: FloatArray,
+    out_v: FloatArray,
+    out_w: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """:func:`_run` for each row ``c`` of ``packed`` with the commands of row ``which[c]`` of
+    ``u_v``, ``u_w`` and its own shift, into its own output row."""
+    for c in range(packed.shape[0]):
+        k = which[c]
+        _run(u_v[k], u_w[k], 0, n, t0, dt, packed[c], v0, w0, t_out, shifts[c], out_v[c], out_w[c])
+
+
+def _run_python(
+    u_v: FloatArray,
+    u_w: FloatArray,
+    offset: int,
+    n: int,
+    t0: float,
+    dt: float,
+    p: FloatArray,
+    v0: float,
+    w0: float,
+    t_out: FloatArray,
+    shift: float,
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`_run` in plain Python, one kernel call per step: the same arithmetic on Python
+    floats and lists (the benchmark baseline and the interpreted mode)."""
+    step, lerp = _step.py_func, _lerp.py_func
+    times = (t_out - shift).tolist()
+    m = len(times)
+    out_v = [v0] * m
+    out_w = [w0] * m
     state = [v0, w0, v0, w0, 0.0, 0.0]
     packed = p.tolist()
-    for i, (a, b) in enumerate(zip(u_v.tolist(), u_w.tolist(), strict=True), start=1):
-        step(state, a, b, dt, packed)
-        out_v[i] = state[0]
-        out_w[i] = state[1]
+    uv, uw = u_v[offset : offset + n].tolist(), u_w[offset : offset + n].tolist()
+    j = 0
+    while j < m and times[j] < t0:
+        j += 1
+    cur_v, cur_w, x1 = v0, w0, t0
+    for k in range(1, n + 1):
+        if j == m:
+            break
+        prev_v, prev_w, x0 = cur_v, cur_w, x1
+        step(state, uv[k - 1], uw[k - 1], dt, packed)
+        cur_v, cur_w = state[0], state[1]
+        x1 = t0 + dt * float(k)
+        while j < m and times[j] < x1:
+            out_v[j] = lerp(times[j], x0, x1, prev_v, cur_v)
+            out_w[j] = lerp(times[j], x0, x1, prev_w, cur_w)
+            j += 1
+    while j < m:
+        out_v[j], out_w[j] = cur_v, cur_w
+        j += 1
     return np.array(out_v), np.array(out_w)
 
 
@@ -369,17 +464,137 @@ def simulate(
         cmd_t_s, cmd_w, grid, dt_s, delay_s=params.delay_s, timeout_s=params.cmd_timeout_s
     )
     packed = pack_params(params, geometry)
+    args = (n, t0, float(dt_s), packed, float(v0), float(w0))
     if python is None:
         python = _within_interpret_budget(n)
     if python:
         with _jit.interpreted():
-            out_v, out_w = _integrate_python(u_v, u_w, float(dt_s), packed, float(v0), float(w0))
+            v, w = _run_python(u_v, u_w, 0, *args, t_out_s, 0.0)
     else:
-        out_v, out_w = _integrate(u_v, u_w, float(dt_s), packed, float(v0), float(w0))
-    t_grid = t0 + dt_s * np.arange(n + 1, dtype=np.float64)
-    return ReducedResponse(
-        t_s=t_out_s, v=np.interp(t_out_s, t_grid, out_v), w=np.interp(t_out_s, t_grid, out_w)
-    )
+        v, w = np.empty(t_out_s.size), np.empty(t_out_s.size)
+        _run(u_v, u_w, 0, *args, t_out_s, 0.0, v, w)
+    return ReducedResponse(t_s=t_out_s, v=v, w=w)
+
+
+@dataclass(frozen=True, kw_only=True)
+class GridCommands:
+    """A log's delayed command history averaged over the steps of one integration grid (what
+    :func:`simulate` computes first), kept so that many simulations of the log with the same
+    delay -- a fit's Jacobian columns -- compute it once (:func:`simulate_grid`).
+
+    Build it with :meth:`build`.
+
+    Attributes
+    ----------
+    t0_s, dt_s : float
+        Start time and step of the integration grid, s.
+    delay_s, timeout_s : float
+        The delay and command timeout the commands were averaged with, s.
+    u_v, u_w : ndarray
+        Mean delayed held command over each step, m/s and rad/s.
+    """
+
+    t0_s: float
+    dt_s: float
+    delay_s: float
+    timeout_s: float
+    u_v: FloatArray
+    u_w: FloatArray
+
+    @classmethod
+    def build(
+        cls,
+        cmd_t_s: FloatArray,
+        cmd_v: FloatArray,
+        cmd_w: FloatArray,
+        *,
+        t0_s: float,
+        dt_s: float,
+        n: int,
+        delay_s: float,
+        timeout_s: float,
+    ) -> GridCommands:
+        """Averages over ``n`` steps of ``dt_s`` from ``t0_s`` (:func:`delayed_step_average`)."""
+        grid = t0_s + dt_s * np.arange(n, dtype=np.float64)
+        kw = {"delay_s": delay_s, "timeout_s": timeout_s}
+        return cls(
+            t0_s=t0_s,
+            dt_s=dt_s,
+            delay_s=delay_s,
+            timeout_s=timeout_s,
+            u_v=delayed_step_average(cmd_t_s, cmd_v, grid, dt_s, **kw),
+            u_w=delayed_step_average(cmd_t_s, cmd_w, grid, dt_s, **kw),
+        )
+
+    @property
+    def n(self) -> int:
+        """Steps the grid covers."""
+        return int(self.u_v.size)
+
+
+def simulate_grid(
+    commands: Sequence[GridCommands],
+    packed: FloatArray,
+    t_out_s: FloatArray,
+    shifts_s: FloatArray,
+    *,
+    v0: float,
+    w0: float,
+    python: bool = False,
+) -> tuple[FloatArray, FloatArray]:
+    """Simulate several parameter sets of one log in one compiled call.
+
+    Row ``c`` of ``packed`` (:func:`pack_params`) runs with the grid commands
+    ``commands[c]`` (all on one grid; rows may share them) from ``t0_s`` in state
+    (``v0``, ``w0``) and is read at the times ``t_out_s - shifts_s[c]`` (``t_out_s`` sorted):
+    bit for bit :func:`simulate` with those commands' delay and timeout and the output times
+    ``[t0_s, *(t_out_s - shifts_s[c])]`` (its first output dropped). Returns v and w, shape
+    ``(rows, t_out_s.size)``. ``python=True`` runs the plain-Python loop instead (the same
+    numbers, the benchmark baseline).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robots.params import BaseGeometry, DriveParams
+    >>> geo = BaseGeometry(mass_kg=1.0, yaw_inertia_kgm2=0.01, wheel_radius_m=0.033,
+    ...                    wheel_separation_m=0.16)
+    >>> cmds = GridCommands.build(np.array([0.0]), np.array([0.2]), np.array([0.0]),
+    ...                           t0_s=0.0, dt_s=0.01, n=200, delay_s=0.1, timeout_s=np.inf)
+    >>> v, w = simulate_grid([cmds], pack_params(DriveParams(), geo)[None, :],
+    ...                      np.array([0.1, 2.0]), np.zeros(1), v0=0.0, w0=0.0)
+    >>> [round(float(x), 3) for x in v[0]]
+    [0.0, 0.2]
+    """
+    rows = packed.shape[0]
+    first = commands[0]
+    if len(commands) != rows or any(
+        (c.t0_s, c.dt_s, c.n) != (first.t0_s, first.dt_s, first.n) for c in commands
+    ):
+        raise RobotsValueError(
+            f"simulate_grid needs one GridCommands per parameter row ({rows}), all on one grid; "
+            f"got {len(commands)}"
+        )
+    index: dict[int, int] = {}
+    which = np.array([index.setdefault(id(c), len(index)) for c in commands], dtype=np.int64)
+    unique = list({id(c): c for c in commands}.values())
+    u_v = np.stack([c.u_v for c in unique])
+    u_w = np.stack([c.u_w for c in unique])
+    t_out_s = np.ascontiguousarray(t_out_s, dtype=np.float64)
+    packed = np.ascontiguousarray(packed, dtype=np.float64)
+    shifts_s = np.ascontiguousarray(shifts_s, dtype=np.float64)
+    grid = (first.n, float(first.t0_s), float(first.dt_s))
+    out_v, out_w = np.empty((rows, t_out_s.size)), np.empty((rows, t_out_s.size))
+    if python:
+        for c in range(rows):
+            out_v[c], out_w[c] = _run_python(
+                u_v[which[c]], u_w[which[c]], 0, *grid, packed[c], float(v0), float(w0),
+                t_out_s, float(shifts_s[c]),
+            )  # fmt: skip
+        return out_v, out_w
+    _run_many(
+        u_v, u_w, which, *grid, packed, float(v0), float(w0), t_out_s, shifts_s, out_v, out_w
+    )  # fmt: skip
+    return out_v, out_w
 
 
 def _within_interpret_budget(n_steps: int) -> bool:

@@ -15,13 +15,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.params import DriveParams
-from robots.reduced import ReducedResponse, simulate
+from robots.reduced import GridCommands, ReducedResponse, pack_params, simulate_grid
 from sysid._coords import COORDS, Mapper
 from sysid._logs import LogArrays
 
 __all__ = ["Problem", "initial_state"]
 
 FloatArray = NDArray[np.float64]
+
+#: Grid commands (:class:`robots.reduced.GridCommands`) kept per log, most recent first.
+_CACHED_GRIDS = 4
 
 
 def initial_state(log: LogArrays) -> tuple[float, float]:
@@ -100,6 +103,7 @@ class Problem:
             max(1, math.ceil(float(g.meas_t_s[-1] - g.meas_t_s[0]) / dt_s)) for g in logs
         )
         self._starts = [initial_state(g) for g in self.logs]
+        self._grid_cache: dict[tuple[int, float, float], GridCommands] = {}
         rows_v, rows_w, offset = [], [], 0
         for g in self.logs:
             n = g.meas_t_s.size
@@ -137,7 +141,7 @@ class Problem:
     def subset(self, free: Sequence[str]) -> Problem:
         """The same problem over fewer coordinates (the others at the base values)."""
         ties = {k: v for k, v in self.ties.items() if v in free}
-        return Problem(
+        out = Problem(
             self.logs,
             self.mapper,
             free,
@@ -146,6 +150,8 @@ class Problem:
             prior_weight=self.prior_weight,
             **self._settings,  # type: ignore[arg-type]
         )
+        out._grid_cache = self._grid_cache  # same logs, same grid
+        return out
 
     def like(self, logs: Sequence[LogArrays]) -> Problem:
         """The same problem (coordinates, settings, prior weight) on other logs."""
@@ -213,48 +219,96 @@ class Problem:
         rule), as wheel-encoder odometry reports it (tick difference over one odometry
         period); w stays instantaneous (gyro).
         """
-        self.n_steps += self._steps_per_sim
-        # Sub-step delay as an exact time shift: simulate with the delay rounded down to the
-        # grid and read the output f = delay - k dt earlier. With an active rate limiter the
-        # model's response is otherwise a staircase in the delay (the limiter moves a full
-        # a dt per step whatever part of the step the new command covers), which breaks the
-        # finite-difference Jacobian. The system is time-invariant, so both are the same model
-        # up to the step's own timing resolution.
-        steps = math.floor(params.delay_s / self.dt_s + 1e-9)
-        frac = params.delay_s - steps * self.dt_s
-        grid_params = params.replace(delay_s=steps * self.dt_s)
+        return [
+            ReducedResponse(t_s=g.meas_t_s, v=v[0], w=w[0])
+            for g, (v, w) in zip(self.logs, self._simulate_many([params]), strict=True)
+        ]
+
+    def _simulate_many(self, params: Sequence[DriveParams]) -> list[tuple[FloatArray, FloatArray]]:
+        """v and w, shape ``(len(params), samples)``, of each log for each parameter set.
+
+        Sub-step delay as an exact time shift: each set is simulated with its delay rounded
+        down to the grid and read ``f = delay - k dt`` earlier. With an active rate limiter the
+        model's response is otherwise a staircase in the delay (the limiter moves a full
+        a dt per step whatever part of the step the new command covers), which breaks the
+        finite-difference Jacobian. The system is time-invariant, so both are the same model
+        up to the step's own timing resolution. The grid stays anchored one step before each
+        log's first query, so the command averages over its steps are computed once per log
+        (:class:`robots.reduced.GridCommands`) and every set of one call runs in one compiled
+        call (:func:`robots.reduced.simulate_grid`).
+        """
+        self.n_steps += self._steps_per_sim * len(params)
+        steps = np.array([math.floor(p.delay_s / self.dt_s + 1e-9) for p in params], dtype=np.int64)
+        delays = [(p.delay_s, k) for p, k in zip(params, steps.tolist(), strict=True)]
+        shifts = np.array([d - k * self.dt_s for d, k in delays])
         out = []
-        for g, (v0, w0), (t_query, inverse) in zip(
-            self.logs, self._starts, self._queries, strict=True
-        ):
-            resp = simulate(
-                grid_params,
-                self.mapper.geometry,
-                cmd_t_s=g.cmd_t_s,
-                cmd_v=g.cmd_v,
-                cmd_w=g.cmd_w,
-                # the first time anchors the integration grid so it does not move with frac
-                t_out_s=np.concatenate(([t_query[0] - self.dt_s], t_query - frac)),
-                dt_s=self.dt_s,
-                v0=v0,
-                w0=w0,
-                python=self.python,
-            )
-            rv, rw = resp.v[1:], resp.w[1:]
+        for i, (_, inverse) in enumerate(self._queries):
+            rv, rw = self._simulate_log(i, params, steps, shifts)
+            n = self.logs[i].meas_t_s.size
             if inverse is None:
-                out.append(ReducedResponse(t_s=g.meas_t_s, v=rv, w=rw))
+                out.append((rv, rw))
                 continue
-            n = g.meas_t_s.size
-            v = rv[inverse]
-            v_mean = (v[:n] + 4.0 * v[n : 2 * n] + v[2 * n :]) / 6.0
-            out.append(ReducedResponse(t_s=g.meas_t_s, v=v_mean, w=rw[inverse[2 * n :]]))
+            v = rv[:, inverse]
+            v_mean = (v[:, :n] + 4.0 * v[:, n : 2 * n] + v[:, 2 * n :]) / 6.0
+            out.append((v_mean, rw[:, inverse[2 * n :]]))
         return out
+
+    def _grid(self, i: int) -> tuple[float, int]:
+        """Log ``i``'s grid start (one step before its first query time: the grid does not
+        move with the sub-step delay) and the steps that reach its last query."""
+        t_query = self._queries[i][0]
+        t0 = float(t_query[0]) - self.dt_s
+        return t0, max(1, math.ceil((float(t_query[-1]) - t0) / self.dt_s))
+
+    def _simulate_log(
+        self, i: int, params: Sequence[DriveParams], steps: NDArray[np.int64], shifts: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """v and w of log ``i`` at its query times for each parameter set."""
+        t0, n = self._grid(i)
+        t_query = self._queries[i][0]
+        v0, w0 = self._starts[i]
+        geo = self.mapper.geometry
+        cmds = [
+            self._commands(i, t0, n, int(k) * self.dt_s, p.cmd_timeout_s)
+            for p, k in zip(params, steps.tolist(), strict=True)
+        ]
+        packed = np.stack([pack_params(p, geo) for p in params])
+        return simulate_grid(cmds, packed, t_query, shifts, v0=v0, w0=w0, python=self.python)
+
+    def _commands(
+        self, i: int, t0: float, n: int, delay_s: float, timeout_s: float
+    ) -> GridCommands:
+        """Log ``i``'s grid commands for a delay and timeout (the last few are kept: a
+        Jacobian's columns share all but at most one delay)."""
+        key = (i, delay_s, timeout_s)
+        cmds = self._grid_cache.pop(key, None)
+        if cmds is None:
+            g = self.logs[i]
+            cmds = GridCommands.build(
+                g.cmd_t_s,
+                g.cmd_v,
+                g.cmd_w,
+                t0_s=t0,
+                dt_s=self.dt_s,
+                n=n,
+                delay_s=delay_s,
+                timeout_s=timeout_s,
+            )
+        self._grid_cache[key] = cmds  # most recently used last
+        while len(self._grid_cache) > _CACHED_GRIDS * len(self.logs):
+            del self._grid_cache[next(iter(self._grid_cache))]
+        return cmds
 
     def scaled_sim(self, params: DriveParams) -> FloatArray:
         """Scaled model outputs stacked like the residuals."""
-        sims = self.simulate(params)
+        out: FloatArray = self.scaled_sim_many([params])[0]
+        return out
+
+    def scaled_sim_many(self, params: Sequence[DriveParams]) -> FloatArray:
+        """:meth:`scaled_sim` of each parameter set, one row each (one compiled call per log)."""
+        sims = self._simulate_many(params)
         return np.concatenate(
-            [np.concatenate([s.v * self.gain_v, s.w * self.gain_w]) for s in sims]
+            [np.concatenate([v * self.gain_v, w * self.gain_w], axis=1) for v, w in sims], axis=1
         )
 
     def data_residuals(self, x: FloatArray) -> FloatArray:
@@ -297,10 +351,13 @@ class Problem:
         return np.concatenate([self.data_jacobian(x, coupled), self.prior_jacobian(x)])
 
     def data_jacobian(self, x: FloatArray, coupled: bool) -> FloatArray:
-        """Forward-difference Jacobian of :meth:`data_residuals`."""
+        """Forward-difference Jacobian of :meth:`data_residuals` (every column simulated in
+        one compiled call per log)."""
         f0 = self.data_residuals(x)
         jac = np.zeros((self.n_rows, len(self.free)))
         lo, hi = self.lower, self.upper
+        columns: list[dict[int, float]] = []
+        points = []
         for group in self.groups(coupled):
             xp = np.array(x, dtype=np.float64)
             steps = {}
@@ -312,7 +369,12 @@ class Problem:
                     h = 0.5 * (hi[j] - lo[j]) * 1e-3
                 xp[j] += h
                 steps[j] = h
-            fp = self.scaled_sim(self.params(xp)) - self.meas
+            columns.append(steps)
+            points.append(self.params(xp))
+        if not points:
+            return jac
+        fps = self.scaled_sim_many(points) - self.meas
+        for group, steps, fp in zip(self.groups(coupled), columns, fps, strict=True):
             self.n_evals += 1
             if self.on_eval is not None:
                 self.on_eval(self.n_evals)
