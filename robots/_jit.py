@@ -11,6 +11,13 @@ functions. Inside :func:`interpreted`, a kernel that is not compiled yet runs as
 numba, for one short run where compiling would cost more than it saves
 (:func:`robots.reduced.simulate` with ``python=None``).
 
+numba's on-disk cache (``cache=True``) is keyed by each kernel's own source file, but a
+compiled kernel holds the kernels it calls from other files too (``robots.reduced`` inlines the
+drive step of ``robots._kernel``): editing one file would leave the others' cached machine code
+stale. :func:`compile_all` therefore keys the cache on a hash of the sources of every kernel
+module (:func:`sources_digest`): when the hash stored beside a cache folder differs, that
+folder's cached kernels of these modules are deleted before anything loads them.
+
 Example
 -------
 >>> @njit(cache=False)
@@ -23,20 +30,27 @@ Example
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import hashlib
+import os
 import sys
+import tempfile
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
-__all__ = ["Kernel", "compile_all", "compiled", "interpreted", "njit"]
+__all__ = ["Kernel", "compile_all", "compiled", "interpreted", "njit", "sources_digest"]
 
 _KERNELS: list[Kernel] = []
 _LOCK = threading.RLock()
 _LOCAL = threading.local()
 #: Packages whose module-level names are rebound to the dispatchers by :func:`compile_all`.
 _PACKAGES = ("robots", "sysid", "randomizers", "sim2real", "tests")
+#: File beside numba's cache files holding the sources digest they were compiled from.
+STAMP_NAME = "robots-jit-sources.sha256"
 
 
 class Kernel:
@@ -98,9 +112,11 @@ def compile_all() -> None:
         import numba
 
         swap: dict[int, Any] = {}
+        fresh = [k for k in _KERNELS if k.dispatcher is None]
+        for kernel in fresh:
+            kernel.dispatcher = _dispatcher(numba, kernel)
+        _drop_stale_caches(fresh)
         for kernel in _KERNELS:
-            if kernel.dispatcher is None:
-                kernel.dispatcher = _dispatcher(numba, kernel)
             swap[id(kernel)] = kernel.dispatcher
         for name, module in list(sys.modules.items()):
             if module is None or name.split(".")[0] not in _PACKAGES:
@@ -120,6 +136,71 @@ def _dispatcher(numba: Any, kernel: Kernel) -> Any:
         if not kernel.options.get("cache") or "cannot cache" not in str(exc):
             raise
         return numba.njit(**{**kernel.options, "cache": False})(kernel.py_func)
+
+
+def _source_file(kernel: Kernel) -> Path | None:
+    module = sys.modules.get(kernel.py_func.__module__)
+    name = getattr(module, "__file__", None)
+    return Path(name) if name else None
+
+
+def sources_digest(files: set[Path]) -> str:
+    """SHA-256 of ``files`` (names and contents, in sorted order)."""
+    digest = hashlib.sha256()
+    for path in sorted(files):
+        digest.update(path.name.encode() + b"\0")
+        with contextlib.suppress(OSError):  # an unreadable source: its name still counts
+            digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _drop_stale_caches(kernels: list[Kernel]) -> None:
+    """Delete the cached machine code of ``kernels``' modules in each cache folder whose stamp
+    is not the digest of its sources (before numba loads any of it), then stamp the folder.
+
+    A folder's sources are its own kernel modules plus every kernel module of ``robots`` (the
+    bottom of the import order, which every kernel may call), so the digest is the same in
+    every process that uses the folder.
+    """
+    folders: dict[Path, set[Path]] = {}
+    base: set[Path] = set()
+    for kernel in (k for k in kernels if k.options.get("cache")):
+        folder = getattr(getattr(kernel.dispatcher, "_cache", None), "_cache_path", None)
+        source = _source_file(kernel)
+        if not (folder and source):
+            continue
+        folders.setdefault(Path(folder), set()).add(source)
+        if kernel.py_func.__module__.split(".")[0] == "robots":
+            base.add(source)
+    for folder, sources in folders.items():
+        invalidate_folder(folder, {f.stem for f in sources}, sources_digest(sources | base))
+
+
+def invalidate_folder(folder: Path, stems: set[str], digest: str) -> bool:
+    """Delete ``folder``'s numba cache files (``.nbi``, ``.nbc``) of the modules ``stems``
+    unless its stamp says ``digest``; write the stamp. Returns whether files were deleted.
+
+    Folders that cannot be read or written are left alone (numba then compiles anew).
+    """
+    stamp = folder / STAMP_NAME
+    try:
+        if stamp.read_text(encoding="ascii").strip() == digest:
+            return False
+    except OSError:
+        pass
+    dropped = False
+    try:
+        for path in folder.iterdir():
+            if path.suffix in (".nbi", ".nbc") and path.name.split(".")[0] in stems:
+                path.unlink(missing_ok=True)
+                dropped = True
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=STAMP_NAME, suffix=".tmp")
+        with os.fdopen(fd, "w", encoding="ascii") as out:
+            out.write(digest + "\n")
+        os.replace(tmp, stamp)
+    except OSError:
+        pass
+    return dropped
 
 
 @contextmanager

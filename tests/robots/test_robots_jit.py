@@ -97,3 +97,54 @@ def test_a_kernel_compiles_without_the_disk_cache_when_numba_has_no_cache_folder
     monkeypatch.setattr(numba, "njit", lambda **o: (_ for _ in ()).throw(RuntimeError("boom")))
     with pytest.raises(RuntimeError, match="boom"):
         _jit._dispatcher(numba, other)
+
+
+_INNER = """
+from robots._jit import njit
+
+@njit(cache=True)
+def inner(x):
+    return x + {add}
+"""
+
+_OUTER = """
+from robots._jit import njit
+from tests.kmod_inner import inner
+
+@njit(cache=True)
+def outer(x):
+    return inner(x) * 2.0
+"""
+
+
+def test_editing_a_called_kernel_invalidates_the_callers_disk_cache(tmp_path: Path) -> None:
+    """numba keys a cached kernel by its own file only: a caller in another file would keep
+    the old callee's machine code. _jit keys the cache on the sources' digest instead."""
+    pkg = tmp_path / "tests"  # a package _jit rebinds kernel names in
+    pkg.mkdir()
+    (pkg / "kmod_outer.py").write_text(_OUTER)
+    run = [sys.executable, "-c", "from tests.kmod_outer import outer; print(outer(1.0))"]
+
+    def outer_of_one(add: float) -> float:
+        (pkg / "kmod_inner.py").write_text(_INNER.format(add=add))
+        proc = subprocess.run(run, capture_output=True, text=True, check=True, cwd=tmp_path)
+        return float(proc.stdout.strip())
+
+    assert outer_of_one(1.0) == 4.0
+    cache = pkg / "__pycache__"
+    assert any(p.suffix == ".nbi" and p.name.startswith("kmod_outer.") for p in cache.iterdir())
+    assert outer_of_one(2.0) == 6.0  # numba alone would load outer's stale code: 4.0
+    assert outer_of_one(2.0) == 6.0  # and from the cache again
+
+
+def test_a_stale_folder_loses_only_its_kernel_modules_cache_files(tmp_path: Path) -> None:
+    names = ["reduced._run-99.py311.nbi", "reduced._run-99.py311.1.nbc", "other.f-1.py311.nbi"]
+    for name in names:
+        (tmp_path / name).write_bytes(b"x")
+    assert _jit.invalidate_folder(tmp_path, {"reduced", "_kernel"}, "abc")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["other.f-1.py311.nbi", _jit.STAMP_NAME]
+    assert (tmp_path / _jit.STAMP_NAME).read_text().strip() == "abc"
+    (tmp_path / names[0]).write_bytes(b"x")
+    assert not _jit.invalidate_folder(tmp_path, {"reduced"}, "abc")  # stamp matches: kept
+    assert (tmp_path / names[0]).exists()
+    assert _jit.sources_digest({tmp_path / names[0]}) != _jit.sources_digest(set())
