@@ -11,7 +11,6 @@ writes from the Husky A200's published numbers, with the driver's published sett
 from __future__ import annotations
 
 import dataclasses
-import statistics
 
 import numpy as np
 import pytest
@@ -23,10 +22,13 @@ from sim2real.agreement import measure_agreement
 from sim2real.errors import Sim2RealValueError
 from sim2real.replay import replay
 from sim2real.skid_plant import (
+    CHI_RANGE,
+    MU_RANGE,
     effective_track_factor,
     husky_like,
     make_skid_sessions,
     run_skid_plant,
+    skid_robot,
 )
 from sysid.fit import fit_drive
 
@@ -93,15 +95,32 @@ def test_sessions_are_seeded_and_bad_input_is_refused() -> None:
         husky_like().replace(mu=-1.0)
 
 
+#: Seeds of :func:`skid_robot` and its sessions that no design choice was tuned on (the plant's
+#: ranges and the fit's track-factor restarts were chosen on seeds 1-13 and 21-30).
+TARGET_SEEDS = (101, 102, 103, 104, 105)
+
+
+def test_skid_robots_span_the_published_slip() -> None:
+    """Each seed is one robot on one ground: slip in CHI_RANGE, friction in MU_RANGE."""
+    chis = [effective_track_factor(skid_robot(s), 0.0, 1.0) for s in TARGET_SEEDS]
+    assert all(CHI_RANGE[0] - 0.01 <= c <= CHI_RANGE[1] + 0.01 for c in chis), chis
+    assert max(chis) - min(chis) > 0.1  # the seeds differ
+    assert all(MU_RANGE[0] <= skid_robot(s).mu <= MU_RANGE[1] for s in TARGET_SEEDS)
+    assert skid_robot(101) == skid_robot(101)
+    with pytest.raises(Sim2RealValueError, match="ground_sd"):
+        make_skid_sessions(husky_like(), 1, seed=0, ground_sd=-0.1)
+
+
 @pytest.mark.slow
 def test_skid_fit_meets_the_target_where_the_differential_fit_does_not(husky: RobotSpec) -> None:
-    """Three seeds, each: fit one 90 s teleop session (the driver's top speed and yaw rate),
-    measure on the other. Medians over the seeds meet the target; the skid fit wins on each."""
-    skid, diff = [], []
+    """Every seed: one robot on one ground (:func:`skid_robot`); fit one 90 s teleop session
+    (the driver's top speed and yaw rate), measure on another day's session. On each seed the
+    skid fit reaches 0.9 and the plain differential-drive fit stays below 0.7."""
+    results = {}
     plain = husky.drive.replace(track_factor=1.0, driver_track_factor=1.0)
-    for seed in (1, 2, 3):
+    for seed in TARGET_SEEDS:
         fit_log, held_out = make_skid_sessions(
-            husky_like(), 2, seed=seed, duration_s=90.0, profile="teleop"
+            skid_robot(seed), 2, seed=seed, duration_s=90.0, profile="teleop"
         )
         scores = []
         for base, priors in (
@@ -112,13 +131,10 @@ def test_skid_fit_meets_the_target_where_the_differential_fit_does_not(husky: Ro
             sim = replay(held_out, robot=husky, params=result.params, engine="reduced")
             scores.append(measure_agreement(held_out, sim).agreement)
             if base is husky.drive:
-                assert 1.3 < result.params.track_factor < 2.0  # the plant's 1.53, roughly
+                assert 1.3 < result.params.track_factor < 2.3  # the plant's 1.5-1.9, roughly
                 skid_params = result.params
-        skid.append(scores[0])
-        diff.append(scores[1])
-        assert scores[0] > scores[1] + 0.1, (seed, scores)
-    assert statistics.median(skid) >= 0.9, skid
-    assert statistics.median(diff) < 0.7, diff
+        results[seed] = tuple(round(x, 3) for x in scores)
+    assert all(skid >= 0.9 and diff < 0.7 for skid, diff in results.values()), results
     # the pybullet engine with the same (last) fit agrees with the reduced one on the log
     sim_pb = replay(held_out, robot=husky, params=skid_params, engine="pybullet")
     sim_red = replay(held_out, robot=husky, params=skid_params, engine="reduced")
