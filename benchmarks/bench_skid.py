@@ -1,0 +1,131 @@
+"""Issue 12's skid-steer target, per seed, and how far a fit carries to another ground.
+
+Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,102,103,104,105]`` (~1 min).
+
+1. **Target** (what ``tests/sim2real/test_skid_plant.py`` asserts): per seed, one robot on one
+   ground (:func:`sim2real.skid_plant.skid_robot`: slip 1.5-1.9, mu 0.6-0.95), two 90 s teleop
+   sessions on different days (mu +-5 %); the drive is fitted on the first with the skid
+   fields (the spec of ``sim2real robots new husky --drive skid`` from the Husky's published
+   numbers, the driver's multiplier 1.875) and with the plain differential drive (track
+   factors 1), and the agreement of each is measured on the second (reduced engine).
+2. **Ground sensitivity**: :func:`sim2real.skid_plant.husky_like` at mu 0.8 fitted on one
+   session, measured on a session on a ground with mu x (0.8, 0.9, 1.0, 1.2).
+
+Prints one line per seed and the CPU time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+SENSITIVITY = (0.8, 0.9, 1.0, 1.2)
+
+
+def _husky() -> Any:
+    from robots.spec import load_spec
+    from robots.template import spec_text
+
+    path = Path(tempfile.mkdtemp()) / "husky.yaml"
+    text = spec_text(
+        "husky",
+        wheel_separation_m=0.555,
+        wheel_radius_m=0.165,
+        mass_kg=50.0,
+        max_speed_mps=1.0,
+        drive="skid",
+    )
+    path.write_text(text)
+    spec = load_spec(path)
+    drive = spec.drive.replace(
+        cmd_timeout_s=0.25, accel_lim_v_mps2=3.0, accel_lim_w_radps2=6.0, driver_track_factor=1.875
+    )
+    return dataclasses.replace(spec, drive=drive)
+
+
+def _fixed(spec: Any, **values: float) -> dict[str, Any]:
+    from robots.params import Prior
+
+    priors = dict(spec.priors)
+    for name, value in values.items():
+        priors[name] = Prior(name=name, nominal=value, sd=0.0, session_sd=0.0, source="spec")
+    return priors
+
+
+def _agreement(spec: Any, params: Any, trace: Any) -> float:
+    from sim2real.agreement import measure_agreement
+    from sim2real.replay import replay
+
+    sim = replay(trace, robot=spec, params=params, engine="reduced")
+    return float(measure_agreement(trace, sim).agreement)
+
+
+def _fit(spec: Any, trace: Any, *, plain: bool = False) -> Any:
+    from sysid.fit import fit_drive
+
+    if plain:
+        base = spec.drive.replace(track_factor=1.0, driver_track_factor=1.0)
+        priors = _fixed(spec, driver_track_factor=1.0, track_factor=1.0)
+    else:
+        base, priors = spec.drive, _fixed(spec, driver_track_factor=1.875)
+    return fit_drive([trace], geometry=spec.geometry, base_params=base, priors=priors).params
+
+
+def target(seeds: list[int]) -> None:
+    from sim2real.skid_plant import effective_track_factor, make_skid_sessions, skid_robot
+
+    spec = _husky()
+    print("seed  chi   mu    skid   diff   fitted chi")
+    for seed in seeds:
+        robot = skid_robot(seed)
+        fit_log, held = make_skid_sessions(robot, 2, seed=seed, duration_s=90.0, profile="teleop")
+        skid = _fit(spec, fit_log)
+        diff = _fit(spec, fit_log, plain=True)
+        print(
+            f"{seed:4d}  {effective_track_factor(robot, 0.0, 1.0):.2f}  {robot.mu:.2f}  "
+            f"{_agreement(spec, skid, held):.3f}  {_agreement(spec, diff, held):.3f}  "
+            f"{skid.track_factor:.2f}",
+            flush=True,
+        )
+
+
+def sensitivity(seeds: list[int]) -> None:
+    from sim2real.plants import command_profile
+    from sim2real.skid_plant import husky_like, run_skid_plant
+
+    spec = _husky()
+    base = husky_like()
+
+    def session(mu: float, seed: int, i: int) -> Any:
+        rng = np.random.default_rng([seed, i, 7])
+        t, v, w = command_profile(
+            "teleop", 90.0, rng=rng, max_v_mps=base.max_v_mps, max_w_radps=base.max_w_radps
+        )
+        return run_skid_plant(base.replace(mu=mu), t, v, w, duration_s=90.0, rng=rng)
+
+    print("seed  agreement on a held-out ground with mu x " + " ".join(map(str, SENSITIVITY)))
+    for seed in seeds:
+        params = _fit(spec, session(base.mu, seed, 0))
+        row = [_agreement(spec, params, session(base.mu * f, seed, 1)) for f in SENSITIVITY]
+        print(f"{seed:4d}  " + "  ".join(f"{a:.3f}" for a in row), flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", default="101,102,103,104,105", help="target seeds")
+    parser.add_argument("--ground-seeds", default="1,2,3,4", help="sensitivity seeds")
+    args = parser.parse_args()
+    t0 = time.process_time()
+    target([int(s) for s in args.seeds.split(",")])
+    sensitivity([int(s) for s in args.ground_seeds.split(",")])
+    print(f"CPU {time.process_time() - t0:.1f} s")
+
+
+if __name__ == "__main__":
+    main()
