@@ -125,6 +125,60 @@ def _coulomb_prox(
 
 
 @njit(cache=True, inline="always")
+def _sign_impulse(x: float, pos: float, neg: float) -> float:  # pragma: no cover - compiled
+    """The Coulomb impulse opposing a motion ``x`` (``pos`` forward, ``neg`` backward)."""
+    if x > 0.0:
+        return pos
+    if x < 0.0:
+        return -neg
+    return 0.0
+
+
+@njit(cache=True)
+def _coupled_prox(
+    a11: float,
+    a12: float,
+    a21: float,
+    a22: float,
+    b1: float,
+    b2: float,
+    cv_pos: float,
+    cv_neg: float,
+    cw: float,
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """Solve ``[[a11, a12], [a21, a22]] (v, w) = (b1, b2) - Coulomb impulses`` (N s, N m s).
+
+    Each axis's impulse (``cv_pos`` / ``cv_neg`` on v forward / backward, ``cw`` on w)
+    opposes its end motion, or holds the axis at rest when it cannot move it (the proximal
+    step of one axis, per axis). Uncoupled (``a12 = a21 = 0``): the one-axis steps. Coupled
+    (a wheel on the torque-speed line, the other not): the sliding solution when every axis
+    keeps its direction, else Gauss-Seidel over the rows (each the one-axis step given the
+    other; the diagonals dominate, so it converges).
+    """
+    if a12 == 0.0 and a21 == 0.0:
+        return (
+            _coulomb_prox(b1 / a11, cv_pos / a11, cv_neg / a11),
+            _coulomb_prox(b2 / a22, cw / a22, cw / a22),
+        )
+    det = a11 * a22 - a12 * a21
+    v0 = (b1 * a22 - a12 * b2) / det
+    w0 = (a11 * b2 - a21 * b1) / det
+    fv = _sign_impulse(v0, cv_pos, cv_neg)
+    fw = _sign_impulse(w0, cw, cw)
+    v1 = ((b1 - fv) * a22 - a12 * (b2 - fw)) / det
+    w1 = (a11 * (b2 - fw) - a21 * (b1 - fv)) / det
+    if v1 * v0 > 0.0 and w1 * w0 > 0.0:
+        return v1, w1
+    for _ in range(100):
+        v_prev, w_prev = v1, w1
+        v1 = _coulomb_prox((b1 - a12 * w1) / a11, cv_pos / a11, cv_neg / a11)
+        w1 = _coulomb_prox((b2 - a21 * v1) / a22, cw / a22, cw / a22)
+        if abs(v1 - v_prev) + abs(w1 - w_prev) <= 1e-15 * (1.0 + abs(v1) + abs(w1)):
+            break
+    return v1, w1
+
+
+@njit(cache=True, inline="always")
 def shape_command(
     u_v: float, u_w: float, ref_v: float, ref_w: float, dt: float, p: FloatArray
 ) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
@@ -280,14 +334,8 @@ def wheel_loops(
         a22 = inertia + dt * (p[BW] - half_l * half_e * ss)
         b1 = m * v + dt * ((ar + al) / r)
         b2 = inertia * w + dt * ((ar - al) * half_l / r)
-        if sr == 0.0 and sl == 0.0:  # flat caps only: two decoupled axes
-            v_nc, w_nc = b1 / a11, b2 / a22
-        else:
-            det = a11 * a22 - a12 * a21
-            v_nc = (b1 * a22 - a12 * b2) / det
-            w_nc = (a11 * b2 - a21 * b1) / det
-        v1 = _coulomb_prox(v_nc, dt * p[CFWD] / a11, dt * p[CBWD] / a11)
-        w1 = _coulomb_prox(w_nc, dt * p[CW] / a22, dt * p[CW] / a22)
+        # Coulomb friction as a proximal step per axis (it stops an axis, never reverses it)
+        v1, w1 = _coupled_prox(a11, a12, a21, a22, b1, b2, dt * p[CFWD], dt * p[CBWD], dt * p[CW])
         tr = ar + sr * (v1 + w1 * half_e) / r
         tl = al + sl * (v1 - w1 * half_e) / r
         er = wr_ref - (v1 + w1 * half_e) / r
