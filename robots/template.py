@@ -240,7 +240,8 @@ def _render(robot: NewRobot) -> str:
         " K = m_eff r^2 / (2 T)",
         "  speed_loop_ki_per_s: 0.0  # a P loop until sysid identifies the integral term",
         f"  wheel_torque_max_nm: {_g(tau_max)}  # prior: traction mu = 0.5 on half the weight",
-        "  wheel_stall_torque_nm: .inf  # the motors' torque-speed line: none modelled",
+        "  wheel_stall_torque_nm: .inf  # the motors' torque-speed line: none until you give the"
+        " datasheet's stall torque and no-load speed at the wheel (and priors below)",
         "  wheel_no_load_speed_radps: .inf",
         f"  coulomb_v_fwd_n: {_g(0.01 * m * _G)}  # prior: 1 % of the weight",
         f"  coulomb_v_bwd_n: {_g(0.01 * m * _G)}",

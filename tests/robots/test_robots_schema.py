@@ -117,9 +117,17 @@ def test_shipped_specs_give_every_field_a_prior_with_a_justification(robot: str)
         if line in entries:  # a comment on the line or on the line(s) just above
             above = section[i - 1].strip() if i else ""
             assert "#" in line or above.startswith("#"), line
-    # the loaded cap is derated below the no-load datasheet cap
     cap = spec.priors["wheel_speed_max_radps"]
-    assert cap.nominal < spec.drive.wheel_speed_max_radps
+    if math.isfinite(spec.drive.wheel_no_load_speed_radps):
+        # load and battery derate the top speed through the motors' torque-speed line (its
+        # ends vary from session to session with the battery), not through the wheel cap
+        assert cap.nominal == spec.drive.wheel_speed_max_radps and cap.session_sd == 0.0
+        for name in ("wheel_stall_torque_nm", "wheel_no_load_speed_radps"):
+            assert math.isfinite(getattr(spec.drive, name)) and spec.priors[name].informative
+            assert spec.priors[name].nominal == getattr(spec.drive, name)
+            assert spec.priors[name].session_sd > 0
+    else:  # no line: the loaded cap is derated below the no-load datasheet cap
+        assert cap.nominal < spec.drive.wheel_speed_max_radps
 
 
 def test_spec_without_priors_gets_generic_ones_and_bad_priors_are_refused(
