@@ -20,8 +20,10 @@ Example
 from __future__ import annotations
 
 import glob
+import importlib.util
 import math
 import os
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
@@ -75,8 +77,11 @@ def expand_logs(patterns: Sequence[str | Path], *, what: str = "LOG") -> list[Pa
     return unique
 
 
-def connect(address: str) -> None:
+def connect(address: str, *, local_cpus: int | None = None) -> bool:
     """Initialise Ray for ``address`` (``auto`` or a head node); no-op when already initialised.
+
+    Returns True when this call started a local Ray (``auto`` with none running), which then
+    gets ``local_cpus`` CPUs (default: every core).
 
     A local Ray started here runs without the dashboard and without usage reporting (background
     work that would otherwise take CPU from the tasks on a small machine), and its workers at
@@ -84,16 +89,14 @@ def connect(address: str) -> None:
     task at nice 15, so on a machine doing anything else the per-log tasks got a fraction of the
     CPU the serial loop gets (measured: 0.8x the serial speed at load ~10). An explicit
     ``RAY_worker_niceness`` in the environment is kept.
+
+    Call it from the main thread: Ray ties the processes it starts to the life of the calling
+    *thread* (Linux ``PR_SET_PDEATHSIG``, prctl(2)), so a local Ray started from a thread that
+    ends dies with it.
     """
-    try:
-        import ray
-    except ImportError:
-        raise Sim2RealValueError(
-            f"--ray {address} needs Ray, which is not installed; install the cluster extra with "
-            "`pip install -e '.[cluster]'` or drop --ray"
-        ) from None
+    ray = _import_ray(address)
     if ray.is_initialized():
-        return
+        return False
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
     # Ray applies RAY_worker_niceness as an increment (os.nice) to the niceness its workers
     # inherit from the local raylet, which inherits this process's: 0 keeps the caller's
@@ -103,11 +106,11 @@ def connect(address: str) -> None:
     if address == "auto":
         try:
             ray.init(address="auto", **kw)
-            return
+            return False
         except ConnectionError:  # none running: a local one on this machine
             os.environ.pop("RAY_ADDRESS", None)
-            ray.init(**kw)
-            return
+            ray.init(num_cpus=local_cpus, **kw)
+            return True
     try:
         ray.init(address=address, **kw)
     except (ConnectionError, ValueError, RuntimeError) as exc:
@@ -115,6 +118,26 @@ def connect(address: str) -> None:
             f"--ray {address}: cannot connect to a Ray cluster there ({' '.join(str(exc).split())}); "
             "give the head node's HOST:PORT (see `ray status` on it) or 'auto'"
         ) from None
+    return False
+
+
+def _import_ray(address: str) -> Any:
+    """The ``ray`` module, or the one-sentence error naming the extra to install."""
+    try:
+        import ray
+    except ImportError:
+        raise Sim2RealValueError(
+            f"--ray {address} needs Ray, which is not installed; install the cluster extra with "
+            "`pip install -e '.[cluster]'` or drop --ray"
+        ) from None
+    return ray
+
+
+def _cores() -> int:
+    """The cores this process may run on (its CPU affinity where the OS says)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
 
 
 def guided_batches(n: int, workers: int) -> list[range]:
@@ -151,15 +174,24 @@ def map_tasks(
     *,
     address: str | None = None,
     on_done: Callable[[int], None] | None = None,
+    release: bool = False,
 ) -> list[R]:
     """``[fn(x) for x in items]``, as Ray tasks when ``address`` is given.
 
-    On Ray the items go out in :func:`guided_batches` for the cluster's CPUs (one CPU per
-    task), so a task carries several items while many remain and one at the end; ``fn`` is
-    shipped once. Results come back in the order of ``items``. A task's exception is re-raised
-    as itself (e.g. a bad log's one-sentence error). ``on_done(n)`` is called as items finish
-    (progress).
+    On Ray, this process works too: a thread takes the items one at a time from the start,
+    while the main thread connects to Ray (starting a local one takes seconds) and then hands
+    the rest out to Ray tasks, one CPU each, in :func:`guided_batches` sizes for the cluster's
+    CPUs plus this process: a task carries several items while many remain and one at the end,
+    so all finish together. A local Ray started here gets one core less than the machine has
+    (this process's thread uses it). ``fn`` is shipped once. Results come back in the order of
+    ``items``, the same as the plain loop's. A failing item's exception is re-raised as itself
+    (e.g. a bad log's one-sentence error) once the running work has stopped; no new work
+    starts after a failure. ``on_done(n)`` is called as items finish (progress; from either
+    thread, never concurrently). ``release=True`` shuts down a local Ray this call started as
+    soon as its tasks are done (a command that needs Ray once; the shutdown overlaps this
+    process's last item), else it stays up for the next call.
     """
+    items = list(items)
     if address is None:
         results: list[R] = []
         with _one_thread():  # the thread count of a Ray task: same bits
@@ -168,28 +200,112 @@ def map_tasks(
                 if on_done is not None:
                     on_done(len(results))
         return results
-    connect(address)
+    if importlib.util.find_spec("ray") is None:
+        _import_ray(address)  # raises the one-sentence error before any work starts
+    shared = _Shared(len(items), on_done)
+    local = threading.Thread(
+        target=_work_here, args=(fn, items, shared), name="sim2real-local-share", daemon=True
+    )
+    local.start()
+    started = False
+    try:
+        started = connect(address, local_cpus=max(1, _cores() - 1))
+        _work_on_ray(fn, items, shared)
+    except BaseException as exc:
+        shared.halt()
+        if isinstance(exc, Exception):  # a Ctrl-C leaves at once (the thread is a daemon)
+            local.join()
+        raise
+    finally:
+        if release and started:
+            import ray
+
+            ray.shutdown()
+    local.join()
+    if shared.errors:
+        raise shared.errors[min(shared.errors)]
+    return shared.results
+
+
+class _Shared:
+    """Work shared by this process's thread and the Ray tasks: next item, results, errors."""
+
+    def __init__(self, n: int, on_done: Callable[[int], None] | None) -> None:
+        self.lock = threading.Lock()
+        self.n = n
+        self.next = 0
+        self.done = 0
+        self.results: list[Any] = [None] * n
+        self.errors: dict[int, BaseException] = {}
+        self.on_done = on_done
+
+    def take(self, workers: int | None = None) -> range:
+        """The next item (``workers=None``) or guided batch for ``workers``; empty when done."""
+        with self.lock:
+            left = self.n - self.next
+            size = 1 if workers is None else max(1, math.ceil(left / (2 * workers)))
+            out = range(self.next, self.next + min(size, left))
+            self.next = out.stop
+            return out
+
+    def halt(self) -> None:
+        """No new work from now on."""
+        with self.lock:
+            self.next = self.n
+
+    def finish(
+        self, taken: range, values: Sequence[Any] | None, error: BaseException | None
+    ) -> None:
+        """Store a finished item or batch (or its error, which halts), report progress."""
+        with self.lock:
+            if error is not None:
+                self.errors[taken.start] = error
+                self.next = self.n
+                return
+            assert values is not None and len(values) == len(taken)
+            self.results[taken.start : taken.stop] = values
+            self.done += len(taken)
+            if self.on_done is not None:
+                self.on_done(self.done)
+
+
+def _work_here(fn: Callable[[Any], Any], items: Sequence[Any], shared: _Shared) -> None:
+    """This process's share: one item at a time until none is left (a thread)."""
+    with _one_thread():
+        while taken := shared.take():
+            try:
+                value = fn(items[taken.start])
+            except Exception as exc:  # re-raised by map_tasks in the main thread
+                shared.finish(taken, None, exc)
+                return
+            shared.finish(taken, [value], None)
+
+
+def _work_on_ray(fn: Callable[[Any], Any], items: Sequence[Any], shared: _Shared) -> None:
+    """Hand the items left out to Ray tasks, one per cluster CPU at a time, until none is left."""
     import ray
 
-    cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
-    batches = guided_batches(len(items), cpus)
+    slots = max(1, int(ray.cluster_resources().get("CPU", 1)))
     remote = ray.remote(num_cpus=1, max_retries=0)(_run_batch)
-    fn_ref = ray.put(fn)
-    refs = [remote.remote(fn_ref, [items[i] for i in b]) for b in batches]
-    size = {ref: len(b) for ref, b in zip(refs, batches, strict=True)}
-    pending, done = list(refs), 0
-    while pending:
-        ready, pending = ray.wait(pending, num_returns=1)
-        done += sum(size[r] for r in ready)
-        if on_done is not None:
-            on_done(done)
-    try:
-        return [r for batch in ray.get(refs) for r in batch]
-    except ray.exceptions.RayTaskError as exc:
-        cause = getattr(exc, "cause", None)
-        if isinstance(cause, BaseException):
-            raise cause from None
-        raise
+    fn_ref = None
+    running: dict[Any, range] = {}
+    while True:
+        while len(running) < slots and (taken := shared.take(slots + 1)):
+            if fn_ref is None:
+                fn_ref = ray.put(fn)
+            running[remote.remote(fn_ref, [items[i] for i in taken])] = taken
+        if not running:
+            return
+        ready, _ = ray.wait(list(running), num_returns=1)
+        for ref in ready:
+            taken = running.pop(ref)
+            try:
+                values = ray.get(ref)
+            except ray.exceptions.RayTaskError as exc:
+                cause = getattr(exc, "cause", None)
+                shared.finish(taken, None, cause if isinstance(cause, BaseException) else exc)
+            else:
+                shared.finish(taken, values, None)
 
 
 def _one_thread() -> Any:
@@ -221,12 +337,16 @@ def agree_many(
     *,
     address: str | None = None,
     on_done: Callable[[int], None] | None = None,
+    release: bool = False,
 ) -> list[tuple[dict[str, Any], tuple[str, ...]]]:
     """Run :func:`sim2real.study.run_study` for each config (one per log), serially or on Ray.
 
-    Returns each log's ``(figures, warnings)`` in input order.
+    Returns each log's ``(figures, warnings)`` in input order. ``release``: see
+    :func:`map_tasks`.
     """
-    return map_tasks(_study_figures, list(configs), address=address, on_done=on_done)
+    return map_tasks(
+        _study_figures, list(configs), address=address, on_done=on_done, release=release
+    )
 
 
 def _finite(values: Sequence[Any]) -> list[float]:

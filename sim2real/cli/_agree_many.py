@@ -84,7 +84,10 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
     with Progress(console=console, transient=True, disable=not console.is_terminal) as bar:
         task = bar.add_task("logs", total=len(configs))
         results = agree_many(
-            configs, address=args.ray, on_done=lambda n: bar.update(task, completed=n)
+            configs,
+            address=args.ray,
+            on_done=lambda n: bar.update(task, completed=n),
+            release=True,  # a local Ray started for this command stops as its work ends
         )
     figures = [fig for fig, _ in results]
     for path, (_, warnings) in zip(logs, results, strict=True):

