@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import math
 import os
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -13,6 +15,8 @@ from hypothesis import strategies as st
 
 from sim2real.cli import main
 from sim2real.cluster import (
+    _Shared,
+    _work_here,
     expand_logs,
     fleet_summary,
     guided_batches,
@@ -63,6 +67,27 @@ def test_map_tasks_serial_keeps_order() -> None:
     seen: list[int] = []
     assert map_tasks(str, [3, 1, 2], on_done=seen.append) == ["3", "1", "2"]
     assert seen == [1, 2, 3]
+
+
+def test_shared_work_hands_out_items_once_in_order_and_halts() -> None:
+    seen: list[int] = []
+    shared = _Shared(10, seen.append)
+    assert shared.take() == range(0, 1)  # this process: one at a time
+    assert shared.take(2) == range(1, 4)  # Ray, 1 CPU + this process: ceil(9 / 4) items
+    shared.finish(range(1, 4), ["b", "c", "d"], None)
+    shared.finish(range(0, 1), ["a"], None)
+    assert seen == [3, 4] and shared.results[:4] == ["a", "b", "c", "d"]
+    shared.halt()
+    assert not shared.take() and not shared.take(5)
+
+
+def test_work_here_stops_at_a_failure_and_keeps_it_for_the_caller() -> None:
+    seen: list[int] = []
+    shared = _Shared(6, seen.append)
+    _work_here(lambda x: 10 // x, [5, 2, 1, 0, 1, 2], shared)
+    assert shared.results[:3] == [2, 5, 10] and seen == [1, 2, 3]
+    assert list(shared.errors) == [3] and isinstance(shared.errors[3], ZeroDivisionError)
+    assert not shared.take()  # nothing more starts after a failure
 
 
 @given(n=st.integers(0, 600), workers=st.integers(1, 64))
@@ -137,6 +162,10 @@ def test_agree_on_ray_gives_the_serial_figures(fleet: Path, tmp_path: Path) -> N
     finally:
         ray.shutdown()
     assert (tmp_path / "ray.json").read_bytes() == (tmp_path / "serial.json").read_bytes()
+    # no Ray running: the command starts a local one (stopped again as its work ends)
+    assert _agree(fleet, tmp_path / "cold.json", "--ray", "auto") == 0
+    assert not ray.is_initialized()
+    assert (tmp_path / "cold.json").read_bytes() == (tmp_path / "serial.json").read_bytes()
 
 
 @pytest.mark.cluster
@@ -163,6 +192,47 @@ def test_map_tasks_on_ray_batches_keep_order_progress_and_errors() -> None:
             map_tasks(expand_logs, items, address="auto")
     finally:
         ray.shutdown()
+
+
+def _both_sides(item: tuple[int, int, str]) -> tuple[int, int]:
+    """Item ``i``: in the driver (pid ``driver``), wait until a Ray task has marked ``flag``."""
+    i, driver, flag = item
+    if os.getpid() != driver:
+        Path(flag).touch()
+        return i, os.getpid()
+    deadline = time.monotonic() + 120.0
+    while not Path(flag).exists() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return i, os.getpid()
+
+
+@pytest.mark.cluster
+@pytest.mark.slow
+def test_map_tasks_cold_ray_shares_the_work_with_this_process(tmp_path: Path) -> None:
+    """No Ray running: a local one starts, both it and this process work, results in order."""
+    import ray
+    import ray.cloudpickle
+
+    from sim2real.cluster import connect
+
+    assert not ray.is_initialized()
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests
+    try:
+        seen: list[int] = []
+        items = [(i, os.getpid(), str(tmp_path / "flag")) for i in range(12)]
+        got = map_tasks(_both_sides, items, address="auto", on_done=seen.append, release=True)
+        assert [i for i, _ in got] == list(range(12))
+        pids = {pid for _, pid in got}
+        assert os.getpid() in pids and len(pids) >= 2  # this process and a Ray worker
+        assert seen == sorted(seen) and seen[-1] == 12
+        # release=True: the local Ray this call started is gone; the next call starts one again
+        assert not ray.is_initialized()
+        assert connect("auto", local_cpus=1) is True
+        assert ray.cluster_resources()["CPU"] == 1
+        assert connect("auto") is False  # already up: nothing to do
+    finally:
+        ray.shutdown()
+        ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
 
 
 def _fit_doc(path: Path) -> dict:
