@@ -44,7 +44,16 @@ contacts; on flat ground the two agree to ~2e-4 m/s and ~3e-3 rad/s RMS (tests),
 where the reduced model has no say: collisions, slopes, wheels leaving the ground.
 Each physics step costs two state reads (both wheels' speeds in one ``getJointStates``, the
 base velocity), one compiled kernel call and one ``setJointMotorControlArray`` besides
-``stepSimulation``; the yaw is read once per control step and advanced in the kernel.
+``stepSimulation``, all with positional arguments; the yaw is read once per control step and
+advanced in the kernel. That reaches ~0.7 of a bare ``stepSimulation`` loop's rate on the same
+robot and motion, ~0.9 of replaying its torques with nothing else (CPU time,
+``benchmarks/bench_perf.py``): the rest is the Python of those calls. Moving the wheel loops
+into pybullet's C step was measured and rejected: ``PD_CONTROL`` (an explicit PD on the joint
+speed, computed by pybullet's built-in pdControlPlugin before every internal step, torque
+clipped to ``forces``) costs ~170 us per physics step, 14x a bare 12 us step (the plugin reads
+each joint's state through the client API on every tick), and its explicit P loop, with
+per-wheel friction standing in for the axis friction, parts from the reduced model (RMS yaw
+rate 0.09 rad/s against 0.0005 rad/s here, 0.24 rad/s with ``numSubSteps``).
 
 Synthetic ground truth for sysid: the default ``physics_hz=240`` equals
 ``1 / robots.reduced.DEFAULT_DT_S``, so both models step on the same grid: they then agree to
@@ -105,6 +114,12 @@ WHEEL_FRICTION = 1.5
 SOLVER_ITERATIONS = 150
 
 _WHEELS = [LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT]
+_WHEEL_TUPLE = (LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT)
+#: Target positions, velocities and gains of the wheels' ``setJointMotorControlArray`` calls:
+#: ``TORQUE_CONTROL`` reads only the forces, but they come after these in pybullet's argument
+#: list, and passing every argument by position (``physicsClientId`` last) halves the call's
+#: cost (0.54 vs 1.09 us here: pybullet parses keyword arguments on every call).
+_UNUSED = (0.0, 0.0)
 #: :meth:`PybulletRobot.replay` reads the base pose at least every this many physics steps, so
 #: its yaw unwraps (less than pi per 8 steps of 1/240 s below 94 rad/s).
 _YAW_SAMPLE_STEPS = 8
@@ -605,17 +620,18 @@ class PybulletRobot:
         if sync_yaw:
             self._sync_yaw()
         c, body, state, packed = self.client, self.body_id, self._state, self._packed
-        dt, spin = self.dt_s, self._spin_inertia
+        dt, spin, joints, unused = self.dt_s, self._spin_inertia, _WHEEL_TUPLE, _UNUSED
         wheels, base = p.getJointStates, p.getBaseVelocity
         drive, simulate = p.setJointMotorControlArray, p.stepSimulation
         kernel, mode = pybullet_substep, p.TORQUE_CONTROL
         tl, tr = self._last_torques
+        # positional arguments throughout (see _UNUSED): pybullet parses keywords per call
         for a, b in zip(u_v, u_w, strict=True):
-            (_, wl, _, _), (_, wr, _, _) = wheels(body, _WHEELS, physicsClientId=c)
-            (vx, vy, _), (_, _, wz) = base(body, physicsClientId=c)
+            (_, wl, _, _), (_, wr, _, _) = wheels(body, joints, c)
+            (vx, vy, _), (_, _, wz) = base(body, c)
             tl, tr = kernel(state, a, b, wl, wr, vx, vy, wz, dt, packed, spin)
-            drive(body, _WHEELS, mode, forces=(tl, tr), physicsClientId=c)
-            simulate(physicsClientId=c)
+            drive(body, joints, mode, unused, unused, (tl, tr), unused, unused, c)
+            simulate(c)
         self._last_torques = (tl, tr)
 
     def _run_recording(self, u_v: list[float], u_w: list[float]) -> list[tuple[float, ...]]:
@@ -625,7 +641,7 @@ class PybulletRobot:
         the numbers equal :meth:`_run`'s whatever is recorded.
         """
         c, body, state, packed = self.client, self.body_id, self._state, self._packed
-        dt, spin = self.dt_s, self._spin_inertia
+        dt, spin, joints, unused = self.dt_s, self._spin_inertia, _WHEEL_TUPLE, _UNUSED
         r, sep = self._wheel_radius_m, self._wheel_separation_m
         wheels, base, pose = p.getJointStates, p.getBaseVelocity, p.getBasePositionAndOrientation
         drive, simulate = p.setJointMotorControlArray, p.stepSimulation
@@ -633,15 +649,15 @@ class PybulletRobot:
         rows: list[tuple[float, ...]] = []
         tl, tr = self._last_torques
         for a, b in zip(u_v, u_w, strict=True):
-            (_, wl, _, _), (_, wr, _, _) = wheels(body, _WHEELS, physicsClientId=c)
-            (vx, vy, _), (_, _, wz) = base(body, physicsClientId=c)
-            (x, y, _), orn = pose(body, physicsClientId=c)
+            (_, wl, _, _), (_, wr, _, _) = wheels(body, joints, c)
+            (vx, vy, _), (_, _, wz) = base(body, c)
+            (x, y, _), orn = pose(body, c)
             yaw = _yaw_of(orn)
             tl, tr = kernel(state, a, b, wl, wr, vx, vy, wz, dt, packed, spin)
             v = vx * math.cos(yaw) + vy * math.sin(yaw)
             rows.append((v, wz, 0.5 * r * (wr + wl), r * (wr - wl) / sep, x, y, yaw))
-            drive(body, _WHEELS, mode, forces=(tl, tr), physicsClientId=c)
-            simulate(physicsClientId=c)
+            drive(body, joints, mode, unused, unused, (tl, tr), unused, unused, c)
+            simulate(c)
         self._last_torques = (tl, tr)
         return rows
 
