@@ -39,7 +39,6 @@ import argparse
 import contextlib
 import ctypes
 import os
-import resource
 import shutil
 import signal
 import socket
@@ -70,7 +69,7 @@ def fleet(folder: Path, n: int) -> list[Path]:
 
 
 def _proc_table() -> dict[int, tuple[str, int, float]]:
-    """pid -> (command name, parent pid, CPU s incl. reaped children) from /proc."""
+    """pid -> (command name, parent pid, its own CPU seconds, children not) from /proc."""
     table: dict[int, tuple[str, int, float]] = {}
     for entry in os.listdir("/proc") if os.path.isdir("/proc") else ():
         if not entry.isdigit():
@@ -82,13 +81,13 @@ def _proc_table() -> dict[int, tuple[str, int, float]]:
             continue
         name = text[text.index("(") + 1 : text.rindex(")")]
         f = text[text.rindex(")") + 2 :].split()
-        cpu = (int(f[11]) + int(f[12]) + int(f[13]) + int(f[14])) / _TICK
-        table[int(entry)] = (name, int(f[1]), cpu)
+        table[int(entry)] = (name, int(f[1]), (int(f[11]) + int(f[12])) / _TICK)
     return table
 
 
 def descendants(skip: Set[int] = frozenset()) -> dict[int, tuple[str, float]]:
-    """Every live descendant of this process: pid -> (name, CPU seconds), ``skip``'s subtrees not."""
+    """Every descendant of this process (zombies too): pid -> (name, own CPU s); not ``skip``'s
+    subtrees."""
     table = _proc_table()
     children: dict[int, list[int]] = {}
     for pid, (_, ppid, _) in table.items():
@@ -114,11 +113,32 @@ def reap() -> None:
             return
 
 
-def tree_cpu() -> float:
-    """CPU seconds of every process this one started, reaped and live."""
-    reap()
-    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return ru.ru_utime + ru.ru_stime + sum(cpu for _, cpu in descendants().values())
+class CpuMeter:
+    """Own CPU seconds of every process this script starts, by pid, polled every ``every_s``.
+
+    Each process's own user + system time (not its reaped children's: a Ray raylet does not
+    reap every worker, so whole-tree ``getrusage`` misses some), read while it lives; a
+    process that exits between two polls loses at most its last ``every_s`` of CPU (Ray's
+    processes are idle when they stop; the command itself is read as a zombie, exactly).
+    """
+
+    def __init__(self, every_s: float = 0.5) -> None:
+        self.every_s = every_s
+        self.start: dict[int, float] = {pid: cpu for pid, (_, cpu) in descendants().items()}
+        self.seen: dict[int, tuple[str, float]] = {}
+
+    def poll(self) -> None:
+        for pid, (name, cpu) in descendants().items():
+            self.seen[pid] = (name, max(cpu, self.seen.get(pid, (name, 0.0))[1]))
+
+    def total_s(self) -> float:
+        return sum(cpu - self.start.get(pid, 0.0) for pid, (_, cpu) in self.seen.items())
+
+    def by_name(self) -> dict[str, float]:
+        out: dict[str, float] = {}
+        for pid, (name, cpu) in self.seen.items():
+            out[name] = out.get(name, 0.0) + cpu - self.start.get(pid, 0.0)
+        return out
 
 
 def other_ray() -> list[int]:
@@ -130,6 +150,7 @@ def other_ray() -> list[int]:
 class Run:
     wall_s: float
     cpu_s: float
+    by_name: dict[str, float]
     load: float
     output: bytes
 
@@ -137,26 +158,41 @@ class Run:
 def run_command(
     argv: list[str], env: dict[str, str], out: Path, keep: Set[int] = frozenset()
 ) -> Run:
-    """Run one command to the end (and its orphans): wall and whole-tree CPU time.
+    """Run one command to the end (and its orphans): wall and every process's CPU time.
 
     Every process this script started counts (a Ray started beforehand, ``keep``, included:
     its workers do the work of a command that joins it).
     """
     out.unlink(missing_ok=True)
-    before = tree_cpu()
+    meter = CpuMeter()
     t0 = time.perf_counter()
-    subprocess.run(argv, check=True, env=env, stdout=subprocess.DEVNULL)
+    proc = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL)
+    next_poll = 0.0
+    while os.waitid(os.P_PID, proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT) is None:
+        if time.perf_counter() >= next_poll:
+            meter.poll()
+            next_poll = time.perf_counter() + meter.every_s
+        time.sleep(0.01)
     wall = time.perf_counter() - t0
-    quiet(keep)
+    meter.poll()  # the command is a zombie now: its final CPU time
+    if proc.wait() != 0:
+        raise subprocess.CalledProcessError(proc.returncode, argv)
+    quiet(keep, meter)
     return Run(
-        wall_s=wall, cpu_s=tree_cpu() - before, load=os.getloadavg()[0], output=out.read_bytes()
+        wall_s=wall,
+        cpu_s=meter.total_s(),
+        by_name=meter.by_name(),
+        load=os.getloadavg()[0],
+        output=out.read_bytes(),
     )
 
 
-def quiet(keep: Set[int] = frozenset()) -> None:
+def quiet(keep: Set[int] = frozenset(), meter: CpuMeter | None = None) -> None:
     """Wait until every process this script started has exited, but ``keep``'s."""
     deadline = time.monotonic() + 20.0  # a local Ray's workers exit after its raylet
     while time.monotonic() < deadline and descendants(keep):
+        if meter is not None:
+            meter.poll()
         reap()
         time.sleep(0.05)
 
@@ -302,6 +338,11 @@ def report(args: argparse.Namespace, n: int, runs: dict[str, list[Run]]) -> int:
             f"  {side:11s} wall min/median/max {mmm([r.wall_s for r in rs])}   "
             f"CPU {mmm([r.cpu_s for r in rs])}   load {mmm([r.load for r in rs])[:-2]}"
         )
+    for side, rs in runs.items():
+        if side != "serial":
+            parts = sorted(rs[-1].by_name.items(), key=lambda kv: -kv[1])
+            shown = ", ".join(f"{name} {cpu:.1f}" for name, cpu in parts if cpu >= 0.05)
+            print(f"  CPU s by process, last {side} run: {shown}")
     figures = {}
     for side in runs:
         if side == "serial":

@@ -81,6 +81,15 @@ def test_shared_work_hands_out_items_once_in_order_and_halts() -> None:
     assert not shared.take() and not shared.take(5)
 
 
+def test_shared_work_leaves_the_last_items_to_this_process_while_ray_stops() -> None:
+    shared = _Shared(10, None)
+    assert shared.take(2, leave_s=1.4) == range(0, 3)  # this process's pace not known yet
+    shared.local_item_s = 0.25
+    assert shared.take(2, leave_s=1.4) == range(3, 5)  # 7 left: 1.75 s for this process alone
+    assert not shared.take(2, leave_s=1.4)  # 5 left: 1.25 s, its own; Ray may stop
+    assert shared.take() == range(5, 6) and shared.take(2) == range(6, 7)  # without leave_s
+
+
 def test_work_here_stops_at_a_failure_and_keeps_it_for_the_caller() -> None:
     seen: list[int] = []
     shared = _Shared(6, seen.append)
