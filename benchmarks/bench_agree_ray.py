@@ -1,6 +1,7 @@
 """Fleet agreement on Ray vs serial: the whole ``sim2real agree`` command on N one-minute logs.
 
-Run (needs the [cluster] extra, ``make train-extra``; ~3.5 min for 100 logs on 2 idle cores)::
+Run (needs the [cluster] extra, ``make train-extra``; ~3.5 min for 100 logs on 2 idle cores,
+~2.7 min with ``--no-running``)::
 
     .venv/bin/python benchmarks/bench_agree_ray.py                          # 100 logs, 3 repeats
     .venv/bin/python benchmarks/bench_agree_ray.py --logs 20 --repeats 1    # a quick look
@@ -210,6 +211,7 @@ def start_running_ray(env: dict[str, str], temp: Path) -> tuple[str, set[int]]:
             "--head",
             f"--port={port}",
             f"--temp-dir={temp}",
+            "--node-ip-address=127.0.0.1",  # this machine only: it runs without a token
             "--include-dashboard=false",
             "--disable-usage-stats",
         ],
@@ -288,10 +290,13 @@ def main(argv: list[str] | None = None) -> int:
             _wait_for_no_other_ray()
         if side != "running Ray":
             return run_command(command(side, glob, out), env, out)
-        address, keep = start_running_ray(env, work / "ray")  # not timed
+        # not timed; without token authentication (Ray's default with ~/.ray/auth_token made a
+        # `ray start --temp-dir` cluster refuse the command's connection for seconds)
+        local = {**env, "RAY_AUTH_MODE": "disabled"}
+        address, keep = start_running_ray(local, work / "ray")
         try:
             argv = command(side, glob, out)
-            return run_command(argv, {**env, "RAY_ADDRESS": address}, out, keep)
+            return run_command(argv, {**local, "RAY_ADDRESS": address}, out, keep)
         finally:
             stop_running_ray()
 
