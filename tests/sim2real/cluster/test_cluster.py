@@ -90,6 +90,20 @@ def test_shared_work_leaves_the_last_items_to_this_process_while_ray_stops() -> 
     assert shared.take() == range(5, 6) and shared.take(2) == range(6, 7)  # without leave_s
 
 
+def test_map_tasks_without_ray_installed_says_which_extra(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda n: None if n == "ray" else real(n))
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` fails
+    calls: list[int] = []
+    with pytest.raises(Sim2RealValueError, match=r"--ray auto needs Ray, which is not installed"):
+        map_tasks(calls.append, [1, 2], address="auto")
+    assert calls == []  # refused before any work started
+
+
 def test_work_here_stops_at_a_failure_and_keeps_it_for_the_caller() -> None:
     seen: list[int] = []
     shared = _Shared(6, seen.append)
