@@ -69,6 +69,8 @@ TS = 19  # the motors' stall torque at the wheel, N m (the torque-speed line)
 W0 = 20  # the motors' no-load wheel speed, rad/s (inf: no line, a flat torque cap)
 #: Length of the packed parameter vector.
 N_PACKED = 21
+#: A wheel target below this (rad/s) is a stop: it clears that wheel's integrator.
+ZERO_TARGET_RADPS = 1e-9
 
 
 def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
@@ -290,9 +292,11 @@ def wheel_loops(
     """
     r, half_l, half_e = p[R], 0.5 * p[L], 0.5 * (p[L] * p[TRACK])
     m, inertia, k, ki = p[MASS], p[INERTIA], p[K], p[KI]
-    if wr_ref == 0.0:
+    # a stop (a zero target, to rounding: the held command average leaves ~1e-15 rad/s where
+    # a command ends inside a step) clears the integrator
+    if abs(wr_ref) < ZERO_TARGET_RADPS:
         ir = 0.0
-    if wl_ref == 0.0:
+    if abs(wl_ref) < ZERO_TARGET_RADPS:
         il = 0.0
     a = 1.0 + 0.5 * ki * dt
     er0 = wr_ref - (v + w * half_e) / r
