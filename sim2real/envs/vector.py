@@ -51,6 +51,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from robots import _jit
 from robots.params import DriveParams
 from robots.reduced import _HISTORY_ROWS, ReducedDrive
 from sim2real.envs._nav import NavEnvBase
@@ -98,6 +99,10 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
 
     def __init__(self, envs: Sequence[NavEnvBase]) -> None:
         super().__init__()
+        # The kernels of _vecnav call robots' drive kernels, which robots compiles on first use
+        # (robots._jit): bind them to their numba dispatchers before numba types ours, or a
+        # process whose first kernel call is a vector env's step fails to compile.
+        _jit.compile_all()
         self.envs = list(envs)
         first = self.envs[0]
         if first.dynamics != "reduced":

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from typing import Any
 
 import gymnasium as gym
@@ -319,3 +322,29 @@ def test_drive_distribution_of_another_robot_or_a_bad_spread_is_refused() -> Non
         RandomMapEnv(drive_distribution=other)
     with pytest.raises(Sim2RealValueError, match="drive_spread must be a finite number >= 0"):
         RandomMapEnv(drive_distribution=burger_distribution(), drive_spread=-1.0)
+
+
+@pytest.mark.slow
+def test_a_vector_env_compiles_cold_in_a_process_that_ran_no_other_kernel(tmp_path: Any) -> None:
+    """robots compiles its drive kernels on first use (robots._jit); in a fresh process with an
+    empty numba cache whose first kernel call is a vector env's step, ours (which call robots'
+    drive kernels) must still compile. It failed so on a clean clone (numba typing error)."""
+    code = (
+        "import gymnasium as gym, numpy as np, sim2real.envs\n"
+        "env = gym.make_vec('sim2real/RandomMap-v0', num_envs=2, "
+        "vectorization_mode='vector_entry_point')\n"
+        "env.reset(seed=0)\n"
+        "obs, reward, term, trunc, info = env.step(np.zeros((2, 2), dtype=np.float32))\n"
+        "print(reward.shape, term.dtype)\n"
+    )
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}  # cold: nothing cached
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+        env=env,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "(2,) bool"
