@@ -94,9 +94,10 @@ def _side_or_cap(
 
 
 @numba.njit(cache=True)
-def _render_kernel(
+def _render_rays(
     eye: FloatArray, d: FloatArray, cyl: FloatArray, boxes: FloatArray, out: FloatArray
 ) -> None:  # pragma: no cover - compiled
+    """Every ray against every body (any camera orientation)."""
     ex, ey, ez = eye[0], eye[1], eye[2]
     for i in range(d.shape[0]):
         dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
@@ -148,6 +149,98 @@ def _render_kernel(
             if ok and t_in <= t_out and t_in < best:
                 best = _side_or_cap(ez, dz, t_in, t_out, boxes[k, 6], best)
         out[i] = best
+
+
+@numba.njit(cache=True)
+def _columns_are_vertical(d: FloatArray, width: int) -> bool:  # pragma: no cover - compiled
+    """Whether every ray of each image column (pixels ``i * width + j``) has the same (x, y)."""
+    for k in range(width, d.shape[0]):
+        if d[k, 0] != d[k - width, 0] or d[k, 1] != d[k - width, 1]:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _render_columns(
+    eye: FloatArray, d: FloatArray, cyl: FloatArray, boxes: FloatArray, width: int, out: FloatArray
+) -> None:  # pragma: no cover - compiled
+    """:func:`_render_rays` for a camera whose image columns are vertical planes (no pitch or
+    roll): the 2-D entry and exit of a column's rays into each body depend on the column only,
+    so they are computed once per column, with the same arithmetic as per ray, and each ray
+    then only picks its side or top face (the image is the same to the bit)."""
+    ex, ey, ez = eye[0], eye[1], eye[2]
+    n_rows = d.shape[0] // width
+    n_bodies = cyl.shape[0] + boxes.shape[0]
+    hit_in = np.empty(n_bodies)
+    hit_out = np.empty(n_bodies)
+    hit_h = np.empty(n_bodies)
+    for j in range(width):
+        dx, dy = d[j, 0], d[j, 1]
+        a = dx * dx + dy * dy
+        n_hit = 0
+        if a >= 1e-18:
+            for c in range(cyl.shape[0]):
+                fx, fy = ex - cyl[c, 0], ey - cyl[c, 1]
+                b = dx * fx + dy * fy
+                q = fx * fx + fy * fy - cyl[c, 2] * cyl[c, 2]
+                if b >= 0.0 and q > 0.0:  # outside and heading away
+                    continue
+                disc = b * b - a * q
+                if disc < 0.0:
+                    continue
+                root = np.sqrt(disc)
+                t_out = (-b + root) / a
+                if t_out <= 0.0:
+                    continue
+                hit_in[n_hit] = max((-b - root) / a, 0.0)
+                hit_out[n_hit] = t_out
+                hit_h[n_hit] = cyl[c, 3]
+                n_hit += 1
+            for k in range(boxes.shape[0]):
+                px, py = ex - boxes[k, 0], ey - boxes[k, 1]
+                b = dx * px + dy * py
+                q = px * px + py * py - boxes[k, 7] * boxes[k, 7]
+                if q > 0.0 and (b >= 0.0 or b * b < a * q):
+                    continue
+                co, si = boxes[k, 4], boxes[k, 5]
+                lx, ly = co * px + si * py, -si * px + co * py
+                ldx, ldy = co * dx + si * dy, -si * dx + co * dy
+                t_in, t_out = 0.0, np.inf
+                ok = True
+                for o, v, half in ((lx, ldx, boxes[k, 2]), (ly, ldy, boxes[k, 3])):
+                    if abs(v) < 1e-15:
+                        if abs(o) > half:
+                            ok = False
+                    else:
+                        t1, t2 = (-half - o) / v, (half - o) / v
+                        if t1 > t2:
+                            t1, t2 = t2, t1
+                        t_in, t_out = max(t_in, t1), min(t_out, t2)
+                if ok and t_in <= t_out:
+                    hit_in[n_hit] = t_in
+                    hit_out[n_hit] = t_out
+                    hit_h[n_hit] = boxes[k, 6]
+                    n_hit += 1
+        for i in range(n_rows):
+            r = i * width + j
+            dz = d[r, 2]
+            best = np.inf
+            if dz < 0.0:
+                best = -ez / dz
+            for m in range(n_hit):
+                if hit_in[m] < best:
+                    best = _side_or_cap(ez, dz, hit_in[m], hit_out[m], hit_h[m], best)
+            out[r] = best
+
+
+def _render_kernel(
+    eye: FloatArray, d: FloatArray, cyl: FloatArray, boxes: FloatArray, width: int, out: FloatArray
+) -> None:
+    """Depth along each ray ``d`` (rows of ``width`` pixels) into ``out``."""
+    if d.shape[0] % width == 0 and _columns_are_vertical(d, width):
+        _render_columns(eye, d, cyl, boxes, width, out)
+    else:
+        _render_rays(eye, d, cyl, boxes, out)
 
 
 def _packed_boxes(boxes: FloatArray) -> FloatArray:
@@ -202,6 +295,7 @@ def render_depth(
         d,
         np.ascontiguousarray(scene.cylinders, dtype=np.float64),
         _packed_boxes(scene.boxes),
+        width,
         out,
     )
     return np.asarray(np.clip(out, near_m, far_m).reshape(height, width))

@@ -6,7 +6,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from sim2real.envs import depth
 from sim2real.envs._world import PybulletWorld, render_pybullet_depth
 from sim2real.envs.depth import DepthCamera, DepthScene, camera_rays, render_depth, rpy_matrix
 
@@ -112,3 +115,85 @@ def test_render_depth_without_cached_rays_equals_cached() -> None:
     a = render_depth(scene, **kw)  # type: ignore[arg-type]
     b = render_depth(scene, rays=camera_rays(16, 12, 60.0), **kw)  # type: ignore[arg-type]
     np.testing.assert_array_equal(a, b)
+
+
+_coord = st.floats(-5.0, 5.0)
+
+
+@st.composite
+def _scenes(draw: st.DrawFn) -> DepthScene:
+    cylinders = draw(
+        st.lists(st.tuples(_coord, _coord, st.floats(0.05, 1.0), st.floats(0.1, 2.0)), max_size=12)
+    )
+    boxes = draw(
+        st.lists(
+            st.tuples(
+                _coord,
+                _coord,
+                st.floats(0.05, 3.0),
+                st.floats(0.05, 3.0),
+                st.floats(-4.0, 4.0),
+                st.floats(0.1, 2.0),
+            ),
+            max_size=6,
+        )
+    )
+    return DepthScene.build(cylinders=cylinders, boxes=boxes)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    scene=_scenes(),
+    eye=st.tuples(_coord, _coord, st.floats(0.05, 2.5)),
+    yaw=st.floats(-4.0, 4.0),
+    size=st.tuples(st.integers(1, 40), st.integers(1, 30)),
+    hfov_deg=st.floats(10.0, 170.0),
+)
+def test_level_camera_column_renderer_equals_every_ray_against_every_body(
+    scene: DepthScene,
+    eye: tuple[float, float, float],
+    yaw: float,
+    size: tuple[int, int],
+    hfov_deg: float,
+) -> None:
+    """A level camera's image columns are vertical planes: the renderer then intersects each
+    body once per column; the image must be the per-ray renderer's to the bit."""
+    width, height = size
+    d = np.ascontiguousarray(camera_rays(width, height, hfov_deg) @ rpy_matrix(0.0, 0.0, yaw).T)
+    assert depth._columns_are_vertical(d, width)
+    cyl = np.ascontiguousarray(scene.cylinders)
+    boxes = depth._packed_boxes(scene.boxes)
+    e = np.asarray(eye, dtype=np.float64)
+    by_column, by_ray = np.empty(d.shape[0]), np.empty(d.shape[0])
+    depth._render_columns(e, d, cyl, boxes, width, by_column)
+    depth._render_rays(e, d, cyl, boxes, by_ray)
+    np.testing.assert_array_equal(by_column, by_ray)
+
+
+def test_a_pitched_camera_falls_back_to_the_per_ray_renderer() -> None:
+    d = np.ascontiguousarray(camera_rays(16, 12, 60.0) @ rpy_matrix(0.0, 0.3, 0.7).T)
+    assert not depth._columns_are_vertical(d, 16)
+    scene = DepthScene.build(cylinders=[(2.0, 0.5, 0.4, 1.0)], boxes=[(3, -1, 1, 2, 0.3, 0.5)])
+    kw = dict(eye=np.array([0.0, 0.0, 0.5]), width=16, height=12, hfov_deg=60.0)
+    kw.update(near_m=0.05, far_m=8.0)
+    pitched = render_depth(scene, rotation=rpy_matrix(0.0, 0.3, 0.7), **kw)  # type: ignore[arg-type]
+    expected = np.empty(d.shape[0])
+    e = np.array([0.0, 0.0, 0.5])
+    depth._render_rays(e, d, scene.cylinders, depth._packed_boxes(scene.boxes), expected)
+    np.testing.assert_array_equal(pitched, np.clip(expected, 0.05, 8.0).reshape(12, 16))
+
+
+def test_crowd_nav_camera_renders_by_columns() -> None:
+    """CrowdNav's depth camera is level, so its frames take the per-column renderer."""
+    import gymnasium as gym
+
+    import sim2real.envs  # noqa: F401  (registers the ids)
+
+    env = gym.make("sim2real/CrowdNav-v0").unwrapped
+    env.reset(seed=3)
+    cam = env.camera  # type: ignore[attr-defined]
+    for yaw in (0.0, 0.4, -2.9):
+        _, rot = cam.world_pose(0.3, -0.2, yaw)
+        d = np.ascontiguousarray(cam._rays @ rot.T)
+        assert depth._columns_are_vertical(d, cam.width)
+    env.close()
