@@ -1,7 +1,8 @@
 """Speed of the reference envs, their sensors and the native vector envs, with baselines
 measured in the same run (contenders alternated, same repeat count, min/median/max).
 
-Run: ``.venv/bin/python benchmarks/bench_envs.py [--quick]`` (one core: BLAS threads pinned).
+Run: ``.venv/bin/python benchmarks/bench_envs.py [--quick] [--only vector]`` (one core: BLAS
+threads pinned; ``--only vector`` times just the two native vector envs, about a minute idle).
 
 Targets
 -------
@@ -275,19 +276,38 @@ def bench_backends(repeats: int, scale: float) -> None:
             r.env.close()
 
 
+RUNS: dict[str, Callable[[int, float], None]] = {
+    "lidar": lambda repeats, _scale: bench_lidar(repeats),
+    "depth": lambda repeats, _scale: bench_depth(repeats),
+    "random_map": bench_random_map,
+    "crowd_nav": bench_crowd_nav,
+    "backends": bench_backends,
+}
+#: --only choices: each part alone, and "vector" for the two native vector envs
+PARTS: dict[str, tuple[str, ...]] = {
+    **{k: (k,) for k in RUNS},
+    "vector": ("random_map", "crowd_nav"),
+}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer steps (or BENCH_QUICK=1)")
+    parser.add_argument(
+        "--only",
+        action="append",
+        choices=sorted(PARTS),
+        help="run only this part (repeatable), e.g. --only vector (the issue-16 targets)",
+    )
     args = parser.parse_args()
     quick = args.quick or QUICK
     scale = 0.1 if quick else 1.0
     repeats = 3 if quick else 7
     print(f"machine: {machine()}; load average {os.getloadavg()[0]:.2f}")
-    bench_lidar(repeats)
-    bench_depth(repeats)
-    bench_random_map(repeats, scale)
-    bench_crowd_nav(repeats, scale)
-    bench_backends(repeats, scale)
+    chosen = {part for name in (args.only or sorted(PARTS)) for part in PARTS[name]}
+    for part in ("lidar", "depth", "random_map", "crowd_nav", "backends"):
+        if part in chosen:
+            RUNS[part](repeats, scale)
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 
