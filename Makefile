@@ -68,18 +68,25 @@ test-train: $(STAMP_TRAIN) $(STAMP_RLLIB)
 ## make bench: the performance targets (prints ratios measured in the same run) and writes the
 ## README's performance table from this run's headline figures; every bench runs even if one
 ## fails (exit 1 at the end, naming it). BENCH_QUICK=1: fewer repeats, a quick end-to-end check.
+## Each bench's run time is printed and the whole run's goes into the table; a bench running
+## longer than BENCH_TIMEOUT seconds is stopped and counted as failed.
 ## bench_dr_experiment.py (the [train] extra, minutes to hours) and bench_agree_ray.py (the
 ## [cluster] extra) are run by hand (their docstrings say how).
 BENCHES ?= bench_perf.py bench_robots.py bench_replay.py bench_decode.py bench_bag.py \
 	bench_envs.py bench_randomizers.py bench_plants.py bench_sysid.py bench_calibration.py \
 	bench_car_race.py
 BENCH_QUICK ?=
+BENCH_TIMEOUT ?= 1800
 bench: $(STAMP_DEV)
 	rm -f benchmarks/.results.jsonl
-	cd benchmarks && failed= && for f in $(BENCHES); do \
-	  echo "== $$f" && BENCH_QUICK=$(BENCH_QUICK) ../$(BIN)/python $$f || failed="$$failed $$f"; \
+	cd benchmarks && failed= && start=$$(date +%s) && for f in $(BENCHES); do \
+	  echo "== $$f" && t0=$$(date +%s); \
+	  BENCH_QUICK=$(BENCH_QUICK) timeout $(BENCH_TIMEOUT) ../$(BIN)/python $$f || failed="$$failed $$f"; \
+	  echo "== $$f: $$(( $$(date +%s) - t0 )) s"; \
 	done; \
-	BENCH_QUICK=$(BENCH_QUICK) ../$(BIN)/python readme_table.py --failed "$$failed"; \
+	elapsed=$$(( $$(date +%s) - start )); echo "make bench: all benches in $$elapsed s"; \
+	BENCH_QUICK=$(BENCH_QUICK) ../$(BIN)/python readme_table.py --failed "$$failed" \
+	  --elapsed-s "$$elapsed"; \
 	if [ -n "$$failed" ]; then echo "make bench: failed:$$failed" >&2; exit 1; fi
 
 ## make data: regenerate the synthetic sample logs in data/

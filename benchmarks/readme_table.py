@@ -19,7 +19,7 @@ from _timing import QUICK, REPO, RESULTS, machine
 START, END = "<!-- perf-table:start -->", "<!-- perf-table:end -->"
 
 
-def table(rows: list[dict[str, object]], failed: list[str]) -> str:
+def table(rows: list[dict[str, object]], failed: list[str], elapsed_s: float | None = None) -> str:
     when = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     load = os.getloadavg()[0]
     cores = os.cpu_count() or 1
@@ -33,10 +33,11 @@ def table(rows: list[dict[str, object]], failed: list[str]) -> str:
         )
     if failed:
         notes.append("benchmarks that failed (no figures): " + ", ".join(f"`{f}`" for f in failed))
+    took = "" if elapsed_s is None else f"; the run took {elapsed_s / 60:.1f} min"
     lines = [
         START,
         f"Measured by one `make bench` run on {machine()}, {when} "
-        f"(load average {load:.1f} at the end). Ratios alternate ours and the "
+        f"(load average {load:.1f} at the end{took}). Ratios alternate ours and the "
         "baseline in one process with the same repeat count; command times are whole processes.",
         *(["", "Note: " + "; ".join(notes) + "."] if notes else []),
         "",
@@ -53,14 +54,18 @@ def table(rows: list[dict[str, object]], failed: list[str]) -> str:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--failed", default="", help="space-separated benchmarks that failed")
-    failed = parser.parse_args().failed.split()
+    parser.add_argument(
+        "--elapsed-s", type=float, default=None, help="the whole run's wall time, s (make bench)"
+    )
+    args = parser.parse_args()
+    failed = args.failed.split()
     if not RESULTS.is_file():
         print(f"no results in {RESULTS}; run `make bench`", file=sys.stderr)
         return 1
     rows = [json.loads(line) for line in RESULTS.read_text(encoding="utf-8").splitlines() if line]
     readme = REPO / "README.md"
     text = readme.read_text(encoding="utf-8")
-    block = table(rows, failed)
+    block = table(rows, failed, args.elapsed_s)
     if START in text and END in text:
         head, rest = text.split(START, 1)
         text = head + block + rest.split(END, 1)[1]
