@@ -40,13 +40,25 @@ _JUMP_V, _JUMP_W = 5.0, 20.0
 _MIN_MOVING = 20  # samples where the pose moves, per channel, before a verdict
 
 
-def _local_slope(t: np.ndarray, y: np.ndarray, half: float) -> np.ndarray:
-    """Least-squares slope of y(t) over the samples within +-half of each sample."""
-    lo = np.searchsorted(t, t - half, "left")
-    hi = np.searchsorted(t, t + half, "right")
+#: Samples per block of the pose derivative: its temporaries stay a few MB on any log.
+BLOCK = 1 << 13
+
+
+def _local_slope(t: np.ndarray, y: np.ndarray, half: float, qa: int, qb: int) -> np.ndarray:
+    """Least-squares slope of y(t) over the samples within +-half of each of ``t[qa:qb]``.
+
+    ``t``/``y`` must hold every sample within +-half of the queried ones (a block and its
+    halo); the sums run over the block only, centred on its mean time.
+    """
+    tq = t[qa:qb]
+    lo = np.searchsorted(t, tq - half, "left")
+    hi = np.searchsorted(t, tq + half, "right")
 
     def csum(a: np.ndarray) -> np.ndarray:
-        return np.concatenate(([0.0], np.cumsum(a)))
+        out = np.empty(a.size + 1)
+        out[0] = 0.0
+        np.cumsum(a, out=out[1:])
+        return out
 
     tc = t - t.mean()
     st, sy, stt, sty = (csum(a) for a in (tc, y, tc * tc, tc * y))
@@ -54,14 +66,58 @@ def _local_slope(t: np.ndarray, y: np.ndarray, half: float) -> np.ndarray:
     s_t, s_y = st[hi] - st[lo], sy[hi] - sy[lo]
     den = n * (stt[hi] - stt[lo]) - s_t * s_t
     num = n * (sty[hi] - sty[lo]) - s_t * s_y
-    ok = den > 1e-12 * np.maximum(n * n, 1.0)
+    # a window of one sample has no slope (its den is 0 only up to the sums' rounding)
+    ok = (n >= 2) & (den > 1e-12 * n * n)
     return np.where(ok, num / np.where(ok, den, 1.0), 0.0)
 
 
+def _derivative(
+    t: np.ndarray,
+    origin: float,
+    scale: float,
+    pose: tuple[np.ndarray, np.ndarray, np.ndarray],
+    window_s: float,
+    block: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pose_derivative` on times ``(t - origin) / scale`` s, ``block`` samples at a time.
+
+    Each block is fitted with its halo (the samples within half a window of its ends, plus
+    one), so every window holds the same samples as a fit over the whole log would; only the
+    outputs and a block's temporaries are ever in memory (no full-size intermediates).
+    """
+    x, y, yaw = pose
+    n = t.size
+    v, w = np.empty(n), np.empty(n)
+    half = 0.5 * window_s
+    reach: float | int = half * scale  # half a window in the units of t
+    if t.dtype.kind in "iu":
+        reach = int(np.ceil(reach))  # integer needles: no float copy of t in searchsorted
+    for a in range(0, n, block):
+        b = min(a + block, n)
+        lo = max(int(np.searchsorted(t, t[a] - reach, "left")) - 1, 0)
+        hi = min(int(np.searchsorted(t, t[b - 1] + reach, "right")) + 1, n)
+        ts = (t[lo:hi] - origin).astype(np.float64) / scale
+        vx = _local_slope(ts, x[lo:hi], half, a - lo, b - lo)
+        vy = _local_slope(ts, y[lo:hi], half, a - lo, b - lo)
+        # unwrapping a block differs from unwrapping the log by a multiple of 2 pi: same slope
+        w[a:b] = _local_slope(ts, np.unwrap(yaw[lo:hi]), half, a - lo, b - lo)
+        heading = yaw[a:b]
+        v[a:b] = vx * np.cos(heading) + vy * np.sin(heading)
+    return v, w
+
+
 def pose_derivative(
-    t_s: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray, window_s: float
+    t_s: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    yaw: np.ndarray,
+    window_s: float,
+    *,
+    block: int = BLOCK,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Body velocities (v along the heading, w) from a planar pose by local-linear fits.
+
+    Computed ``block`` samples at a time: memory beyond the two outputs stays bounded.
 
     Examples
     --------
@@ -70,16 +126,23 @@ def pose_derivative(
     >>> bool(np.allclose(v, 0.3)), bool(np.allclose(w, 0.0))
     (True, True)
     """
-    unwrapped = np.unwrap(yaw)
-    half = 0.5 * window_s
-    vx, vy, w = (_local_slope(t_s, a, half) for a in (x, y, unwrapped))
-    v = vx * np.cos(yaw) + vy * np.sin(yaw)
-    return v, w
+    t = np.asarray(t_s, dtype=np.float64)
+    return _derivative(t, 0.0, 1.0, (x, y, yaw), window_s, block)
 
 
-def _window_s(t_s: np.ndarray) -> float:
-    period = float(np.median(np.diff(t_s))) if t_s.size > 1 else 0.1
+def _window_s(t_ns: np.ndarray) -> float:
+    """``clip(5 x median period, 0.3 s, 1.0 s)`` of sorted times in ns."""
+    period = float(np.median(np.diff(t_ns))) / 1e9 if t_ns.size > 1 else 0.1
     return float(np.clip(5.0 * period, 0.3, 1.0))
+
+
+def _share(v: np.ndarray, lim_v: float, w: np.ndarray, lim_w: float) -> float:
+    """Share of the samples with ``|v| > lim_v`` or ``|w| > lim_w`` (block by block)."""
+    hits = 0
+    for a in range(0, v.size, BLOCK):
+        sl = slice(a, a + BLOCK)
+        hits += int(np.count_nonzero((np.abs(v[sl]) > lim_v) | (np.abs(w[sl]) > lim_w)))
+    return hits / max(v.size, 1)
 
 
 def _verdict(
@@ -92,12 +155,27 @@ def _verdict(
         ("w", twist[1], pose[1], _MOVING_W),
     ):
         sel = np.abs(pv) > moving
-        if np.count_nonzero(sel) < _MIN_MOVING:
+        count = np.count_nonzero(sel)
+        if count < _MIN_MOVING:
             continue
-        zero = float(np.mean(np.abs(tw[sel]) < 0.1 * np.abs(pv[sel])))
+        # at most two arrays of the moving samples at a time (in-place arithmetic)
+        speed = np.abs(pv[sel])
+        gap = tw[sel]
+        zero = (
+            sum(
+                int(np.count_nonzero(np.abs(gap[i : i + BLOCK]) < 0.1 * speed[i : i + BLOCK]))
+                for i in range(0, count, BLOCK)
+            )
+            / count
+        )
         if zero > 0.5:
             return "zero", ch, zero
-        ratios[ch] = float(np.median(np.abs(tw[sel] - pv[sel])) / np.median(np.abs(pv[sel])))
+        gap -= pv[sel]
+        np.abs(gap, out=gap)
+        # both are scratch now: the medians may reorder them instead of copying them
+        ratios[ch] = float(
+            np.median(gap, overwrite_input=True) / np.median(speed, overwrite_input=True)
+        )
     # stamp jitter spoils v and w alike; one channel alone differing is another sensor (a gyro)
     if ratios and min(ratios.values()) > SPIKY_RATIO:
         return "spiky", " and ".join(ratios), min(ratios.values())
@@ -125,10 +203,9 @@ def velocities_from_pose(
                 "(or fewer than 5 samples); use 'twist'"
             )
         return cols
-    t_s = (t_ns - t_ns[0]).astype(np.float64) / 1e9
-    window = _window_s(t_s)
-    v, w = pose_derivative(t_s, cols["x"], cols["y"], cols["yaw"], window)
-    jumps = np.mean((np.abs(v) > _JUMP_V) | (np.abs(w) > _JUMP_W))
+    window = _window_s(t_ns)
+    v, w = _derivative(t_ns, t_ns[0], 1e9, (cols["x"], cols["y"], cols["yaw"]), window, BLOCK)
+    jumps = _share(v, _JUMP_V, w, _JUMP_W)
     if jumps > 0.01 and mode == "auto":
         return cols
     if mode == "auto":

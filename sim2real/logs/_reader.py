@@ -27,7 +27,7 @@ from sim2real.logs._timeline import (
     drop_outliers,
     segment_bounds,
 )
-from sim2real.logs.trace import Trace, TraceMeta
+from sim2real.logs.trace import Trace, TraceMeta, adopt_trace
 
 __all__ = ["TIME_SOURCES", "load_log", "read_trace"]
 
@@ -218,7 +218,8 @@ def read_trace(
         warnings=tuple(warnings),
         time_note=time_note,
     )
-    return Trace(
+    # the arrays are handed over, not copied: nothing else refers to them
+    return adopt_trace(
         cmd_t_ns=cmd_t,
         cmd_v=cmd_cols["v"],
         cmd_w=cmd_cols["w"],

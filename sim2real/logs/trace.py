@@ -17,6 +17,7 @@ array([0.2, 0. ])
 
 from __future__ import annotations
 
+from contextvars import ContextVar
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -91,9 +92,37 @@ def _meta_replace(meta: TraceMeta, **changes: object) -> TraceMeta:
     return replace(meta, sha256=lazy_value(meta, "sha256"), **changes)  # type: ignore[arg-type]
 
 
+#: True while :func:`adopt_trace` builds a Trace: arrays that own their data are kept as they are.
+_ADOPT: ContextVar[bool] = ContextVar("_ADOPT", default=False)
+
+
+def adopt_trace(**fields: object) -> Trace:
+    """A :class:`Trace` that takes over the given arrays instead of copying them (private).
+
+    For a reader handing over arrays nothing else refers to: each array that owns its data,
+    is 1-D and already has the field's dtype is made read-only and kept (no second copy of
+    the output at its peak); any other value is copied as :class:`Trace` always does.
+    """
+    token = _ADOPT.set(True)
+    try:
+        return Trace(**fields)  # type: ignore[arg-type]
+    finally:
+        _ADOPT.reset(token)
+
+
 def _frozen(a: np.ndarray | None, dtype: type, name: str) -> np.ndarray | None:
     if a is None:
         return None
+    if (
+        _ADOPT.get()
+        and isinstance(a, np.ndarray)
+        and a.dtype == dtype
+        and a.ndim == 1
+        and a.base is None
+        and a.flags.owndata
+    ):
+        a.setflags(write=False)
+        return a
     raw = np.asarray(a)
     if dtype is np.int64 and raw.dtype.kind == "f" and not np.all(np.mod(raw, 1) == 0):
         raise Sim2RealValueError(

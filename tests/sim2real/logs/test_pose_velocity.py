@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sim2real.logs import Trace, TraceMeta, read_trace, write_trace
-from sim2real.logs._pose_velocity import pose_derivative
+from sim2real.logs._pose_velocity import pose_derivative, velocities_from_pose
 
 T0_NS = 1_700_000_000 * 10**9
 
@@ -96,3 +99,66 @@ def test_bad_mode(tmp_path: Path) -> None:
     _, v, w, *_ = _drive()
     with pytest.raises(ValueError, match="odom_velocity must be one of"):
         read_trace(_log(tmp_path, v, w), odom_velocity="imu")
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n=st.integers(5, 300),
+    block=st.integers(1, 64),
+    seed=st.integers(0, 2**32 - 1),
+    window_s=st.floats(0.05, 2.0),
+)
+def test_blockwise_derivative_equals_one_block(n, block, seed, window_s) -> None:
+    """Blocks with their halos give every sample the window a whole-log fit gives it."""
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.01, 0.3, n))
+    x, y = np.cumsum(rng.normal(0, 0.05, (2, n)), axis=1)
+    yaw = np.angle(np.exp(1j * np.cumsum(rng.normal(0, 0.4, n))))  # wrapped, with jumps
+    v1, w1 = pose_derivative(t, x, y, yaw, window_s, block=n)
+    vb, wb = pose_derivative(t, x, y, yaw, window_s, block=block)
+    np.testing.assert_allclose(vb, v1, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(wb, w1, rtol=1e-6, atol=1e-6)
+
+
+def test_pose_velocity_memory_is_outputs_plus_scratch() -> None:
+    """No full-size temporaries: beyond its two outputs, the pose check holds at most three
+    scratch columns of the moving samples (the twist-vs-pose verdict) and one block's work."""
+    n = 200_000
+    rng = np.random.default_rng(5)
+    t_ns = T0_NS + np.cumsum(rng.integers(15_000_000, 25_000_000, n))
+    yaw = np.cumsum(rng.normal(0, 0.02, n))
+    cols = {
+        "v": rng.normal(0.3, 0.05, n),
+        "w": rng.normal(0.5, 0.1, n),
+        "x": np.cumsum(0.006 * np.cos(yaw)),
+        "y": np.cumsum(0.006 * np.sin(yaw)),
+        "yaw": np.angle(np.exp(1j * yaw)),
+    }
+    velocities_from_pose(t_ns, cols, "/odom", [])  # warm-up (imports, caches)
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        velocities_from_pose(t_ns, cols, "/odom", [], mode="pose")
+        peak = tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+    column = n * 8
+    assert peak <= 5 * column + 2 * 2**20, f"{peak / column:.1f} columns"
+
+
+def test_read_trace_hands_its_arrays_over_without_copies(tmp_path: Path) -> None:
+    _, v, w, *_ = _drive()
+    tr = read_trace(_log(tmp_path, v, w))
+    for a in (tr.cmd_t_ns, tr.cmd_v, tr.meas_t_ns, tr.meas_v, tr.meas_w, tr.pose_x, tr.pose_yaw):
+        assert a is not None and not a.flags.writeable
+    # the public constructor still copies what it is given
+    mine = np.array(tr.meas_v)
+    built = Trace(
+        cmd_t_ns=tr.cmd_t_ns,
+        cmd_v=tr.cmd_v,
+        cmd_w=tr.cmd_w,
+        meas_t_ns=tr.meas_t_ns,
+        meas_v=mine,
+        meas_w=tr.meas_w,
+    )
+    assert built.meas_v is not mine and mine.flags.writeable
