@@ -82,18 +82,62 @@ Examples
 
 from __future__ import annotations
 
-from sim2real.logs._bagwrite import BAG_FORMATS, write_rosbag
-from sim2real.logs._csv import CSV_COLUMNS, write_csv_trace
-from sim2real.logs._info import LogInfo, TopicInfo, inspect_log
-from sim2real.logs._reader import read_trace
-from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, SCHEMA_TEXT, TWIST, TWIST_STAMPED
-from sim2real.logs._writer import (
-    integrate_pose,
-    write_joint_state_log,
-    write_trace,
-    write_velocity_log,
-)
-from sim2real.logs.trace import Trace, TraceMeta
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from sim2real.logs._bagwrite import BAG_FORMATS, write_rosbag
+    from sim2real.logs._csv import CSV_COLUMNS, write_csv_trace
+    from sim2real.logs._info import LogInfo, TopicInfo, inspect_log
+    from sim2real.logs._reader import read_trace
+    from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, SCHEMA_TEXT, TWIST, TWIST_STAMPED
+    from sim2real.logs._writer import (
+        integrate_pose,
+        write_joint_state_log,
+        write_trace,
+        write_velocity_log,
+    )
+    from sim2real.logs.trace import Trace, TraceMeta
+
+#: Where each public name lives. The submodules are imported on first use (PEP 562), so
+#: ``from sim2real.logs import read_trace`` loads the reading path only: not the writers,
+#: ``logs info``, the bag writer or their imports (tempfile, shutil, lzma, ...).
+_LAZY = {
+    "BAG_FORMATS": "_bagwrite",
+    "write_rosbag": "_bagwrite",
+    "CSV_COLUMNS": "_csv",
+    "write_csv_trace": "_csv",
+    "LogInfo": "_info",
+    "TopicInfo": "_info",
+    "inspect_log": "_info",
+    "read_trace": "_reader",
+    "JOINT_STATE": "_schemas",
+    "ODOMETRY": "_schemas",
+    "SCHEMA_TEXT": "_schemas",
+    "TWIST": "_schemas",
+    "TWIST_STAMPED": "_schemas",
+    "integrate_pose": "_writer",
+    "write_joint_state_log": "_writer",
+    "write_trace": "_writer",
+    "write_velocity_log": "_writer",
+    "Trace": "trace",
+    "TraceMeta": "trace",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'sim2real.logs' has no attribute {name!r}")
+    from importlib import import_module
+
+    value = getattr(import_module(f"sim2real.logs.{module}"), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = [
     "BAG_FORMATS",

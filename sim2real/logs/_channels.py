@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass
 
 import numpy as np
@@ -84,6 +83,8 @@ def choose_topic(chans: list[Chan], role: str, explicit: str | None, *, name: st
         found = [c for c in chans if c.topic == explicit]
         if not found:
             usable = [c.topic for c in chans if c.type in types]
+            import difflib  # only for the error message
+
             close = difflib.get_close_matches(explicit, usable or [c.topic for c in chans], n=1)
             hint = f"did you mean '{close[0]}'? " if close else ""
             raise MissingTopicError(

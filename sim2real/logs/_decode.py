@@ -12,7 +12,6 @@ speeds (rad/s) for JointState.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -150,6 +149,8 @@ def _generic_ros1(type_name: str) -> Callable[[bytes], Any]:
 
 
 def _json_loads(raw: bytes) -> Any:
+    import json  # JSON logs only: not on the CDR read path
+
     return json.loads(raw)
 
 
@@ -239,7 +240,7 @@ def _wheel_speeds(
 def infer_json_type(raw: bytes) -> str:
     """Guess the ROS type of a schema-less JSON message from its keys ("" when unknown)."""
     try:
-        obj = json.loads(raw)
+        obj = _json_loads(raw)
     except ValueError:
         return ""
     if not isinstance(obj, dict):

@@ -20,7 +20,6 @@ Example
 
 from __future__ import annotations
 
-import hashlib
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -46,6 +45,8 @@ class FileDigest:
         self.stamps = tuple(_stamp(p) for p in self.paths)
 
     def __call__(self) -> str:
+        import hashlib  # only where a digest is asked for (not on the read path)
+
         h = hashlib.sha256()
         for path, stamp in zip(self.paths, self.stamps, strict=True):
             if _stamp(path) != stamp:
