@@ -20,7 +20,6 @@ from sim2real.logs import (
     SCHEMA_TEXT,
     TWIST,
     _cdr,
-    _digest,
     _mcap,
     _summary,
     inspect_log,
@@ -202,7 +201,8 @@ class _CountingSha:
             self.calls += 1
             return real(*args)
 
-        monkeypatch.setattr(_digest.hashlib, "sha256", counting)
+        # _digest imports hashlib where it hashes (not on the read path): patch the module
+        monkeypatch.setattr(hashlib, "sha256", counting)
 
 
 def test_reading_a_log_does_not_hash_it_reading_the_digest_does(tmp_path, monkeypatch):
