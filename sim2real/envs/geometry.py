@@ -236,7 +236,9 @@ def cast_rays_numpy(
     if scene.circles_r.size:
         fx, fy = o[0] - scene.circles_xy[:, 0], o[1] - scene.circles_xy[:, 1]
         q = fx * fx + fy * fy - scene.circles_r**2
-        near = np.sqrt(np.maximum(q, 0.0)) < max_range_m  # cull circles out of range
+        # cull circles whose nearest point |c - o| - r lies beyond the range (the tangent
+        # length sqrt(|c - o|^2 - r^2) is longer and culled circles a ray still reaches)
+        near = np.sqrt(fx * fx + fy * fy) - scene.circles_r < max_range_m
         fx, fy, q = fx[near], fy[near], q[near]
         b = np.outer(dx, fx) + np.outer(dy, fy)
         disc = b * b - q

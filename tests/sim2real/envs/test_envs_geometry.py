@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pybullet as p
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from sim2real.envs.geometry import (
@@ -35,6 +35,9 @@ def test_origin_inside_circle_reads_zero_and_empty_scene_reads_max() -> None:
 
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 10_000), n_circles=st.integers(0, 30), n_segs=st.integers(0, 10))
+# a circle whose centre lies beyond the range while its near edge is within it (ray 4 hits it at
+# 7.754 m; the numpy caster once culled it by tangent length and read 8.0)
+@example(seed=0, n_circles=2, n_segs=5)
 def test_numba_numpy_and_multi_origin_casters_agree(seed: int, n_circles: int, n_segs: int) -> None:
     rng = np.random.default_rng(seed)
     circles = np.column_stack(
