@@ -121,7 +121,10 @@ def test_skid_fit_meets_the_target_where_the_differential_fit_does_not(husky: Ro
     (skid, diff) 101 (0.950, 0.703: mu 0.58-0.64, the scrub droop is small), 102 (0.931,
     0.597), 103 (0.971, 0.456), 104 (0.942, 0.499), 105 (0.953, 0.754: chi 1.52, Jackal-like,
     where the driver's 1.875 over the slip nearly cancels the droop a geometric-track model
-    shows). At least three seeds of five must keep it below 0.7."""
+    shows). At least three seeds of five must keep it below 0.7. With the fit's restarts
+    (sysid._map.restarts) the differential fit leaves local minima and does better, though
+    still clearly below the skid fit: 101 0.703, 102 0.692, 103 0.688, 104 0.761; at least
+    three seeds keep it below 0.8."""
     results = {}
     plain = husky.drive.replace(track_factor=1.0, driver_track_factor=1.0)
     for seed in TARGET_SEEDS:
@@ -141,7 +144,7 @@ def test_skid_fit_meets_the_target_where_the_differential_fit_does_not(husky: Ro
                 skid_params = result.params
         results[seed] = tuple(round(x, 3) for x in scores)
     assert all(skid >= 0.9 and skid >= diff + 0.15 for skid, diff in results.values()), results
-    assert sum(diff < 0.7 for _, diff in results.values()) >= 3, results
+    assert sum(diff < 0.8 for _, diff in results.values()) >= 3, results
     # the pybullet engine with the same (last) fit agrees with the reduced one on the log
     sim_pb = replay(held_out, robot=husky, params=skid_params, engine="pybullet")
     sim_red = replay(held_out, robot=husky, params=skid_params, engine="reduced")
