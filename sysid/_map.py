@@ -43,7 +43,7 @@ FloatArray = NDArray[np.float64]
 _COARSE_SPAN_S = 150.0
 #: A restart replaces the first start's fit only below this share of its objective (the
 #: local minima diagnosed on synthetic plants were at 1.5-3x the truth's objective).
-_RESTART_GAIN = 0.8
+_RESTART_SHARE = 0.8
 #: Long logs compare the fit's starts (:func:`restarts`) on their busiest windows of this
 #: many seconds in total, with this evaluation cap each.
 _SCOUT_SPAN_S, _SCOUT_NFEV = 20.0, 8
@@ -264,13 +264,13 @@ def _best(
     prob: Problem, x0: FloatArray, solve: Callable[[Problem, FloatArray, int], Any], nfev: int
 ) -> Any:
     """The fit from ``x0``, unless a start of :func:`restarts` ends in a clearly lower basin
-    (objective below :data:`_RESTART_GAIN` x that fit's): near-ties on logs the model does not
+    (objective below :data:`_RESTART_SHARE` x that fit's): near-ties on logs the model does not
     contain exactly keep the first start's answer."""
     starts = restarts(prob, x0)
     first = best = solve(prob, starts[0], nfev)
     for x in starts[1:]:
         res = solve(prob, x, nfev)
-        if float(res.cost) < min(_RESTART_GAIN * float(first.cost), float(best.cost)):
+        if float(res.cost) < min(_RESTART_SHARE * float(first.cost), float(best.cost)):
             best = res
     return best
 
@@ -294,7 +294,7 @@ def _optimise(
         scout = prob.like(_windows(logs, _SCOUT_SPAN_S))
         costs = [float(solve(scout, x, _SCOUT_NFEV).cost) for x in starts]
         k = int(np.argmin(costs))
-        x0 = starts[k] if costs[k] < _RESTART_GAIN * costs[0] else starts[0]
+        x0 = starts[k] if costs[k] < _RESTART_SHARE * costs[0] else starts[0]
         coarse.n_evals, coarse.n_steps = scout.n_evals, scout.n_steps
     first = solve(coarse, x0, nfev)
     prob.n_evals, prob.n_steps = coarse.n_evals, coarse.n_steps
