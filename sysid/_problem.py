@@ -379,6 +379,9 @@ class Problem:
             if self.on_eval is not None:
                 self.on_eval(self.n_evals)
             for j, h in steps.items():
-                rows = self.rows[COORDS[self.free[j]].axis] if len(group) > 1 else self.rows["vw"]
+                if len(group) == 1:  # every row (a slice: no gather)
+                    jac[:, j] = (fp - f0) / h
+                    continue
+                rows = self.rows[COORDS[self.free[j]].axis]
                 jac[rows, j] = (fp[rows] - f0[rows]) / h
         return jac
