@@ -8,9 +8,12 @@ field and an :class:`ObservationNoise` model. ``sim2real sysid fit`` writes it t
 ``DynamicsRandomizer.from_sysid`` and the envs draw from it with :meth:`DriveDistribution.sample`
 -- same seed, same draws everywhere.
 
-Sampling: :math:`z = \mu + s\,V\,\mathrm{clip}(\Lambda^{1/2} e, \pm c\,\Lambda^{1/2})` with
-:math:`\Sigma = V \Lambda V^T`, :math:`e \sim \mathcal N(0, I)` truncated at
-:data:`TRUNCATE_SIGMA` per principal direction and :math:`s` the ``spread``; each coordinate is
+Sampling: :math:`z = \mu + s\,\Sigma^{1/2}\,\mathrm{clip}(e, \pm c)` with :math:`\Sigma^{1/2}`
+the symmetric (principal) square root of the covariance, :math:`e \sim \mathcal N(0, I)`
+truncated at :math:`c` = :data:`TRUNCATE_SIGMA` per component and :math:`s` the ``spread``. The
+principal root is a continuous function of :math:`\Sigma` (an eigenvector basis is not: with two
+equal variances a 1e-16 change rotates it, and every draw with it), so a params file that
+changes in its last digit draws nearly the same robots. Each coordinate is
 then kept inside the schema's plausible range and mapped back to a value. Total mass and yaw
 inertia are :math:`e^z > 0` and limits :math:`e^z > 0` by construction, so every draw is a
 physical robot.
@@ -64,7 +67,7 @@ FloatArray = NDArray[np.float64]
 
 #: ``format:`` key of the ``randomization`` block.
 RANDOMIZATION_FORMAT = "sim2real.randomization/1"
-#: Draws are truncated at this many standard deviations per principal direction (keeps 99.99 %
+#: Draws are truncated at this many standard deviations per component (keeps 99.99 %
 #: of the mass, the variance shrinks by 0.1 %, and no draw is an absurd robot).
 TRUNCATE_SIGMA = 4.0
 #: Largest odometry noise accepted from a file (m/s, rad/s): beyond it the "noise" is the
@@ -145,6 +148,18 @@ class ObservationNoise:
         if self.quantum_w_radps > 0:
             nw = np.round(nw / self.quantum_w_radps) * self.quantum_w_radps
         return nv, nw
+
+
+def _principal_root(cov: FloatArray) -> FloatArray:
+    """The symmetric PSD square root :math:`R = V \\Lambda^{1/2} V^T` of ``cov`` (:math:`R R = \\Sigma`).
+
+    Unlike the factor :math:`V\\Lambda^{1/2}` it does not depend on which eigenvector basis
+    ``eigh`` returns for a repeated eigenvalue, so it moves continuously with ``cov``. Tiny
+    negative eigenvalues from rounding count as zero.
+    """
+    eig, vec = np.linalg.eigh(cov)
+    root: FloatArray = (vec * np.sqrt(np.clip(eig, 0.0, None))) @ vec.T
+    return root
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -228,10 +243,8 @@ class DriveDistribution:
         """``n`` draws in coordinates, shape (n, k) (see the module docstring)."""
         _check_draw_args(rng, n, spread)
         k = len(self.names)
-        eig, vec = np.linalg.eigh(self.covariance_array)
-        root = np.sqrt(np.clip(eig, 0.0, None))
         e = np.clip(rng.standard_normal((n, k)), -TRUNCATE_SIGMA, TRUNCATE_SIGMA)
-        out: FloatArray = self.mean_array + spread * (e * root) @ vec.T
+        out: FloatArray = self.mean_array + spread * e @ _principal_root(self.covariance_array)
         return out
 
     def sample(self, rng: np.random.Generator, n: int, *, spread: float = 1.0) -> list[DriveParams]:

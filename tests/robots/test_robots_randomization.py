@@ -193,3 +193,34 @@ def test_every_field_is_either_varied_or_fixed() -> None:
     assert "cmd_timeout_s" in dist.fixed  # sd 0
     assert "accel_lim_v_mps2" in dist.fixed  # inf: no prior centre
     assert "motor_gain_nms_per_rad" in dist.names
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    sd=st.floats(0.01, 1.0),
+    eps=st.floats(-1e-12, 1e-12),
+)
+def test_draws_move_continuously_with_the_covariance(seed: int, sd: float, eps: float) -> None:
+    """Two equal variances (a repeated eigenvalue): a last-digit change of the covariance, as a
+    params file rewritten with other rounding gives, moves every draw by a last-digit amount.
+
+    An eigenvector factor :math:`V\\Lambda^{1/2}` fails this: ``eigh`` may return any rotation
+    of the eigenvectors of a repeated eigenvalue, and a 1e-16 change picks another one."""
+    names = ("motor_gain_nms_per_rad", "added_mass_kg")
+    fixed = {n: v for n, v in SPEC.drive.to_dict().items() if n not in names}
+    var = sd**2
+
+    def dist(off: float) -> DriveDistribution:
+        return DriveDistribution(
+            robot="x",
+            geometry=GEO,
+            names=names,
+            mean=(math.log(0.01), math.log(1.2)),
+            covariance=((var, off * var), (off * var, var)),
+            fixed=fixed,
+        )
+
+    a = dist(0.0).sample_coords(np.random.default_rng(seed), 8)
+    b = dist(eps).sample_coords(np.random.default_rng(seed), 8)
+    assert np.max(np.abs(a - b)) <= 1e-9 * sd

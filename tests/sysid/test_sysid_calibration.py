@@ -24,20 +24,14 @@ PLANT_SEED = 29
 #: Every fitted field's 95 % interval must hold the truth at least this often. (Even exact
 #: intervals miss 85 % on 24 plants for some one of 13 fields with a few per cent chance each.)
 COVERAGE = 0.85
-#: Open problem, reported, not hidden (issue 11): these fields' 95 % intervals hold the truth
-#: less often than 85 % on these plants. Measured at seed 29 with the fit's restarts
-#: (sysid._map.restarts; before them in brackets): motor gain 20/24 (18), integral gain 20/24
-#: (15), torque cap 19/24 (20), Coulomb v fwd 20/24 (>= 21), added mass 20/24 (19), added yaw
-#: inertia 19/23 (19); Coulomb v bwd 22/24 (20) and Coulomb w 20/23 (19) now meet 85 %.
-#: Each is checked against a floor one plant below what was measured.
-SHORT = {
-    "motor_gain_nms_per_rad": 19 / 24,
-    "speed_loop_ki_per_s": 19 / 24,
-    "wheel_torque_max_nm": 18 / 24,
-    "coulomb_v_fwd_n": 19 / 24,
-    "added_mass_kg": 19 / 24,
-    "added_yaw_inertia_kgm2": 18 / 23,
-}
+#: Open problem, reported, not hidden (issue 11): the integral gain's 95 % interval holds the
+#: truth less often than 85 %. Measured with the fit's restarts (sysid._map.restarts) and the
+#: sampler's principal-root draws: seed 29 18/24, seed 47 41/48 (pooled 59/72 = 0.82; its
+#: misses are mostly |t| 2-5, intervals too narrow for a posterior skewed by the bound at 0,
+#: and a few local minima, |t| 11-99). Every other field met 85 % at both seeds (lowest: Coulomb
+#: w 20/23 at seed 29, added yaw inertia 41/48 at seed 47). Checked against a floor one plant
+#: below the seed-29 measurement.
+SHORT = {"speed_loop_ki_per_s": 17 / 24}
 #: Limits without a prior (the spec says "no limit") may still be fitted when a log seems to
 #: show one; on these plants (truth: no limit) at most this share of the two acceleration
 #: limits x plants is claimed (measured 7 of 40): an open problem, reported.
@@ -77,13 +71,32 @@ def test_95_percent_intervals_cover_plants_drawn_from_the_priors() -> None:
     assert spurious <= SPURIOUS_LIMITS * 2 * N_PLANTS
 
 
+#: Plant 0 of seed 29 as the sampler drew it before it used the covariance's principal root
+#: (robots.randomization), kept because a one-start fit of it ends in a local minimum.
+RESTART_PLANT = {
+    "delay_s": 0.05500927020094071,
+    "speed_lim_v_mps": 0.2192621746978913,
+    "speed_lim_w_radps": 2.8306326809993503,
+    "wheel_speed_max_radps": 7.107746057875493,
+    "motor_gain_nms_per_rad": 0.003517896179182786,
+    "speed_loop_ki_per_s": 0.0,
+    "wheel_torque_max_nm": 0.052794532344308774,
+    "coulomb_v_fwd_n": 0.14453841588873306,
+    "coulomb_v_bwd_n": 0.0926660709796348,
+    "coulomb_w_nm": 0.01074880602285018,
+    "viscous_v_ns_per_m": 0.0,
+    "viscous_w_nms_per_rad": 0.0008243904742183464,
+    "added_mass_kg": 0.09248382869670069,
+    "added_yaw_inertia_kgm2": -0.000498513752143047,
+}
+
+
 def test_restarts_free_a_delay_pinned_at_zero() -> None:
-    """Plant 0 of seed 29: from the one start the fit pinned the delay at 0 (truth 0.055 s,
+    """Plant 0 of seed 29 (:data:`RESTART_PLANT`): from the one start the fit pinned the delay at 0 (truth 0.055 s,
     the objective 2.5x the truth's) with an interval 6 sd away; the prior-mean start finds it."""
     spec = load_spec("turtlebot3_burger")
     geo = spec.geometry
-    prior = DriveDistribution.from_priors(spec.name, geo, spec.priors, session=False)
-    truth = prior.sample(np.random.default_rng(PLANT_SEED), 1)[0]
+    truth = spec.drive.replace(**RESTART_PLANT)
     seed = 100 * PLANT_SEED
     t, v, w = step_commands(20.0, seed=seed, v_max_mps=0.2, w_max_radps=1.5)
     log = synthetic_log(truth, geo, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed, spike_mps=None)
