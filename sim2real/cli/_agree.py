@@ -14,7 +14,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from sim2real.cli._common import add_command, add_odom_velocity_argument
+from sim2real.cli._common import add_command, add_read_arguments
 
 # light (stdlib-only at import); re-exported for callers of the old names (sim2real demo)
 from sim2real.study import (
@@ -148,8 +148,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
             "0 = compare the instantaneous simulated v"
         ),
     )
-    p.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
-    p.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
+    add_read_arguments(p)
     p.add_argument(
         "--ray",
         metavar="auto|ADDRESS",
@@ -158,16 +157,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
             "starts a local one, ADDRESS is a head node (needs the [cluster] extra)"
         ),
     )
-    p.add_argument(
-        "--time-source",
-        choices=("auto", "header", "log"),
-        default="auto",
-        help=(
-            "message timing: header stamps, recorder log times, or 'auto' (default: header "
-            "stamps unless they run on another clock than the log times, which it says)"
-        ),
-    )
-    add_odom_velocity_argument(p)
     p.set_defaults(handler=_handle)
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from sim2real.cli._common import add_command, add_odom_velocity_argument
+from sim2real.cli._common import add_command, add_read_arguments
 
 __all__ = ["register"]
 
@@ -73,19 +73,7 @@ def register(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
         metavar="S|auto",
         help="odometry window of v, s, or 'auto' (default: the fit's, from the params file)",
     )
-    p.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
-    p.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
-    p.add_argument(
-        "--time-source",
-        choices=("auto", "header", "log"),
-        default="auto",
-        help=(
-            "message timing: header stamps, recorder log times, or 'auto' (default: header "
-            "stamps unless they run on another clock than the log times, which it says); "
-            "read the validation logs as the fit read its logs"
-        ),
-    )
-    add_odom_velocity_argument(p)
+    add_read_arguments(p, time_source_note="read the validation logs as the fit read its logs")
     p.set_defaults(handler=_handle)
 
 

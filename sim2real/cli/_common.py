@@ -11,6 +11,7 @@ __all__ = [
     "OneLineErrorParser",
     "add_command",
     "add_odom_velocity_argument",
+    "add_read_arguments",
 ]
 
 EPILOG_MAIN = """\
@@ -76,3 +77,26 @@ def add_odom_velocity_argument(parser: argparse.ArgumentParser) -> None:
             "while the pose moves, which it says)"
         ),
     )
+
+
+def add_read_arguments(parser: argparse.ArgumentParser, *, time_source_note: str = "") -> None:
+    """The options of every command that reads velocity logs: which topics, which clock, and
+    where the measured velocities come from (the keywords of :func:`sim2real.logs.read_trace`).
+
+    Adds ``--cmd-topic``, ``--odom-topic``, ``--time-source {auto,header,log}`` (``auto``
+    default) and ``--odom-velocity {auto,twist,pose}``; ``time_source_note`` ends the
+    ``--time-source`` help (e.g. how a validation log must be read).
+    """
+    parser.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
+    parser.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
+    parser.add_argument(
+        "--time-source",
+        choices=("auto", "header", "log"),
+        default="auto",
+        help=(
+            "message timing: header stamps, recorder log times, or 'auto' (default: header "
+            "stamps unless they run on another clock than the log times, which it says)"
+            + (f"; {time_source_note}" if time_source_note else "")
+        ),
+    )
+    add_odom_velocity_argument(parser)

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from sim2real.cli._common import add_command, add_odom_velocity_argument
+from sim2real.cli._common import add_command, add_read_arguments
 from sim2real.errors import Sim2RealValueError
 from sysid.metrics import FIT_PERCENT_DEFINITION
 
@@ -95,18 +95,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     fit.add_argument(
         "--validate", action="append", default=[], metavar="VAL.mcap", help="validation log(s)"
     )
-    fit.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
-    fit.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
-    fit.add_argument(
-        "--time-source",
-        choices=("auto", "header", "log"),
-        default="auto",
-        help=(
-            "message timing: header stamps, recorder log times, or 'auto' (default: header "
-            "stamps unless they run on another clock than the log times, which it says)"
-        ),
-    )
-    add_odom_velocity_argument(fit)
+    add_read_arguments(fit)
     fit.add_argument("--window", metavar="START:END", help="use only this part of the fit logs (s)")
     fit.add_argument(
         "--validate-window", metavar="START:END", help="use only this part of the validation logs"
