@@ -7,7 +7,8 @@ so the serial and the Ray paths give identical figures. Ray is the optional ``[c
 ``address``:
 
 - ``"auto"``: join the Ray cluster this machine belongs to (``ray start --head`` ran here, or
-  ``RAY_ADDRESS`` is set); when none is running, start a local one with every core;
+  ``RAY_ADDRESS`` is set); when none is running (also when Ray's record of one names a port
+  nobody listens on any more, a killed Ray's leftover), start a local one;
 - ``"HOST:PORT"`` / ``"ray://HOST:10001"``: that cluster's head node.
 
 Example
@@ -104,6 +105,12 @@ def connect(address: str, *, local_cpus: int | None = None) -> bool:
     # priority (an absolute value here doubled it under `nice -n 5`: workers ran at 10).
     os.environ.setdefault("RAY_worker_niceness", "0")
     kw: dict[str, Any] = {"include_dashboard": False, "logging_level": "ERROR"}
+    if address == "auto" and not os.environ.get("RAY_ADDRESS") and _stale_cluster_file():
+        # Ray would still read the dead record and refuse num_cpus ("connecting to an existing
+        # cluster"); a new local Ray writes its own
+        _cluster_file().unlink(missing_ok=True)
+        ray.init(num_cpus=local_cpus, **kw)
+        return True
     if address == "auto":
         try:
             ray.init(address="auto", **kw)
@@ -120,6 +127,38 @@ def connect(address: str, *, local_cpus: int | None = None) -> bool:
             "give the head node's HOST:PORT (see `ray status` on it) or 'auto'"
         ) from None
     return False
+
+
+#: Seconds to wait for the GCS port named by Ray's current-cluster file to accept a connection.
+_PROBE_S = 0.5
+
+
+def _stale_cluster_file() -> bool:
+    """Whether Ray's record of "the cluster on this machine" names a GCS that is not there.
+
+    ``ray start`` / ``ray.init()`` write the head's ``HOST:PORT`` to :func:`_cluster_file`; a
+    Ray that was killed (or a machine that rebooted) leaves it behind, and
+    ``ray.init(address="auto")`` then waits for that GCS without end (measured here: > 60 s,
+    retrying every 5 s). A port that refuses a TCP connection (or a record that is not
+    ``HOST:PORT``) means nobody is running there: ``--ray auto`` removes the record and starts
+    a local Ray, as it does when no record exists. A probe that only times out
+    (:data:`_PROBE_S`) is left to Ray, as before.
+    """
+    import socket
+
+    try:
+        host, _, port = _cluster_file().read_text(encoding="utf-8").strip().rpartition(":")
+        with socket.create_connection((host, int(port)), timeout=_PROBE_S):
+            return False
+    except (ConnectionRefusedError, ValueError):
+        return True
+    except OSError:  # no record (ray.init fails fast, handled by the caller), or a timeout
+        return False
+
+
+def _cluster_file() -> Path:
+    """Ray's record of the cluster on this machine (``$RAY_TMPDIR/ray/ray_current_cluster``)."""
+    return Path(os.environ.get("RAY_TMPDIR", "/tmp")) / "ray" / "ray_current_cluster"
 
 
 def _import_ray(address: str) -> Any:

@@ -307,3 +307,62 @@ def test_sysid_fit_on_ray_gives_the_serial_result(fleet: Path, tmp_path: Path) -
     on_ray["settings"].pop("seconds", None)
     assert serial == on_ray
     assert len(serial["data"]) == 2
+
+
+def test_stale_cluster_record_is_recognised(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ray's current-cluster file naming a closed port (a killed Ray's leftover) is stale; one
+    naming a listening port, or no file, is not. No Ray needed."""
+    import socket
+
+    from sim2real.cluster import _stale_cluster_file
+
+    monkeypatch.setenv("RAY_TMPDIR", str(tmp_path))
+    assert _stale_cluster_file() is False  # no file
+    (tmp_path / "ray").mkdir()
+    record = tmp_path / "ray" / "ray_current_cluster"
+    with socket.socket() as closed:
+        closed.bind(("127.0.0.1", 0))
+        port = closed.getsockname()[1]
+    record.write_text(f"127.0.0.1:{port}")
+    assert _stale_cluster_file() is True
+    record.write_text("garbage")
+    assert _stale_cluster_file() is True
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen()
+        record.write_text(f"127.0.0.1:{server.getsockname()[1]}")
+        assert _stale_cluster_file() is False
+
+
+@pytest.mark.cluster
+def test_auto_with_a_stale_record_starts_a_local_ray(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Before: ``ray.init(address="auto")`` waited > 60 s for the dead GCS. Now a local Ray."""
+    import socket
+
+    import ray
+
+    from sim2real.cluster import connect
+
+    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    record = Path("/tmp/ray/ray_current_cluster")
+    if record.exists():
+        pytest.skip("a Ray record exists on this machine; not overwriting it")
+    record.parent.mkdir(exist_ok=True)
+    with socket.socket() as closed:
+        closed.bind(("127.0.0.1", 0))
+        port = closed.getsockname()[1]
+    record.write_text(f"127.0.0.1:{port}")
+    try:
+        t0 = time.perf_counter()
+        assert connect("auto", local_cpus=1) is True
+        assert time.perf_counter() - t0 < 30 and ray.cluster_resources()["CPU"] == 1
+        # the dead record is gone (a local ray.init writes none; `ray start` would)
+        assert not record.exists() or not record.read_text().strip().endswith(f":{port}")
+    finally:
+        ray.shutdown()
+        if record.exists() and record.read_text().strip().endswith(f":{port}"):
+            record.unlink()
