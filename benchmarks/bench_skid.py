@@ -1,13 +1,15 @@
 """Issue 12's skid-steer target, per seed, and how far a fit carries to another ground.
 
-Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,102,103,104,105]`` (~1 min).
+Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,102,103,104,105]`` (~2 min).
 
 1. **Target** (what ``tests/sim2real/test_skid_plant.py`` asserts): per seed, one robot on one
    ground (:func:`sim2real.skid_plant.skid_robot`: slip 1.5-1.9, mu 0.6-0.95), two 90 s teleop
-   sessions on different days (mu +-5 %); the drive is fitted on the first with the skid
-   fields (the spec of ``sim2real robots new husky --drive skid`` from the Husky's published
-   numbers, the driver's multiplier 1.875) and with the plain differential drive (track
-   factors 1), and the agreement of each is measured on the second (reduced engine).
+   sessions on different days (mu +-5 %); the drive is fitted on the first and its agreement
+   measured on the second (reduced engine) with three specs written from the Husky's
+   published numbers and its driver's settings (multiplier 1.875): ``skid`` (``sim2real
+   robots new husky --drive skid``, ``track_factor`` fitted), ``diff`` (``--drive diff``:
+   geometric track, the driver's 1.875; the test's "plain differential-drive fit") and
+   ``both 1`` (the skid spec with both track factors 1, a driver without the multiplier).
 2. **Ground sensitivity**: :func:`sim2real.skid_plant.husky_like` at mu 0.8 fitted on one
    session, measured on a session on a ground with mu x (0.8, 0.9, 1.0, 1.2).
 
@@ -28,18 +30,18 @@ import numpy as np
 SENSITIVITY = (0.8, 0.9, 1.0, 1.2)
 
 
-def _husky() -> Any:
+def _husky(drive_type: str = "skid") -> Any:
     from robots.spec import load_spec
     from robots.template import spec_text
 
-    path = Path(tempfile.mkdtemp()) / "husky.yaml"
+    path = Path(tempfile.mkdtemp()) / f"husky_{drive_type}.yaml"
     text = spec_text(
         "husky",
         wheel_separation_m=0.555,
         wheel_radius_m=0.165,
         mass_kg=50.0,
         max_speed_mps=1.0,
-        drive="skid",
+        drive=drive_type,
     )
     path.write_text(text)
     spec = load_spec(path)
@@ -73,6 +75,7 @@ def _fit(spec: Any, trace: Any, *, plain: bool = False) -> Any:
         base = spec.drive.replace(track_factor=1.0, driver_track_factor=1.0)
         priors = _fixed(spec, driver_track_factor=1.0, track_factor=1.0)
     else:
+        # the skid spec's track factor has a prior (fitted), the diff spec's is 1 with sd 0
         base, priors = spec.drive, _fixed(spec, driver_track_factor=1.875)
     return fit_drive([trace], geometry=spec.geometry, base_params=base, priors=priors).params
 
@@ -80,17 +83,18 @@ def _fit(spec: Any, trace: Any, *, plain: bool = False) -> Any:
 def target(seeds: list[int]) -> None:
     from sim2real.skid_plant import effective_track_factor, make_skid_sessions, skid_robot
 
-    spec = _husky()
-    print("seed  chi   mu    skid   diff   fitted chi")
+    spec, diff_spec = _husky("skid"), _husky("diff")
+    print("seed  chi   mu    skid   diff   both 1  fitted chi")
     for seed in seeds:
         robot = skid_robot(seed)
         fit_log, held = make_skid_sessions(robot, 2, seed=seed, duration_s=90.0, profile="teleop")
         skid = _fit(spec, fit_log)
-        diff = _fit(spec, fit_log, plain=True)
+        diff = _fit(diff_spec, fit_log)
+        both = _fit(spec, fit_log, plain=True)
         print(
             f"{seed:4d}  {effective_track_factor(robot, 0.0, 1.0):.2f}  {robot.mu:.2f}  "
-            f"{_agreement(spec, skid, held):.3f}  {_agreement(spec, diff, held):.3f}  "
-            f"{skid.track_factor:.2f}",
+            f"{_agreement(spec, skid, held):.3f}  {_agreement(diff_spec, diff, held):.3f}  "
+            f"{_agreement(spec, both, held):.3f}   {skid.track_factor:.2f}",
             flush=True,
         )
 

@@ -29,7 +29,12 @@ it, and the encoder speed sees the longitudinal slip):
   ``wheel_separation_multiplier``, 1.875 for the Husky: calibrated once, so it matches the real
   slip only on average), speed clamps, acceleration limits, per-side speed cap (both sides
   scaled together), command timeout; a discrete PI speed loop per side at ``control_rate_hz``
-  (anti-windup; :func:`husky_like` makes it proportional) and a DC-motor torque-speed line;
+  (anti-windup; the Husky's firmware runs a PID loop, :func:`husky_like`) and a DC-motor
+  torque-speed line. The integral term matters for the contrast with a differential-drive
+  model: it holds the wheels at their targets, so a yaw command turns the base at
+  :math:`w\,m/\chi` (driver multiplier *m*, slip :math:`\chi`) whatever the scrub; a
+  proportional loop instead droops under the scrub, a droop that a differential model with
+  yaw friction reproduces (the slip then hides in the friction, the v channel shows nothing);
 - **sensing**: command latency with jitter; odometry at ``odom_rate_hz`` with v from the wheel
   encoders (it sees the longitudinal slip) and w from a gyro (noise, bias).
 
@@ -162,11 +167,18 @@ def husky_like() -> SkidPlantParams:
     Published: track 0.555 m (the A200 user manual's "effective track" of its kinematics),
     wheel radius 0.165 m, mass ~50 kg, top speed 1.0 m/s; the ROS driver's limits
     (``husky_control/config/control.yaml``: 1.0 m/s, 2.0 rad/s, 3.0 m/s^2, 6.0 rad/s^2,
-    ``cmd_vel_timeout`` 0.25 s) and its ``wheel_separation_multiplier`` of 1.875. Assumed:
-    wheelbase 0.512 m, a box's yaw inertia, asphalt-like friction (mu 0.8), tyre stiffness,
-    motor and loop figures of a base that reaches its top speed in ~0.3 s. The speed loops are
-    proportional (``ki_nm_per_rad`` 0): this plant isolates the skid's slip; the integral
-    action of real drivers is what :mod:`sim2real.plants` checks.
+    ``cmd_vel_timeout`` 0.25 s) and its ``wheel_separation_multiplier`` of 1.875. The speed
+    loops: the A200 user manual (Clearpath 2011, p. 9, "Control modes") says speed control
+    "activates a PID feedback control loop" on the left and right wheel speeds, and the ROS
+    driver (``husky_base``: ``horizon_legacy`` ``SetDifferentialSpeed``, per-side speeds in
+    m/s) leaves the loop to the firmware, whose ``SetDifferentialControl`` message carries
+    per side a P, I and D gain, a feed-forward, a stiction compensation and an integral limit.
+    The gains are not published; assumed here: a PI loop with ``kp_nms_per_rad`` 20 (loop
+    time constant ~0.05 s with the side's inertia and half the mass) and ``ki_nm_per_rad`` 50
+    (integral time kp/ki = 0.4 s; a 0.5 m/s step overshoots ~7 %), no D term, the
+    feed-forward and stiction terms left out (with the integral term they change transients
+    only). Assumed as well: wheelbase 0.512 m, a box's yaw inertia, asphalt-like friction
+    (mu 0.8), tyre stiffness and a motor line of a base that reaches its top speed in ~0.3 s.
     """
     m, length, width = 50.0, 0.99, 0.67
     return SkidPlantParams(
@@ -189,7 +201,7 @@ def husky_like() -> SkidPlantParams:
         cmd_timeout_s=0.25,
         control_rate_hz=50.0,
         kp_nms_per_rad=20.0,
-        ki_nm_per_rad=0.0,
+        ki_nm_per_rad=50.0,
         stall_torque_nm=80.0,
         no_load_speed_radps=9.0,
         latency_s=0.05,
@@ -203,8 +215,11 @@ def husky_like() -> SkidPlantParams:
 
 #: Published effective-track ratios of four-wheel skid steers on hard ground: Clearpath's
 #: drivers ship ``wheel_separation_multiplier`` 1.5 for the Jackal and 1.875 for the Husky
-#: (``jackal_control`` / ``husky_control`` ``control.yaml``); Mandow et al. 2007 measured
-#: expansion factors of this size on a Pioneer 3-AT. :func:`skid_robot` draws from this range.
+#: (``jackal_control`` / ``husky_control`` ``config/control.yaml``, checked in the stored
+#: copies of jackal/jackal and husky/husky), calibrated on their own bases. Mandow et al. 2007
+#: (Pioneer 3-AT, IROS), Pentzer et al. 2014 (JFR) and Wang et al. 2015 (Sensors 15:9681, P3-AT)
+#: fit ICR-based kinematics with effective tracks above the geometric one; their tables were
+#: not at hand to narrow this range. :func:`skid_robot` draws from it.
 CHI_RANGE = (1.5, 1.9)
 #: Tyre-ground friction of rubber on dry concrete or asphalt (assumed range).
 MU_RANGE = (0.6, 0.95)
@@ -471,12 +486,13 @@ def make_skid_sessions(
     :math:`\\sigma` = ``ground_sd`` (default 5 %: the same floor on another day, an assumed
     figure; a different ground is a different ``params.mu``).
 
-    A fit on one session predicts another only as far as their grounds agree: the yaw scrub
-    the wheel loops fight grows with mu (and the fitted track factor with it). Fitted on
+    A fit on one session predicts another on a different ground nearly as well as on the
+    same: the slip is set by the tyre stiffnesses, and the yaw scrub, which grows with mu,
+    only loads the wheel loops, whose integral term takes it up. Fitted on
     :func:`husky_like` at mu 0.8, measured on a held-out teleop session at mu x (0.8, 0.9,
-    1.0, 1.2), four command seeds: agreement 0.81-0.91, 0.89-0.96, 0.90-0.97, 0.89-0.96
-    (a slipperier ground turns the base faster than the fit predicts;
-    ``benchmarks/bench_skid.py`` measures it).
+    1.0, 1.2), four command seeds: agreement 0.866-0.940, 0.872-0.946, 0.869-0.948,
+    0.845-0.937 (``benchmarks/bench_skid.py``; with proportional loops the scrub's droop made
+    a slipperier ground turn the base faster than the fit predicted: 0.81-0.91 at x 0.8).
     """
     from sim2real.plants import command_profile
 
