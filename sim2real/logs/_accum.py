@@ -3,9 +3,11 @@
 :func:`add_segment` is the sink of the streamed MCAP scan (:func:`sim2real.logs._mcap.stream_mcap`)
 and of the bag readers: for every segment (the messages of one chunk) it keeps each channel's
 log times, and for the channels a trace can be built from (Twist, TwistStamped, Odometry,
-JointState) it decodes the fixed-layout CDR/ROS 1 types at once into small arrays with the
-numpy bulk decoders; the chunk's bytes are then free to go. So memory follows the output,
-not the file. Payloads that need a generic decoder (JointState, big-endian CDR, JSON) are
+JointState) it decodes the fixed-layout CDR/ROS 1 types at once with the numpy bulk
+decoders and copies the fields into the channel's whole-log arrays (:class:`Columns`, sized
+from the message counts of the MCAP summary when it states them); the chunk's bytes are then
+free to go. So memory follows the output, not the file, with no join of many small arrays at
+the end. Payloads that need a generic decoder (JointState, big-endian CDR, JSON) are
 copied out compactly and decoded when the channel is asked for. A channel whose messages do
 not fit their layout records the error, raised only if that channel is read.
 """
@@ -15,11 +17,11 @@ from __future__ import annotations
 import numpy as np
 
 from sim2real.logs import _cdr
-from sim2real.logs._mcap import Buf, Container, Segment
+from sim2real.logs._mcap import Buf, Columns, Container, Segment
 from sim2real.logs._ros1 import BULK_ROS1
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED, normalize_type
 
-__all__ = ["BULK_CDR", "DRIVE_TYPES", "add_segment", "times_only", "with_yaw"]
+__all__ = ["BULK_CDR", "DRIVE_TYPES", "add_segment", "channel_times", "times_only", "with_yaw"]
 
 #: Message types a trace is built from; other channels only keep their log times.
 DRIVE_TYPES = (TWIST, TWIST_STAMPED, ODOMETRY, JOINT_STATE)
@@ -46,19 +48,24 @@ def _plan(container: Container, cid: int) -> str:
 
 
 def add_segment(container: Container, seg: Segment) -> None:
-    """Keep the log times of every message of ``seg`` and decode the wanted channels now."""
+    """Keep the log times of every message of ``seg`` and decode the wanted channels now.
+
+    The log times of a bulk-decoded channel are kept once, in its columns (``log_ns``); those
+    of the other channels in ``container.times``.
+    """
     ids = seg.channel_id
     if ids.size == 0:
         return
     uniq = np.flatnonzero(np.bincount(ids)).tolist()  # channel ids are u16
+    counts = container.counts
     for cid in uniq:
         mask = None if len(uniq) == 1 else ids == cid
         times = seg.log_time_ns if mask is None else seg.log_time_ns[mask]
-        earlier = container.times.setdefault(cid, [])
-        before = sum(t.size for t in earlier)
-        earlier.append(times)
+        before = counts.get(cid, 0)
+        counts[cid] = before + int(times.size)
         plan = container.plans.get(cid) or container.plans.setdefault(cid, _plan(container, cid))
         if plan == "skip" or cid in container.failed:
+            container.times.setdefault(cid, []).append(times)
             continue
         off = seg.payload_off if mask is None else seg.payload_off[mask]
         ln = seg.payload_len if mask is None else seg.payload_len[mask]
@@ -66,9 +73,31 @@ def add_segment(container: Container, seg: Segment) -> None:
         if part is not None:
             part = with_yaw(part)
             part["log_ns"] = times
-            container.parts.setdefault(cid, []).append(part)
-        elif cid not in container.failed:
+            _keep(container, cid, part, before)
+            continue
+        container.times.setdefault(cid, []).append(times)
+        if cid not in container.failed:
             container.parts.setdefault(cid, []).append(_compact(seg.buf, off, ln, times, cid))
+
+
+def channel_times(container: Container, cid: int) -> list[np.ndarray]:
+    """The log-time arrays of channel ``cid`` (unsorted pieces, in no particular order)."""
+    pieces = list(container.times.get(cid, []))
+    for item in container.parts.get(cid, []):
+        if isinstance(item, Columns):
+            pieces.append(item.log_times())
+    return pieces
+
+
+def _keep(container: Container, cid: int, part: dict[str, np.ndarray], before: int) -> None:
+    """Append a decoded part to the channel's current run of columns (or start a run sized
+    from the summary's count of the messages still to come)."""
+    items = container.parts.setdefault(cid, [])
+    last = items[-1] if items else None
+    if isinstance(last, Columns) and last.fits(part):
+        last.add(part)
+        return
+    items.append(Columns(part, container.expected.get(cid, 0) - before))
 
 
 def _bulk(
@@ -91,7 +120,9 @@ def _bulk(
             f"'{container.name}' does not fit the {type_name} layout (it {exc.reason}); the "
             "file is corrupt or its schema is wrong"
         )
-        container.parts.pop(cid, None)
+        for item in container.parts.pop(cid, []):  # its log times stay (counts, rates)
+            if isinstance(item, Columns):
+                container.times.setdefault(cid, []).append(item.log_times())
         return None
 
 

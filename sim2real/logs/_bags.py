@@ -60,6 +60,11 @@ class LogSource:
 
             with self.path.open("rb") as fh:
                 size = os.fstat(fh.fileno()).st_size
+                if not times_only:  # sizes the decoded arrays (memory follows the output)
+                    from sim2real.logs._summary import stated_counts
+
+                    container.expected = stated_counts(fh, size)
+                    fh.seek(0)
                 return stream_mcap(
                     fh, size, name=str(self.path), sink=add_segment, container=container
                 )

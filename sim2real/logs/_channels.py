@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim2real.errors import MissingTopicError
+from sim2real.logs._accum import channel_times
 from sim2real.logs._mcap import ChannelRecord, Container, SchemaRecord
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED, normalize_type
 
@@ -56,8 +57,9 @@ def channel_table(container: Container) -> list[Chan]:
     out = []
     for cid, rec in sorted(container.channels.items()):
         schema = container.schemas.get(rec.schema_id)
-        parts = container.times.get(cid, [])
-        t = np.sort(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+        parts = channel_times(container, cid)
+        t = np.concatenate(parts) if parts else np.zeros(0, np.int64)
+        t.sort()  # in place: one copy of the times, not two
         type_name = normalize_type(schema.name) if schema is not None else ""
         out.append(Chan(record=rec, schema=schema, type=type_name, log_time_ns=t))
     return out

@@ -21,7 +21,7 @@ from sim2real.errors import LogFormatError, LogValueError
 from sim2real.logs import _cdr
 from sim2real.logs._accum import BULK_CDR, with_yaw
 from sim2real.logs._channels import Chan
-from sim2real.logs._mcap import Container, Segment
+from sim2real.logs._mcap import Columns, Container, Segment
 from sim2real.logs._ros1 import BULK_ROS1
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED
 
@@ -51,8 +51,8 @@ def decode_channel(
     items = container.parts.pop(cid, []) if release else container.parts.get(cid, [])
     parts: list[dict[str, np.ndarray]] = []
     for item in items:
-        if isinstance(item, dict):
-            parts.append(item)
+        if isinstance(item, Columns):
+            parts.append(item.take())
             continue
         try:
             part = _decode_part(

@@ -45,6 +45,7 @@ from sim2real.logs._cdr import gather
 __all__ = [
     "MAGIC",
     "ChannelRecord",
+    "Columns",
     "Container",
     "SchemaRecord",
     "Segment",
@@ -103,6 +104,60 @@ class Segment:
         return np.frombuffer(self.buf, dtype=np.uint8)
 
 
+class Columns:
+    """The decoded fields of one channel's run of messages, written into whole arrays.
+
+    The arrays are allocated once at the size the log's summary states for the channel
+    (``capacity``), so the decoded chunks are copied straight into their final place instead
+    of being kept as many small arrays and joined at the end (which left the small arrays'
+    freed memory resident and doubled the peak). More messages than stated grow the arrays by
+    doubling; fewer are trimmed by :meth:`take`. The result is the same either way.
+    """
+
+    __slots__ = ("arrays", "fill")
+
+    def __init__(self, part: dict[str, np.ndarray], capacity: int) -> None:
+        size = max(capacity, _part_size(part))
+        self.arrays = {k: np.empty(size, dtype=v.dtype) for k, v in part.items()}
+        self.fill = 0
+        self.add(part)
+
+    def fits(self, part: dict[str, np.ndarray]) -> bool:
+        """True when ``part`` has this run's fields and dtypes (it can be appended)."""
+        return part.keys() == self.arrays.keys() and all(
+            part[k].dtype == a.dtype for k, a in self.arrays.items()
+        )
+
+    def add(self, part: dict[str, np.ndarray]) -> None:
+        """Append ``part`` (same fields as the first part) after the messages so far."""
+        n = _part_size(part)
+        end = self.fill + n
+        size = next(iter(self.arrays.values())).size
+        if end > size:
+            grown = max(2 * size, end)
+            for k, a in self.arrays.items():
+                new = np.empty(grown, dtype=a.dtype)
+                new[: self.fill] = a[: self.fill]
+                self.arrays[k] = new
+        for k, a in self.arrays.items():
+            a[self.fill : end] = part[k]
+        self.fill = end
+
+    def log_times(self) -> np.ndarray:
+        """The ``log_ns`` field of the messages added so far (a view)."""
+        return self.arrays["log_ns"][: self.fill]
+
+    def take(self) -> dict[str, np.ndarray]:
+        """The fields of the messages added so far (the arrays themselves when they are full)."""
+        if all(a.size == self.fill for a in self.arrays.values()):
+            return dict(self.arrays)
+        return {k: a[: self.fill].copy() for k, a in self.arrays.items()}
+
+
+def _part_size(part: dict[str, np.ndarray]) -> int:
+    return int(next(iter(part.values())).size)
+
+
 @dataclass
 class Container:
     """What a scan of an MCAP file found."""
@@ -119,10 +174,15 @@ class Container:
     format: str = "mcap"
     #: Message records found (with or without kept segments).
     count: int = 0
-    #: Per channel id: its log-time arrays, one per segment (filled by a sink).
+    #: Per channel id: its log-time arrays, one per segment (filled by a sink), except those
+    #: kept in the channel's :class:`Columns` (see ``sim2real.logs._accum.channel_times``).
     times: dict[int, list[np.ndarray]] = field(default_factory=dict)
-    #: Per channel id: its decoded parts (dicts of arrays) or kept payload segments, in order.
-    parts: dict[int, list[dict[str, np.ndarray] | Segment]] = field(default_factory=dict)
+    #: Per channel id: messages handed to the sink so far.
+    counts: dict[int, int] = field(default_factory=dict)
+    #: Per channel id: its decoded runs (:class:`Columns`) or kept payload segments, in order.
+    parts: dict[int, list[Columns | Segment]] = field(default_factory=dict)
+    #: Per channel id: its message count as the summary states it (sizes :class:`Columns`).
+    expected: dict[int, int] = field(default_factory=dict)
     #: Per channel id: why its messages cannot be decoded (raised when it is asked for).
     failed: dict[int, str] = field(default_factory=dict)
     #: Schema and Channel records already taken in, byte for byte (repeated in each chunk).

@@ -25,6 +25,8 @@ frame) is never used. The choice is stated in one sentence in ``Trace.meta.warni
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from sim2real.errors import Sim2RealValueError
@@ -132,7 +134,8 @@ def pose_derivative(
 
 def _window_s(t_ns: np.ndarray) -> float:
     """``clip(5 x median period, 0.3 s, 1.0 s)`` of sorted times in ns."""
-    period = float(np.median(np.diff(t_ns))) / 1e9 if t_ns.size > 1 else 0.1
+    # the differences are scratch: the median may reorder them instead of copying them
+    period = float(np.median(np.diff(t_ns), overwrite_input=True)) / 1e9 if t_ns.size > 1 else 0.1
     return float(np.clip(5.0 * period, 0.3, 1.0))
 
 
@@ -145,6 +148,13 @@ def _share(v: np.ndarray, lim_v: float, w: np.ndarray, lim_w: float) -> float:
     return hits / max(v.size, 1)
 
 
+def _moving_blocks(pv: np.ndarray, moving: float) -> Iterator[tuple[slice, np.ndarray]]:
+    """Each block of the log (a slice) with its mask of the samples where ``|pv| > moving``."""
+    for a in range(0, pv.size, BLOCK):
+        sl = slice(a, a + BLOCK)
+        yield sl, np.abs(pv[sl]) > moving
+
+
 def _verdict(
     twist: tuple[np.ndarray, np.ndarray], pose: tuple[np.ndarray, np.ndarray]
 ) -> tuple[str, str, float]:
@@ -154,28 +164,29 @@ def _verdict(
         ("v", twist[0], pose[0], _MOVING_V),
         ("w", twist[1], pose[1], _MOVING_W),
     ):
-        sel = np.abs(pv) > moving
-        count = np.count_nonzero(sel)
+        count = sum(int(np.count_nonzero(s)) for _, s in _moving_blocks(pv, moving))
         if count < _MIN_MOVING:
             continue
-        # at most two arrays of the moving samples at a time (in-place arithmetic)
-        speed = np.abs(pv[sel])
-        gap = tw[sel]
-        zero = (
-            sum(
-                int(np.count_nonzero(np.abs(gap[i : i + BLOCK]) < 0.1 * speed[i : i + BLOCK]))
-                for i in range(0, count, BLOCK)
-            )
-            / count
-        )
+        # block by block over the log: one array of the moving samples at a time
+        gap, k, hits = np.empty(count), 0, 0
+        for sl, s in _moving_blocks(pv, moving):
+            g, p = tw[sl][s], pv[sl][s]
+            hits += int(np.count_nonzero(np.abs(g) < 0.1 * np.abs(p)))
+            np.subtract(g, p, out=gap[k : k + g.size])
+            k += g.size
+        zero = hits / count
         if zero > 0.5:
             return "zero", ch, zero
-        gap -= pv[sel]
         np.abs(gap, out=gap)
-        # both are scratch now: the medians may reorder them instead of copying them
-        ratios[ch] = float(
-            np.median(gap, overwrite_input=True) / np.median(speed, overwrite_input=True)
-        )
+        # scratch arrays: the medians may reorder them instead of copying them
+        med_gap = np.median(gap, overwrite_input=True)
+        del gap
+        speed, k = np.empty(count), 0
+        for sl, s in _moving_blocks(pv, moving):
+            p = pv[sl][s]
+            np.abs(p, out=speed[k : k + p.size])
+            k += p.size
+        ratios[ch] = float(med_gap / np.median(speed, overwrite_input=True))
     # stamp jitter spoils v and w alike; one channel alone differing is another sensor (a gyro)
     if ratios and min(ratios.values()) > SPIKY_RATIO:
         return "spiky", " and ".join(ratios), min(ratios.values())

@@ -181,7 +181,8 @@ def read_trace(
     # from here on only the decoded arrays are needed: let the channel table and the log
     # times of every channel go (memory follows the output)
     name, digest = log.name, log.digest
-    cmd, meas = (replace(c, log_time_ns=c.log_time_ns[:0]) for c in (cmd, meas))
+    # (a new empty array: a [:0] slice would keep the whole sorted times alive as its base)
+    cmd, meas = (replace(c, log_time_ns=np.zeros(0, np.int64)) for c in (cmd, meas))
     del log
     time_note = ""
     source = time_source
@@ -260,7 +261,8 @@ def _times(
 
 
 def _check_clocks(raw: dict[str, np.ndarray], cmd: Chan, meas: Chan, warnings: list[str]) -> None:
-    gap_s = float(np.median(raw["log_ns"] - raw["stamp_ns"])) / 1e9
+    diff = raw["log_ns"] - raw["stamp_ns"]
+    gap_s = float(np.median(diff, overwrite_input=True)) / 1e9  # scratch: no second copy
     if abs(gap_s) > _CLOCK_GAP_S:
         warnings.append(
             f"header stamps are {gap_s:+.3f} s (median) away from log times, so they come "
@@ -277,7 +279,9 @@ def _offset_s(raw: dict[str, np.ndarray]) -> float | None:
     ok = stamps > 0
     if not np.any(ok):
         return None
-    return float(np.median(raw["log_ns"][ok] - stamps[ok])) / 1e9
+    diff = raw["log_ns"][ok]
+    diff -= stamps[ok]
+    return float(np.median(diff, overwrite_input=True)) / 1e9  # scratch: no second copy
 
 
 def _auto_source(

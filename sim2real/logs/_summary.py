@@ -43,7 +43,7 @@ from sim2real.logs._mcap import (
     _schema,
 )
 
-__all__ = ["SummaryView", "read_summary"]
+__all__ = ["SummaryView", "read_summary", "stated_counts"]
 
 _FOOTER_BYTES = 9 + 20  # opcode, length, summary_start u64, summary_offset_start u64, crc u32
 _HEADER, _FOOTER, _SCHEMA, _CHANNEL = 0x01, 0x02, 0x03, 0x04
@@ -137,6 +137,46 @@ def _read(fh: BinaryIO, size: int) -> SummaryView | None:
         c = _Cursor(fh.read(length), 0, length)
         out.profile, out.library = c.string(), c.string()
     return out
+
+
+#: Summary sections larger than this are not read just for their message counts.
+_COUNTS_MAX_BYTES = 1 << 24
+
+
+def stated_counts(fh: BinaryIO, size: int) -> dict[int, int]:
+    """Per channel id, the message count the summary's ``Statistics`` record states.
+
+    A hint for sizing the decoded arrays, never trusted for results: ``{}`` when the file has
+    no footer, no summary or no Statistics record, or they do not parse; each count is capped
+    at ``size // 16`` (a message costs at least its 16-byte MessageIndex entry in a file whose
+    counts can be believed), so a false count cannot reserve more than a few times the file.
+    """
+    try:
+        tail_at = size - len(MAGIC) - _FOOTER_BYTES
+        if tail_at < len(MAGIC) + 9:
+            return {}
+        fh.seek(tail_at)
+        tail = fh.read(_FOOTER_BYTES)
+        op, length, start = struct.unpack_from("<BQQ", tail, 0)
+        if op != _FOOTER or length != 20 or not len(MAGIC) <= start <= tail_at:
+            return {}
+        if start == 0 or tail_at - start > _COUNTS_MAX_BYTES:
+            return {}
+        fh.seek(start)
+        data = fh.read(tail_at - start)
+        pos = 0
+        while pos + 9 <= len(data):
+            op, length = _OP_LEN.unpack_from(data, pos)
+            end = pos + 9 + length
+            if end > len(data):
+                return {}
+            if op == _STATISTICS:
+                counts = _statistics(data, pos + 9, end).per_channel
+                return {k: min(v, size // 16) for k, v in counts.items()}
+            pos = end
+    except (_Corrupt, OSError, struct.error):
+        return {}
+    return {}
 
 
 def _summary_records(data: bytes, out: SummaryView, chunks: list[_ChunkIndex]) -> _Stats | None:

@@ -61,8 +61,12 @@ def gap_threshold_ns(t_ns: IntArray) -> int:
     The median of the positive steps is robust to a few outliers and to bursts.
     """
     steps = np.diff(np.asarray(t_ns, dtype=np.int64))
-    steps = steps[steps > 0]
-    median = float(np.median(steps)) if steps.size else 0.0
+    positive = steps > 0
+    if not positive.all():
+        steps = steps[positive]
+    del positive
+    # the steps are scratch: the median may reorder them instead of copying them
+    median = float(np.median(steps, overwrite_input=True)) if steps.size else 0.0
     return int(max(GAP_MIN_S * _NS, GAP_FACTOR * median))
 
 
