@@ -102,13 +102,13 @@ _HEADER_ROW = np.dtype([("sec", "<i4"), ("nanosec", "<u4"), ("frame_len", "<u4")
 _TWIST_ROW = np.dtype(
     {"names": ["v", "w"], "formats": ["<f8", "<f8"], "offsets": [0, 40], "itemsize": 48}
 )
-#: ``nav_msgs/Odometry`` from ``pose.pose``: position, orientation, covariance, then twist.
-_ODOM_ROW = np.dtype(
+#: ``nav_msgs/Odometry`` ``pose.pose``: position (x, y, z), orientation (x, y, z, w).
+_POSE_ROW = np.dtype(
     {
-        "names": ["x", "y", "qx", "qy", "qz", "qw", "v", "w"],
-        "formats": ["<f8"] * 8,
-        "offsets": [0, 8, 24, 32, 40, 48, _POSE_COV_BYTES, _POSE_COV_BYTES + 40],
-        "itemsize": _POSE_COV_BYTES + _TWIST_BYTES,
+        "names": ["x", "y", "qx", "qy", "qz", "qw"],
+        "formats": ["<f8"] * 6,
+        "offsets": [0, 8, 24, 32, 40, 48],
+        "itemsize": 56,
     }
 )
 
@@ -178,9 +178,13 @@ def decode_odometry(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dict[str
     _need(
         pose + _POSE_COV_BYTES + _TWIST_COV_BYTES <= size, "is cut short inside its pose or twist"
     )
-    row = rows(u8, body + pose, _ODOM_ROW)
-    out = {"stamp_ns": stamp}
-    for key in ("v", "w", "x", "y", "qx", "qy", "qz", "qw"):
+    # two narrow rows (pose, then twist past the pose covariance): the covariances are
+    # never copied
+    at = body + pose
+    row = rows(u8, at, _POSE_ROW)
+    twist = rows(u8, at + _POSE_COV_BYTES, _TWIST_ROW)
+    out = {"stamp_ns": stamp, "v": _f64(twist["v"]), "w": _f64(twist["w"])}
+    for key in ("x", "y", "qx", "qy", "qz", "qw"):
         out[key] = _f64(row[key])
     return out
 

@@ -46,11 +46,15 @@ _MIN_MOVING = 20  # samples where the pose moves, per channel, before a verdict
 BLOCK = 1 << 13
 
 
-def _local_slope(t: np.ndarray, y: np.ndarray, half: float, qa: int, qb: int) -> np.ndarray:
-    """Least-squares slope of y(t) over the samples within +-half of each of ``t[qa:qb]``.
+def _local_slopes(
+    t: np.ndarray, ys: tuple[np.ndarray, ...], half: float, qa: int, qb: int
+) -> list[np.ndarray]:
+    """Least-squares slope of each y(t) of ``ys`` over the samples within +-half of each of
+    ``t[qa:qb]``.
 
-    ``t``/``y`` must hold every sample within +-half of the queried ones (a block and its
-    halo); the sums run over the block only, centred on its mean time.
+    ``t`` and each y must hold every sample within +-half of the queried ones (a block and its
+    halo); the sums run over the block only, centred on its mean time. The windows and the
+    sums of the times are shared by every y.
     """
     tq = t[qa:qb]
     lo = np.searchsorted(t, tq - half, "left")
@@ -63,14 +67,19 @@ def _local_slope(t: np.ndarray, y: np.ndarray, half: float, qa: int, qb: int) ->
         return out
 
     tc = t - t.mean()
-    st, sy, stt, sty = (csum(a) for a in (tc, y, tc * tc, tc * y))
+    st, stt = csum(tc), csum(tc * tc)
     n = (hi - lo).astype(np.float64)
-    s_t, s_y = st[hi] - st[lo], sy[hi] - sy[lo]
+    s_t = st[hi] - st[lo]
     den = n * (stt[hi] - stt[lo]) - s_t * s_t
-    num = n * (sty[hi] - sty[lo]) - s_t * s_y
     # a window of one sample has no slope (its den is 0 only up to the sums' rounding)
     ok = (n >= 2) & (den > 1e-12 * n * n)
-    return np.where(ok, num / np.where(ok, den, 1.0), 0.0)
+    safe = np.where(ok, den, 1.0)
+    out = []
+    for y in ys:
+        sy, sty = csum(y), csum(tc * y)
+        num = n * (sty[hi] - sty[lo]) - s_t * (sy[hi] - sy[lo])
+        out.append(np.where(ok, num / safe, 0.0))
+    return out
 
 
 def _derivative(
@@ -99,10 +108,9 @@ def _derivative(
         lo = max(int(np.searchsorted(t, t[a] - reach, "left")) - 1, 0)
         hi = min(int(np.searchsorted(t, t[b - 1] + reach, "right")) + 1, n)
         ts = (t[lo:hi] - origin).astype(np.float64) / scale
-        vx = _local_slope(ts, x[lo:hi], half, a - lo, b - lo)
-        vy = _local_slope(ts, y[lo:hi], half, a - lo, b - lo)
         # unwrapping a block differs from unwrapping the log by a multiple of 2 pi: same slope
-        w[a:b] = _local_slope(ts, np.unwrap(yaw[lo:hi]), half, a - lo, b - lo)
+        ys = (x[lo:hi], y[lo:hi], np.unwrap(yaw[lo:hi]))
+        vx, vy, w[a:b] = _local_slopes(ts, ys, half, a - lo, b - lo)
         heading = yaw[a:b]
         v[a:b] = vx * np.cos(heading) + vy * np.sin(heading)
     return v, w
