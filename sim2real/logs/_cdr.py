@@ -83,13 +83,20 @@ def rows(u8: np.ndarray, offsets: np.ndarray, dtype: np.dtype) -> np.ndarray:
     size = dtype.itemsize
     if offsets.size == 0 or u8.size < size:
         return np.zeros(0, dtype=dtype)
-    window = np.lib.stride_tricks.as_strided(
-        u8,
-        shape=(u8.size - size + 1, size),
-        strides=(u8.strides[0], u8.strides[0]),
-        writeable=False,
+    return window(u8, size)[offsets].view(dtype).reshape(-1)
+
+
+def window(u8: np.ndarray, size: int) -> np.ndarray:
+    """Read-only sliding window of ``size`` bytes over ``u8``: row ``i`` is ``u8[i:i + size]``
+    (``u8.size >= size``; no copy)."""
+    if u8.flags.c_contiguous:  # the common case, without as_strided's overhead
+        out = np.ndarray((u8.size - size + 1, size), dtype=np.uint8, buffer=u8, strides=(1, 1))
+        out.flags.writeable = False
+        return out
+    step = u8.strides[0]
+    return np.lib.stride_tricks.as_strided(
+        u8, shape=(u8.size - size + 1, size), strides=(step, step), writeable=False
     )
-    return window[offsets].view(dtype).reshape(-1)
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
@@ -114,7 +121,7 @@ _POSE_ROW = np.dtype(
 
 
 def _need(ok: np.ndarray, reason: str) -> None:
-    if not bool(np.all(ok)):
+    if not bool(ok.all()):
         raise CdrLayoutError(int(np.argmin(ok)), reason)
 
 
@@ -127,7 +134,7 @@ def is_little_endian(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> bool:
     _need(ln >= 4, "is shorter than the 4-byte CDR header")
     if off.size == 0:
         return True
-    return bool(np.all((u8[off] == 0) & (u8[off + 1] == 1)))
+    return bool(((u8[off] == 0) & (u8[off + 1] == 1)).all())
 
 
 def stamp_ns(sec: np.ndarray, nanosec: np.ndarray) -> np.ndarray:
@@ -212,7 +219,7 @@ def _f64_cols(*cols: np.ndarray) -> np.ndarray:
 def _stamp_cols(t_ns: np.ndarray) -> np.ndarray:
     t = np.asarray(t_ns, dtype=np.int64)
     sec, nsec = np.divmod(t, _NS)
-    if np.any(sec < -(2**31)) or np.any(sec >= 2**31):
+    if (sec < -(2**31)).any() or (sec >= 2**31).any():
         raise OverflowError("a stamp does not fit builtin_interfaces/Time (int32 seconds)")
     out = np.empty((t.size, 8), dtype=np.uint8)
     out[:, :4] = sec.astype("<i4").view(np.uint8).reshape(-1, 4)

@@ -40,7 +40,7 @@ from typing import BinaryIO
 import numpy as np
 
 from sim2real.errors import LogFormatError
-from sim2real.logs._cdr import gather
+from sim2real.logs._cdr import gather, window
 
 __all__ = [
     "MAGIC",
@@ -291,7 +291,7 @@ def _segment(buf: Buf, starts: list[int]) -> Segment:
     u8 = np.frombuffer(buf, dtype=np.uint8)
     pos = np.asarray(starts, dtype=np.int64)
     length = gather(u8, pos + 1, "<u8").astype(np.int64)
-    if np.any(length < _MESSAGE_FIXED):
+    if (length < _MESSAGE_FIXED).any():
         raise _Corrupt("a message record is shorter than its fixed fields")
     body = pos + 9
     return Segment(
@@ -360,11 +360,11 @@ def _scan_chunk_indexed(
     starts = rel.astype(np.int64) + lo
     rows = _fixed_fields(buf, starts)
     length = rows["length"]
-    if not (np.all(rows["op"] == _MESSAGE) and np.all(length <= n)):
+    if not ((rows["op"] == _MESSAGE).all() and (length <= n).all()):
         return False
     gap_lo = np.concatenate(([lo], starts + 9 + length.astype(np.int64)))
     gap_hi = np.concatenate((starts, [hi]))
-    if np.any(gap_lo > gap_hi):
+    if (gap_lo > gap_hi).any():
         return False  # overlapping or duplicate entries, or a record past the chunk end
     gaps = gap_lo < gap_hi
     meta: list[tuple[int, int]] = []
@@ -374,7 +374,7 @@ def _scan_chunk_indexed(
     for op, pos in meta:
         _chunk_meta(buf, op, pos, hi, out)
     length = length.astype(np.int64)
-    if np.any(length < _MESSAGE_FIXED):
+    if (length < _MESSAGE_FIXED).any():
         raise _Corrupt("a message record is shorter than its fixed fields")  # as _segment
     out.segments.append(
         Segment(
@@ -407,10 +407,7 @@ def _fixed_fields(buf: Buf, starts: np.ndarray) -> np.ndarray:
     """
     u8 = np.frombuffer(buf, dtype=np.uint8)
     size = _FIXED_HEAD.itemsize
-    window = np.lib.stride_tricks.as_strided(
-        u8, shape=(u8.size - size + 1, size), strides=(1, 1), writeable=False
-    )
-    return window[starts].view(_FIXED_HEAD).reshape(-1)
+    return window(u8, size)[starts].view(_FIXED_HEAD).reshape(-1)
 
 
 def _walk_gap(buf: Buf, pos: int, end: int, meta: list[tuple[int, int]]) -> bool:

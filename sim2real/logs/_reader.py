@@ -251,7 +251,7 @@ def _times(
     if time_source == "log" or "stamp_ns" not in raw:
         return raw["log_ns"], "log"
     stamps = raw["stamp_ns"]
-    if np.any(stamps <= 0):
+    if (stamps <= 0).any():
         warnings.append(
             f"topic '{topic}' has {int(np.sum(stamps <= 0))} header stamps that are zero or "
             "negative (publisher did not stamp), so its log times are used instead"
@@ -277,7 +277,7 @@ def _offset_s(raw: dict[str, np.ndarray]) -> float | None:
         return None
     stamps = raw["stamp_ns"]
     ok = stamps > 0
-    if not np.any(ok):
+    if not ok.any():
         return None
     diff = raw["log_ns"][ok]
     diff -= stamps[ok]
@@ -325,7 +325,7 @@ def _drop_far_commands(
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Drop commands too far from every measurement segment to act on it (with a note)."""
     keep = drop_far_commands(t, meas_t)
-    if np.all(keep):
+    if keep.all():
         return t, cols
     bad = int(keep.size - np.count_nonzero(keep))
     warnings.append(
@@ -372,7 +372,7 @@ def _clean(
     finite = np.ones(n, dtype=bool)
     for values in cols.values():
         finite &= np.isfinite(values)
-    if not np.all(finite):
+    if not finite.all():
         bad = int(n - np.count_nonzero(finite))
         if bad == n:
             raise LogValueError(
@@ -384,7 +384,7 @@ def _clean(
         t = t[finite]
         cols = {k: v[finite] for k, v in cols.items()}
     steps = np.diff(t)
-    if np.any(steps < 0):
+    if (steps < 0).any():
         warnings.append(
             f"topic '{topic}' has {int(np.sum(steps < 0))} time steps that go backwards; "
             "samples were sorted by time"
@@ -394,7 +394,7 @@ def _clean(
         cols = {k: v[order] for k, v in cols.items()}
         steps = np.diff(t)
     dup = steps == 0
-    if np.any(dup):
+    if dup.any():
         keep = np.append(~dup, True)  # the last sample of each run of equal stamps
         warnings.append(
             f"topic '{topic}' has {int(np.sum(dup))} duplicate timestamps; kept the last "

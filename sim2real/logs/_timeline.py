@@ -141,7 +141,7 @@ def drop_outliers(
 ) -> tuple[IntArray, dict[str, np.ndarray]]:
     """Drop far stamp outliers of sorted times (see :func:`drop_isolated`), with a note."""
     keep = drop_isolated(t)
-    if np.all(keep):
+    if keep.all():
         return t, cols
     bad = int(keep.size - np.count_nonzero(keep))
     gap_s = gap_threshold_ns(t[keep]) / _NS
