@@ -284,7 +284,11 @@ def _timeline(
 
     def times(topic: str | None) -> np.ndarray:
         found = [c.log_time_ns for c in chans if c.topic == topic and c.count]
-        return np.sort(np.concatenate(found)).astype(np.int64) if found else np.zeros(0, np.int64)
+        return (
+            np.sort(np.concatenate(found), kind="stable").astype(np.int64)
+            if found
+            else np.zeros(0, np.int64)
+        )
 
     t_meas, t_cmd = times(meas), times(cmd)
     if t_meas.size == 0:

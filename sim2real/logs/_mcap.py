@@ -354,7 +354,8 @@ def _scan_chunk_indexed(
     False is returned.
     """
     n = hi - lo
-    rel = np.sort(np.concatenate(offsets))
+    rel = np.concatenate(offsets)
+    rel.sort(kind="stable")  # timsort merges the sorted per-channel runs in linear time
     if rel.size == 0 or n < 9 + _MESSAGE_FIXED or int(rel[-1]) > n - 9 - _MESSAGE_FIXED:
         return False  # (also rejects offsets that would overflow int64 below)
     starts = rel.astype(np.int64) + lo

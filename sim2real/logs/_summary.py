@@ -260,7 +260,9 @@ def _index_times(fh: BinaryIO, chunks: list[_ChunkIndex], out: SummaryView, stat
         if rec.message_encoding == "json" and (schema is None or not schema.name):
             return False  # its type is guessed from a payload
         ps = parts.get(cid, [])
-        out.log_times[cid] = np.sort(np.concatenate(ps)) if ps else np.zeros(0, np.int64)
+        out.log_times[cid] = (
+            np.sort(np.concatenate(ps), kind="stable") if ps else np.zeros(0, np.int64)
+        )
     return True
 
 
