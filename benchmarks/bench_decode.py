@@ -26,28 +26,31 @@ process with the same repeat count (``_timing.alternate``):
    the bound 2 x (output arrays + largest chunk), where the largest chunk counts its
    compressed record and its decompressed records (both are held while it is decoded).
 
-Measured (2026-11-26, full run, load ~2 on 2 cores; paired-ratio medians; targets of issue 16:
->= 20x in process and >= 2x whole process on the real logs, peak <= 2 x (output + chunk)):
+Measured (2026-11-26, full run, load ~2.5 on 2 cores; paired-ratio medians, wall (CPU); targets
+of issue 16: >= 20x in process and >= 2x whole process on the real logs, peak <= 2 x (output +
+chunk)):
 
-==========================  ===============  ======================  ==============================
-log                         in process       whole process (warm)    best whole-process possible
-==========================  ===============  ======================  ==============================
-generated 50k odom+20k cmd  49.5x (52 ms)    16.6x (0.165 s)         25x (mcap-ros2 / floor)
-tb3wp_drexel_goal (1192)    17.9x (3.2 ms)   1.4x (0.119 s)          1.8x
-neato_olin2018_teleop (727) 9.8x (4.0 ms)    1.3x (0.114 s)          1.7x
-==========================  ===============  ======================  ==============================
+===========================  =====================  ========================  =====================
+log                          in process             whole process (warm)      best possible (floor)
+===========================  =====================  ========================  =====================
+generated 50k odom+20k cmd   56.0x (55.1x), 47 ms   12.1x (13.1x)             22x (21x)
+tb3wp_drexel_goal (1192)     19.0x (18.6x), 3.0 ms  1.3x (1.2x), CPU 0.167 s  1.5x (1.5x)
+neato_olin2018_teleop (727)  13.3x (11.0x), 3.8 ms  1.2x (1.2x), CPU 0.167 s  1.4x (1.4x)
+===========================  =====================  ========================  =====================
 
-The floor (``python -c "import numpy"``) is 0.086-0.092 s and mcap-ros2 takes only 1.7-1.8x
-it on the real logs, so >= 2x whole process cannot be reached there by any reader. In process
-our read is bound by touching every message record of the file (the MessageIndex path checks
-that the indexed records tile each chunk, so the result equals a full walk): neato is 5150
-records of 16 channels in 3.6 MB, of which 727 are read; timed right after mcap-ros2 (which
-evicts the caches) a read costs ~1 ms more than back to back. Peak memory of the generated
-38.6 MiB zstd log (output 22.0 MiB, bound 46.6 MiB): ours 40.9 MiB VmHWM growth (tracemalloc
-36.2 MiB; before the arrays were sized from the summary's counts: 74.5 / 44.3 MiB), mcap-ros2
-757.6 MiB (tracemalloc 204.2 MiB). Whole-process runs drop ``PYTHONDONTWRITEBYTECODE``, so
-"warm" means cached bytecode as for an installed package (with it set, every run compiled our
-sources: 17 modules, ~26 ms more; measured 1.1-1.2x that way).
+Run to run (five runs that day) the real logs gave 17.9-21.3x (drexel) and 9.8-11.7x (neato)
+in process. The floor (``python -c "import numpy"``) took 0.14 s of CPU and mcap-ros2 only
+1.4-1.8x that on the real logs, so >= 2x whole process cannot be reached there by any reader;
+ours is 27-29 ms of CPU above the floor. In process our read is bound by touching every
+message record of the file (the MessageIndex path checks that the indexed records tile each
+chunk, so the result equals a full walk): neato is 5150 records of 16 channels in 3.6 MB, of
+which 727 are read; timed right after mcap-ros2 (which evicts the caches) a read costs ~1 ms
+more than back to back (neato 2.6 ms, drexel 1.8 ms). Peak memory of the generated 38.6 MiB
+zstd log (output 22.0 MiB, bound 46.6 MiB): ours 40.9 MiB VmHWM growth (tracemalloc 36.2 MiB;
+before the arrays were sized from the summary's counts: 74.5 / 44.3 MiB), mcap-ros2 757.6 MiB
+(tracemalloc 204.2 MiB). Whole-process runs drop ``PYTHONDONTWRITEBYTECODE``, so "warm" means
+cached bytecode as for an installed package (with it set, every run compiled our sources: 17
+modules, ~26 ms more; measured 1.1-1.2x that way).
 """
 
 from __future__ import annotations
