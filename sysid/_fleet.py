@@ -63,22 +63,19 @@ def new_session_factor(
 ) -> float:
     r"""Variance factor on the between-session covariance :math:`T` for a *new* session.
 
-        :math:`T` is estimated from ``n_sessions`` sessions plus ``prior_sessions`` pseudo-sessions
-        of the spec's default spread (the inverse-Wishart-like prior of :func:`population`), one
-        degree of freedom going to the mean: :math:`
-    u = n - 1 + n_0`. With :math:`T` known only
-        to that many degrees of freedom the predictive of a new session's deviation is a Student-t
-        with :math:`
-    u` degrees of freedom (Gelman et al., *Bayesian Data Analysis*, 3rd ed.,
-        sec. 3.6), heavier-tailed than the Gaussian the ``randomization`` block stores; the factor
-        :math:`(t_{
-    u,q}/z_q)^2`, :math:`q = (1 + 	ext{level})/2`, gives the Gaussian the same
-        central ``level`` interval. It falls toward 1 as sessions accumulate.
+    :math:`T` is estimated from ``n_sessions`` sessions plus ``prior_sessions`` pseudo-sessions
+    of the spec's default spread (the inverse-Wishart-like prior of :func:`population`), one
+    degree of freedom going to the mean: :math:`\nu = n - 1 + n_0`. With :math:`T` known only
+    to that many degrees of freedom the predictive of a new session's deviation is a Student-t
+    with :math:`\nu` degrees of freedom (Gelman et al., *Bayesian Data Analysis*, 3rd ed.,
+    sec. 3.6), heavier-tailed than the Gaussian the ``randomization`` block stores; the factor
+    :math:`(t_{\nu,q}/z_q)^2`, :math:`q = (1 + \text{level})/2`, gives the Gaussian the same
+    central ``level`` interval. It falls toward 1 as sessions accumulate.
 
-        Examples
-        --------
-        >>> round(new_session_factor(1), 2), round(new_session_factor(5), 2)
-        (2.05, 1.33)
+    Examples
+    --------
+    >>> round(new_session_factor(1), 2), round(new_session_factor(5), 2)
+    (2.05, 1.33)
     """
     from scipy.special import ndtri, stdtrit
 
