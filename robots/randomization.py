@@ -61,6 +61,8 @@ __all__ = [
     "TRUNCATE_SIGMA",
     "DriveDistribution",
     "ObservationNoise",
+    "cap_spread",
+    "spread_limit",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -73,6 +75,52 @@ TRUNCATE_SIGMA = 4.0
 #: Largest odometry noise accepted from a file (m/s, rad/s): beyond it the "noise" is the
 #: signal, and the file is wrong.
 _MAX_NOISE = {"v": 1.0, "w": 5.0}
+
+
+def spread_limit(name: str, geometry: BaseGeometry) -> float:
+    """Largest standard deviation of field ``name`` that a ``randomization`` block accepts, in
+    its schema coordinate: ``absurd_sd`` (times the prior sd for a ``lin`` coordinate).
+
+    Examples
+    --------
+    >>> from robots.params import BaseGeometry
+    >>> geo = BaseGeometry(wheel_radius_m=0.033, wheel_separation_m=0.16, mass_kg=1.0,
+    ...                    yaw_inertia_kgm2=0.01)
+    >>> spread_limit("accel_lim_v_mps2", geo)  # a log coordinate: a factor e**3
+    3.0
+    """
+    field = SCHEMA[name]
+    limit = field.absurd_sd
+    if field.coord == "lin":
+        limit *= max(field.prior_sd(geometry), 1e-12)
+    return float(limit)
+
+
+def cap_spread(
+    cov: FloatArray, names: Sequence[str], geometry: BaseGeometry, *, share: float = 0.99
+) -> FloatArray:
+    """``cov`` with every field's sd held at or below ``share`` x :func:`spread_limit`
+    (correlations kept: rows and columns are scaled together, so the result stays PSD).
+
+    A field the logs barely inform (an acceleration limit that almost never acted) can come
+    out of a fit or a calibration with a posterior wider than any robot of its kind; it is
+    capped rather than refused.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from robots.params import BaseGeometry
+    >>> geo = BaseGeometry(wheel_radius_m=0.033, wheel_separation_m=0.16, mass_kg=1.0,
+    ...                    yaw_inertia_kgm2=0.01)
+    >>> capped = cap_spread(np.diag([25.0, 0.04]), ["accel_lim_v_mps2", "delay_s"], geo)
+    >>> np.round(np.sqrt(np.diag(capped)), 3).tolist()
+    [2.97, 0.2]
+    """
+    limit = np.array([share * spread_limit(n, geometry) for n in names])
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    shrink = np.minimum(1.0, limit / np.maximum(sd, 1e-300))
+    out: FloatArray = np.asarray(cov, dtype=np.float64) * np.outer(shrink, shrink)
+    return out
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -453,9 +501,7 @@ def _validate(dist: _Parts, source: str) -> None:
         raise _fail(source, "covariance", f"must be a {k} x {k} matrix", dist.covariance, refit)
     for i, name in enumerate(dist.names):
         var = float(cov[i, i])
-        limit = SCHEMA[name].absurd_sd
-        if SCHEMA[name].coord == "lin":
-            limit *= max(SCHEMA[name].prior_sd(dist.geometry), 1e-12)
+        limit = spread_limit(name, dist.geometry)
         if not (math.isfinite(var) and var >= 0):
             raise _fail(
                 source,

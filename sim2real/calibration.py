@@ -373,17 +373,9 @@ def calibrate_traces(
 def _capped(cov: FloatArray, distribution: Any) -> FloatArray:
     """``cov`` with each field's sd kept below the schema's absurd-spread limit (correlations
     kept): a field the logs do not inform cannot be widened without bound."""
-    from robots.params import SCHEMA
+    from robots.randomization import cap_spread
 
-    limit = []
-    for name in distribution.names:
-        field = SCHEMA[name]
-        scale = max(field.prior_sd(distribution.geometry), 1e-12) if field.coord == "lin" else 1.0
-        limit.append(0.99 * field.absurd_sd * scale)
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    shrink = np.minimum(1.0, np.asarray(limit) / np.maximum(sd, 1e-300))
-    out: FloatArray = cov * np.outer(shrink, shrink)
-    return out
+    return cap_spread(cov, distribution.names, distribution.geometry)
 
 
 def session_covariance(distribution: Any, robot: Any) -> FloatArray:

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.params import SCHEMA, DriveParams
-from robots.randomization import DriveDistribution, ObservationNoise
+from robots.randomization import DriveDistribution, ObservationNoise, cap_spread
 from sysid import metrics
 from sysid._coords import Mapper
 from sysid._excitation import held_command
@@ -185,7 +185,10 @@ def distribution(
     finite = [j for j, f in enumerate(free) if math.isfinite(float(cov[j, j]))]
     names = [free[j] for j in finite]
     session = np.array([mapper.priors[n].session_sd ** 2 for n in names])
-    block = cov[np.ix_(finite, finite)] + (
+    # a field the log barely informs (a limit that acted once) can have a posterior wider than
+    # any robot of its kind: capped at the block's absurd-spread limit rather than refused (a
+    # between-session spread that wide is not capped: it is refused, the fit is broken)
+    block = cap_spread(cov[np.ix_(finite, finite)], names, geo) + (
         (1.0 + factor) * np.diag(session)
         if between is None
         else factor * between[np.ix_(finite, finite)]
