@@ -326,8 +326,14 @@ def initial_coords(
     free: Sequence[str],
     ties: dict[str, str],
     priors: Mapping[str, Prior] | None = None,
+    *,
+    release_accel_limits: bool = False,
 ) -> tuple[dict[str, float], list[str]]:
     """Start values of the free coordinates, and notes (e.g. spikes found).
+
+    An acceleration limit without a spec value starts at the log's smoothed peak acceleration
+    (the limit active), or at "no limit" with ``release_accel_limits`` (the other start of
+    :func:`sysid._map.restarts`; the regressions then assume no limit too).
 
     The delay is scanned on a 10 ms grid: at each candidate the axis regressions give the other
     parameters and the output-error cost of that parameter set is evaluated on the busiest
@@ -357,7 +363,12 @@ def initial_coords(
         data[axis] = _smooth(windows, masks, axis)
         field = _AXIS_FIELDS[axis][3]
         acc[axis] = float(getattr(base, field))
-        if field in free and not math.isfinite(acc[axis]) and data[axis]:
+        if (
+            field in free
+            and not math.isfinite(acc[axis])
+            and data[axis]
+            and not release_accel_limits
+        ):
             accels = np.concatenate([np.abs(d.a[d.good]) for d in data[axis]])
             acc[axis] = max(1.1 * float(np.percentile(accels, 99)), 0.2)
     start = base

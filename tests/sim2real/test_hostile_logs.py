@@ -260,6 +260,7 @@ def test_a_fit_that_breaks_the_schema_exits_2_naming_the_log(
     about a params file that does not exist (was: motor_gain ... must be > 0, got 0.0)."""
     import robots.spec
     import sysid._fleet
+    import sysid._map
     from robots.params import Prior
 
     log, _ = run_case(capsys, "paused_for_a_night", _NIGHT)
@@ -274,6 +275,12 @@ def test_a_fit_that_breaks_the_schema_exits_2_naming_the_log(
 
     monkeypatch.setattr(robots.spec, "load_spec", p_loop_spec)
     monkeypatch.setattr(sysid._fleet, "_at_most_prior", lambda t, prior_prec: t)  # no cap
+    # and the fit's starts as they were then (no released acceleration limits, no torque
+    # restarts): with them this log's segments no longer reach the absurd model
+    monkeypatch.setattr(sysid._map, "released_start", lambda *a, **k: None)
+    monkeypatch.setattr(
+        sysid._map, "_RESTART_SDS", {"speed_loop_ki_per_s": (-1.5, 1.5), "delay_s": (0.0,)}
+    )
     out = log.with_suffix(".flawed.yaml")
     code, stdout, err = _run(capsys, *_SYSID, str(log), "-o", str(out))
     _judge(code, stdout, err, log)

@@ -17,24 +17,21 @@ from robots.spec import load_spec
 from sysid import fit_drive
 from sysid.synthetic import step_commands, synthetic_log
 
-N_PLANTS = 24
-#: Seed of the plants' truths and logs: not one the interval statistics were tuned on (those
-#: were 11, 12, 13 and 21 with other command seeds).
-PLANT_SEED = 29
-#: Every fitted field's 95 % interval must hold the truth at least this often. (Even exact
-#: intervals miss 85 % on 24 plants for some one of 13 fields with a few per cent chance each.)
+#: (seed, plants) of the plants' truths and logs. 29 and 47 were looked at while the fit's
+#: starts were designed (sysid._map.restarts, released_start); 61 and 73 were first run after
+#: it, as a check: pooled, every field's coverage is estimated on 120 plants (binomial sd ~3
+#: points at 90 %), where one seed's 24 plants move a field by +-6 points.
+PLANT_SEEDS = ((29, 24), (47, 48), (61, 24), (73, 24))
+#: Every fitted field's 95 % interval must hold the truth at least this often. Measured
+#: (2026-11-26, pooled over the 120 plants): integral gain 105/120 (0.875; per seed 19/24,
+#: 45/48, 21/24, 20/24: its misses are near misses, |t| 2-2.3, a truth at its bound 0, and two
+#: plants whose log prefers an integral gain near 0 by a likelihood ratio of ~e^9), every
+#: other field >= 0.90 (lowest: added yaw inertia 107/119, Coulomb w 108/119).
 COVERAGE = 0.85
-#: Open problem, reported, not hidden (issue 11): the integral gain's 95 % interval holds the
-#: truth less often than 85 %. Measured with the fit's restarts (sysid._map.restarts) and the
-#: sampler's principal-root draws: seed 29 18/24, seed 47 41/48 (pooled 59/72 = 0.82; its
-#: misses are mostly |t| 2-5, intervals too narrow for a posterior skewed by the bound at 0,
-#: and a few local minima, |t| 11-99). Every other field met 85 % at both seeds (lowest: Coulomb
-#: w 20/23 at seed 29, added yaw inertia 41/48 at seed 47). Checked against a floor one plant
-#: below the seed-29 measurement.
-SHORT = {"speed_loop_ki_per_s": 17 / 24}
 #: Limits without a prior (the spec says "no limit") may still be fitted when a log seems to
 #: show one; on these plants (truth: no limit) at most this share of the two acceleration
-#: limits x plants is claimed (measured 7 of 40): an open problem, reported.
+#: limits x plants is claimed (measured 7 of 40 on seed 29 before the released start): an
+#: open problem, reported.
 SPURIOUS_LIMITS = 0.25
 
 
@@ -43,32 +40,39 @@ def test_95_percent_intervals_cover_plants_drawn_from_the_priors() -> None:
     spec = load_spec("turtlebot3_burger")
     geo = spec.geometry
     prior = DriveDistribution.from_priors(spec.name, geo, spec.priors, session=False)
-    truths = prior.sample(np.random.default_rng(PLANT_SEED), N_PLANTS)
     hits: collections.Counter[str] = collections.Counter()
     fits: collections.Counter[str] = collections.Counter()
     spurious = 0
-    for i, truth in enumerate(truths):
-        seed = 100 * PLANT_SEED + i
-        t, v, w = step_commands(20.0, seed=seed, v_max_mps=0.2, w_max_radps=1.5)
-        log = synthetic_log(truth, geo, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed, spike_mps=None)
-        res = fit_drive(
-            [log], geometry=geo, base_params=spec.drive, priors=spec.priors, odom_v_window_s=0.02
-        )
-        assert res.params.total_mass_kg(geo) > 0
-        for e in res.estimates:
-            if e.status != "fitted":
-                continue
-            if math.isinf(getattr(truth, e.name)):
-                spurious += 1
-                continue
-            assert e.ci95_low is not None and e.ci95_high is not None
-            fits[e.name] += 1
-            hits[e.name] += e.ci95_low <= getattr(truth, e.name) <= e.ci95_high
+    for plant_seed, n_plants in PLANT_SEEDS:
+        truths = prior.sample(np.random.default_rng(plant_seed), n_plants)
+        for i, truth in enumerate(truths):
+            seed = 100 * plant_seed + i
+            t, v, w = step_commands(20.0, seed=seed, v_max_mps=0.2, w_max_radps=1.5)
+            log = synthetic_log(truth, geo, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed, spike_mps=None)
+            res = fit_drive(
+                [log],
+                geometry=geo,
+                base_params=spec.drive,
+                priors=spec.priors,
+                odom_v_window_s=0.02,
+            )
+            assert res.params.total_mass_kg(geo) > 0
+            for e in res.estimates:
+                if e.status != "fitted":
+                    continue
+                if math.isinf(getattr(truth, e.name)):
+                    spurious += 1
+                    continue
+                assert e.ci95_low is not None and e.ci95_high is not None
+                fits[e.name] += 1
+                hits[e.name] += e.ci95_low <= getattr(truth, e.name) <= e.ci95_high
     coverage = {name: hits[name] / fits[name] for name in fits}
     assert {"delay_s", "added_mass_kg", "motor_gain_nms_per_rad", "coulomb_v_fwd_n"} <= set(fits)
+    assert sum(fits.values()) >= 12 * 120  # every plant fits most fields
     for name, share in coverage.items():
-        assert share >= SHORT.get(name, COVERAGE), (name, share, coverage)
-    assert spurious <= SPURIOUS_LIMITS * 2 * N_PLANTS
+        assert share >= COVERAGE, (name, share, coverage)
+    n_plants = sum(n for _, n in PLANT_SEEDS)
+    assert spurious <= SPURIOUS_LIMITS * 2 * n_plants, spurious
 
 
 #: Plant 0 of seed 29 as the sampler drew it before it used the covariance's principal root
@@ -97,7 +101,7 @@ def test_restarts_free_a_delay_pinned_at_zero() -> None:
     spec = load_spec("turtlebot3_burger")
     geo = spec.geometry
     truth = spec.drive.replace(**RESTART_PLANT)
-    seed = 100 * PLANT_SEED
+    seed = 100 * 29
     t, v, w = step_commands(20.0, seed=seed, v_max_mps=0.2, w_max_radps=1.5)
     log = synthetic_log(truth, geo, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed, spike_mps=None)
     res = fit_drive(
