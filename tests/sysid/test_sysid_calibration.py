@@ -147,3 +147,54 @@ def test_every_written_result_loads_into_pybullet(
             PybulletRobot(spec, params=p, client=bot.client).step(0.1, 0.0, 0.05)
     finally:
         bot.close()
+
+
+#: Plant 27 of seed 47 (its values, so a sampler change cannot move it): torque-limited
+#: transients, no acceleration limit.
+RELEASED_PLANT = {
+    "delay_s": 0.1491290728193102,
+    "speed_lim_v_mps": 0.2103875892092706,
+    "speed_lim_w_radps": 2.8866802501366737,
+    "wheel_speed_max_radps": 6.723785906608241,
+    "motor_gain_nms_per_rad": 0.011631531730047363,
+    "speed_loop_ki_per_s": 18.669429757944677,
+    "wheel_torque_max_nm": 0.04380935992512276,
+    "coulomb_v_fwd_n": 0.2019097718922892,
+    "coulomb_v_bwd_n": 0.44439999627487314,
+    "coulomb_w_nm": 0.03393376300044334,
+    "viscous_v_ns_per_m": 0.6468570771759619,
+    "viscous_w_nms_per_rad": 0.004333488364687263,
+    "added_mass_kg": 0.013745946655507435,
+    "added_yaw_inertia_kgm2": -0.0004095981959793219,
+}
+
+
+@pytest.mark.parametrize("released", [True, False])
+def test_released_start_finds_torque_limited_transients(
+    released: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """:data:`RELEASED_PLANT`: from the spec's start (an acceleration limit at the smoothed
+    peak, the spec's torque cap) the fit explains the torque-limited transients by a limit and
+    an integral gain of 7.3 /s (truth 18.7, 4 sd outside its interval), at 2.4x the objective;
+    the torque-cap restart (sysid._map._RESTART_SDS) reaches the truth's basin."""
+    import sysid._map
+
+    if not released:  # the starts as they were before (the failure this test guards)
+        monkeypatch.setattr(sysid._map, "released_start", lambda *a, **k: None)
+        monkeypatch.setattr(
+            sysid._map, "_RESTART_SDS", {"speed_loop_ki_per_s": (-1.5, 1.5), "delay_s": (0.0,)}
+        )
+    spec = load_spec("turtlebot3_burger")
+    geo = spec.geometry
+    truth = spec.drive.replace(**RELEASED_PLANT)
+    seed = 100 * 47 + 27
+    t, v, w = step_commands(20.0, seed=seed, v_max_mps=0.2, w_max_radps=1.5)
+    log = synthetic_log(truth, geo, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed, spike_mps=None)
+    res = fit_drive(
+        [log], geometry=geo, base_params=spec.drive, priors=spec.priors, odom_v_window_s=0.02
+    )
+    ki = res.estimate("speed_loop_ki_per_s")
+    assert ki.ci95_low is not None and ki.ci95_high is not None
+    inside = ki.ci95_low <= truth.speed_loop_ki_per_s <= ki.ci95_high
+    assert inside is released, ki
+    assert (abs(ki.value - truth.speed_loop_ki_per_s) < 3.0) is released, ki
