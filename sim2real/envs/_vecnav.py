@@ -21,12 +21,23 @@ import numpy as np
 
 from robots.reduced import _advance_history
 from sim2real.envs._robot import arc_step
+from sim2real.envs.depth import render_camera
 from sim2real.envs.geometry import FloatArray, ray_distance
+from sim2real.envs.pedestrians import _walk_kernel
 
 #: the single env's pose integration, compiled: one source for both
 _arc_step = numba.njit(cache=True)(arc_step)
 
-__all__ = ["finish_crowd_nav", "finish_random_map", "history_rows", "move_robots", "sense"]
+__all__ = [
+    "crowd_clock",
+    "finish_crowd_nav",
+    "finish_random_map",
+    "history_rows",
+    "move_robots",
+    "render_depths",
+    "sense",
+    "walk_crowds",
+]
 
 IntArray = np.ndarray
 
@@ -383,3 +394,138 @@ def finish_crowd_nav(
         rewards[i] = r
         prev_vw[i, 0], prev_vw[i, 1] = v, w
         prev_goal[i] = d
+
+
+@numba.njit(cache=True)
+def crowd_clock(
+    eq1: np.ndarray,
+    dt: float,
+    time_s: FloatArray,
+    n_ped: IntArray,
+    start_s: FloatArray,
+    pref: FloatArray,
+    pos: FloatArray,
+    goals: FloatArray,
+    goal_reached_m: float,
+    walking: np.ndarray,
+    reached: np.ndarray,
+    any_reached: np.ndarray,
+) -> None:  # pragma: no cover - compiled
+    """The start of :meth:`Crowd.step` for the ``eq1`` envs' crowds: the clock ticks, and
+    ``walking`` and ``reached`` (goal closer than ``goal_reached_m``) are marked per pedestrian
+    (``any_reached`` per env: those draw new goals from their own generator)."""
+    for i in range(eq1.shape[0]):
+        any_reached[i] = False
+        if not eq1[i]:
+            continue
+        time_s[i] += dt
+        for j in range(n_ped[i]):
+            walking[i, j] = (time_s[i] >= start_s[i, j]) & (pref[i, j] > 0)
+            dx, dy = goals[i, j, 0] - pos[i, j, 0], goals[i, j, 1] - pos[i, j, 1]
+            reached[i, j] = np.sqrt(dx * dx + dy * dy) < goal_reached_m
+            any_reached[i] |= reached[i, j]
+
+
+@numba.njit(cache=True)
+def walk_crowds(
+    eq1: np.ndarray,
+    n_ped: IntArray,
+    pos: FloatArray,
+    vel: FloatArray,
+    rad: FloatArray,
+    height: FloatArray,
+    pref: FloatArray,
+    alpha: FloatArray,
+    walking: np.ndarray,
+    goal_dir: FloatArray,
+    cxy: FloatArray,
+    cr: FloatArray,
+    n_static: IntArray,
+    sa: FloatArray,
+    sb: FloatArray,
+    n_segments: IntArray,
+    robot_pose: FloatArray,
+    robot_r: float,
+    dt: float,
+    offsets: FloatArray,
+    cos_off: FloatArray,
+    pen_off: FloatArray,
+    depth_cyl: FloatArray,
+    n_depth_static: IntArray,
+) -> None:  # pragma: no cover - compiled
+    """The rest of :meth:`Crowd.step` for the ``eq1`` envs' crowds (the single env's kernel,
+    :func:`sim2real.envs.pedestrians._walk_kernel`, around each env's static obstacles: its
+    first ``n_static`` circles and its segments); the pedestrians' new discs are written after
+    the static circles (lidar scene) and cylinders (depth scene)."""
+    for i in range(eq1.shape[0]):
+        m = n_ped[i]
+        if not eq1[i] or m == 0:
+            continue
+        nc, ns = n_static[i], n_segments[i]
+        _walk_kernel(
+            pos[i, :m],
+            vel[i, :m],
+            rad[i, :m],
+            height[i, :m],
+            pref[i, :m],
+            alpha[i, :m],
+            walking[i, :m],
+            goal_dir[i, :m],
+            cxy[i, :nc],
+            cr[i, :nc],
+            sa[i, :ns],
+            sb[i, :ns],
+            robot_pose[i, 0],
+            robot_pose[i, 1],
+            robot_r,
+            dt,
+            offsets,
+            cos_off,
+            pen_off,
+        )
+        nd = n_depth_static[i]
+        for j in range(m):
+            cxy[i, nc + j, 0], cxy[i, nc + j, 1] = pos[i, j, 0], pos[i, j, 1]
+            depth_cyl[i, nd + j, 0], depth_cyl[i, nd + j, 1] = pos[i, j, 0], pos[i, j, 1]
+
+
+@numba.njit(cache=True)
+def render_depths(
+    active: np.ndarray,
+    pose: FloatArray,
+    base_height: float,
+    xyz: FloatArray,
+    r_mount: FloatArray,
+    rays: FloatArray,
+    cyl: FloatArray,
+    n_cyl: IntArray,
+    boxes: FloatArray,
+    n_boxes: IntArray,
+    near: float,
+    far: float,
+    frame: FloatArray,
+    out: np.ndarray,
+) -> None:  # pragma: no cover - compiled
+    """Depth images of the ``active`` envs (the single env's :func:`render_camera`; env i's
+    camera mount ``xyz[i]``, ``r_mount[i]``), as float32 into ``out`` (N, height, width);
+    ``frame`` (height, width) is scratch."""
+    for i in range(active.shape[0]):
+        if not active[i]:
+            continue
+        render_camera(
+            pose[i, 0],
+            pose[i, 1],
+            pose[i, 2],
+            base_height,
+            xyz[i],
+            r_mount[i],
+            rays,
+            cyl[i, : n_cyl[i]],
+            boxes[i, : n_boxes[i]],
+            near,
+            far,
+            frame,
+        )
+        for r in range(frame.shape[0]):
+            for c in range(frame.shape[1]):
+                out[i, r, c] = np.float32(frame[r, c])

@@ -33,7 +33,16 @@ import numpy as np
 
 from sim2real.envs.geometry import FloatArray
 
-__all__ = ["DepthCamera", "DepthScene", "camera_rays", "render_depth", "rpy_matrix"]
+__all__ = [
+    "DepthCamera",
+    "DepthScene",
+    "camera_frame",
+    "camera_rays",
+    "render_camera",
+    "render_depth",
+    "rpy_matrix",
+    "world_rays",
+]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -233,14 +242,85 @@ def _render_columns(
             out[r] = best
 
 
-def _render_kernel(
-    eye: FloatArray, d: FloatArray, cyl: FloatArray, boxes: FloatArray, width: int, out: FloatArray
-) -> None:
-    """Depth along each ray ``d`` (rows of ``width`` pixels) into ``out``."""
+@numba.njit(cache=True)
+def world_rays(rays: FloatArray, rotation: FloatArray) -> FloatArray:  # pragma: no cover - compiled
+    """``rays @ rotation.T`` with each row's three products summed in index order (the same
+    numbers on every machine, unlike a BLAS product)."""
+    d = np.empty((rays.shape[0], 3))
+    for p in range(rays.shape[0]):
+        for a in range(3):
+            d[p, a] = rays[p, 0] * rotation[a, 0] + rays[p, 1] * rotation[a, 1]
+            d[p, a] += rays[p, 2] * rotation[a, 2]
+    return d
+
+
+@numba.njit(cache=True)
+def _render_frame(
+    eye: FloatArray,
+    rotation: FloatArray,
+    rays: FloatArray,
+    cyl: FloatArray,
+    boxes: FloatArray,
+    near: float,
+    far: float,
+    out: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """Depth image ``out`` (height, width) clipped to [near, far]: the camera-frame ``rays``
+    turned into the world by ``rotation`` (sums in index order), then cast from ``eye``."""
+    height, width = out.shape
+    d = world_rays(rays, rotation)
+    flat = np.empty(rays.shape[0])
     if d.shape[0] % width == 0 and _columns_are_vertical(d, width):
-        _render_columns(eye, d, cyl, boxes, width, out)
+        _render_columns(eye, d, cyl, boxes, width, flat)
     else:
-        _render_rays(eye, d, cyl, boxes, out)
+        _render_rays(eye, d, cyl, boxes, flat)
+    for i in range(height):
+        for j in range(width):
+            out[i, j] = min(max(flat[i * width + j], near), far)
+
+
+@numba.njit(cache=True)
+def camera_frame(
+    x: float, y: float, yaw: float, base_height: float, xyz: FloatArray, r_mount: FloatArray
+) -> tuple[FloatArray, FloatArray]:  # pragma: no cover - compiled
+    """Camera position (m) and world-from-camera rotation for a base at (x, y, yaw) carrying
+    the camera at ``xyz`` (base frame) turned by ``r_mount``; products summed in index order."""
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    # rpy_matrix(0, 0, yaw)
+    r_base = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    eye = np.empty(3)
+    base = (x, y, base_height)
+    rot = np.empty((3, 3))
+    for a in range(3):
+        eye[a] = base[a] + (r_base[a, 0] * xyz[0] + r_base[a, 1] * xyz[1] + r_base[a, 2] * xyz[2])
+        for b in range(3):
+            rot[a, b] = (
+                r_base[a, 0] * r_mount[0, b]
+                + r_base[a, 1] * r_mount[1, b]
+                + r_base[a, 2] * r_mount[2, b]
+            )
+    return eye, rot
+
+
+@numba.njit(cache=True)
+def render_camera(
+    x: float,
+    y: float,
+    yaw: float,
+    base_height: float,
+    xyz: FloatArray,
+    r_mount: FloatArray,
+    rays: FloatArray,
+    cyl: FloatArray,
+    boxes: FloatArray,
+    near: float,
+    far: float,
+    out: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """:meth:`DepthCamera.render` compiled: the frame of a base at (x, y, yaw) into ``out``
+    (``boxes`` packed by ``_packed_boxes``); the native vector env calls it per sub-env."""
+    eye, rot = camera_frame(x, y, yaw, base_height, xyz, r_mount)
+    _render_frame(eye, rot, rays, cyl, boxes, near, far, out)
 
 
 def _packed_boxes(boxes: FloatArray) -> FloatArray:
@@ -288,17 +368,18 @@ def render_depth(
         Cached :func:`camera_rays` for this size and FOV.
     """
     cam = camera_rays(width, height, hfov_deg) if rays is None else rays
-    d = np.ascontiguousarray(cam @ np.asarray(rotation, dtype=np.float64).T)
-    out = np.empty(d.shape[0])
-    _render_kernel(
-        np.asarray(eye, dtype=np.float64),
-        d,
-        np.ascontiguousarray(scene.cylinders, dtype=np.float64),
+    out = np.empty((height, width))
+    _render_frame(
+        np.asarray(eye, dtype=np.float64).reshape(3),
+        np.ascontiguousarray(rotation, dtype=np.float64).reshape(3, 3),
+        np.ascontiguousarray(cam, dtype=np.float64),
+        np.ascontiguousarray(scene.cylinders, dtype=np.float64).reshape(-1, 4),
         _packed_boxes(scene.boxes),
-        width,
+        float(near_m),
+        float(far_m),
         out,
     )
-    return np.asarray(np.clip(out, near_m, far_m).reshape(height, width))
+    return out
 
 
 def rpy_matrix(roll: float, pitch: float, yaw: float) -> FloatArray:
@@ -371,9 +452,10 @@ class DepthCamera:
 
     def world_pose(self, x: float, y: float, yaw: float) -> tuple[FloatArray, FloatArray]:
         """Camera position (m) and world-from-camera rotation for the base at (x, y, yaw)."""
-        r_base = rpy_matrix(0.0, 0.0, yaw)
-        eye = np.array([x, y, self.base_height_m]) + r_base @ self.xyz_m
-        return eye, r_base @ self._r_mount
+        eye, rot = camera_frame(
+            float(x), float(y), float(yaw), self.base_height_m, self.xyz_m, self._r_mount
+        )
+        return np.asarray(eye), np.asarray(rot)
 
     def update_view(self, x: float, y: float, yaw: float) -> FloatArray:
         """pybullet's column-major view matrix (16 floats) for the base at (x, y, yaw)."""
@@ -388,15 +470,19 @@ class DepthCamera:
     def render(self, scene: DepthScene, x: float, y: float, yaw: float) -> FloatArray:
         """Depth image (m along the optical axis), shape (height, width)."""
         self.update_view(x, y, yaw)
-        eye, rot = self.world_pose(x, y, yaw)
-        return render_depth(
-            scene,
-            eye=eye,
-            rotation=rot,
-            width=self.width,
-            height=self.height,
-            hfov_deg=self.hfov_deg,
-            near_m=self.near_m,
-            far_m=self.far_m,
-            rays=self._rays,
+        out = np.empty((self.height, self.width))
+        render_camera(
+            float(x),
+            float(y),
+            float(yaw),
+            self.base_height_m,
+            self.xyz_m,
+            self._r_mount,
+            self._rays,
+            np.ascontiguousarray(scene.cylinders, dtype=np.float64).reshape(-1, 4),
+            _packed_boxes(scene.boxes),
+            self.near_m,
+            self.far_m,
+            out,
         )
+        return out

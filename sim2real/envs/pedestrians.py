@@ -49,6 +49,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
 from sim2real.envs.geometry import FloatArray, Scene2D, point_segment_distance, ray_distance
 from sim2real.errors import Sim2RealValueError
@@ -311,53 +312,28 @@ class Crowd:
             to_goal = self.goals - self.position_m
         walking = (self.time_s >= self.start_time_s) & (self.pref_speed_mps > 0)
         goal_dir = np.arctan2(to_goal[:, 1], to_goal[:, 0])
-        headings = goal_dir[:, None] + _HEADING_OFFSETS[None, :]
-        gap = self.free_space(headings, scene, robot_xy, robot_radius_m)
-        s = gap + 2.0 * self.radius_m[:, None]
-        speed = walking_speed(
-            self.pref_speed_mps[:, None], s, self.height_m[:, None], alpha=self.alpha[:, None]
+        position = self.position_m.copy()
+        velocity = np.empty((n, 2))
+        walk(
+            position,
+            velocity,
+            self.radius_m,
+            self.height_m,
+            self.pref_speed_mps,
+            self.alpha,
+            walking,
+            goal_dir,
+            np.ascontiguousarray(scene.circles_xy, dtype=np.float64).reshape(-1, 2),
+            np.ascontiguousarray(scene.circles_r, dtype=np.float64),
+            np.ascontiguousarray(scene.seg_a, dtype=np.float64).reshape(-1, 2),
+            np.ascontiguousarray(scene.seg_b, dtype=np.float64).reshape(-1, 2),
+            float(robot_xy[0]),
+            float(robot_xy[1]),
+            float(robot_radius_m),
+            float(dt_s),
         )
-        speed = np.minimum(speed, gap / dt_s)
-        score = speed * np.cos(_HEADING_OFFSETS)[None, :] - 1e-3 * np.abs(_HEADING_OFFSETS)
-        best = np.argmax(score, axis=1)
-        idx = np.arange(n)
-        v = np.where(walking, speed[idx, best], 0.0)
-        h = headings[idx, best]
-        self.velocity_mps = np.column_stack([v * np.cos(h), v * np.sin(h)])
-        self.position_m = self.position_m + self.velocity_mps * dt_s
-        self._separate()
-        self._push_out(scene)
-
-    def _push_out(self, scene: Scene2D) -> None:
-        """Move pedestrians that touch a static obstacle out along its normal."""
-        p, r = self.position_m, self.radius_m
-        if scene.circles_r.size:
-            d = p[:, None, :] - scene.circles_xy[None, :, :]
-            dist = np.maximum(np.linalg.norm(d, axis=2), 1e-9)
-            depth = np.maximum(r[:, None] + scene.circles_r[None, :] - dist, 0.0)
-            p = p + np.einsum("ij,ijk->ik", depth / dist, d)
-        if scene.seg_a.shape[0]:
-            e = scene.seg_b - scene.seg_a
-            ap = p[:, None, :] - scene.seg_a[None, :, :]
-            s = np.einsum("psk,sk->ps", ap, e) / np.maximum(np.einsum("sk,sk->s", e, e), 1e-12)
-            d = ap - np.clip(s, 0.0, 1.0)[..., None] * e[None, :, :]
-            dist = np.maximum(np.linalg.norm(d, axis=2), 1e-9)
-            depth = np.maximum(r[:, None] - dist, 0.0)
-            p = p + np.einsum("ij,ijk->ik", depth / dist, d)
-        self.position_m = p
-
-    def _separate(self) -> None:
-        """Push overlapping pedestrian pairs apart (half each)."""
-        d = self.position_m[:, None, :] - self.position_m[None, :, :]
-        dist = np.linalg.norm(d, axis=2)
-        np.fill_diagonal(dist, np.inf)
-        overlap = self.radius_m[:, None] + self.radius_m[None, :] - dist
-        if not (overlap > 0).any():
-            return
-        hit = overlap > 0
-        push = np.zeros_like(dist)
-        push[hit] = 0.5 * overlap[hit] / np.maximum(dist[hit], 1e-9)
-        self.position_m = self.position_m + np.einsum("ij,ijk->ik", push, d)
+        self.velocity_mps = velocity
+        self.position_m = position
 
 
 @numba.njit(cache=True)
@@ -397,3 +373,177 @@ def _gaps_kernel(
                     best = min(best, -b - np.sqrt(disc))
             stat = ray_distance(px, py, dx, dy, cxy, cr, sa, sb, 50.0)  # static obstacles
             out[i, j] = min(best, max(stat - ri, 0.0))
+
+
+#: cos of the heading offsets and the tie-break penalty of the steering score (numpy's values)
+_COS_OFFSETS = np.cos(_HEADING_OFFSETS)
+_OFFSET_PENALTY = 1e-3 * np.abs(_HEADING_OFFSETS)
+
+
+@numba.njit(cache=True)
+def _walk_kernel(
+    pos: FloatArray,
+    vel: FloatArray,
+    rad: FloatArray,
+    height: FloatArray,
+    pref: FloatArray,
+    alpha: FloatArray,
+    walking: NDArray[np.bool_],
+    goal_dir: FloatArray,
+    cxy: FloatArray,
+    cr: FloatArray,
+    sa: FloatArray,
+    sb: FloatArray,
+    robot_x: float,
+    robot_y: float,
+    robot_r: float,
+    dt: float,
+    offsets: FloatArray,
+    cos_off: FloatArray,
+    pen_off: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """One step of eq. (1) steering, separation and push-out for one crowd, in place.
+
+    ``pos`` (N, 2) moves; ``vel`` (N, 2) gets the chosen velocities. The arithmetic is numpy's
+    of the array formulation (sums in index order, as einsum adds), term by term.
+    """
+    n, k = pos.shape[0], offsets.shape[0]
+    headings = np.empty((n, k))
+    for i in range(n):
+        for j in range(k):
+            headings[i, j] = goal_dir[i] + offsets[j]
+    oxy = np.empty((n + 1, 2))
+    orad = np.empty(n + 1)
+    for i in range(n):
+        oxy[i, 0], oxy[i, 1], orad[i] = pos[i, 0], pos[i, 1], rad[i]
+    oxy[n, 0], oxy[n, 1], orad[n] = robot_x, robot_y, robot_r
+    gap = np.empty((n, k))
+    _gaps_kernel(pos, rad, headings, oxy, orad, cxy, cr, sa, sb, gap)
+    for i in range(n):
+        h = height[i] / 1.72
+        best, best_score, best_speed = 0, -np.inf, 0.0
+        for j in range(k):
+            g = gap[i, j]
+            s = max(g + 2.0 * rad[i], 0.0)
+            t = s * alpha[i] / (h * (1.0 + BETA))
+            speed = min(min(pref[i], t * t), g / dt)
+            score = speed * cos_off[j] - pen_off[j]
+            if j == 0 or score > best_score:
+                best, best_score, best_speed = j, score, speed
+        v = best_speed if walking[i] else 0.0
+        vel[i, 0] = v * np.cos(headings[i, best])
+        vel[i, 1] = v * np.sin(headings[i, best])
+    for i in range(n):
+        pos[i, 0] = pos[i, 0] + vel[i, 0] * dt
+        pos[i, 1] = pos[i, 1] + vel[i, 1] * dt
+    _separate(pos, rad)
+    _push_out(pos, rad, cxy, cr, sa, sb)
+
+
+@numba.njit(cache=True)
+def _separate(pos: FloatArray, rad: FloatArray) -> None:  # pragma: no cover - compiled
+    """Push overlapping pedestrian pairs apart (half each), all from the same positions."""
+    n = pos.shape[0]
+    push = np.zeros((n, 2))
+    hit = False
+    for i in range(n):
+        for j in range(n):
+            if j == i:
+                continue
+            dx, dy = pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1]
+            dist = np.sqrt(dx * dx + dy * dy)
+            overlap = rad[i] + rad[j] - dist
+            if overlap > 0.0:
+                w = 0.5 * overlap / max(dist, 1e-9)
+                push[i, 0] += w * dx
+                push[i, 1] += w * dy
+                hit = True
+    if hit:
+        for i in range(n):
+            pos[i, 0] = pos[i, 0] + push[i, 0]
+            pos[i, 1] = pos[i, 1] + push[i, 1]
+
+
+@numba.njit(cache=True)
+def _push_out(
+    pos: FloatArray,
+    rad: FloatArray,
+    cxy: FloatArray,
+    cr: FloatArray,
+    sa: FloatArray,
+    sb: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """Move pedestrians that touch a static circle, then a segment, out along its normal."""
+    n = pos.shape[0]
+    if cr.shape[0]:
+        for i in range(n):
+            ax, ay = 0.0, 0.0
+            for c in range(cr.shape[0]):
+                dx, dy = pos[i, 0] - cxy[c, 0], pos[i, 1] - cxy[c, 1]
+                dist = max(np.sqrt(dx * dx + dy * dy), 1e-9)
+                w = max(rad[i] + cr[c] - dist, 0.0) / dist
+                ax += w * dx
+                ay += w * dy
+            pos[i, 0] = pos[i, 0] + ax
+            pos[i, 1] = pos[i, 1] + ay
+    if sa.shape[0]:
+        for i in range(n):
+            ax, ay = 0.0, 0.0
+            for q in range(sa.shape[0]):
+                ex, ey = sb[q, 0] - sa[q, 0], sb[q, 1] - sa[q, 1]
+                px, py = pos[i, 0] - sa[q, 0], pos[i, 1] - sa[q, 1]
+                s = (px * ex + py * ey) / max(ex * ex + ey * ey, 1e-12)
+                s = min(max(s, 0.0), 1.0)
+                dx, dy = px - s * ex, py - s * ey
+                dist = max(np.sqrt(dx * dx + dy * dy), 1e-9)
+                w = max(rad[i] - dist, 0.0) / dist
+                ax += w * dx
+                ay += w * dy
+            pos[i, 0] = pos[i, 0] + ax
+            pos[i, 1] = pos[i, 1] + ay
+
+
+def walk(
+    position_m: FloatArray,
+    velocity_mps: FloatArray,
+    radius_m: FloatArray,
+    height_m: FloatArray,
+    pref_speed_mps: FloatArray,
+    alpha: FloatArray,
+    walking: NDArray[np.bool_],
+    goal_dir_rad: FloatArray,
+    circles_xy: FloatArray,
+    circles_r: FloatArray,
+    seg_a: FloatArray,
+    seg_b: FloatArray,
+    robot_x_m: float,
+    robot_y_m: float,
+    robot_radius_m: float,
+    dt_s: float,
+) -> None:
+    """One :meth:`Crowd.step` after the goals: steer, move, separate and push out, in place.
+
+    ``position_m`` (N, 2) moves and ``velocity_mps`` (N, 2) gets the velocities;
+    ``goal_dir_rad`` is each pedestrian's direction to its goal (numpy's ``arctan2``).
+    """
+    _walk_kernel(
+        position_m,
+        velocity_mps,
+        radius_m,
+        height_m,
+        pref_speed_mps,
+        alpha,
+        walking,
+        goal_dir_rad,
+        circles_xy,
+        circles_r,
+        seg_a,
+        seg_b,
+        robot_x_m,
+        robot_y_m,
+        robot_radius_m,
+        dt_s,
+        _HEADING_OFFSETS,
+        _COS_OFFSETS,
+        _OFFSET_PENALTY,
+    )

@@ -7,8 +7,10 @@ obstacles held as padded arrays) and their goals in compiled loops
 (:mod:`sim2real.envs._vecnav`) instead of N Python ``step`` calls. The numbers are the single
 env's: env *i* of the vector env and the single env reset with the same seed and given the
 same actions produce the same observations, rewards, ends and infos (tested against
-gymnasium's ``SyncVectorEnv``). CrowdNav's pedestrians and depth images are stepped and
-rendered per sub-env by the single env's own objects.
+gymnasium's ``SyncVectorEnv``). CrowdNav's eq. (1) pedestrians walk and its depth images are
+rendered for all sub-envs in compiled loops too (the single env's kernels,
+:func:`sim2real.envs.pedestrians.walk` and :func:`sim2real.envs.depth.render_camera`); ORCA
+crowds step per sub-env by the sub-env's own crowd object.
 
 Gymnasium conventions
 ---------------------
@@ -57,15 +59,26 @@ from robots.reduced import _HISTORY_ROWS, ReducedDrive
 from sim2real.envs._nav import NavEnvBase
 from sim2real.envs._robot import ReducedBackend
 from sim2real.envs._vecnav import (
+    crowd_clock,
     finish_crowd_nav,
     finish_random_map,
     history_rows,
     move_robots,
+    render_depths,
     sense,
+    walk_crowds,
 )
 from sim2real.envs.crowd_nav import CrowdNavEnv
+from sim2real.envs.depth import _packed_boxes
 from sim2real.envs.geometry import FloatArray, Scene2D
 from sim2real.envs.metrics import episode_metrics
+from sim2real.envs.pedestrians import (
+    _COS_OFFSETS,
+    _GOAL_REACHED_M,
+    _HEADING_OFFSETS,
+    _OFFSET_PENALTY,
+    Crowd,
+)
 from sim2real.envs.random_map import _GOAL_DIST_MAX_M, RandomMapEnv
 from sim2real.errors import Sim2RealValueError
 
@@ -544,8 +557,11 @@ class CrowdNavVectorEnv(NavVectorEnv):
     """``num_envs`` :class:`~sim2real.envs.CrowdNavEnv` with their robots, lidars, goals and
     rewards stepped as arrays (see the module doc).
 
-    The pedestrians and the depth image are still stepped and rendered per sub-env by the
-    single env's own objects (``envs.envs[i].crowd``, ``.camera``) in a Python loop.
+    The eq. (1) pedestrians of all sub-envs walk in one compiled call (``envs.envs[i].crowd``
+    holds views of sub-env i's rows, so it shows the current crowd); ORCA crowds step per
+    sub-env. The depth images are rendered in one compiled call with each sub-env's camera
+    mount; the sub-envs' ``camera.view_matrix`` (pybullet's view matrix, for
+    ``get_camera_view_matrix``) is not updated by the vector env.
 
     Parameters
     ----------
@@ -558,6 +574,22 @@ class CrowdNavVectorEnv(NavVectorEnv):
 
     def __init__(self, num_envs: int = 1, **kwargs: Any) -> None:
         n = _check_num_envs(num_envs)
+        # pedestrians (batched; envs.envs[i].crowd holds views of its rows for eq. (1) crowds)
+        for _, field in self._PED_FIELDS:
+            setattr(self, field, np.zeros((n, 0, 2) if field in self._PED_XY else (n, 0)))
+        self._walking = np.zeros((n, 0), dtype=np.bool_)
+        self._reached = np.zeros((n, 0), dtype=np.bool_)
+        self._any_reached = np.zeros(n, dtype=np.bool_)
+        self._n_ped = np.zeros(n, dtype=np.int64)
+        self._eq1 = np.zeros(n, dtype=np.bool_)
+        self._ped_time = np.zeros(n)
+        self._n_static = np.zeros(n, dtype=np.int64)
+        # depth scenes: cylinders (x, y, r, h), static first; boxes packed for the renderer
+        self._dcyl = np.zeros((n, 0, 4))
+        self._n_dcyl = np.zeros(n, dtype=np.int64)
+        self._n_dstatic = np.zeros(n, dtype=np.int64)
+        self._dbox = np.zeros((n, 0, 8))
+        self._n_dbox = np.zeros(n, dtype=np.int64)
         super().__init__([CrowdNavEnv(**kwargs) for _ in range(n)])
         first = self.envs[0]
         assert isinstance(first, CrowdNavEnv)
@@ -568,6 +600,10 @@ class CrowdNavVectorEnv(NavVectorEnv):
         self._vel_high = np.asarray(space["velocity"].high, dtype=np.float64)
         self._batch = {k: np.zeros((n, *sub.shape), dtype=sub.dtype) for k, sub in space.items()}
         self._prev_vw = np.zeros((n, 2))
+        self._camera = first.camera
+        self._cam_xyz = np.zeros((n, 3))
+        self._cam_mount = np.zeros((n, 3, 3))
+        self._frame = np.zeros((first.camera.height, first.camera.width))
         cfg = first.reward_config
         self._consts = np.array(
             [
@@ -585,16 +621,146 @@ class CrowdNavVectorEnv(NavVectorEnv):
 
     def _load_more(self, i: int) -> None:
         env = self.envs[i]
-        assert isinstance(env, CrowdNavEnv)
+        assert isinstance(env, CrowdNavEnv) and env.crowd is not None
         self._prev_vw[i] = env._prev_velocity
+        crowd = env.crowd
+        m = len(crowd)
+        self._eq1[i] = False  # not bound to the rows until copied
+        if m > self._ped_pos.shape[1]:
+            self._grow_crowds(max(m, 2 * self._ped_pos.shape[1]))
+        self._n_ped[i] = m
+        self._eq1[i] = type(crowd) is Crowd
+        self._ped_time[i] = crowd.time_s
+        for name, column in self._ped_columns():
+            column[i, :m] = getattr(crowd, name)
+        self._n_static[i] = env._scene.circles_r.shape[0]
+        self._load_depth(i)
+        if self._eq1[i]:
+            self._bind_crowd(i)
+
+    _ped_pos: FloatArray
+    _ped_vel: FloatArray
+    _ped_goal: FloatArray
+    _ped_rad: FloatArray
+    _ped_height: FloatArray
+    _ped_pref: FloatArray
+    _ped_alpha: FloatArray
+    _ped_start: FloatArray
+    _PED_XY = ("_ped_pos", "_ped_vel", "_ped_goal")
+    #: Crowd attributes held in the batch arrays: (attribute, array name)
+    _PED_FIELDS = (
+        ("position_m", "_ped_pos"),
+        ("velocity_mps", "_ped_vel"),
+        ("goals", "_ped_goal"),
+        ("radius_m", "_ped_rad"),
+        ("height_m", "_ped_height"),
+        ("pref_speed_mps", "_ped_pref"),
+        ("alpha", "_ped_alpha"),
+        ("start_time_s", "_ped_start"),
+    )
+
+    def _ped_columns(self) -> list[tuple[str, np.ndarray]]:
+        return [(name, getattr(self, field)) for name, field in self._PED_FIELDS]
+
+    def _grow_crowds(self, cap: int) -> None:
+        """Room for ``cap`` pedestrians per sub-env (the eq. (1) crowds' views follow)."""
+        n = self.num_envs
+        for _, field in self._PED_FIELDS:
+            old = getattr(self, field)
+            grown = np.zeros((n, cap, *old.shape[2:]))
+            grown[:, : old.shape[1]] = old
+            setattr(self, field, grown)
+        self._walking = np.zeros((n, cap), dtype=np.bool_)
+        self._reached = np.zeros((n, cap), dtype=np.bool_)
+        for i in np.flatnonzero(self._eq1 & self._was_reset):
+            self._bind_crowd(int(i))
+
+    def _bind_crowd(self, i: int) -> None:
+        """Make sub-env ``i``'s eq. (1) crowd hold views of its rows: ``envs.envs[i].crowd``
+        shows the state the vector env steps."""
+        crowd = self.envs[i].crowd  # type: ignore[attr-defined]
+        m = int(self._n_ped[i])
+        for name, column in self._ped_columns():
+            setattr(crowd, name, column[i, :m])
+
+    def _load_depth(self, i: int) -> None:
+        """Copy sub-env ``i``'s depth scene (static bodies, then pedestrians) into the arrays."""
+        env = self.envs[i]
+        assert isinstance(env, CrowdNavEnv)
+        cyl, boxes = env._depth_scene.cylinders, _packed_boxes(env._depth_static.boxes)
+        if cyl.shape[0] > self._dcyl.shape[1]:
+            grown = np.zeros((self.num_envs, max(cyl.shape[0], 2 * self._dcyl.shape[1]), 4))
+            grown[:, : self._dcyl.shape[1]] = self._dcyl
+            self._dcyl = grown
+        if boxes.shape[0] > self._dbox.shape[1]:
+            grown = np.zeros((self.num_envs, max(boxes.shape[0], 2 * self._dbox.shape[1]), 8))
+            grown[:, : self._dbox.shape[1]] = self._dbox
+            self._dbox = grown
+        self._dcyl[i, : cyl.shape[0]] = cyl
+        self._n_dcyl[i] = cyl.shape[0]
+        self._n_dstatic[i] = env._depth_static.cylinders.shape[0]
+        self._dbox[i, : boxes.shape[0]] = boxes
+        self._n_dbox[i] = boxes.shape[0]
 
     def _set_row(self, obs: Any, i: int, single: Any) -> None:
         for key, value in single.items():
             obs[key][i] = value
 
     def _advance(self, active: np.ndarray) -> None:
-        """The pedestrians of each active sub-env walk (its own crowd, as the single env)."""
-        for k in np.flatnonzero(active):
+        """The pedestrians of each active sub-env walk: eq. (1) crowds all at once in compiled
+        loops (the single env's kernel), other policies (ORCA) by the sub-env's own crowd."""
+        eq1 = active & self._eq1
+        if eq1.any():
+            crowd_clock(
+                eq1,
+                self.control_dt,
+                self._ped_time,
+                self._n_ped,
+                self._ped_start,
+                self._ped_pref,
+                self._ped_pos,
+                self._ped_goal,
+                _GOAL_REACHED_M,
+                self._walking,
+                self._reached,
+                self._any_reached,
+            )
+            for k in np.flatnonzero(self._any_reached):  # new goals from the sub-env's stream
+                i = int(k)
+                crowd = self.envs[i].crowd  # type: ignore[attr-defined]
+                reached = self._reached[i, : self._n_ped[i]]
+                crowd.goals[reached] = crowd._random_goals(int(reached.sum()))
+            to_goal = self._ped_goal - self._ped_pos
+            goal_dir = np.arctan2(to_goal[..., 1], to_goal[..., 0])  # numpy's, as the single env
+            walk_crowds(
+                eq1,
+                self._n_ped,
+                self._ped_pos,
+                self._ped_vel,
+                self._ped_rad,
+                self._ped_height,
+                self._ped_pref,
+                self._ped_alpha,
+                self._walking,
+                goal_dir,
+                self._cxy,
+                self._cr,
+                self._n_static,
+                self._sa,
+                self._sb,
+                self._ns,
+                self._pose,
+                self._radius,
+                self.control_dt,
+                _HEADING_OFFSETS,
+                _COS_OFFSETS,
+                _OFFSET_PENALTY,
+                self._dcyl,
+                self._n_dstatic,
+            )
+            for k in np.flatnonzero(eq1):
+                self.envs[int(k)].crowd.time_s = float(self._ped_time[k])  # type: ignore[attr-defined]
+        for k in np.flatnonzero(active & ~self._eq1):
             i = int(k)
             env = self.envs[i]
             assert isinstance(env, CrowdNavEnv) and env.crowd is not None
@@ -609,6 +775,7 @@ class CrowdNavVectorEnv(NavVectorEnv):
             )
             env._sync_pedestrians()
             self._load_scene(i, env._full_scene)
+            self._load_depth(i)
 
     def _finish(self, active: np.ndarray) -> tuple[Any, FloatArray, np.ndarray]:
         n = self.num_envs
@@ -637,11 +804,25 @@ class CrowdNavVectorEnv(NavVectorEnv):
             rewards,
             outcome,
         )
-        depth = obs["depth"]
-        for k in np.flatnonzero(active):
-            i = int(k)
-            env = self.envs[i]
-            assert isinstance(env, CrowdNavEnv)
-            x, y, yaw = (float(c) for c in self._pose[i])
-            depth[i] = env.camera.render(env._depth_scene, x, y, yaw)
+        for k in np.flatnonzero(active):  # each sub-env's camera mount (set_camera_pose)
+            camera = self.envs[int(k)].camera  # type: ignore[attr-defined]
+            self._cam_xyz[k] = camera.xyz_m
+            self._cam_mount[k] = camera._r_mount
+        cam = self._camera
+        render_depths(
+            active,
+            self._pose,
+            cam.base_height_m,
+            self._cam_xyz,
+            self._cam_mount,
+            cam._rays,
+            self._dcyl,
+            self._n_dcyl,
+            self._dbox,
+            self._n_dbox,
+            cam.near_m,
+            cam.far_m,
+            self._frame,
+            obs["depth"],
+        )
         return obs, rewards, outcome

@@ -171,7 +171,8 @@ def test_level_camera_column_renderer_equals_every_ray_against_every_body(
 
 
 def test_a_pitched_camera_falls_back_to_the_per_ray_renderer() -> None:
-    d = np.ascontiguousarray(camera_rays(16, 12, 60.0) @ rpy_matrix(0.0, 0.3, 0.7).T)
+    d = depth.world_rays(camera_rays(16, 12, 60.0), rpy_matrix(0.0, 0.3, 0.7))
+    np.testing.assert_allclose(d, camera_rays(16, 12, 60.0) @ rpy_matrix(0.0, 0.3, 0.7).T, 1e-15)
     assert not depth._columns_are_vertical(d, 16)
     scene = DepthScene.build(cylinders=[(2.0, 0.5, 0.4, 1.0)], boxes=[(3, -1, 1, 2, 0.3, 0.5)])
     kw = dict(eye=np.array([0.0, 0.0, 0.5]), width=16, height=12, hfov_deg=60.0)
