@@ -22,7 +22,7 @@ import numpy as np
 from robots.reduced import _advance_history
 from sim2real.envs._robot import arc_step
 from sim2real.envs.depth import render_camera
-from sim2real.envs.geometry import FloatArray, ray_distance
+from sim2real.envs.geometry import FloatArray
 from sim2real.envs.pedestrians import _walk_kernel
 
 #: the single env's pose integration, compiled: one source for both
@@ -195,6 +195,100 @@ def _clearance(
 
 #: Obstacles farther than the lidar range plus this margin (m) cannot change a ray's reading.
 _CULL_MARGIN_M = 1e-6
+#: Margin (rad) around the directions under which an obstacle is seen: beams outside cannot
+#: hit it (rounding moves a hit test by ~1e-15 rad).
+_CULL_MARGIN_RAD = 1e-6
+
+
+@numba.njit(cache=True)
+def _beam_spans(
+    beams: FloatArray, lo: float, hi: float, spans: IntArray
+) -> int:  # pragma: no cover - compiled
+    """Index ranges of the sorted body-frame ``beams`` within [lo, hi] (rad, taken modulo
+    2 pi): writes (start, stop) rows into ``spans``, returns their count."""
+    count = 0
+    two_pi = 2.0 * math.pi
+    for shift in range(-2, 3):
+        k0 = np.searchsorted(beams, lo + shift * two_pi, side="left")
+        k1 = np.searchsorted(beams, hi + shift * two_pi, side="right")
+        if k0 < k1:
+            spans[count, 0], spans[count, 1] = k0, k1
+            count += 1
+    return count
+
+
+@numba.njit(cache=True)
+def _wrap(a: float) -> float:  # pragma: no cover - compiled
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+@numba.njit(cache=True)
+def _cast_beams(
+    ox: float,
+    oy: float,
+    yaw: float,
+    beams: FloatArray,
+    sorted_beams: bool,
+    dx: FloatArray,
+    dy: FloatArray,
+    cxy: FloatArray,
+    cr: FloatArray,
+    sa: FloatArray,
+    sb: FloatArray,
+    best: FloatArray,
+) -> bool:  # pragma: no cover - compiled
+    """:func:`ray_distance` along every beam (unit directions ``dx``, ``dy``), obstacle by
+    obstacle over the beams under which the obstacle is seen (all beams if ``beams`` are not
+    sorted): the same per-beam arithmetic, and the nearest hit does not depend on the order.
+    ``best`` starts at the range; returns True (and leaves ``best``) if the origin lies inside
+    a circle (every beam then reads 0)."""
+    nb = beams.shape[0]
+    spans = np.empty((5, 2), dtype=np.int64)
+    for c in range(cr.shape[0]):
+        fx, fy = ox - cxy[c, 0], oy - cxy[c, 1]
+        q = fx * fx + fy * fy - cr[c] * cr[c]
+        if q <= 0.0:
+            return True
+    for c in range(cr.shape[0]):
+        fx, fy = ox - cxy[c, 0], oy - cxy[c, 1]
+        q = fx * fx + fy * fy - cr[c] * cr[c]
+        n_spans = 1
+        spans[0, 0], spans[0, 1] = 0, nb
+        if sorted_beams:
+            mid = _wrap(math.atan2(-fy, -fx) - yaw)
+            half = math.asin(min(cr[c] / math.sqrt(fx * fx + fy * fy), 1.0)) + _CULL_MARGIN_RAD
+            n_spans = _beam_spans(beams, mid - half, mid + half, spans)
+        for m in range(n_spans):
+            for k in range(spans[m, 0], spans[m, 1]):
+                b = dx[k] * fx + dy[k] * fy
+                if b >= 0.0:
+                    continue
+                disc = b * b - q
+                if disc >= 0.0:
+                    best[k] = min(best[k], -b - np.sqrt(disc))
+    for g in range(sa.shape[0]):
+        ex, ey = sb[g, 0] - sa[g, 0], sb[g, 1] - sa[g, 1]
+        apx, apy = sa[g, 0] - ox, sa[g, 1] - oy
+        n_spans = 1
+        spans[0, 0], spans[0, 1] = 0, nb
+        if sorted_beams:
+            a_dir = _wrap(math.atan2(apy, apx) - yaw)
+            span = _wrap(math.atan2(sb[g, 1] - oy, sb[g, 0] - ox) - math.atan2(apy, apx))
+            near = _segment_distance(ox, oy, sa[g, 0], sa[g, 1], sb[g, 0], sb[g, 1])
+            if near > _CULL_MARGIN_M and abs(span) < math.pi - 1e-3:
+                lo = a_dir + min(span, 0.0) - _CULL_MARGIN_RAD
+                hi = a_dir + max(span, 0.0) + _CULL_MARGIN_RAD
+                n_spans = _beam_spans(beams, lo, hi, spans)
+        for m in range(n_spans):
+            for k in range(spans[m, 0], spans[m, 1]):
+                denom = dx[k] * ey - dy[k] * ex
+                if denom == 0.0:
+                    continue
+                t = (apx * ey - apy * ex) / denom
+                u = (apx * dy[k] - apy * dx[k]) / denom
+                if 0.0 <= t < best[k] and 0.0 <= u <= 1.0:
+                    best[k] = t
+    return False
 
 
 @numba.njit(cache=True)
@@ -223,14 +317,20 @@ def sense(
     ``goal_polar`` (N, 2) the goal distance and bearing, ``clearance`` (N,) the gap between
     the footprint disc and the nearest obstacle. The rays are cast against the obstacles
     within the lidar's range only (the others cannot change a reading: each hit lies at least
-    as far as the obstacle), which gives the same numbers as casting against all.
+    as far as the obstacle), each only along the beams under which it is seen
+    (:func:`_cast_beams`), which gives the same numbers as casting every ray against all.
     """
     lx, ly = lidar_xy[0], lidar_xy[1]
     offset = math.hypot(lx, ly)
     reach = range_max + _CULL_MARGIN_M
+    nb = beam_angles.shape[0]
+    sorted_beams = True
+    for k in range(1, nb):
+        sorted_beams &= beam_angles[k] > beam_angles[k - 1]
     cap_c, cap_s = max(cr.shape[1], 1), max(sa.shape[1], 1)
     near_cxy, near_cr = np.empty((cap_c, 2)), np.empty(cap_c)
     near_sa, near_sb = np.empty((cap_s, 2)), np.empty((cap_s, 2))
+    dx, dy, best = np.empty(nb), np.empty(nb), np.empty(nb)
     for i in range(active.shape[0]):
         if not active[i]:
             continue
@@ -252,13 +352,18 @@ def sense(
                 near_sb[q, 0], near_sb[q, 1] = sb[i, k, 0], sb[i, k, 1]
                 q += 1
         ci, ri, ai, bi = near_cxy[:m], near_cr[:m], near_sa[:q], near_sb[:q]
-        for k in range(beam_angles.shape[0]):
+        for k in range(nb):
             a = beam_angles[k] + yaw
-            r = ray_distance(ox, oy, np.cos(a), np.sin(a), ci, ri, ai, bi, range_max)
+            dx[k], dy[k] = np.cos(a), np.sin(a)
+            best[k] = range_max
+        if _cast_beams(ox, oy, yaw, beam_angles, sorted_beams, dx, dy, ci, ri, ai, bi, best):
+            best[:] = 0.0
+        for k in range(nb):
+            r = best[k]
             ranges[i, k] = range_max if r < range_min else r
-        dx, dy = goal[i, 0] - x, goal[i, 1] - y
-        goal_polar[i, 0] = math.hypot(dx, dy)
-        b = math.atan2(dy, dx) - yaw
+        dx_g, dy_g = goal[i, 0] - x, goal[i, 1] - y
+        goal_polar[i, 0] = math.hypot(dx_g, dy_g)
+        b = math.atan2(dy_g, dx_g) - yaw
         goal_polar[i, 1] = math.atan2(math.sin(b), math.cos(b))
         # the nearest obstacle is among the near ones unless all lie beyond range - offset
         gap = _clearance(x, y, ci, ri, ai, bi)
