@@ -42,7 +42,15 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Kernel", "compile_all", "compiled", "interpreted", "njit", "sources_digest"]
+__all__ = [
+    "Kernel",
+    "compile_all",
+    "compiled",
+    "interpreted",
+    "key_cache",
+    "njit",
+    "sources_digest",
+]
 
 _KERNELS: list[Kernel] = []
 _LOCK = threading.RLock()
@@ -176,13 +184,16 @@ def _drop_stale_caches(kernels: list[Kernel]) -> None:
         invalidate_folder(folder, {f.stem for f in sources}, sources_digest(sources | base))
 
 
-def invalidate_folder(folder: Path, stems: set[str], digest: str) -> bool:
+def invalidate_folder(
+    folder: Path, stems: set[str], digest: str, stamp_name: str = STAMP_NAME
+) -> bool:
     """Delete ``folder``'s numba cache files (``.nbi``, ``.nbc``) of the modules ``stems``
-    unless its stamp says ``digest``; write the stamp. Returns whether files were deleted.
+    unless its stamp (file ``stamp_name``) says ``digest``; write the stamp. Returns whether
+    files were deleted.
 
     Folders that cannot be read or written are left alone (numba then compiles anew).
     """
-    stamp = folder / STAMP_NAME
+    stamp = folder / stamp_name
     try:
         if stamp.read_text(encoding="ascii").strip() == digest:
             return False
@@ -194,13 +205,34 @@ def invalidate_folder(folder: Path, stems: set[str], digest: str) -> bool:
             if path.suffix in (".nbi", ".nbc") and path.name.split(".")[0] in stems:
                 path.unlink(missing_ok=True)
                 dropped = True
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=STAMP_NAME, suffix=".tmp")
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=stamp_name, suffix=".tmp")
         with os.fdopen(fd, "w", encoding="ascii") as out:
             out.write(digest + "\n")
         os.replace(tmp, stamp)
     except OSError:
         pass
     return dropped
+
+
+def key_cache(dispatcher: Any, sources: set[Path]) -> bool:
+    """Key the on-disk cache of a plain ``numba.njit(cache=True)`` module on ``sources``.
+
+    numba keys a cached kernel on its own file only; a kernel that calls kernels of other
+    files (``sources``: list them all, the kernel's own file included) keeps stale machine code
+    when one of those changes. Call this at import, after the module's kernels are defined and
+    before any runs: if the digest of ``sources`` differs from the one stamped in the cache
+    folder of ``dispatcher`` (any kernel of the module), the module's cached kernels there are
+    deleted. Returns whether files were deleted.
+    """
+    folder = getattr(getattr(dispatcher, "_cache", None), "_cache_path", None)
+    module = sys.modules.get(getattr(dispatcher, "py_func", dispatcher).__module__)
+    name = getattr(module, "__file__", None)
+    if not (folder and name):
+        return False
+    stem = Path(name).stem
+    return invalidate_folder(
+        Path(folder), {stem}, sources_digest(sources), f"{stem}-sources.sha256"
+    )
 
 
 @contextmanager

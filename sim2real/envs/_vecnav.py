@@ -15,10 +15,12 @@ env and N single envs with the same seeds give the same numbers:
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numba
 import numpy as np
 
+from robots import _jit
 from robots.reduced import _advance_history
 from sim2real.envs._robot import arc_step
 from sim2real.envs.depth import render_camera
@@ -634,3 +636,19 @@ def render_depths(
         for r in range(frame.shape[0]):
             for c in range(frame.shape[1]):
                 out[i, r, c] = np.float32(frame[r, c])
+
+
+def _key_cache() -> None:
+    """Key this module's numba cache on the sources of every kernel it calls (robots' drive
+    kernels, the pose step, the pedestrians' and the depth camera's kernels): numba alone keys
+    it on this file, and would load stale machine code after an edit of one of those."""
+    import robots._kernel
+    import robots.reduced
+    from sim2real.envs import _robot, depth, geometry, pedestrians
+
+    modules = (robots._kernel, robots.reduced, _robot, depth, geometry, pedestrians)
+    sources = {Path(__file__)} | {Path(str(m.__file__)) for m in modules}
+    _jit.key_cache(move_robots, sources)
+
+
+_key_cache()

@@ -46,11 +46,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from robots import _jit
+from sim2real.envs import geometry as _geometry
 from sim2real.envs.geometry import FloatArray, Scene2D, point_segment_distance, ray_distance
 from sim2real.errors import Sim2RealValueError
 
@@ -547,3 +550,7 @@ def walk(
         _COS_OFFSETS,
         _OFFSET_PENALTY,
     )
+
+
+# _gaps_kernel inlines geometry.ray_distance: key the numba cache on both files
+_jit.key_cache(_walk_kernel, {Path(__file__), Path(str(_geometry.__file__))})

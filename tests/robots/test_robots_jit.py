@@ -148,3 +148,50 @@ def test_a_stale_folder_loses_only_its_kernel_modules_cache_files(tmp_path: Path
     assert not _jit.invalidate_folder(tmp_path, {"reduced"}, "abc")  # stamp matches: kept
     assert (tmp_path / names[0]).exists()
     assert _jit.sources_digest({tmp_path / names[0]}) != _jit.sources_digest(set())
+
+
+_PLAIN_INNER = """
+import numba
+
+@numba.njit(cache=True)
+def inner(x):
+    return x + {add}
+"""
+
+_PLAIN_OUTER = """
+from pathlib import Path
+
+import numba
+
+from robots import _jit
+from plainmods import plain_inner
+from plainmods.plain_inner import inner
+
+@numba.njit(cache=True)
+def outer(x):
+    return inner(x) * 2.0
+
+_jit.key_cache(outer, {Path(__file__), Path(plain_inner.__file__)})
+"""
+
+
+def test_key_cache_keys_a_plain_numba_module_on_the_sources_it_calls(tmp_path: Path) -> None:
+    """A plain numba.njit(cache=True) module (sim2real.envs._vecnav) calling kernels of other
+    files: key_cache drops its cached code when one of those files changes."""
+    pkg = tmp_path / "plainmods"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "plain_outer.py").write_text(_PLAIN_OUTER)
+    run = [sys.executable, "-c", "from plainmods.plain_outer import outer; print(outer(1.0))"]
+
+    def outer_of_one(add: float) -> float:
+        (pkg / "plain_inner.py").write_text(_PLAIN_INNER.format(add=add))
+        proc = subprocess.run(run, capture_output=True, text=True, check=True, cwd=tmp_path)
+        return float(proc.stdout.strip())
+
+    assert outer_of_one(1.0) == 4.0
+    cache = pkg / "__pycache__"
+    assert any(p.name.startswith("plain_outer.") and p.suffix == ".nbi" for p in cache.iterdir())
+    assert (cache / "plain_outer-sources.sha256").exists()
+    assert outer_of_one(2.0) == 6.0  # numba alone would load outer's stale code: 4.0
+    assert outer_of_one(2.0) == 6.0  # and from the cache again

@@ -348,3 +348,61 @@ def test_a_vector_env_compiles_cold_in_a_process_that_ran_no_other_kernel(tmp_pa
     )
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip() == "(2,) bool"
+
+
+@pytest.mark.parametrize(
+    ("beams", "yaw_scale"),
+    [
+        (np.linspace(-np.pi / 6, np.pi / 6, 640), 3.0),  # CrowdNav's lidar
+        (2 * np.pi * np.arange(36) / 36, 3.0),  # RandomMap's, past +-pi
+        (np.linspace(-np.pi, np.pi, 181), 200.0),  # a full scan, a wound-up yaw
+        (np.array([0.3, -1.0, 2.0, 0.1]), 3.0),  # unsorted: every obstacle against every beam
+    ],
+)
+def test_lidar_casting_by_beam_spans_equals_casting_every_ray(
+    beams: np.ndarray, yaw_scale: float
+) -> None:
+    """The vector envs' lidar casts each obstacle only along the beams it can be seen under;
+    the ranges must be cast_rays' (every ray against every obstacle) to the bit, also with the
+    origin inside a circle, on a segment or in line with one."""
+    from sim2real.envs._vecnav import sense
+    from sim2real.envs.geometry import Scene2D, cast_rays
+
+    rng = np.random.default_rng(5)
+    n, nc, ns = 40, 12, 10
+    cxy, cr = rng.uniform(-4, 4, (n, nc, 2)), rng.uniform(0.05, 0.6, (n, nc))
+    sa, sb = rng.uniform(-5, 5, (n, ns, 2)), rng.uniform(-5, 5, (n, ns, 2))
+    pose = np.column_stack([rng.uniform(-4, 4, (n, 2)), rng.uniform(-yaw_scale, yaw_scale, n)])
+    pose[0, :2] = cxy[0, 0]  # inside a circle
+    pose[1, :2] = 0.3 * sa[1, 0] + 0.7 * sb[1, 0]  # on a segment
+    sa[2, 0], sb[2, 0] = pose[2, :2] + [1.0, 1.0], pose[2, :2] + [3.0, 3.0]  # in line
+    sb[3, 1] = sa[3, 1] + [1e-9, 0.0]  # a tiny segment
+    counts_c, counts_s = rng.integers(0, nc + 1, n), rng.integers(0, ns + 1, n)
+    ranges = np.zeros((n, beams.size))
+    sense(
+        np.ones(n, dtype=np.bool_),
+        pose,
+        np.zeros(2),
+        beams,
+        0.0,
+        6.0,
+        cxy,
+        cr,
+        counts_c,
+        sa,
+        sb,
+        counts_s,
+        np.zeros((n, 2)),
+        0.2,
+        ranges,
+        np.zeros((n, 2)),
+        np.zeros(n),
+    )
+    for i in range(n):
+        c, s = counts_c[i], counts_s[i]
+        scene = Scene2D(
+            circles_xy=cxy[i, :c], circles_r=cr[i, :c], seg_a=sa[i, :s], seg_b=sb[i, :s]
+        )
+        expected = cast_rays(scene, pose[i, :2], beams + pose[i, 2], 6.0)
+        np.testing.assert_array_equal(ranges[i], expected, err_msg=f"env {i}")
+    assert (ranges < 6.0).mean() > 0.2  # the beams do hit things
