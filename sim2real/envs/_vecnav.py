@@ -24,7 +24,7 @@ from robots import _jit
 from robots.reduced import _advance_history
 from sim2real.envs._robot import arc_step
 from sim2real.envs.depth import render_camera
-from sim2real.envs.geometry import FloatArray
+from sim2real.envs.geometry import FloatArray, segment_missed
 from sim2real.envs.pedestrians import _walk_kernel
 
 #: the single env's pose integration, compiled: one source for both
@@ -286,8 +286,11 @@ def _cast_beams(
                 denom = dx[k] * ey - dy[k] * ex
                 if denom == 0.0:
                     continue
-                t = (apx * ey - apy * ex) / denom
-                u = (apx * dy[k] - apy * dx[k]) / denom
+                t_num, u_num = apx * ey - apy * ex, apx * dy[k] - apy * dx[k]
+                if segment_missed(t_num, u_num, denom):
+                    continue
+                t = t_num / denom
+                u = u_num / denom
                 if 0.0 <= t < best[k] and 0.0 <= u <= 1.0:
                     best[k] = t
     return False

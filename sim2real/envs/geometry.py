@@ -176,11 +176,31 @@ def ray_distance(
         if denom == 0.0:
             continue
         apx, apy = sa[k, 0] - ox, sa[k, 1] - oy
-        t = (apx * ey - apy * ex) / denom
-        u = (apx * dy - apy * dx) / denom
+        t_num, u_num = apx * ey - apy * ex, apx * dy - apy * dx
+        if segment_missed(t_num, u_num, denom):
+            continue
+        t = t_num / denom
+        u = u_num / denom
         if 0.0 <= t < best and 0.0 <= u <= 1.0:
             best = t
     return best
+
+
+#: Numerators below this size are left to the division (a quotient could round to -0.0).
+_TINY = 1e-200
+
+
+@numba.njit(cache=True, inline="always")
+def segment_missed(t_num: float, u_num: float, denom: float) -> bool:  # pragma: no cover
+    """Whether a ray misses a segment for sure, before dividing: ``t = t_num / denom < 0``,
+    ``u = u_num / denom < 0`` or ``|u| > 1`` by a margin no rounding of the quotients can
+    cross (then ``0 <= t`` and ``0 <= u <= 1`` fail too; otherwise the caller divides)."""
+    if denom > 0.0:
+        if t_num < -_TINY or u_num < -_TINY:
+            return True
+    elif t_num > _TINY or u_num > _TINY:
+        return True
+    return abs(u_num) > abs(denom) * 1.000001
 
 
 @numba.njit(cache=True)
