@@ -24,7 +24,7 @@ from robots import _jit
 from robots.reduced import _advance_history
 from sim2real.envs._robot import arc_step
 from sim2real.envs.depth import render_camera
-from sim2real.envs.geometry import FloatArray, segment_missed
+from sim2real.envs.geometry import FloatArray, cast_beams, segment_distance
 from sim2real.envs.pedestrians import _walk_kernel
 
 #: the single env's pose integration, compiled: one source for both
@@ -165,19 +165,6 @@ def move_robots(
 
 
 @numba.njit(cache=True)
-def _segment_distance(
-    x: float, y: float, ax: float, ay: float, bx: float, by: float
-) -> float:  # pragma: no cover - compiled
-    """Distance from (x, y) to the segment a-b (point_segment_distance's arithmetic)."""
-    ex, ey = bx - ax, by - ay
-    ee = max(ex * ex + ey * ey, 1e-300)
-    apx, apy = x - ax, y - ay
-    s = min(max((apx * ex + apy * ey) / ee, 0.0), 1.0)
-    dx, dy = apx - s * ex, apy - s * ey
-    return float(np.sqrt(dx * dx + dy * dy))
-
-
-@numba.njit(cache=True)
 def _clearance(
     x: float,
     y: float,
@@ -191,109 +178,12 @@ def _clearance(
     for c in range(cr.shape[0]):
         gap = min(gap, np.hypot(cxy[c, 0] - x, cxy[c, 1] - y) - cr[c])
     for k in range(sa.shape[0]):
-        gap = min(gap, _segment_distance(x, y, sa[k, 0], sa[k, 1], sb[k, 0], sb[k, 1]))
+        gap = min(gap, segment_distance(x, y, sa[k, 0], sa[k, 1], sb[k, 0], sb[k, 1]))
     return gap
 
 
 #: Obstacles farther than the lidar range plus this margin (m) cannot change a ray's reading.
 _CULL_MARGIN_M = 1e-6
-#: Margin (rad) around the directions under which an obstacle is seen: beams outside cannot
-#: hit it (rounding moves a hit test by ~1e-15 rad).
-_CULL_MARGIN_RAD = 1e-6
-
-
-@numba.njit(cache=True)
-def _beam_spans(
-    beams: FloatArray, lo: float, hi: float, spans: IntArray
-) -> int:  # pragma: no cover - compiled
-    """Index ranges of the sorted body-frame ``beams`` within [lo, hi] (rad, taken modulo
-    2 pi): writes (start, stop) rows into ``spans``, returns their count."""
-    count = 0
-    two_pi = 2.0 * math.pi
-    for shift in range(-2, 3):
-        k0 = np.searchsorted(beams, lo + shift * two_pi, side="left")
-        k1 = np.searchsorted(beams, hi + shift * two_pi, side="right")
-        if k0 < k1:
-            spans[count, 0], spans[count, 1] = k0, k1
-            count += 1
-    return count
-
-
-@numba.njit(cache=True)
-def _wrap(a: float) -> float:  # pragma: no cover - compiled
-    return math.atan2(math.sin(a), math.cos(a))
-
-
-@numba.njit(cache=True)
-def _cast_beams(
-    ox: float,
-    oy: float,
-    yaw: float,
-    beams: FloatArray,
-    sorted_beams: bool,
-    dx: FloatArray,
-    dy: FloatArray,
-    cxy: FloatArray,
-    cr: FloatArray,
-    sa: FloatArray,
-    sb: FloatArray,
-    best: FloatArray,
-) -> bool:  # pragma: no cover - compiled
-    """:func:`ray_distance` along every beam (unit directions ``dx``, ``dy``), obstacle by
-    obstacle over the beams under which the obstacle is seen (all beams if ``beams`` are not
-    sorted): the same per-beam arithmetic, and the nearest hit does not depend on the order.
-    ``best`` starts at the range; returns True (and leaves ``best``) if the origin lies inside
-    a circle (every beam then reads 0)."""
-    nb = beams.shape[0]
-    spans = np.empty((5, 2), dtype=np.int64)
-    for c in range(cr.shape[0]):
-        fx, fy = ox - cxy[c, 0], oy - cxy[c, 1]
-        q = fx * fx + fy * fy - cr[c] * cr[c]
-        if q <= 0.0:
-            return True
-    for c in range(cr.shape[0]):
-        fx, fy = ox - cxy[c, 0], oy - cxy[c, 1]
-        q = fx * fx + fy * fy - cr[c] * cr[c]
-        n_spans = 1
-        spans[0, 0], spans[0, 1] = 0, nb
-        if sorted_beams:
-            mid = _wrap(math.atan2(-fy, -fx) - yaw)
-            half = math.asin(min(cr[c] / math.sqrt(fx * fx + fy * fy), 1.0)) + _CULL_MARGIN_RAD
-            n_spans = _beam_spans(beams, mid - half, mid + half, spans)
-        for m in range(n_spans):
-            for k in range(spans[m, 0], spans[m, 1]):
-                b = dx[k] * fx + dy[k] * fy
-                if b >= 0.0:
-                    continue
-                disc = b * b - q
-                if disc >= 0.0:
-                    best[k] = min(best[k], -b - np.sqrt(disc))
-    for g in range(sa.shape[0]):
-        ex, ey = sb[g, 0] - sa[g, 0], sb[g, 1] - sa[g, 1]
-        apx, apy = sa[g, 0] - ox, sa[g, 1] - oy
-        n_spans = 1
-        spans[0, 0], spans[0, 1] = 0, nb
-        if sorted_beams:
-            a_dir = _wrap(math.atan2(apy, apx) - yaw)
-            span = _wrap(math.atan2(sb[g, 1] - oy, sb[g, 0] - ox) - math.atan2(apy, apx))
-            near = _segment_distance(ox, oy, sa[g, 0], sa[g, 1], sb[g, 0], sb[g, 1])
-            if near > _CULL_MARGIN_M and abs(span) < math.pi - 1e-3:
-                lo = a_dir + min(span, 0.0) - _CULL_MARGIN_RAD
-                hi = a_dir + max(span, 0.0) + _CULL_MARGIN_RAD
-                n_spans = _beam_spans(beams, lo, hi, spans)
-        for m in range(n_spans):
-            for k in range(spans[m, 0], spans[m, 1]):
-                denom = dx[k] * ey - dy[k] * ex
-                if denom == 0.0:
-                    continue
-                t_num, u_num = apx * ey - apy * ex, apx * dy[k] - apy * dx[k]
-                if segment_missed(t_num, u_num, denom):
-                    continue
-                t = t_num / denom
-                u = u_num / denom
-                if 0.0 <= t < best[k] and 0.0 <= u <= 1.0:
-                    best[k] = t
-    return False
 
 
 @numba.njit(cache=True)
@@ -323,7 +213,7 @@ def sense(
     the footprint disc and the nearest obstacle. The rays are cast against the obstacles
     within the lidar's range only (the others cannot change a reading: each hit lies at least
     as far as the obstacle), each only along the beams under which it is seen
-    (:func:`_cast_beams`), which gives the same numbers as casting every ray against all.
+    (:func:`~sim2real.envs.geometry.cast_beams`), which gives the same numbers as casting every ray against all.
     """
     lx, ly = lidar_xy[0], lidar_xy[1]
     offset = math.hypot(lx, ly)
@@ -351,7 +241,7 @@ def sense(
                 m += 1
         q = 0
         for k in range(n_segments[i]):
-            d = _segment_distance(ox, oy, sa[i, k, 0], sa[i, k, 1], sb[i, k, 0], sb[i, k, 1])
+            d = segment_distance(ox, oy, sa[i, k, 0], sa[i, k, 1], sb[i, k, 0], sb[i, k, 1])
             if d <= reach:
                 near_sa[q, 0], near_sa[q, 1] = sa[i, k, 0], sa[i, k, 1]
                 near_sb[q, 0], near_sb[q, 1] = sb[i, k, 0], sb[i, k, 1]
@@ -361,7 +251,7 @@ def sense(
             a = beam_angles[k] + yaw
             dx[k], dy[k] = np.cos(a), np.sin(a)
             best[k] = range_max
-        if _cast_beams(ox, oy, yaw, beam_angles, sorted_beams, dx, dy, ci, ri, ai, bi, best):
+        if cast_beams(ox, oy, yaw, beam_angles, sorted_beams, dx, dy, ci, ri, ai, bi, best):
             best[:] = 0.0
         for k in range(nb):
             r = best[k]

@@ -230,6 +230,15 @@ def _render_columns(
                     hit_out[n_hit] = t_out
                     hit_h[n_hit] = boxes[k, 6]
                     n_hit += 1
+        # nearest entry first: a body entered beyond a ray's best hit cannot change it (every
+        # hit on it lies at or beyond its entry), so each ray stops there
+        for m in range(1, n_hit):
+            t_in, t_out, h = hit_in[m], hit_out[m], hit_h[m]
+            q = m - 1
+            while q >= 0 and hit_in[q] > t_in:
+                hit_in[q + 1], hit_out[q + 1], hit_h[q + 1] = hit_in[q], hit_out[q], hit_h[q]
+                q -= 1
+            hit_in[q + 1], hit_out[q + 1], hit_h[q + 1] = t_in, t_out, h
         for i in range(n_rows):
             r = i * width + j
             dz = d[r, 2]
@@ -237,8 +246,9 @@ def _render_columns(
             if dz < 0.0:
                 best = -ez / dz
             for m in range(n_hit):
-                if hit_in[m] < best:
-                    best = _side_or_cap(ez, dz, hit_in[m], hit_out[m], hit_h[m], best)
+                if not hit_in[m] < best:
+                    break
+                best = _side_or_cap(ez, dz, hit_in[m], hit_out[m], hit_h[m], best)
             out[r] = best
 
 

@@ -54,7 +54,7 @@ from numpy.typing import NDArray
 
 from robots import _jit
 from sim2real.envs import geometry as _geometry
-from sim2real.envs.geometry import FloatArray, Scene2D, point_segment_distance, ray_distance
+from sim2real.envs.geometry import FloatArray, Scene2D, cast_beams, point_segment_distance
 from sim2real.errors import Sim2RealValueError
 
 __all__ = [
@@ -352,30 +352,38 @@ def _gaps_kernel(
     sb: FloatArray,
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
+    """Free space of every pedestrian along each of its headings (see :meth:`Crowd.free_space`),
+    body by body over the headings (the nearest hit does not depend on the order)."""
     n, k = headings.shape
+    dx, dy = np.empty(k), np.empty(k)
+    best, stat = np.empty(k), np.empty(k)
     for i in range(n):
         px, py, ri = pos[i, 0], pos[i, 1], rad[i]
         for j in range(k):
-            dx, dy = np.cos(headings[i, j]), np.sin(headings[i, j])
-            best = 50.0
-            for o in range(oxy.shape[0]):  # pedestrians and the robot, inflated by ri
-                if o == i:
-                    continue
-                fx, fy = px - oxy[o, 0], py - oxy[o, 1]
-                rr = orad[o] + ri
-                q = fx * fx + fy * fy - rr * rr
-                b = dx * fx + dy * fy
+            dx[j], dy[j] = np.cos(headings[i, j]), np.sin(headings[i, j])
+            best[j], stat[j] = 50.0, 50.0
+        for o in range(oxy.shape[0]):  # pedestrians and the robot, inflated by ri
+            if o == i:
+                continue
+            fx, fy = px - oxy[o, 0], py - oxy[o, 1]
+            rr = orad[o] + ri
+            q = fx * fx + fy * fy - rr * rr
+            for j in range(k):
+                b = dx[j] * fx + dy[j] * fy
                 if q <= 0.0:
                     if b < 0.0:  # already touching and heading into it
-                        best = 0.0
+                        best[j] = 0.0
                     continue
                 if b >= 0.0:
                     continue
                 disc = b * b - q
                 if disc >= 0.0:
-                    best = min(best, -b - np.sqrt(disc))
-            stat = ray_distance(px, py, dx, dy, cxy, cr, sa, sb, 50.0)  # static obstacles
-            out[i, j] = min(best, max(stat - ri, 0.0))
+                    best[j] = min(best[j], -b - np.sqrt(disc))
+        # static obstacles: ray_distance along each heading
+        if cast_beams(px, py, 0.0, headings[i], False, dx, dy, cxy, cr, sa, sb, stat):
+            stat[:] = 0.0
+        for j in range(k):
+            out[i, j] = min(best[j], max(stat[j] - ri, 0.0))
 
 
 #: cos of the heading offsets and the tie-break penalty of the steering score (numpy's values)
