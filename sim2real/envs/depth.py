@@ -265,6 +265,19 @@ def world_rays(rays: FloatArray, rotation: FloatArray) -> FloatArray:  # pragma:
 
 
 @numba.njit(cache=True)
+def _level(rays: FloatArray, rotation: FloatArray, width: int) -> bool:  # pragma: no cover
+    """Whether the world rays' columns are vertical for sure: the rotation keeps the camera's
+    z out of the world's x and y, and each image column's camera rays share their (x, y)
+    (then :func:`_columns_are_vertical` holds for ``world_rays(rays, rotation)``)."""
+    if rotation[0, 2] != 0.0 or rotation[1, 2] != 0.0 or rays.shape[0] % width != 0:
+        return False
+    for k in range(width, rays.shape[0]):
+        if rays[k, 0] != rays[k - width, 0] or rays[k, 1] != rays[k - width, 1]:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
 def _render_frame(
     eye: FloatArray,
     rotation: FloatArray,
@@ -278,12 +291,24 @@ def _render_frame(
     """Depth image ``out`` (height, width) clipped to [near, far]: the camera-frame ``rays``
     turned into the world by ``rotation`` (sums in index order), then cast from ``eye``."""
     height, width = out.shape
-    d = world_rays(rays, rotation)
     flat = np.empty(rays.shape[0])
-    if d.shape[0] % width == 0 and _columns_are_vertical(d, width):
+    if _level(rays, rotation, width):
+        # what the per-column renderer reads of world_rays: the first row's (x, y), every z
+        d = np.empty((rays.shape[0], 3))
+        for p in range(rays.shape[0]):
+            if p < width:
+                for a in range(2):
+                    d[p, a] = rays[p, 0] * rotation[a, 0] + rays[p, 1] * rotation[a, 1]
+                    d[p, a] += rays[p, 2] * rotation[a, 2]
+            d[p, 2] = rays[p, 0] * rotation[2, 0] + rays[p, 1] * rotation[2, 1]
+            d[p, 2] += rays[p, 2] * rotation[2, 2]
         _render_columns(eye, d, cyl, boxes, width, flat)
     else:
-        _render_rays(eye, d, cyl, boxes, flat)
+        d = world_rays(rays, rotation)
+        if d.shape[0] % width == 0 and _columns_are_vertical(d, width):
+            _render_columns(eye, d, cyl, boxes, width, flat)
+        else:
+            _render_rays(eye, d, cyl, boxes, flat)
     for i in range(height):
         for j in range(width):
             out[i, j] = min(max(flat[i * width + j], near), far)

@@ -296,6 +296,7 @@ def cast_beams(
     for g in range(sa.shape[0]):
         ex, ey = sb[g, 0] - sa[g, 0], sb[g, 1] - sa[g, 1]
         apx, apy = sa[g, 0] - ox, sa[g, 1] - oy
+        t_num = apx * ey - apy * ex
         n_spans = 1
         spans[0, 0], spans[0, 1] = 0, nb
         if sorted_beams:
@@ -311,7 +312,7 @@ def cast_beams(
                 denom = dx[k] * ey - dy[k] * ex
                 if denom == 0.0:
                     continue
-                t_num, u_num = apx * ey - apy * ex, apx * dy[k] - apy * dx[k]
+                u_num = apx * dy[k] - apy * dx[k]
                 if segment_missed(t_num, u_num, denom):
                     continue
                 t = t_num / denom
