@@ -9,7 +9,16 @@ env and N single envs with the same seeds give the same numbers:
 - the lidar: :func:`sim2real.envs.geometry.ray_distance` from the mount of
   :meth:`sim2real.envs._nav.NavEnvBase._lidar_ranges`, against each env's own obstacles (held
   padded to a common count, with the count per env);
-- the goal (distance and bearing) and the clearance of :func:`sim2real.envs.geometry.disc_clearance`.
+- the goal (distance and bearing) and the clearance of :func:`sim2real.envs.geometry.disc_clearance`;
+- CrowdNav's eq. (1) pedestrians (:meth:`sim2real.envs.pedestrians.Crowd.step`: the clock and
+  goals here, then the single env's kernel ``_walk_kernel``; new goals are drawn in Python from
+  each env's own generator) and depth images (:func:`sim2real.envs.depth.render_camera`).
+
+The lidar casts each obstacle only along the beams it can be seen under
+(:func:`sim2real.envs.geometry.cast_beams`): the same per-beam arithmetic as
+:func:`~sim2real.envs.geometry.ray_distance`, whose nearest hit does not depend on the order.
+This module's numba cache is keyed on the sources of every kernel it calls
+(:func:`robots._jit.key_cache`).
 """
 
 from __future__ import annotations

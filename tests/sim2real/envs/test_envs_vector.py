@@ -406,3 +406,35 @@ def test_lidar_casting_by_beam_spans_equals_casting_every_ray(
         expected = cast_rays(scene, pose[i, :2], beams + pose[i, 2], 6.0)
         np.testing.assert_array_equal(ranges[i], expected, err_msg=f"env {i}")
     assert (ranges < 6.0).mean() > 0.2  # the beams do hit things
+
+
+def test_crowd_nav_sub_env_crowds_show_the_state_the_vector_env_steps() -> None:
+    """envs.envs[i].crowd holds views of the batched pedestrian rows: the same positions,
+    velocities, goals and clock as a single env's crowd, also after a reset with more
+    pedestrians grew the rows."""
+    from sim2real.envs import CrowdNavEnv, CrowdNavVectorEnv
+
+    kw: dict[str, Any] = {"scenario": "dynamic", "complexity": 1.0, "max_episode_steps": 400}
+    vec = CrowdNavVectorEnv(num_envs=2, **kw)
+    singles = [CrowdNavEnv(**kw) for _ in range(2)]
+    actions = np.array([[0.0, 0.0], [0.0, 0.0]], dtype=np.float32)
+
+    def check(where: str) -> None:
+        for sub, single in zip(vec.envs, singles, strict=True):
+            a, b = sub.crowd, single.crowd  # type: ignore[attr-defined]
+            assert a is not None and b is not None
+            for name in ("position_m", "velocity_mps", "goals"):
+                np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=where)
+            assert a.time_s == b.time_s
+
+    for opts in (None, {"num_pedestrians": 45}):
+        vec.reset(seed=[3, 4], options=opts)
+        for i, single in enumerate(singles):
+            single.reset(seed=3 + i, options=opts)
+        for t in range(25):
+            vec.step(actions)
+            for single in singles:
+                single.step(actions[0])
+            check(f"{opts}, step {t}")
+    assert len(vec.envs[0].crowd) == 45  # type: ignore[attr-defined]
+    assert vec._ped_pos.shape[1] >= 45  # the rows grew
