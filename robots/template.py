@@ -55,6 +55,7 @@ class NewRobot:
     max_turn_rate_radps: float
     footprint_radius_m: float
     drive: str
+    driver_track_factor: float
     given: frozenset[str]
 
     @classmethod
@@ -69,8 +70,15 @@ class NewRobot:
         max_turn_rate_radps: float | None = None,
         footprint_radius_m: float | None = None,
         drive: str = "diff",
+        driver_track_factor: float | None = None,
     ) -> NewRobot:
-        """Fill the facts not given (see the module docstring for the rules)."""
+        """Fill the facts not given (see the module docstring for the rules).
+
+        ``driver_track_factor`` is the driver's ``wheel_separation_multiplier`` (its wheel
+        targets use that many times the geometric track; Clearpath's Husky driver ships 1.875,
+        the Jackal's 1.5); when not given: 1 for a differential drive, the skid prior (1.6)
+        for a skid steer.
+        """
         facts = {
             "wheel_separation_m": wheel_separation_m,
             "wheel_radius_m": wheel_radius_m,
@@ -78,6 +86,7 @@ class NewRobot:
             "max_speed_mps": max_speed_mps,
             "max_turn_rate_radps": max_turn_rate_radps,
             "footprint_radius_m": footprint_radius_m,
+            "driver_track_factor": driver_track_factor,
         }
         for key, value in facts.items():
             if value is not None and not (math.isfinite(value) and value > 0):
@@ -91,6 +100,11 @@ class NewRobot:
             )
         if drive not in DRIVES:
             raise RobotsValueError(f"drive must be one of {list(DRIVES)}, got {drive!r}")
+        if driver_track_factor is not None and not 0.5 <= driver_track_factor <= 5.0:
+            raise RobotsValueError(
+                f"driver_track_factor (the driver's wheel_separation_multiplier) must be in "
+                f"[0.5, 5], got {driver_track_factor!r}; e.g. 1.875 for a Husky's driver"
+            )
         b = wheel_separation_m
         r = wheel_radius_m or 0.2 * b
         v = max_speed_mps or 0.5
@@ -111,6 +125,7 @@ class NewRobot:
             or 2.0 * v / (b * (_SKID_CHI if drive == "skid" else 1.0)),
             footprint_radius_m=footprint_radius_m or max(0.7 * b, min_footprint),
             drive=drive,
+            driver_track_factor=driver_track_factor or (_SKID_CHI if drive == "skid" else 1.0),
             given=frozenset(k for k, val in facts.items() if val is not None),
         )
 
@@ -167,10 +182,13 @@ def _render(robot: NewRobot) -> str:
         else (1.0, "differential drive, the wheels roll without lateral slip")
     )
     driver_rule = (
-        "prior: the driver's wheel_separation_multiplier, assumed calibrated to the slip "
-        "(Husky ships 1.875, Jackal 1.5); give your driver's value"
+        "given: the driver's wheel_separation_multiplier"
+        if "driver_track_factor" in given
+        else "prior: the driver's wheel_separation_multiplier, assumed calibrated to the slip "
+        "(Husky ships 1.875, Jackal 1.5); give your driver's value (--driver-track-factor)"
         if skid
-        else "the driver's wheel targets use the geometric track"
+        else "the driver's wheel targets use the geometric track (--driver-track-factor: "
+        "your driver's wheel_separation_multiplier)"
     )
     scrub_share = 0.1 if skid else 0.01
     scrub = scrub_share * m * _G * b / 2
@@ -251,7 +269,7 @@ def _render(robot: NewRobot) -> str:
         "  added_mass_kg: 0.0",
         "  added_yaw_inertia_kgm2: 0.0",
         f"  track_factor: {_g(chi)}  # prior: {chi_rule}",
-        f"  driver_track_factor: {_g(chi)}  # {driver_rule}",
+        f"  driver_track_factor: {_g(robot.driver_track_factor)}  # {driver_rule}",
         "# Priors (robots.params.SCHEMA coordinates: lin = the unit of the value; log and",
         "# log_total_* = a relative spread, 0.7 ~ a factor 2). Wide where a number was not given.",
         "priors:",

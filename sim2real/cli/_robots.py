@@ -26,6 +26,8 @@ _NEW_EXAMPLES = """\
   sim2real robots new neato --wheel-separation 0.248 --max-speed 0.3 -o neato.yaml
   sim2real robots new husky --wheel-separation 0.555 --wheel-radius 0.165 --mass 50 \\
       --max-speed 1.0 --drive skid -o husky.yaml
+  sim2real robots new husky_diff --wheel-separation 0.555 --wheel-radius 0.165 \
+      --driver-track-factor 1.875 -o husky_diff.yaml    # diff model, the driver's multiplier
   sim2real sysid fit run.bag --robot neato.yaml -o params.yaml   # the file works as --robot
 """
 _CHECK_EXAMPLES = """\
@@ -113,6 +115,13 @@ def _register_new(group_sub: argparse._SubParsersAction) -> None:  # type: ignor
         default="diff",
         help="drive type: 'skid' adds the skid steer's slip (track_factor) and tread scrub priors",
     )
+    new.add_argument(
+        "--driver-track-factor",
+        type=float,
+        metavar="X",
+        help="the driver's wheel_separation_multiplier (e.g. 1.875 for a Husky; default 1 for "
+        "diff, 1.6 for skid)",
+    )
     new.add_argument("--force", action="store_true", help="overwrite an existing output file")
     new.set_defaults(handler=_new)
 
@@ -153,6 +162,7 @@ def _new(args: argparse.Namespace) -> int:
         max_turn_rate_radps=args.max_turn_rate,
         footprint_radius_m=args.footprint_radius,
         drive=args.drive,
+        driver_track_factor=args.driver_track_factor,
     )
     out = Path(args.out or f"{args.name}.yaml")
     if out.suffix not in (".yaml", ".yml"):

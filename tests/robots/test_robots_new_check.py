@@ -78,12 +78,32 @@ def test_given_numbers_are_used(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
+    ("drive", "given", "expected"),
+    [("diff", None, 1.0), ("skid", None, 1.6), ("diff", 1.875, 1.875)],
+)
+def test_driver_track_factor_is_the_drivers_multiplier(
+    drive: str, given: float | None, expected: float, tmp_path: Path
+) -> None:
+    """A diff spec of a Husky states its driver's wheel_separation_multiplier (1.875) with the
+    geometric track (track_factor 1): the model then turns the wheels as the driver does."""
+    text = spec_text("b", wheel_separation_m=0.555, drive=drive, driver_track_factor=given)
+    spec = load_spec(_write(tmp_path, text))
+    assert spec.drive.driver_track_factor == expected
+    assert spec.drive.track_factor == (1.0 if drive == "diff" else 1.6)
+    line = next(ln for ln in text.splitlines() if ln.strip().startswith("driver_track_factor:"))
+    assert ("given" in line) is (given is not None), line
+    assert check_spec(spec, drive_test=False).passed
+
+
+@pytest.mark.parametrize(
     ("kw", "match"),
     [
         ({"wheel_separation_m": -0.2}, "wheel_separation_m must be a finite number > 0"),
         ({"wheel_separation_m": 0.2, "mass_kg": math.nan}, "mass_kg must be"),
         ({"wheel_separation_m": 0.3, "footprint_radius_m": 0.1}, "wheels would stick out"),
         ({"wheel_separation_m": 0.3, "drive": "tank"}, "drive must be one of"),
+        ({"wheel_separation_m": 0.3, "driver_track_factor": 0.1}, "must be in \\[0.5, 5\\]"),
+        ({"wheel_separation_m": 0.3, "driver_track_factor": math.inf}, "driver_track_factor"),
     ],
 )
 def test_new_refuses_bad_numbers(kw: dict, match: str) -> None:
