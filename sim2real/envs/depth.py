@@ -271,10 +271,7 @@ def _level(rays: FloatArray, rotation: FloatArray, width: int) -> bool:  # pragm
     (then :func:`_columns_are_vertical` holds for ``world_rays(rays, rotation)``)."""
     if rotation[0, 2] != 0.0 or rotation[1, 2] != 0.0 or rays.shape[0] % width != 0:
         return False
-    for k in range(width, rays.shape[0]):
-        if rays[k, 0] != rays[k - width, 0] or rays[k, 1] != rays[k - width, 1]:
-            return False
-    return True
+    return _columns_are_vertical(rays, width)
 
 
 @numba.njit(cache=True)
