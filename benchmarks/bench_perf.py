@@ -213,7 +213,9 @@ def bench_pybullet_loop(repeats: int, control_steps: int) -> None:
         f"{figures['bare, constant torques'][1]:.2f}; replaying its torques alone (one write per "
         f"step) reaches CPU {rmed:.2f}",
         ">= 0.80",
-        med >= 0.8,
+        # met only when the CPU ratio is too: a queue on a shared machine can slow the bare
+        # runs' wall clock more than ours (measured: wall 0.85, CPU 0.65 in one run)
+        min(med, cmed) >= 0.8,
     )
 
 
