@@ -81,6 +81,16 @@ class Scene2D:
             circles_xy=c[:, :2].copy(), circles_r=c[:, 2].copy(), seg_a=s[:, :2], seg_b=s[:, 2:]
         )
 
+    def kernel_arrays(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """``(circles_xy, circles_r, seg_a, seg_b)`` as the compiled kernels take them:
+        contiguous float64, shapes (C, 2), (C,), (S, 2), (S, 2) (empty scenes included)."""
+        return (
+            np.ascontiguousarray(self.circles_xy, dtype=np.float64).reshape(-1, 2),
+            np.ascontiguousarray(self.circles_r, dtype=np.float64),
+            np.ascontiguousarray(self.seg_a, dtype=np.float64).reshape(-1, 2),
+            np.ascontiguousarray(self.seg_b, dtype=np.float64).reshape(-1, 2),
+        )
+
     def with_circles(self, xy: FloatArray, r: FloatArray) -> Scene2D:
         """The same segments plus extra circles (e.g. pedestrians at the current step)."""
         return Scene2D(
@@ -355,10 +365,7 @@ def cast_rays(
         float(o[0]),
         float(o[1]),
         ang,
-        np.ascontiguousarray(scene.circles_xy, dtype=np.float64).reshape(-1, 2),
-        np.ascontiguousarray(scene.circles_r, dtype=np.float64),
-        np.ascontiguousarray(scene.seg_a, dtype=np.float64).reshape(-1, 2),
-        np.ascontiguousarray(scene.seg_b, dtype=np.float64).reshape(-1, 2),
+        *scene.kernel_arrays(),
         float(max_range_m),
         out,
     )

@@ -282,10 +282,7 @@ class Crowd:
             np.ascontiguousarray(headings_rad, dtype=np.float64),
             others_xy,
             others_r,
-            np.ascontiguousarray(scene.circles_xy, dtype=np.float64).reshape(-1, 2),
-            np.ascontiguousarray(scene.circles_r, dtype=np.float64),
-            np.ascontiguousarray(scene.seg_a, dtype=np.float64).reshape(-1, 2),
-            np.ascontiguousarray(scene.seg_b, dtype=np.float64).reshape(-1, 2),
+            *scene.kernel_arrays(),
             out,
         )
         return out
@@ -326,10 +323,7 @@ class Crowd:
             self.alpha,
             walking,
             goal_dir,
-            np.ascontiguousarray(scene.circles_xy, dtype=np.float64).reshape(-1, 2),
-            np.ascontiguousarray(scene.circles_r, dtype=np.float64),
-            np.ascontiguousarray(scene.seg_a, dtype=np.float64).reshape(-1, 2),
-            np.ascontiguousarray(scene.seg_b, dtype=np.float64).reshape(-1, 2),
+            *scene.kernel_arrays(),
             float(robot_xy[0]),
             float(robot_xy[1]),
             float(robot_radius_m),
