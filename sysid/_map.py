@@ -319,17 +319,12 @@ def released_start(
 
 def _best(
     prob: Problem,
-    x0: FloatArray,
+    starts: Sequence[FloatArray],
     solve: Callable[[Problem, FloatArray, int], Any],
     nfev: int,
-    extra: Sequence[FloatArray] = (),
-    *,
-    plain: bool = False,
 ) -> Any:
-    """The fit from ``x0``, unless a start of :func:`restarts` (``plain``: of ``extra`` only)
-    ends in a clearly lower basin (:func:`_clearly_lower`): near-ties keep the first start's
-    answer."""
-    starts = [x0, *extra] if plain else restarts(prob, x0, extra)
+    """The fit from ``starts[0]``, unless another start ends in a clearly lower basin
+    (:func:`_clearly_lower`): near-ties keep the first start's answer."""
     first = best = solve(prob, starts[0], nfev)
     for x in starts[1:]:
         res = solve(prob, x, nfev)
@@ -357,24 +352,20 @@ def _optimise(
     Returns the result and whether the main pass converged (did not hit ``nfev``)."""
     logs = prob.logs
     total_s = sum(_span(g) for g in logs)
-    if total_s <= _FULL_STARTS_SPAN_S:
-        res = _best(prob, x0, solve, nfev, extra)
-        return res, res.status != 0
     starts = restarts(prob, x0, extra)
-    if len(starts) > 1:
+    if len(starts) > 1 and total_s > _FULL_STARTS_SPAN_S:
         # longer logs: the starts are compared on short busy windows
         scout = prob.like(_windows(logs, _SCOUT_SPAN_S))
         costs = [float(solve(scout, x, _SCOUT_NFEV).cost) for x in starts]
         prob.n_evals, prob.n_steps = scout.n_evals, scout.n_steps
-        if total_s <= _COARSE_SPAN_S:
-            # the first start and the best scouted others run to convergence
-            order = [k for k in np.argsort(costs) if k != 0][:_SCOUTED_FULL]
-            res = _best(prob, starts[0], solve, nfev, [starts[k] for k in order], plain=True)
-            return res, res.status != 0
-        k = int(np.argmin(costs))
-        x0 = starts[k] if _clearly_lower(scout, costs[k], costs[0]) else starts[0]
-    elif total_s <= _COARSE_SPAN_S:
-        res = solve(prob, x0, nfev)
+        if total_s <= _COARSE_SPAN_S:  # the first and the best scouted others to convergence
+            starts = [starts[0], *(starts[k] for k in np.argsort(costs) if k != 0)]
+            starts = starts[: 1 + _SCOUTED_FULL]
+        else:
+            k = int(np.argmin(costs))
+            x0 = starts[k] if _clearly_lower(scout, costs[k], costs[0]) else starts[0]
+    if total_s <= _COARSE_SPAN_S:
+        res = _best(prob, starts, solve, nfev)
         return res, res.status != 0
     coarse = prob.like(_windows(logs))
     coarse.n_evals, coarse.n_steps = prob.n_evals, prob.n_steps
