@@ -20,13 +20,15 @@ Example
 
 from __future__ import annotations
 
+import contextlib
 import glob
 import importlib.util
+import inspect
 import math
 import os
 import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -79,11 +81,13 @@ def expand_logs(patterns: Sequence[str | Path], *, what: str = "LOG") -> list[Pa
     return unique
 
 
-def connect(address: str, *, local_cpus: int | None = None) -> bool:
+def connect(address: str, *, local_cpus: int | None = None, lean: bool = False) -> bool:
     """Initialise Ray for ``address`` (``auto`` or a head node); no-op when already initialised.
 
     Returns True when this call started a local Ray (``auto`` with none running), which then
-    gets ``local_cpus`` CPUs (default: every core).
+    gets ``local_cpus`` CPUs (default: every core). ``lean=True`` starts such a local Ray
+    without the head's cluster services that one command's tasks never use (see
+    :func:`_lean_head`); a cluster that is joined is never changed.
 
     A local Ray started here runs without the dashboard and without usage reporting (background
     work that would otherwise take CPU from the tasks on a small machine), and its workers at
@@ -109,7 +113,8 @@ def connect(address: str, *, local_cpus: int | None = None) -> bool:
         # Ray would still read the dead record and refuse num_cpus ("connecting to an existing
         # cluster"); a new local Ray writes its own
         _cluster_file().unlink(missing_ok=True)
-        ray.init(num_cpus=local_cpus, **kw)
+        with _lean_head(ray, lean):
+            ray.init(num_cpus=local_cpus, **kw)
         return True
     if address == "auto":
         try:
@@ -117,7 +122,8 @@ def connect(address: str, *, local_cpus: int | None = None) -> bool:
             return False
         except ConnectionError:  # none running: a local one on this machine
             os.environ.pop("RAY_ADDRESS", None)
-            ray.init(num_cpus=local_cpus, **kw)
+            with _lean_head(ray, lean):
+                ray.init(num_cpus=local_cpus, **kw)
             return True
     try:
         ray.init(address=address, **kw)
@@ -127,6 +133,62 @@ def connect(address: str, *, local_cpus: int | None = None) -> bool:
             "give the head node's HOST:PORT (see `ray status` on it) or 'auto'"
         ) from None
     return False
+
+
+@contextlib.contextmanager
+def _lean_head(ray: Any, lean: bool) -> Iterator[bool]:
+    """While a local Ray starts, leave out three head services one command never uses.
+
+    A head started by ``ray.init()`` runs, beside the GCS and the raylet, five Python
+    services; three of them serve a long-lived cluster, not one command's tasks: the
+    autoscaler monitor (adds nodes), the log monitor (streams workers' stdout/stderr to the
+    driver; our tasks return their warnings as values) and the dashboard's API server (job
+    submission, state API). Each costs ~0.4 CPU-s to start (it imports Ray), and stopping the
+    monitor alone makes ``ray.shutdown()`` wait 1 s (Ray 2.60, measured here: 1.1-1.4 s
+    shutdown with them, 0.1 s without; 2.9 -> 1.7 CPU-s of services in the first 5 s).
+
+    ``ray start`` has switches for the first two (``--no-monitor``,
+    ``--include-log-monitor=false``) but ``ray.init()`` has none, so this sets the same
+    fields of Ray's private ``RayParams`` and skips ``Node.start_api_server`` for the duration
+    of the ``with`` block. Where this Ray's internals differ (another version), it yields
+    False and Ray starts as usual. Yields whether the lean start applies.
+    """
+    try:
+        from ray._private import node as ray_node
+        from ray._private import parameter as ray_parameter
+    except ImportError:  # pragma: no cover - another Ray layout
+        yield False
+        return
+    params_cls = getattr(ray_parameter, "RayParams", None)
+    node_cls = getattr(ray_node, "Node", None)
+    fields = ("no_monitor", "include_log_monitor")
+    if (
+        not lean
+        or params_cls is None
+        or node_cls is None
+        or not hasattr(node_cls, "start_api_server")
+        or not all(f in inspect.signature(params_cls.__init__).parameters for f in fields)
+    ):
+        yield False
+        return
+    original_init = params_cls.__init__
+    original_api = node_cls.start_api_server
+
+    def init(self: Any, *args: Any, **kwargs: Any) -> None:
+        original_init(self, *args, **kwargs)
+        self.no_monitor = True
+        self.include_log_monitor = False
+
+    def no_api_server(self: Any, **kwargs: Any) -> None:
+        return None
+
+    params_cls.__init__ = init
+    node_cls.start_api_server = no_api_server
+    try:
+        yield True
+    finally:
+        params_cls.__init__ = original_init
+        node_cls.start_api_server = original_api
 
 
 #: Seconds to wait for the GCS port named by Ray's current-cluster file to accept a connection.
@@ -223,14 +285,14 @@ def map_tasks(
     the rest out to Ray tasks, one CPU each, in :func:`guided_batches` sizes for the cluster's
     CPUs plus this process: a task carries several items while many remain and one at the end,
     so all finish together. A local Ray started here gets one core less than the machine has
-    (this process's thread uses it). ``fn`` is shipped once. Results come back in the order of
-    ``items``, the same as the plain loop's. A failing item's exception is re-raised as itself
-    (e.g. a bad log's one-sentence error) once the running work has stopped; no new work
-    starts after a failure. ``on_done(n)`` is called as items finish (progress; from either
-    thread, never concurrently). ``release=True`` shuts down a local Ray this call started as
-    soon as its tasks are done (a command that needs Ray once: the last items, as many as this
-    process does in the ~1.4 s Ray takes to stop, stay for its thread, so the shutdown overlaps
-    them), else it stays up for the next call.
+    (this process's thread uses it) and starts lean (:func:`_lean_head`). ``fn`` is shipped
+    once. Results come back in the order of ``items``, the same as the plain loop's. A failing
+    item's exception is re-raised as itself (e.g. a bad log's one-sentence error) once the
+    running work has stopped; no new work starts after a failure. ``on_done(n)`` is called as
+    items finish (progress; from either thread, never concurrently). ``release=True`` shuts
+    down a local Ray this call started as soon as its tasks are done (a command that needs Ray
+    once: the last items, as many as this process does in the ~0.15 s Ray takes to stop, stay
+    for its thread, so the shutdown overlaps them), else it stays up for the next call.
 
     Examples
     --------
@@ -257,7 +319,7 @@ def map_tasks(
     local.start()
     started = False
     try:
-        started = connect(address, local_cpus=max(1, _cores() - 1))
+        started = connect(address, local_cpus=max(1, _cores() - 1), lean=True)
         _work_on_ray(fn, items, shared, leave_s=_RAY_SHUTDOWN_S if release and started else 0.0)
     except BaseException as exc:
         shared.halt()
@@ -275,11 +337,12 @@ def map_tasks(
     return shared.results
 
 
-#: Wall time of ``ray.shutdown()`` of a local Ray (Ray 2.60, measured: raylet 0.27 s, GCS 0.07 s,
-#: autoscaler monitor 1.0 s: its SIGTERM handler reports to the GCS already stopped, and Ray
-#: waits 1 s before SIGKILL). With ``release``, the last items that this process's thread can
-#: do in that time are left to it, so the shutdown overlaps them instead of following them.
-_RAY_SHUTDOWN_S = 1.4
+#: Wall time of ``ray.shutdown()`` of a local Ray started lean (:func:`_lean_head`; Ray 2.60,
+#: measured 0.08-0.14 s; with the autoscaler monitor it was 1.1-1.4 s: its SIGTERM handler
+#: reports to the GCS already stopped, and Ray waits 1 s before SIGKILL). With ``release``,
+#: the last items that this process's thread can do in that time are left to it, so the
+#: shutdown overlaps them instead of following them.
+_RAY_SHUTDOWN_S = 0.15
 
 
 class _Shared:

@@ -366,3 +366,58 @@ def test_auto_with_a_stale_record_starts_a_local_ray(
         ray.shutdown()
         if record.exists() and record.read_text().strip().endswith(f":{port}"):
             record.unlink()
+
+
+def _descendant_commands() -> list[str]:
+    """Command lines of this process's descendants (Linux /proc)."""
+    parent: dict[int, int] = {}
+    command: dict[int, str] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            text = stat.read_text()
+            cmd = (stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+        except OSError:
+            continue
+        pid = int(stat.parent.name)
+        parent[pid] = int(text[text.rindex(")") + 2 :].split()[1])
+        command[pid] = cmd
+    ours = {os.getpid()}
+    grew = True
+    while grew:
+        new = {pid for pid, pp in parent.items() if pp in ours} - ours
+        grew = bool(new)
+        ours |= new
+    return [command[pid] for pid in ours - {os.getpid()}]
+
+
+@pytest.mark.cluster
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads Linux /proc")
+@pytest.mark.parametrize("lean", [True, False])
+def test_lean_local_ray_leaves_out_the_cluster_services(lean: bool) -> None:
+    """A local Ray for one command's tasks starts without the autoscaler monitor, the log
+    monitor and the dashboard API server, stops in well under Ray's 1 s monitor grace, and
+    leaves Ray's own start-up code as it was."""
+    import ray
+    from ray._private.node import Node
+    from ray._private.parameter import RayParams
+
+    from sim2real.cluster import connect
+
+    before = (RayParams.__init__, Node.start_api_server)
+    assert not ray.is_initialized()
+    try:
+        assert connect("auto", local_cpus=1, lean=lean) is True
+        assert (RayParams.__init__, Node.start_api_server) == before
+        assert map_tasks(abs, [-1, 2, -3], address="auto") == [1, 2, 3]
+        services = [
+            name
+            for name in ("monitor.py", "log_monitor.py", "dashboard.py")
+            if any(f"/{name} " in cmd for cmd in _descendant_commands())
+        ]
+        assert services == ([] if lean else ["monitor.py", "log_monitor.py", "dashboard.py"])
+    finally:
+        t0 = time.perf_counter()
+        ray.shutdown()
+        stop_s = time.perf_counter() - t0
+    assert (stop_s < 0.8) if lean else (stop_s > 0.9)
