@@ -1,6 +1,7 @@
 """Issue-16 headline figures: CLI start-up, agree on a 1-minute log, the pybullet loop, DepthNoise.
 
-Run with ``.venv/bin/python benchmarks/bench_perf.py [--quick]``. Every ratio alternates ours and
+Run with ``.venv/bin/python benchmarks/bench_perf.py [--quick] [--only PART]`` (parts: ``cli``,
+``pybullet``, ``depth``; repeatable). Every ratio alternates ours and
 the baseline in one process with the same repeat count and prints min/median/max; command times
 are whole processes as a user runs them, cold (empty bytecode and numba caches) and warm.
 
@@ -8,13 +9,16 @@ are whole processes as a user runs them, cold (empty bytecode and numba caches) 
    gymnasium"`` (target: <= 3x);
 2. ``sim2real agree LOG --engine reduced`` on a 1-minute log (the first 60 s of
    ``data/demo_validate.mcap``) (target: < 0.8 s);
-3. ``PybulletRobot.step`` at 10 Hz control (24 physics steps of 1/240 s each) against bare
-   ``stepSimulation`` on the same robot and substeps, wheel torques set once per control step
-   (target: >= 80 % of the bare rate): the same motion (each control step's mean torques of
-   ours) and straight-line constant torques (pybullet's solver iterates ~3x less on it);
-   and against replaying the very torques it sets (one ``setJointMotorControlArray`` per
-   physics step and nothing else: the floor of any torque-level drive loop); wall and CPU
-   time; ``sim2real agree --engine pybullet`` on the 1-minute log as the whole-command figure;
+3. ``PybulletRobot.step`` at 10 Hz control (24 physics steps of 1/240 s each) against
+   ``stepSimulation`` alone on the same robot, substeps and motion (target: >= 80 % of its
+   rate): the ``stepSimulation`` calls timed inside a replay of the very torques
+   ``PybulletRobot`` sets (one ``setJointMotorControlArray`` per physics step, the floor of
+   any torque-level drive loop, itself a contender), then that replay with the loop's two
+   state reads and with its kernel call too, which splits the loop's time per physics step;
+   and the old bare reference, each control step's mean torques set once per control step
+   (a ``TORQUE_CONTROL`` torque acts in one ``stepSimulation`` only, so that robot coasts
+   through the other substeps: less solver work than the driven motion); wall and CPU time;
+   ``sim2real agree --engine pybullet`` on the 1-minute log as the whole-command figure;
 4. ``DepthNoise`` on a 640x480 float32 image against its floor, the random bits of one frame plus
    one add (target: >= 1,800 frames/s).
 """
@@ -25,10 +29,21 @@ import argparse
 import statistics
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
-from _timing import CPU_S, QUICK, REPO, alternate, command_times, machine, paired_ratios, record
+from _timing import (
+    CPU_S,
+    QUICK,
+    REPO,
+    Stats,
+    alternate,
+    command_times,
+    machine,
+    paired_ratios,
+    record,
+)
 
 PY = sys.executable
 
@@ -130,22 +145,25 @@ def _recorded_torques(robot: object, cmd: np.ndarray) -> list[tuple[float, float
 
 def bench_pybullet_loop(repeats: int, control_steps: int) -> None:
     from robots import PybulletRobot, load_spec
+    from robots._kernel import pybullet_substep
     from robots._pybullet import pybullet as p
     from robots._urdf import LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT
 
     robot = PybulletRobot(load_spec("turtlebot3_burger"))
-    c, body, wheels = robot.client, robot.body_id, [LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT]
+    c, body, wheels = robot.client, robot.body_id, (LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT)
     substeps = round(0.1 * robot.physics_hz)
     cmd = np.random.default_rng(0).uniform(-1.0, 1.0, (control_steps, 2)) * (0.22, 2.8)
     torques = _recorded_torques(robot, cmd)
-    # the same motion without the loop: each control step's mean torques, set once per step
-    # (pybullet's solver works ~3x more iterations on this turning motion than on the straight
-    # line of constant torques, so this is the like-for-like bare rate)
+    # each control step's mean torques, set once per control step: pybullet applies a
+    # TORQUE_CONTROL torque for one stepSimulation only, so the robot then coasts for the other
+    # substeps (after 1 s of 0.02 N m: 0.05 m/s, against 1.17 m/s with the torque set in every
+    # step) and the solver has less to do than on the driven motion
     means = [
         tuple(np.mean(torques[k * substeps : (k + 1) * substeps], axis=0).tolist())
         for k in range(control_steps)
     ]
-    constant = [(0.02 * float(cmd[k, 0]) / 0.22,) * 2 for k in range(control_steps)]
+    unused, mode = (0.0, 0.0), p.TORQUE_CONTROL
+    share: list[float] = []  # stepSimulation's share of each timed replay's wall time
 
     def bare(per_step: list[tuple[float, ...]]) -> None:
         robot.reset()
@@ -156,44 +174,101 @@ def bench_pybullet_loop(repeats: int, control_steps: int) -> None:
             for _ in range(substeps):
                 p.stepSimulation(physicsClientId=c)
 
+    # positional arguments (see robots.pybullet_robot._UNUSED): the cheapest calls pybullet has
     def replayed() -> None:
         robot.reset()
+        drive, step = p.setJointMotorControlArray, p.stepSimulation
         for forces in torques:
-            p.setJointMotorControlArray(
-                body, wheels, p.TORQUE_CONTROL, forces=forces, physicsClientId=c
-            )
-            p.stepSimulation(physicsClientId=c)
+            drive(body, wheels, mode, unused, unused, forces, unused, unused, c)
+            step(c)
+
+    def bracket_s() -> float:
+        """What the clock bracket around a stepSimulation call adds to it, s (median of 5)."""
+        clock, runs = time.perf_counter, []
+        for _ in range(5):
+            inside = 0.0
+            for _ in torques:
+                t0 = clock()
+                inside += clock() - t0
+            runs.append(inside / len(torques))
+        return statistics.median(runs)
+
+    def steps_timed() -> None:
+        robot.reset()
+        drive, step, clock = p.setJointMotorControlArray, p.stepSimulation, time.perf_counter
+        inside = 0.0
+        start = clock()
+        for forces in torques:
+            drive(body, wheels, mode, unused, unused, forces, unused, unused, c)
+            t0 = clock()
+            step(c)
+            inside += clock() - t0
+        share.append((inside - len(torques) * bracket) / (clock() - start))
+
+    def replayed_reading(with_kernel: bool) -> None:
+        robot.reset()
+        drive, step = p.setJointMotorControlArray, p.stepSimulation
+        states, base = p.getJointStates, p.getBaseVelocity
+        state, packed, spin, dt = np.zeros(5), robot._packed, robot._spin_inertia, robot.dt_s
+        for forces in torques:
+            (_, wl, _, _), (_, wr, _, _) = states(body, wheels, c)
+            (vx, vy, _), (_, _, wz) = base(body, c)
+            if with_kernel:  # the same work as PybulletRobot's, its torques thrown away
+                pybullet_substep(state, 0.1, 0.5, wl, wr, vx, vy, wz, dt, packed, spin)
+            drive(body, wheels, mode, unused, unused, forces, unused, unused, c)
+            step(c)
 
     def ours() -> None:
         robot.reset()
         for k in range(control_steps):
             robot.step(float(cmd[k, 0]), float(cmd[k, 1]), 0.1)
 
+    bracket = bracket_s()
     st = alternate(
         {
-            "bare, same motion": lambda: bare(means),
-            "bare, constant torques": lambda: bare(constant),
+            "bare, once per step": lambda: bare(means),
+            "stepSimulation timed": steps_timed,
             "its torques replayed": replayed,
+            "replayed + 2 reads": lambda: replayed_reading(False),
+            "replayed + reads + kernel": lambda: replayed_reading(True),
             "PybulletRobot.step": ours,
         },
         repeats,
     )
     robot.close()
+    # stepSimulation alone on the very motion PybulletRobot drives: the stepSimulation calls'
+    # share of each timed replay, less what the clock bracket itself adds (measured empty)
+    timed = st.pop("stepSimulation timed")
+    fractions = share[-repeats:]
+    st = {
+        "stepSimulation alone": Stats(
+            times_s=tuple(t * f for t, f in zip(timed.times_s, fractions, strict=True)),
+            cpu_s=tuple(t * f for t, f in zip(timed.cpu_s, fractions, strict=True)),
+        ),
+        **st,
+    }
     n = control_steps * substeps
     print(f"3. pybullet loop, {control_steps} control steps x {substeps} substeps, {repeats} reps")
-    print("   bare: wheel torques set once per control step (same motion: the mean torques")
-    print("   PybulletRobot sets in that step; constant: straight-line torques); replayed: the")
-    print("   torques PybulletRobot sets, one setJointMotorControlArray per physics step")
+    print("   stepSimulation alone: its calls timed inside a replay of PybulletRobot's torques")
+    print(
+        f"   (the same motion: {statistics.median(fractions):.3f} of that replay's time, net of "
+        f"the {bracket * 1e9:.0f} ns per step the clock reads add);"
+    )
+    print("   its torques replayed: one setJointMotorControlArray + stepSimulation per physics")
+    print("   step (the floor of any torque-level loop), then with the two state reads, then")
+    print("   with the kernel call too; bare, once per step: each control step's mean torques")
+    print("   set once, as a TORQUE_CONTROL torque acts in one stepSimulation only the robot")
+    print("   coasts through the other substeps (less solver work: not the same motion)")
     for name, s in st.items():
         slow, med, fast = s.rate(n)
         cslow, cmed, cfast = s.cpu().rate(n)
         print(
-            f"   {name:<22} wall {slow:6.0f}/{med:6.0f}/{fast:6.0f}  CPU {cslow:6.0f}/{cmed:6.0f}/"
-            f"{cfast:6.0f} physics steps/s (min/median/max)"
+            f"   {name:<26} wall {slow:6.0f}/{med:6.0f}/{fast:6.0f}  CPU {cslow:6.0f}/{cmed:6.0f}/"
+            f"{cfast:6.0f} physics steps/s (min/median/max); CPU {1e6 / cmed:5.2f} us/step"
         )
     ours_st = st["PybulletRobot.step"]
     figures = {}
-    for name in ("bare, same motion", "bare, constant torques", "its torques replayed"):
+    for name in ("stepSimulation alone", "its torques replayed", "bare, once per step"):
         base = st[name]
         lo, med, hi = paired_ratios(base, ours_st)
         clo, cmed, chi = paired_ratios(base.cpu(), ours_st.cpu())
@@ -202,16 +277,28 @@ def bench_pybullet_loop(repeats: int, control_steps: int) -> None:
             f"   PybulletRobot / {name}: wall {lo:.2f}/{med:.2f}/{hi:.2f}, "
             f"CPU {clo:.2f}/{cmed:.2f}/{chi:.2f} (min/median/max)"
         )
-    rlo, rmed, rhi = paired_ratios(st["bare, same motion"].cpu(), st["its torques replayed"].cpu())
-    print(f"   its torques replayed / bare, same motion: CPU {rlo:.2f}/{rmed:.2f}/{rhi:.2f}")
-    print("   target: PybulletRobot >= 0.80 of bare")
-    med, cmed = figures["bare, same motion"]
+    per_step = {name: s.cpu().median / n * 1e6 for name, s in st.items()}
+    order = [
+        ("stepSimulation", "stepSimulation alone"),
+        ("the torque write", "its torques replayed"),
+        ("getJointStates + getBaseVelocity", "replayed + 2 reads"),
+        ("the kernel call", "replayed + reads + kernel"),
+        ("the rest (per control step, loop)", "PybulletRobot.step"),
+    ]
+    parts, before = [], 0.0
+    for what, name in order:
+        parts.append(f"{what} {per_step[name] - before:.2f}")
+        before = per_step[name]
+    print("   CPU us per physics step, by difference of medians: " + ", ".join(parts))
+    print("   target: PybulletRobot >= 0.80 of stepSimulation alone (same robot, motion, substeps)")
+    med, cmed = figures["stepSimulation alone"]
     record(
         "robots",
-        "`PybulletRobot.step` rate / bare `stepSimulation` (same robot, motion, 24 substeps)",
-        f"wall {med:.2f}, CPU {cmed:.2f}; vs straight-line constant torques CPU "
-        f"{figures['bare, constant torques'][1]:.2f}; replaying its torques alone (one write per "
-        f"step) reaches CPU {rmed:.2f}",
+        "`PybulletRobot.step` rate / `stepSimulation` alone (same robot, motion, 24 substeps)",
+        f"wall {med:.2f}, CPU {cmed:.2f}; replaying its torques alone (one write per step) "
+        f"reaches CPU {paired_ratios(st['stepSimulation alone'].cpu(), st['its torques replayed'].cpu())[1]:.2f}; "
+        f"vs torques set once per control step (the robot coasts) CPU "
+        f"{figures['bare, once per step'][1]:.2f}",
         ">= 0.80",
         # met only when the CPU ratio is too: a queue on a shared machine can slow the bare
         # runs' wall clock more than ours (measured: wall 0.85, CPU 0.65 in one run)
@@ -259,16 +346,30 @@ def bench_depth_noise(repeats: int, frames: int) -> None:
     )
 
 
+#: --only choices, in the order they run.
+PARTS = ("cli", "pybullet", "depth")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats (or BENCH_QUICK=1)")
+    parser.add_argument(
+        "--only",
+        action="append",
+        choices=PARTS,
+        help="run only this part (repeatable), e.g. --only pybullet",
+    )
     args = parser.parse_args()
     args.quick = args.quick or QUICK
     reps = 5 if args.quick else 11
+    chosen = set(args.only or PARTS)
     print(f"machine: {machine()}")
-    bench_cli(reps)
-    bench_pybullet_loop(reps, control_steps=20 if args.quick else 50)
-    bench_depth_noise(reps, frames=20 if args.quick else 50)
+    if "cli" in chosen:
+        bench_cli(reps)
+    if "pybullet" in chosen:
+        bench_pybullet_loop(reps, control_steps=20 if args.quick else 50)
+    if "depth" in chosen:
+        bench_depth_noise(reps, frames=20 if args.quick else 50)
 
 
 if __name__ == "__main__":

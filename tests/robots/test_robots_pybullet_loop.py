@@ -11,7 +11,7 @@ import pytest
 
 from robots import PybulletRobot, load_spec
 from robots._pybullet import pybullet as p
-from robots.pybullet_robot import _sampled_steps
+from robots.pybullet_robot import _WHEELS, _sampled_steps
 from tests.robots._golden_drive import commands
 
 SPEC = load_spec("turtlebot3_burger")
@@ -53,6 +53,31 @@ def test_a_physics_step_costs_two_reads_one_torque_write_and_the_step(
     # the pose (yaw) once per control step for the kernel and once for the result
     assert count["getBasePositionAndOrientation"] == 2 * control_steps
     assert count["applyExternalForce"] == count["applyExternalTorque"] == 0
+
+
+def test_a_torque_control_torque_acts_in_one_physics_step_only() -> None:
+    # why the loop writes the torques in every physics step, and why benchmarks/bench_perf.py
+    # does not take a loop that sets them once per control step as the same motion: set once
+    # per 24 steps, the wheels get 1/24 of the impulse (the robot coasts between the writes)
+    speeds = []
+    with PybulletRobot(SPEC) as robot:
+        c, body, wheels = robot.client, robot.body_id, list(_WHEELS)
+        for every in (1, 24):
+            robot.reset()
+            for k in range(240):
+                if k % every == 0:
+                    p.setJointMotorControlArray(
+                        body, wheels, p.TORQUE_CONTROL, forces=[0.02, 0.02], physicsClientId=c
+                    )
+                p.stepSimulation(physicsClientId=c)
+            speeds.append(robot.velocity[0])
+    # 2 x 0.02 N m on the wheels' radius for 1 s, on the rolling mass (the wheels' spin
+    # inertia counted): 1.1658 m/s
+    rolling_mass_kg = SPEC.drive.total_mass_kg(SPEC.geometry)
+    assert speeds[0] == pytest.approx(
+        2 * 0.02 * 1.0 / (SPEC.wheels.radius_m * rolling_mass_kg), rel=1e-3
+    )
+    assert speeds[0] / speeds[1] == pytest.approx(24.0, rel=0.01)
 
 
 def test_replay_every_step_equals_replay_at_sparse_times() -> None:
