@@ -45,9 +45,12 @@ where the reduced model has no say: collisions, slopes, wheels leaving the groun
 Each physics step costs two state reads (both wheels' speeds in one ``getJointStates``, the
 base velocity), one compiled kernel call and one ``setJointMotorControlArray`` besides
 ``stepSimulation``, all with positional arguments; the yaw is read once per control step and
-advanced in the kernel. That reaches ~0.7 of a bare ``stepSimulation`` loop's rate on the same
-robot and motion, ~0.9 of replaying its torques with nothing else (CPU time,
-``benchmarks/bench_perf.py``): the rest is the Python of those calls. Moving the wheel loops
+advanced in the kernel. That reaches ~0.75 of ``stepSimulation`` alone on the same robot and
+motion (CPU time, ``benchmarks/bench_perf.py``, which splits a physics step: ~12.8 us
+``stepSimulation``, ~0.2-0.4 us the torque write, ~2.6-2.8 us the two reads, ~0.5-0.9 us the
+kernel call, ~0.3 us of it numba's dispatch, ~0.5 us the work of each control step spread over
+its 24 physics steps). The step, the write and the two reads alone, the least any closed
+torque loop through pybullet's Python API calls, reach ~0.80-0.82. Moving the wheel loops
 into pybullet's C step was measured and rejected: ``PD_CONTROL`` (an explicit PD on the joint
 speed, computed by pybullet's built-in pdControlPlugin before every internal step, torque
 clipped to ``forces``) costs ~170 us per physics step, 14x a bare 12 us step (the plugin reads
