@@ -26,23 +26,42 @@ The fit uses the spec's priors, as ``sim2real sysid fit`` does. A table of every
 session closes the output.
 
 Measured (2026-11-26, after the fit's released start and torque restarts, sysid._map;
-sessions 5-7, calibrated band, reduced engine, 30 members, load ~3 on 2 cores; the pybullet
-replays were not re-run: on 2026-11-23 they agreed with the reduced engine's to 100.0 %):
+sessions 5-7, calibrated band, 30 reduced / 20 pybullet members; load ~3 on 2 cores, which
+changes no figure here). Per session, reduced (pybullet where it differs):
 
-=========================  ===============  ============  ============  ===========
-fleet                      point agreement  coverage v    coverage w    width w
-=========================  ===============  ============  ============  ===========
-turtlebot2 seed 11         85.9, 82.4, 87.5 92.3-99.3 %   93.9-96.6 %   0.062-0.063
-turtlebot2 seed 23, Ti/2   82.5, 66.5, 83.6 84.0-97.2 %   79.2-92.7 %   0.048-0.118
-turtlebot3_burger seed 5   94.8, 95.2, 95.9 96.9-98.0 %   98.8-99.4 %   0.093-0.096
-real TB3 Waffle Pi, half 2 97.4             94.1 %        87.9 %        0.066
-=========================  ===============  ============  ============  ===========
+=========================  ===============  =======================  =======================
+fleet                      point agreement  coverage v               coverage w
+=========================  ===============  =======================  =======================
+turtlebot2 seed 11         85.9, 82.4, 87.5 97.1, 99.3, 92.3 (90.9)  94.2, 96.6, 93.9
+turtlebot2 seed 23, Ti/2   82.5, 66.5, 83.6 93.3, 84.0, 97.2         85.2, 79.2 (74.5), 92.7
+turtlebot3_burger seed 5   94.8, 95.2, 95.9 96.9, 96.9, 98.0         99.0, 98.8, 99.4
+real TB3 Waffle Pi, half 2 97.4             94.1                     87.9
+=========================  ===============  =======================  =======================
 
-Outside 80-99 %: seed 11 session 6 v 99.3 %, seed 23 session 6 w 79.2 % (its latency, 158 ms,
-is at the top of the plant's 60-160 ms range: a 2-sd session), burger session 7 w 99.4 %. A
-band calibrated on two sessions covers a typical session more and an extreme one less than
-its level; no single band puts every session inside 80-99 % when the sessions' own latency
-moves the response by more than the band's width.
+Pooled over the active held-out samples of sessions 5-7 (the target's "90 % band covers
+80-99 % of active held-out samples"), reduced / pybullet:
+
+=========================  ==============  ==============  ================
+fleet                      active samples  coverage v      coverage w
+=========================  ==============  ==============  ================
+turtlebot2 seed 11         11517           96.2 / 95.9 %   94.9 / 94.2 %
+turtlebot2 seed 23, Ti/2   11695           91.5 / 90.9 %   85.8 / 84.1 %
+turtlebot3_burger seed 5   6523            97.3 / 97.5 %   99.1 / 99.0 %
+real TB3 Waffle Pi, half 2 422             94.1 / 94.1 %   87.9 / 87.9 %
+=========================  ==============  ==============  ================
+
+Widths (median, m/s and rad/s): v 0.0015-0.0295, w 0.048-0.131 (Kobuki target <= 0.10 /
+0.35). Pybullet vs reduced on the same parameters: 100.0 % on every session. Outside 80-99 %
+per session: seed 11 session 6 v 99.3 %, seed 23 session 6 w 79.2 % (its latency, 158 ms,
+is at the top of the plant's 60-160 ms range: a 2-sd session), burger w 99.0-99.4 %. A band
+calibrated on two sessions covers a typical session more and an extreme one less than its
+level; no single band puts every session inside 80-99 % when the sessions' own latency moves
+the response by more than the band's width. The burger's calibrated w band is too wide at its
+centre (its 50 % band covers 81-84 %): the Gaussian likelihood of :mod:`sim2real.calibration`
+widens the noise to cover heavy-tailed transient errors. Tried, not adopted: a Student-t
+(nu = 5) predictive likelihood gives burger w 90.6-92.0 % per session (pooled 91.0 %) and
+Kobuki seed 11 91.6 %, but drops the between-session factor to 0 on the Ti/2 fleet, whose
+extreme session 6 then falls to 68-70 % (pooled 84.9 / 81.9 %).
 
 Measured (2026-11-23, torque-speed line on the Kobuki; sessions 5-7, calibrated band, reduced /
 pybullet, load ~5 on 2 cores; the fit of sessions 0-2 finds k_i 9.6 /s, plant 10 /s):
@@ -109,11 +128,20 @@ def _check(trace: Any, spec: Any, dist: Any, engine: str, n: int, window_s: floa
     return ens, sim, measure_agreement(trace, sim)
 
 
+#: Pooled held-out counts per (fleet, engine, band): [active samples, inside v, inside w].
+POOLED: dict[tuple[str, str, str], list[int]] = {}
+
+
 def _table_row(fleet_name: str, i: int, engine: str, band: str, ens: Any, point: Any) -> None:
     TABLE.append(
         (fleet_name, i, engine, band, point.agreement, ens.coverage_v, ens.coverage_w,
          ens.band_width_v_mps, ens.band_width_w_radps)
     )  # fmt: skip
+    n = int(np.count_nonzero(ens.active))
+    counts = POOLED.setdefault((fleet_name, engine, band), [0, 0, 0])
+    counts[0] += n
+    counts[1] += round(ens.coverage_v * n)
+    counts[2] += round(ens.coverage_w * n)
 
 
 def fleet(
@@ -254,6 +282,15 @@ def print_table() -> None:
         print(
             f"| {name} | {i} | {engine} | {band} | {100 * agree:.1f} % | {100 * cv:.1f} % |"
             f" {100 * cw:.1f} % | {wv:.4f} | {ww:.3f} |"
+        )
+    print()
+    print("Pooled over the checked sessions (active held-out samples of all of them):")
+    print("| fleet | engine | band | active samples | coverage v | coverage w |")
+    print("|---|---|---|---|---|---|")
+    for (name, engine, band), (n, inside_v, inside_w) in POOLED.items():
+        print(
+            f"| {name} | {engine} | {band} | {n} | {100 * inside_v / n:.1f} % |"
+            f" {100 * inside_w / n:.1f} % |"
         )
 
 
