@@ -194,7 +194,9 @@ class PybulletBackend:
 
     def reset(self, x: float, y: float, yaw: float) -> None:
         """Load a new robot body at (x, y, yaw): the env resets the whole simulation first,
-        so that a seeded episode replays exactly (pybullet keeps contact caches otherwise)."""
+        so that a seeded episode replays exactly, whatever ran before (pybullet keeps contact
+        points and their warm-start impulses otherwise; tests/sim2real/envs/
+        test_envs_reset_replays.py)."""
         self._robot = self._make(
             self._spec,
             client=self._client,
