@@ -141,24 +141,33 @@ def test_skid_fit_beats_the_differential_fit(husky: RobotSpec, husky_diff: Robot
     """Every seed: one robot on one ground (:func:`skid_robot`); fit one 90 s teleop session
     (the driver's top speed and yaw rate), measure on another day's session.
 
-    The issue's target in full (skid >= 0.9 where the plain differential fit < 0.7) does not
-    hold on every seed, so this asserts an interim form: the skid fit reaches 0.9 on average
-    and 0.87 on each seed, and beats the plain differential fit (module docstring) by at least
-    0.1 on each. Measured (skid, diff) with the PI wheel loops of :func:`husky_like`: 101
-    (0.892, 0.604), 102 (0.923, 0.783), 103 (0.957, 0.794), 104 (0.932, 0.719), 105 (0.935,
-    0.727); on seeds 106-110 skid 0.909-0.954, diff 0.638-0.783; the margin is 0.14-0.29 on
-    all ten (``benchmarks/bench_skid.py``). The differential model cannot turn the base at the
-    skid's w x 1.875 / chi with loops that hold the wheel speeds: its fit drops the integral
-    term (k_i ~ 0) and droops the yaw with friction, which mis-models v. With proportional
-    plant loops that droop is the plant's own and the differential fit matched the skid fit
-    (101: 0.951 vs 0.947). The fits are sensitive to tiny changes of the data: relative
-    changes of 1e-7 to 1e-5 of the plant's lateral tyre stiffness give seed 101 skid
-    0.885-0.924 and diff 0.604-0.786 (the other seeds move by < 0.03), the margin staying
-    0.136-0.237 on all five; hence the floor 0.87 on single seeds."""
+    The issue's target in full (skid >= 0.9 where the plain differential fit < 0.7) holds on
+    2 of 10 seeds (101, 108) and on 1 of 5 sessions of the canonical :func:`husky_like`: the
+    skid half holds on all ten seeds, but the plain differential fit (module docstring) stays
+    at 0.70-0.81 on the other eight. So this asserts the skid half on each seed, the fitted
+    slip within 0.06 of the plant's, and a margin of 0.1 over the differential fit on each.
+    Measured (skid, diff) with the PI wheel loops of :func:`husky_like`: 101 (0.928, 0.604),
+    102 (0.919, 0.783), 103 (0.955, 0.794), 104 (0.931, 0.719), 105 (0.933, 0.814); on seeds
+    106-110 skid 0.904-0.952, diff 0.499-0.783; the margin is 0.119-0.411 on all ten, the
+    fitted chi within 0.025 of the plant's; :func:`husky_like` with command seeds 0-4: skid
+    0.882-0.951, diff 0.674-0.739 (``benchmarks/bench_skid.py``). The differential model
+    cannot turn the base at the skid's w x 1.875 / chi with loops that hold the wheel speeds:
+    its fit drops the integral term (k_i ~ 0) and droops the yaw with friction, which
+    mis-models v. With proportional plant loops that droop is the plant's own and the
+    differential fit matched the skid fit (101: 0.951 vs 0.947). The worst skid fits
+    (husky_like sessions 3 and 4: 0.882, 0.887; seed 106: 0.904) lose 7-10 points within
+    0.5 s of a command change, mostly v while braking (the model slows later than the plant,
+    by 0.07-0.13 m/s on the missed samples) and w after yaw-rate steps; steady turns and
+    straights miss at most 2.5 % of the samples. Since sysid compares its candidate fits on
+    the final objective (:func:`sysid._map._final_choice`), relative changes of 1e-7 to 1e-5
+    of seed 101's lateral tyre stiffness move its skid fit 0.925-0.929 (before 0.885-0.924).
+    The differential fit's own re-balance is a five-step polish: run to convergence it gives
+    101 0.738, 108 0.644 (the target's contrast holds on 108 alone then)."""
     results = {}
     for seed in TARGET_SEEDS:
+        plant = skid_robot(seed)
         fit_log, held_out = make_skid_sessions(
-            skid_robot(seed), 2, seed=seed, duration_s=90.0, profile="teleop"
+            plant, 2, seed=seed, duration_s=90.0, profile="teleop"
         )
         scores = []
         for spec in (husky, husky_diff):
@@ -169,13 +178,13 @@ def test_skid_fit_beats_the_differential_fit(husky: RobotSpec, husky_diff: Robot
             sim = replay(held_out, robot=spec, params=result.params, engine="reduced")
             scores.append(measure_agreement(held_out, sim).agreement)
             if spec is husky:
-                assert 1.3 < result.params.track_factor < 2.3  # the plant's 1.5-1.9, roughly
+                chi = effective_track_factor(plant, 0.0, 1.0)
+                assert result.params.track_factor == pytest.approx(chi, abs=0.06)
                 skid_params = result.params
             else:
                 assert result.params.track_factor == 1.0
         results[seed] = tuple(round(x, 3) for x in scores)
-    skids = [skid for skid, _ in results.values()]
-    assert np.mean(skids) >= 0.9 and min(skids) >= 0.87, results
+    assert all(skid >= 0.9 for skid, _ in results.values()), results
     assert all(skid >= diff + 0.1 for skid, diff in results.values()), results
     # the pybullet engine with the same (last) fit agrees with the reduced one on the log
     sim_pb = replay(held_out, robot=husky, params=skid_params, engine="pybullet")
@@ -188,39 +197,83 @@ def test_skid_fit_beats_the_differential_fit(husky: RobotSpec, husky_diff: Robot
 def test_the_track_factor_restarts_escape_a_worse_local_minimum(
     husky: RobotSpec, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Session 0 of seed 23 (a tuning seed) on the plant with proportional wheel loops: from
-    the spec's start the fit ends in a local minimum (chi 2.98, agreement 0.66 on its own log);
-    a start one prior sd away finds the plant's slip (chi 1.86, 0.96), said in a note. The
-    integral-gain/delay restarts (:data:`sysid._map._RESTART_SDS`) reach the same basin on
-    their own, so the track factor's restarts are checked with those switched off. On the
-    plant with the Husky's integral action no tuning seed (1-13, 21-30) has such a minimum:
-    the fitted chi ends within 0.03 of the plant's on all 23 (on five after a track-factor
-    restart that lowers the cost by 1-14 %)."""
+    """Session 0 of seed 23 (a tuning seed) on the plant with proportional wheel loops. Under
+    the prior weight estimated at the start point (w_p 2.9 there, 0.56 at the solution) the
+    fit from the spec's start ended in a local minimum (chi 3.1, cost 2040, agreement 0.79 on
+    its own log) and only a restart left it. Now the candidates are re-solved under the
+    re-balanced weight and compared there (:func:`sysid._map._final_choice`): with the
+    integral-gain/delay restarts (:data:`sysid._map._RESTART_SDS`) off, the spec's start
+    still ends higher (cost 1371) than a track-factor start (730.6, chi 1.88), which is kept
+    and said in a note; with every restart off, re-balancing the weight alone moves the
+    spec's start out of that minimum (729.8, chi 1.88). On the plant with the Husky's
+    integral action no tuning seed (1-13, 21-30) had such a minimum."""
     import sysid._map
 
     # the plant of seed 23 as it was before husky_like() had integral action, by value: its
-    # proportional loops and its lateral stiffness to the last digit (a 1e-7 change of it,
-    # from bisecting on the PI plant, moves this fit out of the minimum)
+    # proportional loops and its lateral stiffness to the last digit
     plant = skid_robot(23).replace(ki_nm_per_rad=0.0, slip_lat_mps=0.06032056538737976)
     log = make_skid_sessions(plant, 1, seed=23, duration_s=90.0, profile="teleop")[0]
     priors = _fixed(husky, driver_track_factor=1.875)
-    both = fit_drive([log], geometry=husky.geometry, base_params=husky.drive, priors=priors)
     chi = effective_track_factor(plant, 0.0, 1.0)  # 1.71
-    # the integral-gain/delay restarts alone already leave this minimum (measured chi 1.86)
-    assert chi < both.params.track_factor < 2.0, both.params.track_factor
-    # the track factor's own restarts, without the others, also do
     monkeypatch.setattr(sysid._map, "_RESTART_SDS", {})
     fixed = fit_drive([log], geometry=husky.geometry, base_params=husky.drive, priors=priors)
     note = [w for w in fixed.warnings if "worse local minimum" in w]
     assert len(note) == 1 and "which is kept" in note[0], fixed.warnings
-    assert chi < fixed.params.track_factor < 2.0  # measured 1.86
+    assert "(cost 1371)" in note[0], note  # the spec's start under the final weight
+    assert chi < fixed.params.track_factor < 2.0  # measured 1.88
     monkeypatch.setattr(sysid._map, "_TRACK_RESTARTS_SD", ())
-    stuck = fit_drive([log], geometry=husky.geometry, base_params=husky.drive, priors=priors)
-    assert not any("worse local minimum" in w for w in stuck.warnings)
-    assert stuck.settings["cost"] > 2.5 * fixed.settings["cost"]  # measured 2206 vs 733
-    assert stuck.params.track_factor > 2.5  # measured 2.98
-    agree = [
-        measure_agreement(log, replay(log, robot=husky, params=r.params, engine="reduced"))
-        for r in (fixed, stuck)
-    ]
-    assert agree[0].agreement > 0.9 and agree[0].agreement > agree[1].agreement + 0.1, agree
+    alone = fit_drive([log], geometry=husky.geometry, base_params=husky.drive, priors=priors)
+    assert not any("worse local minimum" in w for w in alone.warnings)
+    assert chi < alone.params.track_factor < 2.0  # measured 1.88 (before: 3.1)
+    for r in (fixed, alone):  # measured 730.6, 729.8 (before: 730.8, 2040.1)
+        assert r.settings["cost"] == pytest.approx(730.2, abs=2.0), r.settings["cost"]
+        agree = measure_agreement(log, replay(log, robot=husky, params=r.params, engine="reduced"))
+        assert agree.agreement > 0.95  # measured 0.961 both (before: 0.961, 0.790)
+
+
+def test_the_starts_are_compared_on_the_final_objective(
+    husky: RobotSpec, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A 30 s session of seed 22 (a tuning seed). The objective is w_p^2 times the negative
+    log posterior, w_p estimated from the residuals: 2.34 at the start point, 0.96-0.98 at
+    the best fits. Compared under the start's weight, a track-factor restart won (256.1 vs
+    260.7) and its five-step polish under the re-balanced weight ended at cost 246.1, above
+    the 234.0 of the fit without the restarts. Every candidate re-solved under the
+    re-balanced weight and the lowest kept: 233.3 with the restarts, 233.5 without; more
+    starts no longer end higher."""
+    import sysid._map
+
+    log = make_skid_sessions(skid_robot(22), 1, seed=22, duration_s=30.0, profile="teleop")[0]
+    priors = _fixed(husky, driver_track_factor=1.875)
+    both = fit_drive([log], geometry=husky.geometry, base_params=husky.drive, priors=priors)
+    monkeypatch.setattr(sysid._map, "_TRACK_RESTARTS_SD", ())
+    spec_only = fit_drive([log], geometry=husky.geometry, base_params=husky.drive, priors=priors)
+    costs = (both.settings["cost"], spec_only.settings["cost"])
+    # one negative-log-posterior unit is w_p^2 ~ 0.95 cost units here
+    assert costs[0] <= costs[1] + 0.5 and costs[0] < 236.0, costs  # before: 246.1 vs 234.0
+    assert 1.55 < both.params.track_factor < 1.65  # measured 1.595 (plant 1.57)
+
+
+def test_tiny_changes_of_the_data_keep_the_fit_in_its_basin(husky: RobotSpec) -> None:
+    """Seed 101's robot, 30 s sessions, its lateral tyre stiffness x (1, 1 + 1e-7). Before the
+    candidates were compared on the final objective the two fits landed in different minima:
+    cost 1036.4 and 1083.1, chi 1.92 and 1.90, held-out agreement 0.735 and 0.706 (1 - 1e-7:
+    1065.4, 1.93, 0.704). Now 863.2 and 862.5 (about one negative-log-posterior unit, w_p^2 ~
+    0.74), chi 1.880 and 1.882, agreement 0.917 and 0.915 (1 - 1e-7: 862.5, 1.879, 0.924).
+    The objective is rough on a scale of a few units (the trust region stops on xtol where
+    tolerances of 1e-12 find no further descent), so the fit is the best of its candidates,
+    not a proven global minimum."""
+    base = skid_robot(101)
+    priors = _fixed(husky, driver_track_factor=1.875)
+    costs, chis, agreements = [], [], []
+    for rel in (0.0, 1e-7):
+        plant = base.replace(slip_lat_mps=base.slip_lat_mps * (1.0 + rel))
+        log, held = make_skid_sessions(plant, 2, seed=101, duration_s=30.0, profile="teleop")
+        r = fit_drive([log], geometry=husky.geometry, base_params=husky.drive, priors=priors)
+        costs.append(r.settings["cost"])
+        chis.append(r.params.track_factor)
+        sim = replay(held, robot=husky, params=r.params, engine="reduced")
+        agreements.append(measure_agreement(held, sim).agreement)
+    assert max(costs) - min(costs) < 2.0 and max(costs) < 880.0, costs  # before: 1036, 1083
+    assert max(chis) - min(chis) < 0.01, chis
+    assert min(agreements) > 0.9 and max(agreements) - min(agreements) < 0.02, agreements
