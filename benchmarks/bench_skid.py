@@ -1,6 +1,7 @@
 """Issue 12's skid-steer target, per seed, and how far a fit carries to another ground.
 
-Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,102,103,104,105]`` (~2 min).
+Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,...,110] [--husky-seeds 0,...,4]``
+(~4 min at load 1).
 
 1. **Target** (what ``tests/sim2real/test_skid_plant.py`` asserts): per seed, one robot on one
    ground (:func:`sim2real.skid_plant.skid_robot`: slip 1.5-1.9, mu 0.6-0.95), two 90 s teleop
@@ -9,7 +10,10 @@ Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,102,103,104,105]``
    published numbers and its driver's settings (multiplier 1.875): ``skid`` (``sim2real
    robots new husky --drive skid``, ``track_factor`` fitted), ``diff`` (``--drive diff``:
    geometric track, the driver's 1.875; the test's "plain differential-drive fit") and
-   ``both 1`` (the skid spec with both track factors 1, a driver without the multiplier).
+   ``both 1`` (the skid spec with both track factors 1, a driver without the multiplier);
+   ``margin`` is skid minus diff. The rows ``H<n>`` are the canonical plant,
+   :func:`sim2real.skid_plant.husky_like` (defined from published figures before any
+   measurement), with the sessions of command seed n.
 2. **Ground sensitivity**: :func:`sim2real.skid_plant.husky_like` at mu 0.8 fitted on one
    session, measured on a session on a ground with mu x (0.8, 0.9, 1.0, 1.2).
 
@@ -80,21 +84,27 @@ def _fit(spec: Any, trace: Any, *, plain: bool = False) -> Any:
     return fit_drive([trace], geometry=spec.geometry, base_params=base, priors=priors).params
 
 
-def target(seeds: list[int]) -> None:
-    from sim2real.skid_plant import effective_track_factor, make_skid_sessions, skid_robot
+def target(seeds: list[int], husky_seeds: list[int]) -> None:
+    from sim2real.skid_plant import (
+        effective_track_factor,
+        husky_like,
+        make_skid_sessions,
+        skid_robot,
+    )
 
     spec, diff_spec = _husky("skid"), _husky("diff")
-    print("seed  chi   mu    skid   diff   both 1  fitted chi")
-    for seed in seeds:
-        robot = skid_robot(seed)
+    print("seed  chi   mu    skid   diff   margin  both 1  fitted chi")
+    rows = [(str(s), skid_robot(s), s) for s in seeds]
+    rows += [(f"H{s}", husky_like(), s) for s in husky_seeds]
+    for label, robot, seed in rows:
         fit_log, held = make_skid_sessions(robot, 2, seed=seed, duration_s=90.0, profile="teleop")
-        skid = _fit(spec, fit_log)
-        diff = _fit(diff_spec, fit_log)
-        both = _fit(spec, fit_log, plain=True)
+        skid_params = _fit(spec, fit_log)
+        skid, skid_chi = _agreement(spec, skid_params, held), skid_params.track_factor
+        diff = _agreement(diff_spec, _fit(diff_spec, fit_log), held)
+        both = _agreement(spec, _fit(spec, fit_log, plain=True), held)
         print(
-            f"{seed:4d}  {effective_track_factor(robot, 0.0, 1.0):.2f}  {robot.mu:.2f}  "
-            f"{_agreement(spec, skid, held):.3f}  {_agreement(diff_spec, diff, held):.3f}  "
-            f"{_agreement(spec, both, held):.3f}   {skid.track_factor:.2f}",
+            f"{label:>4}  {effective_track_factor(robot, 0.0, 1.0):.2f}  {robot.mu:.2f}  "
+            f"{skid:.3f}  {diff:.3f}  {skid - diff:+.3f}  {both:.3f}   {skid_chi:.2f}",
             flush=True,
         )
 
@@ -122,11 +132,12 @@ def sensitivity(seeds: list[int]) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default="101,102,103,104,105", help="target seeds")
+    parser.add_argument("--seeds", default="101,102,103,104,105,106,107,108,109,110")
+    parser.add_argument("--husky-seeds", default="0,1,2,3,4", help="husky_like's session seeds")
     parser.add_argument("--ground-seeds", default="1,2,3,4", help="sensitivity seeds")
     args = parser.parse_args()
     t0 = time.process_time()
-    target([int(s) for s in args.seeds.split(",")])
+    target([int(s) for s in args.seeds.split(",")], [int(s) for s in args.husky_seeds.split(",")])
     sensitivity([int(s) for s in args.ground_seeds.split(",")])
     print(f"CPU {time.process_time() - t0:.1f} s")
 
