@@ -1,7 +1,7 @@
 """Issue 12's skid-steer target, per seed, and how far a fit carries to another ground.
 
 Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,...,110] [--husky-seeds 0,...,4]``
-(~4 min at load 1).
+(3.3 min CPU at load 2).
 
 1. **Target** (what ``tests/sim2real/test_skid_plant.py`` asserts): per seed, one robot on one
    ground (:func:`sim2real.skid_plant.skid_robot`: slip 1.5-1.9, mu 0.6-0.95), two 90 s teleop

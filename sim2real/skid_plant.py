@@ -490,8 +490,8 @@ def make_skid_sessions(
     same: the slip is set by the tyre stiffnesses, and the yaw scrub, which grows with mu,
     only loads the wheel loops, whose integral term takes it up. Fitted on
     :func:`husky_like` at mu 0.8, measured on a held-out teleop session at mu x (0.8, 0.9,
-    1.0, 1.2), four command seeds: agreement 0.866-0.940, 0.872-0.946, 0.869-0.948,
-    0.845-0.937 (``benchmarks/bench_skid.py``; with proportional loops the scrub's droop made
+    1.0, 1.2), four command seeds: agreement 0.870-0.925, 0.872-0.934, 0.871-0.940,
+    0.849-0.932 (``benchmarks/bench_skid.py``; with proportional loops the scrub's droop made
     a slipperier ground turn the base faster than the fit predicted: 0.81-0.91 at x 0.8).
     """
     from sim2real.plants import command_profile
