@@ -9,7 +9,7 @@
 3. When ``sim2real.envs`` provides the pybullet navigation env, the stack's overhead as a
    percentage of its step time (target <= 5 %).
 
-Run: ``.venv/bin/python benchmarks/bench_randomizers.py [--quick]``
+Run: ``.venv/bin/python benchmarks/bench_randomizers.py [--quick] [--only depth]``
 """
 
 from __future__ import annotations
@@ -251,12 +251,20 @@ class _StepTimer(gym.Wrapper[Any, Any, Any, Any]):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repetitions (or BENCH_QUICK=1)")
+    parser.add_argument(
+        "--only",
+        choices=("stack", "depth", "pybullet"),
+        help="run one part: 1. the stack's overhead, 2. DepthNoise vs the floor, 3. pybullet",
+    )
     args = parser.parse_args()
     scale = 0.1 if (args.quick or QUICK) else 1.0
     print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
-    bench_stack(steps=int(3000 * scale) or 100, repeats=7)
-    bench_depth(frames=int(100 * scale) or 10, repeats=7)
-    bench_pybullet(steps=int(400 * scale) or 40, repeats=5)
+    if args.only in (None, "stack"):
+        bench_stack(steps=int(3000 * scale) or 100, repeats=7)
+    if args.only in (None, "depth"):
+        bench_depth(frames=int(100 * scale) or 10, repeats=7)
+    if args.only in (None, "pybullet"):
+        bench_pybullet(steps=int(400 * scale) or 40, repeats=5)
 
 
 if __name__ == "__main__":

@@ -19,6 +19,16 @@ import numpy as np
 from randomizers._base import check_name, check_nonnegative, check_number, check_scale
 from randomizers._gauss import _ACCEPT_I64, _FX, _R, _SIGNED_WIDTH, _WIDTH, _slow_pass
 from randomizers._observation import ObservationRandomizer
+from randomizers._pcg64 import (
+    JUMPS,
+    fill_raw,
+    is_pcg64,
+    muladd,
+    output,
+    pcg64_jumps,
+    pcg64_state,
+    put_pcg64_state,
+)
 from randomizers._select import index_kwarg, index_label, select
 from randomizers.errors import RandomizerValueError
 
@@ -26,6 +36,11 @@ __all__ = ["DepthNoise", "LidarNoise", "ObservationNoise"]
 
 # The ziggurat's acceptance limits as int32 (magnitudes are 23-bit) for the fused depth kernel.
 _ACCEPT_I32 = _ACCEPT_I64.astype(np.int32)
+# The same twice over, indexed like _SIGNED_WIDTH by layer and sign bit (one mask for both).
+_SIGNED_ACCEPT_I32 = np.concatenate([_ACCEPT_I32, _ACCEPT_I32])
+# Pixels per block of the PCG64 depth kernel: the block's samples stay in L1 between the scalar
+# ziggurat pass and the vectorised add (a multiple of 2 * JUMPS: whole iterations of four words).
+_DEPTH_BLOCK = 4096
 
 
 class ObservationNoise(ObservationRandomizer):
@@ -178,6 +193,104 @@ def _noisy_depth_fix(
 
 
 @numba.njit(cache=True, nogil=True)
+def _noisy_depth_pcg64(
+    state: np.ndarray,
+    jumps: np.ndarray,
+    img: np.ndarray,
+    out: np.ndarray,
+    z: np.ndarray,
+    rejected: np.ndarray,
+    first: np.ndarray,
+    scratch: np.ndarray,
+    order: np.ndarray,
+    width: np.ndarray,
+    accept: np.ndarray,
+    std: float,
+    near: float,
+    far: float,
+) -> int:  # pragma: no cover - compiled
+    """The whole frame from a PCG64 state (:mod:`randomizers._pcg64`); returns the rejections.
+
+    The same numbers as the ``random_raw`` path of :meth:`DepthNoise._noisy`: word ``i`` of
+    the frame (two samples per 64-bit word, in the order of ``view(np.uint32)``) is stepped
+    here instead of read from memory, ``z.size`` pixels at a time: the ziggurat fast pass of
+    :func:`_depth_samples` into ``z`` (the block's samples, in the image's precision), then
+    :func:`_noisy_depth_add` on the block. The rejected pixels (index and word in
+    ``rejected``, ``first``) are then finished by :func:`randomizers._gauss._slow_pass` with
+    the words after the frame's, drawn in the same batches as the ``random_raw`` path draws
+    them, and redone by :func:`_noisy_depth_fix`. ``state`` ends after the last word drawn.
+    """
+    ftype = img.dtype.type
+    std_f, near_f, far_f = ftype(std), ftype(near), ftype(far)
+    hi = state[0]
+    lo = state[1]
+    a1h, a1l, c1h, c1l = jumps[0, 0], jumps[0, 1], jumps[0, 2], jumps[0, 3]
+    a2h, a2l, c2h, c2l = jumps[1, 0], jumps[1, 1], jumps[1, 2], jumps[1, 3]
+    a3h, a3l, c3h, c3l = jumps[2, 0], jumps[2, 1], jumps[2, 2], jumps[2, 3]
+    a4h, a4l, c4h, c4l = jumps[3, 0], jumps[3, 1], jumps[3, 2], jumps[3, 3]
+    words = np.empty(JUMPS, dtype=np.uint64)
+    halves = words.view(np.uint32)
+    n = img.size
+    k = 0
+    for start in range(0, n, z.size):
+        stop = min(start + z.size, n)
+        count = stop - start
+        zb = z[:count]
+        groups = count // (2 * JUMPS)
+        for g in range(groups):  # four words from one state (see _pcg64), eight samples
+            h1, l1 = muladd(hi, lo, a1h, a1l, c1h, c1l)
+            h2, l2 = muladd(hi, lo, a2h, a2l, c2h, c2l)
+            h3, l3 = muladd(hi, lo, a3h, a3l, c3h, c3l)
+            hi, lo = muladd(hi, lo, a4h, a4l, c4h, c4l)
+            words[0] = output(h1, l1)
+            words[1] = output(h2, l2)
+            words[2] = output(h3, l3)
+            words[3] = output(hi, lo)
+            for q in range(2 * JUMPS):
+                u = halves[q]
+                mag = np.int32(u >> np.uint32(9))
+                signed_layer = u & np.uint32(511)
+                zb[2 * JUMPS * g + q] = ftype(mag) * width[signed_layer]
+                if mag >= accept[signed_layer]:
+                    rejected[k] = start + 2 * JUMPS * g + q
+                    first[k] = u
+                    k += 1
+        tail = count - 2 * JUMPS * groups  # the frame's last samples (an odd count: a half unused)
+        for q in range((tail + 1) // 2):
+            hi, lo = muladd(hi, lo, a1h, a1l, c1h, c1l)
+            words[q] = output(hi, lo)
+        for q in range(tail):
+            u = halves[q]
+            mag = np.int32(u >> np.uint32(9))
+            signed_layer = u & np.uint32(511)
+            zb[count - tail + q] = ftype(mag) * width[signed_layer]
+            if mag >= accept[signed_layer]:
+                rejected[k] = stop - tail + q
+                first[k] = u
+                k += 1
+        _noisy_depth_add(img[start:stop], zb, out[start:stop], std_f, near_f, far_f)
+    state[0] = hi
+    state[1] = lo
+    done = 0
+    while done < k:
+        extra = np.empty(2 * (k - done) + 8, dtype=np.uint64)
+        fill_raw(state, jumps, extra)
+        done = _slow_pass(
+            first[:k],
+            order[:k],
+            done,
+            scratch[:k],
+            extra.view(np.uint32),
+            _WIDTH,
+            _ACCEPT_I64,
+            _FX,
+            _R,
+        )
+    _noisy_depth_fix(img, scratch[:k], out, rejected[:k], std, near, far)
+    return k
+
+
+@numba.njit(cache=True, nogil=True)
 def _noisy_ranges(
     ranges: np.ndarray,
     z: np.ndarray,
@@ -293,8 +406,12 @@ class DepthNoise(ObservationRandomizer):
         self.far_m = far_m
         self._scratch = np.empty(0)  # finished samples of the rejected pixels, in order
         self._rejected = np.empty(0, dtype=np.int64)
-        self._z = np.empty(0, dtype=np.float32)  # fast-pass samples of a frame (reused)
+        self._first = np.empty(0, dtype=np.uint32)  # the rejected pixels' words
+        self._order = np.empty(0, dtype=np.int64)  # 0, 1, 2, ...
+        self._z = np.empty(0, dtype=np.float32)  # fast-pass samples of a frame or block (reused)
         self._width = _SIGNED_WIDTH.astype(np.float32)
+        self._increment = -1  # the PCG64 stream whose jump table is in self._jumps
+        self._jumps = np.empty((0, 4), dtype=np.uint64)
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with noise on the depth image (a new object)."""
@@ -311,21 +428,68 @@ class DepthNoise(ObservationRandomizer):
     def _noisy(self, img: np.ndarray, out: np.ndarray, std: float) -> None:
         """``out = clip(img + std z, near, far)`` on valid pixels, ``z`` i.i.d. N(0, 1).
 
-        The generator's raw words of the whole frame in one call; the ziggurat fast pass
-        turns word ``i`` into pixel ``i``'s sample (as
-        :func:`randomizers._gauss.fill_standard_normal` maps words to samples) into a reused
-        buffer, a vectorised pass adds the noise, then the few rejected samples are finished
-        with further words and their pixels redone.
+        Pixel ``i``'s sample is the ziggurat sample of the ``i``-th 32-bit half of the
+        generator's next raw words (as :func:`randomizers._gauss.fill_standard_normal` maps
+        words to samples); the few rejected samples are finished with the words after the
+        frame's. With numpy's ``PCG64`` (every randomizer's own generator) one compiled kernel
+        steps the generator itself (:func:`_noisy_depth_pcg64`); any other bit generator gives
+        its words through ``random_raw`` (:meth:`_noisy_raw`). Both give the same frames.
         """
+        bits = self.rng.bit_generator
+        if not is_pcg64(bits):
+            self._noisy_raw(bits, img, out, std)
+            return
+        self._buffers(img)
+        if self._z.size != _DEPTH_BLOCK or self._z.dtype != img.dtype:
+            self._z = np.empty(_DEPTH_BLOCK, dtype=img.dtype)
+        with bits.lock:
+            full, state, increment = pcg64_state(bits)
+            if increment != self._increment:  # a new stream (reseeded)
+                self._jumps = pcg64_jumps(increment)
+                self._increment = increment
+            _noisy_depth_pcg64(
+                state,
+                self._jumps,
+                img,
+                out,
+                self._z,
+                self._rejected,
+                self._first,
+                self._scratch,
+                self._order,
+                self._width,
+                _SIGNED_ACCEPT_I32,
+                std,
+                self.near_m,
+                self.far_m,
+            )
+            put_pcg64_state(bits, full, state)
+
+    def _buffers(self, img: np.ndarray) -> None:
+        """Size the per-pixel buffers for ``img`` and put the width table in its dtype."""
         n = img.size
-        ftype = img.dtype.type
         if self._scratch.size < n:
             self._scratch = np.empty(n)
             self._rejected = np.empty(n, dtype=np.int64)
+            self._first = np.empty(n, dtype=np.uint32)
+            self._order = np.arange(n)
+        if self._width.dtype != img.dtype:
+            self._width = _SIGNED_WIDTH.astype(img.dtype)
+
+    def _noisy_raw(
+        self, bits: np.random.BitGenerator, img: np.ndarray, out: np.ndarray, std: float
+    ) -> None:
+        """:meth:`_noisy` with the words from ``bits.random_raw`` (any bit generator).
+
+        The frame's raw words in one call; the ziggurat fast pass turns word ``i`` into pixel
+        ``i``'s sample in a reused buffer, a vectorised pass adds the noise, then the rejected
+        samples are finished with further words and their pixels redone.
+        """
+        self._buffers(img)
+        n = img.size
+        ftype = img.dtype.type
         if self._z.size < n or self._z.dtype != img.dtype:
             self._z = np.empty(n, dtype=img.dtype)
-            self._width = _SIGNED_WIDTH.astype(img.dtype)
-        bits = self.rng.bit_generator
         words = bits.random_raw((n + 1) // 2).view(np.uint32)
         zf = self._z[:n]
         k = _depth_samples(words, zf, self._rejected, self._width, _ACCEPT_I32)
@@ -336,7 +500,7 @@ class DepthNoise(ObservationRandomizer):
         # the rejected pixels' words and samples side by side (no scattered writes)
         first = words[todo]
         z = self._scratch[:k]
-        order = np.arange(k)
+        order = self._order[:k]
         done = 0
         while done < k:
             extra = bits.random_raw(2 * (k - done) + 8).view(np.uint32)
