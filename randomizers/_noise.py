@@ -9,6 +9,8 @@ dropped lidar beams).
 
 from __future__ import annotations
 
+import math
+import sys
 from collections.abc import Sequence
 from typing import Any
 
@@ -17,10 +19,11 @@ import numba
 import numpy as np
 
 from randomizers._base import check_name, check_nonnegative, check_number, check_scale
-from randomizers._gauss import _ACCEPT_I64, _FX, _R, _SIGNED_WIDTH, _WIDTH, _slow_pass
+from randomizers._gauss import _ACCEPT_I64, _FX, _INV_2_32, _R, _SIGNED_WIDTH, _WIDTH, _slow_pass
 from randomizers._observation import ObservationRandomizer
 from randomizers._pcg64 import (
     JUMPS,
+    advance,
     fill_raw,
     is_pcg64,
     muladd,
@@ -192,6 +195,77 @@ def _noisy_depth_fix(
             out[i] = min(max(d + std * z[j], near), far)
 
 
+@numba.njit(inline="always")
+def _next_half(
+    hi: np.uint64,
+    lo: np.uint64,
+    word: np.uint64,
+    high_left: bool,
+    a_hi: np.uint64,
+    a_lo: np.uint64,
+    c_hi: np.uint64,
+    c_lo: np.uint64,
+) -> tuple[np.uint32, np.uint64, np.uint64, np.uint64, bool]:  # pragma: no cover - compiled
+    """The next 32-bit half of a PCG64 stream, low half first (as ``view(np.uint32)`` orders
+    them on a little-endian machine), and the stream after it: state (``hi``, ``lo``), the
+    current ``word`` and whether its high half is still unused. Scalars only: no array
+    reference counting in the slow path's inner loop.
+    """
+    if high_left:
+        return np.uint32(word >> np.uint64(32)), hi, lo, word, False
+    hi, lo = muladd(hi, lo, a_hi, a_lo, c_hi, c_lo)
+    word = output(hi, lo)
+    return np.uint32(word & np.uint64(0xFFFFFFFF)), hi, lo, word, True
+
+
+@numba.njit(cache=True, nogil=True)
+def _finish_sample(
+    u: np.int64,
+    hi: np.uint64,
+    lo: np.uint64,
+    word: np.uint64,
+    high_left: bool,
+    a_hi: np.uint64,
+    a_lo: np.uint64,
+    c_hi: np.uint64,
+    c_lo: np.uint64,
+) -> tuple[float, np.uint64, np.uint64, np.uint64, bool, int]:  # pragma: no cover - compiled
+    """:func:`randomizers._gauss._slow_pass` for one rejected word ``u``, the further words
+    taken from the stream of :func:`_next_half` instead of an array (the same tests in the same
+    order); returns the sample, the stream after it and how many halves it took."""
+    used = 0
+    while True:
+        layer = u & 255
+        mag = u >> 9
+        x = float(mag) * _WIDTH[layer]
+        if mag < _ACCEPT_I64[layer]:
+            break
+        if layer == 0:  # the tail beyond r (see _slow_pass)
+            while True:
+                h, hi, lo, word, high_left = _next_half(
+                    hi, lo, word, high_left, a_hi, a_lo, c_hi, c_lo
+                )
+                a = -math.log((float(h) + 0.5) * _INV_2_32) / _R
+                h, hi, lo, word, high_left = _next_half(
+                    hi, lo, word, high_left, a_hi, a_lo, c_hi, c_lo
+                )
+                b = -math.log((float(h) + 0.5) * _INV_2_32)
+                used += 2
+                if b + b > a * a:
+                    break
+            x = _R + a
+            break
+        h, hi, lo, word, high_left = _next_half(hi, lo, word, high_left, a_hi, a_lo, c_hi, c_lo)
+        v = (float(h) + 0.5) * _INV_2_32
+        used += 1
+        if _FX[layer] + v * (_FX[layer + 1] - _FX[layer]) < math.exp(-0.5 * x * x):
+            break
+        h, hi, lo, word, high_left = _next_half(hi, lo, word, high_left, a_hi, a_lo, c_hi, c_lo)
+        u = np.int64(h)  # rejected: start again with a fresh word
+        used += 1
+    return (-x if (u >> 8) & 1 else x), hi, lo, word, high_left, used
+
+
 @numba.njit(cache=True, nogil=True)
 def _noisy_depth_pcg64(
     state: np.ndarray,
@@ -212,13 +286,17 @@ def _noisy_depth_pcg64(
     """The whole frame from a PCG64 state (:mod:`randomizers._pcg64`); returns the rejections.
 
     The same numbers as the ``random_raw`` path of :meth:`DepthNoise._noisy`: word ``i`` of
-    the frame (two samples per 64-bit word, in the order of ``view(np.uint32)``) is stepped
-    here instead of read from memory, ``z.size`` pixels at a time: the ziggurat fast pass of
-    :func:`_depth_samples` into ``z`` (the block's samples, in the image's precision), then
-    :func:`_noisy_depth_add` on the block. The rejected pixels (index and word in
-    ``rejected``, ``first``) are then finished by :func:`randomizers._gauss._slow_pass` with
-    the words after the frame's, drawn in the same batches as the ``random_raw`` path draws
-    them, and redone by :func:`_noisy_depth_fix`. ``state`` ends after the last word drawn.
+    the frame (two samples per 64-bit word, low half first as ``view(np.uint32)`` orders them
+    on a little-endian machine) is stepped here instead of read from memory, ``z.size`` pixels
+    at a time: the ziggurat fast pass of :func:`_depth_samples` into ``z`` (the block's
+    samples, in the image's precision), then :func:`_noisy_depth_add` on the block. The
+    block's rejected samples are finished at once by :func:`_finish_sample` with the words
+    after the frame's (a second stream, jumped ahead), in pixel order as
+    :func:`randomizers._gauss._slow_pass` finishes them, and their pixels redone by
+    :func:`_noisy_depth_fix`. The ``random_raw`` path draws those words in a batch of
+    ``2 k + 8`` for ``k`` rejections: ``state`` ends after that batch, and in the rare frame
+    that would need more than one batch the rejected samples (index and word kept in
+    ``rejected``, ``first``) are redone batch by batch exactly as that path does.
     """
     ftype = img.dtype.type
     std_f, near_f, far_f = ftype(std), ftype(near), ftype(far)
@@ -229,10 +307,14 @@ def _noisy_depth_pcg64(
     a3h, a3l, c3h, c3l = jumps[2, 0], jumps[2, 1], jumps[2, 2], jumps[2, 3]
     a4h, a4l, c4h, c4l = jumps[3, 0], jumps[3, 1], jumps[3, 2], jumps[3, 3]
     words = np.empty(JUMPS, dtype=np.uint64)
-    halves = words.view(np.uint32)
     n = img.size
+    # the words after the frame's: where the rejected samples are finished, block by block
+    stream = state.copy()
+    advance(stream, jumps, (n + 1) // 2)
+    s_hi, s_lo, s_word, s_high_left, s_used = stream[0], stream[1], np.uint64(0), False, 0
     k = 0
     for start in range(0, n, z.size):
+        block_k = k
         stop = min(start + z.size, n)
         count = stop - start
         zb = z[:count]
@@ -247,7 +329,7 @@ def _noisy_depth_pcg64(
             words[2] = output(h3, l3)
             words[3] = output(hi, lo)
             for q in range(2 * JUMPS):
-                u = halves[q]
+                u = np.uint32((words[q >> 1] >> np.uint64(32 * (q & 1))) & np.uint64(0xFFFFFFFF))
                 mag = np.int32(u >> np.uint32(9))
                 signed_layer = u & np.uint32(511)
                 zb[2 * JUMPS * g + q] = ftype(mag) * width[signed_layer]
@@ -260,7 +342,7 @@ def _noisy_depth_pcg64(
             hi, lo = muladd(hi, lo, a1h, a1l, c1h, c1l)
             words[q] = output(hi, lo)
         for q in range(tail):
-            u = halves[q]
+            u = np.uint32((words[q >> 1] >> np.uint64(32 * (q & 1))) & np.uint64(0xFFFFFFFF))
             mag = np.int32(u >> np.uint32(9))
             signed_layer = u & np.uint32(511)
             zb[count - tail + q] = ftype(mag) * width[signed_layer]
@@ -269,8 +351,22 @@ def _noisy_depth_pcg64(
                 first[k] = u
                 k += 1
         _noisy_depth_add(img[start:stop], zb, out[start:stop], std_f, near_f, far_f)
-    state[0] = hi
+        for j in range(block_k, k):  # finish the block's rejected samples while it is in cache
+            scratch[j], s_hi, s_lo, s_word, s_high_left, used = _finish_sample(
+                np.int64(first[j]), s_hi, s_lo, s_word, s_high_left, a1h, a1l, c1h, c1l
+            )
+            s_used += used
+        _noisy_depth_fix(img, scratch[block_k:k], out, rejected[block_k:k], std, near, far)
+    state[0] = hi  # the frame's last word
     state[1] = lo
+    if k == 0:
+        return k
+    if s_used <= 2 * (2 * k + 8):
+        # random_raw's path draws one batch of 2 k + 8 words after the frame for its k
+        # rejections and needed no more than that: the same samples; skip the rest of the batch
+        advance(state, jumps, 2 * k + 8)
+        return k
+    # (rare) it would have run out of that batch and drawn more: redo it as it does
     done = 0
     while done < k:
         extra = np.empty(2 * (k - done) + 8, dtype=np.uint64)
@@ -436,7 +532,7 @@ class DepthNoise(ObservationRandomizer):
         its words through ``random_raw`` (:meth:`_noisy_raw`). Both give the same frames.
         """
         bits = self.rng.bit_generator
-        if not is_pcg64(bits):
+        if not is_pcg64(bits) or sys.byteorder != "little":
             self._noisy_raw(bits, img, out, std)
             return
         self._buffers(img)

@@ -30,7 +30,15 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["JUMPS", "fill_raw", "is_pcg64", "pcg64_jumps", "pcg64_state", "put_pcg64_state"]
+__all__ = [
+    "JUMPS",
+    "advance",
+    "fill_raw",
+    "is_pcg64",
+    "pcg64_jumps",
+    "pcg64_state",
+    "put_pcg64_state",
+]
 
 #: PCG's default 128-bit LCG multiplier, as numpy's PCG64 uses it (O'Neill 2014; numpy pcg64.h).
 MULTIPLIER = 0x2360ED051FC65DA44385DF649FCCF645
@@ -100,6 +108,31 @@ def fill_raw(state: np.ndarray, jumps: np.ndarray, out: np.ndarray) -> None:  # 
         i += 1
     state[0] = hi
     state[1] = lo
+
+
+@numba.njit(cache=True, nogil=True)
+def advance(state: np.ndarray, jumps: np.ndarray, steps: int) -> None:  # pragma: no cover
+    """Move ``state`` (``[high, low]``) ``steps`` words ahead in O(log steps) operations.
+
+    The LCG's jump-ahead by squaring (F. B. Brown, *Random number generation with arbitrary
+    strides*, Trans. Am. Nucl. Soc. 71, 1994): ``steps`` applications of :math:`s \to a s + c`
+    are :math:`s \to A s + C`, built from the binary digits of ``steps``; numpy's
+    ``PCG64.advance`` does the same.
+    """
+    zero = np.uint64(0)
+    acc_ah, acc_al, acc_ch, acc_cl = zero, np.uint64(1), zero, zero  # the identity map
+    cur_ah, cur_al, cur_ch, cur_cl = jumps[0, 0], jumps[0, 1], jumps[0, 2], jumps[0, 3]
+    left = steps
+    while left > 0:
+        if left & 1:
+            acc_ah, acc_al = muladd(acc_ah, acc_al, cur_ah, cur_al, zero, zero)
+            acc_ch, acc_cl = muladd(acc_ch, acc_cl, cur_ah, cur_al, cur_ch, cur_cl)
+        plus_one_l = cur_al + np.uint64(1)
+        plus_one_h = cur_ah + np.uint64(plus_one_l == zero)
+        cur_ch, cur_cl = muladd(cur_ch, cur_cl, plus_one_h, plus_one_l, zero, zero)
+        cur_ah, cur_al = muladd(cur_ah, cur_al, cur_ah, cur_al, zero, zero)
+        left >>= 1
+    state[0], state[1] = muladd(state[0], state[1], acc_ah, acc_al, acc_ch, acc_cl)
 
 
 def pcg64_jumps(increment: int) -> np.ndarray:

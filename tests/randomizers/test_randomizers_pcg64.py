@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 
 from randomizers import DepthNoise
-from randomizers._pcg64 import MULTIPLIER, fill_raw, pcg64_jumps, pcg64_state, put_pcg64_state
+from randomizers._pcg64 import (
+    MULTIPLIER,
+    advance,
+    fill_raw,
+    pcg64_jumps,
+    pcg64_state,
+    put_pcg64_state,
+)
 
 NEAR, FAR, STD = 0.05, 8.0, 0.2
 
@@ -106,3 +113,12 @@ def test_other_bit_generators_take_the_random_raw_path() -> None:
     inside = (img > 1.0) & (img < 7.0)
     d = first[inside].astype(np.float64) - img[inside]
     assert abs(d.mean()) < 0.02 and abs(d.std() - STD) < 0.02
+
+
+@pytest.mark.parametrize("steps", [0, 1, 2, 5, 153_600, 2**40 + 3])
+def test_advance_equals_numpy_advance(steps: int) -> None:
+    bits = np.random.PCG64(21)
+    full, state, increment = pcg64_state(bits)
+    advance(state, pcg64_jumps(increment), steps)
+    put_pcg64_state(bits, full, state)
+    assert bits.state == np.random.PCG64(21).advance(steps).state
