@@ -324,12 +324,13 @@ def _noisy_depth_pcg64(
             h2, l2 = muladd(hi, lo, a2h, a2l, c2h, c2l)
             h3, l3 = muladd(hi, lo, a3h, a3l, c3h, c3l)
             hi, lo = muladd(hi, lo, a4h, a4l, c4h, c4l)
-            words[0] = output(h1, l1)
-            words[1] = output(h2, l2)
-            words[2] = output(h3, l3)
-            words[3] = output(hi, lo)
-            for q in range(2 * JUMPS):
-                u = np.uint32((words[q >> 1] >> np.uint64(32 * (q & 1))) & np.uint64(0xFFFFFFFF))
+            w1 = output(h1, l1)
+            w2 = output(h2, l2)
+            w3 = output(h3, l3)
+            w4 = output(hi, lo)
+            for q in range(2 * JUMPS):  # unrolled: the words stay in registers
+                w = w1 if q < 2 else (w2 if q < 4 else (w3 if q < 6 else w4))
+                u = np.uint32((w >> np.uint64(32 * (q & 1))) & np.uint64(0xFFFFFFFF))
                 mag = np.int32(u >> np.uint32(9))
                 signed_layer = u & np.uint32(511)
                 zb[2 * JUMPS * g + q] = ftype(mag) * width[signed_layer]
