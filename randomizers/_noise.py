@@ -353,11 +353,14 @@ def _noisy_depth_pcg64(
                 k += 1
         _noisy_depth_add(img[start:stop], zb, out[start:stop], std_f, near_f, far_f)
         for j in range(block_k, k):  # finish the block's rejected samples while it is in cache
-            scratch[j], s_hi, s_lo, s_word, s_high_left, used = _finish_sample(
+            x, s_hi, s_lo, s_word, s_high_left, used = _finish_sample(
                 np.int64(first[j]), s_hi, s_lo, s_word, s_high_left, a1h, a1l, c1h, c1l
             )
             s_used += used
-        _noisy_depth_fix(img, scratch[block_k:k], out, rejected[block_k:k], std, near, far)
+            i = rejected[j]
+            d = img[i]
+            if d > 0.0 and d < far:  # as _noisy_depth_fix redoes a pixel
+                out[i] = min(max(d + std * x, near), far)
     state[0] = hi  # the frame's last word
     state[1] = lo
     if k == 0:
