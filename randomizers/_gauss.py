@@ -27,7 +27,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["ZIGGURAT_LAYERS", "NormalPool", "fill_standard_normal", "ziggurat_tables"]
+__all__ = ["ZIGGURAT_LAYERS", "NormalPool", "fill_standard_normal", "raw_words", "ziggurat_tables"]
 
 #: Number of ziggurat layers (8 bits of each word select one).
 ZIGGURAT_LAYERS = 256
@@ -158,6 +158,37 @@ def _slow_pass(
     return rejected.size
 
 
+#: numpy's bit generators whose ``random_raw`` values carry 64 random bits (two 32-bit words).
+_RAW64 = (np.random.PCG64, np.random.PCG64DXSM, np.random.Philox, np.random.SFC64)
+
+
+def raw_words(bits: np.random.BitGenerator, count: int) -> np.ndarray:
+    """At least ``count`` 32-bit words (uint32) of ``bits``' raw stream, in stream order.
+
+    numpy's 64-bit generators (PCG64, PCG64DXSM, Philox, SFC64) give two words per raw value
+    (``count`` rounded up to even); ``MT19937``'s raw values hold 32 bits each, one word per
+    value (viewing them as two halves would make every other word 0). Any other bit generator
+    is refused: its raw width is not known.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> raw_words(np.random.PCG64(0), 3).size, raw_words(np.random.MT19937(0), 3).size
+    (4, 3)
+    """
+    if isinstance(bits, _RAW64):
+        return bits.random_raw((count + 1) // 2).view(np.uint32)
+    if isinstance(bits, np.random.MT19937):
+        return bits.random_raw(count).astype(np.uint32)
+    from randomizers.errors import RandomizerTypeError
+
+    raise RandomizerTypeError(
+        f"the generator's bit generator is {type(bits).__name__}, whose raw output width is not "
+        "known; the randomizers draw raw words from numpy's PCG64, PCG64DXSM, Philox, SFC64 or "
+        "MT19937: seed the env with one of them (e.g. numpy.random.default_rng(seed))"
+    )
+
+
 def fill_standard_normal(rng: np.random.Generator, out: np.ndarray) -> np.ndarray:
     """Fill ``out`` (float32 or float64, C-contiguous) with i.i.d. N(0, 1) samples in place.
 
@@ -179,12 +210,12 @@ def fill_standard_normal(rng: np.random.Generator, out: np.ndarray) -> np.ndarra
     for start in range(0, flat.size, _CHUNK):
         chunk = flat[start : start + _CHUNK]
         n = chunk.size
-        words = bits.random_raw((n + 1) // 2).view(np.uint32)
+        words = raw_words(bits, n)
         k = _fast_pass(words, chunk, rejected, _SIGNED_WIDTH, _ACCEPT_I64)
         todo = rejected[:k]
         done = 0
         while done < k:
-            extra = bits.random_raw(2 * (k - done) + 8).view(np.uint32)
+            extra = raw_words(bits, 4 * (k - done) + 16)
             done = _slow_pass(words, todo, done, chunk, extra, _WIDTH, _ACCEPT_I64, _FX, _R)
     return out
 

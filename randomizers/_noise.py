@@ -19,7 +19,16 @@ import numba
 import numpy as np
 
 from randomizers._base import check_name, check_nonnegative, check_number, check_scale
-from randomizers._gauss import _ACCEPT_I64, _FX, _INV_2_32, _R, _SIGNED_WIDTH, _WIDTH, _slow_pass
+from randomizers._gauss import (
+    _ACCEPT_I64,
+    _FX,
+    _INV_2_32,
+    _R,
+    _SIGNED_WIDTH,
+    _WIDTH,
+    _slow_pass,
+    raw_words,
+)
 from randomizers._observation import ObservationRandomizer
 from randomizers._pcg64 import (
     JUMPS,
@@ -590,7 +599,7 @@ class DepthNoise(ObservationRandomizer):
         ftype = img.dtype.type
         if self._z.size < n or self._z.dtype != img.dtype:
             self._z = np.empty(n, dtype=img.dtype)
-        words = bits.random_raw((n + 1) // 2).view(np.uint32)
+        words = raw_words(bits, n)
         zf = self._z[:n]
         k = _depth_samples(words, zf, self._rejected, self._width, _ACCEPT_I32)
         _noisy_depth_add(img, zf, out, ftype(std), ftype(self.near_m), ftype(self.far_m))
@@ -603,7 +612,7 @@ class DepthNoise(ObservationRandomizer):
         order = self._order[:k]
         done = 0
         while done < k:
-            extra = bits.random_raw(2 * (k - done) + 8).view(np.uint32)
+            extra = raw_words(bits, 4 * (k - done) + 16)
             done = _slow_pass(first, order, done, z, extra, _WIDTH, _ACCEPT_I64, _FX, _R)
         _noisy_depth_fix(img, z, out, todo, std, self.near_m, self.far_m)
 

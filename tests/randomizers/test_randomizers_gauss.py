@@ -88,3 +88,24 @@ def test_pool_grows_for_large_requests_and_clear_restarts() -> None:
     assert big.size == 100_000 and big.dtype == np.float32
     pool.clear()  # as on reset(seed=...): the same seed gives the same samples again
     np.testing.assert_array_equal(pool.take(np.random.default_rng(1), 100_000), big)
+
+
+@pytest.mark.parametrize("bit_generator", ["MT19937", "Philox", "SFC64", "PCG64DXSM", "PCG64"])
+def test_every_numpy_bit_generator_gives_standard_normal_samples(bit_generator: str) -> None:
+    n = 400_000
+    z = fill_standard_normal(np.random.Generator(getattr(np.random, bit_generator)(3)), np.empty(n))
+    assert abs(z.mean()) < 4 / math.sqrt(n)
+    assert abs(z.std() - 1.0) < 4 / math.sqrt(2 * n)
+
+
+def test_raw_words_count_and_a_bit_generator_of_unknown_width() -> None:
+    from randomizers._gauss import raw_words
+    from randomizers.errors import RandomizerTypeError
+
+    pcg = raw_words(np.random.PCG64(1), 5)
+    assert pcg.dtype == np.uint32 and pcg.size == 6
+    assert np.array_equal(pcg, np.random.PCG64(1).random_raw(3).view(np.uint32))
+    mt = raw_words(np.random.MT19937(1), 5)
+    assert np.array_equal(mt, np.random.MT19937(1).random_raw(5).astype(np.uint32))
+    with pytest.raises(RandomizerTypeError, match="raw output width is not known"):
+        raw_words(object(), 4)  # type: ignore[arg-type]
