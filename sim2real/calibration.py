@@ -252,6 +252,7 @@ def calibrate_traces(
     -------
     CalibrationResult
     """
+    from robots.randomization import cap_spread
     from sim2real.agreement import check_tolerances, ensemble_members
     from sim2real.replay import resolve_robot
     from sysid.metrics import active_mask
@@ -283,7 +284,12 @@ def calibrate_traces(
     session = session_covariance(distribution, spec)
 
     def mixed(factor: float, session_factor: float) -> Any:
-        cov = _capped(factor**2 * fitted + session_factor**2 * session, distribution)
+        # a field the logs do not inform cannot be widened without bound (correlations kept)
+        cov = cap_spread(
+            factor**2 * fitted + session_factor**2 * session,
+            distribution.names,
+            distribution.geometry,
+        )
         return dataclasses.replace(
             distribution, covariance=tuple(tuple(float(c) for c in row) for row in cov)
         )
@@ -368,14 +374,6 @@ def calibrate_traces(
             (str(getattr(t.meta, "path", "")), str(getattr(t.meta, "sha256", ""))) for t in traces
         ),
     )
-
-
-def _capped(cov: FloatArray, distribution: Any) -> FloatArray:
-    """``cov`` with each field's sd kept below the schema's absurd-spread limit (correlations
-    kept): a field the logs do not inform cannot be widened without bound."""
-    from robots.randomization import cap_spread
-
-    return cap_spread(cov, distribution.names, distribution.geometry)
 
 
 def session_covariance(distribution: Any, robot: Any) -> FloatArray:

@@ -455,9 +455,9 @@ def _final_choice(
     logs it is 240-600x its value at the solution (large, correlated residuals), so the
     starts run with priors that weigh hundreds of times too much. Costs rank basins only
     under one :math:`w_p`, and only the final one ranks them by the final negative log
-    posterior: while the weight at the best candidate is off by more than 2x (:func:`map_fit`'s
-    rule), it is set there and every distinct candidate is re-solved to convergence under it
-    (``pool`` is updated in place; at most ``rounds`` rounds). Choosing before the re-balance
+    posterior: while the weight at the best candidate is off by more than 2x
+    (:func:`_balanced`), it is set there and every distinct candidate is re-solved to
+    convergence under it (``pool`` is updated in place; at most ``rounds`` rounds). Choosing before the re-balance
     and then polishing the choice a few steps ended a 90 s fit of skid_robot(28) at cost
     1116.9 with the track-factor restarts and 1079.8 without them, and moved seed 101's
     held-out agreement 0.885-0.924 under 1e-7 changes of the plant (now 1067.0 and 1072.6;
@@ -471,7 +471,7 @@ def _final_choice(
     for _ in range(rounds):
         best = min(range(len(cands)), key=lambda i: float(cands[i].cost))
         s2, c = noise_scale(prob, prob.data_residuals(np.asarray(cands[best].x)), len(prob.free))
-        if 0.5 <= math.sqrt(s2 * c) / prob.prior_weight <= 2.0:
+        if _balanced(prob, s2 * c):
             break
         prob.prior_weight = math.sqrt(s2 * c)
         rebalanced = True
@@ -483,6 +483,12 @@ def _final_choice(
             done.append((x, cands[i]))
     best = min(range(len(cands)), key=lambda i: float(cands[i].cost))
     return cands[best], best, [float(r.cost) for r in cands], rebalanced
+
+
+def _balanced(prob: Problem, variance: float) -> bool:
+    r"""Whether the prior weight :math:`w_p` is within 2x of :math:`\sqrt{s^2 c}` at a fit
+    (``variance`` = :math:`s^2 c` there, :func:`noise_scale`); beyond that it is re-balanced."""
+    return 0.5 <= math.sqrt(variance) / prob.prior_weight <= 2.0
 
 
 def _windows(logs: Sequence[LogArrays], span_s: float = _COARSE_SPAN_S) -> list[LogArrays]:
@@ -748,7 +754,7 @@ def map_fit(
     if rebalanced:
         message += " (the prior weight re-balanced at the solution, the candidates re-solved)"
     s2, c = noise_scale(prob, prob.data_residuals(np.asarray(res.x)), len(free))
-    if not 0.5 <= math.sqrt(s2 * c) / prob.prior_weight <= 2.0:
+    if not _balanced(prob, s2 * c):
         # the prior's weight rests on the residual scale, first estimated at the start point:
         # re-balance at the solution (a few steps from there)
         prob.prior_weight = math.sqrt(s2 * c)
