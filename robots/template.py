@@ -131,10 +131,20 @@ class NewRobot:
 
 
 def _g(x: float) -> str:
-    """A number as YAML (6 significant digits; .inf)."""
+    """A number as YAML (6 significant digits; .inf).
+
+    YAML 1.1 (PyYAML) reads an exponent form as a float only with a dot in the mantissa and a
+    sign in the exponent: ``6e-05`` is the *string* '6e-05', so it is written ``6.0e-05``.
+    """
     if math.isinf(x):
         return ".inf"
-    return "0.0" if abs(x) < 1e-12 else f"{x:.6g}"
+    if abs(x) < 1e-12:
+        return "0.0"
+    text = f"{x:.6g}"
+    mantissa, e, exponent = text.partition("e")
+    if e and "." not in mantissa:
+        text = f"{mantissa}.0e{exponent}"
+    return text
 
 
 def _src(robot: NewRobot, key: str, rule: str) -> str:

@@ -36,6 +36,26 @@ def test_new_then_check(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     assert yaml.safe_load(out.read_text())["wheels"]["separation_m"] == 0.248
 
 
+def test_new_with_every_option_small_robot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a small light robot: its wheel spin inertia (0.5 * 0.075 kg * 0.04^2 = 6e-05 kg m^2) was
+    # written as `6e-05`, which YAML 1.1 reads as a string, so the written spec did not load
+    out = tmp_path / "mouse.yaml"
+    code, text, err = _run(
+        capsys, "robots", "new", "mouse", "--wheel-separation", 0.3, "--wheel-radius", 0.04,
+        "--mass", 2.5, "--max-speed", 0.5, "--max-turn-rate", 2.5, "--footprint-radius", 0.2,
+        "--drive", "diff", "--driver-track-factor", 1.0, "-o", out,
+    )  # fmt: skip
+    assert code == 0 and "checks passed (6)" in text, err
+    doc = yaml.safe_load(out.read_text())
+    assert doc["wheels"]["spin_inertia_kgm2"] == pytest.approx(6e-05, rel=1e-6)
+    assert doc["wheels"]["radius_m"] == 0.04 and doc["wheels"]["separation_m"] == 0.3
+    assert doc["limits"]["max_v_mps"] == 0.5 and doc["limits"]["max_w_radps"] == 2.5
+    code, text, _ = _run(capsys, "robots", "show", out)
+    assert code == 0 and "rigid mass:     2.5000 kg" in text and "separation 0.3 m" in text
+
+
 def test_check_refuses_a_bad_spec(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "r.yaml"
     assert _run(capsys, "robots", "new", "r", "--wheel-separation", 0.3, "-o", out)[0] == 0
