@@ -47,13 +47,13 @@ _EXAMPLES = """\
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml --json agree.json \\
       --min-agreement 0.9          # CI gate: exit 1 below 90 %
   sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml --ensemble 20 --seed 1
-  sim2real agree test.mcap --robot turtlebot2 --params calibrated.yaml --ensemble 30 \
+  sim2real agree test.mcap --robot turtlebot2 --params calibrated.yaml --ensemble 30 \\
       --band-level 0.9 --json agree.json   # coverage_v/_w and band widths of the 90 % band
   sim2real agree val.mcap --robot turtlebot3_burger --engine reduced --sim-out sim.mcap
-  sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml \
+  sim2real agree val.mcap --robot turtlebot3_burger --params params.yaml \\
       --odom-v-window 0            # compare the instantaneous simulated v
   sim2real agree neato.bag --robot neato.yaml --params p.yaml --odom-velocity pose
-  sim2real agree 'fleet/*.mcap' --robot turtlebot3_burger --params params.yaml \
+  sim2real agree 'fleet/*.mcap' --robot turtlebot3_burger --params params.yaml \\
       --json fleet.json --ray auto # one Ray task per log; {"logs": [...], "summary": {...}}
 """
 

@@ -47,9 +47,9 @@ _EXAMPLES = """\
 
 _DESCRIPTION = """\
 The main job, what `make demo` runs: the README tour's two commands with default options.
-  1. sim2real sysid fit data/demo_train.mcap --robot turtlebot3_burger \
+  1. sim2real sysid fit data/demo_train.mcap --robot turtlebot3_burger \\
          --validate data/demo_validate.mcap -o OUT/params.yaml
-  2. sim2real agree data/demo_validate.mcap --robot turtlebot3_burger --params OUT/params.yaml \
+  2. sim2real agree data/demo_validate.mcap --robot turtlebot3_burger --params OUT/params.yaml \\
          --report OUT/report.html --json OUT/agreement.json --ensemble 10
   3. write OUT/summary.json (before/after agreement, band coverage) and print a table.
 The sample logs are three sessions of a foreign plant (sim2real.plants), a base simulated with

@@ -26,7 +26,7 @@ _NEW_EXAMPLES = """\
   sim2real robots new neato --wheel-separation 0.248 --max-speed 0.3 -o neato.yaml
   sim2real robots new husky --wheel-separation 0.555 --wheel-radius 0.165 --mass 50 \\
       --max-speed 1.0 --drive skid -o husky.yaml
-  sim2real robots new husky_diff --wheel-separation 0.555 --wheel-radius 0.165 \
+  sim2real robots new husky_diff --wheel-separation 0.555 --wheel-radius 0.165 \\
       --driver-track-factor 1.875 -o husky_diff.yaml    # diff model, the driver's multiplier
   sim2real sysid fit run.bag --robot neato.yaml -o params.yaml   # the file works as --robot
 """

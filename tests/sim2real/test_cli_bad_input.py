@@ -10,6 +10,7 @@ gate fails. Every log here is a real ROS 2 CDR MCAP file written by
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -834,6 +835,10 @@ def test_every_help_exits_0_with_examples(
     assert "examples:" in out
     examples = out.split("examples:", 1)[1]
     assert "sim2real " + " ".join(command) in examples  # the examples show this very command
+    # a continued example line keeps its backslash (a lone "\\" in the source string joined
+    # the two lines into one with a run of spaces, which cannot be pasted as shown)
+    joined = [ln for ln in out.splitlines() if re.search(r"\S {4,}--", ln)]
+    assert not joined, joined
 
 
 def test_help_covers_every_registered_subcommand() -> None:

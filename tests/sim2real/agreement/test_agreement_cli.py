@@ -190,7 +190,9 @@ def test_help_ends_with_examples(capsys: pytest.CaptureFixture[str]) -> None:
     assert exc.value.code == 0
     text = capsys.readouterr().out
     assert "examples:" in text and "--min-agreement 0.9" in text
-    assert text.rstrip().splitlines()[-1].strip().startswith("sim2real agree")
+    # the last example (its continuation lines joined) is a command
+    last = text.rstrip().split("examples:")[1].replace("\\\n", " ").splitlines()[-1]
+    assert last.strip().startswith("sim2real agree"), last
 
 
 def test_report_without_params_shows_the_defaults_only(log: Path, tmp_path: Path) -> None:
