@@ -447,6 +447,8 @@ def calibrate(
             odom_topic=odom_topic,
             time_source=time_source,
             odom_velocity=odom_velocity,
+            wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
+            wheel_separation_m=spec.wheels.separation_m,
         )
         for path in logs
     ]

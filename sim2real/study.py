@@ -300,6 +300,8 @@ def run_study(
         odom_topic=config.odom_topic,
         time_source=config.time_source,
         odom_velocity=config.odom_velocity,
+        wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
+        wheel_separation_m=spec.wheels.separation_m,
     )
     trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
     trace.check_enough()

@@ -207,6 +207,8 @@ def _read(
             odom_topic=args.odom_topic,
             time_source=args.time_source,
             odom_velocity=args.odom_velocity,
+            wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
+            wheel_separation_m=spec.wheels.separation_m,
         )
         if trace.meta.time_note:
             notes.append(f"{path}: {trace.meta.time_note}")

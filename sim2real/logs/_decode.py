@@ -230,8 +230,9 @@ def _wheel_speeds(
             raise LogValueError(
                 f"JointState message {i} of topic '{topic}' has joints {names} with "
                 f"{len(vel)} velocities, so the left/right wheel speeds ({lname}, {rname}) "
-                "cannot be read; pass wheel_joints=(left, right) naming two joints with "
-                "velocities"
+                "cannot be read (no joint's name holds 'left' and another's 'right'); if it holds no "
+                "wheels, choose the base's Odometry topic with --odom-topic, else name the "
+                "wheel joints (Python: read_trace(..., wheel_joints=(left, right)))"
             )
         left[i], right[i] = vel[names.index(lname)], vel[names.index(rname)]
     return left, right
