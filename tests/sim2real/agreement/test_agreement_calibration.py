@@ -13,8 +13,11 @@ from _agreement_fixtures import HIDDEN, ROBOT, hidden_params, write_log
 from robots.randomization import DriveDistribution
 from sim2real.agreement import run_ensemble
 from sim2real.calibration import (
+    NOISE_SCALE_RANGE,
     calibrate,
     calibrate_traces,
+    match_noise_scale,
+    match_range,
     predictive_log_likelihood,
     write_calibrated,
 )
@@ -92,6 +95,10 @@ def test_calibrate_cli_writes_the_calibrated_block(
     )
     assert cal["ensemble_n"] == 8 and cal["engine"] == "reduced"
     assert cal["log_likelihood_per_sample"] > cal["log_likelihood_per_sample_before"]
+    assert cal["match_level"] == 0.9
+    for axis in "vw":  # the band of the written noise covers 90-95 % of the validation samples
+        assert 0.895 <= cal[f"validation_coverage_{axis}"] <= 0.955
+    assert "band, v: covers" in text and "band, w: covers" in text
     before = DriveDistribution.from_params_file(params, robot=ROBOT)
     after = DriveDistribution.from_params_file(out, robot=ROBOT)
     from robots.spec import load_spec
@@ -148,3 +155,59 @@ def test_the_spec_session_spread_widens_what_the_fit_pinned(logs: tuple[Path, Pa
     # little: measured 0.95-0.996 over ensemble seeds 3-8 (n 20-80, calibration seeds 0-2);
     # v 0.79-0.98 (0.82-0.94 at n 40) -- a known limit of one dynamics factor, reported
     assert 0.8 <= after.coverage_v <= 0.99 and 0.8 <= after.coverage_w <= 0.998
+
+
+# --- coverage matching ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("true_std", "start_std", "quantum", "goal"),
+    [
+        (0.1, 0.3, 0.0, 0.95),  # too wide: narrowed to the top of the range
+        (0.1, 0.02, 0.0, 0.9),  # too narrow: widened to the level
+        (0.02, 0.006, 0.004, 0.9),  # quantised odometry
+        (0.5, 0.55, 0.0, None),  # inside the range: kept
+    ],
+)
+def test_matching_brings_the_band_into_its_range(
+    true_std: float, start_std: float, quantum: float, goal: float | None
+) -> None:
+    # members that all agree (no dynamics spread) and real samples = member + N(0, true_std):
+    # the band member +- z sd covers P(|Z| < z sd / true_std), so the std that covers the
+    # goal is known: true_std * z_(1+goal)/2 / z_0.95
+    from scipy.stats import norm
+
+    rng = np.random.default_rng(4)
+    real = true_std * rng.standard_normal(20_000)
+    if quantum:
+        real = np.round(real / quantum) * quantum
+    scale, before, after = match_noise_scale(
+        real, np.zeros((20, real.size)), start_std, quantum, seed=1
+    )
+    low, high = match_range(0.9)
+    if goal is None:
+        assert scale == 1.0 and after == before and low <= after <= high
+        return
+    assert after == pytest.approx(goal, abs=0.01)
+    want = true_std * norm.ppf(0.5 * (1 + goal)) / norm.ppf(0.95)
+    assert start_std * scale == pytest.approx(want, rel=0.06)
+    assert (before > high and scale < 1.0) if goal == high else (before < low and scale > 1.0)
+
+
+def test_matching_keeps_a_bound_when_the_level_is_out_of_reach() -> None:
+    rng = np.random.default_rng(0)
+    wide = rng.normal(0.0, 1.0, size=(40, 2000))  # the members alone span the real samples
+    real = 0.01 * rng.standard_normal(2000)
+    scale, _, after = match_noise_scale(real, wide, 0.05, 0.0)
+    assert scale == NOISE_SCALE_RANGE[0] and after > 0.99
+    far = np.full((40, 2000), 10.0)  # every member 10 away: no noise in range reaches the data
+    scale, _, after = match_noise_scale(real, far, 0.05, 0.0)
+    assert scale == NOISE_SCALE_RANGE[1] and after < 0.01
+
+
+def test_matching_is_seeded() -> None:
+    rng = np.random.default_rng(1)
+    real, members = rng.normal(size=3000), rng.normal(size=(16, 3000)) * 0.3
+    assert match_noise_scale(real, members, 0.5, 0.0, seed=3) == match_noise_scale(
+        real, members, 0.5, 0.0, seed=3
+    )
