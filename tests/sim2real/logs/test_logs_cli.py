@@ -97,3 +97,26 @@ def test_info_on_the_drexel_log(drexel_log: Path, capsys: pytest.CaptureFixture[
     assert float(rows["/cmd_vel"][4]) == pytest.approx(9.7, abs=0.05)
     assert float(rows["/odom"][4]) == pytest.approx(23.0, abs=0.05)
     assert "duration:  38.8 s" in out
+
+
+def test_info_on_a_csv_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
+    """A CSV log is accepted by `logs info` as by `sysid fit`/`agree`: rows, span, rate, columns."""
+    path = tmp_path / "run.csv"
+    rows = [f"{1700000000 + 0.05 * i:.2f},0.2,0.1,{0.01 * i:.2f},0.05,note{i}" for i in range(201)]
+    path.write_text("t,cmd_v,cmd_w,meas_v,meas_w,comment\n" + "\n".join(rows) + "\n")
+    assert main(["logs", "info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "duration:  10.0 s from 2023-11-14 22:13:20 UTC, 201 rows (20.00 Hz)" in out
+    assert "no pose (x, y, yaw)" in out and "ignored:   columns comment" in out
+    assert main(["logs", "info", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert (doc["format"], doc["rows"], doc["pose"]) == ("csv", 201, False)
+    assert doc["duration_s"] == pytest.approx(10.0) and doc["rate_hz"] == pytest.approx(20.0)
+    # topics do not apply; a bad row is named (one line, exit 2)
+    assert main(["logs", "info", str(path), "--odom-topic", "/odom"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "columns, not topics" in err[0]
+    path.write_text("t,cmd_v,cmd_w,meas_v,meas_w\n0,0,0,0,0\n0.1,0,0,nan,0\n")
+    assert main(["logs", "info", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "line 3 column 'meas_v'" in err[0]
