@@ -159,6 +159,30 @@ def test_dqn_gets_an_action_grid_and_evaluates(tmp_path: Path) -> None:
     assert main(["envs", "eval", "RandomMap-v0", "--policy", model, "--episodes", "1"]) == 0
 
 
+@pytest.mark.parametrize("algorithm", ["SAC", "TD3"])
+def test_off_policy_continuous_algorithms_train_and_evaluate(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], algorithm: str
+) -> None:
+    """SAC and TD3 (continuous v, w) through the same config, outputs and evaluation as PPO."""
+    cfg = _config(
+        tmp_path,
+        algorithm=algorithm,
+        hyperparameters={"learning_starts": 32, "batch_size": 16, "buffer_size": 500},
+        timesteps=96,
+    )
+    assert main(["train", str(cfg)]) == 0
+    assert f"training {algorithm} on sim2real/RandomMap-v0 for 96 steps" in capsys.readouterr().out
+    out = tmp_path / "run"
+    with zipfile.ZipFile(out / "model.zip") as zf:
+        meta = yaml.safe_load(zf.read("sim2real.yaml"))
+    assert meta["algorithm"] == algorithm and meta["discrete_actions"] is None
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == ["model_64_steps.zip"]
+    report = tmp_path / "eval.json"
+    argv = ["envs", "eval", "RandomMap-v0", "--policy", str(out / "model.zip"), "--episodes", "1"]
+    assert main([*argv, "--json", str(report)]) == 0
+    assert json.loads(report.read_text())["controller"] == f"{algorithm} policy model.zip"
+
+
 def test_robustness_with_a_policy(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     cfg = _config(tmp_path, checkpoint_every=0, timesteps=64, randomizers=None)
     assert main(["train", str(cfg)]) == 0
