@@ -460,13 +460,22 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         if not path.is_file():
             close = difflib.get_close_matches(text, list_robots(), n=1, cutoff=0.6)
             hint = f"did you mean '{close[0]}'? " if close else ""
+            own = [f"{text}{ext}" for ext in (".yaml", ".yml") if Path(f"{text}{ext}").is_file()]
+            if own:  # `robots new NAME` wrote NAME.yaml here: the file, not a shipped name
+                hint = f"did you mean the file '{own[0]}'? "
             raise UnknownRobotError(
                 f"unknown robot '{text}'; {hint}known robots are {list_robots()} "
                 "(or give the path of a spec .yaml file, e.g. from `sim2real robots new`)"
             )
     if not path.is_file():
+        folder = path.parent if path.parent.is_dir() else None
+        files = (
+            [f.name for f in folder.iterdir() if f.suffix in (".yaml", ".yml")] if folder else []
+        )
+        close = difflib.get_close_matches(path.name, sorted(files), n=1, cutoff=0.6)
+        hint = f"did you mean '{path.parent / close[0]}'? " if close else ""
         raise UnknownRobotError(
-            f"robot spec file '{path}' does not exist; known robots are {list_robots()}"
+            f"robot spec file '{path}' does not exist; {hint}known robots are {list_robots()}"
         )
     try:
         doc = yaml.safe_load(path.read_text(encoding="utf-8"))

@@ -179,3 +179,19 @@ def test_did_you_mean_robot() -> None:
     with pytest.raises(UnknownRobotError) as info:
         load_spec("zzzz")
     assert "did you mean" not in str(info.value)
+
+
+def test_did_you_mean_a_spec_file(
+    neato_text: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _write(tmp_path, neato_text, "neato.yaml")
+    with pytest.raises(UnknownRobotError, match=r"did you mean '.*neato\.yaml'\?"):
+        load_spec(tmp_path / "neato.yml")  # mistyped suffix
+    with pytest.raises(UnknownRobotError, match=r"did you mean '.*neato\.yaml'\?"):
+        load_spec(tmp_path / "naeto.yaml")  # mistyped name
+    with pytest.raises(UnknownRobotError) as info:
+        load_spec(tmp_path / "husky.yaml")
+    assert "did you mean" not in str(info.value)
+    monkeypatch.chdir(tmp_path)  # `robots new neato` wrote neato.yaml; `--robot neato` names it
+    with pytest.raises(UnknownRobotError, match=r"did you mean the file 'neato\.yaml'\?"):
+        load_spec("neato")
