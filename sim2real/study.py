@@ -145,6 +145,12 @@ class StudyResult:
 
 
 def _sha256(path: str | Path) -> str:
+    """SHA-256 of a file, or of a rosbag2 folder as its reader hashes it (the log_sha256 of --json)."""
+    if Path(path).is_dir():
+        from sim2real.logs._bags import open_log_source
+        from sim2real.logs._digest import FileDigest
+
+        return FileDigest(open_log_source(Path(path)).digest_paths, name=str(path))()
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):

@@ -7,6 +7,7 @@ from :func:`write_csv_trace`. Bad input goes through the CLI (one line, exit 2).
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -288,3 +289,17 @@ def test_mistyped_topic_did_you_mean(formats: dict[str, Path]) -> None:
         read_trace(formats["ros1"], odom_topic="/odm")
     with pytest.raises(MissingTopicError, match=r"did you mean '/cmd_vel'\?"):
         read_trace(formats["mcap"], cmd_topic="cmd_vel")
+
+
+@pytest.mark.parametrize("kind", ["ros1", "sqlite3", "rosbag2_mcap", "csv"])
+def test_agree_report_on_every_format(
+    formats: dict[str, Path], kind: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The HTML report hashes its log: a rosbag2 folder as its reader does (it tried to open it)."""
+    report, summary = tmp_path / "r.html", tmp_path / "r.json"
+    argv = ["agree", str(formats[kind]), "--robot", "turtlebot3_burger", "--engine", "reduced"]
+    assert main([*argv, "--report", str(report), "--json", str(summary)]) == 0, (
+        capsys.readouterr().err
+    )
+    sha = json.loads(summary.read_text())["log_sha256"]
+    assert len(sha) == 64 and f"(sha256 {sha})" in report.read_text(encoding="utf-8")
