@@ -90,7 +90,10 @@ def source_kind(path: Path) -> str:
         return "ros1"
     if path.suffix.lower() == ".csv":
         return "csv"
-    if path.suffix.lower() == ".db3" or path.name == "metadata.yaml":
+    if (
+        path.name.lower().endswith((".db3", ".db3.zstd", ".mcap.zstd"))
+        or path.name == "metadata.yaml"
+    ):
         raise LogFormatError(
             f"log file '{path}' is not an MCAP file but one file of a rosbag2 folder; give "
             f"the folder '{path.parent}' instead"
@@ -115,7 +118,9 @@ def open_log_source(path: Path) -> LogSource:
             f"bag (found: {found}); give an .mcap, .bag or .csv file, or recreate the "
             f"metadata with `ros2 bag reindex {path}`"
         )
-    files = (meta, *(p for p in sorted(path.iterdir()) if p.suffix in (".db3", ".mcap")))
+    # storage files, also zstd-compressed ones (`ros2 bag record --compression-mode file`)
+    storage = (".db3", ".mcap", ".db3.zstd", ".mcap.zstd")
+    files = (meta, *(p for p in sorted(path.iterdir()) if p.name.endswith(storage)))
     return LogSource(kind=kind, path=path, digest_paths=files)
 
 

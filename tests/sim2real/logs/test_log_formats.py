@@ -7,6 +7,7 @@ from :func:`write_csv_trace`. Bad input goes through the CLI (one line, exit 2).
 
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
 
@@ -303,3 +304,39 @@ def test_agree_report_on_every_format(
     )
     sha = json.loads(summary.read_text())["log_sha256"]
     assert len(sha) == 64 and f"(sha256 {sha})" in report.read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_rosbag2_with_zstd_compressed_files(
+    formats: dict[str, Path], storage: str, tmp_path: Path
+) -> None:
+    """`ros2 bag record --compression-mode file`: storage files `*.db3.zstd` / `*.mcap.zstd`.
+
+    They read as the plain bag, and count in the log's size and SHA-256 (which covered only
+    ``metadata.yaml`` of such a folder, so two different recordings could share it).
+    """
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, Reader, StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    out = tmp_path / f"zstd_{storage}"
+    plugin = StoragePlugin.SQLITE3 if storage == "sqlite3" else StoragePlugin.MCAP
+    writer = Writer(out, version=8, storage_plugin=plugin)
+    writer.set_compression(CompressionMode.FILE, CompressionFormat.ZSTD)
+    writer.open()
+    with Reader(formats["sqlite3"]) as reader:
+        conns = {
+            c.id: writer.add_connection(c.topic, c.msgtype, typestore=store)
+            for c in reader.connections
+        }
+        for conn, t, raw in reader.messages():
+            writer.write(conns[conn.id], t, raw)
+    writer.close()
+    assert [p.name for p in out.iterdir() if p.name.endswith(".zstd")]
+    ref, got = read_trace(formats["mcap"]), read_trace(out)
+    for name in (*FIELDS, "pose_yaw"):
+        assert np.array_equal(getattr(got, name), getattr(ref, name)), name
+    info = inspect_log(out)
+    assert info.size_bytes == sum(p.stat().st_size for p in out.iterdir())
+    meta_only = hashlib.sha256((out / "metadata.yaml").read_bytes()).hexdigest()
+    assert got.meta.sha256 != meta_only and info.sha256 == got.meta.sha256
