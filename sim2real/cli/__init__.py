@@ -15,6 +15,7 @@ Example
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable, Sequence
 
@@ -72,7 +73,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the exit code (0 ok, 1 gate failed, 2 bad input)."""
+    """Run the CLI; returns the exit code (0 ok, 1 gate failed, 2 bad input, 141 stdout closed)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     handler: Callable[[argparse.Namespace], int] = args.handler
@@ -95,6 +96,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
+    except BrokenPipeError:
+        # whoever read stdout has gone (`sim2real logs info run.bag | head -3`): stop quietly,
+        # with stdout on /dev/null so the interpreter's last flush cannot fail again
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141  # 128 + SIGPIPE, the shell's status of a process a closed pipe stopped
     except KeyboardInterrupt:
         print("sim2real: interrupted", file=sys.stderr)
         return 130

@@ -855,3 +855,29 @@ def test_help_covers_every_registered_subcommand() -> None:
         return found
 
     assert sorted(walk(build_parser(), [])) == sorted(COMMANDS)
+
+
+@pytest.mark.parametrize(
+    "argv", [["logs", "info", "data/demo_train.mcap"], ["robots", "show", "turtlebot2"]]
+)
+def test_closed_stdout_stops_quietly(argv: list[str]) -> None:
+    """`sim2real logs info run.bag | head -1`: a closed pipe is no traceback (exit 141)."""
+    import os
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    read_end, write_end = os.pipe()
+    os.close(read_end)  # the reader has gone before the command writes
+    try:
+        proc = subprocess.run(
+            [sys.executable, "-m", "sim2real", *argv],
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=root,
+            check=False,
+        )
+    finally:
+        os.close(write_end)
+    assert proc.returncode == 141 and proc.stderr == "", proc.stderr[-500:]
