@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from pathlib import Path
 from typing import Any
 
 from sim2real.cli._common import add_command
@@ -271,9 +272,14 @@ def _eval(args: argparse.Namespace) -> int:
         else (args.scenario or getattr(args, "track", None) or "")
     )
     last = args.seed + summary.episodes - 1
+    robot = "".join(  # which robot and randomisation the figures are for
+        f", {flag} {Path(value).name}"
+        for flag, value in (("params", args.params), ("randomized by", args.randomize))
+        if value
+    )
     table = Table(
         title=f"{label} on {env.spec.id} {what} ({summary.episodes} episodes, "
-        f"seeds {args.seed}..{last}, dynamics {args.dynamics})"
+        f"seeds {args.seed}..{last}, dynamics {args.dynamics}{robot})"
     )
     table.add_column("metric")
     table.add_column("value", justify="right")

@@ -247,7 +247,8 @@ def test_eval_params_file_changes_the_robot(
         rows[label] = json.loads(out.read_text())
     assert rows["slow"]["params"] == str(fit)
     assert rows["slow"]["episodes"][0] != rows["nominal"]["episodes"][0]
-    capsys.readouterr()
+    shown = " ".join(capsys.readouterr().out.split())  # the table's title names the robot
+    assert shown.count("params slow.yaml") == 1
     other = _sysid_result(tmp_path / "tb2.yaml", robot="turtlebot2")
     argv = ["envs", "eval", "RandomMap-v0", "--episodes", "1", "--params", str(other)]
     assert main(argv) == 2
