@@ -36,6 +36,7 @@ __all__ = ["CSV_COLUMNS", "read_csv_trace", "write_csv_trace"]
 CSV_COLUMNS = ("t", "cmd_v", "cmd_w", "meas_v", "meas_w")
 _POSE = ("x", "y", "yaw")
 _NS = 1_000_000_000
+_T_MAX_NS = 2**63  # times are held as int64 nanoseconds
 
 
 def _ns(text: str) -> int:
@@ -84,7 +85,14 @@ def read_csv_trace(path: str | Path) -> Trace:
     t_ns = np.empty(len(body), np.int64)
     cols = {c: np.empty(len(body)) for c in names if c != "t"}
     for i, (line, row) in enumerate(body):
-        t_ns[i] = _cell(row, idx["t"], "t", line, p, _ns)
+        t = _cell(row, idx["t"], "t", line, p, _ns)
+        if not -_T_MAX_NS < t < _T_MAX_NS:  # int64 nanoseconds: +-292 years around 1970
+            raise LogValueError(
+                f"CSV log '{p}' line {line} column 't' holds {row[idx['t']].strip()!r}, which "
+                "as seconds lies more than 292 years from 1970; t must be in seconds (divide "
+                "nanoseconds by 1e9, milliseconds by 1e3)"
+            )
+        t_ns[i] = t
         for c, arr in cols.items():
             arr[i] = _cell(row, idx[c], c, line, p, float)
     steps = np.diff(t_ns)

@@ -261,6 +261,16 @@ def test_rosbag2_folder_without_metadata(
             "line 3 column 'meas_v'",
         ),
         ("t,cmd_v,cmd_w,meas_v,meas_w\n0,0,0,0,0\n0,0,0,0,0\n", LogValueError, "do not increase"),
+        (  # times in nanoseconds, not seconds: beyond int64 nanoseconds (was an OverflowError)
+            "t,cmd_v,cmd_w,meas_v,meas_w\n1700000000000000000,0,0,0,0\n1700000000050000000,0,0,0,0\n",
+            LogValueError,
+            "line 2 column 't' holds '1700000000000000000', which as seconds lies more than 292",
+        ),
+        (
+            "t,cmd_v,cmd_w,meas_v,meas_w\n0,0,0,0,0\n1.7e12,0,0,0,0\n",
+            LogValueError,
+            "t must be in seconds",
+        ),
     ],
 )
 def test_bad_csv(
