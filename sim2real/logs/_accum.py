@@ -56,19 +56,31 @@ def add_segment(container: Container, seg: Segment) -> None:
     ids = seg.channel_id
     if ids.size == 0:
         return
-    uniq = np.flatnonzero(np.bincount(ids)).tolist()  # channel ids are u16
+    per = np.bincount(ids)  # channel ids are u16 (MCAP) or small ints (bags)
+    uniq = np.flatnonzero(per).tolist()
+    if len(uniq) == 1:
+        order, all_times, ends = None, seg.log_time_ns, [ids.size]
+    else:
+        # the messages grouped by channel, file order kept within each (a stable sort: a
+        # radix sort on u16 ids), so each channel is a slice instead of a mask over all
+        keys = ids.astype(np.uint16) if per.size <= 1 << 16 else ids
+        order = np.argsort(keys, kind="stable")
+        all_times = seg.log_time_ns[order]
+        ends = np.cumsum(per[uniq]).tolist()
     counts = container.counts
-    for cid in uniq:
-        mask = None if len(uniq) == 1 else ids == cid
-        times = seg.log_time_ns if mask is None else seg.log_time_ns[mask]
+    start = 0
+    for cid, end in zip(uniq, ends, strict=True):
+        times = all_times[start:end]
+        idx = None if order is None else order[start:end]
+        start = end
         before = counts.get(cid, 0)
         counts[cid] = before + int(times.size)
         plan = container.plans.get(cid) or container.plans.setdefault(cid, _plan(container, cid))
         if plan == "skip" or cid in container.failed:
             container.times.setdefault(cid, []).append(times)
             continue
-        off = seg.payload_off if mask is None else seg.payload_off[mask]
-        ln = seg.payload_len if mask is None else seg.payload_len[mask]
+        off = seg.payload_off if idx is None else seg.payload_off[idx]
+        ln = seg.payload_len if idx is None else seg.payload_len[idx]
         part = _bulk(container, cid, seg, off, ln, before) if plan == "bulk" else None
         if part is not None:
             part = with_yaw(part)

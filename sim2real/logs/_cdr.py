@@ -32,6 +32,7 @@ __all__ = [
     "encode_twist_stamped",
     "gather",
     "is_little_endian",
+    "items",
     "rows",
     "stamp_ns",
 ]
@@ -83,7 +84,23 @@ def rows(u8: np.ndarray, offsets: np.ndarray, dtype: np.dtype) -> np.ndarray:
     size = dtype.itemsize
     if offsets.size == 0 or u8.size < size:
         return np.zeros(0, dtype=dtype)
+    if u8.flags.c_contiguous:  # the common case: one memcpy of a void item per offset
+        return items(u8, size)[offsets].view(dtype)
     return window(u8, size)[offsets].view(dtype).reshape(-1)
+
+
+def items(u8: np.ndarray, size: int) -> np.ndarray:
+    """Read-only view of the contiguous ``u8`` as overlapping void items of ``size`` bytes:
+    item ``i`` is ``u8[i:i + size]`` (``u8.size >= size``; no copy).
+
+    Indexing it with offsets copies each record whole (2-3x faster than the same rows of
+    :func:`window`, which numpy copies byte by byte).
+    """
+    out = np.ndarray(
+        (u8.size - size + 1,), dtype=np.dtype((np.void, size)), buffer=u8, strides=(1,)
+    )
+    out.flags.writeable = False
+    return out
 
 
 def window(u8: np.ndarray, size: int) -> np.ndarray:

@@ -40,7 +40,7 @@ from typing import BinaryIO
 import numpy as np
 
 from sim2real.errors import LogFormatError
-from sim2real.logs._cdr import gather, window
+from sim2real.logs._cdr import gather, rows
 
 __all__ = [
     "MAGIC",
@@ -358,32 +358,46 @@ def _scan_chunk_indexed(
     rel.sort(kind="stable")  # timsort merges the sorted per-channel runs in linear time
     if rel.size == 0 or n < 9 + _MESSAGE_FIXED or int(rel[-1]) > n - 9 - _MESSAGE_FIXED:
         return False  # (also rejects offsets that would overflow int64 below)
-    starts = rel.astype(np.int64) + lo
-    rows = _fixed_fields(buf, starts)
-    length = rows["length"]
-    if not ((rows["op"] == _MESSAGE).all() and (length <= n).all()):
+    starts = rel.astype(np.int64)
+    if lo:
+        starts += lo
+    head = _fixed_fields(buf, starts)
+    length = head["length"]
+    if not (head["op"] == _MESSAGE).all() or int(length.max()) > n:
         return False
-    gap_lo = np.concatenate(([lo], starts + 9 + length.astype(np.int64)))
-    gap_hi = np.concatenate((starts, [hi]))
-    if (gap_lo > gap_hi).any():
-        return False  # overlapping or duplicate entries, or a record past the chunk end
-    gaps = gap_lo < gap_hi
-    meta: list[tuple[int, int]] = []
-    for a, b in zip(gap_lo[gaps].tolist(), gap_hi[gaps].tolist(), strict=True):
-        if not _walk_gap(buf, a, b, meta):
-            return False
-    for op, pos in meta:
-        _chunk_meta(buf, op, pos, hi, out)
-    length = length.astype(np.int64)
-    if (length < _MESSAGE_FIXED).any():
+    size = length.astype(np.int64)
+    ends = starts + size
+    ends += 9
+    # gap[i]: bytes between the end of record i - 1 (the chunk start for i = 0) and the
+    # start of record i (the chunk end for i = k); negative: overlapping or duplicate
+    # entries, or a record past the chunk end
+    k = starts.size
+    gap = np.empty(k + 1, dtype=np.int64)
+    gap[:k] = starts
+    gap[k] = hi
+    gap[1:] -= ends
+    gap[0] -= lo
+    if int(gap.min()) < 0:
+        return False
+    if gap.any():  # records that are not indexed (Schema, Channel) lie between them
+        meta: list[tuple[int, int]] = []
+        for i in np.flatnonzero(gap).tolist():
+            a = lo if i == 0 else int(ends[i - 1])
+            if not _walk_gap(buf, a, hi if i == k else int(starts[i]), meta):
+                return False
+        for op, pos in meta:
+            _chunk_meta(buf, op, pos, hi, out)
+    if int(length.min()) < _MESSAGE_FIXED:
         raise _Corrupt("a message record is shorter than its fixed fields")  # as _segment
+    starts += 9 + _MESSAGE_FIXED  # now the payload offsets
+    size -= _MESSAGE_FIXED  # now the payload lengths
     out.segments.append(
         Segment(
             buf=buf,
-            channel_id=rows["channel_id"].astype(np.int64),
-            log_time_ns=rows["log_time"].astype(np.int64),
-            payload_off=starts + 9 + _MESSAGE_FIXED,
-            payload_len=length - _MESSAGE_FIXED,
+            channel_id=head["channel_id"].astype(np.int64),
+            log_time_ns=head["log_time"].astype(np.int64),
+            payload_off=starts,
+            payload_len=size,
         )
     )
     return True
@@ -403,12 +417,10 @@ _FIXED_HEAD = np.dtype(
 def _fixed_fields(buf: Buf, starts: np.ndarray) -> np.ndarray:
     """The :data:`_FIXED_HEAD` fields of the records at ``starts`` (each needs 23 bytes in buf).
 
-    One row copy per record through a sliding window of the buffer, instead of one gather
-    per field.
+    One row copy per record (:func:`sim2real.logs._cdr.rows`), instead of one gather per
+    field.
     """
-    u8 = np.frombuffer(buf, dtype=np.uint8)
-    size = _FIXED_HEAD.itemsize
-    return window(u8, size)[starts].view(_FIXED_HEAD).reshape(-1)
+    return rows(np.frombuffer(buf, dtype=np.uint8), starts, _FIXED_HEAD)
 
 
 def _walk_gap(buf: Buf, pos: int, end: int, meta: list[tuple[int, int]]) -> bool:
