@@ -65,6 +65,8 @@ def gather(u8: np.ndarray, offsets: np.ndarray, dtype: str) -> np.ndarray:
     dt = np.dtype(dtype)
     if offsets.size == 0:
         return np.zeros(0, dtype=dt)
+    if u8.flags.c_contiguous and u8.size >= dt.itemsize:  # one item copy per offset
+        return items(u8, dt.itemsize)[offsets].view(dt).astype(dt.newbyteorder("="), copy=False)
     idx = offsets[:, None] + np.arange(dt.itemsize)
     return np.ascontiguousarray(u8[idx]).view(dt).reshape(-1).astype(dt.newbyteorder("="))
 

@@ -209,28 +209,37 @@ class _Cursor:
     def __init__(self, buf: Buf, pos: int, end: int) -> None:
         self.buf, self.pos, self.end = buf, pos, end
 
-    def take(self, n: int) -> bytes:
-        if n < 0 or self.pos + n > self.end:
+    def _at(self, n: int) -> int:
+        """The position of the next ``n`` bytes (then skipped); overruns raise ``_Corrupt``."""
+        at = self.pos
+        if n < 0 or at + n > self.end:
             raise _Corrupt(f"a field of {n} bytes runs past its record end")
-        out = bytes(self.buf[self.pos : self.pos + n])
-        self.pos += n
-        return out
+        self.pos = at + n
+        return at
+
+    def take(self, n: int) -> bytes:
+        at = self._at(n)
+        return bytes(self.buf[at : at + n])
 
     def u16(self) -> int:
-        return int(struct.unpack("<H", self.take(2))[0])
+        return int(_U16.unpack_from(self.buf, self._at(2))[0])
 
     def u32(self) -> int:
-        return int(struct.unpack("<I", self.take(4))[0])
+        return int(_U32.unpack_from(self.buf, self._at(4))[0])
 
     def u64(self) -> int:
-        return int(struct.unpack("<Q", self.take(8))[0])
+        return int(_U64.unpack_from(self.buf, self._at(8))[0])
 
     def string(self) -> str:
-        raw = self.take(self.u32())
+        n = self.u32()
+        at = self._at(n)
         try:
-            return raw.decode("utf-8")
+            return str(self.buf[at : at + n], "utf-8")
         except UnicodeDecodeError as exc:
             raise _Corrupt("a string field is not valid UTF-8") from exc
+
+
+_U16, _U32, _U64 = struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
 
 
 def _schema(buf: Buf, pos: int, end: int) -> SchemaRecord:
@@ -332,13 +341,18 @@ def _index_offsets(data: bytes, pos: int, end: int) -> np.ndarray | None:
 
     Body: ``channel_id u16, records_len u32, (log_time u64, offset u64) * k``.
     """
-    body = end - pos - 9
+    return _index_body_offsets(data, pos + 9, end)
+
+
+def _index_body_offsets(data: Buf, start: int, end: int) -> np.ndarray | None:
+    """:func:`_index_offsets` of the record whose body is ``data[start:end]``."""
+    body = end - start
     if body < 6:
         return None
-    size = int(struct.unpack_from("<I", data, pos + 11)[0])
+    size = int(_U32.unpack_from(data, start + 2)[0])
     if size % 16 or 6 + size != body:
         return None
-    pairs = np.frombuffer(data, dtype="<u8", count=size // 8, offset=pos + 15)
+    pairs = np.frombuffer(data, dtype="<u8", count=size // 8, offset=start + 6)
     return pairs[1::2]
 
 
@@ -586,13 +600,13 @@ class _Stream:
                 elif op == _STATISTICS:
                     self.stats_count = _Cursor(body, 0, length).u64()
             except _Corrupt as exc:
-                raise LogFormatError(
-                    f"log file '{self.name}' is corrupt: the record at byte {pos} is broken "
-                    f"({exc}); the file cannot be read safely, re-export or re-record it"
-                ) from None
+                raise self._broken(pos, exc) from None
             if op == _DATA_END and in_data:
                 self.data_end = pos
                 self._check_data_crc(crc, pos)
+                if n - end <= _TAIL_MAX:  # the summary section, read at once
+                    self._tail(end)
+                    break
             if op == _FOOTER:
                 break
             pos = end
@@ -600,9 +614,40 @@ class _Stream:
         self._flush_loose()
         self._finish()
 
+    def _broken(self, pos: int, exc: _Corrupt) -> LogFormatError:
+        return LogFormatError(
+            f"log file '{self.name}' is corrupt: the record at byte {pos} is broken "
+            f"({exc}); the file cannot be read safely, re-export or re-record it"
+        )
+
+    def _tail(self, start: int) -> None:
+        """The records after the DataEnd record, from file byte ``start`` on: the same walk as
+        :meth:`run`'s over the summary section (only Statistics is read; a cut is a warning),
+        on the bytes read in one go instead of record by record."""
+        self.fh.seek(start)
+        rest = _read_exact(self.fh, self.size - start)
+        pos, n = 0, len(rest)
+        while True:
+            if pos + 9 > n:
+                self._truncated(start + pos)
+                return
+            op, length = _OP_LEN.unpack_from(rest, pos)
+            end = pos + 9 + length
+            if end > n:
+                self._truncated(start + pos)
+                return
+            if op == _STATISTICS:
+                try:
+                    self.stats_count = _Cursor(rest, pos + 9, end).u64()
+                except _Corrupt as exc:
+                    raise self._broken(start + pos, exc) from None
+            if op == _FOOTER:
+                return
+            pos = end
+
     def _data_record(self, op: int, pos: int, rec_head: bytes, body: Buf) -> None:
         if op == _MESSAGE_INDEX:
-            _add_index(self.pending, rec_head + body, 0, 9 + len(body))
+            _add_index(self.pending, body)
             return
         self._flush_chunks()
         if op == _MESSAGE:
@@ -734,6 +779,8 @@ class _Stream:
 _SKIPPED = frozenset({0x09, 0x0A, 0x0C, 0x0D, 0x0E, 0x08, 0x10})
 
 
+#: A summary section (and footer) up to this long is read in one go.
+_TAIL_MAX = 1 << 20
 #: Chunk records at least this long are mapped (``mmap``) rather than read into a copy.
 _MAP_MIN = 1 << 16
 
@@ -800,11 +847,12 @@ class _Pending:
     in_place: bool = False
 
 
-def _add_index(pending: list[_Pending], data: bytes, pos: int, end: int) -> None:
-    """Attach a MessageIndex record to the chunk before it (a malformed one disables the index)."""
+def _add_index(pending: list[_Pending], body: Buf) -> None:
+    """Attach a MessageIndex record (its body) to the chunk before it (a malformed one
+    disables the index)."""
     if not pending:
         return
-    offsets = _index_offsets(data, pos, end)
+    offsets = _index_body_offsets(body, 0, len(body))
     if offsets is None:
         pending[-1].usable = False
     else:

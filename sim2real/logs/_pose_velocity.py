@@ -144,7 +144,7 @@ def _window_s(t_ns: np.ndarray) -> float:
     """``clip(5 x median period, 0.3 s, 1.0 s)`` of sorted times in ns."""
     # the differences are scratch: the median may reorder them instead of copying them
     period = float(np.median(np.diff(t_ns), overwrite_input=True)) / 1e9 if t_ns.size > 1 else 0.1
-    return float(np.clip(5.0 * period, 0.3, 1.0))
+    return min(max(5.0 * period, 0.3), 1.0)  # np.clip's value, without its array overhead
 
 
 def _share(v: np.ndarray, lim_v: float, w: np.ndarray, lim_w: float) -> float:
@@ -172,12 +172,14 @@ def _verdict(
         ("v", twist[0], pose[0], _MOVING_V),
         ("w", twist[1], pose[1], _MOVING_W),
     ):
-        count = sum(int(np.count_nonzero(s)) for _, s in _moving_blocks(pv, moving))
+        # the masks of every block, made once (one byte per sample)
+        blocks = list(_moving_blocks(pv, moving))
+        count = sum(int(np.count_nonzero(s)) for _, s in blocks)
         if count < _MIN_MOVING:
             continue
         # block by block over the log: one array of the moving samples at a time
         gap, k, hits = np.empty(count), 0, 0
-        for sl, s in _moving_blocks(pv, moving):
+        for sl, s in blocks:
             g, p = tw[sl][s], pv[sl][s]
             hits += int(np.count_nonzero(np.abs(g) < 0.1 * np.abs(p)))
             np.subtract(g, p, out=gap[k : k + g.size])
@@ -190,7 +192,7 @@ def _verdict(
         med_gap = np.median(gap, overwrite_input=True)
         del gap
         speed, k = np.empty(count), 0
-        for sl, s in _moving_blocks(pv, moving):
+        for sl, s in blocks:
             p = pv[sl][s]
             np.abs(p, out=speed[k : k + p.size])
             k += p.size
