@@ -336,3 +336,76 @@ def test_real_logs_are_read_through_their_index(request, monkeypatch, fixture):
         counts = {t.topic: t.count for t in inspect_log(path).topics}
     assert counts == {t.topic: t.count for t in inspect_log(path).topics}
     assert sum(counts.values()) == indexed.message_count()
+
+
+def test_chunk_whose_records_do_not_tile_it_is_refused_as_by_the_full_walk(tmp_path, monkeypatch):
+    """A Schema record inside the first chunk made one byte longer: the records between the
+    indexed messages no longer end where the next message starts, so the index is not
+    trusted and the read fails exactly as the record-by-record walk does."""
+    data = _write(tmp_path / "good.mcap").read_bytes()
+    chunk = _records(data, 0x06)[0][0]
+    schema = chunk + 9 + 40  # the chunk's first record (see _damaged: "not_a_message")
+    assert data[schema] == 0x03
+    buf = bytearray(data)
+    struct.pack_into("<Q", buf, schema + 1, struct.unpack_from("<Q", buf, schema + 1)[0] + 1)
+    bad = bytes(buf)
+    spy = _Spy(monkeypatch)
+    with pytest.raises(Sim2RealError) as indexed:
+        _scan(bad)
+    assert spy.full == 1  # the index was refused: the chunk was walked
+    with pytest.raises(Sim2RealError) as walked:
+        _full_walk(bad, monkeypatch)
+    assert str(indexed.value) == str(walked.value)
+    assert f"the record at byte {chunk} is broken" in str(indexed.value)
+
+
+def _summary_cuts(data: bytes) -> list[int]:
+    """File lengths that cut the file inside its summary section (after DataEnd)."""
+    (data_end,) = _records(data, 0x0F)
+    starts = [a for op in range(0x01, 0x12) for a, _ in _records(data, op) if a > data_end[0]]
+    cuts = {data_end[1], data_end[1] + 5, len(data) - 1, len(data) - 8}
+    cuts |= {a + d for a in starts for d in (0, 4, 12)}
+    return sorted(c for c in cuts if data_end[1] <= c < len(data))
+
+
+def test_summary_read_in_one_go_equals_the_record_by_record_walk(tmp_path, monkeypatch):
+    """After DataEnd the summary section is read at once; for every cut inside it the
+    result (warning naming the cut record, messages, counts) equals the old walk's, which
+    reads record by record (``_TAIL_MAX = -1``)."""
+    data = _write(tmp_path / "good.mcap", crcs=True).read_bytes()
+    cuts = _summary_cuts(data)
+    assert len(cuts) >= 20
+    n_msgs = 2 * _N_NOISE + _ARR.cmd_t_ns.size + _ARR.meas_t_ns.size
+    for cut in cuts:
+        part = data[:cut]
+        one_go = _scan(part)
+        with monkeypatch.context() as m:
+            m.setattr(_mcap, "_TAIL_MAX", -1)
+            walked = _scan(part)
+        _assert_same(one_go, walked)
+        assert one_go.message_count() == walked.message_count() == n_msgs
+        if cut < len(data) - len(_mcap.MAGIC):  # cut before the footer's end
+            (warning,) = one_go.warnings
+            assert "ends inside its summary section" in warning
+        else:  # only (part of) the closing magic is missing: read as a whole file
+            assert one_go.warnings == []
+    whole = _scan(data)
+    assert whole.warnings == [] and whole.message_count() == n_msgs
+
+
+def test_broken_statistics_record_is_the_same_error_in_the_summary_read(tmp_path, monkeypatch):
+    """A Statistics record too short for its message count: one sentence naming its byte,
+    whether the summary is read at once or record by record."""
+    data = _write(tmp_path / "good.mcap").read_bytes()
+    ((stats, _),) = _records(data, 0x0B)
+    buf = bytearray(data)
+    struct.pack_into("<Q", buf, stats + 1, 4)  # 4 bytes: the u64 count does not fit
+    errors = []
+    for tail_max in (_mcap._TAIL_MAX, -1):
+        with monkeypatch.context() as m:
+            m.setattr(_mcap, "_TAIL_MAX", tail_max)
+            with pytest.raises(Sim2RealError) as err:
+                _scan(bytes(buf))
+        errors.append(str(err.value))
+    assert errors[0] == errors[1]
+    assert f"the record at byte {stats} is broken (a field of 8 bytes runs past" in errors[0]
