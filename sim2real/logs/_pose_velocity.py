@@ -30,6 +30,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from sim2real.errors import Sim2RealValueError
+from sim2real.logs._timeline import scratch_median
 
 __all__ = ["ODOM_VELOCITY_MODES", "SPIKY_RATIO", "pose_derivative", "velocities_from_pose"]
 
@@ -143,7 +144,7 @@ def pose_derivative(
 def _window_s(t_ns: np.ndarray) -> float:
     """``clip(5 x median period, 0.3 s, 1.0 s)`` of sorted times in ns."""
     # the differences are scratch: the median may reorder them instead of copying them
-    period = float(np.median(np.diff(t_ns), overwrite_input=True)) / 1e9 if t_ns.size > 1 else 0.1
+    period = float(scratch_median(np.diff(t_ns))) / 1e9 if t_ns.size > 1 else 0.1
     return min(max(5.0 * period, 0.3), 1.0)  # np.clip's value, without its array overhead
 
 
@@ -189,14 +190,14 @@ def _verdict(
             return "zero", ch, zero
         np.abs(gap, out=gap)
         # scratch arrays: the medians may reorder them instead of copying them
-        med_gap = np.median(gap, overwrite_input=True)
+        med_gap = scratch_median(gap)
         del gap
         speed, k = np.empty(count), 0
         for sl, s in blocks:
             p = pv[sl][s]
             np.abs(p, out=speed[k : k + p.size])
             k += p.size
-        ratios[ch] = float(med_gap / np.median(speed, overwrite_input=True))
+        ratios[ch] = float(med_gap / scratch_median(speed))
     # stamp jitter spoils v and w alike; one channel alone differing is another sensor (a gyro)
     if ratios and min(ratios.values()) > SPIKY_RATIO:
         return "spiky", " and ".join(ratios), min(ratios.values())

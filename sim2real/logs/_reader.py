@@ -25,6 +25,7 @@ from sim2real.logs._timeline import (
     GAP_MIN_S,
     drop_far_commands,
     drop_outliers,
+    scratch_median,
     segment_bounds,
 )
 from sim2real.logs.trace import Trace, TraceMeta, adopt_trace
@@ -262,7 +263,7 @@ def _times(
 
 def _check_clocks(raw: dict[str, np.ndarray], cmd: Chan, meas: Chan, warnings: list[str]) -> None:
     diff = raw["log_ns"] - raw["stamp_ns"]
-    gap_s = float(np.median(diff, overwrite_input=True)) / 1e9  # scratch: no second copy
+    gap_s = float(scratch_median(diff)) / 1e9  # scratch: no second copy
     if abs(gap_s) > _CLOCK_GAP_S:
         warnings.append(
             f"header stamps are {gap_s:+.3f} s (median) away from log times, so they come "
@@ -281,7 +282,7 @@ def _offset_s(raw: dict[str, np.ndarray]) -> float | None:
         return None
     diff = raw["log_ns"][ok]
     diff -= stamps[ok]
-    return float(np.median(diff, overwrite_input=True)) / 1e9  # scratch: no second copy
+    return float(scratch_median(diff)) / 1e9  # scratch: no second copy
 
 
 def _auto_source(

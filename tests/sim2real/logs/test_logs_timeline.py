@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ from robots.reduced import MAX_SIM_STEPS, simulate
 from robots.spec import load_spec
 from sim2real.errors import LogValueError
 from sim2real.logs import TWIST_STAMPED, Trace, read_trace, write_velocity_log
-from sim2real.logs._timeline import gap_threshold_ns, segment_bounds
+from sim2real.logs._timeline import gap_threshold_ns, scratch_median, segment_bounds
 from sim2real.replay import replay
 from sysid.metrics import xcorr_lag_s
 
@@ -208,3 +209,33 @@ def test_csv_row_with_a_far_time_is_dropped(tmp_path: Path) -> None:
     tr = read_trace(path)
     assert tr.meas_t_ns.size == 30 and tr.duration_s < 3.0
     assert tr.meta.warnings[0].startswith("dropped 1 of 31 samples of topic 't'")
+
+
+def test_scratch_median_is_numpys_median_bit_for_bit():
+    """Odd and even sizes, ints near the int64 limits, -0.0, infinities and NaN: the same
+    float64 bits (and type) as ``np.median(a, overwrite_input=True)``."""
+    rng = np.random.default_rng(5)
+    special = np.array([0.0, -0.0, 1.5, np.nan, np.inf, -np.inf, 1e308, -1e308])
+    checked = {"nan": 0, "neg_zero_in": 0}
+    for trial in range(4000):
+        n = int(rng.integers(1, 40))
+        kind = trial % 4
+        if kind == 0:
+            a = rng.normal(size=n)
+        elif kind == 1:
+            a = rng.integers(-5, 5, n).astype(np.int64)
+        elif kind == 2:
+            a = rng.integers(-(2**62), 2**62, n, dtype=np.int64)
+        else:
+            a = rng.choice(special, n)
+            checked["nan"] += bool(np.isnan(a).any())
+            checked["neg_zero_in"] += bool((np.signbit(a) & (a == 0)).any())
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # inf - inf, as numpy warns
+            want = np.median(a.copy(), overwrite_input=True)
+            got = scratch_median(a.copy())
+        assert type(got) is type(want)
+        assert np.asarray(got).tobytes() == np.asarray(want).tobytes(), (a, got, want)
+    assert checked["nan"] > 100 and checked["neg_zero_in"] > 100
+    assert float(scratch_median(np.array([-0.0]))) == 0.0
+    assert not np.signbit(scratch_median(np.array([-0.0])))
