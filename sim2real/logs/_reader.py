@@ -54,12 +54,13 @@ class LoadedLog:
         return self.digest()
 
 
-def load_log(path: str | Path, *, decode: bool = True) -> LoadedLog:
+def load_log(path: str | Path, *, decode: bool = True, sort_times: bool = True) -> LoadedLog:
     """Stream a log through its reader: MCAP file, ROS 1 bag or rosbag2 folder.
 
     The messages of the channels a trace can use are decoded chunk by chunk as they stream
-    past (``decode=False``: only log times are kept, for ``logs info``). Bad files give one
-    clear error.
+    past (``decode=False``: only log times are kept, for ``logs info``). ``sort_times=False``
+    leaves each channel's log times unsorted (a caller that needs only the counts). Bad
+    files give one clear error.
     """
     p = Path(path)
     if not p.exists():
@@ -79,7 +80,7 @@ def load_log(path: str | Path, *, decode: bool = True) -> LoadedLog:
             f"{container.warnings[-1]}, and no complete message remains before the cut; "
             "the file holds no usable data"
         )
-    chans = channel_table(container)
+    chans = channel_table(container, sort=sort_times)
     chans = [_with_json_type(c, container) for c in chans]
     return LoadedLog(
         name=str(p),
@@ -158,7 +159,7 @@ def read_trace(
         from sim2real.logs._csv import read_csv_trace
 
         return read_csv_trace(path)
-    log = load_log(path)
+    log = load_log(path, sort_times=False)  # the channels' counts and types are used, not times
     warnings = list(log.container.warnings)
     cmd = choose_topic(log.chans, "command", cmd_topic, name=log.name)
     meas = choose_topic(log.chans, "measurement", odom_topic, name=log.name)
