@@ -240,17 +240,43 @@ class _Cursor:
 
 
 _U16, _U32, _U64 = struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
+_U16_U32, _U16_U16_U32 = struct.Struct("<HI"), struct.Struct("<HHI")
 
 
 def _schema(buf: Buf, pos: int, end: int) -> SchemaRecord:
-    c = _Cursor(buf, pos, end)
-    sid, name, enc = c.u16(), c.string(), c.string()
-    return SchemaRecord(id=sid, name=name, encoding=enc, data=c.take(c.u32()))
+    """The Schema record body ``buf[pos:end]``: ``id u16, name str, encoding str, data``."""
+    try:  # the fields read straight; anything odd is left to the checked walk below
+        sid, n = _U16_U32.unpack_from(buf, pos)
+        a, b = pos + 6, pos + 6 + n
+        c = b + 4
+        d = c + _U32.unpack_from(buf, b)[0]
+        e = d + 4
+        f = e + _U32.unpack_from(buf, d)[0]
+        if f <= end:  # every field inside the record (lengths are unsigned)
+            name, enc = str(buf[a:b], "utf-8"), str(buf[c:d], "utf-8")
+            return SchemaRecord(id=sid, name=name, encoding=enc, data=bytes(buf[e:f]))
+    except (struct.error, UnicodeDecodeError):
+        pass
+    cur = _Cursor(buf, pos, end)  # raises the precise error
+    sid, name, enc = cur.u16(), cur.string(), cur.string()
+    return SchemaRecord(id=sid, name=name, encoding=enc, data=cur.take(cur.u32()))
 
 
 def _channel(buf: Buf, pos: int, end: int) -> ChannelRecord:
-    c = _Cursor(buf, pos, end)
-    cid, sid, topic, enc = c.u16(), c.u16(), c.string(), c.string()
+    """The Channel record body ``buf[pos:end]``: ``id u16, schema_id u16, topic str,
+    message_encoding str`` (its metadata map is not read)."""
+    try:  # as in _schema
+        cid, sid, n = _U16_U16_U32.unpack_from(buf, pos)
+        a, b = pos + 8, pos + 8 + n
+        c = b + 4
+        d = c + _U32.unpack_from(buf, b)[0]
+        if d <= end:
+            topic, enc = str(buf[a:b], "utf-8"), str(buf[c:d], "utf-8")
+            return ChannelRecord(id=cid, schema_id=sid, topic=topic, message_encoding=enc)
+    except (struct.error, UnicodeDecodeError):
+        pass
+    cur = _Cursor(buf, pos, end)
+    cid, sid, topic, enc = cur.u16(), cur.u16(), cur.string(), cur.string()
     return ChannelRecord(id=cid, schema_id=sid, topic=topic, message_encoding=enc)
 
 

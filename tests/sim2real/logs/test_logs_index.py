@@ -409,3 +409,52 @@ def test_broken_statistics_record_is_the_same_error_in_the_summary_read(tmp_path
         errors.append(str(err.value))
     assert errors[0] == errors[1]
     assert f"the record at byte {stats} is broken (a field of 8 bytes runs past" in errors[0]
+
+
+def _cursor_schema(buf: bytes, pos: int, end: int) -> _mcap.SchemaRecord:
+    c = _mcap._Cursor(buf, pos, end)
+    sid, name, enc = c.u16(), c.string(), c.string()
+    return _mcap.SchemaRecord(id=sid, name=name, encoding=enc, data=c.take(c.u32()))
+
+
+def _cursor_channel(buf: bytes, pos: int, end: int) -> _mcap.ChannelRecord:
+    c = _mcap._Cursor(buf, pos, end)
+    cid, sid, topic, enc = c.u16(), c.u16(), c.string(), c.string()
+    return _mcap.ChannelRecord(id=cid, schema_id=sid, topic=topic, message_encoding=enc)
+
+
+def _outcome(fn: object, *args: object) -> object:
+    try:
+        return fn(*args)  # type: ignore[operator]
+    except _mcap._Corrupt as exc:
+        return f"corrupt: {exc}"
+
+
+def test_schema_and_channel_fields_read_straight_equal_the_checked_walk():
+    """Schema/Channel bodies read field by field with bounds checks (the old way) and read
+    straight (the fast path): the same record or the same error, for intact bodies, every
+    shortened end, bad UTF-8 and length fields that run past the record or the buffer."""
+    rng = np.random.default_rng(3)
+
+    def s(text: bytes) -> bytes:
+        return struct.pack("<I", len(text)) + text
+
+    schema = struct.pack("<H", 7) + s(b"nav_msgs/msg/Odometry") + s(b"ros2msg") + s(b"a" * 40)
+    channel = struct.pack("<HH", 3, 7) + s(b"/odom") + s(b"cdr") + struct.pack("<I", 0)
+    bodies = [(schema, _mcap._schema, _cursor_schema), (channel, _mcap._channel, _cursor_channel)]
+    seen = set()
+    for body, fast, slow in bodies:
+        variants = [body[:k] for k in range(len(body) + 1)]
+        for _ in range(300):
+            b = bytearray(body)
+            b[int(rng.integers(len(b)))] = int(rng.integers(256))
+            variants.append(bytes(b))
+        variants.append(body.replace(b"ros2msg", b"ros\xff2ms").replace(b"cdr", b"c\xffr"))
+        for v in variants:
+            pad = b"\x00" * int(rng.integers(0, 3))  # bytes past the record end
+            for end in (len(v), max(len(v) - 1, 0)):
+                got, want = _outcome(fast, v + pad, 0, end), _outcome(slow, v + pad, 0, end)
+                assert got == want, (v, end)
+                seen.add("record" if not isinstance(want, str) else want)
+    assert "record" in seen and "corrupt: a string field is not valid UTF-8" in seen
+    assert sum("runs past its record end" in k for k in seen) > 10
