@@ -51,45 +51,71 @@ def add_segment(container: Container, seg: Segment) -> None:
     """Keep the log times of every message of ``seg`` and decode the wanted channels now.
 
     The log times of a bulk-decoded channel are kept once, in its columns (``log_ns``); those
-    of the other channels in ``container.times``.
+    of the channels that are not decoded, for the whole segment at once, in
+    ``container.skipped`` (one array, a span per channel); the rest in ``container.times``.
     """
     ids = seg.channel_id
     if ids.size == 0:
         return
     per = np.bincount(ids)  # channel ids are u16 (MCAP) or small ints (bags)
     uniq = np.flatnonzero(per).tolist()
+    plans, failed = container.plans, container.failed
+    for cid in uniq:
+        if cid not in plans:
+            plans[cid] = _plan(container, cid)
+    skip = {cid for cid in uniq if plans[cid] == "skip" or cid in failed}
     if len(uniq) == 1:
-        order, all_times, ends = None, seg.log_time_ns, [ids.size]
-    else:
-        # the messages grouped by channel, file order kept within each (a stable sort: a
-        # radix sort on u16 ids), so each channel is a slice instead of a mask over all
-        keys = ids.astype(np.uint16) if per.size <= 1 << 16 else ids
-        order = np.argsort(keys, kind="stable")
-        all_times = seg.log_time_ns[order]
-        ends = np.cumsum(per[uniq]).tolist()
-    counts = container.counts
+        if skip:
+            container.skipped.append((seg.log_time_ns, {uniq[0]: (0, int(ids.size))}))
+            return
+        _decode(container, uniq[0], seg, None, seg.log_time_ns)
+        return
+    # the messages grouped by channel, file order kept within each (a stable sort: a radix
+    # sort on u16 ids), so each channel is a slice instead of a mask over all
+    keys = ids.astype(np.uint16) if per.size <= 1 << 16 else ids
+    order = np.argsort(keys, kind="stable")
+    all_times = seg.log_time_ns[order]
+    counts = per[uniq].tolist()
+    if skip:
+        if len(skip) < len(uniq):  # keep the skipped channels' times only
+            is_skip = np.zeros(per.size, dtype=bool)
+            is_skip[list(skip)] = True
+            skip_times = all_times[is_skip[keys[order]]]
+        else:
+            skip_times = all_times
+        spans, start = {}, 0
+        for cid, n in zip(uniq, counts, strict=True):
+            if cid in skip:
+                spans[cid] = (start, start + n)
+                start += n
+        container.skipped.append((skip_times, spans))
     start = 0
-    for cid, end in zip(uniq, ends, strict=True):
-        times = all_times[start:end]
-        idx = None if order is None else order[start:end]
+    for cid, n in zip(uniq, counts, strict=True):
+        end = start + n
+        if cid not in skip:
+            _decode(container, cid, seg, order[start:end], all_times[start:end])
         start = end
-        before = counts.get(cid, 0)
-        counts[cid] = before + int(times.size)
-        plan = container.plans.get(cid) or container.plans.setdefault(cid, _plan(container, cid))
-        if plan == "skip" or cid in container.failed:
-            container.times.setdefault(cid, []).append(times)
-            continue
-        off = seg.payload_off if idx is None else seg.payload_off[idx]
-        ln = seg.payload_len if idx is None else seg.payload_len[idx]
-        part = _bulk(container, cid, seg, off, ln, before) if plan == "bulk" else None
-        if part is not None:
-            part = with_yaw(part)
-            part["log_ns"] = times
-            _keep(container, cid, part, before)
-            continue
-        container.times.setdefault(cid, []).append(times)
-        if cid not in container.failed:
-            container.parts.setdefault(cid, []).append(_compact(seg.buf, off, ln, times, cid))
+
+
+def _decode(
+    container: Container, cid: int, seg: Segment, idx: np.ndarray | None, times: np.ndarray
+) -> None:
+    """Decode (bulk) or keep (raw payloads) the messages ``idx`` of ``seg`` (all: None), all on
+    channel ``cid``, with their log times."""
+    counts = container.counts
+    before = counts.get(cid, 0)
+    counts[cid] = before + int(times.size)
+    off = seg.payload_off if idx is None else seg.payload_off[idx]
+    ln = seg.payload_len if idx is None else seg.payload_len[idx]
+    part = _bulk(container, cid, seg, off, ln, before) if container.plans[cid] == "bulk" else None
+    if part is not None:
+        part = with_yaw(part)
+        part["log_ns"] = times
+        _keep(container, cid, part, before)
+        return
+    container.times.setdefault(cid, []).append(times)
+    if cid not in container.failed:
+        container.parts.setdefault(cid, []).append(_compact(seg.buf, off, ln, times, cid))
 
 
 def channel_times(container: Container, cid: int) -> list[np.ndarray]:
@@ -98,6 +124,10 @@ def channel_times(container: Container, cid: int) -> list[np.ndarray]:
     for item in container.parts.get(cid, []):
         if isinstance(item, Columns):
             pieces.append(item.log_times())
+    for times, spans in container.skipped:
+        span = spans.get(cid)
+        if span is not None:
+            pieces.append(times[span[0] : span[1]])
     return pieces
 
 

@@ -177,7 +177,10 @@ class Container:
     #: Per channel id: its log-time arrays, one per segment (filled by a sink), except those
     #: kept in the channel's :class:`Columns` (see ``sim2real.logs._accum.channel_times``).
     times: dict[int, list[np.ndarray]] = field(default_factory=dict)
-    #: Per channel id: messages handed to the sink so far.
+    #: Per segment: the log times of its channels that are not decoded, grouped by channel,
+    #: and each such channel's span in them (filled by a sink; see ``channel_times``).
+    skipped: list[tuple[np.ndarray, dict[int, tuple[int, int]]]] = field(default_factory=list)
+    #: Per channel id: messages handed to the sink so far (the decoded channels).
     counts: dict[int, int] = field(default_factory=dict)
     #: Per channel id: its decoded runs (:class:`Columns`) or kept payload segments, in order.
     parts: dict[int, list[Columns | Segment]] = field(default_factory=dict)

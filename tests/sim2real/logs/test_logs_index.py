@@ -19,6 +19,7 @@ from mcap.writer import CompressionType, IndexType, Writer
 
 from sim2real.errors import Sim2RealError
 from sim2real.logs import ODOMETRY, SCHEMA_TEXT, TWIST, Trace, _cdr, _mcap, inspect_log, read_trace
+from sim2real.logs._reader import load_log
 
 _ARR = make_arrays(n_cmd=30, n_meas=80, seed=11)
 _STRING = "std_msgs/msg/String"
@@ -458,3 +459,20 @@ def test_schema_and_channel_fields_read_straight_equal_the_checked_walk():
                 seen.add("record" if not isinstance(want, str) else want)
     assert "record" in seen and "corrupt: a string field is not valid UTF-8" in seen
     assert sum("runs past its record end" in k for k in seen) > 10
+
+
+@pytest.mark.parametrize("decode", [True, False])
+def test_channel_log_times_of_mixed_chunks_are_the_written_ones(tmp_path, decode):
+    """Chunks mixing decoded (/cmd_vel, /odom) and skipped (/scan, /tf) channels: each
+    channel's sorted log times are exactly those written, whether decoded or only timed."""
+    path = _write(tmp_path / "multi.mcap", compression=CompressionType.ZSTD)
+    noise = _ARR.meas_t_ns[0] + np.arange(_N_NOISE, dtype=np.int64) * 21_000_000 + 7
+    want = {"/scan": noise, "/tf": noise, "/cmd_vel": _ARR.cmd_t_ns, "/odom": _ARR.meas_t_ns}
+    log = load_log(path, decode=decode)
+    assert len(_records(path.read_bytes(), 0x06)) >= 5  # several chunks, each mixed
+    assert {c.topic for c in log.chans} == set(want)
+    for chan in log.chans:
+        np.testing.assert_array_equal(chan.log_time_ns, want[chan.topic])
+    unsorted = load_log(path, decode=decode, sort_times=False)
+    for chan in unsorted.chans:
+        np.testing.assert_array_equal(np.sort(chan.log_time_ns), want[chan.topic])
