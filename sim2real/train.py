@@ -253,9 +253,10 @@ def require_train_extra(what: str = "sim2real train") -> None:
     missing = [m for m in ("torch", "stable_baselines3") if not _importable(m)]
     if missing:
         raise Sim2RealValueError(
-            f"{what} needs {' and '.join(missing)}, which are not installed; install the "
+            f"{what} needs {' and '.join(missing)}, which "
+            f"{'is' if len(missing) == 1 else 'are'} not installed; install the "
             "training extra with `pip install torch==2.13.0 && pip install -e '.[train]'` "
-            "(or `make test-train`)"
+            "(in a checkout: `make train-extra`)"
         )
 
 

@@ -253,3 +253,17 @@ def test_eval_params_file_changes_the_robot(
     argv = ["envs", "eval", "RandomMap-v0", "--episodes", "1", "--params", str(other)]
     assert main(argv) == 2
     assert "identified for robot 'turtlebot2', not 'turtlebot3_burger'" in capsys.readouterr().err
+
+
+def test_cli_train_without_the_extra_says_how_to_install(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import sim2real.train
+
+    monkeypatch.setattr(sim2real.train, "_importable", lambda module: module != "torch")
+    cfg = _write(tmp_path / "c.yaml", {"env": {"id": "RandomMap-v0"}, "algorithm": "PPO"})
+    assert main(["train", str(cfg), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "sim2real train needs torch, which is not installed" in err[0]
+    assert "pip install torch==2.13.0 && pip install -e '.[train]'" in err[0]
+    assert "make train-extra" in err[0]
