@@ -462,14 +462,14 @@ def config_from_dict(
     out: str | Path | None = None,
 ) -> TrainConfig:
     """Like :func:`load_config` for an already-parsed mapping (paths relative to ``folder``)."""
+    fmt = doc.get("format", CONFIG_FORMAT)  # first: another file (a sysid result) says so
+    if fmt != CONFIG_FORMAT:
+        raise Sim2RealValueError(f"{where}: key 'format' must be '{CONFIG_FORMAT}', got {fmt!r}")
     unknown = sorted(set(doc) - set(_KEYS))
     if unknown:
         raise Sim2RealValueError(
             f"{where}: unknown key(s) {unknown}; known keys are {', '.join(_KEYS)}"
         )
-    fmt = doc.get("format", CONFIG_FORMAT)
-    if fmt != CONFIG_FORMAT:
-        raise Sim2RealValueError(f"{where}: key 'format' must be '{CONFIG_FORMAT}', got {fmt!r}")
     env = doc.get("env")
     if isinstance(env, str):
         env = {"id": env}

@@ -67,6 +67,10 @@ def test_example_configs_load_with_overrides() -> None:
         ({"vec_env": "threads"}, r"key 'vec_env' must be one of subproc, dummy, got 'threads'"),
         ({"lr": 1}, r"unknown key\(s\) \['lr'\]"),
         ({"format": "other/1"}, r"key 'format' must be 'sim2real.train/1'"),
+        (  # a sysid result given as the training config: its format says what it is
+            {"format": "sim2real.sysid/1", "parameters": {}, "robot": "x"},
+            r"key 'format' must be 'sim2real.train/1', got 'sim2real.sysid/1'",
+        ),
         ({"discrete_actions": {"v_mps": []}}, r"key 'discrete_actions' must be"),
         ({"normalize": {"obs": True}}, r"key 'normalize' must be true, false or a mapping of"),
         ({"normalize": {"rewards": "yes"}}, r"key 'normalize' must be .* got \{'rewards': 'yes'\}"),
