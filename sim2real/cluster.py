@@ -488,6 +488,10 @@ def _finite(values: Sequence[Any]) -> list[float]:
 def fleet_summary(figures: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Across logs: agreement pooled over active samples, and its mean / min / max per log.
 
+    With an ensemble (figures holding ``coverage``), the band's ``coverage``, ``coverage_v``
+    and ``coverage_w`` are pooled the same way (each log's coverage is a share of its active
+    samples), with ``band_level``; ``coverage_mean`` is the plain mean over the logs.
+
     Examples
     --------
     >>> s = fleet_summary([{"log_file": "a", "agreement": 0.8, "agreement_v": 0.9,
@@ -501,13 +505,7 @@ def fleet_summary(figures: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     total = sum(n_active)
     out: dict[str, Any] = {"n_logs": len(figures), "n_active": total}
     for key in ("agreement", "agreement_v", "agreement_w"):
-        pairs = [
-            (float(f[key]), n)
-            for f, n in zip(figures, n_active, strict=True)
-            if f.get(key) is not None and math.isfinite(float(f[key]))
-        ]
-        weight = sum(n for _, n in pairs)
-        out[key] = sum(v * n for v, n in pairs) / weight if weight else None
+        out[key] = _pooled(figures, n_active, key)
     per_log = _finite([f.get("agreement") for f in figures])
     out["agreement_mean"] = sum(per_log) / len(per_log) if per_log else None
     out["agreement_min"] = min(per_log) if per_log else None
@@ -519,7 +517,24 @@ def fleet_summary(figures: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     coverage = _finite([f.get("coverage") for f in figures])
     if coverage:
         out["coverage_mean"] = sum(coverage) / len(coverage)
+        # pooled like the agreement: each log's coverage is a share of its active samples
+        for key in ("coverage", "coverage_v", "coverage_w"):
+            out[key] = _pooled(figures, n_active, key)
+        out["band_level"] = next(
+            f.get("band_level") for f in figures if f.get("coverage") is not None
+        )
     return out
+
+
+def _pooled(figures: Sequence[Mapping[str, Any]], n_active: list[int], key: str) -> float | None:
+    """Mean of ``key`` over the logs weighted by their active samples (None when none has it)."""
+    pairs = [
+        (float(f[key]), n)
+        for f, n in zip(figures, n_active, strict=True)
+        if f.get(key) is not None and math.isfinite(float(f[key]))
+    ]
+    weight = sum(n for _, n in pairs)
+    return sum(v * n for v, n in pairs) / weight if weight else None
 
 
 def write_synthetic_fleet(

@@ -23,8 +23,11 @@ def _num(x: Any, spec: str) -> str:
 
 
 def table(figures: list[dict[str, Any]], summary: dict[str, Any]) -> str:
-    """One row per log and a pooled summary row, plain text."""
-    head = ("log", "agreement", "agr. v", "agr. w", "FIT % v", "FIT % w", "active")
+    """One row per log and a pooled summary row, plain text; with an ensemble, the band's
+    coverage of v and w in each."""
+    band = "coverage_v" in summary  # an ensemble ran: its band's coverage per log and pooled
+    head: tuple[str, ...] = ("log", "agreement", "agr. v", "agr. w", "FIT % v", "FIT % w")
+    head += ("cov. v", "cov. w", "active") if band else ("active",)
     rows = [
         (
             Path(str(f.get("log_file"))).name,
@@ -33,6 +36,7 @@ def table(figures: list[dict[str, Any]], summary: dict[str, Any]) -> str:
             _pct(f.get("agreement_w")),
             _num(f.get("fit_percent_v"), ".1f"),
             _num(f.get("fit_percent_w"), ".1f"),
+            *((_pct(f.get("coverage_v")), _pct(f.get("coverage_w"))) if band else ()),
             str(f.get("n_active")),
         )
         for f in figures
@@ -45,6 +49,7 @@ def table(figures: list[dict[str, Any]], summary: dict[str, Any]) -> str:
             _pct(summary["agreement_w"]),
             "",
             "",
+            *((_pct(summary["coverage_v"]), _pct(summary["coverage_w"])) if band else ()),
             str(summary["n_active"]),
         )
     )
@@ -97,6 +102,15 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
     where = "serial" if args.ray is None else f"Ray ({args.ray})"
     print(f"{len(logs)} logs: robot {args.robot}, engine {args.engine}, {where}")
     print(table(figures, summary))
+    if summary.get("coverage_v") is not None and summary.get("coverage_w") is not None:
+        from sim2real.agreement import band_verdict
+
+        verdict = band_verdict(
+            coverage_v=summary["coverage_v"],
+            coverage_w=summary["coverage_w"],
+            band_level=summary["band_level"],
+        )
+        print(f"pooled over the {len(logs)} logs: {verdict[0].lower()}{verdict[1:]}")
     if args.json:
         write_json(args.json, {"logs": figures, "summary": summary})
         print(f"wrote {args.json}")

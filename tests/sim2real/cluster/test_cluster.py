@@ -63,6 +63,22 @@ def test_fleet_summary_pools_over_active_samples() -> None:
     assert s["worst_log"] == "b"
 
 
+def test_fleet_summary_pools_band_coverage_over_active_samples() -> None:
+    figs = [
+        {"log_file": "a", "agreement": 0.5, "n_active": 100, "band_level": 0.9,
+         "coverage": 0.7, "coverage_v": 0.8, "coverage_w": 0.9},
+        {"log_file": "b", "agreement": 0.5, "n_active": 300, "band_level": 0.9,
+         "coverage": 0.9, "coverage_v": 1.0, "coverage_w": 0.7},
+    ]  # fmt: skip
+    s = fleet_summary(figs)
+    assert s["coverage"] == pytest.approx((70 + 270) / 400)
+    assert s["coverage_v"] == pytest.approx((80 + 300) / 400)
+    assert s["coverage_w"] == pytest.approx((90 + 210) / 400)
+    assert s["coverage_mean"] == pytest.approx(0.8) and s["band_level"] == 0.9
+    no_band = fleet_summary([{k: v for k, v in f.items() if "cov" not in k} for f in figs])
+    assert "coverage_v" not in no_band and "band_level" not in no_band
+
+
 def test_map_tasks_serial_keeps_order() -> None:
     seen: list[int] = []
     assert map_tasks(str, [3, 1, 2], on_done=seen.append) == ["3", "1", "2"]
@@ -171,6 +187,38 @@ def test_agree_many_logs_refuses_report_and_gates(
     assert "--report and --sim-out take one log, got 3 logs" in err and err.count("\n") == 1
     assert _agree(fleet, tmp_path / "f.json", "--min-agreement", "0.999") == 1
     assert "pooled agreement" in capsys.readouterr().err
+
+
+def test_agree_many_logs_with_ensemble_prints_band_coverage(
+    fleet: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # it printed no coverage at all for several logs (the band only reached --json)
+    params = tmp_path / "params.yaml"
+    fit = ["sysid", "fit", str(fleet / "session_000.mcap"), "--robot", "turtlebot3_burger"]
+    assert main([*fit, "-o", str(params)]) == 0
+    capsys.readouterr()
+    band = ["--params", str(params), "--ensemble", "4", "--seed", "1"]
+    assert _agree(fleet, tmp_path / "band.json", *band) == 0
+    doc = json.loads((tmp_path / "band.json").read_text())
+    figs, summary = doc["logs"], doc["summary"]
+    n = sum(f["n_active"] for f in figs)
+    for key in ("coverage_v", "coverage_w"):
+        assert summary[key] == pytest.approx(sum(f[key] * f["n_active"] for f in figs) / n)
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    head = next(line for line in lines if line.startswith("log "))
+    assert head.split()[-5:] == ["cov.", "v", "cov.", "w", "active"]
+    pooled = next(line for line in lines if line.startswith("pooled (3 logs)"))
+    want = f"{100 * summary['coverage_v']:.1f} %  {100 * summary['coverage_w']:.1f} %"
+    assert want in pooled
+    verdict = next(line for line in lines if line.startswith("pooled over the 3 logs: the 90 %"))
+    assert f"covers {100 * summary['coverage_v']:.1f} % of the active real v samples" in verdict
+    # each log's coverage is what agree reports for that log alone
+    single = tmp_path / "one.json"
+    argv = ["agree", str(fleet / "session_002.mcap"), "--robot", "turtlebot3_burger"]
+    assert main([*argv, "--engine", "reduced", *band, "--json", str(single)]) == 0
+    one = json.loads(single.read_text())
+    assert figs[2]["coverage_v"] == pytest.approx(one["coverage_v"], rel=1e-12)
 
 
 @pytest.mark.cluster
