@@ -66,7 +66,8 @@ physical. What it found:
    (the reduced model has no wheel slip).
 3. **Coverage**: pooled v/w 81.8-92.4 % / 83.7-94.8 %, inside 80-99 % for every base; two of
    the three held-out p3dx sessions are below (v 78.4 %, 76.1 %) after a calibration on two
-   sessions.
+   sessions. With ``--quick`` (40 s sessions, 16 calibration robots; 60 s CPU) pooled v falls
+   to 75.7 % (create2) and 77.4 % (heavy60): shorter sessions are not enough for the band.
 4. **Agreement's absolute tolerances (0.02 m/s, 0.1 rad/s) judge fast bases harder**: FIT %
    80-94 on every held-out session, but agreement 47 % on the 2 m/s jackal, 54 % on the 1.2
    m/s p3dx and 60 % on the Pi Mouse (its w: 2 v_max / b = 13 rad/s top yaw rate) against
