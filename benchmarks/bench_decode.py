@@ -26,28 +26,37 @@ process with the same repeat count (``_timing.alternate``):
    the bound 2 x (output arrays + largest chunk), where the largest chunk counts its
    compressed record and its decompressed records (both are held while it is decoded).
 
-Measured (2026-11-26, full run, load ~2.5 on 2 cores; paired-ratio medians, wall (CPU); targets
-of issue 16: >= 20x in process and >= 2x whole process on the real logs, peak <= 2 x (output +
-chunk)):
+Measured (2026-11-26 09:30 UTC, full run, load 2.3-2.8 on 2 cores; paired-ratio medians, wall
+(CPU); targets of issue 16: >= 20x in process and >= 2x whole process on the real logs, peak
+<= 2 x (output + chunk)):
 
 ===========================  =====================  ========================  =====================
 log                          in process             whole process (warm)      best possible (floor)
 ===========================  =====================  ========================  =====================
-generated 50k odom+20k cmd   56.0x (55.1x), 47 ms   12.1x (13.1x)             22x (21x)
-tb3wp_drexel_goal (1192)     19.0x (18.6x), 3.0 ms  1.3x (1.2x), CPU 0.167 s  1.5x (1.5x)
-neato_olin2018_teleop (727)  13.3x (11.0x), 3.8 ms  1.2x (1.2x), CPU 0.167 s  1.4x (1.4x)
+generated 50k odom+20k cmd   60.4x (59.5x), 44 ms   13.4x (13.3x)             20x (20x)
+tb3wp_drexel_goal (1192)     21.1x (21.1x), 2.5 ms  1.3x (1.4x), CPU 0.153 s  1.5x (1.5x)
+neato_olin2018_teleop (727)  12.9x (12.4x), 3.1 ms  1.3x (1.3x), CPU 0.162 s  1.7x (1.7x)
 ===========================  =====================  ========================  =====================
 
-Run to run (five runs that day) the real logs gave 17.9-21.3x (drexel) and 9.8-11.7x (neato)
-in process. The floor (``python -c "import numpy"``) took 0.14 s of CPU and mcap-ros2 only
+Run to run (five runs, 09:30-09:40) the real logs gave 20.3-24.6x (drexel) and 12.6-13.2x
+(neato) in process, wall medians (earlier that day, before the decode8 changes: 17.9-21.3x and
+9.8-11.7x; CPU ratios alternated with the old code: drexel 21.0x -> 23.5x, neato 11.3x ->
+13.0x). The floor (``python -c "import numpy"``) took 0.14 s of CPU and mcap-ros2 only
 1.4-1.8x that on the real logs, so >= 2x whole process cannot be reached there by any reader;
-ours is 27-29 ms of CPU above the floor. In process our read is bound by touching every
-message record of the file (the MessageIndex path checks that the indexed records tile each
-chunk, so the result equals a full walk): neato is 5150 records of 16 channels in 3.6 MB, of
-which 727 are read; timed right after mcap-ros2 (which evicts the caches) a read costs ~1 ms
-more than back to back (neato 2.6 ms, drexel 1.8 ms). Peak memory of the generated 38.6 MiB
-zstd log (output 22.0 MiB, bound 46.6 MiB): ours 40.9 MiB VmHWM growth (tracemalloc 36.2 MiB;
-before the arrays were sized from the summary's counts: 74.5 / 44.3 MiB), mcap-ros2 757.6 MiB
+ours is ~17-27 ms of CPU above the floor.
+
+Where the in-process time goes (neato, 5150 records of 16 channels in 4 chunks, 727 read):
+touching every message record is *not* what bounds it. A what-if read that gathers only the
+wanted channels' records (no tiling check, no log times of the other channels) took 2.5 ms
+right after mcap-ros2 against 3.1 ms for the real read (drexel 2.1 vs 2.4 ms): the check and
+the unrequested channels cost ~20 %, and without them neato would still be ~15x. The rest is
+per-call Python/numpy overhead (about 3,900 calls per read: per chunk, per channel, the bulk
+CDR decode, the pose-velocity check ~0.4 ms, the trace cleaning), paid mostly cold: timed
+right after mcap-ros2 a read costs ~0.7 ms more than back to back (neato 2.25 ms, drexel
+1.5 ms), and touching the file's pages first gives back only 0.2 ms of that (the code and
+interpreter state are what was evicted). Peak memory of the generated 38.6 MiB zstd log
+(output 22.0 MiB, bound 46.6 MiB): ours 39.8 MiB VmHWM growth (tracemalloc 35.9 MiB; before
+the arrays were sized from the summary's counts: 74.5 / 44.3 MiB), mcap-ros2 757.6 MiB
 (tracemalloc 204.2 MiB). Whole-process runs drop ``PYTHONDONTWRITEBYTECODE``, so "warm" means
 cached bytecode as for an installed package (with it set, every run compiled our sources: 17
 modules, ~26 ms more; measured 1.1-1.2x that way).
