@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 import yaml
 from _agreement_fixtures import HIDDEN, ROBOT, hidden_params, write_log
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robots.randomization import DriveDistribution
 from sim2real.agreement import run_ensemble
@@ -211,3 +213,30 @@ def test_matching_is_seeded() -> None:
     assert match_noise_scale(real, members, 0.5, 0.0, seed=3) == match_noise_scale(
         real, members, 0.5, 0.0, seed=3
     )
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    true_std=st.floats(0.005, 0.5),
+    start_factor=st.floats(0.05, 20.0),
+    member_sd=st.floats(0.0, 0.3),
+    quantum=st.sampled_from([0.0, 0.001, 0.01]),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_matching_lands_in_the_range_or_at_a_bound(
+    true_std: float, start_factor: float, member_sd: float, quantum: float, seed: int
+) -> None:
+    rng = np.random.default_rng(seed)
+    real = true_std * rng.standard_normal(600)
+    members = member_sd * true_std * rng.standard_normal((12, 600))
+    std = start_factor * true_std
+    scale, before, after = match_noise_scale(real, members, std, quantum, seed=seed)
+    low, high = match_range(0.9)
+    if low <= before <= high:
+        assert scale == 1.0 and after == before
+    elif scale in NOISE_SCALE_RANGE:  # out of reach: the bound nearest the goal
+        assert (after > high) if before > high else (after < low)
+    else:  # the nearer end of the range, to a few samples (coverage moves in 1/600 steps)
+        goal = high if before > high else low
+        assert goal <= after <= goal + 0.02
+        assert (scale < 1.0) if before > high else (scale > 1.0)
