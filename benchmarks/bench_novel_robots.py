@@ -76,6 +76,19 @@ physical. What it found:
    reached only ``--json``, as ``coverage_mean``); it now prints cov. v / cov. w per log and
    pooled, and the band verdict on the pooled coverage.
 
+Also probed by hand on the same files (not in this loop): the calibrated params on held-out
+sessions of other command profiles (``teleop``, ``goals``, ``steps``; 3 x 90 s each) cover v
+89.4-96.6 % and w 89.5-94.3 % for neato, create2, p3dx and heavy60; the jackal sessions
+written as ROS 1 bag and rosbag2 (sqlite3, mcap) fit to the same numbers as the MCAP files;
+the pybullet ensemble's coverage is within 2 points of the reduced one (p3dx v 78.1 / 78.4 %,
+jackal v 91.5 / 93.4 %). Two more problems: ``agree`` refuses a spin-in-place log (profile
+``turns``, v = 0 throughout: "figure 'lag_s_v' cannot be computed ... compare on a log in
+which the robot drives and turns"), which ``sysid fit`` accepts, and one such log among
+several aborts the whole multi-log ``agree`` with no row printed for the others; and
+calibrating on one 60 s session of a far-out base (``robots new d --wheel-separation 0.05
+--mass 0.05``: dynamics factor x0.34) leaves a held-out session's w coverage at 50.5 % (a
+500 kg base: v 73.2 %, w 73.7 %).
+
 Reproduction of 1 and 2 (a minute)::
 
     sim2real robots new heavy60 --wheel-separation 0.5 --wheel-radius 0.1 --mass 60 \
