@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import os
-import pty
 import re
-import select
 import subprocess
 import sys
 from pathlib import Path
@@ -13,42 +10,13 @@ from pathlib import Path
 import pytest
 from hostile_logs import ROBOT, base_arrays, write_faulty
 
-_LIVE = "\x1b[?25l"  # a live rich progress display hides the cursor while it draws
+from tests.terminal import LIVE, on_a_terminal
+
 _ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 
 
 def _cli(*argv: str) -> list[str]:
     return [sys.executable, "-m", "sim2real", *argv]
-
-
-def _env() -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if k not in ("NO_COLOR", "CI", "FORCE_COLOR")}
-    env.update(TERM="xterm-256color", COLUMNS="120", LINES="40")
-    return env
-
-
-def _on_a_terminal(argv: list[str], cwd: Path) -> tuple[int, str]:
-    """Run ``argv`` with stdout and stderr on a pseudo-terminal; returns (exit code, output)."""
-    master, slave = pty.openpty()
-    proc = subprocess.Popen(
-        argv, stdout=slave, stderr=slave, stdin=subprocess.DEVNULL, cwd=cwd, env=_env()
-    )
-    os.close(slave)
-    chunks = []
-    while True:
-        ready, _, _ = select.select([master], [], [], 1.0)
-        if ready:
-            try:
-                data = os.read(master, 65536)
-            except OSError:  # the child closed the terminal
-                break
-            if not data:
-                break
-            chunks.append(data)
-        elif proc.poll() is not None:
-            break
-    os.close(master)
-    return proc.wait(timeout=600), b"".join(chunks).decode("utf-8", "replace")
 
 
 def _piped(
@@ -82,9 +50,9 @@ def test_sysid_fit_shows_a_bar_on_a_terminal_and_nothing_in_a_pipe(
     log_dir: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     argv = _cli("sysid", "fit", "run.mcap", "--robot", ROBOT, "-o", "p.yaml", "--free", "delay_s")
-    code, shown = _on_a_terminal(argv, log_dir)
+    code, shown = on_a_terminal(argv, log_dir)
     assert code == 0, shown
-    assert _LIVE in shown and "sysid" in shown
+    assert LIVE in shown and "sysid" in shown
     code, piped = _piped(argv, log_dir, capsys, monkeypatch)
     assert code == 0, piped
     assert not _ANSI.search(piped)  # no bar, no colour, no cursor moves
@@ -95,9 +63,9 @@ def test_envs_eval_shows_a_bar_on_a_terminal_and_nothing_in_a_pipe(
     log_dir: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     argv = _cli("envs", "eval", "RandomMap-v0", "--episodes", "1")
-    code, shown = _on_a_terminal(argv, log_dir)
+    code, shown = on_a_terminal(argv, log_dir)
     assert code == 0, shown
-    assert _LIVE in shown and "episodes" in shown
+    assert LIVE in shown and "episodes" in shown
     code, piped = _piped(argv, log_dir, capsys, monkeypatch)
     assert code == 0, piped
     assert not _ANSI.search(piped)
@@ -134,9 +102,9 @@ def test_agree_ensemble_shows_a_bar_on_a_terminal_and_nothing_in_a_pipe(
         "--ensemble",
         "4",
     )
-    code, shown = _on_a_terminal(argv, log_dir)
+    code, shown = on_a_terminal(argv, log_dir)
     assert code == 0, shown
-    assert _LIVE in shown and "ensemble" in shown
+    assert LIVE in shown and "ensemble" in shown
     code, piped = _piped(argv, log_dir, capsys, monkeypatch)
     assert code == 0, piped
     assert not _ANSI.search(piped)
