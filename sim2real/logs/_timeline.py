@@ -62,8 +62,8 @@ def scratch_median(a: np.ndarray) -> np.floating:
     overhead (~4 us instead of ~12 us on a few hundred samples); ``a`` is reordered.
 
     The same steps as numpy's: partition at the middle (and at the end for floats, so a NaN
-    shows there), then the mean of the one or two middle values (summed in float64 from 0,
-    so -0.0 becomes 0.0, as numpy's mean does).
+    shows there), then the mean of the one or two middle values as numpy's mean takes it
+    (ints summed in float64 from 0, so -0.0 becomes 0.0; float16 summed in float32).
 
     Examples
     --------
@@ -84,8 +84,11 @@ def scratch_median(a: np.ndarray) -> np.floating:
     if floats and math.isnan(a[-1]):
         return a.dtype.type(np.nan)  # type: ignore[no-any-return]
     mid = a[h : h + 1] if n % 2 else a[h - 1 : h + 1]
-    total = np.add.reduce(mid, dtype=None if floats else np.float64)
-    return total.dtype.type(total / mid.size)  # type: ignore[no-any-return]
+    # numpy's mean sums ints in float64 and float16 in float32 (two float16 values near the
+    # float16 maximum would overflow their own sum), and gives floats back in their own type
+    acc = None if floats and a.dtype.itemsize > 2 else (np.float32 if floats else np.float64)
+    total = np.add.reduce(mid, dtype=acc)
+    return (a.dtype.type if floats else np.float64)(total / mid.size)  # type: ignore[no-any-return]
 
 
 def gap_threshold_ns(t_ns: IntArray) -> int:

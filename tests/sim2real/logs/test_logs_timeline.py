@@ -239,3 +239,26 @@ def test_scratch_median_is_numpys_median_bit_for_bit():
     assert checked["nan"] > 100 and checked["neg_zero_in"] > 100
     assert float(scratch_median(np.array([-0.0]))) == 0.0
     assert not np.signbit(scratch_median(np.array([-0.0])))
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32, np.uint8, np.int32, np.uint64])
+def test_scratch_median_matches_numpy_in_other_dtypes(dtype: type) -> None:
+    """numpy's mean sums float16 in float32: the median of two float16 60000s is 60000
+    (it was inf, their float16 sum); uint64 and int32 extremes as float64."""
+    info = np.finfo(dtype) if np.issubdtype(dtype, np.floating) else np.iinfo(dtype)
+    big = info.max
+    cases: list[np.ndarray] = [
+        np.array([big, big], dtype),
+        np.array([big, info.min, big, 0], dtype),
+    ]
+    rng = np.random.default_rng(6)
+    cases += [(rng.normal(size=int(rng.integers(1, 12))) * 100).astype(dtype) for _ in range(300)]
+    if dtype is np.float16:
+        assert float(scratch_median(cases[0].copy())) == 65504.0
+    for a in cases:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            want = np.median(a.copy(), overwrite_input=True)
+            got = scratch_median(a.copy())
+        assert type(got) is type(want), (a, got, want)
+        assert np.asarray(got).tobytes() == np.asarray(want).tobytes(), (a, got, want)
