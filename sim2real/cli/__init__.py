@@ -97,6 +97,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         return 2
     except BrokenPipeError:
+        if not _stdout_closed():
+            raise  # another pipe (a training env's worker process that died): not to hide
         # whoever read stdout has gone (`sim2real logs info run.bag | head -3`): stop quietly,
         # with stdout on /dev/null so the interpreter's last flush cannot fail again
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
@@ -104,6 +106,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("sim2real: interrupted", file=sys.stderr)
         return 130
+
+
+def _stdout_closed() -> bool:
+    """Whether stdout is a pipe whose reader has gone (``poll`` flags an error on it).
+
+    A BrokenPipeError can also come from a pipe to a child process (SB3's ``SubprocVecEnv``
+    workers, Ray); only a closed stdout is the quiet exit 141.
+    """
+    import select
+
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # replaced by an object without a descriptor
+        return False
+    if not hasattr(select, "poll"):  # pragma: no cover - not on Linux or macOS
+        return True
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return any(events & select.POLLERR for _, events in poller.poll(0))
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -881,3 +881,18 @@ def test_closed_stdout_stops_quietly(argv: list[str]) -> None:
     finally:
         os.close(write_end)
     assert proc.returncode == 141 and proc.stderr == "", proc.stderr[-500:]
+
+
+def test_a_broken_pipe_that_is_not_stdout_is_not_hidden(
+    monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """A BrokenPipeError from another pipe (a training env's worker process that died) is
+    raised, not turned into the quiet exit 141 of a closed stdout (stdout here is open)."""
+    import sim2real.cli._robots as robots_cli
+
+    def broken(args: object) -> int:
+        raise BrokenPipeError(32, "Broken pipe")  # as Connection.send to a dead worker
+
+    monkeypatch.setattr(robots_cli, "_list", broken)
+    with pytest.raises(BrokenPipeError):
+        main(["robots", "list"])
