@@ -108,7 +108,8 @@ DEFAULT_N = 32
 MATCH_LEVEL = 0.9
 #: Range of the noise-std scale of the coverage matching (times the likelihood's std).
 NOISE_SCALE_RANGE = (0.1, 10.0)
-#: Bisection steps of the coverage matching (a factor 100 range to ~0.5 %).
+#: Bisection steps of the coverage matching: the log scale between 1 and a bound of
+#: :data:`NOISE_SCALE_RANGE` (a factor 10) to 2**-24 of its width, a scale to ~1e-7 relative.
 MATCH_STEPS = 24
 
 
@@ -129,8 +130,9 @@ class CalibrationResult:
     noise_factor_v, noise_factor_w : float
         Fitted noise std / the file's (NaN when the file's std is 0).
     log_likelihood, log_likelihood_before : float
-        Mean Gaussian predictive log-likelihood per active sample and axis, fitted and with
-        the file's distribution as it was.
+        Mean Gaussian predictive log-likelihood per active sample, v's and w's summed: at the
+        fitted factors with the likelihood's noise stds (before the coverage matching), and
+        with the file's distribution as it was.
     noise_scale_v, noise_scale_w : float
         Coverage matching (module docstring): final noise std / the likelihood's.
     match_level : float
@@ -302,7 +304,13 @@ def match_noise_scale(
     of those draws (:func:`sim2real.agreement.predictive_band`). The scale is 1 when the
     coverage is inside :func:`match_range`; else the bisection (in log scale, within
     ``scale_range``) finds where it reaches the nearer end of that range; a bound of
-    ``scale_range`` is returned where it cannot be reached.
+    ``scale_range`` is returned where it cannot be reached. ``std`` 0 has nothing to scale: 1.
+
+    Raises
+    ------
+    Sim2RealValueError
+        If ``real`` is not a non-empty 1-D array, ``members`` not (n >= 1, ``real.size``),
+        ``std`` or ``quantum`` not finite and >= 0, or ``scale_range`` does not hold 1.
 
     Returns
     -------
@@ -327,6 +335,24 @@ def match_noise_scale(
     )
 
     level = check_band_level(level)
+    real, members = np.asarray(real, dtype=np.float64), np.asarray(members, dtype=np.float64)
+    if not (real.ndim == 1 and real.size and members.ndim == 2 and members.shape[0] >= 1) or (
+        members.shape[1] != real.size
+    ):
+        raise Sim2RealValueError(
+            f"match_noise_scale needs real samples of shape (k,) with k >= 1 and members of "
+            f"shape (n, k) with n >= 1; got real {real.shape} and members {members.shape}"
+        )
+    for name, value in (("std", std), ("quantum", quantum)):
+        if not (math.isfinite(value) and value >= 0.0):
+            raise Sim2RealValueError(
+                f"match_noise_scale: {name} must be finite and >= 0 (m/s or rad/s), got {value!r}"
+            )
+    if not 0.0 < scale_range[0] <= 1.0 <= scale_range[1] < math.inf:
+        raise Sim2RealValueError(
+            f"match_noise_scale: scale_range must hold 1 between two positive finite bounds, "
+            f"got {scale_range!r}; e.g. {NOISE_SCALE_RANGE}"
+        )
     n = members.shape[0]
     draws = max(NOISE_DRAWS, math.ceil((2.0 / (1.0 - level) - 1.0) / n))
     base = np.repeat(members, draws, axis=0)

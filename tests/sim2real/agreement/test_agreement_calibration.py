@@ -240,3 +240,33 @@ def test_matching_lands_in_the_range_or_at_a_bound(
         goal = high if before > high else low
         assert goal <= after <= goal + 0.02
         assert (scale < 1.0) if before > high else (scale > 1.0)
+
+
+def test_matching_refuses_what_it_cannot_match() -> None:
+    # no samples gave (10.0, nan, nan) after 26 band builds; members of one column were
+    # broadcast over every sample; a negative std scaled to the wrong side of the band
+    real = 0.1 * np.random.default_rng(2).standard_normal(50)
+    ok = np.zeros((8, 50))
+    bad = [
+        (np.zeros(0), np.zeros((8, 0)), 0.1, 0.0, NOISE_SCALE_RANGE, "shape"),
+        (
+            real,
+            np.zeros((8, 1)),
+            0.1,
+            0.0,
+            NOISE_SCALE_RANGE,
+            r"got real \(50,\) and members \(8, 1\)",
+        ),
+        (real, np.zeros(50), 0.1, 0.0, NOISE_SCALE_RANGE, "members of shape"),
+        (real, np.zeros((0, 50)), 0.1, 0.0, NOISE_SCALE_RANGE, "n >= 1"),
+        (real, ok, -0.1, 0.0, NOISE_SCALE_RANGE, "std must be finite and >= 0"),
+        (real, ok, math.nan, 0.0, NOISE_SCALE_RANGE, "std must be"),
+        (real, ok, 0.1, -0.01, NOISE_SCALE_RANGE, "quantum must be"),
+        (real, ok, 0.1, 0.0, (2.0, 10.0), "scale_range must hold 1"),
+        (real, ok, 0.1, 0.0, (0.0, 10.0), "scale_range must hold 1"),
+    ]
+    for r, m, std, quantum, span, match in bad:
+        with pytest.raises(Sim2RealValueError, match=match):
+            match_noise_scale(r, m, std, quantum, scale_range=span)
+    # std 0 has nothing to scale: kept, with the coverage of the members alone (all at 0)
+    assert match_noise_scale(real, ok, 0.0, 0.0) == (1.0, 0.0, 0.0)
