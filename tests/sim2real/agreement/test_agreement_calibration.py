@@ -270,3 +270,13 @@ def test_matching_refuses_what_it_cannot_match() -> None:
             match_noise_scale(r, m, std, quantum, scale_range=span)
     # std 0 has nothing to scale: kept, with the coverage of the members alone (all at 0)
     assert match_noise_scale(real, ok, 0.0, 0.0) == (1.0, 0.0, 0.0)
+
+
+def test_calibrate_help_states_the_matched_range(capsys: pytest.CaptureFixture[str]) -> None:
+    # it said the band is matched to cover 90 %; a too-wide band is narrowed to 95 %
+    with pytest.raises(SystemExit):
+        main(["sysid", "calibrate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    low, high = match_range(0.9)
+    assert f"covers {100 * low:.0f}-{100 * high:.0f} % of the validation samples" in text
+    assert f"narrowed to {100 * high:.0f} %" in text and f"widened to {100 * low:.0f} %" in text
