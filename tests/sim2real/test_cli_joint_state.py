@@ -21,41 +21,24 @@ from robots.spec import load_spec
 from sim2real.cli import main
 from sim2real.cli._demo import find_data_dir
 from sim2real.logs import Trace, read_trace
+from tests.ros1_bags import write_joint_state_bag
 
 ROBOT = "turtlebot3_burger"
 
 
 def _joint_state_bag(path: Path, trace: Trace, radius_m: float, separation_m: float) -> Path:
     """``trace`` as a ROS 1 bag: Twist commands and a JointState of the two wheels (rad/s)."""
-    from rosbags.rosbag1 import Writer
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS1_NOETIC)
-    T = store.types
-    vec, twist = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Twist"]
-    with Writer(path) as wr:
-        cmd = wr.add_connection("/cmd_vel", "geometry_msgs/msg/Twist", typestore=store)
-        js = wr.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=store)
-        for t, v, w in zip(trace.cmd_t_ns.tolist(), trace.cmd_v, trace.cmd_w, strict=True):
-            msg = twist(linear=vec(x=float(v), y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=float(w)))
-            wr.write(cmd, t, store.serialize_ros1(msg, "geometry_msgs/msg/Twist"))
-        left = (trace.meas_v - 0.5 * separation_m * trace.meas_w) / radius_m
-        right = (trace.meas_v + 0.5 * separation_m * trace.meas_w) / radius_m
-        for i, t in enumerate(trace.meas_t_ns.tolist()):
-            head = T["std_msgs/msg/Header"](
-                seq=i,
-                stamp=T["builtin_interfaces/msg/Time"](sec=t // 10**9, nanosec=t % 10**9),
-                frame_id="",
-            )
-            msg = T["sensor_msgs/msg/JointState"](
-                header=head,
-                name=["wheel_left_joint", "wheel_right_joint"],
-                position=np.zeros(2),
-                velocity=np.array([left[i], right[i]]),
-                effort=np.zeros(0),
-            )
-            wr.write(js, t, store.serialize_ros1(msg, "sensor_msgs/msg/JointState"))
-    return path
+    left = (trace.meas_v - 0.5 * separation_m * trace.meas_w) / radius_m
+    right = (trace.meas_v + 0.5 * separation_m * trace.meas_w) / radius_m
+    return write_joint_state_bag(
+        path,
+        cmd_t_ns=trace.cmd_t_ns.tolist(),
+        cmd_v=trace.cmd_v,
+        cmd_w=trace.cmd_w,
+        js_t_ns=trace.meas_t_ns.tolist(),
+        names=["wheel_left_joint", "wheel_right_joint"],
+        velocity=np.column_stack((left, right)),
+    )
 
 
 @pytest.fixture(scope="module")
@@ -98,35 +81,17 @@ def test_sysid_fit_and_agree_on_a_joint_state_bag(
 
 def test_bag_of_an_arm_is_one_sentence(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Another robot's bag: a 6-joint arm's JointState and a Twist, nothing of a base."""
-    from rosbags.rosbag1 import Writer
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS1_NOETIC)
-    T = store.types
-    path = tmp_path / "arm.bag"
-    with Writer(path) as wr:
-        js = wr.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=store)
-        cmd = wr.add_connection("/arm/cmd_vel", "geometry_msgs/msg/Twist", typestore=store)
-        vec = T["geometry_msgs/msg/Vector3"]
-        twist = T["geometry_msgs/msg/Twist"](
-            linear=vec(x=0.1, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=0.0)
-        )
-        for i in range(20):
-            t = 1_700_000_000 * 10**9 + i * 10**8
-            head = T["std_msgs/msg/Header"](
-                seq=i,
-                stamp=T["builtin_interfaces/msg/Time"](sec=t // 10**9, nanosec=0),
-                frame_id="",
-            )
-            msg = T["sensor_msgs/msg/JointState"](
-                header=head,
-                name=[f"joint{k}" for k in range(6)],
-                position=np.zeros(6),
-                velocity=np.ones(6),
-                effort=np.zeros(0),
-            )
-            wr.write(js, t, store.serialize_ros1(msg, "sensor_msgs/msg/JointState"))
-            wr.write(cmd, t, store.serialize_ros1(twist, "geometry_msgs/msg/Twist"))
+    t_ns = 1_700_000_000 * 10**9 + np.arange(20) * 10**8
+    path = write_joint_state_bag(
+        tmp_path / "arm.bag",
+        cmd_t_ns=t_ns.tolist(),
+        cmd_v=[0.1] * 20,
+        cmd_w=[0.0] * 20,
+        js_t_ns=t_ns.tolist(),
+        names=[f"joint{k}" for k in range(6)],
+        velocity=np.ones((20, 6)),
+        cmd_topic="/arm/cmd_vel",
+    )
     for argv in (["agree", path], ["sysid", "fit", path, "-o", tmp_path / "p.yaml"]):
         assert main([str(a) for a in [*argv, "--robot", ROBOT]]) == 2
         err = capsys.readouterr().err.strip().splitlines()

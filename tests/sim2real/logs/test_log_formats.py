@@ -19,6 +19,7 @@ from sim2real.errors import LogFormatError, LogValueError, MissingTopicError
 from sim2real.logs import Trace, TraceMeta, inspect_log, read_trace, write_trace
 from sim2real.logs._bagwrite import write_rosbag
 from sim2real.logs._csv import write_csv_trace
+from tests.ros1_bags import write_joint_state_bag
 
 T0_NS = 1_700_000_000_123_456_789
 FIELDS = ("cmd_t_ns", "cmd_v", "cmd_w", "meas_t_ns", "meas_v", "meas_w", "pose_x", "pose_y")
@@ -165,35 +166,16 @@ def test_custom_and_unrelated_channels_are_skipped_with_one_note(tmp_path: Path)
 
 
 def test_joint_state_in_a_bag(tmp_path: Path) -> None:
-    from rosbags.rosbag1 import Writer
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS1_NOETIC)
-    T = store.types
-    path = tmp_path / "wheels.bag"
-    with Writer(path) as wr:
-        cmd = wr.add_connection("/cmd_vel", "geometry_msgs/msg/Twist", typestore=store)
-        js = wr.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=store)
-        vec = T["geometry_msgs/msg/Vector3"]
-        for i in range(5):
-            t = T0_NS + i * 10**8
-            tw = T["geometry_msgs/msg/Twist"](
-                linear=vec(x=0.1, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=0.0)
-            )
-            wr.write(cmd, t, store.serialize_ros1(tw, "geometry_msgs/msg/Twist"))
-            head = T["std_msgs/msg/Header"](
-                seq=i,
-                stamp=T["builtin_interfaces/msg/Time"](sec=t // 10**9, nanosec=t % 10**9),
-                frame_id="",
-            )
-            msg = T["sensor_msgs/msg/JointState"](
-                header=head,
-                name=["wheel_left_joint", "wheel_right_joint"],
-                position=np.zeros(2),
-                velocity=np.array([2.0, 4.0]),
-                effort=np.zeros(0),
-            )
-            wr.write(js, t + 1, store.serialize_ros1(msg, "sensor_msgs/msg/JointState"))
+    t_ns = T0_NS + np.arange(5) * 10**8
+    path = write_joint_state_bag(
+        tmp_path / "wheels.bag",
+        cmd_t_ns=t_ns.tolist(),
+        cmd_v=[0.1] * 5,
+        cmd_w=[0.0] * 5,
+        js_t_ns=(t_ns + 1).tolist(),
+        names=["wheel_left_joint", "wheel_right_joint"],
+        velocity=np.tile([2.0, 4.0], (5, 1)),
+    )
     tr = read_trace(path, wheel_radius_m=0.05, wheel_separation_m=0.2)
     assert np.allclose(tr.meas_v, 0.05 * 3.0) and np.allclose(tr.meas_w, 0.05 * 2.0 / 0.2)
 
