@@ -84,6 +84,8 @@ def _info(args: argparse.Namespace) -> int:
 
 def _csv_info(path: Path, args: argparse.Namespace) -> int:
     """``logs info`` of a CSV log: read as ``sysid fit``/``agree`` read it, then summarised."""
+    import csv
+
     from sim2real.errors import Sim2RealValueError
     from sim2real.logs import read_trace
 
@@ -93,8 +95,9 @@ def _csv_info(path: Path, args: argparse.Namespace) -> int:
             "--cmd-topic/--odom-topic (the columns are named t, cmd_v, cmd_w, meas_v, meas_w)"
         )
     trace = read_trace(path)
-    with path.open(encoding="utf-8-sig", errors="replace") as f:
-        header = [h.strip() for h in f.readline().split(",")]
+    with path.open(encoding="utf-8-sig", errors="replace", newline="") as f:
+        # parsed as read_csv_trace parses it: a spreadsheet quotes the names ("t","cmd_v",...)
+        header = [h.strip() for h in next(csv.reader(f), [])]
     summary = _csv_summary(path, trace, header)
     if args.json:
         if args.sha256:

@@ -120,3 +120,16 @@ def test_info_on_a_csv_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
     assert main(["logs", "info", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "line 3 column 'meas_v'" in err[0]
+
+
+def test_info_on_a_csv_log_with_quoted_names(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
+    """A spreadsheet's export quotes the column names: they are the same columns (it listed
+    all six as ignored, the five used ones with their quotes)."""
+    path = tmp_path / "sheet.csv"
+    rows = [f'{0.1 * i:.1f},0.2,0.0,{0.02 * i:.2f},0.0,"a, b"' for i in range(11)]
+    head = ",".join(f'"{c}"' for c in ("t", "cmd_v", "cmd_w", "meas_v", "meas_w", "x y"))
+    path.write_text(head + "\n" + "\n".join(rows) + "\n")
+    assert main(["logs", "info", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["ignored_columns"] == ["x y"] and doc["rows"] == 11
+    assert doc["rate_hz"] == pytest.approx(10.0)
