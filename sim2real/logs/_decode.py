@@ -226,12 +226,19 @@ def _wheel_speeds(
         names = [str(n) for n in _get(m, "name")]
         vel = [float(x) for x in _get(m, "velocity")]
         lname, rname = wheel_joints or (_pick_joint(names, "left"), _pick_joint(names, "right"))
+        if lname in names and rname in names and len(vel) != len(names):
+            raise LogValueError(
+                f"JointState message {i} of topic '{topic}' has joints {names} but "
+                f"{len(vel)} velocities (one per joint is needed), so the wheel speeds "
+                f"({lname}, {rname}) cannot be read; record the joint velocities, or choose "
+                "the base's Odometry topic with --odom-topic"
+            )
         if lname not in names or rname not in names or len(vel) != len(names):
             raise LogValueError(
                 f"JointState message {i} of topic '{topic}' has joints {names} with "
                 f"{len(vel)} velocities, so the left/right wheel speeds ({lname}, {rname}) "
-                "cannot be read (no joint's name holds 'left' and another's 'right'); if it holds no "
-                "wheels, choose the base's Odometry topic with --odom-topic, else name the "
+                "cannot be read (no one joint's name holds 'left' and one 'right'); if it holds "
+                "no wheels, choose the base's Odometry topic with --odom-topic, else name the "
                 "wheel joints (Python: read_trace(..., wheel_joints=(left, right)))"
             )
         left[i], right[i] = vel[names.index(lname)], vel[names.index(rname)]

@@ -180,6 +180,26 @@ def test_joint_state_in_a_bag(tmp_path: Path) -> None:
     assert np.allclose(tr.meas_v, 0.05 * 3.0) and np.allclose(tr.meas_w, 0.05 * 2.0 / 0.2)
 
 
+def test_joint_state_without_velocities_says_so(tmp_path: Path) -> None:
+    # a driver that publishes positions only: the wheels are found, their speeds are absent
+    # (it said that no joint's name holds 'left' and another's 'right')
+    t_ns = T0_NS + np.arange(5) * 10**8
+    path = write_joint_state_bag(
+        tmp_path / "positions.bag",
+        cmd_t_ns=t_ns.tolist(),
+        cmd_v=[0.1] * 5,
+        cmd_w=[0.0] * 5,
+        js_t_ns=t_ns.tolist(),
+        names=["wheel_left_joint", "wheel_right_joint"],
+        velocity=np.zeros((5, 0)),
+    )
+    with pytest.raises(LogValueError) as err:
+        read_trace(path, wheel_radius_m=0.05, wheel_separation_m=0.2)
+    text = str(err.value)
+    assert "has joints ['wheel_left_joint', 'wheel_right_joint'] but 0 velocities" in text
+    assert "one per joint is needed" in text and "holds 'left'" not in text
+
+
 # ------------------------------------------------------------------------------- bad input
 
 
