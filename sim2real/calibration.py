@@ -42,8 +42,8 @@ outside that range each axis's noise std is scaled by the factor :math:`c` at wh
 coverage reaches the range's nearer end (split-conformal calibration of the band's scale,
 Angelopoulos & Bates 2021, "A gentle introduction to conformal prediction", sec. 1, with a
 margin because another session differs from the validation ones). The noise draws are common
-random numbers, so coverage rises with :math:`c`, found by bisection in
-:data:`NOISE_SCALE_RANGE`; where the range is out of reach (the dynamics spread alone
+random numbers, so coverage (nearly always) rises with :math:`c`; the crossing is found by
+bisection in :data:`NOISE_SCALE_RANGE`; where the range is out of reach (the dynamics spread alone
 over-covers, or the members miss the log by more than any noise) the bound is kept and the
 coverage says so. The factors, noise stds, the likelihood before and after and the
 validation coverage before and after the matching go into a ``calibration:`` block.
@@ -328,6 +328,7 @@ def match_noise_scale(
     1.0
     """
     from sim2real.agreement import (
+        COVERAGE_LEVELS,
         NOISE_DRAWS,
         band_coverage,
         check_band_level,
@@ -354,7 +355,9 @@ def match_noise_scale(
             f"got {scale_range!r}; e.g. {NOISE_SCALE_RANGE}"
         )
     n = members.shape[0]
-    draws = max(NOISE_DRAWS, math.ceil((2.0 / (1.0 - level) - 1.0) / n))
+    # as many noise draws as agree --ensemble takes (sized for its widest reported level)
+    widest = max(*COVERAGE_LEVELS, level)
+    draws = max(NOISE_DRAWS, math.ceil((2.0 / (1.0 - widest) - 1.0) / n))
     base = np.repeat(members, draws, axis=0)
     z = np.random.default_rng(seed).standard_normal(base.shape)
     everywhere = np.ones(real.shape, dtype=bool)
