@@ -666,7 +666,32 @@ def calibrate(
         tol_v=tol_v,
         tol_w=tol_w,
     )
-    return dataclasses.replace(result, notes=notes)
+    short = _short_data_note(traces, result.n_active)
+    return dataclasses.replace(result, notes=notes + ((short,) if short else ()))
+
+
+#: Active validation data (s) below which ``calibrate`` says the spread is judged on little:
+#: in ``benchmarks/bench_novel_robots.py`` two 40 s sessions per base (~70 s active) left new
+#: sessions' v coverage at 75.7-77.4 % where two 90 s sessions gave 81.8-92.4 %.
+SHORT_VALIDATION_S = 120.0
+
+
+def _short_data_note(traces: Sequence[Any], n_active: int) -> str | None:
+    """One sentence when the validation logs hold under :data:`SHORT_VALIDATION_S` of active
+    samples (their count times the logs' median odometry interval), else None."""
+    steps = [np.diff(np.asarray(t.meas_t_s, dtype=np.float64)) for t in traces]
+    steps = [d[np.isfinite(d) & (d > 0)] for d in steps]
+    if not any(d.size for d in steps):
+        return None
+    active_s = n_active * float(np.median(np.concatenate(steps)))
+    if active_s >= SHORT_VALIDATION_S:
+        return None
+    return (
+        f"the validation logs hold {active_s:.0f} s of active samples: a spread judged on less "
+        f"than {SHORT_VALIDATION_S:.0f} s may be too narrow for a new session (measured: "
+        "bands calibrated on ~70 s covered 76-77 % of new sessions); calibrate on more or "
+        "longer sessions"
+    )
 
 
 def write_calibrated(
