@@ -115,6 +115,7 @@ __all__ = [
     "EnsembleResult",
     "agreement_from_arrays",
     "band_coverage",
+    "band_noise_draws",
     "band_verdict",
     "calibrated_range",
     "check_band_level",
@@ -592,6 +593,21 @@ def _check_ensemble_args(n: Any, spread: Any, noise_draws: Any) -> None:
         )
 
 
+def band_noise_draws(n: int, level: float, at_least: int = NOISE_DRAWS) -> int:
+    """Noise draws per member for an ``n``-member band that can report every level.
+
+    *m* draws span at most a (m - 1)/(m + 1) band, so the draws are raised until ``n`` x draws
+    span the widest of :data:`COVERAGE_LEVELS` and ``level``.
+
+    Examples
+    --------
+    >>> band_noise_draws(32, 0.9), band_noise_draws(8, 0.9)
+    (4, 5)
+    """
+    widest = max(*COVERAGE_LEVELS, level)
+    return max(at_least, math.ceil((2.0 / (1.0 - widest) - 1.0) / n))
+
+
 def ensemble_members(
     trace: TraceLike,
     *,
@@ -686,9 +702,7 @@ def run_ensemble(
     level = check_band_level(band_level)
     _check_ensemble_args(n, spread, noise_draws)
     spec = resolve_robot(robot)
-    # m draws span at most a (m - 1)/(m + 1) band: enough noise draws for the widest level
-    widest = max(*COVERAGE_LEVELS, level)
-    noise_draws = max(noise_draws, math.ceil((2.0 / (1.0 - widest) - 1.0) / n))
+    noise_draws = band_noise_draws(n, level, noise_draws)
     drawn, mv, mw = ensemble_members(
         trace,
         robot=spec,

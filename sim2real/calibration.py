@@ -328,9 +328,8 @@ def match_noise_scale(
     1.0
     """
     from sim2real.agreement import (
-        COVERAGE_LEVELS,
-        NOISE_DRAWS,
         band_coverage,
+        band_noise_draws,
         check_band_level,
         predictive_band,
     )
@@ -354,11 +353,8 @@ def match_noise_scale(
             f"match_noise_scale: scale_range must hold 1 between two positive finite bounds, "
             f"got {scale_range!r}; e.g. {NOISE_SCALE_RANGE}"
         )
-    n = members.shape[0]
-    # as many noise draws as agree --ensemble takes (sized for its widest reported level)
-    widest = max(*COVERAGE_LEVELS, level)
-    draws = max(NOISE_DRAWS, math.ceil((2.0 / (1.0 - widest) - 1.0) / n))
-    base = np.repeat(members, draws, axis=0)
+    # as many noise draws as agree --ensemble takes
+    base = np.repeat(members, band_noise_draws(members.shape[0], level), axis=0)
     z = np.random.default_rng(seed).standard_normal(base.shape)
     everywhere = np.ones(real.shape, dtype=bool)
 
@@ -489,6 +485,8 @@ def calibrate_traces(
     noise = distribution.noise
     cache: dict[tuple[float, float], tuple[float, float, float]] = {}
 
+    best_members: list[Any] = []  # [loglik, members v, members w] of the best point so far
+
     def evaluate(x: Sequence[float]) -> float:
         """-loglik at (log factor, session factor); noise stds maximised inside."""
         key = (round(float(x[0]), 6), round(min(max(float(x[1]), 0.0), SESSION_MAX), 6))
@@ -497,6 +495,8 @@ def calibrate_traces(
             sv, llv = _best_noise(real_v, mv, noise.quantum_v_mps, NOISE_RANGE)
             sw, llw = _best_noise(real_w, mw, noise.quantum_w_radps, NOISE_RANGE)
             cache[key] = (llv + llw, sv, sw)
+            if not best_members or llv + llw > best_members[0]:  # the coverage matching's
+                best_members[:] = [llv + llw, mv, mw]
         return -cache[key][0]
 
     log_lo, log_hi = math.log(FACTOR_RANGE[0]), math.log(FACTOR_RANGE[1])
@@ -523,7 +523,7 @@ def calibrate_traces(
     ) + predictive_log_likelihood(
         real_w, mw1, noise.std_w_radps**2 + noise.quantum_w_radps**2 / 12.0
     )
-    mvb, mwb = members(factor, session_factor)
+    _, mvb, mwb = best_members  # the best point's ensembles, not replayed again
     scale_v, cov_v0, cov_v = match_noise_scale(real_v, mvb, std_v, noise.quantum_v_mps, seed=seed)
     scale_w, cov_w0, cov_w = match_noise_scale(
         real_w, mwb, std_w, noise.quantum_w_radps, seed=seed + 1
