@@ -444,8 +444,13 @@ def _descendant_commands() -> list[str]:
 @pytest.mark.parametrize("lean", [True, False])
 def test_lean_local_ray_leaves_out_the_cluster_services(lean: bool) -> None:
     """A local Ray for one command's tasks starts without the autoscaler monitor, the log
-    monitor and the dashboard API server, stops in well under Ray's 1 s monitor grace, and
-    leaves Ray's own start-up code as it was."""
+    monitor and the dashboard API server, leaves no process behind when it stops, and leaves
+    Ray's own start-up code as it was.
+
+    The full start's stop waits out Ray's 1 s grace for the monitor (a lower bound, which load
+    cannot break); the lean start's stop time is not asserted: a wall-clock upper bound failed
+    once in CI under load (0.8 s), and what makes the lean stop quick is structural — there is
+    no monitor to wait for, which the ``services`` check above asserts."""
     import ray
     from ray._private.node import Node
     from ray._private.parameter import RayParams
@@ -468,4 +473,6 @@ def test_lean_local_ray_leaves_out_the_cluster_services(lean: bool) -> None:
         t0 = time.perf_counter()
         ray.shutdown()
         stop_s = time.perf_counter() - t0
-    assert (stop_s < 0.8) if lean else (stop_s > 0.9)
+    assert _descendant_commands() == []
+    if not lean:
+        assert stop_s > 0.9
