@@ -416,6 +416,40 @@ def test_auto_with_a_stale_record_starts_a_local_ray(
             record.unlink()
 
 
+@pytest.mark.cluster
+def test_registered_first_asks_ray_once_the_node_is_there(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The wait for a new node's registration ends at once for a registered node (and Ray's
+    own look-up then runs once); for a node that never registers it gives up after its bound
+    and leaves the look-up to Ray."""
+    import ray
+
+    import sim2real.cluster as cluster
+
+    calls: list[tuple[str, str]] = []
+
+    def look_up(gcs_address: str, node_id: str) -> str:
+        calls.append((gcs_address, node_id))
+        return f"info of {node_id}"
+
+    assert not ray.is_initialized()
+    try:
+        assert cluster.connect("auto", local_cpus=1, lean=True) is True
+        gcs = ray.get_runtime_context().gcs_address
+        node = ray.get_runtime_context().get_node_id()
+        assert cluster._registered_first(look_up)(gcs, node) == f"info of {node}"
+        assert calls == [(gcs, node)]
+        monkeypatch.setattr(cluster, "_REGISTERED_WAIT_S", 0.2)
+        absent = "ff" * (len(node) // 2)
+        t0 = time.perf_counter()
+        assert cluster._registered_first(look_up)(gcs, absent) == f"info of {absent}"
+        assert time.perf_counter() - t0 >= 0.2  # a lower bound: load cannot break it
+        assert calls == [(gcs, node), (gcs, absent)]
+    finally:
+        ray.shutdown()
+
+
 def _descendant_commands() -> list[str]:
     """Command lines of this process's descendants (Linux /proc)."""
     parent: dict[int, int] = {}
@@ -452,16 +486,22 @@ def test_lean_local_ray_leaves_out_the_cluster_services(lean: bool) -> None:
     once in CI under load (0.8 s), and what makes the lean stop quick is structural — there is
     no monitor to wait for, which the ``services`` check above asserts."""
     import ray
+    from ray._private import services as ray_services
     from ray._private.node import Node
     from ray._private.parameter import RayParams
 
     from sim2real.cluster import connect
 
-    before = (RayParams.__init__, Node.start_api_server)
+    before = (RayParams.__init__, Node.start_api_server, ray_services.get_node)
     assert not ray.is_initialized()
     try:
         assert connect("auto", local_cpus=1, lean=lean) is True
-        assert (RayParams.__init__, Node.start_api_server) == before
+        assert (RayParams.__init__, Node.start_api_server, ray_services.get_node) == before
+        # the full start's driver waited in ray.init for a worker Ray starts with it; the lean
+        # start's first worker comes with the first task
+        workers = [cmd for cmd in _descendant_commands() if cmd.startswith("ray::")]
+        workers = [cmd for cmd in workers if "Agent" not in cmd]
+        assert len(workers) == (0 if lean else 1), workers
         assert map_tasks(abs, [-1, 2, -3], address="auto") == [1, 2, 3]
         services = [
             name
