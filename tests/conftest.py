@@ -11,6 +11,8 @@ from hypothesis import HealthCheck, settings
 
 # No per-example deadline: the first example of a property test may compile numba kernels, and
 # CI machines are loaded. In CI (CI=true) the examples are derandomised, so a run is repeatable.
+# A test's own @settings inherits these, except a list it gives: suppress_health_check=[...]
+# replaces the profile's, so such a list names HealthCheck.too_slow again.
 settings.register_profile("dev", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.register_profile(
     "ci", deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]

@@ -397,7 +397,10 @@ def fuzz_dir(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
 
 
 @pytest.mark.slow
-@settings(max_examples=12, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=12,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 @given(faults=st.lists(_FAULTS, min_size=1, max_size=3))
 def test_any_mix_of_faults_is_exit_0_or_2_with_finite_figures(capsys, fuzz_dir, faults) -> None:
     log = write_faulty(fuzz_dir / "fuzz.mcap", faults, _BASE)
@@ -406,7 +409,10 @@ def test_any_mix_of_faults_is_exit_0_or_2_with_finite_figures(capsys, fuzz_dir, 
 
 
 @pytest.mark.slow
-@settings(max_examples=4, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=4,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 @given(faults=st.lists(_FAULTS, min_size=1, max_size=2))
 def test_any_mix_of_faults_fits_or_exits_2(capsys, fuzz_dir, faults) -> None:
     log = write_faulty(fuzz_dir / "fuzz_fit.mcap", faults, _BASE)

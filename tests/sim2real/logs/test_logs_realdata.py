@@ -121,7 +121,9 @@ def test_inspect_real_logs(drexel_log: Path, neato_log: Path):
 
 
 @settings(
-    max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=20,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(
     flips=st.lists(st.tuples(st.integers(0, 2_095_601), st.integers(1, 255)), max_size=3),
