@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robots.params import Prior
+from robots.params import DriveParams, Prior
 from robots.spec import RobotSpec, load_spec
 from robots.template import spec_text
 from sim2real.agreement import measure_agreement
@@ -31,6 +31,7 @@ from sim2real.replay import replay
 from sim2real.skid_plant import (
     CHI_RANGE,
     MU_RANGE,
+    SkidPlantParams,
     effective_track_factor,
     husky_like,
     make_skid_sessions,
@@ -38,6 +39,7 @@ from sim2real.skid_plant import (
     skid_robot,
 )
 from sysid.fit import fit_drive
+from tests.processes import map_in_processes
 
 
 def _husky_spec(folder: Path, drive_type: str) -> RobotSpec:
@@ -137,6 +139,28 @@ def test_skid_robots_span_the_published_slip() -> None:
         make_skid_sessions(husky_like(), 1, seed=0, ground_sd=-0.1)
 
 
+#: One fit of :func:`_fit_and_score`: the plant, the seed of its sessions, their duration (s),
+#: the spec fitted and the engines the held-out session is replayed in.
+FitCase = tuple[SkidPlantParams, int, float, RobotSpec, tuple[str, ...]]
+
+
+def _fit_and_score(case: FitCase) -> tuple[list[float], DriveParams, float]:
+    """Fit the plant's first teleop session with the spec (the driver's track factor fixed;
+    run in a worker process): the held-out session's agreement in each engine, the fitted
+    parameters and the fit's final cost."""
+    plant, seed, duration_s, spec, engines = case
+    fit_log, held_out = make_skid_sessions(
+        plant, 2, seed=seed, duration_s=duration_s, profile="teleop"
+    )
+    priors = _fixed(spec, driver_track_factor=1.875)
+    result = fit_drive([fit_log], geometry=spec.geometry, base_params=spec.drive, priors=priors)
+    scores = []
+    for engine in engines:
+        sim = replay(held_out, robot=spec, params=result.params, engine=engine)
+        scores.append(measure_agreement(held_out, sim).agreement)
+    return scores, result.params, result.settings["cost"]
+
+
 @pytest.mark.slow
 def test_skid_fit_beats_the_differential_fit(husky: RobotSpec, husky_diff: RobotSpec) -> None:
     """Every seed: one robot on one ground (:func:`skid_robot`); fit one 90 s teleop session
@@ -164,27 +188,26 @@ def test_skid_fit_beats_the_differential_fit(husky: RobotSpec, husky_diff: Robot
     of seed 101's lateral tyre stiffness move its skid fit 0.925-0.929 (before 0.885-0.924).
     The differential fit's own re-balance is a five-step polish: run to convergence it gives
     101 0.738, 108 0.644 (the target's contrast holds on 108 alone then)."""
+    # the ten fits are independent: one worker process per core
+    specs = (husky, husky_diff)
+    cases = [
+        (skid_robot(seed), seed, 90.0, spec, ("reduced",))
+        for seed in TARGET_SEEDS
+        for spec in specs
+    ]
+    fitted = map_in_processes(_fit_and_score, cases)
     results = {}
-    for seed in TARGET_SEEDS:
-        plant = skid_robot(seed)
-        fit_log, held_out = make_skid_sessions(
-            plant, 2, seed=seed, duration_s=90.0, profile="teleop"
-        )
-        scores = []
-        for spec in (husky, husky_diff):
-            priors = _fixed(spec, driver_track_factor=1.875)
-            result = fit_drive(
-                [fit_log], geometry=spec.geometry, base_params=spec.drive, priors=priors
-            )
-            sim = replay(held_out, robot=spec, params=result.params, engine="reduced")
-            scores.append(measure_agreement(held_out, sim).agreement)
-            if spec is husky:
-                chi = effective_track_factor(plant, 0.0, 1.0)
-                assert result.params.track_factor == pytest.approx(chi, abs=0.06)
-                skid_params = result.params
-            else:
-                assert result.params.track_factor == 1.0
-        results[seed] = tuple(round(x, 3) for x in scores)
+    for k, seed in enumerate(TARGET_SEEDS):
+        ([skid_score], skid_params, _), ([diff_score], diff_params, _) = fitted[2 * k : 2 * k + 2]
+        chi = effective_track_factor(skid_robot(seed), 0.0, 1.0)
+        assert skid_params.track_factor == pytest.approx(chi, abs=0.06)
+        assert diff_params.track_factor == 1.0
+        results[seed] = (round(skid_score, 3), round(diff_score, 3))
+    seed = TARGET_SEEDS[-1]
+    held_out = make_skid_sessions(
+        skid_robot(seed), 2, seed=seed, duration_s=90.0, profile="teleop"
+    )[1]
+    scores = [skid_score, diff_score]
     assert all(skid >= 0.9 for skid, _ in results.values()), results
     assert all(skid >= diff + 0.1 for skid, diff in results.values()), results
     # the pybullet engine with the same (last) fit agrees with the reduced one on the log
@@ -205,17 +228,11 @@ def test_the_issue_target_in_full_on_one_plant(husky: RobotSpec, husky_diff: Rob
     convergence, so the contrast does not hang on that polish). On 8 of the 10 seeds the
     differential fit reaches 0.70-0.81 while the skid fit stays >= 0.9
     (:func:`test_skid_fit_beats_the_differential_fit`, ``benchmarks/bench_skid.py``)."""
-    plant = skid_robot(108)
-    fit_log, held_out = make_skid_sessions(plant, 2, seed=108, duration_s=90.0, profile="teleop")
-    scores = []
-    for spec in (husky, husky_diff):
-        priors = _fixed(spec, driver_track_factor=1.875)
-        params = fit_drive(
-            [fit_log], geometry=spec.geometry, base_params=spec.drive, priors=priors
-        ).params
-        for engine in ("reduced", "pybullet"):
-            sim = replay(held_out, robot=spec, params=params, engine=engine)
-            scores.append(measure_agreement(held_out, sim).agreement)
+    engines = ("reduced", "pybullet")
+    cases = [(skid_robot(108), 108, 90.0, spec, engines) for spec in (husky, husky_diff)]
+    scores = [
+        x for spec_scores, _, _ in map_in_processes(_fit_and_score, cases) for x in spec_scores
+    ]
     skid_reduced, skid_pybullet, diff_reduced, diff_pybullet = scores
     assert skid_reduced >= 0.9 and skid_pybullet >= 0.9, scores
     assert diff_reduced < 0.7 and diff_pybullet < 0.7, scores
@@ -294,16 +311,14 @@ def test_tiny_changes_of_the_data_keep_the_fit_in_its_basin(husky: RobotSpec) ->
     tolerances of 1e-12 find no further descent), so the fit is the best of its candidates,
     not a proven global minimum."""
     base = skid_robot(101)
-    priors = _fixed(husky, driver_track_factor=1.875)
-    costs, chis, agreements = [], [], []
-    for rel in (0.0, 1e-7):
-        plant = base.replace(slip_lat_mps=base.slip_lat_mps * (1.0 + rel))
-        log, held = make_skid_sessions(plant, 2, seed=101, duration_s=30.0, profile="teleop")
-        r = fit_drive([log], geometry=husky.geometry, base_params=husky.drive, priors=priors)
-        costs.append(r.settings["cost"])
-        chis.append(r.params.track_factor)
-        sim = replay(held, robot=husky, params=r.params, engine="reduced")
-        agreements.append(measure_agreement(held, sim).agreement)
+    cases = [
+        (base.replace(slip_lat_mps=base.slip_lat_mps * (1.0 + rel)), 101, 30.0, husky, ("reduced",))
+        for rel in (0.0, 1e-7)
+    ]
+    fitted = map_in_processes(_fit_and_score, cases)
+    costs = [cost for _, _, cost in fitted]
+    chis = [params.track_factor for _, params, _ in fitted]
+    agreements = [agreement for [agreement], _, _ in fitted]
     assert max(costs) - min(costs) < 2.0 and max(costs) < 880.0, costs  # before: 1036, 1083
     assert max(chis) - min(chis) < 0.01, chis
     assert min(agreements) > 0.9 and max(agreements) - min(agreements) < 0.02, agreements
