@@ -7,9 +7,12 @@ import os
 import runpy
 import shlex
 from pathlib import Path
+from typing import Any
 
 import pytest
 import yaml
+
+from tests.processes import map_in_processes
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -57,13 +60,31 @@ def _sh_commands(text: str) -> list[list[str]]:
     return out
 
 
+def _tour_or_demo(job: tuple[str, Path, list[list[str]]]) -> dict[str, Any] | None:
+    """Run the tour's commands in ``folder`` (None), or the demo into ``folder/demo`` (its
+    summary); a worker process each."""
+    from sim2real.cli import main
+    from sim2real.cli._demo import run_demo
+
+    kind, folder, commands = job
+    if kind == "demo":
+        return run_demo(folder / "demo", engine="reduced")
+    cwd = os.getcwd()
+    try:
+        os.chdir(folder)
+        for argv in commands:
+            assert main(argv) == 0, argv
+    finally:
+        os.chdir(cwd)
+    return None
+
+
 @pytest.mark.slow
 def test_readme_cli_tour_gives_the_demos_figures(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The tour's fit and agree commands, run as written, give the demo's numbers."""
-    from sim2real.cli import main
-    from sim2real.cli._demo import run_demo, tour_commands
+    from sim2real.cli._demo import tour_commands
 
     commands = _sh_commands((ROOT / "README.md").read_text(encoding="utf-8"))
     fit = next(c for c in commands if c[:2] == ["sysid", "fit"])
@@ -75,16 +96,13 @@ def test_readme_cli_tour_gives_the_demos_figures(
         norm(c) for c in tour_commands(".", "data")
     ]
     (tmp_path / "data").symlink_to(ROOT / "data")
-    cwd = os.getcwd()
-    try:
-        os.chdir(tmp_path)
-        assert main(fit) == 0
-        assert main(calibrate) == 0
-        assert main([*agree, "--engine", "reduced"]) == 0  # the reduced engine keeps it quick
-    finally:
-        os.chdir(cwd)
+    # the tour and the demo are independent runs: a worker process each
+    tour_argv = [fit, calibrate, [*agree, "--engine", "reduced"]]  # reduced keeps it quick
+    _, summary = map_in_processes(
+        _tour_or_demo, [("tour", tmp_path, tour_argv), ("demo", tmp_path, [])]
+    )
+    assert summary is not None
     tour = json.loads((tmp_path / "agreement.json").read_text())
-    summary = run_demo(tmp_path / "demo", engine="reduced")
     capsys.readouterr()
     for key in ("agreement", "agreement_v", "fit_percent_v", "fit_percent_w", "lag_s_w"):
         assert summary["sysid"][key] == tour[key], key
