@@ -53,6 +53,47 @@ def neato_log(realdata_dir: Path) -> Path:
 _EXTRAS = {"train": ("torch", "stable_baselines3"), "cluster": ("ray",)}
 
 
+def _foreign_ray_gcs() -> list[int]:
+    """Pids of Ray GCS servers on this machine that this process did not start (Linux /proc).
+
+    ``ray.init(address="auto")`` (``--ray auto``, :func:`sim2real.cluster.connect`) joins any
+    Ray running on the machine, found by its ``gcs_server`` process: a shared machine where
+    another user's Ray is up would make the tests of a local start fail for that reason.
+    """
+    proc = Path("/proc")
+    if not proc.is_dir():
+        return []
+    parents: dict[int, int] = {}
+    gcs: list[int] = []
+    for stat in proc.glob("[0-9]*/stat"):
+        try:
+            text = stat.read_text()
+            cmd = (stat.parent / "cmdline").read_bytes().split(b"\0")[0]
+        except OSError:
+            continue
+        pid = int(stat.parent.name)
+        parents[pid] = int(text[text.rindex(")") + 2 :].split()[1])
+        if cmd.endswith(b"/gcs_server"):
+            gcs.append(pid)
+    foreign = []
+    for pid in gcs:
+        ancestor = pid
+        while ancestor > 1 and ancestor != os.getpid():
+            ancestor = parents.get(ancestor, 1)
+        if ancestor != os.getpid():
+            foreign.append(pid)
+    return foreign
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    """Skip a `cluster` test while another Ray runs on this machine (it would be joined)."""
+    if item.get_closest_marker("cluster") is not None and (pids := _foreign_ray_gcs()):
+        pytest.skip(
+            f"another Ray runs on this machine (gcs_server pid {pids[0]}): "
+            "--ray auto would join it instead of starting this test's own"
+        )
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Skip tests of an optional extra (`train`, `cluster`) when it is not installed.
 
