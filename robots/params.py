@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -38,6 +38,7 @@ __all__ = [
     "MAY_BE_NEGATIVE",
     "MUST_BE_POSITIVE",
     "PARAMS_FILE_FORMAT",
+    "PER_TOTAL",
     "SCHEMA",
     "SIGN_RULES",
     "UNITS",
@@ -46,6 +47,7 @@ __all__ = [
     "FieldSchema",
     "ParamsFile",
     "Prior",
+    "coords_to_values",
     "generic_priors",
     "load_drive_params",
     "load_params_document",
@@ -263,8 +265,28 @@ class DriveParams:
 
 #: Coordinate kinds: the space in which a field is fitted, given a prior and sampled.
 #: ``lin``: the value itself; ``log``: log of the value; ``log_total_mass``:
-#: log(spec mass + added_mass_kg); ``log_total_inertia``: log(spec yaw inertia + added one).
-COORD_KINDS = ("lin", "log", "log_total_mass", "log_total_inertia")
+#: log(spec mass + added_mass_kg); ``log_total_inertia``: log(spec yaw inertia + added one);
+#: ``per_total_mass`` / ``per_total_inertia``: the value over the robot's total mass / yaw
+#: inertia (a friction force per kg, a deceleration; a viscous coefficient per kg, a rate).
+#:
+#: Why friction is per mass: velocity logs fix only ratios to the motor gain, so scaling the
+#: gain, the masses, the frictions and the torque cap together leaves every response as it
+#: was (``sysid._coords``). With friction in absolute units its prior had a say in where on that
+#: ridge the fit lands, and a plant whose friction was larger than the spec's nominal pulled
+#: the fitted mass down (a 60 kg base fitted at 41.5 kg, its fleet at 21.7 kg). Per unit mass
+#: the friction coordinates do not move along the ridge: the mass, inertia, gain and torque
+#: priors alone place it, and the ridge is a straight line in the coordinates (masses, gain
+#: and cap all shift by the same log), so a fleet's Gaussian population stays on it.
+COORD_KINDS = (
+    "lin",
+    "log",
+    "log_total_mass",
+    "log_total_inertia",
+    "per_total_mass",
+    "per_total_inertia",
+)
+#: Coordinate kinds that divide the value by a total (the field that total belongs to).
+PER_TOTAL = {"per_total_mass": "added_mass_kg", "per_total_inertia": "added_yaw_inertia_kgm2"}
 #: Sign rules: ``nonneg`` (>= 0), ``positive`` (> 0; +inf allowed where ``may_be_inf``),
 #: ``total_positive`` (any sign, but the spec value plus it must stay > 0).
 SIGN_RULES = ("nonneg", "positive", "total_positive")
@@ -278,23 +300,16 @@ def _abs(value: float) -> Callable[[BaseGeometry], float]:
 
 
 def _weight(fraction: float) -> Callable[[BaseGeometry], float]:
-    """A force spread as a fraction of the spec weight m g, N."""
-    return lambda g: fraction * g.mass_kg * _G
+    """A spread of a force per unit mass: ``fraction`` of g, m/s^2 (a ``per_total_mass``
+    friction coordinate)."""
+    return lambda g: fraction * _G
 
 
 def _weight_arm(fraction: float) -> Callable[[BaseGeometry], float]:
-    """A yaw-torque spread: ``fraction`` of the weight acting at half the wheel track, N m."""
-    return lambda g: fraction * g.mass_kg * _G * 0.5 * g.wheel_separation_m
-
-
-def _per_mass(rate_1ps: float) -> Callable[[BaseGeometry], float]:
-    """A viscous-coefficient spread as a rate per spec mass, N s/m."""
-    return lambda g: rate_1ps * g.mass_kg
-
-
-def _per_inertia(rate_1ps: float) -> Callable[[BaseGeometry], float]:
-    """A yaw viscous-coefficient spread as a rate per spec yaw inertia, N m s/rad."""
-    return lambda g: rate_1ps * g.yaw_inertia_kgm2
+    """A spread of a yaw torque per unit yaw inertia: ``fraction`` of the spec weight acting at
+    half the wheel track, over the spec yaw inertia, rad/s^2 (a ``per_total_inertia``
+    coordinate)."""
+    return lambda g: fraction * g.mass_kg * _G * 0.5 * g.wheel_separation_m / g.yaw_inertia_kgm2
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -359,6 +374,21 @@ class FieldSchema:
     fit_range: tuple[float, float] | None = None
     fit_step: float = 1e-3
 
+    @property
+    def per_field(self) -> str | None:
+        """For a ``per_total_*`` coordinate, the field whose total divides the value."""
+        return PER_TOTAL.get(self.coord)
+
+    def reference(self, geometry: BaseGeometry) -> float:
+        """The spec total a ``per_total_*`` coordinate divides by when no other total is given
+        (the spec mass or yaw inertia; 1 for the other kinds): a spec's friction prior written
+        in the value's unit is turned into coordinate units with it."""
+        if self.coord == "per_total_mass":
+            return geometry.mass_kg
+        if self.coord == "per_total_inertia":
+            return geometry.yaw_inertia_kgm2
+        return 1.0
+
     def spec_value(self, geometry: BaseGeometry) -> float:
         """The spec quantity a ``total_positive`` field adds to (0 for the others)."""
         if self.coord == "log_total_mass":
@@ -382,14 +412,18 @@ class FieldSchema:
         wheels = self.wheels_part(geometry)
         return wheels + share * self.lower * (self.spec_value(geometry) - wheels)
 
-    def to_coord(self, value: float, geometry: BaseGeometry) -> float:
+    def to_coord(self, value: float, geometry: BaseGeometry, total: float | None = None) -> float:
         """The coordinate of ``value`` (inf stays inf for ``log`` fields).
 
-        Raises :class:`~robots.errors.RobotsValueError` when ``value`` has no coordinate (a
+        ``total``: the robot's total mass (kg) or yaw inertia (kg m^2) for a ``per_total_*``
+        field; the spec's (:meth:`reference`) when omitted. Raises
+        :class:`~robots.errors.RobotsValueError` when ``value`` has no coordinate (a
         non-positive limit or total mass).
         """
         if self.coord == "lin":
             return float(value)
+        if self.per_field is not None:
+            return float(value) / self._total(geometry, total)
         total = float(value) + self.spec_value(geometry)
         if not total > 0:
             raise RobotsValueError(
@@ -398,24 +432,39 @@ class FieldSchema:
             )
         return math.log(total)
 
-    def from_coord(self, z: float, geometry: BaseGeometry) -> float:
-        """The value at coordinate ``z`` (inverse of :meth:`to_coord`)."""
+    def from_coord(self, z: float, geometry: BaseGeometry, total: float | None = None) -> float:
+        """The value at coordinate ``z`` (inverse of :meth:`to_coord`, same ``total``)."""
         if self.coord == "lin":
             return float(z)
+        if self.per_field is not None:
+            return float(z) * self._total(geometry, total)
         return math.exp(float(z)) - self.spec_value(geometry)
 
+    def _total(self, geometry: BaseGeometry, total: float | None) -> float:
+        t = self.reference(geometry) if total is None else float(total)
+        if not (t > 0 and math.isfinite(t)):
+            raise RobotsValueError(
+                f"drive parameter '{self.name}' is per unit of the total of '{self.per_field}', "
+                f"which must be a finite number > 0, got {t!r}"
+            )
+        return t
+
     def coord_bounds(self, geometry: BaseGeometry) -> tuple[float, float]:
-        """:attr:`lower`, :attr:`upper` in coordinates."""
-        if self.coord == "lin":
+        """:attr:`lower`, :attr:`upper` in coordinates (``per_total_*``: of the value per unit
+        of the total; only 0 and inf occur there)."""
+        if self.coord == "lin" or self.per_field is not None:
             return self.lower, self.upper
         scale = self.spec_value(geometry) or 1.0
         low = self.total_floor(geometry) if self.spec_value(geometry) else self.lower
         return math.log(low), math.log(self.upper * scale)
 
-    def derivative(self, value: float, geometry: BaseGeometry) -> float:
-        """d value / d coordinate at ``value`` (to turn a coordinate std into a value std)."""
+    def derivative(self, value: float, geometry: BaseGeometry, total: float | None = None) -> float:
+        """d value / d coordinate at ``value`` (to turn a coordinate std into a value std; for a
+        ``per_total_*`` field at a fixed ``total``)."""
         if self.coord == "lin":
             return 1.0
+        if self.per_field is not None:
+            return self._total(geometry, total)
         return float(value) + self.spec_value(geometry)
 
 
@@ -432,7 +481,7 @@ def _field(
         may_be_inf=kw.pop("may_be_inf", False),
         axis=kw.pop("axis", "vw"),
         fittable=kw.pop("fittable", True),
-        absurd_sd=kw.pop("absurd_sd", 3.0 if coord != "lin" else 100.0),
+        absurd_sd=kw.pop("absurd_sd", 3.0 if coord.startswith("log") else 100.0),
         fit_kind=kw.pop("fit_kind", "lin" if coord == "lin" else "log"),
         **kw,
     )
@@ -600,7 +649,7 @@ SCHEMA: dict[str, FieldSchema] = {
             "coulomb_v_fwd_n",
             "N",
             "nonneg",
-            "lin",
+            "per_total_mass",
             (0.0, math.inf),
             axis="v",
             prior_sd=_weight(0.02),
@@ -614,7 +663,7 @@ SCHEMA: dict[str, FieldSchema] = {
             "coulomb_v_bwd_n",
             "N",
             "nonneg",
-            "lin",
+            "per_total_mass",
             (0.0, math.inf),
             axis="v",
             prior_sd=_weight(0.02),
@@ -628,7 +677,7 @@ SCHEMA: dict[str, FieldSchema] = {
             "coulomb_w_nm",
             "N m",
             "nonneg",
-            "lin",
+            "per_total_inertia",
             (0.0, math.inf),
             axis="w",
             prior_sd=_weight_arm(0.03),
@@ -642,11 +691,11 @@ SCHEMA: dict[str, FieldSchema] = {
             "viscous_v_ns_per_m",
             "N s/m",
             "nonneg",
-            "lin",
+            "per_total_mass",
             (0.0, math.inf),
             axis="v",
-            prior_sd=_per_mass(1.0),
-            session_sd=_per_mass(0.2),
+            prior_sd=_abs(1.0),
+            session_sd=_abs(0.2),
             fit_kind="ratio_v",
             fit_range=(0.0, 5.0),
             doc="viscous friction, forward",
@@ -655,11 +704,11 @@ SCHEMA: dict[str, FieldSchema] = {
             "viscous_w_nms_per_rad",
             "N m s/rad",
             "nonneg",
-            "lin",
+            "per_total_inertia",
             (0.0, math.inf),
             axis="w",
-            prior_sd=_per_inertia(1.0),
-            session_sd=_per_inertia(0.2),
+            prior_sd=_abs(1.0),
+            session_sd=_abs(0.2),
             fit_kind="ratio_w",
             fit_range=(0.0, 5.0),
             doc="viscous friction about yaw",
@@ -779,6 +828,45 @@ class Prior:
         if math.isinf(self.nominal):
             return math.inf
         return SCHEMA[self.name].to_coord(self.nominal, geometry)
+
+
+def coords_to_values(
+    names: Sequence[str],
+    z: Sequence[float],
+    geometry: BaseGeometry,
+    others: Mapping[str, float] | None = None,
+) -> dict[str, float]:
+    """The values of fields ``names`` at schema coordinates ``z``, each kept inside the
+    schema's range.
+
+    A ``per_total_*`` field (friction per unit mass or yaw inertia) is multiplied by the total
+    of its :attr:`FieldSchema.per_field`: taken from ``z`` when that field is among ``names``,
+    else from ``others`` (its value there; 0 when absent).
+
+    Examples
+    --------
+    >>> geo = BaseGeometry(mass_kg=2.0, yaw_inertia_kgm2=0.02, wheel_radius_m=0.03,
+    ...                    wheel_separation_m=0.2)
+    >>> z = [0.1, math.log(3.0)]  # 0.1 N/kg of Coulomb friction; a 3 kg total mass
+    >>> v = coords_to_values(["coulomb_v_fwd_n", "added_mass_kg"], z, geo)
+    >>> round(v["coulomb_v_fwd_n"], 6), round(v["added_mass_kg"], 6)
+    (0.3, 1.0)
+    """
+    others = {} if others is None else others
+    out: dict[str, float] = {}
+    pairs = list(zip(names, (float(x) for x in z), strict=True))
+    for per_total_pass in (False, True):  # the totals first, then what is per unit of them
+        for name, zi in pairs:
+            f = SCHEMA[name]
+            if (f.per_field is not None) != per_total_pass:
+                continue
+            total = None
+            if f.per_field is not None:
+                added = out.get(f.per_field, float(others.get(f.per_field, 0.0)))
+                total = SCHEMA[f.per_field].spec_value(geometry) + added
+            lo, hi = f.coord_bounds(geometry)
+            out[name] = f.from_coord(min(max(zi, lo), hi), geometry, total)
+    return out
 
 
 def generic_priors(drive: DriveParams, geometry: BaseGeometry) -> dict[str, Prior]:

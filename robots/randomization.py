@@ -18,14 +18,15 @@ then kept inside the schema's plausible range and mapped back to a value. Total 
 inertia are :math:`e^z > 0` and limits :math:`e^z > 0` by construction, so every draw is a
 physical robot.
 
-The block (``format: sim2real.randomization/1``)::
+The block (``format: sim2real.randomization/2``; a format-1 block, whose friction coordinates
+were the values themselves, is read and converted)::
 
     randomization:
-      format: sim2real.randomization/1
+      format: sim2real.randomization/2
       robot: turtlebot3_burger
       geometry: {mass_kg: .., yaw_inertia_kgm2: .., wheel_radius_m: .., wheel_separation_m: ..}
       names: [delay_s, added_mass_kg, ...]     # fields that vary
-      coords: [lin, log_total_mass, ...]       # their coordinate kinds (from the schema)
+      coords: [lin, log_total_mass, per_total_mass, ...]   # their coordinate kinds (the schema's)
       mean: [...]                              # in coordinates
       covariance: [[...], ...]                 # in coordinates
       fixed: {cmd_timeout_s: 0.5, accel_lim_v_mps2: .inf, ...}   # every other field
@@ -54,7 +55,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.errors import ParamsFileError, RobotsValueError
-from robots.params import SCHEMA, BaseGeometry, DriveParams, Prior, read_params_file
+from robots.params import (
+    SCHEMA,
+    BaseGeometry,
+    DriveParams,
+    Prior,
+    coords_to_values,
+    read_params_file,
+)
 
 __all__ = [
     "RANDOMIZATION_FORMAT",
@@ -68,7 +76,10 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 #: ``format:`` key of the ``randomization`` block.
-RANDOMIZATION_FORMAT = "sim2real.randomization/1"
+RANDOMIZATION_FORMAT = "sim2real.randomization/2"
+#: The earlier format, read and converted: its friction coordinates were the values (``lin``),
+#: where format 2 has them per unit of the total mass or yaw inertia (``per_total_*``).
+_FORMAT_1 = "sim2real.randomization/1"
 #: Draws are truncated at this many standard deviations per component (keeps 99.99 %
 #: of the mass, the variance shrinks by 0.1 %, and no draw is an absurd robot).
 TRUNCATE_SIGMA = 4.0
@@ -79,7 +90,8 @@ _MAX_NOISE = {"v": 1.0, "w": 5.0}
 
 def spread_limit(name: str, geometry: BaseGeometry) -> float:
     """Largest standard deviation of field ``name`` that a ``randomization`` block accepts, in
-    its schema coordinate: ``absurd_sd`` (times the prior sd for a ``lin`` coordinate).
+    its schema coordinate: ``absurd_sd`` (times the prior sd for a ``lin`` or ``per_total_*``
+    coordinate).
 
     Examples
     --------
@@ -91,7 +103,7 @@ def spread_limit(name: str, geometry: BaseGeometry) -> float:
     """
     field = SCHEMA[name]
     limit = field.absurd_sd
-    if field.coord == "lin":
+    if not field.coord.startswith("log"):  # lin, per_total_*: relative to the prior's spread
         limit *= max(field.prior_sd(geometry), 1e-12)
     return float(limit)
 
@@ -276,9 +288,7 @@ class DriveDistribution:
     def params_at(self, z: Sequence[float]) -> DriveParams:
         """The DriveParams at coordinate vector ``z`` (kept inside the schema's range)."""
         changes = dict(self.fixed)
-        for name, zi in zip(self.names, z, strict=True):
-            lo, hi = SCHEMA[name].coord_bounds(self.geometry)
-            changes[name] = SCHEMA[name].from_coord(min(max(float(zi), lo), hi), self.geometry)
+        changes |= coords_to_values(self.names, z, self.geometry, self.fixed)
         return DriveParams(**changes)
 
     def mean_params(self) -> DriveParams:
@@ -540,9 +550,7 @@ def _validate(dist: _Parts, source: str) -> None:
         )
     try:
         values = dict(dist.fixed)
-        for name, z in zip(dist.names, dist.mean, strict=True):
-            lo, hi = SCHEMA[name].coord_bounds(dist.geometry)
-            values[name] = SCHEMA[name].from_coord(min(max(z, lo), hi), dist.geometry)
+        values |= coords_to_values(dist.names, dist.mean, dist.geometry, dist.fixed)
         DriveParams(**values)
     except RobotsValueError as exc:
         raise ParamsFileError(f"{source}: {exc}; {refit}") from None
@@ -575,8 +583,9 @@ def _parse_block(
             sorted(block),
             refit,
         )
-    if block["format"] != RANDOMIZATION_FORMAT:
+    if block["format"] not in (RANDOMIZATION_FORMAT, _FORMAT_1):
         raise _fail(source, "format", f"must be '{RANDOMIZATION_FORMAT}'", block["format"], refit)
+    old = block["format"] == _FORMAT_1
     if robot is not None and block["robot"] != robot:
         raise _fail(
             source,
@@ -593,6 +602,8 @@ def _parse_block(
             source, "coords", f"must be a list of {len(names)} coordinate kinds", coords, refit
         )
     for n, c in zip(names, coords, strict=True):
+        if old and n in SCHEMA and SCHEMA[n].per_field is not None and c == "lin":
+            continue  # format 1: the value itself, converted below
         if n in SCHEMA and SCHEMA[n].coord != c:
             raise _fail(source, "coords", f"entry of '{n}' must be '{SCHEMA[n].coord}'", c, refit)
     geometry = _parse_geometry(block["geometry"], f"{source}.geometry")
@@ -611,6 +622,8 @@ def _parse_block(
             str(k): _floats([v], f"{source}.fixed.{k}", allow_inf=True)[0] for k, v in fixed.items()
         },
     )
+    if old:
+        parts = _from_format_1(parts, coords)
     _validate(parts, source)
     return cls(
         robot=str(block["robot"]),
@@ -620,6 +633,41 @@ def _parse_block(
         covariance=parts.covariance,
         fixed=dict(parts.fixed),
         noise=ObservationNoise.from_dict(block["noise"], source=f"{source}.noise"),
+    )
+
+
+def _from_format_1(parts: _Parts, coords: Sequence[str]) -> _Parts:
+    r"""A format-1 block in format-2 coordinates: each friction's value :math:`F` becomes
+    :math:`F/T` (:math:`T` its total mass or yaw inertia, :math:`e^{z_T}` when that varies too,
+    else the spec's plus the fixed payload), the covariance mapped with the Jacobian at the mean
+    (:math:`\partial(F/T)/\partial F = 1/T`, :math:`\partial(F/T)/\partial z_T = -F/T`). Shapes
+    the validation refuses are passed through for it to name."""
+    k = len(parts.names)
+    cov = np.array(parts.covariance, dtype=np.float64)
+    if len(parts.mean) != k or cov.shape != (k, k) or not all(n in SCHEMA for n in parts.names):
+        return parts
+    mean = np.array(parts.mean, dtype=np.float64)
+    jac = np.eye(k)
+    for i, (name, coord) in enumerate(zip(parts.names, coords, strict=True)):
+        per = SCHEMA[name].per_field
+        if per is None or coord != "lin":
+            continue
+        if per in parts.names:
+            j = parts.names.index(per)
+            total = math.exp(float(mean[j]))
+            jac[i, j] = -float(mean[i]) / total
+        else:
+            total = SCHEMA[per].spec_value(parts.geometry) + float(parts.fixed.get(per, 0.0))
+        if not total > 0:
+            return parts
+        jac[i, i] = 1.0 / total
+    new_cov = jac @ cov @ jac.T
+    return _Parts(
+        geometry=parts.geometry,
+        names=parts.names,
+        mean=tuple(float(x) for x in np.diag(jac) * mean),
+        covariance=tuple(tuple(float(c) for c in row) for row in 0.5 * (new_cov + new_cov.T)),
+        fixed=parts.fixed,
     )
 
 

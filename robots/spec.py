@@ -24,7 +24,11 @@ Priors
 ------
 The optional ``priors`` section gives every drive parameter a prior in its coordinate of
 :data:`robots.params.SCHEMA` (``field: {sd: .., session_sd: .., nominal: ..}``, nominal
-defaulting to the ``drive`` value), each with its justification in a comment. Fields it does not
+defaulting to the ``drive`` value), each with its justification in a comment. Friction fields
+are fitted per unit of the total mass or yaw inertia (``per_total_*`` coordinates), but their
+spreads are written in the value's own unit (N, N m, N s/m, N m s/rad) at the spec's mass and
+inertia, the figures a datasheet or a pull test gives; they are divided by the spec mass or
+yaw inertia when read. Fields it does not
 list -- and every field of a spec without the section, as ``sim2real robots new`` writes them --
 get the schema's generic wide prior (:func:`robots.params.generic_priors`). ``sysid`` fits MAP
 estimates against these priors; :mod:`robots.randomization` samples them.
@@ -355,7 +359,7 @@ class RobotSpec:
             ],
             "limits": {"max_v_mps": self.max_v_mps, "max_w_radps": self.max_w_radps},
             "drive": self.drive.to_dict(),
-            "priors": _priors_dict(self.priors, self.drive),
+            "priors": _priors_dict(self.priors, self.drive, self.geometry),
             "lidar": _plain(dataclasses.asdict(self.lidar)),
             "depth_camera": None if cam is None else _plain(dataclasses.asdict(cam)),
             "odometry": dataclasses.asdict(self.odometry),
@@ -366,13 +370,16 @@ class RobotSpec:
         return dataclasses.replace(self, drive=params)
 
 
-def _priors_dict(priors: dict[str, Prior], drive: DriveParams) -> dict[str, dict[str, float]]:
+def _priors_dict(
+    priors: dict[str, Prior], drive: DriveParams, geometry: BaseGeometry
+) -> dict[str, dict[str, float]]:
     """The ``priors`` section: the spec-given priors (generic ones are derived, not written)."""
     out: dict[str, dict[str, float]] = {}
     for name, p in priors.items():
         if p.source != "spec":
             continue
-        entry = {"sd": p.sd, "session_sd": p.session_sd}
+        ref = SCHEMA[name].reference(geometry)  # per-total frictions: written in N, N m, ...
+        entry = {"sd": p.sd * ref, "session_sd": p.session_sd * ref}
         if p.nominal != float(getattr(drive, name)):
             entry = {"nominal": p.nominal, **entry}
         out[name] = entry
@@ -521,7 +528,7 @@ def _parse(top: Section, path: Path) -> RobotSpec:
     geometry = _effective_geometry(base_mass, inertia[2], wheels, extra=extra)
     priors = generic_priors(drive, geometry)
     if priors_raw is not None:
-        priors |= _priors(top.section("priors"), drive)
+        priors |= _priors(top.section("priors"), drive, geometry)
     return RobotSpec(
         name=name,
         description=description,
@@ -612,8 +619,9 @@ def _drive(s: Section) -> DriveParams:
         raise SpecError(f"robot spec '{s.source}': section '{s.where}': {exc}") from None
 
 
-def _priors(s: Section, drive: DriveParams) -> dict[str, Prior]:
-    """The spec's ``priors`` section: ``field: {sd, session_sd[, nominal]}`` (see RobotSpec)."""
+def _priors(s: Section, drive: DriveParams, geometry: BaseGeometry) -> dict[str, Prior]:
+    """The spec's ``priors`` section: ``field: {sd, session_sd[, nominal]}`` (see RobotSpec;
+    per-total friction spreads are read in the value's unit and divided by the spec total)."""
     out: dict[str, Prior] = {}
     for name in list(s.data):
         if name not in SCHEMA:
@@ -628,8 +636,9 @@ def _priors(s: Section, drive: DriveParams) -> dict[str, Prior]:
             out[name] = Prior(
                 name=name,
                 nominal=nominal,
-                sd=entry.number("sd", nonneg=True),
-                session_sd=entry.number("session_sd", nonneg=True),
+                sd=entry.number("sd", nonneg=True) / SCHEMA[name].reference(geometry),
+                session_sd=entry.number("session_sd", nonneg=True)
+                / SCHEMA[name].reference(geometry),
                 source="spec",
             )
         except RobotsValueError as exc:

@@ -2,9 +2,10 @@ r"""Fit coordinates of :class:`robots.params.DriveParams`, and the schema's coor
 
 Two coordinate systems meet here:
 
-* the **schema coordinates** :math:`z` of :data:`robots.params.SCHEMA` (``lin`` delay and
-  friction, ``log`` gains and limits, ``log_total_mass``, ``log_total_inertia``): the priors,
-  the posterior, the population and the randomisation distribution live in them;
+* the **schema coordinates** :math:`z` of :data:`robots.params.SCHEMA` (``lin`` delay,
+  ``log`` gains and limits, ``log_total_mass``, ``log_total_inertia``, friction per unit of
+  the total mass or yaw inertia): the priors, the posterior, the population and the
+  randomisation distribution live in them;
 * the **internal fit coordinates** :math:`u` the optimiser moves, chosen so that velocity data
   see each one alone; their kind, bounds and step come from the schema too
   (``FieldSchema.fit_kind``, ``fit_range``, ``fit_step``). With :math:`k_v = 2K/r^2` and
@@ -37,7 +38,9 @@ inertia whatever the robot, and the map is unchanged above ``k``.
 Velocity data only fix mass/gain ratios, so with every other coordinate held, moving
 :math:`\log K` scales masses, inertias, friction forces and the torque cap together and leaves
 the response unchanged (exactly so without a fixed finite torque cap): the data Jacobian column
-of :math:`\log K` is zero and the priors (in :math:`z`) alone place the gain. The posterior is
+of :math:`\log K` is zero and the priors (in :math:`z`) alone place the gain. Along that ridge
+the friction coordinates (per unit mass or inertia) do not move, so only the mass, inertia, gain
+and torque-cap priors place it, and it is a straight line in :math:`z`. The posterior is
 computed in :math:`u` and mapped to :math:`z` with the Jacobian :math:`G = \partial z/\partial u`.
 A total mass or inertia is :math:`e^{z} > 0` for every :math:`u`, so no fit is non-physical.
 """
@@ -259,12 +262,27 @@ class Mapper:
         value = float(getattr(params, field))
         if math.isinf(value):
             return self.bounds(field)[1]
-        return SCHEMA[field].to_coord(value, self.geometry)
+        return SCHEMA[field].to_coord(value, self.geometry, self.total(params, field))
 
-    def value(self, field: str, z: float) -> float:
-        """The value of ``field`` at schema coordinate ``z`` (kept inside the schema's bounds)."""
-        lo, hi = SCHEMA[field].coord_bounds(self.geometry)
-        return SCHEMA[field].from_coord(min(max(float(z), lo), hi), self.geometry)
+    def value(self, field: str, z: float, params: DriveParams | None = None) -> float:
+        """The value of ``field`` at schema coordinate ``z`` (kept inside the schema's bounds);
+        a per-unit-mass friction takes its total mass or yaw inertia from ``params`` (the base
+        values when omitted)."""
+        f = SCHEMA[field]
+        lo, hi = f.coord_bounds(self.geometry)
+        total = None
+        if f.per_field is not None:
+            added = float(getattr(self.base if params is None else params, f.per_field))
+            total = SCHEMA[f.per_field].spec_value(self.geometry) + added
+        return f.from_coord(min(max(float(z), lo), hi), self.geometry, total)
+
+    def total(self, params: DriveParams, field: str) -> float | None:
+        """The total mass or yaw inertia that ``field``'s coordinate is per unit of (None for a
+        field that is not per unit of a total)."""
+        per = SCHEMA[field].per_field
+        if per is None:
+            return None
+        return SCHEMA[per].spec_value(self.geometry) + float(getattr(params, per))
 
     def schema_coords(
         self, free: Sequence[str], ties: dict[str, str], u: FloatArray

@@ -35,20 +35,43 @@ Z95 = 1.959963984540054
 
 
 def _estimate(
-    mapper: Mapper, name: str, z: float, sd: float, status: str, value: float | None = None
+    mapper: Mapper,
+    name: str,
+    z: float,
+    sd: float,
+    status: str,
+    value: float | None = None,
+    *,
+    params: DriveParams | None = None,
+    total_moments: tuple[float, float] = (0.0, 0.0),
 ) -> ParameterEstimate:
-    """A field's estimate from its coordinate ``z`` and coordinate sd (interval mapped back)."""
+    r"""A field's estimate from its coordinate ``z`` and coordinate sd (interval mapped back).
+
+    A friction per unit of the total mass or inertia, :math:`F = z\,T` with
+    :math:`T = e^{z_T}`, takes its total from ``params`` and its interval from the delta
+    method over both, ``total_moments`` = (var :math:`z_T`, cov(:math:`z, z_T`)):
+    :math:`\mathrm{var}\,F = T^2 \mathrm{var}\,z + F^2 \mathrm{var}\,z_T + 2TF\,\mathrm{cov}`.
+    """
     f = SCHEMA[name]
-    v = mapper.value(name, z) if value is None else value
+    v = mapper.value(name, z, params) if value is None else value
     prior = mapper.priors[name]
-    if math.isfinite(sd):
+    total = None if params is None else mapper.total(params, name)
+    if not math.isfinite(sd):
+        ci, std = (-math.inf, math.inf), math.inf
+    elif f.per_field is not None:
+        t = mapper.total(params or mapper.base, name) if total is None else total
+        assert t is not None  # a per-total field always has a total
+        var_t, cov_zt = total_moments
+        var = t * t * sd * sd + v * v * var_t + 2.0 * t * v * cov_zt
+        std = math.sqrt(max(var, 0.0))
+        lo, hi = mapper.bounds(name)
+        ci = (max(v - Z95 * std, lo * t), min(v + Z95 * std, hi * t))
+    else:
         lo, hi = mapper.bounds(name)
         a = mapper.value(name, float(np.clip(z - Z95 * sd, lo, hi)))
         b = mapper.value(name, float(np.clip(z + Z95 * sd, lo, hi)))
-        ci: tuple[float | None, float | None] = (min(a, b), max(a, b))
-        std: float | None = abs(f.derivative(v, mapper.geometry)) * sd
-    else:
-        ci, std = (-math.inf, math.inf), math.inf
+        ci = (min(a, b), max(a, b))
+        std = abs(f.derivative(v, mapper.geometry)) * sd
     return ParameterEstimate(
         name=name,
         value=v,
@@ -76,14 +99,32 @@ def field_estimates(
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if len(free) else np.zeros(0)
     for name in DriveParams.names():
         source = ties.get(name, name)
+        per = SCHEMA[name].per_field
         if source in free:
             j = list(free).index(source)
             status = "tied" if name in ties else "fitted"
             value = float(getattr(params, name))
-            out.append(_estimate(mapper, name, float(z[j]), float(sd[j]), status, value))
+            moments = (0.0, 0.0)
+            if per is not None and per in free:
+                k = list(free).index(per)
+                moments = (float(cov[k, k]), float(cov[j, k]))
+            out.append(
+                _estimate(
+                    mapper,
+                    name,
+                    float(z[j]),
+                    float(sd[j]),
+                    status,
+                    value,
+                    params=params,
+                    total_moments=moments,
+                )
+            )
         elif mapper.priors[name].informative:
             p = mapper.priors[name]
-            out.append(_estimate(mapper, name, p.mean(mapper.geometry), p.sd, "prior", p.nominal))
+            z0 = p.mean(mapper.geometry)
+            value = p.nominal if per is None else mapper.value(name, z0, params)
+            out.append(_estimate(mapper, name, z0, p.sd, "prior", value, params=params))
         else:
             f = SCHEMA[name]
             out.append(

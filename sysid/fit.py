@@ -41,6 +41,7 @@ Example
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -52,7 +53,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robots.params import SCHEMA, BaseGeometry, DriveParams, Prior, generic_priors
+from robots.params import (
+    SCHEMA,
+    BaseGeometry,
+    DriveParams,
+    Prior,
+    coords_to_values,
+    generic_priors,
+)
 from robots.randomization import DriveDistribution, ObservationNoise
 from robots.reduced import DEFAULT_DT_S
 from sysid import metrics
@@ -353,7 +361,9 @@ def _fleet(
     for p in posts:
         ties |= {k: v for k, v in p.ties.items() if v in names and k not in names}
     prob = Problem(logs, mapper, names, ties, **problem_kw)
-    values = {n: mapper.value(n, float(z)) for n, z in zip(names, mean, strict=True)}
+    values = coords_to_values(
+        names, mean.tolist(), mapper.geometry, dataclasses.asdict(mapper.base)
+    )
     params = mapper.base.replace(**(values | {k: values[v] for k, v in ties.items()}))
     u = np.array([mapper.to_coord(params, n) for n in names])
     _, g = prob.schema_coords(u)
@@ -374,12 +384,14 @@ def _fleet(
 
 def _session_entry(post: Posterior, mapper: Mapper, name: str) -> dict[str, Any]:
     sd = np.sqrt(np.clip(np.diag(post.cov), 0.0, None))
+    values = coords_to_values(
+        post.free, post.z.tolist(), mapper.geometry, dataclasses.asdict(mapper.base)
+    )
     return {
         "log": name,
         "converged": post.converged,
         "parameters": {
-            f: {"value": mapper.value(f, float(post.z[j])), "coord_std": float(sd[j])}
-            for j, f in enumerate(post.free)
+            f: {"value": values[f], "coord_std": float(sd[j])} for j, f in enumerate(post.free)
         },
     }
 

@@ -1,4 +1,4 @@
-"""Test helper: a ``randomization:`` block (sim2real.randomization/1) around given parameters.
+"""Test helper: a ``randomization:`` block (sim2real.randomization/2) around given parameters.
 
 The block varies every field the robot spec gives an informative prior, centred on the given
 parameter values, with the prior covariance times ``rel**2``; the other fields are fixed at the
@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from robots.params import SCHEMA, DriveParams
+from robots.params import SCHEMA, BaseGeometry, DriveParams
 from robots.randomization import DriveDistribution, ObservationNoise
 from robots.spec import load_spec
 
@@ -38,11 +38,12 @@ def distribution_around(
     off = {
         n
         for n in prior.names
-        if SCHEMA[n].coord == "lin" and float(getattr(params, n)) == SCHEMA[n].lower == 0.0
+        if not SCHEMA[n].coord.startswith("log")
+        and float(getattr(params, n)) == SCHEMA[n].lower == 0.0
     }
     keep = [i for i, n in enumerate(prior.names) if n not in off]
     names = tuple(prior.names[i] for i in keep)
-    mean = tuple(SCHEMA[n].to_coord(float(getattr(params, n)), spec.geometry) for n in names)
+    mean = tuple(_coord(params, n, spec.geometry) for n in names)
     cov = prior.covariance_array[np.ix_(keep, keep)] * rel**2
     return DriveDistribution(
         robot=spec.name,
@@ -53,6 +54,13 @@ def distribution_around(
         fixed={n: float(getattr(params, n)) for n in DriveParams.names() if n not in names},
         noise=ObservationNoise(std_v_mps=noise_v, std_w_radps=noise_w),
     )
+
+
+def _coord(params: DriveParams, name: str, geometry: BaseGeometry) -> float:
+    """``name``'s coordinate at ``params`` (a friction per unit of ``params``' own total)."""
+    per = SCHEMA[name].per_field
+    total = None if per is None else SCHEMA[per].spec_value(geometry) + getattr(params, per)
+    return SCHEMA[name].to_coord(float(getattr(params, name)), geometry, total)
 
 
 def write_params_file(

@@ -224,3 +224,59 @@ def test_draws_move_continuously_with_the_covariance(seed: int, sd: float, eps: 
     a = dist(0.0).sample_coords(np.random.default_rng(seed), 8)
     b = dist(eps).sample_coords(np.random.default_rng(seed), 8)
     assert np.max(np.abs(a - b)) <= 1e-9 * sd
+
+
+def _format_1(dist: DriveDistribution) -> dict[str, Any]:
+    """``dist`` as the format-1 block an earlier sim2real wrote: frictions as values (``lin``),
+    mapped at the mean with the Jacobian of F = z T (T = e^{z_T} when the total varies)."""
+    block = dist.to_dict()
+    names = list(dist.names)
+    mean = dist.mean_array
+    jac = np.eye(len(names))
+    for i, n in enumerate(names):
+        per = SCHEMA[n].per_field
+        if per is None:
+            continue
+        j = names.index(per)
+        total = math.exp(mean[j])
+        jac[i, i], jac[i, j] = total, mean[i] * total
+    cov = jac @ dist.covariance_array @ jac.T
+    block |= {
+        "format": "sim2real.randomization/1",
+        "coords": ["lin" if SCHEMA[n].per_field else SCHEMA[n].coord for n in names],
+        "mean": (np.diag(jac) * mean).tolist(),
+        "covariance": (0.5 * (cov + cov.T)).tolist(),
+    }
+    return block
+
+
+def test_a_format_1_block_is_read_in_the_per_mass_coordinates(tmp_path: Path) -> None:
+    """A params file of the previous format (friction coordinates = the values) is converted,
+    not refused: the same mean robot, and the covariance mapped back to what it was."""
+    dist = _dist()
+    assert "coulomb_v_fwd_n" in dist.names and "added_mass_kg" in dist.names
+    path = _write(tmp_path, _format_1(dist))
+    back = DriveDistribution.from_params_file(path, robot=SPEC.name)
+    for name in SCHEMA:
+        a, b = getattr(back.mean_params(), name), getattr(dist.mean_params(), name)
+        assert a == pytest.approx(b, rel=1e-9, abs=1e-12), name
+    np.testing.assert_allclose(back.covariance_array, dist.covariance_array, rtol=1e-9, atol=1e-15)
+    assert back.to_dict()["format"] == "sim2real.randomization/2"
+
+
+def test_a_draw_scales_its_friction_with_its_own_mass() -> None:
+    """Per-kg friction: each of 500 draws of the Burger prior carries the drawn Coulomb force
+    per kg times its own drawn total mass (and the yaw friction per kg m^2 times its own yaw
+    inertia), so a heavier draw has proportionally more friction."""
+    dist = _dist()
+    z = dist.sample_coords(np.random.default_rng(5), 500)
+    names = list(dist.names)
+    i_f, i_m = names.index("coulomb_v_fwd_n"), names.index("added_mass_kg")
+    i_w = names.index("coulomb_w_nm")
+    for row in z:
+        p = dist.params_at(row)
+        assert p.coulomb_v_fwd_n == pytest.approx(max(row[i_f], 0.0) * p.total_mass_kg(GEO))
+        assert p.coulomb_w_nm == pytest.approx(max(row[i_w], 0.0) * p.total_yaw_inertia_kgm2(GEO))
+        assert p.total_mass_kg(GEO) == pytest.approx(math.exp(row[i_m]), rel=1e-9) or (
+            row[i_m] <= SCHEMA["added_mass_kg"].coord_bounds(GEO)[0]
+        )

@@ -24,6 +24,7 @@ from robots.params import (
     UNITS,
     BaseGeometry,
     DriveParams,
+    coords_to_values,
     generic_priors,
 )
 from robots.spec import SPECS_DIR
@@ -151,3 +152,61 @@ def test_spec_without_priors_gets_generic_ones_and_bad_priors_are_refused(
     path.write_text(yaml.safe_dump(doc))
     with pytest.raises(SpecError, match="session_sd"):
         load_spec(path)
+
+
+#: Friction fields: fitted, given priors and sampled per unit of the total mass / yaw inertia.
+FRICTION = {
+    "coulomb_v_fwd_n": "added_mass_kg",
+    "coulomb_v_bwd_n": "added_mass_kg",
+    "coulomb_w_nm": "added_yaw_inertia_kgm2",
+    "viscous_v_ns_per_m": "added_mass_kg",
+    "viscous_w_nms_per_rad": "added_yaw_inertia_kgm2",
+}
+
+
+def test_friction_coordinates_are_per_unit_of_the_total() -> None:
+    """A Coulomb force of 0.6 N on a 1.5 kg base plus 0.5 kg of payload is 0.3 N/kg; at the
+    spec's own mass (no total given) 0.4 N/kg; the yaw terms are per kg m^2 of yaw inertia."""
+    assert {n for n, f in SCHEMA.items() if f.per_field} == set(FRICTION)
+    assert {n: SCHEMA[n].per_field for n in FRICTION} == FRICTION
+    f = SCHEMA["coulomb_v_fwd_n"]
+    assert f.to_coord(0.6, GEO, 2.0) == pytest.approx(0.3)
+    assert f.to_coord(0.6, GEO) == pytest.approx(0.4)
+    assert f.from_coord(0.3, GEO, 2.0) == pytest.approx(0.6)
+    assert SCHEMA["viscous_w_nms_per_rad"].to_coord(0.003, GEO) == pytest.approx(0.2)
+    with pytest.raises(RobotsValueError, match="added_mass_kg"):
+        f.to_coord(0.6, GEO, 0.0)
+
+
+@given(
+    zf=st.floats(0.0, 5.0),
+    z_mass=st.floats(-1.0, 2.0),
+    added_inertia=st.floats(-0.005, 0.05),
+)
+def test_coords_to_values_takes_each_total_from_the_draw_or_the_fixed_values(
+    zf: float, z_mass: float, added_inertia: float
+) -> None:
+    """A friction drawn per kg becomes a force at the drawn mass (the total from the same
+    draw), and a yaw friction at the fixed yaw inertia when that does not vary."""
+    names = ["coulomb_v_fwd_n", "coulomb_w_nm", "added_mass_kg"]
+    values = coords_to_values(
+        names, [zf, zf, z_mass], GEO, {"added_yaw_inertia_kgm2": added_inertia}
+    )
+    mass = GEO.mass_kg + values["added_mass_kg"]
+    lo = SCHEMA["added_mass_kg"].coord_bounds(GEO)
+    assert mass == pytest.approx(math.exp(min(max(z_mass, lo[0]), lo[1])))
+    assert values["coulomb_v_fwd_n"] == pytest.approx(zf * mass)
+    assert values["coulomb_w_nm"] == pytest.approx(zf * (GEO.yaw_inertia_kgm2 + added_inertia))
+
+
+def test_spec_friction_spreads_are_read_in_their_own_unit() -> None:
+    """The Kobuki spec writes the Coulomb prior sd as 0.5 N; the prior (coordinate units) is
+    that over the spec mass, and the spec written back says 0.5 N again."""
+    spec = load_spec("turtlebot2")
+    m = spec.geometry.mass_kg
+    assert spec.priors["coulomb_v_fwd_n"].sd == pytest.approx(0.5 / m)
+    assert spec.priors["coulomb_v_fwd_n"].mean(spec.geometry) == pytest.approx(
+        spec.drive.coulomb_v_fwd_n / m
+    )
+    doc = spec.to_dict()
+    assert doc["priors"]["coulomb_v_fwd_n"]["sd"] == pytest.approx(0.5)

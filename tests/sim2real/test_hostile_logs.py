@@ -7,9 +7,7 @@ follows the number of messages (a 30 s log with a one-year pause stays under 0.5
 
 from __future__ import annotations
 
-import dataclasses
 import json
-import math
 import os
 import resource
 import stat
@@ -255,37 +253,33 @@ def test_free_fields_on_a_paused_recording_keep_the_sign_rules(capsys, run_case)
 def test_a_fit_that_breaks_the_schema_exits_2_naming_the_log(
     capsys, run_case, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The old flaw recreated (every flat direction of a short segment counted): the fit's
-    absurd model is refused in one sentence naming the log and what to try, not in a message
-    about a params file that does not exist (was: motor_gain ... must be > 0, got 0.0)."""
-    import robots.spec
-    import sysid._fleet
-    import sysid._map
-    from robots.params import Prior
+    """A fit whose result breaks a rule of the schema is refused in one sentence naming the
+    log and what to try, not in a message about a params file that does not exist (was:
+    motor_gain ... must be > 0, got 0.0).
+
+    The flaw that once produced it (a short segment's flat directions all counted by the fleet
+    fit, friction priors in absolute units) can no longer be recreated by switching today's
+    guards off: with friction per unit mass the population stays physical. So the fleet's mean
+    is made what it was then, a motor gain of 0, where the fit turns coordinates into values.
+    """
+    import sysid.fit
 
     log, _ = run_case(capsys, "paused_for_a_night", _NIGHT)
-    monkeypatch.setattr(sysid._fleet, "MIN_INFO_RATIO", -math.inf)
-    # and the drive model as it was when the flaw was found (P wheel loops: k_i held at 0)
-    real_load = robots.spec.load_spec
+    real = sysid.fit.coords_to_values
 
-    def p_loop_spec(name):  # type: ignore[no-untyped-def]
-        spec = real_load(name)
-        ki = Prior(name="speed_loop_ki_per_s", nominal=0.0, sd=0.0, session_sd=0.0, source="spec")
-        return dataclasses.replace(spec, priors={**spec.priors, "speed_loop_ki_per_s": ki})
+    def flawed(*args, **kwargs):  # type: ignore[no-untyped-def]
+        values = real(*args, **kwargs)
+        if "motor_gain_nms_per_rad" in values:
+            values["motor_gain_nms_per_rad"] = 0.0
+        return values
 
-    monkeypatch.setattr(robots.spec, "load_spec", p_loop_spec)
-    monkeypatch.setattr(sysid._fleet, "_at_most_prior", lambda t, prior_prec: t)  # no cap
-    # and the fit's starts as they were then (no released acceleration limits, no torque
-    # restarts): with them this log's segments no longer reach the absurd model
-    monkeypatch.setattr(sysid._map, "released_start", lambda *a, **k: None)
-    monkeypatch.setattr(
-        sysid._map, "_RESTART_SDS", {"speed_loop_ki_per_s": (-1.5, 1.5), "delay_s": (0.0,)}
-    )
+    monkeypatch.setattr(sysid.fit, "coords_to_values", flawed)
     out = log.with_suffix(".flawed.yaml")
     code, stdout, err = _run(capsys, *_SYSID, str(log), "-o", str(out))
     _judge(code, stdout, err, log)
     assert code == 2 and not out.exists()
     assert "gave a drive model the schema refuses" in err and "--free" in err
+    assert "motor_gain_nms_per_rad" in err and "got 0.0" in err
 
 
 def test_idle_log_cannot_be_compared_and_says_why(capsys, tmp_path: Path) -> None:

@@ -167,7 +167,11 @@ def test_every_written_result_loads_into_pybullet(
 
 
 #: Plant 27 of seed 47 (its values, so a sampler change cannot move it): torque-limited
-#: transients, no acceleration limit.
+#: transients, no acceleration limit. Re-drawn when friction became per unit mass (the same
+#: draw: only the five friction values moved, by 1-15 %); the previous draw's values
+#: (e.g. coulomb_w_nm 0.0339) now end in a third basin from every start, a multimodality this
+#: test does not cover (on the 48 plants of seed 47 the released start rescues 4 integral
+#: gains, plant 27 among them, and loses none).
 RELEASED_PLANT = {
     "delay_s": 0.1491290728193102,
     "speed_lim_v_mps": 0.2103875892092706,
@@ -176,11 +180,11 @@ RELEASED_PLANT = {
     "motor_gain_nms_per_rad": 0.011631531730047363,
     "speed_loop_ki_per_s": 18.669429757944677,
     "wheel_torque_max_nm": 0.04380935992512276,
-    "coulomb_v_fwd_n": 0.2019097718922892,
-    "coulomb_v_bwd_n": 0.44439999627487314,
-    "coulomb_w_nm": 0.03393376300044334,
-    "viscous_v_ns_per_m": 0.6468570771759619,
-    "viscous_w_nms_per_rad": 0.004333488364687263,
+    "coulomb_v_fwd_n": 0.20457904898978985,
+    "coulomb_v_bwd_n": 0.45027503006382064,
+    "coulomb_w_nm": 0.028945816326570863,
+    "viscous_v_ns_per_m": 0.6554086235685908,
+    "viscous_w_nms_per_rad": 0.0036965059918621654,
     "added_mass_kg": 0.013745946655507435,
     "added_yaw_inertia_kgm2": -0.0004095981959793219,
 }
@@ -192,7 +196,8 @@ def test_released_start_finds_torque_limited_transients(
 ) -> None:
     """:data:`RELEASED_PLANT`: from the spec's start (an acceleration limit at the smoothed
     peak, the spec's torque cap) the fit explains the torque-limited transients by a limit and
-    an integral gain of 7.3 /s (truth 18.7, 4 sd outside its interval), at 2.4x the objective;
+    an integral gain of 8.9 /s (truth 18.7, outside its interval; 7.3 /s before friction
+    became per unit mass);
     the torque-cap restart (sysid._map._RESTART_SDS) reaches the truth's basin."""
     import sysid._map
 

@@ -53,7 +53,7 @@ def test_yaml_layout(result: SysidResult) -> None:
         "prior_sd": None,
         "sd_ratio": None,
     }
-    assert doc["randomization"]["format"] == "sim2real.randomization/1"
+    assert doc["randomization"]["format"] == "sim2real.randomization/2"
     assert "delay_s" in doc["randomization"]["names"]
     assert set(doc["priors"]) == set(DriveParams.names())
     assert "time_constant_v_s" in doc["identifiable"]
