@@ -25,6 +25,15 @@ point agreement >= 0.90, pybullet vs reduced >= 0.99.
 The fit uses the spec's priors, as ``sim2real sysid fit`` does. A table of every checked
 session closes the output.
 
+Measured (2026-11-26 12:30, friction fitted per unit mass, ``--variants --pybullet-n 0``;
+reduced, sessions 5-7, calibrated band; load 2.5-3): pooled coverage v / w: Kobuki seed 11
+94.5 / 94.8 %, Ti/2 83.9 / 80.3 %, Burger 94.8 / 89.6 %, real TB3 half 2 92.4 / 90.8 %; point
+agreement Kobuki 86.9, 81.1, 91.1 %, Ti/2 82.6, 66.4, 82.1 %, Burger 94.8, 95.5, 96.0 %, real
+TB3 98.8 %; outside 80-99 % per session: Ti/2 session 5 w 78.9 %, session 6 v 68.6, w 70.4 %.
+The tables below are the same code before friction was per unit mass (reproduced exactly in
+the same run of the old tree); the Ti/2 fleet lost 5 points in both axes, the others moved
+within +-5 (bench_novel_robots shows that such moves change sign with the fleet's seed).
+
 Measured (2026-11-26, with the coverage matching of ``sysid calibrate``; sessions 5-7,
 calibrated band, 30 reduced / 20 pybullet members; load ~2.5 on 2 cores, which changes no
 figure here). Per session, reduced (pybullet where it differs by more than 1 point):
