@@ -379,15 +379,18 @@ class FieldSchema:
         """For a ``per_total_*`` coordinate, the field whose total divides the value."""
         return PER_TOTAL.get(self.coord)
 
+    def total_of(self, geometry: BaseGeometry, added: float = 0.0) -> float:
+        """The total a ``per_total_*`` coordinate divides by: the spec mass or yaw inertia plus
+        ``added`` (the value of :attr:`per_field`)."""
+        if self.per_field is None:
+            raise RobotsValueError(f"drive parameter '{self.name}' is not per unit of a total")
+        return SCHEMA[self.per_field].spec_value(geometry) + float(added)
+
     def reference(self, geometry: BaseGeometry) -> float:
         """The spec total a ``per_total_*`` coordinate divides by when no other total is given
-        (the spec mass or yaw inertia; 1 for the other kinds): a spec's friction prior written
-        in the value's unit is turned into coordinate units with it."""
-        if self.coord == "per_total_mass":
-            return geometry.mass_kg
-        if self.coord == "per_total_inertia":
-            return geometry.yaw_inertia_kgm2
-        return 1.0
+        (1 for the other kinds): a spec's friction prior written in the value's unit is turned
+        into coordinate units with it."""
+        return self.total_of(geometry) if self.per_field is not None else 1.0
 
     def spec_value(self, geometry: BaseGeometry) -> float:
         """The spec quantity a ``total_positive`` field adds to (0 for the others)."""
@@ -458,13 +461,13 @@ class FieldSchema:
         low = self.total_floor(geometry) if self.spec_value(geometry) else self.lower
         return math.log(low), math.log(self.upper * scale)
 
-    def derivative(self, value: float, geometry: BaseGeometry, total: float | None = None) -> float:
+    def derivative(self, value: float, geometry: BaseGeometry) -> float:
         """d value / d coordinate at ``value`` (to turn a coordinate std into a value std; for a
-        ``per_total_*`` field at a fixed ``total``)."""
+        ``per_total_*`` field at the spec total)."""
         if self.coord == "lin":
             return 1.0
         if self.per_field is not None:
-            return self._total(geometry, total)
+            return self.reference(geometry)
         return float(value) + self.spec_value(geometry)
 
 
@@ -862,8 +865,7 @@ def coords_to_values(
                 continue
             total = None
             if f.per_field is not None:
-                added = out.get(f.per_field, float(others.get(f.per_field, 0.0)))
-                total = SCHEMA[f.per_field].spec_value(geometry) + added
+                total = f.total_of(geometry, out.get(f.per_field, others.get(f.per_field, 0.0)))
             lo, hi = f.coord_bounds(geometry)
             out[name] = f.from_coord(min(max(zi, lo), hi), geometry, total)
     return out

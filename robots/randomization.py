@@ -657,7 +657,7 @@ def _from_format_1(parts: _Parts, coords: Sequence[str]) -> _Parts:
             total = math.exp(float(mean[j]))
             jac[i, j] = -float(mean[i]) / total
         else:
-            total = SCHEMA[per].spec_value(parts.geometry) + float(parts.fixed.get(per, 0.0))
+            total = SCHEMA[name].total_of(parts.geometry, parts.fixed.get(per, 0.0))
         if not total > 0:
             return parts
         jac[i, i] = 1.0 / total

@@ -270,19 +270,16 @@ class Mapper:
         values when omitted)."""
         f = SCHEMA[field]
         lo, hi = f.coord_bounds(self.geometry)
-        total = None
-        if f.per_field is not None:
-            added = float(getattr(self.base if params is None else params, f.per_field))
-            total = SCHEMA[f.per_field].spec_value(self.geometry) + added
+        total = self.total(self.base if params is None else params, field)
         return f.from_coord(min(max(float(z), lo), hi), self.geometry, total)
 
     def total(self, params: DriveParams, field: str) -> float | None:
         """The total mass or yaw inertia that ``field``'s coordinate is per unit of (None for a
         field that is not per unit of a total)."""
-        per = SCHEMA[field].per_field
-        if per is None:
+        f = SCHEMA[field]
+        if f.per_field is None:
             return None
-        return SCHEMA[per].spec_value(self.geometry) + float(getattr(params, per))
+        return f.total_of(self.geometry, getattr(params, f.per_field))
 
     def schema_coords(
         self, free: Sequence[str], ties: dict[str, str], u: FloatArray

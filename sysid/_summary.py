@@ -55,12 +55,10 @@ def _estimate(
     f = SCHEMA[name]
     v = mapper.value(name, z, params) if value is None else value
     prior = mapper.priors[name]
-    total = None if params is None else mapper.total(params, name)
     if not math.isfinite(sd):
         ci, std = (-math.inf, math.inf), math.inf
     elif f.per_field is not None:
-        t = mapper.total(params or mapper.base, name) if total is None else total
-        assert t is not None  # a per-total field always has a total
+        t = f.total_of(mapper.geometry, getattr(params or mapper.base, f.per_field))
         var_t, cov_zt = total_moments
         var = t * t * sd * sd + v * v * var_t + 2.0 * t * v * cov_zt
         std = math.sqrt(max(var, 0.0))

@@ -58,9 +58,9 @@ def distribution_around(
 
 def _coord(params: DriveParams, name: str, geometry: BaseGeometry) -> float:
     """``name``'s coordinate at ``params`` (a friction per unit of ``params``' own total)."""
-    per = SCHEMA[name].per_field
-    total = None if per is None else SCHEMA[per].spec_value(geometry) + getattr(params, per)
-    return SCHEMA[name].to_coord(float(getattr(params, name)), geometry, total)
+    f = SCHEMA[name]
+    total = None if f.per_field is None else f.total_of(geometry, getattr(params, f.per_field))
+    return f.to_coord(float(getattr(params, name)), geometry, total)
 
 
 def write_params_file(
