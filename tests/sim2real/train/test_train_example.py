@@ -16,6 +16,7 @@ import resource
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import pytest
@@ -50,8 +51,15 @@ def test_randommap_example_2000_steps_under_2_minutes_and_evaluates(tmp_path: Pa
     assert cpu_s < BUDGET_S, f"{cpu_s:.1f} CPU-s"
     # the wall clock, the issue's own measure, where the machine is not busier than its cores
     # (19 s at load ~2; 90 s at load 4.6, where a failure would measure the machine, not the code)
-    if os.getloadavg()[0] <= (os.cpu_count() or 1):
+    load = os.getloadavg()[0]
+    if load <= (os.cpu_count() or 1):
         assert wall_s < BUDGET_S, f"{wall_s:.1f} s wall ({cpu_s:.1f} CPU-s)"
+    else:  # said, not silent: the run shows this warning in its summary
+        warnings.warn(
+            f"wall clock not judged: load average {load:.1f} exceeds {os.cpu_count()} cores "
+            f"({wall_s:.1f} s wall, {cpu_s:.1f} CPU-s)",
+            stacklevel=1,
+        )
     assert LIVE in shown and "training" in shown  # the bar of env steps
     assert "trained 2048 steps" in shown  # 2 envs x n_steps 256 per update: 4 updates
     for name in ("config.yaml", "model.zip", "evaluation.yaml", "episodes.csv"):
