@@ -32,7 +32,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
-from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
+from sim2real.errors import ClusterLostWarning, Sim2RealFileNotFoundError, Sim2RealValueError
 
 __all__ = [
     "agree_many",
@@ -130,9 +130,25 @@ def connect(address: str, *, local_cpus: int | None = None, lean: bool = False) 
     except (ConnectionError, ValueError, RuntimeError) as exc:
         raise Sim2RealValueError(
             f"--ray {address}: cannot connect to a Ray cluster there ({' '.join(str(exc).split())}); "
-            "give the head node's HOST:PORT (see `ray status` on it) or 'auto'"
+            f"give the head node's HOST:PORT (see `ray status` on it) or 'auto'{_auth_hint()}"
         ) from None
     return False
+
+
+def _auth_hint() -> str:
+    """The part of a connection error about Ray's token authentication (empty when set).
+
+    A head started by Ray 2.60 (``ray start --head``) requires a token; a driver given the
+    head's address sends one only with ``RAY_AUTH_MODE=token`` (Ray enables it by itself for
+    ``auto`` alone), and is otherwise refused with nothing but "Failed to connect".
+    """
+    if os.environ.get("RAY_AUTH_MODE"):
+        return ""
+    return (
+        "; if the head uses token authentication (Ray's default for `ray start --head`), set "
+        "RAY_AUTH_MODE=token and give this machine the head's token (`ray get-auth-token` on "
+        "the head, into ~/.ray/auth_token or RAY_AUTH_TOKEN)"
+    )
 
 
 def _lean_init_kw(lean: bool) -> dict[str, Any]:
@@ -356,7 +372,11 @@ def map_tasks(
     once. Results come back in the order of ``items``, the same as the plain loop's. A failing
     item's exception is re-raised as itself (e.g. a bad log's one-sentence error) once the
     running work has stopped; no new work starts after a failure. ``on_done(n)`` is called as
-    items finish (progress; from either thread, never concurrently). ``release=True`` shuts
+    items finish (progress; from either thread, never concurrently). When Ray itself fails
+    (a node or a worker process dies, the cluster stops: any Ray error that is not the item's
+    own exception), the items it held and all the rest run in this process, with a
+    :class:`~sim2real.errors.ClusterLostWarning`: same results, without the speed-up.
+    ``release=True`` shuts
     down a local Ray this call started as soon as its tasks are done (a command that needs Ray
     once: the last items, as many as this process does in the ~0.15 s Ray takes to stop, stay
     for its thread, so the shutdown overlaps them), else it stays up for the next call.
@@ -387,7 +407,11 @@ def map_tasks(
     started = False
     try:
         started = connect(address, local_cpus=max(1, _cores() - 1), lean=True)
-        _work_on_ray(fn, items, shared, leave_s=_RAY_SHUTDOWN_S if release and started else 0.0)
+        lost = _work_on_ray(
+            fn, items, shared, leave_s=_RAY_SHUTDOWN_S if release and started else 0.0
+        )
+        if lost is not None:
+            _carry_on_without_ray(fn, items, shared, address, lost)
     except BaseException as exc:
         shared.halt()
         if isinstance(exc, Exception):  # a Ctrl-C leaves at once (the thread is a daemon)
@@ -424,14 +448,19 @@ class _Shared:
         self.errors: dict[int, BaseException] = {}
         self.on_done = on_done
         self.local_item_s = math.nan  # the last item's wall time in this process
+        self.returned: list[int] = []  # items Ray held when it failed, for this process
 
     def take(self, workers: int | None = None, *, leave_s: float = 0.0) -> range:
         """The next item (``workers=None``) or guided batch for ``workers``; empty when done.
 
         ``leave_s``: a batch is refused when this process's thread alone would finish the
-        items left within that time (at its last item's pace), so they stay for it.
+        items left within that time (at its last item's pace), so they stay for it. Items
+        given back (:meth:`give_back`) come first, to this process only.
         """
         with self.lock:
+            if workers is None and self.returned:
+                i = self.returned.pop(0)
+                return range(i, i + 1)
             left = self.n - self.next
             if workers is not None and left * self.local_item_s <= leave_s:
                 return range(self.next, self.next)
@@ -444,6 +473,13 @@ class _Shared:
         """No new work from now on."""
         with self.lock:
             self.next = self.n
+            self.returned.clear()
+
+    def give_back(self, taken: range) -> None:
+        """Items handed out that will not come back (Ray failed): this process takes them."""
+        with self.lock:
+            if not self.errors:
+                self.returned.extend(taken)
 
     def finish(
         self, taken: range, values: Sequence[Any] | None, error: BaseException | None
@@ -453,6 +489,7 @@ class _Shared:
             if error is not None:
                 self.errors[taken.start] = error
                 self.next = self.n
+                self.returned.clear()
                 return
             assert values is not None and len(values) == len(taken)
             self.results[taken.start : taken.stop] = values
@@ -477,34 +514,67 @@ def _work_here(fn: Callable[[Any], Any], items: Sequence[Any], shared: _Shared) 
 
 def _work_on_ray(
     fn: Callable[[Any], Any], items: Sequence[Any], shared: _Shared, *, leave_s: float = 0.0
-) -> None:
+) -> BaseException | None:
     """Hand the items left out to Ray tasks, one per cluster CPU at a time, until none is left.
 
     ``leave_s``: see :meth:`_Shared.take` (the last items stay for this process while Ray stops).
+    Returns None when every batch came back, or Ray's own error (a dead node or worker, a
+    cluster gone) that ended it, the batches still out given back to this process.
     """
     import ray
 
-    slots = max(1, int(ray.cluster_resources().get("CPU", 1)))
-    remote = ray.remote(num_cpus=1, max_retries=0)(_run_batch)
-    fn_ref = None
     running: dict[Any, range] = {}
-    while True:
-        while len(running) < slots and (taken := shared.take(slots + 1, leave_s=leave_s)):
-            if fn_ref is None:
-                fn_ref = ray.put(fn)
-            running[remote.remote(fn_ref, [items[i] for i in taken])] = taken
-        if not running:
-            return
-        ready, _ = ray.wait(list(running), num_returns=1)
-        for ref in ready:
-            taken = running.pop(ref)
-            try:
-                values = ray.get(ref)
-            except ray.exceptions.RayTaskError as exc:
-                cause = getattr(exc, "cause", None)
-                shared.finish(taken, None, cause if isinstance(cause, BaseException) else exc)
-            else:
-                shared.finish(taken, values, None)
+    try:
+        slots = max(1, int(ray.cluster_resources().get("CPU", 1)))
+        remote = ray.remote(num_cpus=1, max_retries=0)(_run_batch)
+        fn_ref = None
+        while True:
+            while len(running) < slots and (taken := shared.take(slots + 1, leave_s=leave_s)):
+                if fn_ref is None:
+                    fn_ref = ray.put(fn)
+                running[remote.remote(fn_ref, [items[i] for i in taken])] = taken
+            if not running:
+                return None
+            ready, _ = ray.wait(list(running), num_returns=1)
+            for ref in ready:
+                try:
+                    values = ray.get(ref)
+                except ray.exceptions.RayTaskError as exc:  # the item's own error
+                    cause = getattr(exc, "cause", None)
+                    error = cause if isinstance(cause, BaseException) else exc
+                    shared.finish(running.pop(ref), None, error)
+                else:
+                    shared.finish(running.pop(ref), values, None)
+    except ray.exceptions.RayError as exc:  # Ray's, not an item's: no more of Ray this call
+        for taken in running.values():
+            shared.give_back(taken)
+        return exc
+
+
+def _carry_on_without_ray(
+    fn: Callable[[Any], Any],
+    items: Sequence[Any],
+    shared: _Shared,
+    address: str,
+    lost: BaseException,
+) -> None:
+    """After Ray failed: warn, let go of Ray, and work on the rest in this thread too."""
+    import warnings
+
+    import ray
+
+    what = " ".join(str(lost).split()).split(". ")[0]
+    warnings.warn(
+        ClusterLostWarning(
+            f"Ray (--ray {address}) failed during the run ({type(lost).__name__}: {what}); "
+            f"the {len(shared.returned)} item(s) it held and the rest ran in this process, "
+            "with the same results but without the speed-up; check the cluster with "
+            "`ray status`"
+        ),
+        stacklevel=3,
+    )
+    ray.shutdown()  # not tied to a dead cluster (Ray ends a driver whose GCS stays away)
+    _work_here(fn, items, shared)
 
 
 def _one_thread() -> Any:

@@ -7,13 +7,23 @@ value received and the fix. The CLI prints it and exits with code 2.
 from __future__ import annotations
 
 __all__ = [
+    "ClusterLostWarning",
     "LogFormatError",
     "LogValueError",
     "MissingTopicError",
     "Sim2RealError",
     "Sim2RealFileNotFoundError",
     "Sim2RealValueError",
+    "Sim2RealWarning",
 ]
+
+
+class Sim2RealWarning(UserWarning):
+    """Base class of the warnings of the :mod:`sim2real` package (the CLI prints them)."""
+
+
+class ClusterLostWarning(Sim2RealWarning, RuntimeWarning):
+    """Ray failed during a run (its node or worker died); the work it held ran here instead."""
 
 
 class Sim2RealError(Exception):

@@ -15,16 +15,19 @@ Example
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import os
 import sys
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
 
 from randomizers.errors import RandomizerError
 from robots.errors import RobotsError
 from sim2real.cli import _agree, _demo, _envs, _logs, _robots, _sysid, _train
 from sim2real.cli._common import EPILOG_MAIN, HelpFormatter, OneLineErrorParser
-from sim2real.errors import Sim2RealError
+from sim2real.errors import Sim2RealError, Sim2RealWarning
 from sysid.errors import SysidError
 
 __all__ = ["USER_ERRORS", "build_parser", "main", "run"]
@@ -79,7 +82,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     handler: Callable[[argparse.Namespace], int] = args.handler
     try:
-        return int(handler(args))
+        with _warnings_as_lines():
+            return int(handler(args))
     except USER_ERRORS as exc:
         if args.debug:
             raise
@@ -107,6 +111,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("sim2real: interrupted", file=sys.stderr)
         return 130
+
+
+@contextlib.contextmanager
+def _warnings_as_lines() -> Iterator[None]:
+    """Print the package's warnings (:class:`~sim2real.errors.Sim2RealWarning`) as one line
+    each, ``sim2real: warning: ...``, every time; other warnings as Python shows them."""
+    original = warnings.showwarning
+
+    def show(message: Warning | str, category: type[Warning], *args: Any, **kwargs: Any) -> None:
+        if issubclass(category, Sim2RealWarning):
+            print(f"sim2real: warning: {' '.join(str(message).split())}", file=sys.stderr)
+        else:
+            original(message, category, *args, **kwargs)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", Sim2RealWarning)
+        warnings.showwarning = show
+        yield
 
 
 def run() -> int:
