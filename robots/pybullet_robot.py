@@ -34,10 +34,11 @@ model (:mod:`robots.reduced`):
    its torques and axis friction take the base where the reduced model goes, so the wheel
    odometry reports the body's true yaw rate (a driver calibrated to the slip).
 
-Contacts: tyre friction 1.5 x ground 1.0 (the specs' torque caps need at most 0.5, so the tyres
-grip), casters frictionless (the base link has zero friction), link damping zero (pybullet's
-default 0.04 would add unmodelled drag), pyramid friction and 150 solver iterations
-(:data:`SOLVER_ITERATIONS`), and only touching contact points act.
+Contacts: tyre friction at least 1.5 x ground 1.0, and as much as the drive can ask
+(:func:`tyre_friction`: a fitted P3-DX's reversals brake at 1.4 g and move up to 83 % of the
+weight onto a caster, so 1.5 let its wheels spin), casters frictionless (the base link has zero
+friction), link damping zero (pybullet's default 0.04 would add unmodelled drag), pyramid
+friction and 150 solver iterations (:data:`SOLVER_ITERATIONS`), and only touching contact points act.
 
 Every physics step thus applies the reduced model's forces to a rigid multibody with real
 contacts; on flat ground the two agree to ~2e-4 m/s and ~3e-3 rad/s RMS (tests), and they part
@@ -97,17 +98,30 @@ from robots.spec import RobotSpec, load_spec, lumped_base_inertia, lumped_base_m
 from robots.world import add_ground
 
 __all__ = [
+    "LOAD_STEP_FACTOR",
+    "MIN_LOAD_FRACTION",
     "SOLVER_ITERATIONS",
     "WHEEL_FRICTION",
     "DriveParamsNotAppliedError",
     "PybulletResponse",
     "PybulletRobot",
+    "tyre_friction",
 ]
 
 FloatArray = NDArray[np.float64]
 
-#: Lateral friction coefficient of the wheel tyres (times the ground's 1.0).
+#: Least lateral friction coefficient of the wheel tyres (times the ground's 1.0); a drive that
+#: asks more gets more (:func:`tyre_friction`).
 WHEEL_FRICTION = 1.5
+#: :func:`tyre_friction` divides by at least this share of a wheel's static load: below it the
+#: base is about to tip onto a caster under the drive's peak forces, where pybullet parts from
+#: the reduced model whatever the tyres (a wheel leaves the ground).
+MIN_LOAD_FRACTION = 0.1
+#: A load the drive puts on a caster at once (a torque step) peaks at twice its steady value on
+#: the stiff, undamped contact (the dynamic load factor of a suddenly applied load; a TurtleBot 2
+#: braking at 2.7 g: caster 12.6 N against 5.7 N steady).
+LOAD_STEP_FACTOR = 2.0
+_G = 9.81
 #: Constraint-solver iterations per physics step (set on the client, with pyramid friction).
 #: pybullet's default 50 leaves the wheel contacts unconverged (yaw rate off by ~1 % and
 #: rippling at the wheel revolution rate); 150 converges at almost no cost (the solver stops
@@ -131,6 +145,74 @@ _REL_TOL = 1e-6
 #: far beyond pybullet's 0.02 m contact breaking threshold and any obstacle (not below the
 #: ground: the ground plane is a half space).
 _LIFT_M = 1000.0
+
+
+def tyre_friction(spec: RobotSpec, params: DriveParams) -> float:
+    r"""Tyre friction coefficient with which the pybullet wheels carry every force ``params`` asks.
+
+    The reduced model's wheels never slip; the pybullet robot carries the loops' torques and
+    the axis friction through its tyres (module notes, item 4), so a tyre grips while its force
+    stays below :math:`\mu N`. Per wheel, the drive asks at most
+
+    .. math:: F = \tau_{max}/r + (C_v + b_v v_{max})/2 + (C_w + b_w w_{max})/L
+
+    (the torque cap, or twice the stall torque when the motors' torque-speed line binds: a
+    reversal at speed; half the forward friction and the yaw friction as a force pair at the
+    track :math:`L`), and the lateral force :math:`m a_{lat}/2`, :math:`a_{lat} = v w \le
+    v_{max}^2/(2 \chi L)` (skid steer: effective track :math:`\chi L`). Its normal load is the
+    static :math:`m g/2` less the load the base moves onto a caster at :math:`x_c` when it
+    brakes at :math:`a = (2\tau_{max}/r + C_v + b_v v_{max})/m` (its centre of mass at the
+    height :math:`h` of ``base_link``: :math:`m a h/(2 x_c)`) and onto the outer wheel in a
+    turn (:math:`m a_{lat} h/L`), both times :data:`LOAD_STEP_FACTOR` (they come as steps),
+    at least :data:`MIN_LOAD_FRACTION` of the static load.
+    Here :math:`m` is the rigid mass with ``added_mass_kg``. Pybullet's pyramid friction
+    bounds the two directions apart, so the larger of :math:`F/N` and :math:`m a_{lat}/(2N)`
+    counts. A drive with no torque or speed bound (inf) keeps :data:`WHEEL_FRICTION`.
+
+    Parameters
+    ----------
+    spec : RobotSpec
+        The robot (wheels, casters, base_link height, rigid mass).
+    params : DriveParams
+        The drive parameters the robot runs.
+
+    Returns
+    -------
+    float
+        The tyres' lateral friction coefficient (times the ground's): the larger of
+        :data:`WHEEL_FRICTION` and the one the drive needs.
+
+    Examples
+    --------
+    >>> from robots import load_spec
+    >>> spec = load_spec("turtlebot3_burger")
+    >>> tyre_friction(spec, spec.drive)  # its drive needs mu 0.82 at most
+    1.5
+    """
+    d = params
+    r, sep = spec.wheels.radius_m, spec.wheels.separation_m
+    line = math.isfinite(d.wheel_stall_torque_nm) and math.isfinite(d.wheel_no_load_speed_radps)
+    tau = (
+        min(d.wheel_torque_max_nm, 2.0 * d.wheel_stall_torque_nm) if line else d.wheel_torque_max_nm
+    )
+    v_wheels = d.wheel_speed_max_radps * r
+    v_max = min(d.speed_lim_v_mps, v_wheels)
+    w_max = min(d.speed_lim_w_radps, 2.0 * v_wheels / (d.track_factor * sep))
+    friction_v = max(d.coulomb_v_fwd_n, d.coulomb_v_bwd_n) + d.viscous_v_ns_per_m * v_max
+    friction_w = d.coulomb_w_nm + d.viscous_w_nms_per_rad * w_max
+    force = tau / r + 0.5 * friction_v + friction_w / sep
+    if not math.isfinite(force):
+        return WHEEL_FRICTION
+    mass = spec.rigid_mass_kg + d.added_mass_kg
+    a_brake = (2.0 * tau / r + friction_v) / mass
+    a_lat = min(v_max * w_max, v_wheels**2 / (2.0 * d.track_factor * sep))
+    h = spec.base_link_height_m
+    reach = [abs(c.xyz_m[0]) for c in spec.casters if abs(c.xyz_m[0]) > 0.0]
+    pitch = mass * a_brake * h / (2.0 * min(reach)) if reach else 0.0
+    static = 0.5 * mass * _G
+    moved = LOAD_STEP_FACTOR * (pitch + mass * a_lat * h / sep)
+    load = max(static - moved, MIN_LOAD_FRACTION * static)
+    return max(WHEEL_FRICTION, max(force, 0.5 * mass * a_lat) / load)
 
 
 class DriveParamsNotAppliedError(RobotsError, RuntimeError):
@@ -292,7 +374,6 @@ class PybulletRobot:
             p.changeDynamics(
                 body,
                 j,
-                lateralFriction=WHEEL_FRICTION,
                 rollingFriction=0.0,
                 spinningFriction=0.0,
                 restitution=0.0,
@@ -352,11 +433,14 @@ class PybulletRobot:
             localInertiaDiagonal=[ixx, iyy, izz],
             physicsClientId=self.client,
         )
-        self._check_applied(mass, (ixx, iyy, izz))
+        grip = tyre_friction(self.spec, params)
+        for j in _WHEELS:
+            p.changeDynamics(self.body_id, j, lateralFriction=grip, physicsClientId=self.client)
+        self._check_applied(mass, (ixx, iyy, izz), grip)
         self._params = params
         self._packed = pack_params(params, geo)
 
-    def _check_applied(self, mass: float, inertia: tuple[float, float, float]) -> None:
+    def _check_applied(self, mass: float, inertia: tuple[float, float, float], grip: float) -> None:
         c, body = self.client, self.body_id
         info = p.getDynamicsInfo(body, -1, physicsClientId=c)
         checks: list[tuple[str, float, float]] = [
@@ -366,7 +450,7 @@ class PybulletRobot:
         checks += [(f"base inertia[{i}] [kg m^2]", float(info[2][i]), inertia[i]) for i in range(3)]
         for j in _WHEELS:
             winfo = p.getDynamicsInfo(body, j, physicsClientId=c)
-            checks.append((f"wheel {j} lateral friction", float(winfo[1]), WHEEL_FRICTION))
+            checks.append((f"wheel {j} lateral friction", float(winfo[1]), grip))
             checks.append((f"wheel {j} mass [kg]", float(winfo[0]), self.spec.wheels.mass_kg))
             w = self.spec.wheels
             wheel_inertia = (w.cross_inertia_kgm2, w.cross_inertia_kgm2, w.spin_inertia_kgm2)
