@@ -74,7 +74,7 @@ variants stay near the spec's mass (1.33-1.39 / 0.28-0.29), as a mass prior must
 logs cannot see mass.
 
 Two more fleets, same code (2026-11-26 14:30, ``--no-mass``, about 2 min each), held-out
-coverage v / w % (pb~red % where below 100):
+coverage v / w % (pb~red % where below 100, before the tyre-friction fix of finding 2):
 
 | base | seed 10 | seed 11 |
 |---|---|---|
