@@ -32,6 +32,23 @@ descendants (``PR_SET_CHILD_SUBREAPER``, Linux), so orphaned Ray processes are r
 their CPU counted. ``CPU cost`` = Ray CPU / serial CPU, and ``CPU bound`` = serial CPU / (Ray
 CPU / 2) is the most the two cores could give (the Ray command cannot finish before its CPU
 time is spread over both). On an idle machine the measured wall-clock speed-up is the figure.
+
+``two halves`` (the baseline of what the cores give): two serial commands at once, each on
+every other log, with no coordination at all; its speed-up is the most any engine could get
+from these two cores in the same run, and "cold Ray reaches N % of it" is Ray's own cost.
+The cores of this machine (a VM) slow each other by a varying amount: the same two processes
+reached 1.86x (session 9, 08:15) and 1.69x / 1.82x (2026-11-26 14:51 / 14:59).
+
+Measured 2026-11-26 (after the GC freeze at exit, ``sim2real.cli.run``):
+
+- 14:42, 4 repeats, load 0.7-1.6: serial 31.2 s, cold Ray 18.5 s median (16.3-20.1): 1.69x.
+- 14:51, 3 repeats: serial 30.9, cold Ray 19.4, two halves 18.3 s: Ray 1.59x, halves 1.69x
+  (CPU 1.11x serial: both cores busy cost 8 % more CPU per log today), Ray at 94 % of it.
+- 14:59, 5 repeats: serial 31.3, cold Ray 19.5, two halves 17.2 s: Ray 1.60x, halves 1.82x,
+  Ray at 88 %; CPU serial 31.5, halves 33.6, Ray 35.9 s (Ray's own 2.3 CPU-s over the halves,
+  and ~1.2 s of wall at the start when its second core runs Ray's start-up, not logs).
+- Tried, not kept: Ray's ``enable_worker_prestart`` (a worker started with the raylet): end of
+  the command 18.7 s with it vs 18.1 s without (6 alternated runs each).
 """
 
 from __future__ import annotations
@@ -157,27 +174,35 @@ class Run:
 
 
 def run_command(
-    argv: list[str], env: dict[str, str], out: Path, keep: Set[int] = frozenset()
+    argv: list[str] | list[list[str]],
+    env: dict[str, str],
+    out: Path,
+    keep: Set[int] = frozenset(),
 ) -> Run:
-    """Run one command to the end (and its orphans): wall and every process's CPU time.
+    """Run one command (or several at once, a list of argv lists) to the end (and its
+    orphans): wall and every process's CPU time.
 
     Every process this script started counts (a Ray started beforehand, ``keep``, included:
-    its workers do the work of a command that joins it).
+    its workers do the work of a command that joins it). ``out`` is the first command's JSON.
     """
+    argvs: list[list[str]] = [argv] if isinstance(argv[0], str) else argv  # type: ignore[list-item]
     out.unlink(missing_ok=True)
     meter = CpuMeter()
     t0 = time.perf_counter()
-    proc = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL)
+    procs = [subprocess.Popen(a, env=env, stdout=subprocess.DEVNULL) for a in argvs]
     next_poll = 0.0
-    while os.waitid(os.P_PID, proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT) is None:
+    while any(
+        os.waitid(os.P_PID, p.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT) is None for p in procs
+    ):
         if time.perf_counter() >= next_poll:
             meter.poll()
             next_poll = time.perf_counter() + meter.every_s
         time.sleep(0.01)
     wall = time.perf_counter() - t0
-    meter.poll()  # the command is a zombie now: its final CPU time
-    if proc.wait() != 0:
-        raise subprocess.CalledProcessError(proc.returncode, argv)
+    meter.poll()  # the commands are zombies now: their final CPU time
+    for a, p in zip(argvs, procs, strict=True):
+        if p.wait() != 0:
+            raise subprocess.CalledProcessError(p.returncode, a)
     quiet(keep, meter)
     return Run(
         wall_s=wall,
@@ -274,6 +299,10 @@ def main(argv: list[str] | None = None) -> int:
     warm_dir.mkdir()
     for p in logs[:4]:
         (warm_dir / p.name).symlink_to(p.resolve())
+    for half in ("a", "b"):  # every other log, for the two-processes baseline
+        (work / half).mkdir()
+    for i, p in enumerate(logs):
+        (work / ("a" if i % 2 == 0 else "b") / p.name).symlink_to(p.resolve())
     sim2real = str(Path(sys.executable).with_name("sim2real"))
     env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
     env.setdefault("RAY_USAGE_STATS_ENABLED", "0")
@@ -283,11 +312,19 @@ def main(argv: list[str] | None = None) -> int:
         cmd = [sim2real, "agree", glob, "--robot", ROBOT, "--engine", args.engine]
         return cmd + ["--json", str(out)] + ([] if side == "serial" else ["--ray", "auto"])
 
-    sides = ["serial", "cold Ray"] + ([] if args.no_running else ["running Ray"])
+    sides = ["serial", "cold Ray", "two halves"] + ([] if args.no_running else ["running Ray"])
 
     def one(side: str, glob: str, out: Path) -> Run:
         if side == "cold Ray":
             _wait_for_no_other_ray()
+        if side == "two halves":  # two serial commands at once, each on every other log
+            folder = Path(glob).parent
+            halves = [work / "a", work / "b"] if glob == pattern else [folder, folder]
+            argvs = [
+                command("serial", str(h / "*.mcap"), out.with_name(f"{out.stem}_{i}.json"))
+                for i, h in enumerate(halves)
+            ]
+            return run_command(argvs, env, out.with_name(f"{out.stem}_0.json"))
         if side != "running Ray":
             return run_command(command(side, glob, out), env, out)
         # not timed; without token authentication (Ray's default with ~/.ray/auth_token made a
@@ -331,7 +368,9 @@ def _wait_for_no_other_ray() -> None:
 
 def report(args: argparse.Namespace, n: int, runs: dict[str, list[Run]]) -> int:
     reference = runs["serial"][0].output
-    identical = all(r.output == reference for rs in runs.values() for r in rs)
+    identical = all(
+        r.output == reference for side, rs in runs.items() if side != "two halves" for r in rs
+    )
     print(
         f"{n} one-minute logs, engine {args.engine}, whole `sim2real agree` command, "
         f"{args.repeats} alternated repeats per side, {os.cpu_count()} cores"
@@ -360,7 +399,14 @@ def report(args: argparse.Namespace, n: int, runs: dict[str, list[Run]]) -> int:
             f"(target >= {TARGET}x); CPU cost {cpu[side] / cpu['serial']:.2f}x serial, "
             f"CPU bound on 2 cores {bound:.2f}x"
         )
-    print(f"JSON byte-identical across all runs: {identical}")
+    if "two halves" in figures:
+        ceiling = figures["two halves"][0]
+        print(
+            f"two halves = the most any engine gets from these 2 cores in this run (two serial "
+            f"commands at once, no coordination): {ceiling:.2f}x; cold Ray reaches "
+            f"{figures['cold Ray'][0] / ceiling:.0%} of it"
+        )
+    print(f"JSON byte-identical across all runs (Ray and serial): {identical}")
     _record(n, figures, identical)
     return 0 if identical else 1
 
