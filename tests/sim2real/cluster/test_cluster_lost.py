@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from sim2real.cli import _warnings_as_lines
-from sim2real.cluster import _Shared
+from sim2real.cluster import _cluster_file, _Shared
 from sim2real.errors import ClusterLostWarning
 
 HERE = Path(__file__).resolve().parent
@@ -96,6 +96,13 @@ def _ray_head() -> Iterator[int]:
     finally:
         _kill_tree(head.pid)
         head.wait(timeout=30)
+        # `ray start` recorded this head as the machine's cluster; a record of a dead head
+        # makes a later plain ray.init(num_cpus=...) refuse ("connecting to an existing
+        # cluster", the RLlib test in CI), so it goes with the head
+        record = _cluster_file()
+        with contextlib.suppress(OSError):
+            if record.read_text(encoding="utf-8").strip().endswith(f":{port}"):
+                record.unlink()
 
 
 def _kill_tree(root: int) -> None:
