@@ -5,8 +5,10 @@ Links, in joint order (pybullet joint index in brackets):
 - ``base_link`` (base): mass = base + point masses + casters, centre of mass at the base_link
   origin (x, y on the wheel-axle midpoint), inertia diagonal of :func:`robots.spec.lumped_base_inertia`;
   collision = the body shape plus one sphere per caster (the base link gets zero friction, so the
-  casters are frictionless); each caster floats ``CASTER_CLEARANCE_M`` above flat ground, so the
-  wheels carry the weight and the casters only stop the base from pitching.
+  casters are frictionless); each caster sphere sits ``CASTER_CLEARANCE_M`` (0: touching) above
+  flat ground: with the centre of mass over the axle the wheels carry the weight at rest, and
+  a caster takes load when the base pitches onto it (hard braking: up to 83 % of the weight on
+  a fitted P3-DX; see :func:`robots.pybullet_robot.tyre_friction`).
 - ``wheel_left_link`` [0], ``wheel_right_link`` [1]: continuous joints at y = +-L/2 on the axle
   (z = r above ground), axis along +y of base_link (positive joint speed drives forward);
   collision = a sphere of the wheel radius (one contact point, rolling radius exactly r).
