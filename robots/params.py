@@ -443,6 +443,12 @@ class FieldSchema:
             return float(z) * self._total(geometry, total)
         return math.exp(float(z)) - self.spec_value(geometry)
 
+    def clamped_value(self, z: float, geometry: BaseGeometry, total: float | None = None) -> float:
+        """The value at coordinate ``z`` kept inside :meth:`coord_bounds` (same ``total`` as
+        :meth:`from_coord`): how a fitted or drawn coordinate becomes a parameter."""
+        lo, hi = self.coord_bounds(geometry)
+        return self.from_coord(min(max(float(z), lo), hi), geometry, total)
+
     def _total(self, geometry: BaseGeometry, total: float | None) -> float:
         t = self.reference(geometry) if total is None else float(total)
         if not (t > 0 and math.isfinite(t)):
@@ -866,8 +872,7 @@ def coords_to_values(
             total = None
             if f.per_field is not None:
                 total = f.total_of(geometry, out.get(f.per_field, others.get(f.per_field, 0.0)))
-            lo, hi = f.coord_bounds(geometry)
-            out[name] = f.from_coord(min(max(zi, lo), hi), geometry, total)
+            out[name] = f.clamped_value(zi, geometry, total)
     return out
 
 

@@ -268,10 +268,8 @@ class Mapper:
         """The value of ``field`` at schema coordinate ``z`` (kept inside the schema's bounds);
         a per-unit-mass friction takes its total mass or yaw inertia from ``params`` (the base
         values when omitted)."""
-        f = SCHEMA[field]
-        lo, hi = f.coord_bounds(self.geometry)
         total = self.total(self.base if params is None else params, field)
-        return f.from_coord(min(max(float(z), lo), hi), self.geometry, total)
+        return SCHEMA[field].clamped_value(z, self.geometry, total)
 
     def total(self, params: DriveParams, field: str) -> float | None:
         """The total mass or yaw inertia that ``field``'s coordinate is per unit of (None for a
