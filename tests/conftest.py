@@ -9,6 +9,8 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, settings
 
+from tests.processes import descendants, process_table
+
 # No per-example deadline: the first example of a property test may compile numba kernels, and
 # CI machines are loaded. In CI (CI=true) the examples are derandomised, so a run is repeatable.
 # A test's own @settings inherits these, except a list it gives: suppress_health_check=[...]
@@ -60,29 +62,13 @@ def _foreign_ray_gcs() -> list[int]:
     Ray running on the machine, found by its ``gcs_server`` process: a shared machine where
     another user's Ray is up would make the tests of a local start fail for that reason.
     """
-    proc = Path("/proc")
-    if not proc.is_dir():
-        return []
-    parents: dict[int, int] = {}
-    gcs: list[int] = []
-    for stat in proc.glob("[0-9]*/stat"):
-        try:
-            text = stat.read_text()
-            cmd = (stat.parent / "cmdline").read_bytes().split(b"\0")[0]
-        except OSError:
-            continue
-        pid = int(stat.parent.name)
-        parents[pid] = int(text[text.rindex(")") + 2 :].split()[1])
-        if cmd.endswith(b"/gcs_server"):
-            gcs.append(pid)
-    foreign = []
-    for pid in gcs:
-        ancestor = pid
-        while ancestor > 1 and ancestor != os.getpid():
-            ancestor = parents.get(ancestor, 1)
-        if ancestor != os.getpid():
-            foreign.append(pid)
-    return foreign
+    table = process_table()
+    ours = set(descendants(os.getpid(), table))
+    return [
+        pid
+        for pid, (_, cmd) in table.items()
+        if cmd.split(" ")[0].endswith("/gcs_server") and pid not in ours
+    ]
 
 
 def pytest_runtest_setup(item: pytest.Item) -> None:

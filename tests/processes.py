@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 from typing import TypeVar
 
 T = TypeVar("T")
@@ -51,3 +52,27 @@ def map_in_processes(fn: Callable[[T], R], items: Sequence[T]) -> list[R]:
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
         return list(pool.map(fn, items))
+
+
+def process_table() -> dict[int, tuple[int, str]]:
+    """pid -> (parent pid, command line with spaces) of every process (Linux ``/proc``; empty
+    elsewhere). Processes that exit while it is read are left out."""
+    table: dict[int, tuple[int, str]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            text = stat.read_text()
+            cmd = (stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+        except OSError:
+            continue
+        table[int(stat.parent.name)] = (int(text[text.rindex(")") + 2 :].split()[1]), cmd)
+    return table
+
+
+def descendants(root: int, table: Mapping[int, tuple[int, str]] | None = None) -> list[int]:
+    """The pids below ``root`` in ``table`` (default: :func:`process_table` now), sorted."""
+    table = process_table() if table is None else table
+    ours, grew = {root}, True
+    while grew:
+        new = {pid for pid, (pp, _) in table.items() if pp in ours} - ours
+        grew, ours = bool(new), ours | new
+    return sorted(ours - {root})

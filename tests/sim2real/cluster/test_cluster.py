@@ -24,6 +24,7 @@ from sim2real.cluster import (
     write_synthetic_fleet,
 )
 from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
+from tests.processes import descendants, process_table
 
 
 @pytest.fixture(scope="module")
@@ -452,24 +453,8 @@ def test_registered_first_asks_ray_once_the_node_is_there(
 
 def _descendant_commands() -> list[str]:
     """Command lines of this process's descendants (Linux /proc)."""
-    parent: dict[int, int] = {}
-    command: dict[int, str] = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            text = stat.read_text()
-            cmd = (stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode()
-        except OSError:
-            continue
-        pid = int(stat.parent.name)
-        parent[pid] = int(text[text.rindex(")") + 2 :].split()[1])
-        command[pid] = cmd
-    ours = {os.getpid()}
-    grew = True
-    while grew:
-        new = {pid for pid, pp in parent.items() if pp in ours} - ours
-        grew = bool(new)
-        ours |= new
-    return [command[pid] for pid in ours - {os.getpid()}]
+    table = process_table()
+    return [table[pid][1] for pid in descendants(os.getpid(), table)]
 
 
 def _descendants_left(grace_s: float = 10.0) -> list[str]:

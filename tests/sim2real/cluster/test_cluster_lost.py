@@ -20,6 +20,7 @@ import pytest
 from sim2real.cli import _warnings_as_lines
 from sim2real.cluster import _cluster_file, _Shared
 from sim2real.errors import ClusterLostWarning
+from tests.processes import descendants
 
 HERE = Path(__file__).resolve().parent
 
@@ -49,22 +50,6 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
-
-
-def _descendants(root: int) -> list[int]:
-    """Pids below ``root`` (Linux /proc)."""
-    parent: dict[int, int] = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            text = stat.read_text()
-        except OSError:
-            continue
-        parent[int(stat.parent.name)] = int(text[text.rindex(")") + 2 :].split()[1])
-    ours, grew = {root}, True
-    while grew:
-        new = {pid for pid, pp in parent.items() if pp in ours} - ours
-        grew, ours = bool(new), ours | new
-    return sorted(ours - {root})
 
 
 #: Ray 2.60 starts a head with token authentication; a driver given the head's address uses
@@ -106,7 +91,7 @@ def _ray_head() -> Iterator[int]:
 
 
 def _kill_tree(root: int) -> None:
-    for pid in [*_descendants(root), root]:
+    for pid in [*descendants(root), root]:
         with contextlib.suppress(ProcessLookupError):  # gone already
             os.kill(pid, signal.SIGKILL)
 
