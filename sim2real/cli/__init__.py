@@ -138,9 +138,10 @@ def run() -> int:
     interpreter's teardown frees the remaining objects by reference counting only, without
     the cyclic collections it would otherwise run over them (~120,000 tracked objects after
     one ``agree`` with numba, pybullet and Ray loaded). Measured here on ``sim2real agree``
-    over 10 logs (2026-11-26, idle): the time from the end of :func:`main` to the process's
-    exit fell from 0.23-0.29 s to 0.05 s (serial) and from 0.39-0.59 s to 0.05 s (with
-    ``--ray auto``, whose modules leave more objects behind); the same trick as Instagram's
+    over 10 logs (2026-11-26, reduced engine, with and without the freeze alternated 5 times
+    in one run, load 1.9-3.3): the time from the end of :func:`main` to the process's exit,
+    median, fell from 0.40 s to 0.04 s (serial) and from 0.53 s to 0.10 s (with ``--ray
+    auto``, whose modules leave more objects behind); the same trick as Instagram's
     exit without a final collection ("Dismissing Python Garbage Collection at Instagram",
     2017). Files, subprocesses and ``atexit`` handlers are closed as before (they do not
     depend on the cyclic collector), and objects kept alive only by a reference cycle are
