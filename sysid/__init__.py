@@ -28,6 +28,7 @@ from sysid.errors import (
 )
 
 if TYPE_CHECKING:
+    from sysid._fleet import spread_degrees_of_freedom
     from sysid._logs import LogArrays, VelocityLog, crop_log
     from sysid.fit import Progress, fit_drive, score_logs
     from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
@@ -48,6 +49,7 @@ __all__ = [
     "crop_log",
     "fit_drive",
     "score_logs",
+    "spread_degrees_of_freedom",
 ]
 
 _LAZY = {
@@ -57,6 +59,7 @@ _LAZY = {
     "Progress": "sysid.fit",
     "fit_drive": "sysid.fit",
     "score_logs": "sysid.fit",
+    "spread_degrees_of_freedom": "sysid._fleet",
     "DataFile": "sysid.result",
     "FitScores": "sysid.result",
     "ParameterEstimate": "sysid.result",

@@ -46,6 +46,7 @@ __all__ = [
     "SessionInfo",
     "new_session_factor",
     "population",
+    "spread_degrees_of_freedom",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -79,9 +80,25 @@ def new_session_factor(
     """
     from scipy.special import ndtri, stdtrit
 
-    dof = max(float(n_sessions) - 1.0 + prior_sessions, 1.0)
+    dof = spread_degrees_of_freedom(n_sessions, prior_sessions=prior_sessions)
     q = 0.5 * (1.0 + level)
     return float((stdtrit(dof, q) / ndtri(q)) ** 2)
+
+
+def spread_degrees_of_freedom(n_sessions: int, *, prior_sessions: float = PRIOR_SESSIONS) -> float:
+    r"""Degrees of freedom of the between-session spread a fit of ``n_sessions`` logs stores.
+
+    :math:`\nu = n - 1 + n_0` (at least 1): the sessions less the one spent on the mean, plus
+    the :data:`PRIOR_SESSIONS` pseudo-sessions of the spec's default spread. It is the weight,
+    in sessions, of that spread against any later evidence about it
+    (:func:`sim2real.calibration.calibrate_traces` pools validation sessions with it).
+
+    Examples
+    --------
+    >>> spread_degrees_of_freedom(1), spread_degrees_of_freedom(3)
+    (3.0, 5.0)
+    """
+    return max(float(n_sessions) - 1.0 + prior_sessions, 1.0)
 
 
 #: A session's data count in a direction only where they carry at least this fraction of the

@@ -113,7 +113,11 @@ def _handle(args: argparse.Namespace) -> int:
         return f"x{x:.3g}" if math.isfinite(x) else "(file had none)"
 
     print(f"calibrated {args.params} on {', '.join(args.logs)} ({result.n_active} active samples)")
-    print(f"  dynamics spread factor  x{result.dynamics_factor:.3g}")
+    print(
+        f"  dynamics spread factor  x{result.dynamics_factor:.3g} (the validation optimum "
+        f"x{result.likelihood_dynamics_factor:.3g} pooled by sessions with the fit's "
+        f"{result.fit_sessions} log(s) + prior: {result.validation_sessions} validation log(s))"
+    )
     print(
         f"  odometry noise v        {result.noise_std_v_mps:.4g} m/s "
         f"{factor(result.noise_factor_v)}"
