@@ -636,7 +636,7 @@ def pooled_factors(
         --------
         >>> a, b = pooled_factors(0.2, 1.0, fit_sessions=3, validation_sessions=2)
         >>> round(a, 3), round(b, 3)
-        (0.851, 0.535)
+        (0.852, 0.535)
     """
     from sysid import spread_degrees_of_freedom
 

@@ -451,20 +451,26 @@ def test_registered_first_asks_ray_once_the_node_is_there(
         ray.shutdown()
 
 
-def _descendant_commands() -> list[str]:
-    """Command lines of this process's descendants (Linux /proc)."""
+def _descendant_commands(ignore: frozenset[int] = frozenset()) -> list[str]:
+    """Command lines of this process's descendants (Linux /proc), less the pids ``ignore``."""
     table = process_table()
-    return [table[pid][1] for pid in descendants(os.getpid(), table)]
+    return [table[pid][1] for pid in descendants(os.getpid(), table) if pid not in ignore]
 
 
-def _descendants_left(grace_s: float = 10.0) -> list[str]:
+def _descendant_pids() -> frozenset[int]:
+    """This process's descendants now: helpers an earlier test left for the interpreter's
+    lifetime (multiprocessing's resource tracker) are not this test's to stop."""
+    return frozenset(descendants(os.getpid(), process_table()))
+
+
+def _descendants_left(ignore: frozenset[int], grace_s: float = 10.0) -> list[str]:
     """:func:`_descendant_commands` once they are gone, or after ``grace_s`` (polled).
 
     ``ray.shutdown()`` signals Ray's processes and waits up to 1 s for each to exit; on a
     loaded machine one may still be exiting (or not yet reaped) when it returns.
     """
     deadline = time.monotonic() + grace_s
-    while (left := _descendant_commands()) and time.monotonic() < deadline:
+    while (left := _descendant_commands(ignore)) and time.monotonic() < deadline:
         time.sleep(0.05)
     return left
 
@@ -491,6 +497,7 @@ def test_lean_local_ray_leaves_out_the_cluster_services(lean: bool) -> None:
     from sim2real.cluster import connect
 
     before = (RayParams.__init__, Node.start_api_server, ray_services.get_node)
+    earlier = _descendant_pids()
     assert not ray.is_initialized()
     try:
         assert connect("auto", local_cpus=1, lean=lean) is True
@@ -511,6 +518,6 @@ def test_lean_local_ray_leaves_out_the_cluster_services(lean: bool) -> None:
         t0 = time.perf_counter()
         ray.shutdown()
         stop_s = time.perf_counter() - t0
-    assert _descendants_left() == []
+    assert _descendants_left(earlier) == []
     if not lean:
         assert stop_s > 0.9
