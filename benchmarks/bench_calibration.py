@@ -58,6 +58,11 @@ wider than 0.10 m/s in v owe it to the traction limit's prior (log-sd 0.5, never
 the fitted logs): without its spread the widest of set B, 0.137 m/s, is 0.021 m/s at the same
 coverage. The 9 Burger fleets: 0 of 27 sessions outside 80-99 % either way.
 
+Point agreement on set B (the script's closing line): >= 90 % on 16 of 36 checked sessions
+at the fleet's estimate, on 34 of 36 with only the delay changed to each session's own best
+(88.4-97.5 %): the fit is right and the unseen session's latency, which no fit of other
+sessions can know, is what a point estimate misses (the plant draws 60-160 ms per session).
+
 Before the pooling (2026-11-26 15:37, after the pybullet tyre friction from the drive,
 ``--variants --pybullet-n 20``, 2 min 31 s on one core; reduced figures identical to the 12:30
 run below).
