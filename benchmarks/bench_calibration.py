@@ -58,9 +58,17 @@ wider than 0.10 m/s in v owe it to the traction limit's prior (log-sd 0.5, never
 the fitted logs): without its spread the widest of set B, 0.137 m/s, is 0.021 m/s at the same
 coverage. The 9 Burger fleets: 0 of 27 sessions outside 80-99 % either way.
 
-Point agreement on set B (the script's closing line): >= 90 % on 16 of 36 checked sessions
-at the fleet's estimate, on 34 of 36 with only the delay changed to each session's own best
-(88.4-97.5 %): the fit is right and the unseen session's latency, which no fit of other
+Then the traction limit's prior made as narrow as its comment says (``wheel_torque_max_nm``
+log-sd 0.5 -> 0.3 in the three shipped specs: "mu 0.3-0.8 across floors" as the 90 % range;
+2026-11-26 17:25, the same 36 fleets, ``--seeds 11-15,31-36 --ti-seeds 23-26,41-43
+--burger-seeds 5-7,51-53`` and set C as above): widest Kobuki-sized band v 0.142 -> 0.101 m/s
+(sessions wider than 0.10 m/s 4 -> 1, at 0.1006), w 0.283 -> 0.304 rad/s; fleets pooled
+outside 80-99 % 1 (v 99.6 %); sessions below 80 % 11 of 81 (worst 64.6 %), above 99 % 9; mean
+pooled coverage 92.2 / 91.1 % (Burger 93.3 / 92.3 %, 0 of 27 sessions outside).
+
+Point agreement (the script's closing line), 108 checked sessions of the 36 fleets: >= 90 %
+on 47 at the fleet's estimate, on 97 with only the delay changed to each session's own best
+(83.4-98.9 %; set B alone 16 and 34 of 36, before the prior change): the fit is right and the unseen session's latency, which no fit of other
 sessions can know, is what a point estimate misses (the plant draws 60-160 ms per session).
 
 Before the pooling (2026-11-26 15:37, after the pybullet tyre friction from the drive,
