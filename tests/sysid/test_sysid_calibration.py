@@ -4,6 +4,7 @@ result loads into the pybullet robot (every shipped robot, plants of 0.5x-3x the
 from __future__ import annotations
 
 import collections
+import dataclasses
 import math
 from pathlib import Path
 
@@ -212,8 +213,15 @@ def test_released_start_finds_torque_limited_transients(
     seed = 100 * 47 + 27
     t, v, w = step_commands(20.0, seed=seed, v_max_mps=0.2, w_max_radps=1.5)
     log = synthetic_log(truth, geo, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed, spike_mps=None)
+    # the plant was drawn from the torque cap's earlier prior (log-sd 0.5); the spec's is now
+    # 0.3 and puts this cap (0.54x nominal) 2 sd low, where the prior itself pulls the fit off
+    # the truth (k_i 16.7 /s, interval 15.0-18.3): this test is about the fit's starts, so it
+    # keeps the prior the plant came from (no 48-plant draw of the new prior has a transient
+    # that only the released start finds: 41 of 48 integral gains covered with or without it)
+    priors = dict(spec.priors)
+    priors["wheel_torque_max_nm"] = dataclasses.replace(priors["wheel_torque_max_nm"], sd=0.5)
     res = fit_drive(
-        [log], geometry=geo, base_params=spec.drive, priors=spec.priors, odom_v_window_s=0.02
+        [log], geometry=geo, base_params=spec.drive, priors=priors, odom_v_window_s=0.02
     )
     ki = res.estimate("speed_loop_ki_per_s")
     assert ki.ci95_low is not None and ki.ci95_high is not None
