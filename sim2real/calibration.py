@@ -666,13 +666,24 @@ def _fit_logs(document: Any) -> set[str]:
     return out
 
 
-def _sessions_of(document: Any) -> int:
-    """Logs a params file was fitted on (``settings.sessions``; 1 when absent)."""
+def _sessions_of(document: Any, path: str | Path) -> int:
+    """Logs a params file was fitted on (``settings.sessions``; 1 when the file has none).
+
+    Raises :class:`robots.errors.ParamsFileError` for a count that is not a whole number
+    >= 1: the calibration weighs the file's spread by it.
+    """
+    from robots.errors import ParamsFileError
+
     settings = document.get("settings") if isinstance(document, dict) else None
-    value = settings.get("sessions") if isinstance(settings, dict) else None
+    if not isinstance(settings, dict) or "sessions" not in settings:
+        return 1
+    value = settings["sessions"]
     if isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= 10_000:
         return value
-    return 1
+    raise ParamsFileError(
+        f"params file '{path}': settings.sessions (the logs it was fitted on) must be a whole "
+        f"number from 1 to 10000, got {value!r}; write the fit's count or delete the key"
+    )
 
 
 def _window_of(document: Any) -> float:
@@ -757,7 +768,7 @@ def calibrate(
         odom_v_window_s=window,
         tol_v=tol_v,
         tol_w=tol_w,
-        fit_sessions=_sessions_of(document),
+        fit_sessions=_sessions_of(document, params_path),
     )
     short = _short_data_note(traces, result.n_active)
     return dataclasses.replace(result, notes=notes + ((short,) if short else ()))

@@ -93,3 +93,10 @@ def write_params(
     }
     path.write_text(yaml.safe_dump(doc), encoding="utf-8")
     return path
+
+
+def write_logs(root: Path, seeds: tuple[int, ...], *, duration_s: float = 20.0) -> tuple[Path, ...]:
+    """One :func:`write_log` per seed, ``ROOT/log_<seed>.mcap`` (different commands each)."""
+    return tuple(
+        write_log(root / f"log_{seed}.mcap", duration_s=duration_s, seed=seed) for seed in seeds
+    )

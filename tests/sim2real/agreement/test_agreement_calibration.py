@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from _agreement_fixtures import HIDDEN, ROBOT, hidden_params, write_log
+from _agreement_fixtures import HIDDEN, ROBOT, hidden_params, write_logs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -32,11 +32,8 @@ from tests.randomization_block import distribution_around, write_params_file
 @pytest.fixture(scope="module")
 def logs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """Two logs of the hidden robot (noise 0.003 m/s, 0.02 rad/s), different commands."""
-    root = tmp_path_factory.mktemp("cal")
-    return (
-        write_log(root / "val.mcap", duration_s=20.0, seed=1),
-        write_log(root / "test.mcap", duration_s=20.0, seed=2),
-    )
+    val, test = write_logs(tmp_path_factory.mktemp("cal"), (1, 2))
+    return val, test
 
 
 def test_log_likelihood_is_the_gaussian_density() -> None:

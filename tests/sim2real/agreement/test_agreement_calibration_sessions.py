@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from _agreement_fixtures import ROBOT, hidden_params, write_log
+from _agreement_fixtures import ROBOT, hidden_params, write_logs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -52,11 +52,8 @@ def test_many_validation_sessions_reach_the_optimum() -> None:
 
 @pytest.fixture(scope="module")
 def two_logs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    root = tmp_path_factory.mktemp("calsessions")
-    return (
-        write_log(root / "a.mcap", duration_s=20.0, seed=1),
-        write_log(root / "b.mcap", duration_s=20.0, seed=3),
-    )
+    a, b = write_logs(tmp_path_factory.mktemp("calsessions"), (1, 3))
+    return a, b
 
 
 def test_alike_validation_sessions_cannot_shrink_a_fleets_spread_to_nothing(
@@ -120,3 +117,22 @@ def test_bad_fit_session_count_is_refused(two_logs: tuple[Path, Path], bad: obje
             n=4,
             fit_sessions=bad,  # type: ignore[arg-type]
         )
+
+
+@pytest.mark.parametrize("bad", [0, -3, 2.5, "three", True])
+def test_a_bad_session_count_in_the_file_is_refused_in_one_sentence(
+    two_logs: tuple[Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    bad: object,
+) -> None:
+    params = write_params_file(
+        tmp_path / "p.yaml", hidden_params(), ROBOT, extra={"settings": {"sessions": bad}}
+    )
+    out = tmp_path / "cal.yaml"
+    argv = ["sysid", "calibrate", str(params), str(two_logs[0]), "--robot", ROBOT, "-o", str(out)]
+    assert main([*argv, "--ensemble", "4"]) == 2
+    err = capsys.readouterr().err
+    assert "settings.sessions" in err and str(params) in err and repr(bad) in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
