@@ -63,7 +63,7 @@ test: lint
 ## that need them; the RLlib tests run in .venv-rllib (gymnasium 1.2.2)
 test-train: $(STAMP_TRAIN) $(STAMP_RLLIB)
 	$(BIN)/python -m pytest -q -m "train or cluster"
-	$(VENV_RLLIB)/bin/python -m pytest -q tests/sim2real/train/test_train_rllib.py
+	$(VENV_RLLIB)/bin/python -m pytest -q tests/sim2real/training/test_train_rllib.py
 
 ## make bench: the performance targets (prints ratios measured in the same run) and writes the
 ## README's performance table from this run's headline figures; every bench runs even if one

@@ -3,7 +3,7 @@
 Data (built here, written as ROS 2 MCAP and read back):
 
 1. A fleet of recording sessions of one Kobuki-sized base (``turtlebot2``) from the foreign
-   plant :mod:`sim2real.plants` (PI wheel loops, DC-motor torque-speed line with battery sag,
+   plant :mod:`sim2real.plants.diff_drive` (PI wheel loops, DC-motor torque-speed line with battery sag,
    per-wheel asymmetric friction, caster scrub, quantised encoders, gyro, latency jitter),
    whose payload, floor friction, battery charge and latency differ per session. It is *not*
    the project's drive model. Sessions 0-2 are fitted (``sysid fit``, fleet / random effects),
@@ -28,7 +28,7 @@ calibrated one as the same run's baseline. ``--seeds``, ``--ti-seeds`` and ``--b
 (``11``, ``31-36``, ``11,23``) run more fleets.
 
 Measured (2026-11-26 16:45, calibration pooled with the fit's spread by sessions,
-:func:`sim2real.calibration.pooled_factors`; ``--variants --pybullet-n 20``). Pooled coverage
+:func:`sim2real.agreement.calibration.pooled_factors`; ``--variants --pybullet-n 20``). Pooled coverage
 v / w, reduced | pybullet: Kobuki seed 11 97.1 / 95.3 | 96.4 / 94.5 %, Ti/2 seed 23 88.9 /
 85.5 | 88.2 / 84.3 % (was 83.9 / 80.3 | 82.6 / 78.8 %), Burger seed 5 95.1 / 95.0 | 95.0 /
 94.6 %, real TB3 half 2 92.4 / 90.8 % (uncalibrated, unchanged); its session 6 (158 ms) 79.9
@@ -136,7 +136,7 @@ calibrated on two sessions covers a typical session more and an extreme one less
 level; no single band puts every session inside 80-99 % when the sessions' own latency moves
 the response by more than the band's width. Before the coverage matching, the burger's
 calibrated w band was too wide at its centre (its 50 % band covered 81-84 %): the Gaussian
-likelihood of :mod:`sim2real.calibration` widens the noise to cover heavy-tailed transient
+likelihood of :mod:`sim2real.agreement.calibration` widens the noise to cover heavy-tailed transient
 errors. Tried before the matching, not adopted: a Student-t
 (nu = 5) predictive likelihood gives burger w 90.6-92.0 % per session (pooled 91.0 %) and
 Kobuki seed 11 91.6 %, but drops the between-session factor to 0 on the Ti/2 fleet, whose
@@ -195,8 +195,8 @@ def _row(label: str, ens: Any, point: Any) -> str:
 
 
 def _check(trace: Any, spec: Any, dist: Any, engine: str, n: int, window_s: float) -> Any:
-    from sim2real.agreement import measure_agreement, run_ensemble
-    from sim2real.replay import replay
+    from sim2real.agreement.figures import measure_agreement, run_ensemble
+    from sim2real.agreement.replay import replay
 
     ens = run_ensemble(
         trace, robot=spec, distribution=dist, n=n, seed=0, engine=engine, odom_v_window_s=window_s
@@ -216,8 +216,8 @@ def _best_delay_agreement(
 ) -> tuple[float, float]:
     """Point agreement with only the delay changed to the session's best (-80..+80 ms, 10 ms
     steps): what the point estimate would reach had it known this session's latency."""
-    from sim2real.agreement import measure_agreement
-    from sim2real.replay import replay
+    from sim2real.agreement.figures import measure_agreement
+    from sim2real.agreement.replay import replay
 
     scores = []
     for shift in np.arange(-0.08, 0.0801, 0.01):
@@ -256,10 +256,10 @@ def fleet(
 ) -> None:
     from robots.randomization import DriveDistribution
     from robots.spec import load_spec
-    from sim2real.agreement import agreement_from_arrays, band_verdict
-    from sim2real.calibration import calibrate, write_calibrated
+    from sim2real.agreement.calibration import calibrate, write_calibrated
+    from sim2real.agreement.figures import agreement_from_arrays, band_verdict
     from sim2real.logs import read_trace
-    from sim2real.plants import plant_from_spec, write_fleet
+    from sim2real.plants.diff_drive import plant_from_spec, write_fleet
     from sysid import fit_drive
 
     spec = load_spec(robot)

@@ -6,9 +6,9 @@ Run: ``.venv/bin/python benchmarks/bench_novel_robots.py [--quick] [--robots nea
 For each base below, only a few published numbers go in, through the user's path:
 
 1. ``sim2real robots new NAME --wheel-separation ... -o NAME.yaml`` and ``robots check``;
-2. eight recording sessions of the base from a **foreign plant** (:mod:`sim2real.plants`,
-   :func:`~sim2real.plants.plant_from_spec` with that spec file; for the skid base a
-   Jackal-like :class:`~sim2real.skid_plant.SkidPlantParams`), payload, floor friction,
+2. eight recording sessions of the base from a **foreign plant** (:mod:`sim2real.plants.diff_drive`,
+   :func:`~sim2real.plants.diff_drive.plant_from_spec` with that spec file; for the skid base a
+   Jackal-like :class:`~sim2real.plants.skid.SkidPlantParams`), payload, floor friction,
    battery charge and latency drawn per session, written as MCAP and read back;
 3. ``sysid fit`` on sessions 0-2 (a fleet), ``sysid calibrate`` on 3-4, ``agree --ensemble 20
    --engine reduced`` on 5-7 (pooled 90 % band coverage of v and w, target 80-99 %), and once
@@ -99,7 +99,7 @@ cannot hold sessions two of its own standard deviations away; the between-sessio
 is already a Student-t with a prior on the spread (:mod:`sysid._fleet`).
 
 With the calibration pooled with the fit's spread by sessions
-(:func:`sim2real.calibration.pooled_factors`; 2026-11-26 17:00, seed 8 full run, seeds 10 and
+(:func:`sim2real.agreement.calibration.pooled_factors`; 2026-11-26 17:00, seed 8 full run, seeds 10 and
 11 ``--no-mass``), held-out coverage v / w % (before -> after; seed 8's before is the same
 run of main's tree):
 
@@ -181,7 +181,7 @@ Reproduction of 1 and 2 (a minute)::
 
     sim2real robots new heavy60 --wheel-separation 0.5 --wheel-radius 0.1 --mass 60 \
         --max-speed 1.0 -o heavy60.yaml
-    python -c "from sim2real.plants import write_fleet, plant_from_spec; \
+    python -c "from sim2real.plants.diff_drive import write_fleet, plant_from_spec; \
         write_fleet('.', plant_from_spec('heavy60.yaml'), 3, seed=8)"
     sim2real sysid fit session_0.mcap session_1.mcap session_2.mcap --robot heavy60.yaml \
         -o p.yaml      # added_mass_kg -38.3 (population) vs -18.5, -18.3, -19.1 (sessions)
@@ -320,7 +320,7 @@ def cli(argv: list[str], row: Row, what: str) -> int:
 
 def jackal_plant() -> Any:
     """A Jackal-like skid plant from the published numbers above (the rest as husky_like)."""
-    from sim2real.skid_plant import _slip_lat_for, husky_like
+    from sim2real.plants.skid import _slip_lat_for, husky_like
 
     m, length, width = 17.0, 0.42, 0.31
     base = husky_like().replace(
@@ -347,9 +347,9 @@ def jackal_plant() -> Any:
 
 def skid_sessions(n: int, *, seed: int, duration_s: float) -> tuple[list[Any], list[float]]:
     """Sessions of :func:`jackal_plant`: payload, ground, battery (motor line) and latency drawn
-    per session with the ranges of :class:`sim2real.plants.SessionVariation`."""
-    from sim2real.plants import SessionVariation, command_profile
-    from sim2real.skid_plant import run_skid_plant
+    per session with the ranges of :class:`sim2real.plants.diff_drive.SessionVariation`."""
+    from sim2real.plants.diff_drive import SessionVariation, command_profile
+    from sim2real.plants.skid import run_skid_plant
 
     base, var = jackal_plant(), SessionVariation()
     out, masses = [], []
@@ -377,7 +377,7 @@ def skid_sessions(n: int, *, seed: int, duration_s: float) -> tuple[list[Any], l
 
 def plant_masses(base: Any, n: int, *, seed: int) -> list[float]:
     """The mass of each session of ``make_fleet(base, n, seed=seed)`` (its first draw)."""
-    from sim2real.plants import draw_session
+    from sim2real.plants.diff_drive import draw_session
 
     return [draw_session(base, np.random.default_rng([seed, i])).mass_kg for i in range(n)]
 
@@ -447,9 +447,9 @@ def physics_check(spec_path: Path, params_path: Path, row: Row, what: str) -> No
 def pybullet_vs_reduced(spec_path: Path, params_path: Path, log: Path) -> float:
     """Share of active samples where the pybullet and reduced replays agree (default tols)."""
     from robots.spec import load_spec
-    from sim2real.agreement import DEFAULT_TOL_V, DEFAULT_TOL_W
+    from sim2real.agreement.figures import DEFAULT_TOL_V, DEFAULT_TOL_W
+    from sim2real.agreement.replay import replay
     from sim2real.logs import read_trace
-    from sim2real.replay import replay
     from sysid.result import SysidResult
 
     spec = load_spec(spec_path)
@@ -593,7 +593,7 @@ def main() -> None:
     ap.add_argument("--keep", default="", help="keep the files in this folder")
     ap.add_argument("--seed", type=int, default=8)
     args = ap.parse_args()
-    from sim2real.plants import make_fleet, plant_from_spec
+    from sim2real.plants.diff_drive import make_fleet, plant_from_spec
 
     duration = 40.0 if args.quick else 90.0
     cal_ensemble = 16 if args.quick else 32

@@ -1,9 +1,9 @@
-"""Benchmark: a 90 s session of the foreign plant (sim2real.plants) against the reduced model.
+"""Benchmark: a 90 s session of the foreign plant (sim2real.plants.diff_drive) against the reduced model.
 
 The same 90 s ``mixed`` command profile of a TurtleBot3 Burger is simulated, alternately and
 with the same repeat count, by
 
-- the foreign plant (:func:`sim2real.plants.run_plant`: 0.5 ms physics step, 100 Hz PI loop,
+- the foreign plant (:func:`sim2real.plants.diff_drive.run_plant`: 0.5 ms physics step, 100 Hz PI loop,
   encoders, gyro, jitter), and
 - the reduced drive model (:func:`robots.reduced.simulate` at its default 1/240 s step, with
   output on the same 30 Hz odometry grid): the baseline a fit runs thousands of times.
@@ -25,7 +25,7 @@ from _timing import alternate, fmt_ratio, paired_ratios
 
 from robots.reduced import simulate
 from robots.spec import load_spec
-from sim2real.plants import command_profile, plant_from_spec, run_plant
+from sim2real.plants.diff_drive import command_profile, plant_from_spec, run_plant
 
 ROBOT = "turtlebot3_burger"
 DURATION_S = 90.0

@@ -22,8 +22,8 @@ from _timing import QUICK, alternate, command_times, machine, paired_ratios, rec
 
 from robots.reduced import simulate
 from robots.spec import load_spec
+from sim2real.agreement.replay import replay
 from sim2real.logs import read_trace, write_velocity_log
-from sim2real.replay import replay
 
 DURATION_S = 600.0
 TARGET_SPEEDUP = 50.0

@@ -3,8 +3,8 @@
 Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,...,110] [--husky-seeds 0,...,4]``
 (3.3 min CPU at load 2).
 
-1. **Target** (what ``tests/sim2real/test_skid_plant.py`` asserts): per seed, one robot on one
-   ground (:func:`sim2real.skid_plant.skid_robot`: slip 1.5-1.9, mu 0.6-0.95), two 90 s teleop
+1. **Target** (what ``tests/sim2real/plants/test_skid_plant.py`` asserts): per seed, one robot on one
+   ground (:func:`sim2real.plants.skid.skid_robot`: slip 1.5-1.9, mu 0.6-0.95), two 90 s teleop
    sessions on different days (mu +-5 %); the drive is fitted on the first and its agreement
    measured on the second (reduced engine) with three specs written from the Husky's
    published numbers and its driver's settings (multiplier 1.875): ``skid`` (``sim2real
@@ -12,9 +12,9 @@ Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,...,110] [--husky-
    geometric track, the driver's 1.875; the test's "plain differential-drive fit") and
    ``both 1`` (the skid spec with both track factors 1, a driver without the multiplier);
    ``margin`` is skid minus diff. The rows ``H<n>`` are the canonical plant,
-   :func:`sim2real.skid_plant.husky_like` (defined from published figures before any
+   :func:`sim2real.plants.skid.husky_like` (defined from published figures before any
    measurement), with the sessions of command seed n.
-2. **Ground sensitivity**: :func:`sim2real.skid_plant.husky_like` at mu 0.8 fitted on one
+2. **Ground sensitivity**: :func:`sim2real.plants.skid.husky_like` at mu 0.8 fitted on one
    session, measured on a session on a ground with mu x (0.8, 0.9, 1.0, 1.2).
 
 Prints one line per seed and the CPU time.
@@ -65,8 +65,8 @@ def _fixed(spec: Any, **values: float) -> dict[str, Any]:
 
 
 def _agreement(spec: Any, params: Any, trace: Any) -> float:
-    from sim2real.agreement import measure_agreement
-    from sim2real.replay import replay
+    from sim2real.agreement.figures import measure_agreement
+    from sim2real.agreement.replay import replay
 
     sim = replay(trace, robot=spec, params=params, engine="reduced")
     return float(measure_agreement(trace, sim).agreement)
@@ -85,7 +85,7 @@ def _fit(spec: Any, trace: Any, *, plain: bool = False) -> Any:
 
 
 def target(seeds: list[int], husky_seeds: list[int]) -> None:
-    from sim2real.skid_plant import (
+    from sim2real.plants.skid import (
         effective_track_factor,
         husky_like,
         make_skid_sessions,
@@ -110,8 +110,8 @@ def target(seeds: list[int], husky_seeds: list[int]) -> None:
 
 
 def sensitivity(seeds: list[int]) -> None:
-    from sim2real.plants import command_profile
-    from sim2real.skid_plant import husky_like, run_skid_plant
+    from sim2real.plants.diff_drive import command_profile
+    from sim2real.plants.skid import husky_like, run_skid_plant
 
     spec = _husky()
     base = husky_like()

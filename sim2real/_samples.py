@@ -2,11 +2,11 @@
 
 ``python -m sim2real._samples data`` (``make data``) regenerates ``data/demo_train.mcap`` and
 ``data/demo_validate.mcap``. They are two sessions of one TurtleBot3-Burger-sized base
-simulated by :mod:`sim2real.plants`, a plant that is deliberately *not* the project's drive
+simulated by :mod:`sim2real.plants.diff_drive`, a plant that is deliberately *not* the project's drive
 model (PI wheel loops with anti-windup, a DC-motor torque-speed line with battery sag,
 per-wheel asymmetric friction, caster scrub, quantised encoders, a gyro, latency jitter):
 
-- the base is :func:`sim2real.plants.plant_from_spec` of ``turtlebot3_burger``;
+- the base is :func:`sim2real.plants.diff_drive.plant_from_spec` of ``turtlebot3_burger``;
 - each session draws its payload, floor friction, battery charge and command latency from
   :data:`DEMO_VARIATION` (one afternoon's variation: a battery running down, a small payload
   added, the floor changing between rooms) with its own seed;
@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim2real.plants import (
+from sim2real.plants.diff_drive import (
     PlantParams,
     PlantRun,
     SessionVariation,
@@ -60,7 +60,7 @@ __all__ = [
 #: The robot the sample logs are for.
 ROBOT = "turtlebot3_burger"
 
-#: Session variation of the demo's two sessions (see :class:`sim2real.plants.SessionVariation`).
+#: Session variation of the demo's two sessions (see :class:`sim2real.plants.diff_drive.SessionVariation`).
 DEMO_VARIATION = SessionVariation(
     payload_fraction=(0.0, 0.25),
     floor_friction=(0.85, 1.2),

@@ -1,6 +1,6 @@
 """Many logs at once: glob expansion, per-log work as Ray tasks, fleet summaries.
 
-The per-log work is the library's own (:func:`sim2real.study.run_study` for ``agree``); this
+The per-log work is the library's own (:func:`sim2real.agreement.study.run_study` for ``agree``); this
 module only fans it out. Without Ray (``address=None``) the same function runs in a plain loop,
 so the serial and the Ray paths give identical figures. Ray is the optional ``[cluster]`` extra.
 
@@ -595,7 +595,7 @@ def _run_batch(fn: Callable[[Any], Any], xs: Sequence[Any]) -> list[Any]:
 
 def _study_figures(config: Any) -> tuple[dict[str, Any], tuple[str, ...]]:
     """One log's agreement figures and read warnings (a Ray task; light to ship back)."""
-    from sim2real.study import run_study
+    from sim2real.agreement.study import run_study
 
     result = run_study(config)
     return result.figures, result.warnings
@@ -608,7 +608,7 @@ def agree_many(
     on_done: Callable[[int], None] | None = None,
     release: bool = False,
 ) -> list[tuple[dict[str, Any], tuple[str, ...]]]:
-    """Run :func:`sim2real.study.run_study` for each config (one per log), serially or on Ray.
+    """Run :func:`sim2real.agreement.study.run_study` for each config (one per log), serially or on Ray.
 
     Returns each log's ``(figures, warnings)`` in input order. ``release``: see
     :func:`map_tasks`.

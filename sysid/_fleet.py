@@ -91,7 +91,7 @@ def spread_degrees_of_freedom(n_sessions: int, *, prior_sessions: float = PRIOR_
     :math:`\nu = n - 1 + n_0` (at least 1): the sessions less the one spent on the mean, plus
     the :data:`PRIOR_SESSIONS` pseudo-sessions of the spec's default spread. It is the weight,
     in sessions, of that spread against any later evidence about it
-    (:func:`sim2real.calibration.calibrate_traces` pools validation sessions with it).
+    (:func:`sim2real.agreement.calibration.calibrate_traces` pools validation sessions with it).
 
     Examples
     --------

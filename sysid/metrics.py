@@ -1,6 +1,6 @@
 r"""Scores that compare a simulated velocity trace with a measured one.
 
-Used by sysid (validation scores) and by :mod:`sim2real.agreement` (the agreement report).
+Used by sysid (validation scores) and by :mod:`sim2real.agreement.figures` (the agreement report).
 
 - :func:`fit_percent` — MATLAB ``compare`` FIT %:
   :math:`100\,(1 - \lVert y - \hat y\rVert / \lVert y - \bar y\rVert)`.

@@ -10,7 +10,7 @@ a lag of :math:`W/2` plus smoothing. :func:`window_mean` evaluates that integral
 a piecewise-linear signal (a simulation read at its integration grid, which is how the reduced
 model and the pybullet robot report velocities between steps). sysid's fit
 (``fit_drive(..., odom_v_window_s=W)``) uses the same model with a 3-point Simpson rule over
-the window, which is cheaper inside the least-squares loop; :mod:`sim2real.replay` uses the
+the window, which is cheaper inside the least-squares loop; :mod:`sim2real.agreement.replay` uses the
 exact form.
 
 Example

@@ -1,8 +1,8 @@
 """``sim2real agree``: replay a log in simulation and measure sim-vs-real agreement.
 
-The work is done by the library (:func:`sim2real.study.run_study`, also used by
+The work is done by the library (:func:`sim2real.agreement.study.run_study`, also used by
 ``sim2real demo``); the handler only parses arguments into a
-:class:`~sim2real.study.StudyConfig`, prints the summary table and turns ``--min-agreement``
+:class:`~sim2real.agreement.study.StudyConfig`, prints the summary table and turns ``--min-agreement``
 into the exit code.
 """
 
@@ -14,10 +14,8 @@ import shlex
 import sys
 from pathlib import Path
 
-from sim2real.cli._common import add_command, add_read_arguments
-
 # light (stdlib-only at import); re-exported for callers of the old names (sim2real demo)
-from sim2real.study import (
+from sim2real.agreement.study import (
     StudyConfig,
     StudyResult,
     parse_odom_v_window,
@@ -25,8 +23,9 @@ from sim2real.study import (
     summary_table,
     write_json,
 )
+from sim2real.cli._common import add_command, add_read_arguments
 
-#: The old name of :class:`sim2real.study.StudyResult`.
+#: The old name of :class:`sim2real.agreement.study.StudyResult`.
 AgreeOutcome = StudyResult
 
 __all__ = [
@@ -181,8 +180,8 @@ def run_agree(
     command_line: str = "",
     title: str = "sim2real agreement report",
 ) -> StudyResult:
-    """Keyword form of :func:`sim2real.study.run_study` (kept for callers of the old API)."""
-    from sim2real.study import StudyConfig, run_study
+    """Keyword form of :func:`sim2real.agreement.study.run_study` (kept for callers of the old API)."""
+    from sim2real.agreement.study import StudyConfig, run_study
 
     return run_study(
         StudyConfig(
@@ -241,7 +240,7 @@ def _command_line(args: argparse.Namespace) -> str:
 
 
 def study_config(args: argparse.Namespace) -> StudyConfig:
-    """The :class:`~sim2real.study.StudyConfig` of parsed ``sim2real agree`` arguments.
+    """The :class:`~sim2real.agreement.study.StudyConfig` of parsed ``sim2real agree`` arguments.
 
     ``sim2real demo`` parses the README tour's ``agree`` command line and runs this config, so
     the demo and the tour compute the same figures.
@@ -292,7 +291,7 @@ def _refuse_ensemble_options(args: argparse.Namespace) -> None:
 
 def _run_with_bar(config: StudyConfig, n: int | None) -> StudyResult:
     """Run the study; with an ensemble, a progress bar on a terminal (stderr), none in a pipe."""
-    from sim2real.study import run_study
+    from sim2real.agreement.study import run_study
 
     if n is None:  # one replay: no bar (and no rich to import)
         return run_study(config)
@@ -338,7 +337,7 @@ def _handle(args: argparse.Namespace) -> int:
     print(f"{args.log}: robot {args.robot}, engine {args.engine}")
     print(summary_table(result.runs, result.ensemble))
     if result.ensemble is not None:
-        from sim2real.agreement import band_verdict
+        from sim2real.agreement.figures import band_verdict
 
         e = result.ensemble
         print(

@@ -74,8 +74,8 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
     from rich.progress import Progress
 
     from sim2real._io import check_output_path
+    from sim2real.agreement.study import write_json
     from sim2real.cluster import agree_many, fleet_summary
-    from sim2real.study import write_json
 
     if args.report is not None or args.sim_out is not None:
         raise Sim2RealValueError(
@@ -103,7 +103,7 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
     print(f"{len(logs)} logs: robot {args.robot}, engine {args.engine}, {where}")
     print(table(figures, summary))
     if summary.get("coverage_v") is not None and summary.get("coverage_w") is not None:
-        from sim2real.agreement import band_verdict
+        from sim2real.agreement.figures import band_verdict
 
         verdict = band_verdict(
             coverage_v=summary["coverage_v"],

@@ -1,7 +1,7 @@
 """``sim2real sysid calibrate``: fit the spread of a params file's randomisation to a log.
 
 Registered under the ``sysid`` group by :mod:`sim2real.cli._sysid`; the work is done by
-:func:`sim2real.calibration.calibrate` and :func:`sim2real.calibration.write_calibrated`.
+:func:`sim2real.agreement.calibration.calibrate` and :func:`sim2real.agreement.calibration.write_calibrated`.
 """
 
 from __future__ import annotations
@@ -84,8 +84,8 @@ def register(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
 def _handle(args: argparse.Namespace) -> int:
     from robots.spec import load_spec
     from sim2real._io import check_not_an_input, check_output_path
-    from sim2real.calibration import calibrate, write_calibrated
-    from sim2real.study import parse_odom_v_window
+    from sim2real.agreement.calibration import calibrate, write_calibrated
+    from sim2real.agreement.study import parse_odom_v_window
 
     check_output_path(args.out, what="calibrated params file (-o)")
     check_not_an_input(args.out, [args.params, *args.logs], what="calibrated params file (-o)")

@@ -1,6 +1,6 @@
 """``sim2real demo`` (what ``make demo`` runs): the README tour's three commands, in-process.
 
-The bundled logs are three sessions of one base (a foreign plant, :mod:`sim2real.plants`):
+The bundled logs are three sessions of one base (a foreign plant, :mod:`sim2real.plants.diff_drive`):
 
 1. ``sim2real sysid fit data/demo_train.mcap --robot turtlebot3_burger --validate
    data/demo_validate.mcap -o OUT/params.yaml``: fit the drive model to the first session
@@ -16,7 +16,7 @@ The bundled logs are three sessions of one base (a foreign plant, :mod:`sim2real
 4. write ``OUT/summary.json`` and print a short table.
 
 Every other option is at its default (:func:`tour_commands`), so the tour gives the same
-figures. The sample logs come from a foreign plant (:mod:`sim2real.plants`), not from the
+figures. The sample logs come from a foreign plant (:mod:`sim2real.plants.diff_drive`), not from the
 model that is fitted (see ``data/README.md``); they are looked up in
 ``$SIM2REAL_DATA``, then in ``data/`` of the source checkout, then in
 ``<prefix>/share/sim2real/data`` of an installed package.
@@ -52,7 +52,7 @@ The main job, what `make demo` runs: the README tour's two commands with default
   2. sim2real agree data/demo_validate.mcap --robot turtlebot3_burger --params OUT/params.yaml \\
          --report OUT/report.html --json OUT/agreement.json --ensemble 10
   3. write OUT/summary.json (before/after agreement, band coverage) and print a table.
-The sample logs are three sessions of a foreign plant (sim2real.plants), a base simulated with
+The sample logs are three sessions of a foreign plant (sim2real.plants.diff_drive), a base simulated with
 physics the fitted model does not have (data/README.md). They are looked up in $SIM2REAL_DATA, then in
 data/ of the source checkout, then in <prefix>/share/sim2real/data of an installed package.
 """
@@ -197,19 +197,19 @@ def run_demo(
     import dataclasses
 
     from sim2real._io import output_set
+    from sim2real.agreement.study import run_study, summary_table, write_json
     from sim2real.cli import build_parser
     from sim2real.cli._agree import study_config
     from sim2real.cli._calibrate import _handle as _calibrate
     from sim2real.cli._sysid import _fit
     from sim2real.logs import read_trace
-    from sim2real.study import run_study, summary_table, write_json
 
     start = time.perf_counter()
     data = find_data_dir(data_dir)
     out = Path(out_dir)
     _check_out(out)
     if ensemble_n >= 2:  # a bad size fails here, not after the fit
-        from sim2real.agreement import check_ensemble_size
+        from sim2real.agreement.figures import check_ensemble_size
 
         check_ensemble_size(ensemble_n)
     for name in _LOGS:  # a bad log fails here, before OUT is created or written

@@ -68,7 +68,7 @@ def _controller(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
                 )
             return RaceBaseline.for_env(env, method=planner), None, f"{planner} + DWA baseline"
         return DWAController.for_env(env), None, "DWA baseline"
-    from sim2real.evaluation import check_spaces, load_policy
+    from sim2real.training.evaluation import check_spaces, load_policy
 
     policy = load_policy(args.policy, algorithm=args.algorithm)
     check_spaces(policy, policy.wrap(env), env.spec.id if env.spec else "env")
@@ -82,7 +82,7 @@ def prepare(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
     or the DWA baseline.
     """
     if args.params is not None:
-        from sim2real.train import set_params_file
+        from sim2real.training.train import set_params_file
 
         set_params_file(env, args.params)
     controller, wrap, label = _controller(env, args)
@@ -126,14 +126,14 @@ def _robustness(args: argparse.Namespace, make_env: Any) -> int:
     from rich.table import Table
 
     from sim2real._io import atomic_write, check_output_path
-    from sim2real.evaluation import robustness
+    from sim2real.training.evaluation import robustness
 
     if args.json:
         check_output_path(args.json, what="--json file")
     env, options = make_env(args)
     try:
         if args.params is not None:
-            from sim2real.train import set_params_file
+            from sim2real.training.train import set_params_file
 
             set_params_file(env, args.params)
         controller, wrap, label = _controller(env, args)

@@ -30,7 +30,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         description=(
             "Read a training config (format sim2real.train/1: env id and options, randomizer "
             "stack, algorithm, timesteps, parallel envs, seed, output folder; see "
-            "sim2real.train), train with stable-baselines3 and write OUT/config.yaml (resolved), "
+            "sim2real.training.train), train with stable-baselines3 and write OUT/config.yaml (resolved), "
             "OUT/model.zip, OUT/checkpoints/, OUT/tensorboard/ and OUT/evaluation.yaml (a "
             "short seeded evaluation). Needs the [train] extra: pip install torch==2.13.0 && "
             "pip install -e '.[train]'. algorithm: rllib-ppo trains with Ray RLlib instead "
@@ -56,11 +56,11 @@ def _fmt(value: object) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from sim2real.train import RLLIB_PPO, load_config, require_train_extra, train
+    from sim2real.training.train import RLLIB_PPO, load_config, require_train_extra, train
 
     cfg = load_config(args.config, timesteps=args.timesteps, seed=args.seed, out=args.out)
     if cfg.algorithm == RLLIB_PPO:
-        from sim2real._rllib import require_rllib
+        from sim2real.training._rllib import require_rllib
 
         require_rllib()
     else:

@@ -136,9 +136,9 @@ def _instantaneous_v_lags_more(out: Path, summary: dict) -> None:  # type: ignor
     """Comparing the instantaneous simulated v adds the odometry's half-period lag."""
     from robots.params import load_drive_params
     from robots.spec import load_spec
-    from sim2real.agreement import measure_agreement
+    from sim2real.agreement.figures import measure_agreement
+    from sim2real.agreement.replay import replay
     from sim2real.logs import read_trace
-    from sim2real.replay import replay
 
     spec = load_spec("turtlebot3_burger")
     trace = read_trace(ROOT / "data" / "demo_validate.mcap")

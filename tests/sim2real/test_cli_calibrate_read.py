@@ -18,7 +18,7 @@ import yaml
 
 from robots.reduced import simulate
 from robots.spec import load_spec
-from sim2real.calibration import calibrate
+from sim2real.agreement.calibration import calibrate
 from sim2real.cli import main
 from sim2real.logs import integrate_pose, write_velocity_log
 from tests.randomization_block import write_params_file

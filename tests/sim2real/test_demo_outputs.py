@@ -20,7 +20,7 @@ OUTPUTS = ("params.yaml", "calibrated.yaml", "report.html", "agreement.json", "s
 @pytest.fixture(scope="module")
 def demo_data(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Three short sessions of the foreign plant under the demo's file names."""
-    from sim2real.plants import write_fleet
+    from sim2real.plants.diff_drive import write_fleet
 
     folder = tmp_path_factory.mktemp("demo_data")
     paths = write_fleet(folder, "turtlebot3_burger", 3, seed=5, duration_s=15.0)
@@ -78,7 +78,7 @@ def test_a_failing_demo_keeps_the_old_set(
         assert any(p.name == "calibrated.yaml" for p in out.glob(".sim2real-out-*/*"))
         raise Sim2RealValueError("agree failed")
 
-    monkeypatch.setattr("sim2real.study.run_study", fail)
+    monkeypatch.setattr("sim2real.agreement.study.run_study", fail)
     assert main(_argv(demo_data, out, seed=2)) == 2
     assert "agree failed" in capsys.readouterr().err
     after = {p.name: (p.stat().st_ino, p.read_bytes()) for p in out.iterdir()}

@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 
 from robots.spec import load_spec
-from sim2real.agreement import measure_agreement
+from sim2real.agreement.figures import measure_agreement
+from sim2real.agreement.replay import replay
 from sim2real.cli import main
 from sim2real.logs import read_trace
-from sim2real.replay import replay
 from sysid.fit import fit_drive
 
 SPLIT_S = 35.0

@@ -18,7 +18,7 @@ import pytest
 
 from robots.spec import load_spec
 from robots.template import spec_text
-from sim2real.plants import make_fleet, plant_from_spec
+from sim2real.plants.diff_drive import make_fleet, plant_from_spec
 from sysid import fit_drive
 
 #: A 60 kg differential-drive base from a few numbers (bench_novel_robots' heavy60).

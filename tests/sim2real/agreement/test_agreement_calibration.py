@@ -13,8 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from robots.randomization import DriveDistribution
-from sim2real.agreement import run_ensemble
-from sim2real.calibration import (
+from sim2real.agreement.calibration import (
     NOISE_SCALE_RANGE,
     calibrate,
     calibrate_traces,
@@ -23,6 +22,7 @@ from sim2real.calibration import (
     predictive_log_likelihood,
     write_calibrated,
 )
+from sim2real.agreement.figures import run_ensemble
 from sim2real.cli import main
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import read_trace
@@ -104,7 +104,7 @@ def test_calibrate_cli_writes_the_calibrated_block(
     before = DriveDistribution.from_params_file(params, robot=ROBOT)
     after = DriveDistribution.from_params_file(out, robot=ROBOT)
     from robots.spec import load_spec
-    from sim2real.calibration import session_covariance
+    from sim2real.agreement.calibration import session_covariance
 
     expected = before.covariance_array * cal["dynamics_factor"] ** 2
     expected += session_covariance(before, load_spec(ROBOT)) * cal["session_factor"] ** 2
@@ -285,7 +285,7 @@ def test_calibrate_help_states_the_matched_range(capsys: pytest.CaptureFixture[s
 def test_no_short_data_note_on_enough_validation_data() -> None:
     from types import SimpleNamespace
 
-    from sim2real.calibration import SHORT_VALIDATION_S, _short_data_note
+    from sim2real.agreement.calibration import SHORT_VALIDATION_S, _short_data_note
 
     t = np.arange(0.0, 200.0, 0.02)  # 50 Hz
     trace = SimpleNamespace(meas_t_s=t)

@@ -11,7 +11,7 @@ from _agreement_fixtures import ROBOT, hidden_params, write_logs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim2real.calibration import calibrate, calibrate_traces, pooled_factors
+from sim2real.agreement.calibration import calibrate, calibrate_traces, pooled_factors
 from sim2real.cli import main
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import read_trace

@@ -10,10 +10,10 @@ import pytest
 from _agreement_fixtures import HIDDEN, ROBOT, T0_NS, hidden_params, write_log, write_params
 
 from robots.spec import load_spec
-from sim2real.agreement import AGREEMENT_KEYS, BAND_KEYS, measure_agreement
+from sim2real.agreement.figures import AGREEMENT_KEYS, BAND_KEYS, measure_agreement
+from sim2real.agreement.replay import replay
 from sim2real.cli import main
 from sim2real.logs import read_trace
-from sim2real.replay import replay
 
 
 @pytest.fixture(scope="module")

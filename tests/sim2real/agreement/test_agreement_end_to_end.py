@@ -9,11 +9,11 @@ import pytest
 
 from robots.spec import load_spec
 from sim2real._samples import DEMO_VARIATION, ROBOT, SAMPLE_FILES, build_sample, sample_base
-from sim2real.agreement import measure_agreement
+from sim2real.agreement.figures import measure_agreement
+from sim2real.agreement.replay import replay
 from sim2real.cli import main
 from sim2real.cli._demo import TRAIN_LOG, VALIDATE_LOG, find_data_dir
 from sim2real.logs import read_trace
-from sim2real.replay import replay
 
 DATA = Path(__file__).resolve().parents[3] / "data"
 
@@ -33,7 +33,7 @@ def test_bundled_logs_are_small_and_as_documented() -> None:
         np.testing.assert_array_equal(trace.meas_v, run.meas_v[run.kept])
     assert total < 1_200_000
     readme = (DATA / "README.md").read_text(encoding="utf-8")
-    assert "synthetic" in readme.lower() and "sim2real.plants" in readme
+    assert "synthetic" in readme.lower() and "sim2real.plants.diff_drive" in readme
     for kind in SAMPLE_FILES:  # the session table states each session's draws
         p = build_sample(kind).params
         payload = p.mass_kg - sample_base().mass_kg
@@ -85,7 +85,7 @@ def test_the_integral_term_carries_a_pi_plant_to_an_unseen_session() -> None:
     """The foreign plant's wheel loops are PI (k_i/k_p = 10 /s): with the model's P loop the
     fit of one Kobuki session agrees 73 % with the next; with the fitted integral term 93 %."""
     from robots.params import Prior
-    from sim2real.plants import make_fleet
+    from sim2real.plants.diff_drive import make_fleet
     from sysid import fit_drive
 
     spec = load_spec("turtlebot2")

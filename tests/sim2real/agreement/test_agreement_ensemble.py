@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from randomizers import DynamicsRandomizer
 from robots.randomization import DriveDistribution, ObservationNoise
-from sim2real.agreement import (
+from sim2real.agreement.figures import (
     band_coverage,
     band_verdict,
     calibrated_range,
@@ -87,7 +87,7 @@ def test_ensemble_is_reproducible(trace) -> None:  # type: ignore[no-untyped-def
 
 
 def test_members_are_replays_of_the_drawn_robots(trace) -> None:  # type: ignore[no-untyped-def]
-    from sim2real.replay import replay
+    from sim2real.agreement.replay import replay
 
     drawn, mv, mw = ensemble_members(
         trace, robot=ROBOT, distribution=_dist(), n=3, seed=1, engine="reduced"

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim2real.agreement import AGREEMENT_KEYS, agreement_from_arrays, check_tolerances
+from sim2real.agreement.figures import AGREEMENT_KEYS, agreement_from_arrays, check_tolerances
 from sim2real.errors import Sim2RealValueError
 
 # index:        0     1     2     3     4     5     6     7     8     9

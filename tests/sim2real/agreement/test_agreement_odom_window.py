@@ -11,11 +11,11 @@ import pytest
 from _agreement_fixtures import HIDDEN, ROBOT, hidden_params, spec, write_log, write_params
 
 from robots.reduced import simulate
-from sim2real.agreement import AGREEMENT_KEYS, measure_agreement, run_ensemble
+from sim2real.agreement.figures import AGREEMENT_KEYS, measure_agreement, run_ensemble
+from sim2real.agreement.replay import replay
 from sim2real.cli import main
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import Trace, read_trace, write_velocity_log
-from sim2real.replay import replay
 from sysid.odometry import window_mean
 
 WINDOW_S = 1.0 / 30.0

@@ -9,10 +9,10 @@ import pytest
 from _agreement_fixtures import ROBOT, T0_NS, hidden_params, spec, write_log
 
 from robots.reduced import simulate
-from sim2real.agreement import measure_agreement
+from sim2real.agreement.figures import measure_agreement
+from sim2real.agreement.replay import replay
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import Trace, read_trace, write_velocity_log
-from sim2real.replay import replay
 
 
 @pytest.fixture(scope="module")

@@ -13,13 +13,13 @@ import yaml
 from _agreement_fixtures import ROBOT, hidden_params, spec, write_log
 
 from robots.params import DriveParams
-from sim2real.agreement import measure_agreement
+from sim2real.agreement.figures import measure_agreement
+from sim2real.agreement.replay import replay
+from sim2real.agreement.report import ReportInput, ReportRun, param_rows, write_report
+from sim2real.agreement.report._plots import rolling_agreement
+from sim2real.agreement.report._steps import Step, find_steps, step_response
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import read_trace
-from sim2real.replay import replay
-from sim2real.report import ReportInput, ReportRun, param_rows, write_report
-from sim2real.report._plots import rolling_agreement
-from sim2real.report._steps import Step, find_steps, step_response
 
 
 def test_find_steps_keeps_held_changes_only() -> None:

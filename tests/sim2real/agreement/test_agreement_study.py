@@ -1,4 +1,4 @@
-"""The agreement study as a library call (``sim2real.study``), and the thin CLI over it."""
+"""The agreement study as a library call (``sim2real.agreement.study``), and the thin CLI over it."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from _agreement_fixtures import HIDDEN, ROBOT, write_log, write_params
 
-from sim2real.agreement import AGREEMENT_KEYS
+from sim2real.agreement.figures import AGREEMENT_KEYS
+from sim2real.agreement.study import StudyConfig, run_study
 from sim2real.cli import main
 from sim2real.errors import Sim2RealValueError
-from sim2real.study import StudyConfig, run_study
 
 
 @pytest.fixture(scope="module")

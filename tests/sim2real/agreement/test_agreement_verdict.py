@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from sim2real.report._verdict import GOOD_AGREEMENT, lag_phrase, make_verdict
+from sim2real.agreement.report._verdict import GOOD_AGREEMENT, lag_phrase, make_verdict
 
 
 @dataclass
@@ -100,7 +100,7 @@ def test_coverage_counts_a_sample_on_a_quantised_band_edge() -> None:
     """Encoder odometry and a band rounded with the params file's quantum share a lattice."""
     import numpy as np
 
-    from sim2real.agreement import band_coverage
+    from sim2real.agreement.figures import band_coverage
 
     q_real = 0.5 * 0.033 * (2 * np.pi / 4096) * 30.0  # one encoder quantum of v at 30 Hz
     q_file = float(f"{q_real:.8g}")  # as a YAML file keeps it
@@ -117,7 +117,7 @@ def test_the_cli_table_words_the_lag_like_the_report() -> None:
     """``agree``'s table says "sim lags/leads real by X s", not a signed number."""
     from types import SimpleNamespace
 
-    from sim2real.study import summary_table
+    from sim2real.agreement.study import summary_table
 
     def run(label: str, lag_v: float, lag_w: float) -> SimpleNamespace:
         figures = dict.fromkeys(

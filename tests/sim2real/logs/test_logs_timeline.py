@@ -12,10 +12,10 @@ from logs_helpers import T0_NS
 from robots.errors import RobotsValueError
 from robots.reduced import MAX_SIM_STEPS, simulate
 from robots.spec import load_spec
+from sim2real.agreement.replay import replay
 from sim2real.errors import LogValueError
 from sim2real.logs import TWIST_STAMPED, Trace, read_trace, write_velocity_log
 from sim2real.logs._timeline import gap_threshold_ns, scratch_median, segment_bounds
-from sim2real.replay import replay
 from sysid.metrics import xcorr_lag_s
 
 YEAR_NS = 365 * 86_400 * 10**9

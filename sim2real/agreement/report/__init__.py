@@ -1,6 +1,6 @@
 """The agreement report: one self-contained HTML page plus the same figures as PNG files.
 
-The page leads with a verdict (``<section id="verdict">``, :mod:`sim2real.report._verdict`):
+The page leads with a verdict (``<section id="verdict">``, :mod:`sim2real.agreement.report._verdict`):
 the agreement of the main simulation, the coverage of the randomised band and the timing,
 each with one sentence saying what it means, and the next step. Right under it, on the same
 first screen, the main plot: v and w over time, real and the main simulation in a
@@ -8,12 +8,12 @@ colour-blind-safe pair, the band drawn, the legend outside the data. Below: the 
 cards and agreement figures of every run, a close-up, error histograms, rolling agreement;
 then, collapsed, the step-like segments (rise time, overshoot, steady-state error, real vs
 sim), the parameter table with intervals, the provenance (files with SHA-256, versions, seed,
-command line) and the definitions. Plots are drawn by :mod:`sim2real.report._plots`, the page
-by :mod:`sim2real.report._html`.
+command line) and the definitions. Plots are drawn by :mod:`sim2real.agreement.report._plots`, the page
+by :mod:`sim2real.agreement.report._html`.
 
 Example
 -------
->>> from sim2real.report import ReportInput, ReportRun, write_report
+>>> from sim2real.agreement.report import ReportInput, ReportRun, write_report
 >>> files = write_report("report.html", ReportInput(trace=trace, runs=(  # doctest: +SKIP
 ...     ReportRun(label="spec defaults", replay=sim0, agreement=rep0),
 ...     ReportRun(label="sysid params", replay=sim1, agreement=rep1))))
@@ -33,11 +33,10 @@ import numpy as np
 
 from robots.params import DriveParams, load_params_document
 from sim2real._io import atomic_write, check_output_path
-from sim2real.agreement import AgreementReport, EnsembleResult, band_verdict
-from sim2real.errors import Sim2RealValueError
-from sim2real.replay import ReplayResult, TraceLike
-from sim2real.report._html import Figure, HeadlineCard, Table, render_page
-from sim2real.report._plots import (
+from sim2real.agreement.figures import AgreementReport, EnsembleResult, band_verdict
+from sim2real.agreement.replay import ReplayResult, TraceLike
+from sim2real.agreement.report._html import Figure, HeadlineCard, Table, render_page
+from sim2real.agreement.report._plots import (
     Band,
     SimSeries,
     error_histograms_png,
@@ -45,8 +44,9 @@ from sim2real.report._plots import (
     rolling_agreement_png,
     time_series_png,
 )
-from sim2real.report._steps import find_steps, step_response
-from sim2real.report._verdict import lag_phrase, make_verdict
+from sim2real.agreement.report._steps import find_steps, step_response
+from sim2real.agreement.report._verdict import lag_phrase, make_verdict
+from sim2real.errors import Sim2RealValueError
 from sysid.metrics import active_mask
 
 __all__ = [

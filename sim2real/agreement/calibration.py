@@ -46,7 +46,7 @@ tails than a Gaussian (timing errors at command steps) it widens :math:`\sigma` 
 the band is then too wide at its centre and a 90 % band covered ~99 % of unseen sessions of a
 synthetic TurtleBot3 fleet. So the last step checks the band itself: with (a, b) kept, the
 central :data:`MATCH_LEVEL` band, built as ``agree --ensemble`` builds it
-(:func:`sim2real.agreement.predictive_band`), should cover between the level and halfway to
+(:func:`sim2real.agreement.figures.predictive_band`), should cover between the level and halfway to
 100 % of the validation logs' active samples (:func:`match_range`: 90-95 % for a 90 % band);
 outside that range each axis's noise std is scaled by the factor :math:`c` at which the
 coverage reaches the range's nearer end (split-conformal calibration of the band's scale,
@@ -62,7 +62,7 @@ between-session spread better than one.
 
 Example
 -------
->>> from sim2real.calibration import calibrate, write_calibrated
+>>> from sim2real.agreement.calibration import calibrate, write_calibrated
 >>> result = calibrate("params.yaml", ["val.mcap"], robot="turtlebot2")  # doctest: +SKIP
 >>> result.dynamics_factor  # doctest: +SKIP
 2.3
@@ -325,7 +325,7 @@ def match_noise_scale(
     The band is built as ``agree --ensemble`` builds it: each member (a row of ``members``,
     shape (n, samples)) observed through white noise of std ``scale * std`` (the same standard
     normal draws for every scale) and quantised to ``quantum``, and the central ``level`` band
-    of those draws (:func:`sim2real.agreement.predictive_band`). The scale is 1 when the
+    of those draws (:func:`sim2real.agreement.figures.predictive_band`). The scale is 1 when the
     coverage is inside :func:`match_range`; else the bisection (in log scale, within
     ``scale_range``) finds where it reaches the nearer end of that range; a bound of
     ``scale_range`` is returned where it cannot be reached. ``std`` 0 has nothing to scale: 1.
@@ -351,7 +351,7 @@ def match_noise_scale(
     >>> match_noise_scale(real, np.zeros((20, 4000)), 0.11, 0.0)[0]  # inside: kept
     1.0
     """
-    from sim2real.agreement import (
+    from sim2real.agreement.figures import (
         band_coverage,
         band_noise_draws,
         check_band_level,
@@ -450,8 +450,8 @@ def calibrate_traces(
     CalibrationResult
     """
     from robots.randomization import cap_spread
-    from sim2real.agreement import check_tolerances, ensemble_members
-    from sim2real.replay import resolve_robot
+    from sim2real.agreement.figures import check_tolerances, ensemble_members
+    from sim2real.agreement.replay import resolve_robot
     from sysid.metrics import active_mask
 
     check_tolerances(tol_v, tol_w)

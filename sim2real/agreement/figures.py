@@ -8,7 +8,7 @@ Definition
 ----------
 Let :math:`t_k` be the measurement (odometry) times of a log, :math:`(v_k, \omega_k)` the
 measured velocities, :math:`(\hat v_k, \hat\omega_k)` the simulated ones at the same times
-(:func:`sim2real.replay.replay`), and :math:`(u^v_k, u^\omega_k)` the command held at
+(:func:`sim2real.agreement.replay.replay`), and :math:`(u^v_k, u^\omega_k)` the command held at
 :math:`t_k` (zero-order hold of the logged commands; 0 before the first command).
 
 - **Active samples** (:func:`sysid.metrics.active_mask`): sample *k* is active when
@@ -88,8 +88,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.params import DriveParams
+from sim2real.agreement.replay import ReplayResult, TraceLike, replay
 from sim2real.errors import Sim2RealValueError
-from sim2real.replay import ReplayResult, TraceLike, replay
 from sysid.metrics import (
     DEFAULT_TOL_V,
     DEFAULT_TOL_W,
@@ -664,7 +664,7 @@ def run_ensemble(
     trace : Trace
         The real log.
     robot : str or RobotSpec
-        The robot, as for :func:`sim2real.replay.replay`.
+        The robot, as for :func:`sim2real.agreement.replay.replay`.
     distribution : robots.randomization.DriveDistribution
         The randomisation (``DriveDistribution.from_params_file``).
     n, seed : int
@@ -677,7 +677,7 @@ def run_ensemble(
     tol_v, tol_w : float
         Tolerances of the active-sample mask, m/s and rad/s.
     odom_v_window_s : float
-        Odometry window of every member's v, s (see :func:`sim2real.replay.replay`).
+        Odometry window of every member's v, s (see :func:`sim2real.agreement.replay.replay`).
     band_level : float
         Central probability of the band, in (0, 1).
     noise_draws : int
@@ -696,7 +696,7 @@ def run_ensemble(
     (0.91, 0.05)
     """
     from randomizers._dynamics import stream_generator
-    from sim2real.replay import resolve_robot
+    from sim2real.agreement.replay import resolve_robot
 
     check_tolerances(tol_v, tol_w)
     level = check_band_level(band_level)

@@ -1,7 +1,7 @@
 """``algorithm: rllib-ppo`` of ``sim2real train``: RLlib's PPO on the same env construction.
 
 The training loop is RLlib's (new API stack: RLModule + Learner + EnvRunners); this module
-registers :func:`sim2real.train.build_env` (env id, kwargs, randomizer stack, space scaling)
+registers :func:`sim2real.training.train.build_env` (env id, kwargs, randomizer stack, space scaling)
 as the RLlib env, so every env runner -- on this machine or anywhere on a Ray cluster --
 builds exactly the env ``sim2real train`` builds for SB3. Outputs in ``OUT``::
 
@@ -94,8 +94,8 @@ def rllib_options(value: Any, where: str) -> dict[str, Any]:
 
 
 def _make_env(env_config: Mapping[str, Any]) -> Any:
-    """The RLlib env creator: :func:`sim2real.train.build_env` from the env_config."""
-    from sim2real.train import build_env
+    """The RLlib env creator: :func:`sim2real.training.train.build_env` from the env_config."""
+    from sim2real.training.train import build_env
 
     return build_env(
         env_config["env_id"],

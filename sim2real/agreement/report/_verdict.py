@@ -5,7 +5,7 @@ there is one), the coverage of the randomised band (when an ensemble was run) an
 (cross-correlation lag). Each gets one sentence saying what it means; then one next step,
 chosen in this order: fit the model (no params), fix the timing (a lag over
 :data:`LAG_LIMIT_S`), improve the fit (agreement under :data:`GOOD_AGREEMENT`), add a band (no
-ensemble), then :func:`sim2real.agreement.band_verdict` (the band too narrow or too wide, with
+ensemble), then :func:`sim2real.agreement.figures.band_verdict` (the band too narrow or too wide, with
 the command that calibrates it, or calibrated: "train with it").
 """
 
@@ -15,8 +15,8 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from sim2real.agreement import lag_phrase  # the one wording of a lag (also the CLI table)
-from sim2real.report._html import Stat, Verdict
+from sim2real.agreement.figures import lag_phrase  # the one wording of a lag (also the CLI table)
+from sim2real.agreement.report._html import Stat, Verdict
 
 __all__ = ["GOOD_AGREEMENT", "LAG_LIMIT_S", "lag_phrase", "make_verdict"]
 
@@ -130,7 +130,7 @@ def _next_step(runs: Sequence[Any], ensemble: Any | None, robot: str) -> tuple[s
             f"--params {params} --ensemble 10'.",
             False,
         )
-    from sim2real.agreement import band_verdict
+    from sim2real.agreement.figures import band_verdict
 
     sentence = band_verdict(
         coverage_v=ensemble.coverage_v,

@@ -2,7 +2,7 @@
 
 :func:`run_study` is what ``sim2real agree`` (and ``sim2real demo``) run: it reads the log,
 replays it with the spec defaults and (when given) a params file, measures the agreement of
-each replay (:mod:`sim2real.agreement`), optionally replays an ensemble drawn from the params
+each replay (:mod:`sim2real.agreement.figures`), optionally replays an ensemble drawn from the params
 file's randomisation and measures how much of the real log its predictive band covers, and
 writes the requested outputs (JSON figures, HTML report, simulated MCAP). The CLI only parses
 arguments into a :class:`StudyConfig`, calls :func:`run_study` and prints
@@ -10,7 +10,7 @@ arguments into a :class:`StudyConfig`, calls :func:`run_study` and prints
 
 Example
 -------
->>> from sim2real.study import StudyConfig, run_study
+>>> from sim2real.agreement.study import StudyConfig, run_study
 >>> result = run_study(StudyConfig(log="val.mcap", robot="turtlebot3_burger",  # doctest: +SKIP
 ...                                params_path="params.yaml", engine="reduced"))
 >>> round(result.main.agreement, 2)  # doctest: +SKIP
@@ -28,8 +28,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the heavy modules are imported by run_study only
-    from sim2real.agreement import AgreementReport, EnsembleResult
-    from sim2real.report import ReportRun
+    from sim2real.agreement.figures import AgreementReport, EnsembleResult
+    from sim2real.agreement.report import ReportRun
 
 __all__ = [
     "StudyConfig",
@@ -69,7 +69,7 @@ class StudyConfig:
     band_level : float
         Central probability of the predictive band, in (0, 1).
     odom_v_window : float or "auto"
-        Odometry window of v, s (see :func:`sim2real.replay.replay`); ``"auto"`` (default)
+        Odometry window of v, s (see :func:`sim2real.agreement.replay.replay`); ``"auto"`` (default)
         takes the robot's (:attr:`robots.spec.OdometrySpec.v_window_s`), like ``sysid fit``.
     cmd_topic, odom_topic : str, optional
         Topics (default: auto-detect).
@@ -125,7 +125,7 @@ class StudyResult:
     ensemble : EnsembleResult or None
         The ensemble, when requested.
     figures : dict
-        The JSON figures (:data:`sim2real.agreement.AGREEMENT_KEYS`, plus the band's keys with
+        The JSON figures (:data:`sim2real.agreement.figures.AGREEMENT_KEYS`, plus the band's keys with
         an ensemble); what ``--json`` writes.
     warnings : tuple of str
         Repairs made while reading the log (dropped NaN samples, re-sorted stamps, ...).
@@ -230,7 +230,7 @@ def parse_odom_v_window(value: float | str, rate_hz: float, *, v_source: str = "
 
 def _check_config(config: StudyConfig) -> None:
     from sim2real._io import check_not_an_input, check_output_path
-    from sim2real.agreement import check_band_level, check_tolerances
+    from sim2real.agreement.figures import check_band_level, check_tolerances
     from sim2real.errors import Sim2RealValueError
 
     check_tolerances(config.tol_v, config.tol_w)
@@ -245,7 +245,7 @@ def _check_config(config: StudyConfig) -> None:
             check_not_an_input(path, [config.log, config.params_path], what=what)
     n = config.ensemble_n
     if n is not None:
-        from sim2real.agreement import check_ensemble_size
+        from sim2real.agreement.figures import check_ensemble_size
 
         check_ensemble_size(n)
     if n is not None and config.params_path is None:
@@ -287,10 +287,10 @@ def run_study(
     from robots.params import load_drive_params
     from robots.spec import load_spec
     from sim2real._io import output_set
-    from sim2real.agreement import measure_agreement
+    from sim2real.agreement.figures import measure_agreement
+    from sim2real.agreement.replay import replay
+    from sim2real.agreement.report import ReportRun
     from sim2real.logs import read_trace
-    from sim2real.replay import replay
-    from sim2real.report import ReportRun
 
     _check_config(config)
     spec = load_spec(config.robot)
@@ -361,7 +361,7 @@ def _ensemble(
     if config.ensemble_n is None or params is None or config.params_path is None:
         return None
     from robots.randomization import DriveDistribution
-    from sim2real.agreement import run_ensemble
+    from sim2real.agreement.figures import run_ensemble
 
     distribution = DriveDistribution.from_params_file(config.params_path, robot=spec.name)
     return run_ensemble(
@@ -444,7 +444,7 @@ def _write_report(
     ensemble: EnsembleResult | None,
     window_s: float,
 ) -> None:
-    from sim2real.report import ReportInput, param_rows, write_report
+    from sim2real.agreement.report import ReportInput, param_rows, write_report
 
     assert config.report_path is not None  # checked by the caller
     files: list[tuple[str, str | Path]] = [("log", config.log)]
@@ -500,7 +500,7 @@ def write_json(path: str | Path, figures: dict[str, Any]) -> None:
 
 def summary_table(runs: Sequence[Any], ensemble: Any = None) -> str:
     """A plain-text table of the agreement figures, one column per replay."""
-    from sim2real.agreement import lag_phrase
+    from sim2real.agreement.figures import lag_phrase
 
     def pct(x: float) -> str:
         return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"

@@ -1,6 +1,6 @@
 r"""A foreign skid-steer plant: four wheels that slip, *not* the project's drive model.
 
-:mod:`sim2real.plants` checks the tools on a differential drive whose wheels roll. This module
+:mod:`sim2real.plants.diff_drive` checks the tools on a differential drive whose wheels roll. This module
 simulates a Husky-like four-wheel skid steer whose slip comes out of tyre-ground friction, so
 ``sysid`` and the agreement can be judged on a base whose turning the model only approximates
 (the model's slip is one number, ``track_factor``; here it comes out of tyre forces, builds up
@@ -43,7 +43,7 @@ regularisation speeds are wide enough for it to be stable.
 
 Example
 -------
->>> from sim2real.skid_plant import husky_like, make_skid_sessions
+>>> from sim2real.plants.skid import husky_like, make_skid_sessions
 >>> tr = make_skid_sessions(husky_like(), 1, seed=0, duration_s=10.0)[0]
 >>> tr.meas_t_ns.size > 400
 True
@@ -481,7 +481,7 @@ def make_skid_sessions(
     ground_sd: float = 0.05,
 ) -> list[Trace]:
     """``n_sessions`` logs of the plant, each with its own commands (``default_rng([seed, i])``)
-    from :func:`sim2real.plants.command_profile` (yaw rates up to ``turn_share`` x the
+    from :func:`sim2real.plants.diff_drive.command_profile` (yaw rates up to ``turn_share`` x the
     driver's top rate) and its own day on the ground: mu times :math:`e^{\\sigma N(0,1)}`,
     :math:`\\sigma` = ``ground_sd`` (default 5 %: the same floor on another day, an assumed
     figure; a different ground is a different ``params.mu``).
@@ -494,7 +494,7 @@ def make_skid_sessions(
     0.849-0.932 (``benchmarks/bench_skid.py``; with proportional loops the scrub's droop made
     a slipperier ground turn the base faster than the fit predicted: 0.81-0.91 at x 0.8).
     """
-    from sim2real.plants import command_profile
+    from sim2real.plants.diff_drive import command_profile
 
     if n_sessions < 1:
         raise Sim2RealValueError(f"n_sessions must be at least 1, got {n_sessions}")

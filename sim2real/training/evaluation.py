@@ -127,14 +127,14 @@ class LoadedPolicy:
     def controller(self) -> Any:
         """A :class:`PolicyController` of the model (an RLlib one for ``rllib-ppo``)."""
         if self.algorithm == "rllib-ppo":
-            from sim2real._rllib import RLlibController
+            from sim2real.training._rllib import RLlibController
 
             return RLlibController(self.model)
         return PolicyController(self.model)
 
     def wrap(self, env: Any) -> Any:
         """``env`` with the policy's discrete action grid and space scaling applied."""
-        from sim2real.train import DiscreteActions, normalize_spaces
+        from sim2real.training.train import DiscreteActions, normalize_spaces
 
         grid = self.discrete_actions
         env = env if grid is None else DiscreteActions(env, **grid)
@@ -172,11 +172,11 @@ def load_policy(path: str | Path, *, algorithm: str | None = None) -> LoadedPoli
     >>> policy.algorithm  # doctest: +SKIP
     'PPO'
     """
-    from sim2real.train import ALGORITHMS, RLLIB_PPO, require_train_extra
+    from sim2real.training.train import ALGORITHMS, RLLIB_PPO, require_train_extra
 
     p = Path(path)
     if p.is_dir() and (p / "sim2real.yaml").is_file():  # an rllib-ppo policy folder
-        from sim2real._rllib import load_rllib_policy
+        from sim2real.training._rllib import load_rllib_policy
 
         meta = dict(yaml.safe_load((p / "sim2real.yaml").read_text(encoding="utf-8")) or {})
         if meta.get("algorithm") != RLLIB_PPO:
@@ -239,7 +239,7 @@ def _same_space(a: Any, b: Any) -> bool:
 
 
 def _describe(space: Any) -> str:
-    from sim2real.train import describe_space
+    from sim2real.training.train import describe_space
 
     return describe_space(space)
 

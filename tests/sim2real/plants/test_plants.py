@@ -1,4 +1,4 @@
-"""The foreign plant (sim2real.plants): golden numbers for its physics and its sensors."""
+"""The foreign plant (sim2real.plants.diff_drive): golden numbers for its physics and its sensors."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import read_trace
-from sim2real.plants import (
+from sim2real.plants.diff_drive import (
     PROFILES,
     PlantParams,
     command_profile,
@@ -285,8 +285,8 @@ def test_docstring_examples_run() -> None:
     import doctest
 
     import sim2real._samples
-    import sim2real.plants
+    import sim2real.plants.diff_drive
 
-    for module in (sim2real.plants, sim2real._samples):
+    for module in (sim2real.plants.diff_drive, sim2real._samples):
         result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
         assert result.attempted >= 1 and result.failed == 0, module.__name__

@@ -37,7 +37,7 @@ about 1500x real time (``benchmarks/bench_plants.py``).
 
 Example
 -------
->>> from sim2real.plants import make_fleet
+>>> from sim2real.plants.diff_drive import make_fleet
 >>> traces = make_fleet("turtlebot3_burger", 2, seed=1, duration_s=20.0)
 >>> len(traces), traces[0].meas_t_ns.size > 500
 (2, True)

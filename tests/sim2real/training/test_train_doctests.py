@@ -1,4 +1,4 @@
-"""The examples in the docstrings of sim2real.train and sim2real.evaluation run."""
+"""The examples in the docstrings of sim2real.training.train and sim2real.training.evaluation run."""
 
 from __future__ import annotations
 
@@ -8,7 +8,9 @@ import importlib
 import pytest
 
 
-@pytest.mark.parametrize("name", ["sim2real.train", "sim2real.evaluation", "sim2real.cluster"])
+@pytest.mark.parametrize(
+    "name", ["sim2real.training.train", "sim2real.training.evaluation", "sim2real.cluster"]
+)
 def test_docstring_examples(name: str) -> None:
     module = importlib.import_module(name)
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)

@@ -36,7 +36,7 @@ Config file (``format: sim2real.train/1``; relative paths are relative to the co
     discrete_actions: {v_mps: [0.0, 0.1, 0.21], w_radps: [-1.0, 0.0, 1.0]}  # for DQN
     normalize: {observations: true, actions: true, rewards: true}   # all false by default
 
-``algorithm: rllib-ppo`` trains with Ray RLlib's PPO instead (:mod:`sim2real._rllib`: the
+``algorithm: rllib-ppo`` trains with Ray RLlib's PPO instead (:mod:`sim2real.training._rllib`: the
 ``rllib`` key names the Ray cluster and the env runners; the final policy is ``OUT/model/``).
 
 ``normalize``: ``observations`` and ``actions`` rescale Box spaces to [-1, 1] from their bounds
@@ -50,7 +50,7 @@ Needs the ``[train]`` extra (``pip install torch==2.13.0 && pip install -e '.[tr
 
 Example
 -------
->>> from sim2real.train import load_config
+>>> from sim2real.training.train import load_config
 >>> cfg = load_config("examples/randommap_ppo.yaml", timesteps=2000, seed=3)  # doctest: +SKIP
 >>> result = train(cfg)  # doctest: +SKIP
 >>> result.model_path  # doctest: +SKIP
@@ -99,7 +99,7 @@ __all__ = [
 CONFIG_FORMAT = "sim2real.train/1"
 #: Algorithms by their config name (stable-baselines3 class names).
 ALGORITHMS = ("PPO", "SAC", "TD3", "DQN")
-#: RLlib's PPO (``ray[rllib]``; see :mod:`sim2real._rllib`).
+#: RLlib's PPO (``ray[rllib]``; see :mod:`sim2real.training._rllib`).
 RLLIB_PPO = "rllib-ppo"
 #: Name of the metadata entry added to ``model.zip``.
 METADATA_ENTRY = "sim2real.yaml"
@@ -421,7 +421,7 @@ def _normalize(value: Any, where: str) -> dict[str, bool]:
 
 
 def _rllib_options(value: Any, where: str) -> dict[str, Any]:
-    from sim2real._rllib import rllib_options
+    from sim2real.training._rllib import rllib_options
 
     return rllib_options(value, where)
 
@@ -946,8 +946,8 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
 
 
 def _train_rllib(cfg: TrainConfig) -> TrainResult:
-    """``algorithm: rllib-ppo``: RLlib's PPO on the same env construction (sim2real._rllib)."""
-    from sim2real._rllib import RLlibController, require_rllib, train_rllib
+    """``algorithm: rllib-ppo``: RLlib's PPO on the same env construction (sim2real.training._rllib)."""
+    from sim2real.training._rllib import RLlibController, require_rllib, train_rllib
 
     require_rllib()
     if cfg.normalize.get("rewards"):
@@ -980,7 +980,7 @@ def _train_rllib(cfg: TrainConfig) -> TrainResult:
 
 def final_evaluation(cfg: TrainConfig, model: Any, *, controller: Any = None) -> dict[str, Any]:
     """Seeded episodes of the trained policy (``evaluation`` keys of the config)."""
-    from sim2real.evaluation import PolicyController, evaluate_controller
+    from sim2real.training.evaluation import PolicyController, evaluate_controller
 
     if cfg.eval_episodes == 0:
         return {"episodes": 0}

@@ -25,10 +25,10 @@ import pytest
 from robots.params import DriveParams, Prior
 from robots.spec import RobotSpec, load_spec
 from robots.template import spec_text
-from sim2real.agreement import measure_agreement
+from sim2real.agreement.figures import measure_agreement
+from sim2real.agreement.replay import replay
 from sim2real.errors import Sim2RealValueError
-from sim2real.replay import replay
-from sim2real.skid_plant import (
+from sim2real.plants.skid import (
     CHI_RANGE,
     MU_RANGE,
     SkidPlantParams,
