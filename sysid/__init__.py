@@ -28,6 +28,7 @@ from sysid.errors import (
 )
 
 if TYPE_CHECKING:
+    from sysid._excitation import why_not_fittable
     from sysid._fleet import spread_degrees_of_freedom
     from sysid._logs import LogArrays, VelocityLog, crop_log
     from sysid.fit import Progress, fit_drive, score_logs
@@ -50,6 +51,7 @@ __all__ = [
     "fit_drive",
     "score_logs",
     "spread_degrees_of_freedom",
+    "why_not_fittable",
 ]
 
 _LAZY = {
@@ -60,6 +62,7 @@ _LAZY = {
     "fit_drive": "sysid.fit",
     "score_logs": "sysid.fit",
     "spread_degrees_of_freedom": "sysid._fleet",
+    "why_not_fittable": "sysid._excitation",
     "DataFile": "sysid.result",
     "FitScores": "sysid.result",
     "ParameterEstimate": "sysid.result",

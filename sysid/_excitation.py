@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from robots.params import BaseGeometry, DriveParams
 from sysid._coords import COORDS, NOT_FITTABLE
-from sysid._logs import LogArrays
+from sysid._logs import LogArrays, as_log_arrays
 from sysid.errors import ExcitationError, SysidValueError
 
 __all__ = ["Excitation", "analyse", "held_command", "why_not_fittable"]
@@ -105,14 +105,37 @@ def _refuse_empty(logs: Sequence[LogArrays]) -> None:
         )
 
 
-def why_not_fittable(log: LogArrays) -> str:
+def why_not_fittable(log: object, index: int = 0) -> str:
     """Why ``log`` alone has nothing to identify (too short, flat commands, no motion), or "".
 
     The same rules as the fit's own check, so a caller can set such a part aside (e.g. a
     segment of a recording where the robot stood still) instead of failing the whole fit.
+
+    Parameters
+    ----------
+    log : VelocityLog
+        A velocity log (e.g. a ``sim2real.logs.Trace`` or :class:`LogArrays`).
+    index : int
+        Its position among the caller's logs, which names it in the reason when it has no
+        ``meta.path``.
+
+    Returns
+    -------
+    str
+        One sentence naming the log and the rule it misses, or "" when it can be fitted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sysid import LogArrays, why_not_fittable
+    >>> t = np.linspace(0.0, 1.0, 11)
+    >>> still = LogArrays(cmd_t_s=t, cmd_v=0 * t, cmd_w=0 * t, meas_t_s=t, meas_v=0 * t,
+    ...                   meas_w=0 * t, name="still")
+    >>> why_not_fittable(still).startswith("still")
+    True
     """
     try:
-        _refuse_empty([log])
+        _refuse_empty([as_log_arrays(log, index)])
     except ExcitationError as exc:
         return str(exc)
     return ""

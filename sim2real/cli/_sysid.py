@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from sim2real.cli._common import add_command, add_read_arguments
 from sim2real.errors import Sim2RealValueError
@@ -163,9 +163,7 @@ def _window(text: str | None, option: str) -> tuple[float, float] | None:
     return start, end
 
 
-def _v_window(text: str, auto_s: float) -> float:
-    if text == "auto":
-        return auto_s
+def _v_window(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
@@ -186,99 +184,23 @@ def _free(text: str) -> str | list[str]:
     return "auto" if names == ["auto"] else names
 
 
-def _read(
-    paths: list[str],
-    args: argparse.Namespace,
-    window: tuple[float, float] | None,
-    spec: Any,
-    notes: list[str],
-) -> list:  # type: ignore[type-arg]
-    """The logs to fit: each file read, screened, cropped and split at its pauses.
-
-    The time source each file was read with (``--time-source auto``) is appended to ``notes``.
-    """
-    from sim2real.logs import read_trace
-
-    logs = []
-    for path in paths:
-        trace = read_trace(
-            path,
-            cmd_topic=args.cmd_topic,
-            odom_topic=args.odom_topic,
-            time_source=args.time_source,
-            odom_velocity=args.odom_velocity,
-            wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
-            wheel_separation_m=spec.wheels.separation_m,
-        )
-        if trace.meta.time_note:
-            notes.append(f"{path}: {trace.meta.time_note}")
-        trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
-        trace.check_enough()
-        logs.extend(_fittable(_pieces(trace, window), notes))
-    return logs
-
-
-def _fittable(pieces: list, notes: list[str]) -> list:  # type: ignore[type-arg]
-    """Of several segments of one file, those with something to identify (the rest noted).
-
-    A segment where the robot stood still (or too short) cannot be fitted on its own; it is
-    set aside with a note. A single piece, or a file none of whose segments can be fitted, is
-    returned as it is, so the fit's own error names the file.
-    """
-    from sysid._excitation import why_not_fittable
-    from sysid._logs import as_log_arrays
-
-    if len(pieces) < 2:
-        return pieces
-    kept = []
-    for k, piece in enumerate(pieces):
-        why = why_not_fittable(as_log_arrays(piece, k))
-        if why:
-            notes.append(f"set aside: {why}")
-        else:
-            kept.append(piece)
-    return kept or pieces
-
-
-def _pieces(trace: Any, window: tuple[float, float] | None) -> list:  # type: ignore[type-arg]
-    """The segments of ``trace`` (its pauses split it), cropped to ``window`` (s since t0)."""
-    from sysid import crop_log
-
-    segments = trace.segments()
-    if window is None:
-        return list(segments)
-    out = []
-    for seg in segments:
-        shift_s = (seg.t0_ns - trace.t0_ns) / 1e9
-        lo, hi = window[0] - shift_s, window[1] - shift_s
-        t = seg.meas_t_s
-        if bool(((t >= lo) & (t < hi)).any()):
-            out.append(crop_log(seg, lo, hi))
-    return out or [crop_log(trace, *window)]  # none overlaps: crop_log says so
-
-
 def _fit(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.markup import escape
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from robots.errors import RobotsError
-    from robots.spec import load_spec
     from sim2real._io import atomic_write, check_not_an_input, check_output_path
     from sim2real.cluster import expand_logs, map_tasks
-    from sysid import fit_drive
+    from sim2real.fitting import fit_logs
 
     args.logs = [str(p) for p in expand_logs(args.logs)]
     args.validate = [str(p) for p in expand_logs(args.validate, what="--validate")]
     out = check_output_path(args.output, what="params file")
     check_not_an_input(out, [*args.logs, *args.validate], what="params file")
-    spec = load_spec(args.robot)
     window = _window(args.window, "--window")
     val_window = _window(args.validate_window, "--validate-window")
     free = _free(args.free)
-    notes: list[str] = []
-    logs = _read(args.logs, args, window, spec, notes)
-    val = _read(args.validate, args, val_window, spec, notes)
+    v_window = None if args.odom_v_window == "auto" else _v_window(args.odom_v_window)
     console = _console()
     err = Console(stderr=True)
     with Progress(
@@ -294,48 +216,34 @@ def _fit(args: argparse.Namespace) -> int:
         def progress(stage: str, fraction: float) -> None:
             bar.update(task, completed=fraction, description=stage)
 
-        try:
-            result = fit_drive(
-                logs,
-                geometry=spec.geometry,
-                base_params=spec.drive,
-                priors=spec.priors,
-                free=free,
-                validate=val,
-                robot=spec.name,
-                loss=args.loss,
-                **({} if args.dt is None else {"dt_s": args.dt}),
-                odom_v_window_s=_v_window(args.odom_v_window, spec.odometry.v_window_s),
-                bootstrap=args.bootstrap,
-                seed=args.seed,
-                progress=progress,
-                map_sessions=None
-                if args.ray is None
-                else lambda fn, groups: map_tasks(fn, groups, address=args.ray),
-            )
-        except RobotsError as exc:  # the fit itself made a model the schema refuses
-            raise _fit_failure(args.logs, exc) from exc
+        fit = fit_logs(
+            args.logs,
+            robot=args.robot,
+            validate=args.validate,
+            window=window,
+            validate_window=val_window,
+            free=free,
+            cmd_topic=args.cmd_topic,
+            odom_topic=args.odom_topic,
+            time_source=args.time_source,
+            odom_velocity=args.odom_velocity,
+            odom_v_window_s=v_window,
+            loss=args.loss,
+            **({} if args.dt is None else {"dt_s": args.dt}),
+            bootstrap=args.bootstrap,
+            seed=args.seed,
+            progress=progress,
+            map_sessions=None
+            if args.ray is None
+            else lambda fn, groups: map_tasks(fn, groups, address=args.ray),
+        )
     with atomic_write(out, "w", what="params file") as fh:
-        fh.write(result.to_yaml())
-    _print_result(console, result)
-    for note in notes:
+        fh.write(fit.result.to_yaml())
+    _print_result(console, fit.result)
+    for note in fit.notes:
         console.print(f"[cyan]note:[/] {escape(note)}", highlight=False)
     console.print(f"wrote [bold]{escape(str(out))}[/]")
     return 0
-
-
-def _fit_failure(paths: list[str], exc: Exception) -> Sim2RealValueError:
-    """The error of a fit whose result breaks a rule of the drive-parameter schema.
-
-    That is a failure of the fit on these logs (not bad input, which is checked before): the
-    sentence names the logs, the rule and what to try.
-    """
-    rule = str(exc).split("; ")[0]  # the rule and the value, without a fix meant for a file
-    names = ", ".join(f"'{p}'" for p in paths)
-    return Sim2RealValueError(
-        f"sysid fit of {names} gave a drive model the schema refuses ({rule}); fit fewer "
-        "parameters (--free) or a longer, richer log, and please report it with the log"
-    )
 
 
 def _show(args: argparse.Namespace) -> int:

@@ -1,0 +1,243 @@
+"""Fit a robot's drive parameters to log files: the one fit behind ``sim2real sysid fit``.
+
+:func:`fit_logs` reads each file as :func:`sim2real.logs.read_trace` reads it, drops
+velocities no robot of the spec could reach, crops to a time window, splits a recording at its
+pauses and sets aside the segments with nothing to identify (each said in a note), then calls
+:func:`sysid.fit_drive` with the spec's geometry, drive defaults, priors and odometry window.
+The command line and Python callers share its defaults, so they get the same numbers.
+
+Example
+-------
+>>> from sim2real.fitting import fit_logs
+>>> fit = fit_logs(["data/demo_train.mcap"], robot="turtlebot3_burger")  # doctest: +SKIP
+>>> fit.result.save("params.yaml")  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from robots.errors import RobotsError
+from robots.reduced import DEFAULT_DT_S
+from robots.spec import RobotSpec, load_spec
+from sim2real.errors import Sim2RealValueError
+from sim2real.logs import Trace, read_trace
+from sysid import LogArrays, SysidResult, crop_log, fit_drive, why_not_fittable
+
+__all__ = ["LogFit", "fit_logs", "read_fit_logs"]
+
+#: ``map_sessions`` of :func:`sysid.fit_drive`: maps a function over the sessions' groups.
+MapSessions = Callable[[Callable[[Any], Any], Sequence[Any]], Sequence[Any]]
+
+
+@dataclass(frozen=True, kw_only=True)
+class LogFit:
+    """The outcome of :func:`fit_logs`.
+
+    Attributes
+    ----------
+    result : SysidResult
+        The fit (parameters, intervals, scores, randomisation); ``result.save(path)`` writes
+        the params file.
+    notes : tuple of str
+        What reading the logs chose or set aside, one sentence each (a time source picked
+        by ``time_source="auto"``, a segment where the robot stood still).
+    """
+
+    result: SysidResult
+    notes: tuple[str, ...]
+
+
+def fit_logs(
+    logs: Sequence[str | Path],
+    *,
+    robot: str | Path | RobotSpec,
+    validate: Sequence[str | Path] = (),
+    window: tuple[float, float] | None = None,
+    validate_window: tuple[float, float] | None = None,
+    free: str | Sequence[str] = "auto",
+    cmd_topic: str | None = None,
+    odom_topic: str | None = None,
+    time_source: str = "auto",
+    odom_velocity: str = "auto",
+    odom_v_window_s: float | None = None,
+    loss: str = "soft_l1",
+    dt_s: float = DEFAULT_DT_S,
+    bootstrap: int = 0,
+    seed: int = 0,
+    progress: Callable[[str, float], None] | None = None,
+    map_sessions: MapSessions | None = None,
+) -> LogFit:
+    """MAP fit of a robot's drive parameters to log files (one or several sessions).
+
+    Parameters
+    ----------
+    logs : sequence of path
+        Fitting logs (MCAP, ROS 1 bag, rosbag2 folder or CSV); several are several sessions.
+    robot : str, path or RobotSpec
+        A shipped robot name, a spec file, or a loaded spec: geometry, drive defaults, priors
+        and odometry.
+    validate : sequence of path
+        Validation logs, scored but not fitted.
+    window, validate_window : (float, float), optional
+        ``(start_s, end_s)`` since each log's first sample: the part of the fitting
+        (validation) logs to use.
+    free : "auto" or sequence of str
+        The parameters to fit (``"auto"``: chosen from the excitation).
+    cmd_topic, odom_topic, time_source, odom_velocity
+        How each file is read (the keywords of :func:`sim2real.logs.read_trace`).
+    odom_v_window_s : float, optional
+        The odometry's velocity window, s (default: the spec's, e.g. one encoder period).
+    loss, dt_s, bootstrap, seed, progress, map_sessions
+        Passed to :func:`sysid.fit_drive` (robust loss, model step in s, block-bootstrap
+        refits, their seed, a ``(stage, fraction)`` callback, a parallel map over sessions).
+
+    Returns
+    -------
+    LogFit
+        The :class:`sysid.SysidResult` and the notes of reading the logs.
+
+    Raises
+    ------
+    Sim2RealValueError
+        A log cannot be read or holds too little data, or the fit gave a drive model the
+        parameter schema refuses (the sentence names the logs and what to try).
+
+    Examples
+    --------
+    >>> fit = fit_logs(["data/demo_train.mcap"], robot="turtlebot3_burger")  # doctest: +SKIP
+    >>> round(fit.result.values["delay_s"], 3)  # doctest: +SKIP
+    0.05
+    """
+    spec = robot if isinstance(robot, RobotSpec) else load_spec(robot)
+    notes: list[str] = []
+
+    def read(paths: Sequence[str | Path], crop: tuple[float, float] | None) -> list[Any]:
+        return read_fit_logs(
+            paths,
+            spec=spec,
+            window=crop,
+            notes=notes,
+            cmd_topic=cmd_topic,
+            odom_topic=odom_topic,
+            time_source=time_source,
+            odom_velocity=odom_velocity,
+        )
+
+    fit_set, val_set = read(logs, window), read(validate, validate_window)
+    try:
+        result = fit_drive(
+            fit_set,
+            geometry=spec.geometry,
+            base_params=spec.drive,
+            priors=spec.priors,
+            free=free,
+            validate=val_set,
+            robot=spec.name,
+            loss=loss,
+            dt_s=dt_s,
+            odom_v_window_s=spec.odometry.v_window_s
+            if odom_v_window_s is None
+            else odom_v_window_s,
+            bootstrap=bootstrap,
+            seed=seed,
+            progress=progress,
+            map_sessions=map_sessions,
+        )
+    except RobotsError as exc:  # the fit itself made a model the schema refuses
+        raise _fit_failure(logs, exc) from exc
+    return LogFit(result=result, notes=tuple(notes))
+
+
+def read_fit_logs(
+    paths: Sequence[str | Path],
+    *,
+    spec: RobotSpec,
+    window: tuple[float, float] | None = None,
+    notes: list[str] | None = None,
+    cmd_topic: str | None = None,
+    odom_topic: str | None = None,
+    time_source: str = "auto",
+    odom_velocity: str = "auto",
+) -> list[Trace | LogArrays]:
+    """The logs to fit: each file read, screened, cropped and split at its pauses.
+
+    Velocities beyond 10x the spec's limits are dropped (:meth:`Trace.without_absurd`), a
+    log with too little data is refused, and of the segments a file's pauses split it into,
+    those with nothing to identify are set aside. What was chosen or set aside is appended to
+    ``notes``.
+
+    Examples
+    --------
+    >>> spec = load_spec("turtlebot3_burger")
+    >>> traces = read_fit_logs(["data/demo_train.mcap"], spec=spec)  # doctest: +SKIP
+    """
+    notes = [] if notes is None else notes
+    out: list[Trace | LogArrays] = []
+    for path in paths:
+        trace = read_trace(
+            path,
+            cmd_topic=cmd_topic,
+            odom_topic=odom_topic,
+            time_source=time_source,
+            odom_velocity=odom_velocity,
+            wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
+            wheel_separation_m=spec.wheels.separation_m,
+        )
+        if trace.meta.time_note:
+            notes.append(f"{path}: {trace.meta.time_note}")
+        trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
+        trace.check_enough()
+        out.extend(_fittable(_pieces(trace, window), notes))
+    return out
+
+
+def _fittable(pieces: list[Trace | LogArrays], notes: list[str]) -> list[Trace | LogArrays]:
+    """Of several segments of one file, those with something to identify (the rest noted).
+
+    A segment where the robot stood still (or too short) cannot be fitted on its own; it is
+    set aside with a note. A single piece, or a file none of whose segments can be fitted, is
+    returned as it is, so the fit's own error names the file.
+    """
+    if len(pieces) < 2:
+        return pieces
+    kept = []
+    for k, piece in enumerate(pieces):
+        why = why_not_fittable(piece, k)
+        if why:
+            notes.append(f"set aside: {why}")
+        else:
+            kept.append(piece)
+    return kept or pieces
+
+
+def _pieces(trace: Trace, window: tuple[float, float] | None) -> list[Trace | LogArrays]:
+    """The segments of ``trace`` (its pauses split it), cropped to ``window`` (s since t0)."""
+    segments = trace.segments()
+    if window is None:
+        return list(segments)
+    out: list[Trace | LogArrays] = []
+    for seg in segments:
+        shift_s = (seg.t0_ns - trace.t0_ns) / 1e9
+        lo, hi = window[0] - shift_s, window[1] - shift_s
+        t = seg.meas_t_s
+        if bool(((t >= lo) & (t < hi)).any()):
+            out.append(crop_log(seg, lo, hi))
+    return out or [crop_log(trace, *window)]  # none overlaps: crop_log says so
+
+
+def _fit_failure(paths: Sequence[str | Path], exc: Exception) -> Sim2RealValueError:
+    """The error of a fit whose result breaks a rule of the drive-parameter schema.
+
+    That is a failure of the fit on these logs (not bad input, which is checked before): the
+    sentence names the logs, the rule and what to try.
+    """
+    rule = str(exc).split("; ")[0]  # the rule and the value, without a fix meant for a file
+    names = ", ".join(f"'{p}'" for p in paths)
+    return Sim2RealValueError(
+        f"sysid fit of {names} gave a drive model the schema refuses ({rule}); fit fewer "
+        "parameters (--free) or a longer, richer log, and please report it with the log"
+    )
