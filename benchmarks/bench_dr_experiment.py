@@ -56,8 +56,10 @@ import yaml
 
 from robots.randomization import DriveDistribution
 from sim2real.cli import main as cli_main
+from sim2real.training.config import config_from_dict
+from sim2real.training.environment import build_env
 from sim2real.training.evaluation import evaluate_controller, load_policy, wilson_interval
-from sim2real.training.train import build_env, config_from_dict, train
+from sim2real.training.train import train
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOT = "turtlebot3_burger"

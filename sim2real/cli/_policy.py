@@ -82,7 +82,7 @@ def prepare(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
     or the DWA baseline.
     """
     if args.params is not None:
-        from sim2real.training.train import set_params_file
+        from sim2real.training.environment import set_params_file
 
         set_params_file(env, args.params)
     controller, wrap, label = _controller(env, args)
@@ -133,7 +133,7 @@ def _robustness(args: argparse.Namespace, make_env: Any) -> int:
     env, options = make_env(args)
     try:
         if args.params is not None:
-            from sim2real.training.train import set_params_file
+            from sim2real.training.environment import set_params_file
 
             set_params_file(env, args.params)
         controller, wrap, label = _controller(env, args)

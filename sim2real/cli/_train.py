@@ -56,7 +56,8 @@ def _fmt(value: object) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from sim2real.training.train import RLLIB_PPO, load_config, require_train_extra, train
+    from sim2real.training.config import RLLIB_PPO, load_config, require_train_extra
+    from sim2real.training.train import train
 
     cfg = load_config(args.config, timesteps=args.timesteps, seed=args.seed, out=args.out)
     if cfg.algorithm == RLLIB_PPO:

@@ -1,7 +1,7 @@
 """``algorithm: rllib-ppo`` of ``sim2real train``: RLlib's PPO on the same env construction.
 
 The training loop is RLlib's (new API stack: RLModule + Learner + EnvRunners); this module
-registers :func:`sim2real.training.train.build_env` (env id, kwargs, randomizer stack, space scaling)
+registers :func:`sim2real.training.environment.build_env` (env id, kwargs, randomizer stack, space scaling)
 as the RLlib env, so every env runner -- on this machine or anywhere on a Ray cluster --
 builds exactly the env ``sim2real train`` builds for SB3. Outputs in ``OUT``::
 
@@ -34,27 +34,23 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
+from sim2real._io import atomic_write
+from sim2real.cluster import connect
 from sim2real.errors import Sim2RealValueError
+from sim2real.training.environment import build_env
 
 __all__ = [
     "ENV_NAME",
-    "RLLIB_KEYS",
     "RLlibController",
     "load_rllib_policy",
     "require_rllib",
-    "rllib_options",
     "train_rllib",
 ]
 
 #: Name under which the env is registered with ``ray.tune.registry.register_env``.
 ENV_NAME = "sim2real_train_env"
-#: Keys of the config's ``rllib`` mapping and their defaults.
-RLLIB_KEYS: dict[str, Any] = {
-    "address": "auto",
-    "num_env_runners": 1,
-    "num_envs_per_env_runner": 1,
-}
 
 
 def require_rllib() -> None:
@@ -70,33 +66,8 @@ def require_rllib() -> None:
         ) from None
 
 
-def rllib_options(value: Any, where: str) -> dict[str, Any]:
-    """The config's ``rllib`` mapping with defaults filled in, checked."""
-    if value is None:
-        return dict(RLLIB_KEYS)
-    if not isinstance(value, Mapping) or not set(value) <= set(RLLIB_KEYS):
-        raise Sim2RealValueError(
-            f"{where}: key 'rllib' must be a mapping of {', '.join(RLLIB_KEYS)}, got {value!r}"
-        )
-    out = {**RLLIB_KEYS, **{str(k): v for k, v in value.items()}}
-    for key, low in (("num_env_runners", 0), ("num_envs_per_env_runner", 1)):
-        v = out[key]
-        if isinstance(v, bool) or not isinstance(v, int) or v < low:
-            raise Sim2RealValueError(
-                f"{where}: key 'rllib.{key}' must be an integer >= {low}, got {v!r}"
-            )
-    if out["address"] is not None and not isinstance(out["address"], str):
-        raise Sim2RealValueError(
-            f"{where}: key 'rllib.address' must be 'auto', HOST:PORT or null, got "
-            f"{out['address']!r}"
-        )
-    return out
-
-
 def _make_env(env_config: Mapping[str, Any]) -> Any:
-    """The RLlib env creator: :func:`sim2real.training.train.build_env` from the env_config."""
-    from sim2real.training.train import build_env
-
+    """The RLlib env creator: :func:`sim2real.training.environment.build_env` from the env_config."""
     return build_env(
         env_config["env_id"],
         env_config["env_kwargs"],
@@ -161,11 +132,7 @@ def _mean_return(result: Mapping[str, Any]) -> float:
 def train_rllib(cfg: Any, options: Mapping[str, Any]) -> tuple[Path, int, float, Any]:
     """Train RLlib PPO per ``cfg``; returns (policy dir, env steps, train seconds, module)."""
     require_rllib()
-    import yaml
     from ray.tune.registry import register_env
-
-    from sim2real._io import atomic_write
-    from sim2real.cluster import connect
 
     address = options["address"]
     connect("auto" if address is None else str(address))

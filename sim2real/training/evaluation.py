@@ -35,7 +35,12 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
+import randomizers as dr
+from sim2real.envs.baselines import evaluate
 from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
+from sim2real.training._rllib import RLlibController, load_rllib_policy
+from sim2real.training.config import ALGORITHMS, RLLIB_PPO, require_train_extra
+from sim2real.training.environment import DiscreteActions, describe_space, normalize_spaces
 
 __all__ = [
     "LoadedPolicy",
@@ -127,15 +132,11 @@ class LoadedPolicy:
     def controller(self) -> Any:
         """A :class:`PolicyController` of the model (an RLlib one for ``rllib-ppo``)."""
         if self.algorithm == "rllib-ppo":
-            from sim2real.training._rllib import RLlibController
-
             return RLlibController(self.model)
         return PolicyController(self.model)
 
     def wrap(self, env: Any) -> Any:
         """``env`` with the policy's discrete action grid and space scaling applied."""
-        from sim2real.training.train import DiscreteActions, normalize_spaces
-
         grid = self.discrete_actions
         env = env if grid is None else DiscreteActions(env, **grid)
         scaling = self.metadata.get("normalize")
@@ -172,12 +173,8 @@ def load_policy(path: str | Path, *, algorithm: str | None = None) -> LoadedPoli
     >>> policy.algorithm  # doctest: +SKIP
     'PPO'
     """
-    from sim2real.training.train import ALGORITHMS, RLLIB_PPO, require_train_extra
-
     p = Path(path)
     if p.is_dir() and (p / "sim2real.yaml").is_file():  # an rllib-ppo policy folder
-        from sim2real.training._rllib import load_rllib_policy
-
         meta = dict(yaml.safe_load((p / "sim2real.yaml").read_text(encoding="utf-8")) or {})
         if meta.get("algorithm") != RLLIB_PPO:
             raise Sim2RealValueError(
@@ -210,15 +207,15 @@ def check_spaces(policy: LoadedPolicy, env: Any, env_name: str) -> None:
     want, got = policy.model.observation_space, env.observation_space
     if not _same_space(want, got):
         raise Sim2RealValueError(
-            f"policy '{policy.path}' expects observations {_describe(want)} but env "
-            f"{env_name} gives {_describe(got)}; evaluate it on the env it was trained on "
+            f"policy '{policy.path}' expects observations {describe_space(want)} but env "
+            f"{env_name} gives {describe_space(got)}; evaluate it on the env it was trained on "
             f"({policy.metadata.get('env_id', 'see its config.yaml')})"
         )
     want_a, got_a = policy.model.action_space, env.action_space
     if not _same_space(want_a, got_a):
         raise Sim2RealValueError(
-            f"policy '{policy.path}' acts in {_describe(want_a)} but env {env_name} takes "
-            f"{_describe(got_a)}; evaluate it on the env it was trained on"
+            f"policy '{policy.path}' acts in {describe_space(want_a)} but env {env_name} takes "
+            f"{describe_space(got_a)}; evaluate it on the env it was trained on"
         )
 
 
@@ -238,12 +235,6 @@ def _same_space(a: Any, b: Any) -> bool:
     return bool(a == b)
 
 
-def _describe(space: Any) -> str:
-    from sim2real.training.train import describe_space
-
-    return describe_space(space)
-
-
 def evaluate_controller(
     env: Any,
     controller: Any,
@@ -254,8 +245,6 @@ def evaluate_controller(
     on_episode: Any = None,
 ) -> Any:
     """:func:`sim2real.envs.evaluate` for any object with ``reset()`` and ``act(obs)``."""
-    from sim2real.envs.baselines import evaluate
-
     return evaluate(
         env, controller, episodes=episodes, seed=seed, options=options, on_episode=on_episode
     )
@@ -301,8 +290,6 @@ def robustness(
     starts are the same and only the randomisation differs. ``wrap(env)`` is applied outermost
     (e.g. a policy's discrete action grid).
     """
-    import randomizers as dr
-
     base_dir: Path | None = None
     if not isinstance(config, Mapping):
         dr.from_config(env, config)  # validates the file (one-sentence errors)

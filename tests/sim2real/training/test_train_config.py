@@ -1,4 +1,5 @@
-"""`sim2real.training.train` config parsing, env construction and the CLI's bad-input paths.
+"""Training config parsing (`sim2real.training.config`), env construction
+(`sim2real.training.environment`) and the CLI's bad-input paths.
 
 These tests do not need the [train] extra: the config is read and checked before any import of
 torch or stable-baselines3.
@@ -18,8 +19,9 @@ import randomizers as dr
 from robots.errors import ParamsFileError
 from sim2real.cli import main
 from sim2real.errors import Sim2RealValueError
+from sim2real.training.config import config_from_dict, load_config
+from sim2real.training.environment import DiscreteActions, build_env
 from sim2real.training.evaluation import wilson_interval
-from sim2real.training.train import DiscreteActions, build_env, config_from_dict, load_config
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -262,9 +264,9 @@ def test_eval_params_file_changes_the_robot(
 def test_cli_train_without_the_extra_says_how_to_install(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import sim2real.training.train
+    import sim2real.training.config
 
-    monkeypatch.setattr(sim2real.training.train, "_importable", lambda module: module != "torch")
+    monkeypatch.setattr(sim2real.training.config, "_importable", lambda module: module != "torch")
     cfg = _write(tmp_path / "c.yaml", {"env": {"id": "RandomMap-v0"}, "algorithm": "PPO"})
     assert main(["train", str(cfg), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -1,4 +1,4 @@
-"""The examples in the docstrings of sim2real.training.train and sim2real.training.evaluation run."""
+"""The examples in the docstrings of sim2real.training and sim2real.cluster run."""
 
 from __future__ import annotations
 
@@ -9,7 +9,14 @@ import pytest
 
 
 @pytest.mark.parametrize(
-    "name", ["sim2real.training.train", "sim2real.training.evaluation", "sim2real.cluster"]
+    "name",
+    [
+        "sim2real.training.config",
+        "sim2real.training.environment",
+        "sim2real.training.train",
+        "sim2real.training.evaluation",
+        "sim2real.cluster",
+    ],
 )
 def test_docstring_examples(name: str) -> None:
     module = importlib.import_module(name)

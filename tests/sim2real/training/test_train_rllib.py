@@ -15,7 +15,7 @@ import yaml
 
 from sim2real.cli import main
 from sim2real.errors import Sim2RealValueError
-from sim2real.training.train import config_from_dict
+from sim2real.training.config import config_from_dict
 
 ROOT = Path(__file__).resolve().parents[3]
 
