@@ -65,11 +65,11 @@ test-train: $(STAMP_TRAIN) $(STAMP_RLLIB)
 	$(BIN)/python -m pytest -q -m "train or cluster"
 	$(VENV_RLLIB)/bin/python -m pytest -q tests/sim2real/training/test_train_rllib.py
 
-## make bench: the performance targets (prints ratios measured in the same run) and writes the
-## README's performance table from this run's headline figures; every bench runs even if one
-## fails (exit 1 at the end, naming it). BENCH_QUICK=1: fewer repeats, a quick end-to-end check.
-## Each bench's run time is printed and the whole run's goes into the table; a bench running
-## longer than BENCH_TIMEOUT seconds is stopped and counted as failed.
+## make bench: the performance targets (prints ratios measured in the same run) and writes
+## docs/benchmarks.md from this run's headline figures (benchmarks/results_page.py); every bench
+## runs even if one fails (exit 1 at the end, naming it). BENCH_QUICK=1: fewer repeats, a quick
+## end-to-end check. Each bench's run time is printed and the whole run's goes into the page; a
+## bench running longer than BENCH_TIMEOUT seconds is stopped and counted as failed.
 ## bench_dr_experiment.py (the [train] extra, minutes to hours) and bench_agree_ray.py (the
 ## [cluster] extra) are run by hand (their docstrings say how).
 BENCHES ?= bench_perf.py bench_robots.py bench_replay.py bench_decode.py bench_bag.py \
@@ -85,8 +85,8 @@ bench: $(STAMP_DEV)
 	  echo "== $$f: $$(( $$(date +%s) - t0 )) s"; \
 	done; \
 	elapsed=$$(( $$(date +%s) - start )); echo "make bench: all benches in $$elapsed s"; \
-	BENCH_QUICK=$(BENCH_QUICK) ../$(BIN)/python readme_table.py --failed "$$failed" \
-	  --elapsed-s "$$elapsed"; \
+	BENCH_QUICK=$(BENCH_QUICK) ../$(BIN)/python results_page.py --ran "$(BENCHES)" \
+	  --failed "$$failed" --elapsed-s "$$elapsed"; \
 	if [ -n "$$failed" ]; then echo "make bench: failed:$$failed" >&2; exit 1; fi
 
 ## make data: regenerate the synthetic sample logs in data/

@@ -30,13 +30,14 @@ __all__ = [
 ]
 
 REPO = Path(__file__).resolve().parents[1]
-#: Where :func:`record` appends headline figures (``make bench`` turns them into the README table).
+#: Where :func:`record` appends headline figures (``results_page.py`` turns them into
+#: ``docs/benchmarks.md``).
 #: CPU seconds (user + system) of every command run by :func:`command_times`, by command line:
 #: on a loaded machine the wall time mostly measures the queue, the CPU time the work.
 CPU_S: dict[str, list[float]] = {}
 RESULTS = Path(os.environ.get("SIM2REAL_BENCH_RESULTS", REPO / "benchmarks" / ".results.jsonl"))
 #: ``BENCH_QUICK=1`` (``make bench BENCH_QUICK=1``): fewer repeats and shorter runs, for checking
-#: that every benchmark runs; the figures are then noisier (the README table says so).
+#: that every benchmark runs; the figures are then noisier (``docs/benchmarks.md`` says so).
 QUICK = os.environ.get("BENCH_QUICK", "") not in ("", "0")
 
 
@@ -181,10 +182,13 @@ def machine() -> str:
 
 
 def record(bench: str, figure: str, value: str, target: str, met: bool | None) -> None:
-    """Append one headline figure to :data:`RESULTS` (one JSON object per line)."""
+    """Append one headline figure to :data:`RESULTS` (one JSON object per line), with the
+    name of the script that records it."""
     import json
 
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    script = Path(sys.argv[0]).name
     row = {"bench": bench, "figure": figure, "value": value, "target": target, "met": met}
+    row["script"] = script
     with RESULTS.open("a", encoding="utf-8") as fh:
         fh.write(json.dumps(row) + "\n")
