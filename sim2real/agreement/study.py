@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:  # the heavy modules are imported by run_study only
     from sim2real.agreement.figures import AgreementReport, EnsembleResult
     from sim2real.agreement.report import ReportRun
+    from sim2real.agreement.verdict import AgreementVerdict, SessionFigures
 
 __all__ = [
     "StudyConfig",
@@ -133,6 +134,11 @@ class StudyResult:
         Output files written (JSON, report HTML, simulated MCAP), in that order.
     time_note : str
         Which time base ``time_source="auto"`` chose and why ("" otherwise).
+    verdict : AgreementVerdict or None
+        The verdict of the run (:func:`sim2real.agreement.verdict.decide`): what the terminal
+        prints and the report shows.
+    notes : tuple of str
+        Notes on the data: segments left out, figures left undefined on this log.
     """
 
     main: AgreementReport
@@ -142,6 +148,8 @@ class StudyResult:
     warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
     time_note: str = ""
+    verdict: AgreementVerdict | None = None
+    notes: tuple[str, ...] = ()
 
 
 def _sha256(path: str | Path) -> str:
@@ -324,6 +332,7 @@ def run_study(
     ensemble = _ensemble(config, trace, spec, params, window_s, progress)
     figures = study_figures(runs[-1].agreement, ensemble)
     check_figures(figures, config.log)
+    verdict = _verdict(config, spec, trace, runs, ensemble, params)
     written: list[Path] = []
     # the outputs are one set: all move in at the end, or none (a kill keeps the old set)
     with output_set([config.json_path, config.report_path, config.sim_out]) as out:
@@ -333,7 +342,13 @@ def run_study(
         if config.report_path is not None:
             staged = out.staged(config.report_path)
             _write_report(
-                replace(config, report_path=staged), trace, spec, tuple(runs), ensemble, window_s
+                replace(config, report_path=staged),
+                trace,
+                spec,
+                tuple(runs),
+                ensemble,
+                window_s,
+                verdict,
             )
             written.append(Path(config.report_path))
         if config.sim_out is not None:
@@ -347,6 +362,54 @@ def run_study(
         warnings=tuple(trace.meta.warnings),
         written=tuple(written),
         time_note=trace.meta.time_note,
+        verdict=verdict,
+    )
+
+
+def session_figures(trace: Any, spec: Any, runs: Sequence[Any], params: Any) -> SessionFigures:
+    """The checked session's figures the verdict weighs (top speeds, fitted delay, shortfall)."""
+    from sim2real.agreement.verdict import SessionFigures, speed_shortfall
+    from sysid.metrics import active_mask
+
+    main = runs[-1]
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    a = main.agreement
+    active = active_mask(cmd_v, cmd_w, trace.meas_v, trace.meas_w, tol_v=a.tol_v, tol_w=a.tol_w)
+    shortfall = None
+    if params is not None:
+        shortfall = speed_shortfall(
+            trace.meas_v,
+            trace.meas_w,
+            main.replay.v,
+            main.replay.w,
+            active,
+            tol_v=a.tol_v,
+            tol_w=a.tol_w,
+        )
+    return SessionFigures(
+        fitted_delay_s=None if params is None else float(params.delay_s),
+        top_v_mps=float(spec.max_v_mps),
+        top_w_radps=float(spec.max_w_radps),
+        speed_shortfall=shortfall,
+    )
+
+
+def _verdict(
+    config: StudyConfig,
+    spec: Any,
+    trace: Any,
+    runs: Sequence[Any],
+    ensemble: EnsembleResult | None,
+    params: Any,
+) -> AgreementVerdict:
+    from sim2real.agreement.verdict import decide
+
+    return decide(
+        defaults=runs[0].agreement,
+        fitted=runs[-1].agreement if params is not None else None,
+        robot=str(config.robot),
+        ensemble=ensemble,
+        session=session_figures(trace, spec, runs, params),
     )
 
 
@@ -443,6 +506,7 @@ def _write_report(
     runs: tuple[ReportRun, ...],
     ensemble: EnsembleResult | None,
     window_s: float,
+    verdict: AgreementVerdict | None = None,
 ) -> None:
     from sim2real.agreement.report import ReportInput, param_rows, write_report
 
@@ -468,6 +532,7 @@ def _write_report(
                 odom_v_window_s=window_s,
             ),
             title=config.title,
+            verdict=verdict,
         ),
     )
 

@@ -336,19 +336,10 @@ def _handle(args: argparse.Namespace) -> int:
         print(f"sim2real: warning: {args.log}: {warning}", file=sys.stderr)
     print(f"{args.log}: robot {args.robot}, engine {args.engine}")
     print(summary_table(result.runs, result.ensemble))
-    if result.ensemble is not None:
-        from sim2real.agreement.figures import band_verdict
-
-        e = result.ensemble
-        print(
-            band_verdict(
-                coverage_v=e.coverage_v,
-                coverage_w=e.coverage_w,
-                band_level=e.band_level,
-                band_width_v_mps=e.band_width_v_mps,
-                band_width_w_radps=e.band_width_w_radps,
-            )
-        )
+    if result.verdict is not None:  # the one verdict, as the report words it
+        print("\n".join(result.verdict.lines()))
+    for note in result.notes:
+        print(f"note: {note}")
     if result.time_note:
         print(f"note: {result.time_note}")
     for path in result.written:

@@ -46,6 +46,7 @@ from sim2real.agreement.report._plots import (
 )
 from sim2real.agreement.report._steps import find_steps, step_response
 from sim2real.agreement.report._verdict import lag_phrase, make_verdict
+from sim2real.agreement.verdict import AgreementVerdict
 from sim2real.errors import Sim2RealValueError
 from sysid.metrics import active_mask
 
@@ -116,6 +117,11 @@ class ReportInput:
         Key/value lines (files, sha256, versions, seed, command line).
     title : str
         Page title.
+    verdict : AgreementVerdict, optional
+        The run's verdict (:func:`sim2real.agreement.verdict.decide`, as ``sim2real agree``
+        printed it); decided from ``runs`` and ``ensemble`` when absent.
+    notes : sequence of str
+        Notes on the data (segments left out, figures left undefined), shown under the verdict.
     """
 
     trace: TraceLike
@@ -124,6 +130,8 @@ class ReportInput:
     params: Sequence[ParamRow] = ()
     provenance: Sequence[tuple[str, str]] = ()
     title: str = "sim2real agreement report"
+    verdict: AgreementVerdict | None = None
+    notes: Sequence[str] = ()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -501,7 +509,9 @@ def write_report(path: str | Path, data: ReportInput, *, write_pngs: bool = True
     page = render_page(
         title=data.title,
         subtitle=subtitle,
-        verdict=make_verdict(data.runs, data.ensemble, robot=first.robot),
+        verdict=make_verdict(
+            data.runs, data.ensemble, robot=first.robot, verdict=data.verdict, notes=data.notes
+        ),
         lead=figures[0][1],
         cards=_cards(data),
         summary=_summary_table(data),

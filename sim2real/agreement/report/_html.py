@@ -46,7 +46,8 @@ figure.lead{margin:8px 0 0;padding:4px 8px}figure.lead figcaption{margin-top:0}
 details{margin:14px 0;background:#fff;border-radius:8px;padding:4px 12px;
 box-shadow:0 1px 3px rgba(0,0,0,.08)}summary{cursor:pointer;font-weight:600;padding:6px 0}
 details h2{margin-top:10px}.card{overflow-wrap:anywhere}
-#verdict p{overflow-wrap:anywhere}
+#verdict p{overflow-wrap:anywhere}#verdict .headline{margin:8px 0 0;font-size:.95rem}
+#verdict .reasons{margin:4px 0 0;padding-left:20px;font-size:.86rem}
 """
 
 _CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
@@ -94,14 +95,18 @@ class Stat:
 
 @dataclass(frozen=True, kw_only=True)
 class Verdict:
-    """The report's first section: the figures that matter and the next step.
+    """The report's first section: the figures that matter, the verdict and the next step.
 
-    ``ok`` marks a next step that is "nothing to fix" (drawn green instead of amber).
+    ``headline`` and ``reasons`` are the verdict's sentences; ``ok`` marks a next step that is
+    "nothing to fix" (drawn green instead of amber).
     """
 
     stats: Sequence[Stat]
     next_step: str
     ok: bool = False
+    headline: str = ""
+    reasons: Sequence[str] = ()
+    notes: Sequence[str] = ()
 
 
 def _e(text: object) -> str:
@@ -122,10 +127,15 @@ def _verdict(v: Verdict, title: str, subtitle: str) -> str:
         for st in v.stats
     )
     cls = "next ok" if v.ok else "next"
+    headline = f'<p class="headline"><b>Verdict:</b> {_e(v.headline)}</p>' if v.headline else ""
+    reasons = "".join(f"<li>{_e(r)}</li>" for r in v.reasons)
     return (
         f'<section id="verdict"><h1>{_e(title)}</h1><p class="sub">{_e(subtitle)}</p>'
-        f'<div class="stats">{stats}</div>'
-        f'<p class="{cls}"><b>Next step:</b> {_e(v.next_step)}</p></section>'
+        f'<div class="stats">{stats}</div>{headline}'
+        + (f'<ul class="reasons">{reasons}</ul>' if reasons else "")
+        + f'<p class="{cls}"><b>Next step:</b> {_e(v.next_step)}</p>'
+        + "".join(f'<p class="note">note: {_e(n)}</p>' for n in v.notes)
+        + "</section>"
     )
 
 

@@ -2,11 +2,9 @@
 
 Three figures matter: the agreement of the main simulation (the last run: the sysid fit when
 there is one), the coverage of the randomised band (when an ensemble was run) and the timing
-(cross-correlation lag). Each gets one sentence saying what it means; then one next step,
-chosen in this order: fit the model (no params), fix the timing (a lag over
-:data:`LAG_LIMIT_S`), improve the fit (agreement under :data:`GOOD_AGREEMENT`), add a band (no
-ensemble), then :func:`sim2real.agreement.figures.band_verdict` (the band too narrow or too wide, with
-the command that calibrates it, or calibrated: "train with it").
+(cross-correlation lag). Each gets one sentence saying what it means. The headline, its
+reasons and the next step are the words of the one verdict,
+:func:`sim2real.agreement.verdict.decide`, which ``sim2real agree`` prints too.
 """
 
 from __future__ import annotations
@@ -17,13 +15,9 @@ from typing import Any
 
 from sim2real.agreement.figures import lag_phrase  # the one wording of a lag (also the CLI table)
 from sim2real.agreement.report._html import Stat, Verdict
+from sim2real.agreement.verdict import GOOD_AGREEMENT, LAG_LIMIT_S, AgreementVerdict, decide
 
 __all__ = ["GOOD_AGREEMENT", "LAG_LIMIT_S", "lag_phrase", "make_verdict"]
-
-#: Agreement from which the model is good enough to train with (seed paper 000: "over 80 %").
-GOOD_AGREEMENT = 0.8
-#: A lag beyond this is a timing error worth fixing before anything else, s.
-LAG_LIMIT_S = 0.05
 
 
 def _lag(agreement: Any) -> float:
@@ -96,54 +90,33 @@ def _lag_stat(runs: Sequence[Any]) -> Stat:
     return Stat(label="timing (sim - real)", value=value, fraction=grade, sentence=sentence)
 
 
-def _next_step(runs: Sequence[Any], ensemble: Any | None, robot: str) -> tuple[str, bool]:
-    main = runs[-1].agreement
-    log = main.log_file or "LOG.mcap"
-    params = main.params_file
-    lag = _lag(main)
-    if params is None:
-        return (
-            f"the spec defaults reach {_pct(main.agreement)}: fit the drive model to a log of "
-            f"this robot, 'sim2real sysid fit TRAIN.mcap --robot {robot} -o params.yaml', then "
-            f"compare again with 'sim2real agree {log} --robot {robot} --params params.yaml "
-            "--ensemble 10'.",
-            False,
-        )
-    if math.isfinite(lag) and abs(lag) > LAG_LIMIT_S:
-        direction = "long" if lag > 0 else "short"
-        return (
-            f"{lag_phrase(lag)}: the simulated command delay (delay_s) is {abs(lag):.2f} s too "
-            f"{direction} for this log; refit on a log with sharp command steps, or widen the "
-            "delay's randomisation if the delay varies between sessions.",
-            False,
-        )
-    if not main.agreement >= GOOD_AGREEMENT:
-        return (
-            f"the fit reaches {_pct(main.agreement)} (< {_pct(GOOD_AGREEMENT)}): see in the "
-            "rolling agreement where it fails, and refit on a longer log with varied driving "
-            "(steps, turns, reversals, the speeds you use).",
-            False,
-        )
-    if ensemble is None:
-        return (
-            f"see how far sim may stray from real: 'sim2real agree {log} --robot {robot} "
-            f"--params {params} --ensemble 10'.",
-            False,
-        )
-    from sim2real.agreement.figures import band_verdict
+def make_verdict(
+    runs: Sequence[Any],
+    ensemble: Any | None,
+    *,
+    robot: str,
+    verdict: AgreementVerdict | None = None,
+    notes: Sequence[str] = (),
+) -> Verdict:
+    """The report's verdict section: three figures and the words of the one verdict.
 
-    sentence = band_verdict(
-        coverage_v=ensemble.coverage_v,
-        coverage_w=ensemble.coverage_w,
-        band_level=ensemble.band_level,
-        band_width_v_mps=ensemble.band_width_v_mps,
-        band_width_w_radps=ensemble.band_width_w_radps,
-    )
-    return sentence[0].lower() + sentence[1:], " band is calibrated" in sentence
-
-
-def make_verdict(runs: Sequence[Any], ensemble: Any | None, *, robot: str) -> Verdict:
-    """The verdict of a report's runs (last = main simulation) and optional ensemble."""
+    ``notes`` (segments left out, figures left undefined) are shown under it. ``verdict`` is :func:`sim2real.agreement.verdict.decide`'s outcome for this run (what
+    ``sim2real agree`` printed); without it, it is decided here from ``runs`` (spec defaults
+    first, the params file's replay last) and ``ensemble``.
+    """
+    if verdict is None:
+        verdict = decide(
+            defaults=runs[0].agreement,
+            fitted=runs[-1].agreement if len(runs) >= 2 else None,
+            robot=robot,
+            ensemble=ensemble,
+        )
     stats = [_agreement_stat(runs), _coverage_stat(ensemble), _lag_stat(runs)]
-    step, ok = _next_step(runs, ensemble, robot)
-    return Verdict(stats=stats, next_step=step, ok=ok)
+    return Verdict(
+        stats=stats,
+        headline=verdict.headline,
+        reasons=verdict.reasons,
+        next_step=verdict.next_step,
+        ok=verdict.ok,
+        notes=tuple(notes),
+    )

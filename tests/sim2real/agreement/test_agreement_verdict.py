@@ -1,13 +1,15 @@
-"""The report's verdict: the lag phrase and the choice of the next step."""
+"""The one verdict of an agreement run: its headline, reasons and next step."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 
 from sim2real.agreement.report._verdict import GOOD_AGREEMENT, lag_phrase, make_verdict
+from sim2real.agreement.verdict import MIN_ACTIVE, SessionFigures, decide
 
 
 @dataclass
@@ -19,6 +21,7 @@ class _A:
     tol_w: float = 0.1
     log_file: str | None = "val.mcap"
     params_file: str | None = "params.yaml"
+    n_active: int = 500
 
 
 @dataclass
@@ -51,6 +54,17 @@ def _runs(after: float, **kw: object) -> list[_Run]:
     ]
 
 
+def _decide(after: float, ens: _Ens | None = None, *, before: float = 0.5, **kw: object):  # type: ignore[no-untyped-def]
+    session = kw.pop("session", None)
+    return decide(
+        defaults=_A(before, params_file=None),
+        fitted=_A(after, **kw),  # type: ignore[arg-type]
+        robot="r",
+        ensemble=ens,
+        session=session,  # type: ignore[arg-type]
+    )
+
+
 @pytest.mark.parametrize(
     ("lag", "text"),
     [
@@ -65,35 +79,70 @@ def test_lag_phrase_says_who_is_late(lag: float, text: str) -> None:
 
 
 def test_the_verdict_has_three_figures_with_a_sentence_each() -> None:
-    v = make_verdict(_runs(0.944, lag_s_v=-0.038, lag_s_w=-0.040), _Ens(0.009), robot="r")
+    v = make_verdict(_runs(0.944, lag_s_v=-0.008, lag_s_w=-0.010), _Ens(0.009), robot="r")
     assert [s.label for s in v.stats] == [
         "agreement, sysid params",
         "coverage of the 90 % band",
         "timing (sim - real)",
     ]
-    assert [s.value for s in v.stats] == ["94.4 %", "0.9 %", "-39 ms"]
+    assert [s.value for s in v.stats] == ["94.4 %", "0.9 %", "-9 ms"]
     assert "(spec defaults: 50.0 %)" in v.stats[0].sentence
-    assert v.stats[2].sentence.startswith("sim leads real by 0.039 s")
-    assert v.next_step.startswith("the 90 % band is too narrow") and not v.ok
+    assert v.stats[2].sentence.startswith("sim leads real by 0.009 s")
+    assert v.headline.startswith("The 90 % band is too narrow") and not v.ok
     assert "sim2real sysid calibrate" in v.next_step
 
 
-def test_next_step_order() -> None:
-    no_params = [_Run("spec defaults", _A(0.6, params_file=None))]
-    assert "sim2real sysid fit" in make_verdict(no_params, None, robot="r").next_step
-    late = make_verdict(_runs(0.7, lag_s_v=0.12, lag_s_w=0.12), _Ens(0.9), robot="r")
-    assert late.next_step.startswith("sim lags real by 0.120 s: the simulated command delay")
-    assert "too long" in late.next_step
-    early = make_verdict(_runs(0.9, lag_s_v=-0.1, lag_s_w=-0.1), _Ens(0.9), robot="r")
-    assert "too short" in early.next_step
-    poor = make_verdict(_runs(GOOD_AGREEMENT - 0.01), _Ens(0.9), robot="r")
-    assert poor.next_step.startswith("the fit reaches 79.0 %")
-    no_band = make_verdict(_runs(0.95), None, robot="r")
-    assert "--ensemble 10" in no_band.next_step and no_band.stats[1].value == "no band"
-    wide = make_verdict(_runs(0.95), _Ens(1.0), robot="r")
-    assert wide.next_step.startswith("the 90 % band is too wide") and not wide.ok
-    good = make_verdict(_runs(0.95), _Ens(0.88), robot="r")
-    assert good.ok and "DynamicsRandomizer.from_sysid" in good.next_step
+def test_headline_order() -> None:
+    no_fit = decide(defaults=_A(0.6, params_file=None), fitted=None, robot="neato.yaml")
+    assert no_fit.kind == "no_fit" and "--robot neato.yaml" in no_fit.next_step
+    assert "sim2real sysid fit" in no_fit.next_step
+    late = _decide(0.7, _Ens(0.9), lag_s_v=0.12, lag_s_w=0.12)
+    assert late.kind == "latency" and "sim lags real by 0.120 s" in late.headline
+    poor = _decide(GOOD_AGREEMENT - 0.01, _Ens(0.9))
+    assert poor.kind == "poor_fit" and poor.headline.startswith("The fit reaches 79.0 %")
+    no_band = _decide(0.95)
+    assert no_band.kind == "no_band" and "--ensemble 30" in no_band.next_step
+    wide = _decide(0.95, _Ens(1.0))
+    assert wide.kind == "band_wide" and wide.headline.startswith("The 90 % band is too wide")
+    good = _decide(0.95, _Ens(0.88))
+    assert good.kind == "calibrated" and good.ok
+    assert "DynamicsRandomizer.from_sysid" in good.next_step
+    few = _decide(0.95, _Ens(0.88), n_active=MIN_ACTIVE - 1)
+    assert few.kind == "too_little_data" and str(MIN_ACTIVE - 1) in few.headline
+
+
+def test_a_fit_worse_than_the_defaults_is_the_headline_with_its_cause() -> None:
+    """Worse than the defaults outranks a calibrated band; the likely cause is named."""
+    plain = _decide(0.353, _Ens(0.88), before=0.641)
+    assert plain.kind == "fit_worse" and not plain.ok
+    assert "35.3 % against 64.1 %" in plain.headline
+    assert any(r.startswith("The 90 % band is calibrated") for r in plain.reasons)
+    slow = _decide(0.353, before=0.641, session=SessionFigures(speed_shortfall=("v", 0.30, 0.27)))
+    assert "tops out at 0.27 m/s in v where the robot holds 0.3 m/s" in slow.headline
+    no_delay = _decide(0.353, before=0.641, session=SessionFigures(fitted_delay_s=4e-12))
+    assert "fitted command delay is 4e-12 s" in no_delay.headline
+    latency = _decide(
+        0.353,
+        before=0.641,
+        session=SessionFigures(fitted_delay_s=0.0, best_delay_s=0.11, agreement_at_best_delay=0.7),
+    )
+    assert "own best command latency is 0.110 s where the fit has 0.000 s" in latency.headline
+    assert "(agreement there 70.0 %)" in latency.headline
+    # within the margin it is not "worse"
+    assert _decide(0.49, _Ens(0.88), before=0.5).kind == "poor_fit"
+
+
+def test_a_band_calibrated_by_being_wide_is_said() -> None:
+    top = SessionFigures(top_v_mps=0.3, top_w_radps=2.0)
+    wide = _decide(0.95, _Ens(0.9, band_width_v_mps=0.16), session=top)
+    assert wide.kind == "calibrated" and not wide.ok
+    assert any(
+        "holds the robot by being wide" in r and "53 % of the top speed" in r for r in wide.reasons
+    )
+    noisy = SessionFigures(top_v_mps=0.3, top_w_radps=2.0, noise_band_width_v_mps=0.14)
+    assert _decide(0.95, _Ens(0.9, band_width_v_mps=0.16), session=noisy).ok
+    ceiling = SessionFigures(noise_ceiling=0.6)
+    assert any("noise ceiling" in r for r in _decide(0.95, _Ens(0.9), session=ceiling).reasons)
 
 
 def test_coverage_counts_a_sample_on_a_quantised_band_edge() -> None:
@@ -135,3 +184,31 @@ def test_the_cli_table_words_the_lag_like_the_report() -> None:
     assert "sim leads real by 0.038 s" in rows["timing w"]
     assert lag_phrase(math.nan) in rows["timing w"]
     assert "lag v" not in table and "+0.120" not in table
+
+
+@pytest.mark.parametrize("with_params", [False, True])
+def test_terminal_and_report_print_the_same_verdict(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], with_params: bool
+) -> None:
+    """`agree` in-process: every verdict sentence printed is in the report's HTML, verbatim."""
+    import html
+
+    from _agreement_fixtures import HIDDEN, ROBOT, write_log, write_params
+
+    from sim2real.cli import main
+
+    log = write_log(tmp_path / "val.mcap", duration_s=20.0)
+    report = tmp_path / "report.html"
+    args = ["agree", str(log), "--robot", ROBOT, "--engine", "reduced", "--report", str(report)]
+    if with_params:
+        args += ["--params", str(write_params(tmp_path / "p.yaml", HIDDEN)), "--ensemble", "4"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    lines = [ln for ln in out.splitlines() if ln.startswith(("verdict: ", "  - ", "next step: "))]
+    assert lines[0].startswith("verdict: ") and lines[-1].startswith("next step: ")
+    page = html.unescape(report.read_text(encoding="utf-8"))
+    for line in lines:
+        sentence = line.split(": ", 1)[1] if not line.startswith("  - ") else line[4:]
+        assert sentence in page
+    head = "verdict: The 90 % band is" if with_params else "verdict: The spec defaults reach"
+    assert lines[0].startswith(head)

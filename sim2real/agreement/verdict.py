@@ -1,0 +1,494 @@
+"""The one verdict of an agreement run: what its figures mean and what to do next.
+
+:func:`decide` reads the figures of a run (the spec defaults' replay, the fitted replay, the
+band, and the optional figures of the checked session) and returns one
+:class:`AgreementVerdict`: a headline, the reasons behind it and one next step. ``sim2real
+agree`` prints its words and the HTML report shows the same words, so the terminal and the page
+never disagree.
+
+The headline is the first of these that holds:
+
+1. **too little data**: fewer than :data:`MIN_ACTIVE` active samples;
+2. **no fit**: only the spec defaults were replayed (next: fit the drive model);
+3. **fit worse than the spec defaults**: the fitted agreement is more than
+   :data:`WORSE_MARGIN` under the defaults', with its likely cause (this session's latency,
+   commands outside the fitted envelope, a top speed under what the robot holds, a delay
+   driven to zero);
+4. **latency of this session differs**: the fitted replay lags or leads the real robot by
+   more than :data:`LAG_LIMIT_S`, or the session's own best latency is that far from the
+   fitted delay;
+5. **the fit is short of** :data:`GOOD_AGREEMENT`;
+6. **the band**: none run, too narrow, too wide or calibrated
+   (:func:`sim2real.agreement.figures.band_verdict`).
+
+Every other finding that holds (commands outside the fitted envelope, a band calibrated by
+being wide, a noise ceiling under the target) is a reason.
+
+Example
+-------
+>>> from sim2real.agreement.figures import agreement_from_arrays
+>>> import numpy as np
+>>> t = np.arange(100) * 0.1
+>>> rep = agreement_from_arrays(t_s=t, cmd_v=np.full(100, 0.2), cmd_w=np.zeros(100),
+...     real_v=np.full(100, 0.2), real_w=np.zeros(100), sim_v=np.full(100, 0.2),
+...     sim_w=np.zeros(100), robot="r")
+>>> decide(defaults=rep, fitted=None, robot="r").headline.split(":")[0]
+'The spec defaults reach 100.0 % (no fit)'
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from sim2real.agreement.figures import band_verdict, lag_phrase
+
+__all__ = [
+    "GOOD_AGREEMENT",
+    "LAG_LIMIT_S",
+    "MIN_ACTIVE",
+    "WIDE_SHARE",
+    "WORSE_MARGIN",
+    "AgreementVerdict",
+    "SessionFigures",
+    "decide",
+    "speed_shortfall",
+    "verdict_text",
+]
+
+#: Agreement from which the model is good enough to train with ("over 80 %", Liang et al. 2020).
+GOOD_AGREEMENT = 0.8
+#: A lag (or a latency difference) beyond this is a timing error worth fixing first, s.
+LAG_LIMIT_S = 0.05
+#: Fewer active samples than this make the figures too uncertain to judge.
+MIN_ACTIVE = 50
+#: The fit counts as worse than the spec defaults when its agreement is this much lower.
+WORSE_MARGIN = 0.02
+#: A calibrated band wider than this share of the top speed (yaw rate) is "wide".
+WIDE_SHARE = 0.2
+#: A calibrated band is only as narrow as the measurement noise allows: up to this many times
+#: the noise-only band counts as narrow enough.
+NOISE_BAND_SLACK = 1.25
+
+
+class _Agreement(Protocol):
+    agreement: float
+    lag_s_v: float
+    lag_s_w: float
+    n_active: int
+    log_file: str | None
+    params_file: str | None
+
+
+@dataclass(frozen=True, kw_only=True)
+class SessionFigures:
+    """Optional figures of the checked session; None where they were not measured.
+
+    Attributes
+    ----------
+    best_delay_s : float or None
+        The command latency that fits this session best, s.
+    agreement_at_best_delay : float or None
+        The fitted model's agreement at that latency (0..1).
+    fitted_delay_s : float or None
+        The fitted model's command delay (``delay_s`` of the params), s.
+    noise_ceiling : float or None
+        The agreement a perfect model would reach given the measurement noise (0..1).
+    noise_band_width_v_mps, noise_band_width_w_radps : float or None
+        Width of the 90 % band that the measurement noise alone forces.
+    top_v_mps, top_w_radps : float or None
+        The robot's top speed and yaw rate (the spec's), to judge the band's width.
+    speed_shortfall : tuple of str or None
+        ``(axis, real, sim)`` when the fitted model tops out under what the robot holds.
+    extrapolation : object or None
+        The checked log against the fit's envelope (:class:`sysid.envelope.EnvelopeCheck`):
+        ``known``, ``share_outside`` and ``sentence``.
+    """
+
+    best_delay_s: float | None = None
+    agreement_at_best_delay: float | None = None
+    fitted_delay_s: float | None = None
+    noise_ceiling: float | None = None
+    noise_band_width_v_mps: float | None = None
+    noise_band_width_w_radps: float | None = None
+    top_v_mps: float | None = None
+    top_w_radps: float | None = None
+    speed_shortfall: tuple[str, float, float] | None = None
+    extrapolation: Any = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class AgreementVerdict:
+    """The verdict of one agreement run.
+
+    Attributes
+    ----------
+    kind : str
+        What the headline is about: ``"too_little_data"``, ``"no_fit"``, ``"fit_worse"``,
+        ``"latency"``, ``"poor_fit"``, ``"no_band"``, ``"band_narrow"``, ``"band_wide"``,
+        ``"band_mixed"``, ``"band_unknown"`` or ``"calibrated"``.
+    headline : str
+        One sentence: the verdict.
+    reasons : tuple of str
+        Further findings, one sentence each.
+    next_step : str
+        One sentence: what to do next.
+    ok : bool
+        True when nothing needs fixing (a calibrated band on a good fit).
+    """
+
+    kind: str
+    headline: str
+    reasons: tuple[str, ...]
+    next_step: str
+    ok: bool
+
+    def lines(self) -> tuple[str, ...]:
+        """The verdict as the terminal prints it: headline, reasons, next step."""
+        return (
+            f"verdict: {self.headline}",
+            *(f"  - {r}" for r in self.reasons),
+            f"next step: {self.next_step}",
+        )
+
+
+def verdict_text(verdict: AgreementVerdict) -> str:
+    """:meth:`AgreementVerdict.lines` joined by newlines (what ``sim2real agree`` prints)."""
+    return "\n".join(verdict.lines())
+
+
+def _pct(x: float | None) -> str:
+    return f"{100 * x:.1f} %" if x is not None and math.isfinite(x) else "n/a"
+
+
+def _lag(a: _Agreement) -> float:
+    lags = [x for x in (a.lag_s_v, a.lag_s_w) if math.isfinite(x)]
+    return sum(lags) / len(lags) if lags else math.nan
+
+
+def _finite(x: float | None) -> bool:
+    return x is not None and math.isfinite(x)
+
+
+def speed_shortfall(
+    real_v: Any, real_w: Any, sim_v: Any, sim_w: Any, active: Any, *, tol_v: float, tol_w: float
+) -> tuple[str, float, float] | None:
+    """``(axis, real, sim)`` when the simulation's top speed stays under the robot's.
+
+    The top is the 95th percentile of |velocity| over the active samples (a spike does not
+    make a top speed); the shortfall counts when it exceeds the tolerance of that axis.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> speed_shortfall(np.full(50, 0.3), np.zeros(50), np.full(50, 0.27), np.zeros(50),
+    ...                 np.ones(50, bool), tol_v=0.02, tol_w=0.1)
+    ('v', 0.3, 0.27)
+    """
+    act = np.asarray(active, dtype=bool)
+    if not act.any():
+        return None
+    for axis, real, sim, tol in (("v", real_v, sim_v, tol_v), ("w", real_w, sim_w, tol_w)):
+        top_real = float(np.percentile(np.abs(np.asarray(real, dtype=float)[act]), 95))
+        top_sim = float(np.percentile(np.abs(np.asarray(sim, dtype=float)[act]), 95))
+        if top_real - top_sim > tol:
+            return axis, round(top_real, 4), round(top_sim, 4)
+    return None
+
+
+def _latency_reason(fitted: _Agreement, s: SessionFigures) -> str | None:
+    """One sentence when this session's latency differs from the fitted one (else None)."""
+    best, fitted_delay = s.best_delay_s, s.fitted_delay_s
+    if best is not None and fitted_delay is not None and _finite(best) and _finite(fitted_delay):
+        gap = best - fitted_delay
+        if abs(gap) > LAG_LIMIT_S:
+            at = (
+                f" (agreement there {_pct(s.agreement_at_best_delay)})"
+                if _finite(s.agreement_at_best_delay)
+                else ""
+            )
+            return (
+                f"this session's own best command latency is {best:.3f} s where the "
+                f"fit has {fitted_delay:.3f} s{at}: the latency of this session differs"
+            )
+        return None
+    lag = _lag(fitted)
+    if math.isfinite(lag) and abs(lag) > LAG_LIMIT_S:
+        return (
+            f"{lag_phrase(lag)} (cross-correlation of v and w): the latency of this session "
+            "differs from the fitted delay"
+        )
+    return None
+
+
+def _extrapolation_reason(s: SessionFigures) -> str | None:
+    ext = s.extrapolation
+    if ext is None:
+        return None
+    if not getattr(ext, "known", False) or getattr(ext, "share_outside", 0.0) > 0.0:
+        return str(ext.sentence)
+    return None
+
+
+def _likely_cause(fitted: _Agreement, s: SessionFigures) -> str:
+    """The likely cause of a fit that does worse than the spec defaults, one clause."""
+    latency = _latency_reason(fitted, s)
+    if latency is not None:
+        return latency
+    ext = s.extrapolation
+    if ext is not None and getattr(ext, "known", False) and ext.share_outside >= 0.1:
+        return (
+            f"this log drives outside what the fit log saw for {_pct(ext.share_outside)} of "
+            "its active time"
+        )
+    if s.speed_shortfall is not None:
+        axis, real, sim = s.speed_shortfall
+        unit = "m/s" if axis == "v" else "rad/s"
+        return (
+            f"the fitted model tops out at {sim:.3g} {unit} in {axis} where the robot holds "
+            f"{real:.3g} {unit} (a top speed fitted under a spiky or pose-derived velocity)"
+        )
+    if _finite(s.fitted_delay_s) and s.fitted_delay_s is not None and s.fitted_delay_s < 0.005:
+        return (
+            f"the fitted command delay is {s.fitted_delay_s:.3g} s (driven to zero: the fit "
+            "log's timing did not identify it)"
+        )
+    return "the fit log does not excite what this log does (other speeds, turns or a session)"
+
+
+def _band_state(ensemble: Any) -> tuple[str, bool]:
+    text = band_verdict(
+        coverage_v=ensemble.coverage_v,
+        coverage_w=ensemble.coverage_w,
+        band_level=ensemble.band_level,
+        band_width_v_mps=ensemble.band_width_v_mps,
+        band_width_w_radps=ensemble.band_width_w_radps,
+    )
+    head = text.split(":")[0]
+    if "calibrated" in head:
+        return "calibrated", True
+    if "narrow" in head and "wide" in head:
+        return "band_mixed", False
+    if "narrow" in head:
+        return "band_narrow", False
+    if "wide" in head:
+        return "band_wide", False
+    return "band_unknown", False
+
+
+def _wide_reason(ensemble: Any, s: SessionFigures) -> str | None:
+    """A calibrated band that covers by being wide: one sentence (else None)."""
+    wide = []
+    for axis, width, top, noise, unit in (
+        ("v", ensemble.band_width_v_mps, s.top_v_mps, s.noise_band_width_v_mps, "m/s"),
+        ("w", ensemble.band_width_w_radps, s.top_w_radps, s.noise_band_width_w_radps, "rad/s"),
+    ):
+        if not (_finite(width) and _finite(top)) or top is None or top <= 0:
+            continue
+        if width <= WIDE_SHARE * top:
+            continue
+        if _finite(noise) and noise is not None and width <= NOISE_BAND_SLACK * noise:
+            continue
+        share = f"{100 * width / top:.0f} % of the top {'speed' if axis == 'v' else 'yaw rate'}"
+        floor = f", {width / noise:.2g}x the noise-only band" if _finite(noise) and noise else ""
+        wide.append(f"{axis} {width:.3g} {unit} ({share}{floor})")
+    if not wide:
+        return None
+    return (
+        f"the band holds the robot by being wide: median width {' and '.join(wide)}; "
+        f"a useful band is at most {100 * WIDE_SHARE:.0f} % of the top speed or "
+        f"{NOISE_BAND_SLACK:g}x what the measurement noise forces"
+    )
+
+
+def _ceiling_reason(s: SessionFigures) -> str | None:
+    ceiling = s.noise_ceiling
+    if ceiling is not None and _finite(ceiling) and ceiling < GOOD_AGREEMENT:
+        return (
+            f"the measurement noise caps the agreement a perfect model could reach at "
+            f"{_pct(ceiling)} (noise ceiling): judge the fit against that"
+        )
+    return None
+
+
+def _fit_step(robot: str, log: str) -> str:
+    return (
+        f"fit the drive model to a log of this robot, 'sim2real sysid fit TRAIN.mcap --robot "
+        f"{robot} -o params.yaml', then compare again with 'sim2real agree {log} --robot "
+        f"{robot} --params params.yaml --ensemble 30'"
+    )
+
+
+def _band_next(kind: str, ensemble: Any, params: str) -> str:
+    calibrate = (
+        f"'sim2real sysid calibrate {params} VALIDATION.mcap -o calibrated.yaml' on a log "
+        "the fit did not use"
+    )
+    if kind == "calibrated":
+        return (
+            "train with this randomisation (randomizers.DynamicsRandomizer.from_sysid and "
+            "VelocityObservationNoise.from_sysid of the same params file)"
+        )
+    if kind == "band_narrow":
+        return (
+            f"widen the band with {calibrate}, or fit several sessions at once "
+            "(sysid fit a.mcap b.mcap ...) so the between-session spread is estimated"
+        )
+    if kind == "band_unknown":
+        return "record a log in which the robot moves and turns, and compare on it"
+    return f"fit the band's spread with {calibrate}"
+
+
+def decide(
+    *,
+    defaults: _Agreement,
+    fitted: _Agreement | None,
+    robot: str,
+    ensemble: Any = None,
+    session: SessionFigures | None = None,
+) -> AgreementVerdict:
+    """The verdict of an agreement run.
+
+    Parameters
+    ----------
+    defaults : AgreementReport
+        The spec defaults' replay of the checked log.
+    fitted : AgreementReport, optional
+        The replay with the params file; None when only the defaults were run.
+    robot : str
+        The robot as the user named it (a spec name or a spec file path), for the advice.
+    ensemble : EnsembleResult, optional
+        The band (``coverage_v``, ``coverage_w``, ``band_level``, median widths).
+    session : SessionFigures, optional
+        Optional figures of the checked session (latency, noise, envelope, top speeds).
+
+    Returns
+    -------
+    AgreementVerdict
+    """
+    s = session or SessionFigures()
+    main = fitted if fitted is not None else defaults
+    log = main.log_file or "LOG.mcap"
+    params = (fitted.params_file if fitted is not None else None) or "params.yaml"
+    reasons: list[str] = []
+    for reason in (_extrapolation_reason(s), _ceiling_reason(s)):
+        if reason is not None:
+            reasons.append(reason)
+    if main.n_active < MIN_ACTIVE:
+        return AgreementVerdict(
+            kind="too_little_data",
+            headline=(
+                f"Too little data to judge: {log} has {main.n_active} active samples (at least "
+                f"{MIN_ACTIVE} are needed for figures worth a verdict)."
+            ),
+            reasons=tuple(reasons),
+            next_step="record a longer log in which the robot drives and turns under command.",
+            ok=False,
+        )
+    if fitted is None:
+        return AgreementVerdict(
+            kind="no_fit",
+            headline=f"The spec defaults reach {_pct(defaults.agreement)} (no fit): nothing "
+            "was fitted to this robot yet.",
+            reasons=tuple(reasons),
+            next_step=_fit_step(robot, log) + ".",
+            ok=False,
+        )
+    return _fitted_verdict(defaults, fitted, ensemble, s, reasons, params, robot, log)
+
+
+def _fitted_verdict(
+    defaults: _Agreement,
+    fitted: _Agreement,
+    ensemble: Any,
+    s: SessionFigures,
+    reasons: list[str],
+    params: str,
+    robot: str,
+    log: str,
+) -> AgreementVerdict:
+    band_reasons = [] if ensemble is None else [_band_sentence(ensemble)]
+    if ensemble is not None and (wide := _wide_reason(ensemble, s)) is not None:
+        band_reasons.append(wide)
+    if fitted.agreement < defaults.agreement - WORSE_MARGIN:
+        cause = _likely_cause(fitted, s)
+        return AgreementVerdict(
+            kind="fit_worse",
+            headline=(
+                f"The fit does worse than the spec defaults on this log: {_pct(fitted.agreement)}"
+                f" against {_pct(defaults.agreement)}; likely cause: {cause}."
+            ),
+            reasons=tuple(reasons + band_reasons),
+            next_step=(
+                "refit on a log that drives like this one (its speeds, turns while driving and "
+                "stops), or several sessions at once (sysid fit a.mcap b.mcap ...); until then "
+                f"the spec defaults simulate this robot better than {params}."
+            ),
+            ok=False,
+        )
+    latency = _latency_reason(fitted, s)
+    if latency is not None:
+        return AgreementVerdict(
+            kind="latency",
+            headline=f"The latency of this session differs: {latency}.",
+            reasons=tuple(reasons + band_reasons),
+            next_step=(
+                "randomise the command delay (delay_s) across sessions, or refit on a log with "
+                "sharp command steps recorded like this one (same driver, same clock)."
+            ),
+            ok=False,
+        )
+    if not fitted.agreement >= GOOD_AGREEMENT:
+        return AgreementVerdict(
+            kind="poor_fit",
+            headline=(
+                f"The fit reaches {_pct(fitted.agreement)} (spec defaults "
+                f"{_pct(defaults.agreement)}), short of {_pct(GOOD_AGREEMENT)}."
+            ),
+            reasons=tuple(reasons + band_reasons),
+            next_step=(
+                "see in the rolling agreement where it fails, and refit on a longer log with "
+                "varied driving (steps, turns, reversals, the speeds you use)."
+            ),
+            ok=False,
+        )
+    if ensemble is None:
+        return AgreementVerdict(
+            kind="no_band",
+            headline=(
+                f"The fit reaches {_pct(fitted.agreement)} (spec defaults "
+                f"{_pct(defaults.agreement)}); no band was run, so nothing says how far sim may "
+                "stray from real."
+            ),
+            reasons=tuple(reasons),
+            next_step=(
+                f"see how far sim may stray from real: 'sim2real agree {log} --robot {robot} "
+                f"--params {params} --ensemble 30'."
+            ),
+            ok=False,
+        )
+    kind, ok = _band_state(ensemble)
+    ok = ok and len(band_reasons) == 1 and not reasons
+    return AgreementVerdict(
+        kind=kind,
+        headline=band_reasons[0],
+        reasons=tuple(reasons + band_reasons[1:]),
+        next_step=_band_next(kind, ensemble, params) + ".",
+        ok=ok,
+    )
+
+
+def _band_sentence(ensemble: Any) -> str:
+    """The band's sentence without its advice (the verdict gives one next step)."""
+    text = band_verdict(
+        coverage_v=ensemble.coverage_v,
+        coverage_w=ensemble.coverage_w,
+        band_level=ensemble.band_level,
+        band_width_v_mps=ensemble.band_width_v_mps,
+        band_width_w_radps=ensemble.band_width_w_radps,
+    )
+    head = text.split("; ")[0].split(", so ")[0]
+    return head.rstrip(".") + "."
