@@ -259,15 +259,18 @@ def _likely_cause(fitted: _Agreement, s: SessionFigures) -> str:
     return "the fit log does not excite what this log does (other speeds, turns or a session)"
 
 
-def _band_state(ensemble: Any) -> tuple[str, bool]:
-    text = band_verdict(
+def _band_words(ensemble: Any) -> str:
+    return band_verdict(
         coverage_v=ensemble.coverage_v,
         coverage_w=ensemble.coverage_w,
         band_level=ensemble.band_level,
         band_width_v_mps=ensemble.band_width_v_mps,
         band_width_w_radps=ensemble.band_width_w_radps,
     )
-    head = text.split(":")[0]
+
+
+def _band_state(ensemble: Any) -> tuple[str, bool]:
+    head = _band_words(ensemble).split(":")[0]
     if "calibrated" in head:
         return "calibrated", True
     if "narrow" in head and "wide" in head:
@@ -483,12 +486,5 @@ def _fitted_verdict(
 
 def _band_sentence(ensemble: Any) -> str:
     """The band's sentence without its advice (the verdict gives one next step)."""
-    text = band_verdict(
-        coverage_v=ensemble.coverage_v,
-        coverage_w=ensemble.coverage_w,
-        band_level=ensemble.band_level,
-        band_width_v_mps=ensemble.band_width_v_mps,
-        band_width_w_radps=ensemble.band_width_w_radps,
-    )
-    head = text.split("; ")[0].split(", so ")[0]
+    head = _band_words(ensemble).split("; ")[0].split(", so ")[0]
     return head.rstrip(".") + "."
