@@ -5,6 +5,7 @@ BIN    := $(VENV)/bin
 STAMP_RUN := $(VENV)/.installed-run
 STAMP_DEV := $(VENV)/.installed-dev
 STAMP_TRAIN := $(VENV)/.installed-train
+STAMP_DOCS := $(VENV)/.installed-docs
 # RLlib (ray[rllib] 2.60) pins gymnasium==1.2.2, the main venv has gymnasium 1.4: its own venv
 VENV_RLLIB := .venv-rllib
 STAMP_RLLIB := $(VENV_RLLIB)/.installed-rllib
@@ -12,7 +13,7 @@ STAMP_RLLIB := $(VENV_RLLIB)/.installed-rllib
 # pull a multi-GB CUDA build. Override e.g. TORCH='torch==2.9.1' on another platform.
 TORCH ?= torch==2.13.0
 
-.PHONY: demo test lint venv dev bench clean data train-extra rllib-extra test-train
+.PHONY: demo test lint venv dev docs bench clean data train-extra rllib-extra test-train
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +30,10 @@ $(STAMP_DEV): pyproject.toml | $(BIN)/python
 $(STAMP_TRAIN): pyproject.toml $(STAMP_DEV)
 	$(BIN)/python -m pip install -q '$(TORCH)'
 	$(BIN)/python -m pip install -q -e '.[dev,train,cluster]'
+	touch $@
+
+$(STAMP_DOCS): pyproject.toml $(STAMP_RUN)
+	$(BIN)/python -m pip install -q -e '.[docs]'
 	touch $@
 
 $(STAMP_RLLIB): pyproject.toml
@@ -58,6 +63,12 @@ lint: $(STAMP_DEV)
 ## make test: lint, then the whole test suite
 test: lint
 	$(BIN)/python -m pytest -q
+
+## make docs: the documentation site into site/ (MkDocs + Material + mkdocstrings, the [docs]
+## extra): the user guide in docs/, the CLI reference from the argument parsers and the API
+## reference from the docstrings (scripts/mkdocs_hooks.py); --strict: any warning fails it
+docs: $(STAMP_DOCS)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --site-dir site
 
 ## make test-train: install the [train]/[cluster] extras (and .venv-rllib), then run the tests
 ## that need them; the RLlib tests run in .venv-rllib (gymnasium 1.2.2)
@@ -94,4 +105,4 @@ data: $(STAMP_RUN)
 	$(BIN)/python -m sim2real._samples data
 
 clean:
-	rm -rf $(VENV) $(VENV_RLLIB) sim2real-demo build *.egg-info
+	rm -rf $(VENV) $(VENV_RLLIB) sim2real-demo build site *.egg-info

@@ -19,8 +19,8 @@ Stacks are built from and saved to YAML with :func:`from_config` / :func:`save_c
 Names are loaded on first use (PEP 562), so ``import randomizers.errors`` does not pull in
 gymnasium or numba.
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import randomizers as dr
 >>> env = dr.ActionDelay(dr.ObservationNoise(gym.make("CartPole-v1"), std=0.01), delay_steps=1)

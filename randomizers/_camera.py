@@ -61,8 +61,8 @@ class CameraPoseJitter(
     name : str, optional
         Unique name in the stack; default ``CameraPoseJitter``.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> import numpy as np
     >>> from randomizers import CameraPoseJitter

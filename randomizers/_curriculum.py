@@ -54,8 +54,8 @@ class SuccessRateCurriculum:
     initial_scale : float
         Scale set on construction, in [0, 1].
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> from randomizers import ObservationNoise, SuccessRateCurriculum
     >>> env = ObservationNoise(gym.make("CartPole-v1"), std=0.05)

@@ -186,8 +186,8 @@ class OdometryDelay(ObservationRandomizer):
     name : str, optional
         Unique name in the stack; default ``OdometryDelay[<key>]``.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> from randomizers import OdometryDelay
     >>> env = OdometryDelay(gym.make("CartPole-v1"), delay_steps=2, index=[1, 2])
@@ -280,8 +280,8 @@ class ActionDelay(gym.ActionWrapper[Any, Any, Any], Randomizer, gym.utils.Record
     fill : {"first", "zeros"}
         What the env receives before the queue fills.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> import numpy as np
     >>> from randomizers import ActionDelay

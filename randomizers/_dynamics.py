@@ -215,8 +215,8 @@ class DynamicsRandomizer(
     name : str, optional
         Unique name in the stack; default ``DynamicsRandomizer``.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> import numpy as np
     >>> from randomizers import DynamicsRandomizer

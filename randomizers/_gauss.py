@@ -11,8 +11,8 @@ magnitude ``u >> 9``. About 98.8 % of the words are accepted at once; the rest g
 exact wedge or tail test, which consumes further words. The output is exactly N(0, 1) up to the
 23-bit resolution of the magnitude (steps of ``x_i / 2**23`` within layer ``i``).
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> out = np.empty(10_000, dtype=np.float32)
 >>> z = fill_standard_normal(np.random.default_rng(0), out)

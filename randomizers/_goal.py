@@ -58,8 +58,8 @@ class GoalNoise(ObservationRandomizer):
     name : str, optional
         Unique name in the stack; default ``GoalNoise[<key>]``.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> import numpy as np
     >>> from randomizers import GoalNoise

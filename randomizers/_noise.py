@@ -81,8 +81,8 @@ class ObservationNoise(ObservationRandomizer):
         Unique name in the stack (random stream and info key); default ``ObservationNoise`` plus
         the key/index, e.g. ``ObservationNoise[2:4]``.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> from randomizers import ObservationNoise
     >>> env = ObservationNoise(gym.make("CartPole-v1"), std=0.01, index=[2, 4])
@@ -454,8 +454,8 @@ class DepthNoise(ObservationRandomizer):
     name : str, optional
         Unique name in the stack; default ``DepthNoise[<key>]``.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> import numpy as np
     >>> from randomizers import DepthNoise
@@ -653,8 +653,8 @@ class LidarNoise(ObservationRandomizer):
     name : str, optional
         Unique name in the stack; default ``LidarNoise[<key>]``.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> import numpy as np
     >>> from randomizers import LidarNoise

@@ -57,8 +57,8 @@ class VelocityObservationNoise(ObservationRandomizer):
     name : str, optional
         Unique name in the stack; default ``VelocityObservationNoise`` plus the key/index.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> import numpy as np
     >>> from randomizers import VelocityObservationNoise

@@ -75,8 +75,8 @@ class VectorObservationRandomizer(VectorWrapper):
     ``SyncVectorEnv`` with the same seeds (tested). ``info["randomization"]`` holds the
     stacks' records with gymnasium's per-key masks. :func:`randomizers.set_scale` works on it.
 
-    Example
-    -------
+    Examples
+    --------
     >>> import gymnasium as gym
     >>> import numpy as np
     >>> from randomizers import ObservationNoise, VectorObservationRandomizer

@@ -5,8 +5,8 @@ Every name is loaded on first use (PEP 562), so ``import robots.spec`` or
 :class:`ReducedDrive`), pybullet with :class:`PybulletRobot`, :class:`Lidar` and
 :class:`DepthCamera`.
 
-Example
--------
+Examples
+--------
 >>> import robots
 >>> spec = robots.load_spec("turtlebot3_burger")
 >>> spec.max_v_mps

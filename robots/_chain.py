@@ -6,8 +6,8 @@ saturation and the axis friction as a proximal step) and :func:`friction_of` cal
 compiled arithmetic as the reduced model (:mod:`robots.reduced`) and the pybullet robot
 (:func:`robots._kernel.pybullet_substep`), so there is one copy of it.
 
-Example
--------
+Examples
+--------
 >>> from robots import load_spec
 >>> spec = load_spec("turtlebot3_burger")
 >>> shaper = CommandShaper(spec.drive, spec.geometry)

@@ -18,8 +18,8 @@ stale. :func:`compile_all` therefore keys the cache on a hash of the sources of 
 module (:func:`sources_digest`): when the hash stored beside a cache folder differs, that
 folder's cached kernels of these modules are deleted before anything loads them.
 
-Example
--------
+Examples
+--------
 >>> @njit(cache=False)
 ... def twice(x):
 ...     return 2.0 * x

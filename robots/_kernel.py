@@ -25,8 +25,8 @@ tyres: :mod:`robots.pybullet_robot`, item 4). To extend the chain, add an entry 
 ``CMD_TRACK`` do: see :func:`wheel_loops`; the pybullet robot's slip correction and axis
 friction stay on the geometric track, where its gripping tyres roll).
 
-Example
--------
+Examples
+--------
 >>> from robots import load_spec
 >>> spec = load_spec("turtlebot3_burger")
 >>> p = pack_params(spec.drive, spec.geometry)

@@ -26,8 +26,8 @@ forward drive
 turn
     A yaw-rate command of half the top rate for 1 s turns the base with the commanded sign.
 
-Example
--------
+Examples
+--------
 >>> from robots.spec import load_spec
 >>> report = check_spec(load_spec("turtlebot3_burger"))
 >>> report.passed

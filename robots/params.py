@@ -11,8 +11,8 @@ The same :class:`DriveParams` drive the numpy/numba reduced model (:mod:`robots.
 and the pybullet robot. Spec files give the defaults; a sysid result file overrides them
 (:func:`load_drive_params`).
 
-Example
--------
+Examples
+--------
 >>> from robots.params import DriveParams
 >>> p = DriveParams(delay_s=0.1, motor_gain_nms_per_rad=0.01)
 >>> p.replace(delay_s=0.2).delay_s

@@ -66,8 +66,8 @@ within ~1 % (tests). With another physics rate, fit with ``simulate(..., dt_s=1 
 the TurtleBot3 yaw loop has a ~20 ms time constant, so a mismatched step biases a fitted yaw
 inertia by 10-30 %.
 
-Example
--------
+Examples
+--------
 >>> from robots import PybulletRobot, load_spec
 >>> robot = PybulletRobot(load_spec("turtlebot3_burger"))
 >>> for _ in range(20):

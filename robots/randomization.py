@@ -32,8 +32,8 @@ were the values themselves, is read and converted)::
       fixed: {cmd_timeout_s: 0.5, accel_lim_v_mps2: .inf, ...}   # every other field
       noise: {v: {std_mps: .., quantum_mps: ..}, w: {std_radps: .., quantum_radps: ..}}
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from robots.spec import load_spec
 >>> spec = load_spec("turtlebot3_burger")

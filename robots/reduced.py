@@ -14,8 +14,8 @@ backward-Euler step of the PI wheel loops and viscous friction; Coulomb friction
 applied as a proximal step (it can stop the base but never reverse it). When a wheel's torque
 would exceed ``wheel_torque_max_nm`` the step uses the saturated torques instead.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from robots.params import BaseGeometry, DriveParams
 >>> from robots.reduced import simulate

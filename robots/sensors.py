@@ -17,8 +17,8 @@ Conventions (all outputs float32 numpy arrays in SI units):
   frame with x along the optical axis) can be changed at run time with :meth:`DepthCamera.set_pose`.
 - **Odometry**: :meth:`~robots.pybullet_robot.PybulletRobot.odometry`.
 
-Example
--------
+Examples
+--------
 >>> from robots import DepthCamera, Lidar, PybulletRobot, load_spec
 >>> robot = PybulletRobot(load_spec("turtlebot3_waffle_pi"))
 >>> Lidar(robot.spec.lidar, robot).scan().shape

@@ -33,8 +33,8 @@ list -- and every field of a spec without the section, as ``sim2real robots new`
 get the schema's generic wide prior (:func:`robots.params.generic_priors`). ``sysid`` fits MAP
 estimates against these priors; :mod:`robots.randomization` samples them.
 
-Example
--------
+Examples
+--------
 >>> from robots.spec import load_spec
 >>> spec = load_spec("turtlebot3_burger")
 >>> spec.geometry.wheel_radius_m

@@ -6,8 +6,8 @@ reads (a test checks they equal the keys of ``RobotSpec.to_dict``); the example 
 ``sim2real robots new`` writes. Regenerate with ``python scripts/gen_spec_format.py`` (a test
 fails when the page is stale).
 
-Example
--------
+Examples
+--------
 >>> page = spec_format_markdown()
 >>> "| delay_s |" in page
 True

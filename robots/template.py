@@ -18,8 +18,8 @@ Neato, Jackal, Husky; see ``/work/shared/robot-specs.md``):
 - wheel speed loop time constant 0.1 s, traction ``mu = 0.5``, Coulomb friction 1 % of the
   weight, viscous drag 0.1 /s of the mass.
 
-Example
--------
+Examples
+--------
 >>> text = spec_text("neato", wheel_separation_m=0.248, max_speed_mps=0.3)
 >>> "max_v_mps: 0.3  # given" in text
 True

@@ -3,8 +3,8 @@
 Shapes get both a collision shape (what the lidar's ray casts hit) and a visual shape (what the
 depth camera renders), so every sensor sees them.
 
-Example
--------
+Examples
+--------
 >>> import pybullet as p
 >>> from robots.world import add_box, add_ground
 >>> cid = p.connect(p.DIRECT)

@@ -20,8 +20,8 @@ per-wheel asymmetric friction, caster scrub, quantised encoders, a gyro, latency
 Everything random comes from ``numpy.random.default_rng([seed, 0])`` per session, so the
 files are byte-for-byte reproducible for a given numpy version.
 
-Example
--------
+Examples
+--------
 >>> from sim2real._samples import build_sample
 >>> run = build_sample("validate")
 >>> run.params.robot, round(float(run.tick_t_s[-1]))

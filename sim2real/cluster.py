@@ -11,8 +11,8 @@ so the serial and the Ray paths give identical figures. Ray is the optional ``[c
   nobody listens on any more, a killed Ray's leftover), start a local one;
 - ``"HOST:PORT"`` / ``"ray://HOST:10001"``: that cluster's head node.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.cluster import map_tasks
 >>> map_tasks(abs, [-1, 2, -3])          # no address: a plain loop, results in input order
 [1, 2, 3]

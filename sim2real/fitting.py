@@ -6,8 +6,8 @@ pauses and sets aside the segments with nothing to identify (each said in a note
 :func:`sysid.fit_drive` with the spec's geometry, drive defaults, priors and odometry window.
 The command line and Python callers share its defaults, so they get the same numbers.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.fitting import fit_logs
 >>> fit = fit_logs(["data/demo_train.mcap"], robot="turtlebot3_burger")  # doctest: +SKIP
 >>> fit.result.save("params.yaml")  # doctest: +SKIP

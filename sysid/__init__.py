@@ -6,8 +6,8 @@ to logs of commanded and measured velocity, with uncertainty and validation scor
 Names are loaded on first use (PEP 562): ``import sysid.errors`` or ``sysid.metrics`` does not
 pull in scipy or numba; :func:`fit_drive` does.
 
-Example
--------
+Examples
+--------
 >>> from sysid import fit_drive
 >>> result = fit_drive([trace], geometry=spec.geometry, base_params=spec.drive,
 ...                    robot="turtlebot3_waffle_pi")  # doctest: +SKIP

@@ -30,8 +30,8 @@ spec's default between-session spread, once for the unknown deviation of the log
 from the mean and once, widened, for the new one), the priors of the fields no log informed,
 and the odometry noise.
 
-Example
--------
+Examples
+--------
 >>> from sysid import fit_drive
 >>> res = fit_drive([trace], geometry=spec.geometry, base_params=spec.drive,
 ...                 priors=spec.priors, robot="turtlebot3_burger")  # doctest: +SKIP

@@ -8,8 +8,8 @@ Used by sysid (validation scores) and by :mod:`sim2real.agreement.figures` (the 
   simulated (v, w) are within tolerance of the real ones (seed paper 000 reports "over 80 %").
 - :func:`xcorr_lag_s` — the lag of the simulated trace behind the real one by cross-correlation.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> y = np.array([0.0, 1.0, 2.0, 3.0])
 >>> fit_percent(y, y)

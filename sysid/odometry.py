@@ -13,8 +13,8 @@ model and the pybullet robot report velocities between steps). sysid's fit
 the window, which is cheaper inside the least-squares loop; :mod:`sim2real.agreement.replay` uses the
 exact form.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> t = np.array([0.0, 1.0])
 >>> window_mean(t, 2.0 * t, np.array([1.0]), 0.5)  # mean of 2t over [0.5, 1]

@@ -3,8 +3,8 @@
 The file layout is the one documented in ``docs/ARCHITECTURE.md``; ``robots.params``
 reads it (``read_params_file`` / ``load_drive_params``) without importing sysid.
 
-Example
--------
+Examples
+--------
 >>> from sysid.result import SysidResult
 >>> res = SysidResult.load("params.yaml")  # doctest: +SKIP
 >>> res.estimate("delay_s").value  # doctest: +SKIP

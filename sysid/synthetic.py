@@ -6,8 +6,8 @@ teleop or planner publishes at 10 Hz) drives the reduced model with hidden param
 tick differences over each odometry period, yaw rate from a noisy gyro, jittered stamps, dropped
 messages and one impossible spike (like the 1.35 m/s sample of the Drexel TurtleBot3 log).
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from robots.params import BaseGeometry, DriveParams
 >>> geo = BaseGeometry(mass_kg=1.5, yaw_inertia_kgm2=0.015, wheel_radius_m=0.033,

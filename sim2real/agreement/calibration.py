@@ -60,8 +60,8 @@ validation coverage before and after the matching go into a ``calibration:`` blo
 Calibrate on logs of sessions the fit did not see; several sessions estimate the
 between-session spread better than one.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.agreement.calibration import calibrate, write_calibrated
 >>> result = calibrate("params.yaml", ["val.mcap"], robot="turtlebot2")  # doctest: +SKIP
 >>> result.dynamics_factor  # doctest: +SKIP

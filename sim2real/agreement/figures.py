@@ -66,8 +66,8 @@ A calibrated 90 % band covers 80-99 % (:func:`calibrated_range`); :func:`band_ve
 one sentence whether it is too narrow, calibrated or too wide and what to do.
 ``sim2real agree --ensemble N --json`` adds :data:`BAND_KEYS` after :data:`AGREEMENT_KEYS`.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> rep = agreement_from_arrays(
 ...     t_s=np.arange(4) * 0.1, cmd_v=np.array([0.0, 0.2, 0.2, 0.0]), cmd_w=np.zeros(4),

@@ -29,8 +29,8 @@ A log whose odometry pauses (a gap longer than ``max(2 s, 20 sampling steps)``, 
 measurement as above, and the results are joined in time order: no simulation runs across a
 gap, so memory and time follow the number of messages, not the time span.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.logs import read_trace  # doctest: +SKIP
 >>> trace = read_trace("data/demo_validate.mcap")  # doctest: +SKIP
 >>> sim = replay(trace, robot="turtlebot3_burger", engine="reduced")  # doctest: +SKIP

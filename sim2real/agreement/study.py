@@ -8,8 +8,8 @@ writes the requested outputs (JSON figures, HTML report, simulated MCAP). The CL
 arguments into a :class:`StudyConfig`, calls :func:`run_study` and prints
 :func:`summary_table` of the returned :class:`StudyResult`.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.agreement.study import StudyConfig, run_study
 >>> result = run_study(StudyConfig(log="val.mcap", robot="turtlebot3_burger",  # doctest: +SKIP
 ...                                params_path="params.yaml", engine="reduced"))

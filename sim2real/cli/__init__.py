@@ -5,8 +5,8 @@ Each command group lives in its own private module (``_logs``, ``_robots``, ``_s
 exit code. Bad input raises one of the packages' error types; :func:`main` prints its one-line
 message to stderr and returns 2 (``--debug`` shows the traceback instead).
 
-Example
--------
+Examples
+--------
 >>> from sim2real.cli import main
 >>> main(["robots", "list"])  # doctest: +SKIP
 0

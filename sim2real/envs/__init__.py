@@ -15,8 +15,8 @@ kinematically, exact 2-D world) or ``dynamics="pybullet"`` (the rigid-body robot
 :mod:`robots`), expose ``control_dt`` and the drive-parameter protocol, and CrowdNav the
 camera-pose protocol of ``docs/ARCHITECTURE.md``.
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import sim2real.envs
 >>> env = gym.make("sim2real/RandomMap-v0", preset="TEST2", dynamics="reduced")

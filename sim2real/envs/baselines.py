@@ -17,8 +17,8 @@ place towards the side with more free range. It only sees what the lidar sees (C
 TurtleBot 2 lidar covers +-30 degrees) and treats pedestrians as static, which is what makes
 it a baseline.
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import sim2real.envs
 >>> from sim2real.envs.baselines import DWAController

@@ -18,8 +18,8 @@ is more than 0.05 m/s above the target speed, else a steering step when the stee
 is more than 2.5 degrees off the desired one, else the speed step towards the target speed
 (braking when at or above it).
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import sim2real.envs
 >>> from sim2real.envs.car_baseline import CarCrossingBaseline

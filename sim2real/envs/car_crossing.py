@@ -55,8 +55,8 @@ Termination
     ``"pedestrian"``), leaving the road (any footprint corner beyond |y| = 0.6 m; ``info
     ["outcome"] == "off_road"``); truncation at ``max_episode_steps`` (default 300 = 30 s).
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import sim2real.envs
 >>> env = gym.make("sim2real/CarCrossing-v0")

@@ -56,8 +56,8 @@ Outcome
     ``info["outcome"]`` is ``"success"``, ``"collision"`` or ``"timeout"``;
     ``info["metrics"]`` holds the episode metrics (:class:`~sim2real.envs.EpisodeMetrics`).
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import sim2real.envs
 >>> env = gym.make("sim2real/CrowdNav-v0")

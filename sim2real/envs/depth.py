@@ -11,8 +11,8 @@ along the optical axis (what a depth camera reports). It matches pybullet's rast
 (``getCameraImage``) to within the rasteriser's cylinder tessellation; see the tests and
 ``benchmarks/bench_envs.py`` for the agreement and the speed-up.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from sim2real.envs.depth import DepthScene, render_depth
 >>> scene = DepthScene.build(cylinders=[(2.0, 0.0, 0.5, 1.0)])

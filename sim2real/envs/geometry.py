@@ -11,8 +11,8 @@ root :math:`t = -b - \sqrt{b^2 - q}` with :math:`b = (p - c)\cdot d`,
 :math:`q = |p - c|^2 - r^2`, and the segment :math:`a + s\,e` (:math:`s \in [0, 1]`) at
 :math:`t = ((a - p)\times e)/(d \times e)`, :math:`s = ((a - p)\times d)/(d \times e)`.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from sim2real.envs.geometry import Scene2D, cast_rays
 >>> scene = Scene2D.build(circles=[(2.0, 0.0, 0.5)])

@@ -28,8 +28,8 @@ corridors, they do not block them) are resampled (up to 20 times, then dropped).
 The obstacle density :math:`\rho_{obs}` is the fraction of the 20 m x 20 m area covered by the
 union of all obstacles (rasterised on a 2.5 cm grid, so overlapping cylinders count once).
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from sim2real.envs.maps import PRESETS, generate_map
 >>> layout = generate_map(PRESETS["TEST1"], np.random.default_rng(0))

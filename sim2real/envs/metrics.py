@@ -4,8 +4,8 @@ Success, collision and timeout; path length; time to goal; and smoothness as the
 change of the measured v and w per control step and the mean absolute jerk
 :math:`|\Delta^2 v| / \Delta t^2` (and the same for w).
 
-Example
--------
+Examples
+--------
 >>> from sim2real.envs.metrics import MetricsTracker
 >>> tr = MetricsTracker(control_dt_s=0.1)
 >>> tr.reset(0.0, 0.0)

@@ -30,8 +30,8 @@ obstacles: for the closest point :math:`c` of a segment at distance :math:`d` an
 :math:`\hat n` from :math:`c` towards the agent, the agent may approach the wall no faster than
 it closes the gap in :math:`\tau_{obs}`: :math:`v \cdot \hat n \ge -(d - r_A)/\tau_{obs}`.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from sim2real.envs.orca import OrcaAgents
 >>> agents = OrcaAgents(position_m=np.array([[-2.0, 0.0], [2.0, 0.0]]),

@@ -35,8 +35,8 @@ each, and takes the one with the best progress :math:`V\cos(\Delta\theta)` — t
 sampling along an arc of Narang et al. No one moves further than the free gap along its
 heading; residual overlaps (simultaneous moves, grazing contacts with walls) are pushed apart.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.envs.pedestrians import walking_speed
 >>> round(float(walking_speed(1.34, 1.0, 1.72)), 3)
 1.075

@@ -37,8 +37,8 @@ Outcome (``info["outcome"]``)
     robot), ``"wall_collision"``, ``"timeout"``; ``info["metrics"]`` adds ``wall_collision``
     and ``completion_time_s`` to the episode metrics.
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import sim2real.envs
 >>> env = gym.make("sim2real/Race-v0", track="curve", num_opponents=3)

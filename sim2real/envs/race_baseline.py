@@ -14,8 +14,8 @@ local planner, with a 0.25 m inflation radius and 0.2 m goal tolerance. Here:
   steering towards a carrot on the plan 0.8 m ahead of the path point nearest to the
   odometry pose (opponents are just lidar points to it, as in move_base).
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import sim2real.envs
 >>> from sim2real.envs.race_baseline import RaceBaseline

@@ -27,8 +27,8 @@ Outcome (``info["outcome"]`` at the end)
     generic metrics are in ``info["metrics"]``; ``info["rho_obs"]`` is the map's obstacle
     density.
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import sim2real.envs
 >>> env = gym.make("sim2real/RandomMap-v0", preset="TEST1")

@@ -17,8 +17,8 @@ Corridors are built from pieces (straights and arcs) by offsetting the centre li
 width on both sides; walls are closed behind the start and beyond the goal, so the free space
 of a track is bounded. :func:`occupancy_grid` rasterises a track for a global planner.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.envs.tracks import TRACKS, get_track
 >>> track = get_track("curve")
 >>> sorted(TRACKS)

@@ -26,8 +26,8 @@ Gymnasium conventions
 - Drive parameters: :meth:`NavVectorEnv.set_drive_params` (one per sub-env, or one for all)
   take effect at the next step and persist across resets, as in the single env.
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import numpy as np
 >>> import sim2real.envs

@@ -8,8 +8,8 @@ copy of the whole file in memory) and keeps the hex string. The file's size and 
 time are recorded when it is read: a file that changed in between is an error, not a digest
 of other bytes than the ones read.
 
-Example
--------
+Examples
+--------
 >>> from dataclasses import dataclass
 >>> @dataclass(frozen=True)
 ... class Meta:

@@ -13,8 +13,8 @@ from the rest): it is dropped with a note naming the count. Commands are kept wh
 segment can use them: within :data:`COMMAND_REACH_S` (or the gap threshold, when larger) of a
 segment's measurements; farther commands are far outliers too.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> t = np.array([0, 1, 2, 3, 4, 5, 10**10], dtype=np.int64) * 10**8  # last: 32 years on
 >>> bounds = segment_bounds(t)

@@ -250,6 +250,8 @@ def write_velocity_log(
     encoding : {"cdr", "json"}
         ROS 2 CDR with ``ros2msg`` schemas (default) or JSON with ``jsonschema`` schemas.
 
+    Notes
+    -----
     Values are written as given (NaN, unsorted or repeated times included), so the writer
     can also build test logs of bad data.
 

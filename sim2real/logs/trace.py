@@ -3,8 +3,8 @@
 Times are integer nanoseconds (``int64``) so no precision is lost on epoch stamps; the
 ``*_t_s`` views are float64 seconds since :attr:`Trace.t0_ns`.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> tr = Trace(
 ...     cmd_t_ns=np.array([0, 100_000_000]), cmd_v=np.array([0.2, 0.0]), cmd_w=np.zeros(2),

@@ -35,8 +35,8 @@ kernel; Coulomb terms are regularised with ``tanh`` over a contact speed small e
 stable at that step. A 90 s session takes tens of milliseconds after the first compile,
 about 1500x real time (``benchmarks/bench_plants.py``).
 
-Example
--------
+Examples
+--------
 >>> from sim2real.plants.diff_drive import make_fleet
 >>> traces = make_fleet("turtlebot3_burger", 2, seed=1, duration_s=20.0)
 >>> len(traces), traces[0].meas_t_ns.size > 500

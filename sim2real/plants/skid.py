@@ -41,8 +41,8 @@ it, and the encoder speed sees the longitudinal slip):
 Integration: explicit Euler at ``physics_dt_s`` (0.25 ms) in a numba kernel; the tyre
 regularisation speeds are wide enough for it to be stable.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.plants.skid import husky_like, make_skid_sessions
 >>> tr = make_skid_sessions(husky_like(), 1, seed=0, duration_s=10.0)[0]
 >>> tr.meas_t_ns.size > 400

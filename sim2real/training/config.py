@@ -37,8 +37,8 @@ the discounted return's std (SB3 ``VecNormalize(norm_obs=False)``; training only
 Gaussian policy starts at mean 0 and std ~1 in the action space, so on RandomMap-v0 (v in
 [0, 0.21] m/s) unscaled actions mostly clip; rescaled ones start at half speed.
 
-Example
--------
+Examples
+--------
 >>> cfg = load_config("examples/randommap_ppo.yaml", timesteps=500)
 >>> cfg.algorithm, cfg.timesteps, cfg.env_id
 ('PPO', 500, 'sim2real/RandomMap-v0')

@@ -10,8 +10,8 @@
   stack alone, and under the whole stack.
 - :func:`wilson_interval` is the 95 % score interval of a success rate.
 
-Example
--------
+Examples
+--------
 >>> import gymnasium as gym
 >>> import sim2real.envs
 >>> from sim2real.envs import DWAController

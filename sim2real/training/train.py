@@ -20,8 +20,8 @@ instead (:mod:`sim2real.training._rllib`; the final policy is ``OUT/model/``).
 
 Needs the ``[train]`` extra (``pip install torch==2.13.0 && pip install -e '.[train]'``).
 
-Example
--------
+Examples
+--------
 >>> from sim2real.training.config import load_config
 >>> cfg = load_config("examples/randommap_ppo.yaml", timesteps=2000, seed=3)
 >>> result = train(cfg)  # doctest: +SKIP

@@ -11,8 +11,8 @@ sim), the parameter table with intervals, the provenance (files with SHA-256, ve
 command line) and the definitions. Plots are drawn by :mod:`sim2real.agreement.report._plots`, the page
 by :mod:`sim2real.agreement.report._html`.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.agreement.report import ReportInput, ReportRun, write_report
 >>> files = write_report("report.html", ReportInput(trace=trace, runs=(  # doctest: +SKIP
 ...     ReportRun(label="spec defaults", replay=sim0, agreement=rep0),
