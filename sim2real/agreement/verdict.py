@@ -24,8 +24,8 @@ The headline is the first of these that holds:
 Every other finding that holds (commands outside the fitted envelope, a band calibrated by
 being wide, a noise ceiling under the target) is a reason.
 
-Example
--------
+Examples
+--------
 >>> from sim2real.agreement.figures import agreement_from_arrays
 >>> import numpy as np
 >>> t = np.arange(100) * 0.1
