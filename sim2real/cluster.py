@@ -594,10 +594,18 @@ def _run_batch(fn: Callable[[Any], Any], xs: Sequence[Any]) -> list[Any]:
 
 
 def _study_figures(config: Any) -> tuple[dict[str, Any], tuple[str, ...]]:
-    """One log's agreement figures and read warnings (a Ray task; light to ship back)."""
-    from sim2real.agreement.study import run_study
+    """One log's agreement figures and read warnings (a Ray task; light to ship back).
 
-    result = run_study(config)
+    A log that cannot be used (unreadable, nothing to compare) gives
+    ``{"log_file": path, "error": sentence}`` instead of figures, so the others go on.
+    """
+    from sim2real.agreement.study import run_study
+    from sim2real.errors import Sim2RealError
+
+    try:
+        result = run_study(config)
+    except Sim2RealError as exc:
+        return {"log_file": str(config.log), "error": str(exc)}, ()
     return result.figures, result.warnings
 
 
@@ -610,8 +618,8 @@ def agree_many(
 ) -> list[tuple[dict[str, Any], tuple[str, ...]]]:
     """Run :func:`sim2real.agreement.study.run_study` for each config (one per log), serially or on Ray.
 
-    Returns each log's ``(figures, warnings)`` in input order. ``release``: see
-    :func:`map_tasks`.
+    Returns each log's ``(figures, warnings)`` in input order; a log that could not be used
+    has ``{"log_file", "error"}`` for figures. ``release``: see :func:`map_tasks`.
     """
     return map_tasks(
         _study_figures, list(configs), address=address, on_done=on_done, release=release
@@ -627,7 +635,8 @@ def fleet_summary(figures: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 
     With an ensemble (figures holding ``coverage``), the band's ``coverage``, ``coverage_v``
     and ``coverage_w`` are pooled the same way (each log's coverage is a share of its active
-    samples), with ``band_level``; ``coverage_mean`` is the plain mean over the logs.
+    samples), with ``band_level``; ``coverage_mean`` is the plain mean over the logs. Logs
+    that could not be used (an ``error`` entry) are counted in ``n_left_out`` only.
 
     Examples
     --------
@@ -638,9 +647,11 @@ def fleet_summary(figures: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     >>> s["agreement"], s["agreement_min"], s["worst_log"]
     (0.575, 0.5, 'b')
     """
+    left_out = sum(1 for f in figures if "error" in f)
+    figures = [f for f in figures if "error" not in f]
     n_active = [int(f.get("n_active") or 0) for f in figures]
     total = sum(n_active)
-    out: dict[str, Any] = {"n_logs": len(figures), "n_active": total}
+    out: dict[str, Any] = {"n_logs": len(figures), "n_active": total, "n_left_out": left_out}
     for key in ("agreement", "agreement_v", "agreement_w"):
         out[key] = _pooled(figures, n_active, key)
     per_log = _finite([f.get("agreement") for f in figures])

@@ -23,7 +23,7 @@ from typing import Any
 from robots.errors import RobotsError
 from robots.reduced import DEFAULT_DT_S
 from robots.spec import RobotSpec, load_spec
-from sim2real.errors import Sim2RealValueError
+from sim2real.errors import LogValueError, Sim2RealError, Sim2RealValueError
 from sim2real.logs import Trace, read_trace
 from sysid import LogArrays, SysidResult, crop_log, fit_drive, why_not_fittable
 
@@ -167,8 +167,9 @@ def read_fit_logs(
 
     Velocities beyond 10x the spec's limits are dropped (:meth:`Trace.without_absurd`), a
     log with too little data is refused, and of the segments a file's pauses split it into,
-    those with nothing to identify are set aside. What was chosen or set aside is appended to
-    ``notes``.
+    those with nothing to identify are set aside. Of several logs, one that cannot be read or
+    holds too little data is left out (the others go on); only when none can be used is the
+    first error raised. What was chosen, set aside or left out is appended to ``notes``.
 
     Examples
     --------
@@ -177,22 +178,46 @@ def read_fit_logs(
     """
     notes = [] if notes is None else notes
     out: list[Trace | LogArrays] = []
+    errors: list[Sim2RealError] = []
     for path in paths:
-        trace = read_trace(
-            path,
-            cmd_topic=cmd_topic,
-            odom_topic=odom_topic,
-            time_source=time_source,
-            odom_velocity=odom_velocity,
-            wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
-            wheel_separation_m=spec.wheels.separation_m,
-        )
-        if trace.meta.time_note:
-            notes.append(f"{path}: {trace.meta.time_note}")
-        trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
-        trace.check_enough()
+        try:
+            trace = _read_one(path, spec, notes, cmd_topic, odom_topic, time_source, odom_velocity)
+        except Sim2RealError as exc:
+            if len(paths) == 1:
+                raise
+            errors.append(exc)  # one bad log of several: the others go on, its row says why
+            notes.append(f"left out: {exc}")
+            continue
         out.extend(_fittable(_pieces(trace, window), notes))
+    if errors and not out:
+        raise LogValueError(f"none of the {len(paths)} logs could be used; the first: {errors[0]}")
     return out
+
+
+def _read_one(
+    path: str | Path,
+    spec: RobotSpec,
+    notes: list[str],
+    cmd_topic: str | None,
+    odom_topic: str | None,
+    time_source: str,
+    odom_velocity: str,
+) -> Trace:
+    """One log read as the fit reads it: absurd velocities dropped, too little data refused."""
+    trace = read_trace(
+        path,
+        cmd_topic=cmd_topic,
+        odom_topic=odom_topic,
+        time_source=time_source,
+        odom_velocity=odom_velocity,
+        wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
+        wheel_separation_m=spec.wheels.separation_m,
+    )
+    if trace.meta.time_note:
+        notes.append(f"{path}: {trace.meta.time_note}")
+    trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
+    trace.check_enough()
+    return trace
 
 
 def _fittable(pieces: list[Trace | LogArrays], notes: list[str]) -> list[Trace | LogArrays]:

@@ -36,6 +36,7 @@ __all__ = [
     "StudyConfig",
     "StudyResult",
     "check_figures",
+    "defined_figures",
     "parse_odom_v_window",
     "provenance_rows",
     "run_study",
@@ -332,6 +333,9 @@ def run_study(
     ensemble = _ensemble(config, trace, spec, params, window_s, progress)
     figures = study_figures(runs[-1].agreement, ensemble)
     check_figures(figures, config.log)
+    figures, notes = defined_figures(figures)
+    if notes:
+        figures["notes"] = list(notes)
     verdict = _verdict(config, spec, trace, runs, ensemble, params)
     written: list[Path] = []
     # the outputs are one set: all move in at the end, or none (a kill keeps the old set)
@@ -349,6 +353,7 @@ def run_study(
                 ensemble,
                 window_s,
                 verdict,
+                notes,
             )
             written.append(Path(config.report_path))
         if config.sim_out is not None:
@@ -363,6 +368,7 @@ def run_study(
         written=tuple(written),
         time_note=trace.meta.time_note,
         verdict=verdict,
+        notes=notes,
     )
 
 
@@ -449,53 +455,83 @@ _MAY_BE_NULL = frozenset({"params_file", "log_file", "log_sha256"})
 _WHY = {
     "agreement": "no sample is active (no command is held and the robot never moves)",
     "rmse": "no sample is active (no command is held and the robot never moves)",
-    "fit_percent": "the measured value is constant over the active samples",
-    "lag_s": "the measured or simulated value is constant (or the log is too short)",
-    "coverage": "no sample is active or the band could not be built",
+    "fit_percent": "the measured {axis} is constant over the active samples",
+    "lag_s": "the measured or simulated {axis} is constant (or the log is too short)",
+    "coverage": "no sample is active on {axis} or the band could not be built",
+    "band_width": "no sample is active or the band could not be built",
 }
 
 
+def _why(key: str) -> str:
+    axis = "w" if key.endswith(("_w", "_w_radps")) else "v"
+    return next((w for k, w in _WHY.items() if key.startswith(k)), "it is undefined").format(
+        axis=axis
+    )
+
+
+def _undefined(figures: dict[str, Any]) -> list[str]:
+    return [
+        key
+        for key, value in figures.items()
+        if key not in _MAY_BE_NULL
+        and (value is None or (isinstance(value, float) and not math.isfinite(value)))
+    ]
+
+
 def check_figures(figures: dict[str, Any], log: str | Path) -> None:
-    """Refuse figures that could not be computed: no ``null`` where a number is documented.
+    """Refuse a log on which nothing can be compared (a figure undefined on one axis is not).
+
+    A log has nothing to compare when no sample is active, or when the measured velocity is
+    constant on both axes (the robot never moved, or the odometry topic holds no motion).
 
     Raises
     ------
     sim2real.errors.LogValueError
-        Naming the first missing figure, why it is undefined on this log and what to do, so
+        Naming the missing figure, why it is undefined on this log and what to do, so
         ``sim2real agree`` exits 2 instead of reporting success without a number.
     """
     from sim2real.errors import LogValueError
 
-    for key, value in figures.items():
-        missing = value is None and key not in _MAY_BE_NULL
-        if missing or (isinstance(value, float) and not math.isfinite(value)):
-            why = next((w for k, w in _WHY.items() if key.startswith(k)), "it is undefined")
-            raise LogValueError(
-                f"figure '{key}' cannot be computed on log file '{log}' because {why}; "
-                "compare on a log in which the robot drives and turns under command (or "
-                "choose the topics with --cmd-topic / --odom-topic)"
-            )
+    missing = set(_undefined(figures))
+    key = next(
+        (k for k in ("agreement", "rmse_v") if k in missing),
+        "fit_percent_v" if {"fit_percent_v", "fit_percent_w"} <= missing else None,
+    )
+    if key is not None:
+        why = _why(key) if key != "fit_percent_v" else "the measured value is constant on both axes"
+        raise LogValueError(
+            f"figure '{key}' cannot be computed on log file '{log}' because {why}; "
+            "compare on a log in which the robot drives or turns under command (or "
+            "choose the topics with --cmd-topic / --odom-topic)"
+        )
+
+
+def defined_figures(figures: dict[str, Any]) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """The figures without those undefined on this log, and one note naming each left out.
+
+    A spin-in-place log (v = 0 throughout) has no FIT % or lag of v, a straight-only log none
+    of w: those keys are left out (never null) and each note says why.
+
+    Examples
+    --------
+    >>> figs, notes = defined_figures({"agreement": 0.9, "lag_s_v": None, "log_file": None})
+    >>> sorted(figs), notes[0].split(":")[0]
+    (['agreement', 'log_file'], "figure 'lag_s_v' is left out")
+    """
+    missing = _undefined(figures)
+    kept = {k: v for k, v in figures.items() if k not in missing}
+    notes = tuple(f"figure '{k}' is left out: {_why(k)} on this log" for k in missing)
+    return kept, notes
 
 
 def study_figures(main: AgreementReport, ensemble: EnsembleResult | None) -> dict[str, Any]:
     """The JSON figures: the agreement keys, plus the band's keys when there is an ensemble.
 
-    Raises :class:`~sim2real.errors.Sim2RealValueError` when the band's coverage or width
-    cannot be computed (no active sample): those keys are never null.
+    Figures undefined on the log are ``None`` here; :func:`defined_figures` leaves them out.
     """
-    from sim2real.errors import Sim2RealValueError
-
     figures = main.to_dict()
     if ensemble is not None:
-        band = ensemble.band_figures()
-        missing = [k for k, v in band.items() if v is None]
-        if missing:
-            raise Sim2RealValueError(
-                f"the ensemble's {', '.join(missing)} cannot be computed for log "
-                f"'{main.log_file}': it has {main.n_active} active samples on which to measure "
-                "the band; use a log in which the robot moves and turns"
-            )
-        figures.update(band)
+        figures.update(ensemble.band_figures())
     return figures
 
 
@@ -507,6 +543,7 @@ def _write_report(
     ensemble: EnsembleResult | None,
     window_s: float,
     verdict: AgreementVerdict | None = None,
+    notes: tuple[str, ...] = (),
 ) -> None:
     from sim2real.agreement.report import ReportInput, param_rows, write_report
 
@@ -533,6 +570,7 @@ def _write_report(
             ),
             title=config.title,
             verdict=verdict,
+            notes=notes,
         ),
     )
 

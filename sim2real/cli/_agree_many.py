@@ -24,8 +24,10 @@ def _num(x: Any, spec: str) -> str:
 
 def table(figures: list[dict[str, Any]], summary: dict[str, Any]) -> str:
     """One row per log and a pooled summary row, plain text; with an ensemble, the band's
-    coverage of v and w in each."""
+    coverage of v and w in each. A log that could not be used gets a row saying why."""
     band = "coverage_v" in summary  # an ensemble ran: its band's coverage per log and pooled
+    left_out = [f for f in figures if "error" in f]
+    figures = [f for f in figures if "error" not in f]
     head: tuple[str, ...] = ("log", "agreement", "agr. v", "agr. w", "FIT % v", "FIT % w")
     head += ("cov. v", "cov. w", "active") if band else ("active",)
     rows = [
@@ -61,6 +63,8 @@ def table(figures: list[dict[str, Any]], summary: dict[str, Any]) -> str:
         )
         for r in (head, *rows)
     ]
+    why = [f"{Path(str(f['log_file'])).name}  left out: {f['error']}" for f in left_out]
+    lines[-1:-1] = why  # under the logs' rows, above the pooled row
     per_log = (
         f"per log: mean {_pct(summary['agreement_mean'])}, min {_pct(summary['agreement_min'])} "
         f"({Path(str(summary['worst_log'])).name}), max {_pct(summary['agreement_max'])}"
@@ -98,10 +102,19 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
     for path, (_, warnings) in zip(logs, results, strict=True):
         for warning in warnings:
             print(f"sim2real: warning: {path}: {warning}", file=sys.stderr)
+    if all("error" in f for f in figures):
+        from sim2real.errors import LogValueError
+
+        raise LogValueError(
+            f"none of the {len(logs)} logs could be used; the first: {figures[0]['error']}"
+        )
     summary = fleet_summary(figures)
     where = "serial" if args.ray is None else f"Ray ({args.ray})"
     print(f"{len(logs)} logs: robot {args.robot}, engine {args.engine}, {where}")
     print(table(figures, summary))
+    for f in figures:
+        for note in f.get("notes", ()):
+            print(f"note: {Path(str(f.get('log_file'))).name}: {note}")
     if summary.get("coverage_v") is not None and summary.get("coverage_w") is not None:
         from sim2real.agreement.figures import band_verdict
 
@@ -110,7 +123,7 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
             coverage_w=summary["coverage_w"],
             band_level=summary["band_level"],
         )
-        print(f"pooled over the {len(logs)} logs: {verdict[0].lower()}{verdict[1:]}")
+        print(f"pooled over the {summary['n_logs']} logs: {verdict[0].lower()}{verdict[1:]}")
     if args.json:
         write_json(args.json, {"logs": figures, "summary": summary})
         print(f"wrote {args.json}")

@@ -35,8 +35,13 @@ def write_log(
     noise_v: float = 0.003,
     noise_w: float = 0.02,
     idle_s: float = 2.0,
+    axes: str = "vw",
 ) -> Path:
-    """Steps in v and w at 10 Hz, odometry at 30 Hz from the reduced model plus noise."""
+    """Steps in v and w at 10 Hz, odometry at 30 Hz from the reduced model plus noise.
+
+    ``axes="w"`` spins in place (v commanded and measured 0 throughout, as encoder odometry
+    reports a spin), ``axes="v"`` drives straight only.
+    """
     s = spec()
     rng = np.random.default_rng(seed)
     n_hold = int(duration_s / 2.0)
@@ -45,6 +50,9 @@ def write_log(
     cmd_w = np.repeat(rng.uniform(-1.5, 1.5, n_hold + 1), 20)[: cmd_t.size]
     cmd_v[cmd_t < idle_s] = 0.0
     cmd_w[cmd_t < idle_s] = 0.0
+    for axis, cmd in (("v", cmd_v), ("w", cmd_w)):
+        if axis not in axes:
+            cmd[:] = 0.0
     meas_t = np.arange(0.0, duration_s, 1.0 / 30.0)
     true = simulate(
         params or hidden_params(), s.geometry,
@@ -56,8 +64,8 @@ def write_log(
         cmd_v=cmd_v,
         cmd_w=cmd_w,
         meas_t_ns=T0_NS + np.rint(meas_t * 1e9).astype(np.int64),
-        meas_v=true.v + rng.normal(0.0, noise_v, meas_t.size),
-        meas_w=true.w + rng.normal(0.0, noise_w, meas_t.size),
+        meas_v=(true.v + rng.normal(0.0, noise_v, meas_t.size)) * ("v" in axes),
+        meas_w=(true.w + rng.normal(0.0, noise_w, meas_t.size)) * ("w" in axes),
     )
     return path
 
