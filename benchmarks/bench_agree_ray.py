@@ -1,54 +1,33 @@
 """Fleet agreement on Ray vs serial: the whole ``sim2real agree`` command on N one-minute logs.
 
 Run (needs the [cluster] extra, ``make train-extra``; ~3.5 min for 100 logs on 2 idle cores,
-~2.7 min with ``--no-running``)::
+~2.7 min with ``--no-running``), then ``python results_page.py`` from ``benchmarks/``::
 
     .venv/bin/python benchmarks/bench_agree_ray.py                          # 100 logs, 3 repeats
     .venv/bin/python benchmarks/bench_agree_ray.py --logs 20 --repeats 1    # a quick look
 
-Target (issue 15): ``sim2real agree 'fleet/*.mcap' --ray auto`` >= 1.7x faster than the same
-command without ``--ray`` on 2 cores, with identical figures.
+Target: ``sim2real agree 'fleet/*.mcap' --ray auto`` >= 1.7x faster than the same command
+without ``--ray`` on 2 cores, with identical figures.
 
 Each side is the command a user types, run as a fresh process on the same logs (written once
 into ``--folder``, default ``$TMPDIR/bench-fleet``), pybullet engine, ``--json`` output:
 
 - ``serial``: ``sim2real agree 'DIR/*.mcap' --robot turtlebot3_burger --json serial.json``;
 - ``cold Ray``: the same with ``--ray auto`` and no Ray running, so the command starts a local
-  Ray and stops it again (the target's case: the whole cost, Ray's start-up and shutdown and
-  its workers' imports included);
-- ``running Ray`` (skip with ``--no-running``): the same with a local Ray started beforehand by
-  ``ray start --head`` (what a user who runs many commands does once), which the command joins.
+  Ray and stops it again (the target's case: Ray's start-up, shutdown and imports included);
+- ``running Ray`` (skip with ``--no-running``): the same joining a local Ray started beforehand
+  by ``ray start --head`` (what a user who runs many commands does once);
+- ``two halves``: two serial commands at once, each on every other log, with no coordination:
+  the most any engine could get from these two cores in the same run.
 
 After one untimed warm-up of each side on a few logs (file and numba caches), the sides
-alternate (serial, cold, running, then reversed, ...), ``--repeats`` times each; min / median
-/ max are printed, and the speed-up is median serial / median Ray wall time. Every run's JSON
-must be byte-identical to the first serial run's.
-
-Wall time on a shared machine measures the queue as much as the work (Linux schedules by
-session, ``sched_autogroup``: all the processes of one command share one session's CPU
-share), so each run also counts the CPU seconds of every process it started, Ray's own
-(GCS, raylet, agents, workers) included: this script makes itself the subreaper of its
-descendants (``PR_SET_CHILD_SUBREAPER``, Linux), so orphaned Ray processes are reaped here and
-their CPU counted. ``CPU cost`` = Ray CPU / serial CPU, and ``CPU bound`` = serial CPU / (Ray
-CPU / 2) is the most the two cores could give (the Ray command cannot finish before its CPU
-time is spread over both). On an idle machine the measured wall-clock speed-up is the figure.
-
-``two halves`` (the baseline of what the cores give): two serial commands at once, each on
-every other log, with no coordination at all; its speed-up is the most any engine could get
-from these two cores in the same run, and "cold Ray reaches N % of it" is Ray's own cost.
-The cores of this machine (a VM) slow each other by a varying amount: the same two processes
-reached 1.86x (session 9, 08:15) and 1.69x / 1.82x (2026-11-26 14:51 / 14:59).
-
-Measured 2026-11-26 (after the GC freeze at exit, ``sim2real.cli.run``):
-
-- 14:42, 4 repeats, load 0.7-1.6: serial 31.2 s, cold Ray 18.5 s median (16.3-20.1): 1.69x.
-- 14:51, 3 repeats: serial 30.9, cold Ray 19.4, two halves 18.3 s: Ray 1.59x, halves 1.69x
-  (CPU 1.11x serial: both cores busy cost 8 % more CPU per log today), Ray at 94 % of it.
-- 14:59, 5 repeats: serial 31.3, cold Ray 19.5, two halves 17.2 s: Ray 1.60x, halves 1.82x,
-  Ray at 88 %; CPU serial 31.5, halves 33.6, Ray 35.9 s (Ray's own 2.3 CPU-s over the halves,
-  and ~1.2 s of wall at the start when its second core runs Ray's start-up, not logs).
-- Tried, not kept: Ray's ``enable_worker_prestart`` (a worker started with the raylet): end of
-  the command 18.7 s with it vs 18.1 s without (6 alternated runs each).
+alternate, ``--repeats`` times each; min / median / max are printed, and the speed-up is median
+serial / median Ray wall time. Every run's JSON must be byte-identical to the first serial
+run's. Each run also counts the CPU seconds of every process it started, Ray's own (GCS,
+raylet, agents, workers) included: this script makes itself the subreaper of its descendants
+(``PR_SET_CHILD_SUBREAPER``, Linux), so orphaned Ray processes are reaped here and their CPU
+counted. ``CPU cost`` = Ray CPU / serial CPU; ``CPU bound`` = serial CPU / (Ray CPU / 2) is the
+most the two cores could give. On an idle machine the wall-clock speed-up is the figure.
 """
 
 from __future__ import annotations

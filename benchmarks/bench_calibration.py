@@ -1,170 +1,36 @@
-"""Benchmark: does the calibrated band contain the real robot, on sessions no step has seen?
+"""Does the calibrated band contain the robot, on sessions no step has seen?
+
+Run: ``.venv/bin/python benchmarks/bench_calibration.py [--sessions 8] [--pybullet-n 20]
+[--variants] [--seeds 11] [--ti-seeds 23] [--burger-seeds 5] [--no-real]`` (about 5 minutes
+on one core per fleet; the pybullet replays dominate). ``make bench`` runs it with defaults.
 
 Data (built here, written as ROS 2 MCAP and read back):
 
 1. A fleet of recording sessions of one Kobuki-sized base (``turtlebot2``) from the foreign
-   plant :mod:`sim2real.plants.diff_drive` (PI wheel loops, DC-motor torque-speed line with battery sag,
-   per-wheel asymmetric friction, caster scrub, quantised encoders, gyro, latency jitter),
-   whose payload, floor friction, battery charge and latency differ per session. It is *not*
-   the project's drive model. Sessions 0-2 are fitted (``sysid fit``, fleet / random effects),
-   sessions 3-4 calibrate the band's spread (``sysid calibrate``), sessions 5.. are checked.
+   plant :mod:`sim2real.plants.diff_drive` (PI wheel loops, DC-motor torque-speed line with
+   battery sag, per-wheel asymmetric friction, caster scrub, quantised encoders, gyro,
+   latency jitter), whose payload, floor friction, battery charge and latency differ per
+   session. It is *not* the project's drive model. Sessions 0-2 are fitted (``sysid fit``,
+   fleet / random effects, the spec's priors), sessions 3-4 calibrate the band's spread
+   (``sysid calibrate``), sessions 5.. are checked.
 2. The shared real TurtleBot3 Waffle Pi log (``../shared/realdata/tb3wp_drexel_goal.mcap``,
    skipped when absent) in halves: the first half is fitted, the band is built on the second
    (uncalibrated: one log leaves nothing to calibrate on without touching the checked half).
+3. With ``--variants``, plants the drive model was not tuned on: the same base with a faster PI
+   loop (integral time 0.05 s instead of 0.1 s) and a fleet of ``turtlebot3_burger`` (gyro w,
+   no smoother). ``--seeds``, ``--ti-seeds`` and ``--burger-seeds`` (``11``, ``31-36``,
+   ``11,23``) run more fleets.
 
 Measured on every checked session, in both engines (reduced and pybullet): coverage of the
 90 % band for v and w (share of active samples inside), median band widths, the point
-estimate's agreement, and the agreement of pybullet with the reduced model on the same
-parameters. Targets (issue 11): coverage 80-99 %, widths <= 0.10 m/s and <= 0.35 rad/s,
-point agreement >= 0.90, pybullet vs reduced >= 0.99.
-
-3. Plant variants the drive model was not tuned on (``--variants``): the same base with a
-   faster, more aggressive PI loop (integral time 0.05 s instead of 0.1 s, other fleet seed),
-   and a fleet of another base (``turtlebot3_burger``, gyro w, no smoother).
-
-The fit uses the spec's priors, as ``sim2real sysid fit`` does. A table of every checked
-session closes the output, with the uncalibrated band of the fit (``fit``) beside the
-calibrated one as the same run's baseline. ``--seeds``, ``--ti-seeds`` and ``--burger-seeds``
-(``11``, ``31-36``, ``11,23``) run more fleets.
-
-Measured (2026-11-26 16:45, calibration pooled with the fit's spread by sessions,
-:func:`sim2real.agreement.calibration.pooled_factors`; ``--variants --pybullet-n 20``). Pooled coverage
-v / w, reduced | pybullet: Kobuki seed 11 97.1 / 95.3 | 96.4 / 94.5 %, Ti/2 seed 23 88.9 /
-85.5 | 88.2 / 84.3 % (was 83.9 / 80.3 | 82.6 / 78.8 %), Burger seed 5 95.1 / 95.0 | 95.0 /
-94.6 %, real TB3 half 2 92.4 / 90.8 % (uncalibrated, unchanged); its session 6 (158 ms) 79.9
-/ 77.1 | 80.9 / 75.9 % (was 68.6 / 70.4 | 66.6 / 68.8 %). Widths: v <= 0.030 m/s, w <= 0.166
-rad/s; pybullet vs reduced 100.0 % on every session.
-
-Across fleets (reduced, 30 members; sessions 0-2 fitted, 3-4 calibrate, 5-7 checked): 36
-fleets in three sets of 12 (Kobuki, T_i/2, Burger), set A (seeds 11-15, 23-26, 5-7) chose
-the pooling, sets B (31-36, 41-43, 51-53) and C (61-66, 71-73, 81-83) check it (``--seeds
-61-66 --ti-seeds 71-73 --burger-seeds 81-83 --variants --pybullet-n 0 --no-real``);
-"before" is the likelihood optimum alone (the same fits, main of 2026-11-26 16:30):
-
-====================================  ========================  ========================
-27 Kobuki-sized fleets, 81 sessions   before                    pooled by sessions
-====================================  ========================  ========================
-fleets pooled outside 80-99 %         2 (v 65.6, 79.5 %)        1 (v 99.4 %)
-sessions below 80 %                   11 (worst 54.5 %)         9 (worst 67.5 %)
-sessions above 99 %                   1                         6
-widest band, v / w                    0.329 m/s / 0.708 rad/s   0.142 m/s / 0.283 rad/s
-sessions wider than 0.10 m/s (v)      22                        4
-sessions wider than 0.35 rad/s (w)    6                         0
-====================================  ========================  ========================
-
-The optimum alone shrank the spread to a = 0.05-0.31 in 7 of the 27 fleets (where the two
-validation sessions looked alike) and widened it to a = 1.29-1.63 in 9. The sessions still
-wider than 0.10 m/s in v owe it to the traction limit's prior (log-sd 0.5, never binding in
-the fitted logs): without its spread the widest of set B, 0.137 m/s, is 0.021 m/s at the same
-coverage. The 9 Burger fleets: 0 of 27 sessions outside 80-99 % either way.
-
-Then the traction limit's prior made as narrow as its comment says (``wheel_torque_max_nm``
-log-sd 0.5 -> 0.3 in the three shipped specs: "mu 0.3-0.8 across floors" as the 90 % range;
-2026-11-26 17:25, the same 36 fleets, ``--seeds 11-15,31-36 --ti-seeds 23-26,41-43
---burger-seeds 5-7,51-53`` and set C as above): widest Kobuki-sized band v 0.142 -> 0.101 m/s
-(sessions wider than 0.10 m/s 4 -> 1, at 0.1006), w 0.283 -> 0.304 rad/s; fleets pooled
-outside 80-99 % 1 (v 99.6 %); sessions below 80 % 11 of 81 (worst 64.6 %), above 99 % 9; mean
-pooled coverage 92.2 / 91.1 % (Burger 93.3 / 92.3 %, 0 of 27 sessions outside).
-
-Point agreement (the script's closing line), 108 checked sessions of the 36 fleets: >= 90 %
-on 47 at the fleet's estimate, on 97 with only the delay changed to each session's own best
-(83.4-98.9 %; set B alone 16 and 34 of 36, before the prior change): the fit is right and the unseen session's latency, which no fit of other
-sessions can know, is what a point estimate misses (the plant draws 60-160 ms per session).
-
-Before the pooling (2026-11-26 15:37, after the pybullet tyre friction from the drive,
-``--variants --pybullet-n 20``, 2 min 31 s on one core; reduced figures identical to the 12:30
-run below).
-Pooled coverage v / w, reduced | pybullet: Kobuki seed 11 94.5 / 94.8 | 93.5 / 93.9 %, Ti/2
-83.9 / 80.3 | 82.6 / **78.8** %, Burger 94.8 / 89.6 | 94.7 / 89.3 %, real TB3 half 2 92.4 /
-90.8 | 92.4 / 90.8 %; pybullet vs reduced on the same parameters 100.0 % on all nine checked
-sessions. Per session outside 80-99 %: Ti/2 session 5 w 78.9 | 77.7 %, session 6 68.6 / 70.4 |
-66.6 / 68.8 % (its latency 158 ms is 69 ms above the fitted sessions' 71 / 78 / 117 ms, and
-the validation sessions ran at 78 / 110 ms: no step saw a session like it). Point agreement
-(both engines): Kobuki 86.9, 81.1, 91.1 %; with each session's true latency (the fitted delay
-shifted by its plant latency minus the fitted sessions' mean: a diagnosis) 93.1, 92.7, 94.7 %,
-each session fitted to itself 96.5, 94.7, 96.4 % (sessions at 81, 128, 64 ms; fitted 63 / 122
-/ 88 ms).
-
-Measured (2026-11-26 12:30, friction fitted per unit mass, ``--variants --pybullet-n 0``;
-reduced, sessions 5-7, calibrated band; load 2.5-3): pooled coverage v / w: Kobuki seed 11
-94.5 / 94.8 %, Ti/2 83.9 / 80.3 %, Burger 94.8 / 89.6 %, real TB3 half 2 92.4 / 90.8 %; point
-agreement Kobuki 86.9, 81.1, 91.1 %, Ti/2 82.6, 66.4, 82.1 %, Burger 94.8, 95.5, 96.0 %, real
-TB3 98.8 %; outside 80-99 % per session: Ti/2 session 5 w 78.9 %, session 6 v 68.6, w 70.4 %.
-The tables below are the same code before friction was per unit mass (reproduced exactly in
-the same run of the old tree); the Ti/2 fleet lost 5 points in both axes, the others moved
-within +-5 (bench_novel_robots shows that such moves change sign with the fleet's seed).
-
-Measured (2026-11-26, with the coverage matching of ``sysid calibrate``; sessions 5-7,
-calibrated band, 30 reduced / 20 pybullet members; load ~2.5 on 2 cores, which changes no
-figure here). Per session, reduced (pybullet where it differs by more than 1 point):
-
-=========================  ===============  =======================  =======================
-fleet                      point agreement  coverage v               coverage w
-=========================  ===============  =======================  =======================
-turtlebot2 seed 11         85.9, 82.4, 87.5 94.7, 97.5, 88.9 (87.1)  94.2, 96.6, 93.9
-turtlebot2 seed 23, Ti/2   82.5, 66.5, 83.6 90.7, 82.1 (79.6), 95.1  85.2, 79.2 (74.5), 92.7
-turtlebot3_burger seed 5   94.8, 95.2, 95.9 92.9, 94.9, 94.7         94.6, 95.2, 95.1
-real TB3 Waffle Pi, half 2 97.4             94.1                     87.9
-=========================  ===============  =======================  =======================
-
-Pooled over the active held-out samples of sessions 5-7 (the target's "90 % band covers
-80-99 % of active held-out samples"), reduced / pybullet; in brackets the same before the
-coverage matching (likelihood noise only, same fits):
-
-=========================  ==============  =========================  =========================
-fleet                      active samples  coverage v                 coverage w
-=========================  ==============  =========================  =========================
-turtlebot2 seed 11         11517           93.7 / 92.8 % (96.2/95.9)  94.9 / 94.2 % (94.9/94.2)
-turtlebot2 seed 23, Ti/2   11695           89.3 / 87.9 % (91.5/90.9)  85.8 / 84.1 % (85.8/84.1)
-turtlebot3_burger seed 5   6523            94.1 / 94.1 % (97.3/97.5)  95.0 / 94.8 % (99.1/99.0)
-real TB3 Waffle Pi, half 2 422             94.1 / 94.1 %              87.9 / 87.9 %
-=========================  ==============  =========================  =========================
-
-The matching (validation coverage of the 90 % band brought into 90-95 %) narrowed v on all
-three fleets and w on the burger, whose likelihood band covered 99.0-99.4 % of every unseen
-session (its 50 % band 81-84 %: the Gaussian likelihood widens the noise to cover heavy-tailed
-transient errors). Matched to exactly 90 % instead, the pooled figures were 89.5 / 89.2,
-82.1 / 83.7 and 90.4 / 89.6 % (reduced) and the demo's unseen session fell to 79 % in v: no
-margin for a session unlike the validation ones. Per session outside 80-99 %: 5 of 24
-(reduced) before the matching, 1 after (Ti/2 session 6, below).
-
-Widths (median, m/s and rad/s): v 0.0015-0.0292, w 0.048-0.131 (Kobuki target <= 0.10 /
-0.35). Pybullet vs reduced on the same parameters: 100.0 % on every session. Outside 80-99 %
-per session: seed 23 session 6 w 79.2 % (pybullet v 79.6, w 74.5 %; its latency, 158 ms,
-is at the top of the plant's 60-160 ms range: a 2-sd session). A band
-calibrated on two sessions covers a typical session more and an extreme one less than its
-level; no single band puts every session inside 80-99 % when the sessions' own latency moves
-the response by more than the band's width. Before the coverage matching, the burger's
-calibrated w band was too wide at its centre (its 50 % band covered 81-84 %): the Gaussian
-likelihood of :mod:`sim2real.agreement.calibration` widens the noise to cover heavy-tailed transient
-errors. Tried before the matching, not adopted: a Student-t
-(nu = 5) predictive likelihood gives burger w 90.6-92.0 % per session (pooled 91.0 %) and
-Kobuki seed 11 91.6 %, but drops the between-session factor to 0 on the Ti/2 fleet, whose
-extreme session 6 then falls to 68-70 % (pooled 84.9 / 81.9 %).
-
-Measured (2026-11-23, torque-speed line on the Kobuki; sessions 5-7, calibrated band, reduced /
-pybullet, load ~5 on 2 cores; the fit of sessions 0-2 finds k_i 9.6 /s, plant 10 /s):
-
-=========================  ===============  ============  ============  ===========
-fleet                      point agreement  coverage v    coverage w    width w
-=========================  ===============  ============  ============  ===========
-turtlebot2 seed 11         85.9, 82.4, 87.5 97.7-99.5 %   92.9-94.2 %   0.049-0.051
-turtlebot2 seed 23, Ti/2   83.3, 66.0, 83.8 65.8-98.0 %   67.9-90.4 %   0.049-0.109
-turtlebot3_burger seed 5   95.4, 95.7, 96.3 96.7-98.0 %   89.8-90.7 %   0.042-0.043
-real TB3 Waffle Pi, half 2 97.4             94.1 %        90.3 %        0.067
-=========================  ===============  ============  ============  ===========
-
-Before the torque-speed line (same seeds): 87.2, 79.8, 89.0 / 84.7, 64.9, 80.3 / 96.2, 94.2,
-97.1 %. The Kobuki's point agreement misses 90 % because of the session's own command latency,
-which no fit of other sessions can know (the plant draws it from 60-160 ms): the same fitted
-parameters with the checked session's true latency (the fit's delay shifted by that session's
-offset from the fitted sessions' mean; a diagnosis, not a claim) agree 90.9, 92.4, 94.7 % and
-93.0, 94.0, 92.5 %. Fitting one session to itself gives 93.9-96.3 %. (P-loop model, session
-2: point agreement 59-77 %, w width 0.30-0.54 rad/s.) Pybullet vs reduced on the same
-parameters: 100.0 % on every session.
-
-Run: ``.venv/bin/python benchmarks/bench_calibration.py [--sessions 8] [--pybullet-n 20]
-[--variants]`` (about 5 minutes on one core per fleet; pybullet replays dominate).
+estimate's agreement, the agreement with only the delay changed to the session's own best
+(what a point estimate misses is the unseen session's latency, which no fit of other sessions
+can know), and the agreement of pybullet with the reduced model on the same parameters.
+Targets: coverage 80-99 %, widths <= 0.10 m/s and <= 0.35 rad/s, point agreement >= 0.90,
+pybullet vs reduced >= 0.99. The uncalibrated band of the fit (``fit``) is printed beside the
+calibrated one as the same run's baseline; a table of every checked session and the coverage
+pooled over each fleet's checked sessions close the output, and the pooled coverage, the
+widest bands and the point agreement go to ``docs/benchmarks.md``.
 """
 
 from __future__ import annotations
@@ -176,6 +42,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _timing import record
 
 ROBOT = "turtlebot2"
 FIT, CAL = (0, 1, 2), (3, 4)
@@ -409,6 +276,42 @@ def print_table() -> None:
         )
 
 
+def record_figures() -> None:
+    """The headline figures for ``docs/benchmarks.md``: pooled coverage per fleet, engine and
+    band, the widest calibrated bands and the point agreement."""
+    for (name, engine, band), (n, inside_v, inside_w) in POOLED.items():
+        cov_v, cov_w = inside_v / n, inside_w / n
+        baseline = band == "fit"  # the fit's own band: the same run's baseline, no target
+        record(
+            "calibration",
+            f"{band} 90 % band, {name}, {engine}: pooled coverage of {n} held-out samples",
+            f"v {100 * cov_v:.1f} %, w {100 * cov_w:.1f} %",
+            "baseline" if baseline else "80-99 %",
+            None if baseline else all(0.80 <= c <= 0.99 for c in (cov_v, cov_w)),
+        )
+    calibrated = [r for r in TABLE if r[3] == "calibrated"]
+    if calibrated:
+        wv, ww = max(r[7] for r in calibrated), max(r[8] for r in calibrated)
+        record(
+            "calibration",
+            f"widest calibrated band (median width) over {len(calibrated)} checked sessions",
+            f"v {wv:.4f} m/s, w {ww:.3f} rad/s",
+            "<= 0.10 m/s, <= 0.35 rad/s",
+            wv <= 0.10 and ww <= 0.35,
+        )
+    if POINT:
+        at_fit = sum(a >= 0.9 for _, a, _ in POINT)
+        at_best = sum(b >= 0.9 for _, _, b in POINT)
+        record(
+            "calibration",
+            "point agreement >= 90 % on checked sessions: at the fleet's estimate; with each "
+            "session's own best delay",
+            f"{at_fit} of {len(POINT)}; {at_best} of {len(POINT)}",
+            ">= 0.90",
+            at_fit == len(POINT),
+        )
+
+
 def _seeds(text: str) -> list[int]:
     """``11``, ``31-36`` or ``11,23,31-33`` -> the seeds."""
     out: list[int] = []
@@ -456,6 +359,7 @@ def main() -> None:
     if not args.no_real:
         tb3_halves(args.reduced_n)
     print_table()
+    record_figures()
 
 
 if __name__ == "__main__":

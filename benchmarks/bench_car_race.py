@@ -3,7 +3,7 @@
 Run: ``.venv/bin/python benchmarks/bench_car_race.py [--repeats 3] [--seconds 2]`` (one core:
 BLAS threads pinned to 1).
 
-Targets (issue 14): CarCrossing-v0 >= 1,000 env steps/s and Race-v0 (circuit, 4 ORCA
+Targets: CarCrossing-v0 >= 1,000 env steps/s and Race-v0 (circuit, 4 ORCA
 opponents) >= 500 env steps/s on dynamics="reduced". The baseline of each is the same env on
 dynamics="pybullet"; ours and the baseline alternate, with the same number of repeats, and the
 rates (random actions, resets included) are printed as min / median / max, in wall-clock and in

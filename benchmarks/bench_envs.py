@@ -6,9 +6,9 @@ threads pinned; ``--only vector`` times just the two native vector envs, about a
 
 Targets
 -------
-- issue 7: RandomMap-v0 TRAIN, control_dt 0.1 s, dynamics="reduced" >= 1,000 env steps/s;
+- RandomMap-v0 TRAIN, control_dt 0.1 s, dynamics="reduced" >= 1,000 env steps/s;
   CrowdNav-v0 with 64 x 48 depth, lidar and 20 pedestrians, reduced >= 300 env steps/s.
-- issue 16: the native vector RandomMap-v0 (``vectorization_mode="vector_entry_point"``), 64
+- the native vector RandomMap-v0 (``vectorization_mode="vector_entry_point"``), 64
   envs, >= 50,000 env steps/s; the native vector CrowdNav-v0 >= 5,000 env steps/s.
 
 Every env rate is printed per second of wall clock and per second of this process's CPU time.
@@ -297,7 +297,7 @@ def main() -> None:
         "--only",
         action="append",
         choices=sorted(PARTS),
-        help="run only this part (repeatable), e.g. --only vector (the issue-16 targets)",
+        help="run only this part (repeatable), e.g. --only vector (the vector-env targets)",
     )
     args = parser.parse_args()
     quick = args.quick or QUICK

@@ -1,4 +1,4 @@
-"""Issue-16 headline figures: CLI start-up, agree on a 1-minute log, the pybullet loop, DepthNoise.
+"""Headline figures: CLI start-up, agree on a 1-minute log, the pybullet loop, DepthNoise.
 
 Run with ``.venv/bin/python benchmarks/bench_perf.py [--quick] [--only PART]`` (parts: ``cli``,
 ``pybullet``, ``depth``; repeatable). Every ratio alternates ours and

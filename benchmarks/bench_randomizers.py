@@ -1,9 +1,9 @@
-"""Benchmark the randomizer wrappers (issue 5 targets), with baselines measured in the same run.
+"""Benchmark the randomizer wrappers against their targets, with baselines measured in the same run.
 
 1. Per-step overhead of all eight wrappers stacked on a Dict-observation env with a 64x64
    depth image, vs the bare env (target <= 30 us per step).
 2. ``DepthNoise`` on a 640x480 float32 image, i.i.d. noise per pixel and frame
-   (target issue 16: >= 1,800 frames/s; issue 5: >= 300), vs the floor (the random bits of a
+   (target >= 1,800 frames/s), vs the floor (the random bits of a
    frame plus one add) and the plain ``img + rng.normal(0, 0.2, img.shape)``, alternated;
    judged per CPU-second (the machine is shared).
 3. When ``sim2real.envs`` provides the pybullet navigation env, the stack's overhead as a

@@ -5,8 +5,8 @@ and read back from MCAP) is replayed with the pybullet engine (240 Hz physics) a
 reduced engine, alternated, the same number of times (3; 1 with ``BENCH_QUICK=1``). Prints
 min/median/max wall and CPU times, the pybullet speed-up over real time (target >= 50x) and the
 ratio between the two engines, all measured in this run, and the whole ``sim2real agree``
-command a user runs on that log with each engine (cold and warm). A missed target is recorded for the
-README table, not an error (exit 0).
+command a user runs on that log with each engine (cold and warm). A missed target is recorded
+for ``docs/benchmarks.md``, not an error (exit 0).
 
 Run: ``.venv/bin/python benchmarks/bench_replay.py``
 """

@@ -1,4 +1,4 @@
-"""Issue 12's skid-steer target, per seed, and how far a fit carries to another ground.
+"""The skid-steer target, per seed, and how far a fit carries to another ground.
 
 Run: ``.venv/bin/python benchmarks/bench_skid.py [--seeds 101,...,110] [--husky-seeds 0,...,4]``
 (3.3 min CPU at load 2).

@@ -1,11 +1,11 @@
-"""DQN vs PPO on CarCrossing-v0 with seed 002's Table I hyper-parameters (stable-baselines3).
+"""DQN vs PPO on CarCrossing-v0 with the Table I hyper-parameters of Trararak et al. (stable-baselines3).
 
 Run (needs the ``[train]`` extra: ``pip install torch==2.13.0 -e '.[train]'``)::
 
     .venv/bin/python benchmarks/carcrossing_sb3.py --timesteps 100000 --episodes 50 \\
         --out carcrossing_sb3.yaml
 
-Paper 002 trains both for 30,000 episodes and reports mean returns of 12.6 (DQN) and 29.6
+Trararak et al. train both for 30,000 episodes and reports mean returns of 12.6 (DQN) and 29.6
 (PPO). Table I, as applied here:
 
 - both: discount 0.99, batch 256, learning rate 5e-5, Adam with weight decay 1e-4, three
@@ -43,7 +43,7 @@ EVAL_SEED = 10_000
 
 
 def table_one(algorithm: str, *, eps_fraction: float) -> dict[str, Any]:
-    """SB3 keyword arguments for ``algorithm`` ("DQN" or "PPO") from paper 002's Table I."""
+    """SB3 keyword arguments for ``algorithm`` ("DQN" or "PPO") from Table I of Trararak et al."""
     import torch
 
     policy_kwargs: dict[str, Any] = {
@@ -147,7 +147,7 @@ def main() -> None:
             f"{name:<22}{r['success_rate']:>9.2f}{r['collision_rate']:>11.2f}"
             f"{r['off_road_rate']:>10.2f}{r['mean_return']:>9.2f}"
         )
-    print("paper 002 (30,000 episodes): mean return DQN 12.64, PPO 29.61")
+    print("Trararak et al. (30,000 episodes): mean return DQN 12.64, PPO 29.61")
     if args.out:
         import yaml
 

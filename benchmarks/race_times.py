@@ -1,4 +1,4 @@
-"""Completion times of three traditional racers (seed 003's Table 4), measured in Race-v0.
+"""Completion times of three traditional racers (Table 4 of Pozo Ruiz 2024) in Race-v0.
 
 Run: ``.venv/bin/python benchmarks/race_times.py [--seeds 5] [--opponents 2]``.
 
@@ -26,7 +26,7 @@ from sim2real.envs.race_baseline import RaceBaseline
 
 SCENARIOS = {"straight": "open", "curve": "curve", "combined": "circuit"}
 PLANNERS = ("dijkstra", "astar", "dijkstra")
-#: Table 4 of seed 003 (s): robots 1-3 x straight, curve, combined.
+#: Table 4 of Pozo Ruiz (2024), s: robots 1-3 x straight, curve, combined.
 THESIS_TABLE_4 = ((28.01, 23.39, 52.12), (28.22, 27.36, 57.24), (28.40, 34.13, 55.76))
 
 

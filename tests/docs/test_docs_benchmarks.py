@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import json
 import os
 import subprocess
@@ -80,3 +81,13 @@ def test_the_repo_page_is_the_generated_kind() -> None:
         sys.path.remove(str(BENCH))
     assert page.startswith(INTRO)
     assert "perf-table" not in (ROOT / "README.md").read_text(encoding="utf-8")
+
+
+def test_benchmark_docstrings_say_what_and_how_in_at_most_40_lines() -> None:
+    long = {}
+    for path in sorted(BENCH.glob("*.py")):
+        doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8")), clean=False)
+        assert doc, f"{path.name} has no module docstring"
+        if len(doc.splitlines()) > 40:
+            long[path.name] = len(doc.splitlines())
+    assert not long, f"benchmark docstrings over 40 lines (results go to docs/): {long}"
