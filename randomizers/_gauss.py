@@ -27,6 +27,8 @@ import math
 import numba
 import numpy as np
 
+from randomizers.errors import RandomizerTypeError
+
 __all__ = ["ZIGGURAT_LAYERS", "NormalPool", "fill_standard_normal", "raw_words", "ziggurat_tables"]
 
 #: Number of ziggurat layers (8 bits of each word select one).
@@ -180,8 +182,6 @@ def raw_words(bits: np.random.BitGenerator, count: int) -> np.ndarray:
         return bits.random_raw((count + 1) // 2).view(np.uint32)
     if isinstance(bits, np.random.MT19937):
         return bits.random_raw(count).astype(np.uint32)
-    from randomizers.errors import RandomizerTypeError
-
     raise RandomizerTypeError(
         f"the generator's bit generator is {type(bits).__name__}, whose raw output width is not "
         "known; the randomizers draw raw words from numpy's PCG64, PCG64DXSM, Philox, SFC64 or "

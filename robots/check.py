@@ -40,6 +40,7 @@ import hashlib
 import math
 from dataclasses import dataclass
 
+from robots._urdf import urdf_text
 from robots.errors import SpecError
 from robots.spec import RobotSpec
 
@@ -202,8 +203,8 @@ def _com_support(spec: RobotSpec) -> CheckItem:
 
 
 def _drive_items(spec: RobotSpec) -> list[CheckItem]:
-    from robots._pybullet import pybullet as p
-    from robots.pybullet_robot import PybulletRobot
+    # pybullet only for the drive test: `robots check --no-drive` stays light
+    from robots._pybullet_robot import UncheckedPybulletRobot
 
     params = spec.drive.replace(
         delay_s=0.0, cmd_timeout_s=math.inf, accel_lim_v_mps2=math.inf, accel_lim_w_radps2=math.inf
@@ -219,20 +220,9 @@ def _drive_items(spec: RobotSpec) -> list[CheckItem]:
     )
     v_cmd, w_cmd = 0.5 * v_top, 0.5 * w_top
     items = []
-    key = _key(spec)
-    _RUNNING.add(key)  # the robot below must not run these checks again
-    try:
-        robot = PybulletRobot(spec, params=params)
-    finally:
-        _RUNNING.discard(key)
-    with robot:
+    with UncheckedPybulletRobot(spec, params=params) as robot:
         robot.step(0.0, 0.0, _SETTLE_S)
-        touching = [
-            bool(
-                p.getContactPoints(bodyA=robot.body_id, linkIndexA=j, physicsClientId=robot.client)
-            )
-            for j in (0, 1)
-        ]
+        touching = robot.wheel_contacts()
         items.append(
             CheckItem(
                 name="wheels touch the ground",
@@ -290,12 +280,9 @@ def check_spec(spec: RobotSpec, *, drive_test: bool = True) -> SpecCheck:
 
 
 _CHECKED: dict[str, SpecCheck] = {}
-_RUNNING: set[str] = set()
 
 
 def _key(spec: RobotSpec) -> str:
-    from robots._urdf import urdf_text
-
     return hashlib.sha256((urdf_text(spec) + repr(spec.drive)).encode()).hexdigest()
 
 
@@ -308,14 +295,8 @@ def ensure_spec_ok(spec: RobotSpec) -> None:
         With :meth:`SpecCheck.reason`: the spec file, the failed check and its numbers.
     """
     key = _key(spec)
-    if key in _RUNNING:  # the drive test's own robot
-        return
     if key not in _CHECKED:
-        _RUNNING.add(key)
-        try:
-            _CHECKED[key] = check_spec(spec)
-        finally:
-            _RUNNING.discard(key)
+        _CHECKED[key] = check_spec(spec)
     report = _CHECKED[key]
     if not report.passed:
         raise SpecError(report.reason())

@@ -78,7 +78,8 @@ def new_session_factor(
     >>> round(new_session_factor(1), 2), round(new_session_factor(5), 2)
     (2.05, 1.33)
     """
-    from scipy.special import ndtri, stdtrit
+    from scipy.special import ndtri, stdtrit  # scipy only when asked: light commands load sysid
+
 
     dof = spread_degrees_of_freedom(n_sessions, prior_sessions=prior_sessions)
     q = 0.5 * (1.0 + level)

@@ -70,7 +70,7 @@ from sysid._excitation import analyse, held_command
 from sysid._fleet import SessionInfo, population
 from sysid._linear import first_order_stats
 from sysid._logs import LogArrays, as_log_arrays, log_name, log_warnings
-from sysid._map import Posterior, map_fit
+from sysid._map import Posterior, _solve, map_fit
 from sysid._problem import Problem
 from sysid._summary import distribution, estimate_noise, field_estimates, identifiable_estimates
 from sysid._timeout import fit_cmd_timeout
@@ -707,8 +707,6 @@ def _finish(
         coupled = any(p.coupled for p in posts)
 
         def solve(pr: Problem, x0: FloatArray) -> Any:
-            from sysid._map import _solve
-
             return _solve(pr, x0, coupled, loss, f_scale, 12)
 
         boot_std = _bootstrap_std(

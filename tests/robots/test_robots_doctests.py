@@ -13,6 +13,7 @@ MODULES = [
     "robots.world",
     "robots.sensors",
     "robots.pybullet_robot",
+    "robots._pybullet_robot",
     "robots._chain",
     "robots._kernel",
     "robots.check",

@@ -195,7 +195,7 @@ def test_a_parameter_pybullet_ignores_is_detected(monkeypatch: pytest.MonkeyPatc
         kwargs.pop("mass", None)
         real(*args, **kwargs)
 
-    monkeypatch.setattr("robots.pybullet_robot.p.changeDynamics", drop_mass)
+    monkeypatch.setattr("robots._pybullet_robot.p.changeDynamics", drop_mass)
     with pytest.raises(DriveParamsNotAppliedError, match="base mass"):
         robot.set_drive_params(robot.spec.drive.replace(added_mass_kg=0.3))
     monkeypatch.undo()

@@ -11,7 +11,7 @@ import pytest
 
 from robots import PybulletRobot, load_spec
 from robots._pybullet import pybullet as p
-from robots.pybullet_robot import _WHEELS, _sampled_steps
+from robots._pybullet_robot import _WHEELS, _sampled_steps
 from tests.robots._golden_drive import commands
 
 SPEC = load_spec("turtlebot3_burger")
