@@ -20,8 +20,6 @@ rebuilds the same stack with the same random streams.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -37,6 +35,7 @@ from randomizers._goal import GoalNoise
 from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
 from randomizers._odometry_noise import VelocityObservationNoise
 from randomizers.errors import RandomizerConfigError, RandomizerError
+from robots.files import write_text_atomic
 
 __all__ = ["CONFIG_FORMAT", "RANDOMIZERS", "from_config", "save_config", "to_config"]
 
@@ -188,7 +187,7 @@ def to_config(env: Any) -> dict[str, Any]:
 
 
 def save_config(env: Any, path: str | Path) -> Path:
-    """Write :func:`to_config` of ``env`` to ``path`` (temp file in the folder, then rename)."""
+    """Write :func:`to_config` of ``env`` to ``path`` atomically (:mod:`robots.files`)."""
     target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
@@ -196,16 +195,7 @@ def save_config(env: Any, path: str | Path) -> Path:
             f"cannot write randomizer config '{target}': folder '{folder}' does not exist; "
             "create it first"
         )
-    text = yaml.safe_dump(to_config(env), sort_keys=False)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return target
+    return write_text_atomic(target, yaml.safe_dump(to_config(env), sort_keys=False))
 
 
 def _plain(value: Any) -> Any:

@@ -33,14 +33,14 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
-import os
 import sys
-import tempfile
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
+
+from robots.files import write_text_atomic
 
 __all__ = [
     "Kernel",
@@ -205,10 +205,7 @@ def invalidate_folder(
             if path.suffix in (".nbi", ".nbc") and path.name.split(".")[0] in stems:
                 path.unlink(missing_ok=True)
                 dropped = True
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=stamp_name, suffix=".tmp")
-        with os.fdopen(fd, "w", encoding="ascii") as out:
-            out.write(digest + "\n")
-        os.replace(tmp, stamp)
+        write_text_atomic(stamp, digest + "\n", encoding="ascii")
     except OSError:
         pass
     return dropped

@@ -19,10 +19,10 @@ Links, in joint order (pybullet joint index in brackets):
 from __future__ import annotations
 
 import hashlib
-import os
 import tempfile
 from pathlib import Path
 
+from robots.files import write_text_atomic
 from robots.spec import RobotSpec, lumped_base_inertia, lumped_base_mass_kg
 
 __all__ = [
@@ -131,8 +131,8 @@ def urdf_text(spec: RobotSpec) -> str:
 def urdf_path(spec: RobotSpec) -> Path:
     """Write the URDF of ``spec`` to a cache file (keyed by its content) and return the path.
 
-    The file lives in ``$TMPDIR/sim2real-urdf/``; it is written to a temporary name and renamed,
-    so concurrent processes never read a half-written file.
+    The file lives in ``$TMPDIR/sim2real-urdf/``; it is written atomically
+    (:func:`robots.files.atomic_write`), so concurrent processes never read a half-written file.
     """
     text = urdf_text(spec)
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -140,8 +140,5 @@ def urdf_path(spec: RobotSpec) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{spec.name}-{digest}.urdf"
     if not path.is_file():
-        fd, tmp = tempfile.mkstemp(dir=folder, suffix=".urdf.tmp")
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
+        write_text_atomic(path, text)
     return path

@@ -1,9 +1,9 @@
 """Safe output: write to a temporary file beside the target, then rename over it.
 
-:func:`atomic_write` writes one file; :func:`output_set` writes several files as a set: they
-are staged in a temporary folder beside their destination and moved in together at the end,
-so a run that fails or is killed before the end leaves the previous outputs untouched. Files
-get the user's umask (``0666 & ~umask``, 0644 by default), like any file a program creates.
+:func:`atomic_write` writes one file (through :func:`robots.files.atomic_write`, the one atomic
+write); :func:`output_set` writes several files as a set: they are staged in a temporary folder
+beside their destination and moved in together at the end, so a run that fails or is killed
+before the end leaves the previous outputs untouched. Files get the user's umask (``0666 & ~umask``, 0644 by default), like any file a program creates.
 
 Temp names carry the writer's process id; a later run removes the leftovers of runs that were
 killed (and finishes the moves of a set that was killed while moving in, so the folder ends
@@ -21,6 +21,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import IO
 
+from robots import files
 from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
 
 __all__ = [
@@ -35,7 +36,6 @@ __all__ = [
 _SET_PREFIX = ".sim2real-out-"
 _COMMIT = ".commit"
 _SET_RE = re.compile(r"^\.sim2real-out-(\d+)-")
-_FILE_RE = re.compile(r"^\..+\.(\d+)\.[^.]+\.tmp$")
 
 
 def check_output_path(path: str | Path, *, what: str = "output file") -> Path:
@@ -67,24 +67,6 @@ def check_not_an_input(
             )
 
 
-def _umask() -> int:
-    mask = os.umask(0o022)  # the only portable way to read it is to set it and set it back
-    os.umask(mask)
-    return mask
-
-
-def _alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # exists, owned by someone else
-        return True
-    return True
-
-
 def _finish_set(folder: Path) -> None:
     """Move a committed staging folder's files into its parent (roll forward), then drop it."""
     for item in sorted(folder.iterdir()):
@@ -100,18 +82,16 @@ def clean_orphans(folder: str | Path) -> None:
     instead, so ``folder`` ends with the whole new set.
     """
     base = Path(folder)
+    files.clean_orphans(base)
     with contextlib.suppress(OSError):
         for item in base.iterdir():
-            m = _SET_RE.match(item.name) if item.is_dir() else _FILE_RE.match(item.name)
-            if m is None or _alive(int(m.group(1))):
+            m = _SET_RE.match(item.name) if item.is_dir() else None
+            if m is None or files.process_alive(int(m.group(1))):
                 continue
-            if item.is_dir():
-                if (item / _COMMIT).exists():
-                    _finish_set(item)
-                else:
-                    shutil.rmtree(item, ignore_errors=True)
+            if (item / _COMMIT).exists():
+                _finish_set(item)
             else:
-                item.unlink(missing_ok=True)
+                shutil.rmtree(item, ignore_errors=True)
 
 
 @contextlib.contextmanager
@@ -127,18 +107,9 @@ def atomic_write(path: str | Path, mode: str = "wb", *, what: str = "output file
     ...     fh.write("hello")
     """
     target = check_output_path(path, what=what)
-    folder = target.parent if str(target.parent) else Path(".")
-    clean_orphans(folder)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=folder)
-    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600 files
-    try:
-        with os.fdopen(fd, mode) as fh:
-            yield fh
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
+    clean_orphans(target.parent if str(target.parent) else Path("."))
+    with files.atomic_write(target, mode) as fh:
+        yield fh
 
 
 class OutputSet:

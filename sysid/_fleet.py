@@ -80,7 +80,6 @@ def new_session_factor(
     """
     from scipy.special import ndtri, stdtrit  # scipy only when asked: light commands load sysid
 
-
     dof = spread_degrees_of_freedom(n_sessions, prior_sessions=prior_sessions)
     q = 0.5 * (1.0 + level)
     return float((stdtrit(dof, q) / ndtri(q)) ** 2)

@@ -13,10 +13,7 @@ Examples
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import tempfile
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -25,6 +22,7 @@ from typing import Any
 import yaml
 
 from robots.errors import ParamsFileError
+from robots.files import write_text_atomic
 from robots.params import PARAMS_FILE_FORMAT, DriveParams, load_params_document
 from robots.randomization import DriveDistribution
 from sysid.errors import ResultFileError, SysidFileError
@@ -266,7 +264,7 @@ class SysidResult:
         return str(yaml.safe_dump(self.to_dict(), sort_keys=False, width=100))
 
     def save(self, path: str | Path) -> Path:
-        """Write :meth:`to_yaml` to ``path`` atomically (temp file in the folder, then rename).
+        """Write :meth:`to_yaml` to ``path`` atomically (:func:`robots.files.atomic_write`).
 
         Raises :class:`~sysid.errors.SysidFileError` when the folder does not exist; nothing
         is left behind on failure.
@@ -280,17 +278,7 @@ class SysidResult:
             )
         if target.is_dir():
             raise SysidFileError(f"output file '{target}' is a folder; give a file name")
-        text = self.to_yaml()
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.replace(tmp, target)
-        except BaseException:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(tmp)
-            raise
-        return target
+        return write_text_atomic(target, self.to_yaml())
 
     @classmethod
     def load(cls, path: str | Path) -> SysidResult:

@@ -17,6 +17,7 @@ MODULES = [
     "robots._chain",
     "robots._kernel",
     "robots.check",
+    "robots.files",
     "robots.template",
     "robots.specdoc",
 ]
