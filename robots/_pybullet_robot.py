@@ -186,7 +186,10 @@ def _yaw_of(quat: Sequence[float]) -> float:
 
 
 class UncheckedPybulletRobot:
-    """:class:`robots.pybullet_robot.PybulletRobot` without the spec check (same parameters)."""
+    """:class:`robots.pybullet_robot.PybulletRobot` without the spec check (same parameters).
+
+    :meth:`_admit` is where a subclass refuses a spec before the robot is built.
+    """
 
     def __init__(
         self,
@@ -198,6 +201,7 @@ class UncheckedPybulletRobot:
         start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
     ) -> None:
         self.spec = spec if isinstance(spec, RobotSpec) else load_spec(spec)
+        self._admit(self.spec)
         if not (math.isfinite(physics_hz) and physics_hz > 0):
             raise RobotsValueError(f"physics_hz must be a finite number > 0, got {physics_hz!r}")
         self.physics_hz = float(physics_hz)
@@ -239,6 +243,9 @@ class UncheckedPybulletRobot:
         self._place(*start_pose)  # a new body has no contacts yet: nothing for reset to drop
 
     # ------------------------------------------------------------------ set-up
+
+    def _admit(self, spec: RobotSpec) -> None:
+        """Refuse a spec before anything is built (none here; :class:`PybulletRobot` checks it)."""
 
     def _setup_contacts(self) -> None:
         c, body = self.client, self.body_id

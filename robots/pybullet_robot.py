@@ -90,8 +90,7 @@ from robots._pybullet_robot import (
     tyre_friction,
 )
 from robots.check import ensure_spec_ok
-from robots.params import DriveParams
-from robots.spec import RobotSpec, load_spec
+from robots.spec import RobotSpec
 
 __all__ = [
     "LOAD_STEP_FACTOR",
@@ -142,17 +141,5 @@ class PybulletRobot(UncheckedPybulletRobot):
         The spec fails :func:`robots.check.check_spec` (checked once per spec and process).
     """
 
-    def __init__(
-        self,
-        spec: RobotSpec | str,
-        *,
-        client: int | None = None,
-        params: DriveParams | None = None,
-        physics_hz: float = 240.0,
-        start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    ) -> None:
-        spec = spec if isinstance(spec, RobotSpec) else load_spec(spec)
-        ensure_spec_ok(spec)
-        super().__init__(
-            spec, client=client, params=params, physics_hz=physics_hz, start_pose=start_pose
-        )
+    def _admit(self, spec: RobotSpec) -> None:
+        ensure_spec_ok(spec)  # geometry + 1 s drive test, once per spec and process

@@ -8,21 +8,12 @@ import stat
 import subprocess
 import sys
 import textwrap
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from sim2real._io import atomic_write, clean_orphans, output_set
 from sim2real.errors import Sim2RealValueError
-
-
-@pytest.fixture
-def umask() -> Iterator[None]:
-    old = os.umask(0o022)
-    os.umask(old)
-    yield
-    os.umask(old)
 
 
 def _mode(path: Path) -> int:
