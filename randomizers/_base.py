@@ -16,8 +16,8 @@ drawing from the current one (fresh OS entropy if the env was never seeded), as 
 
 Scale
 -----
-``scale`` in [0, 1] multiplies the wrapper's noise, jitter, delay or range (seed 000's
-complexity factor c, generalised). :meth:`Randomizer.set_scale` takes effect at the next
+``scale`` in [0, 1] multiplies the wrapper's noise, jitter, delay or range (the
+complexity factor c of Liang et al. 2020, generalised). :meth:`Randomizer.set_scale` takes effect at the next
 ``reset`` so an episode never changes its randomisation half-way.
 """
 

@@ -1,4 +1,4 @@
-"""Jitter of the depth camera's mount pose (seed paper 000)."""
+"""Jitter of the depth camera's mount pose (Liang et al. 2020)."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ class CameraPoseJitter(
 ):
     r"""Perturb the camera's mount pose per episode (default) or per step.
 
-    Seed 000 varies where the depth camera is mounted during training to give the policy
+    Liang et al. (2020) vary where the depth camera is mounted during training to give the policy
     different perspectives. The pose in the base frame becomes
     :math:`(\mathbf p_0 + \delta_p, \boldsymbol\rho_0 + \delta_\rho)` with
     :math:`\delta_p \sim \mathcal N(0, (c\,\sigma_p)^2 I_3)` m and
@@ -50,7 +50,7 @@ class CameraPoseJitter(
     env : gymnasium.Env
         Env implementing the camera protocol.
     position_std_m : float
-        σ_p of each position offset, m (>= 0). Seed 000 gives no figure; the default 2 cm is
+        σ_p of each position offset, m (>= 0). Liang et al. (2020) give no figure; the default 2 cm is
         our choice (a hand-mounted bracket's play), not a published value.
     orientation_std_deg : float
         σ_ρ of each roll/pitch/yaw offset, degrees (>= 0); default 2° (our choice as well).

@@ -1,4 +1,5 @@
-"""Raise the randomisation scale when the agent succeeds often enough (seed 000's curriculum)."""
+"""Raise the randomisation scale when the agent succeeds often enough (the curriculum of
+Liang et al. 2020)."""
 
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ class CurriculumUpdate:
 class SuccessRateCurriculum:
     r"""Raise the scale of every randomizer in a stack when the success rate crosses a threshold.
 
-    Seed 000 starts training in simple scenarios and raises a complexity factor c as the policy
+    Liang et al. (2020) start training in simple scenarios and raises a complexity factor c as the policy
     converges. Here c is the randomizers' ``scale``: it starts at ``initial_scale``; after each
     episode call :meth:`record` with whether it succeeded. Once ``window`` episodes have been
     recorded at the current scale and their success rate is ``>= threshold``, the scale rises by

@@ -158,7 +158,7 @@ def _delay_kwargs(spec: _DelaySpec, delay_s: Any, delay_steps: Any) -> dict[str,
 class OdometryDelay(ObservationRandomizer):
     """Delay the velocity (odometry) observation by a fixed or per-episode random delay.
 
-    Seed 000 increases the delay with which the policy subscribes to the robot's current
+    Liang et al. (2020) increase the delay with which the policy subscribes to the robot's current
     velocity. At step ``t`` the selected entry shows its value of step ``t - k``. Before ``k``
     steps have passed it holds the episode's first value (``fill="first"``, default) or shows
     zeros (``fill="zeros"``); the rest of the observation is not delayed. See the module

@@ -159,7 +159,7 @@ class DynamicsRandomizer(
 ):
     r"""Draw drive-model parameters (:class:`robots.params.DriveParams`) once per episode.
 
-    Seed 000 identifies extra motor friction and inertia of the real robot; randomising them
+    Liang et al. (2020) identify extra motor friction and inertia of the real robot; randomising them
     around the identified values makes a policy robust to what identification missed. Two
     ways to say what to draw:
 

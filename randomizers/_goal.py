@@ -1,4 +1,4 @@
-"""Noise on the goal location the agent observes (seed paper 000)."""
+"""Noise on the goal location the agent observes (Liang et al. 2020)."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ _RESAMPLE = ("episode", "step")
 class GoalNoise(ObservationRandomizer):
     r"""Offset the observed goal location by Gaussian noise, N(0, 0.2 m) per axis by default.
 
-    Seed 000 adds Gaussian noise to the robot's goal location in simulation. The offset
+    Liang et al. (2020) add Gaussian noise to the robot's goal location in simulation. The offset
     :math:`\delta \sim \mathcal N(0, (c\,\sigma)^2 I)` is drawn once per episode (default:
     a consistently wrong goal, as from a poor localisation fix) or at every step
     (``resample="step"``: jittery goal).

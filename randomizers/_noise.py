@@ -426,9 +426,9 @@ def _noisy_ranges(
 
 
 class DepthNoise(ObservationRandomizer):
-    r"""Gaussian range noise on a depth image, N(0, 0.2 m) by default (seed paper 000).
+    r"""Gaussian range noise on a depth image, N(0, 0.2 m) by default (Liang et al. 2020).
 
-    Seed 000 adds :math:`\mathcal N(0, 0.2)` to the depth images; we read 0.2 as the standard
+    Liang et al. (2020) add :math:`\mathcal N(0, 0.2)` to the depth images; we read 0.2 as the standard
     deviation in metres. Each valid pixel :math:`d` becomes
     :math:`\mathrm{clip}(d + c\,\sigma z, \mathit{near}, \mathit{far})` with i.i.d.
     :math:`z \sim \mathcal N(0, 1)` per pixel and step. Invalid pixels are returned unchanged:

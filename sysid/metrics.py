@@ -5,7 +5,7 @@ Used by sysid (validation scores) and by :mod:`sim2real.agreement.figures` (the 
 - :func:`fit_percent` — MATLAB ``compare`` FIT %:
   :math:`100\,(1 - \lVert y - \hat y\rVert / \lVert y - \bar y\rVert)`.
 - :func:`active_mask` and :func:`agreement_fraction` — the share of *active* samples where the
-  simulated (v, w) are within tolerance of the real ones (seed paper 000 reports "over 80 %").
+  simulated (v, w) are within tolerance of the real ones (Liang et al. (2020) report "over 80 %").
 - :func:`xcorr_lag_s` — the lag of the simulated trace behind the real one by cross-correlation.
 
 Examples

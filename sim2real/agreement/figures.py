@@ -1,6 +1,6 @@
 r"""Sim-vs-real velocity agreement: how often the simulated base moves like the real one.
 
-Seed paper 000 judged its simulator by the share of time the simulated robot's velocities
+Liang et al. (2020) judged its simulator by the share of time the simulated robot's velocities
 matched the real robot's ("over 80 % of the time"). This module makes that measurement exact
 and repeatable.
 

@@ -50,9 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="reference training envs: list them, evaluate the baseline controller",
         description=(
             "The gymnasium envs of sim2real.envs (registered on import): CrowdNav-v0 (dense "
-            "crowds, paper 000), RandomMap-v0 (random walls and cylinders, paper 001) and "
-            "CarCrossing-v0 (a car passes an obstacle and an occluded pedestrian, paper 002) "
-            "and Race-v0 (TurtleBot 3 Burgers race ORCA opponents on walled tracks, paper 003)."
+            "crowds, Liang et al. (2020)), RandomMap-v0 (random walls and cylinders, Yang et al.) and "
+            "CarCrossing-v0 (a car passes an obstacle and an occluded pedestrian, Trararak et al.) "
+            "and Race-v0 (TurtleBot 3 Burgers race ORCA opponents on walled tracks, Pozo Ruiz (2024))."
         ),
         examples=_GROUP_EXAMPLES,
     )
@@ -146,7 +146,7 @@ def _list(args: argparse.Namespace) -> int:
         "track: open, curve, cross, circuit; opponents 0-5 (ORCA)",
     )
     console.print(table)
-    presets = Table(title="RandomMap-v0 presets (paper 001, Table I)")
+    presets = Table(title="RandomMap-v0 presets (Yang et al., Table I)")
     for col in ("preset", "d_target m", "r_wall", "n cylinders", "paper rho_obs"):
         presets.add_column(col)
     for name, cfg in PRESETS.items():

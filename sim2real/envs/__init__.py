@@ -1,14 +1,14 @@
 """Reference training envs from the literature, registered with gymnasium on import.
 
 - ``sim2real/CrowdNav-v0`` (:class:`CrowdNavEnv`): a TurtleBot 2 with a 2-D lidar and a depth
-  camera among pedestrians whose walking speed follows paper 000, eq. (1); three scenario
+  camera among pedestrians whose walking speed follows Liang et al. (2020), eq. (1); three scenario
   families and a complexity factor.
 - ``sim2real/RandomMap-v0`` (:class:`RandomMapEnv`): a TurtleBot 3 Burger crossing random maps
-  of walls and cylinders (paper 001, Table I presets).
+  of walls and cylinders (Yang et al., Table I presets).
 - ``sim2real/CarCrossing-v0`` (:class:`CarCrossingEnv`): a small Ackermann car passes an
-  obstacle while an occluded pedestrian crosses the adjacent lane (paper 002).
+  obstacle while an occluded pedestrian crosses the adjacent lane (Trararak et al.).
 - ``sim2real/Race-v0`` (:class:`RaceEnv`) and :func:`race_parallel_env` (PettingZoo): TurtleBot
-  3 Burgers race ORCA opponents on walled tracks (paper 003).
+  3 Burgers race ORCA opponents on walled tracks (Pozo Ruiz 2024).
 
 Both take ``dynamics="reduced"`` (the identified drive model in numba, pose integrated
 kinematically, exact 2-D world) or ``dynamics="pybullet"`` (the rigid-body robot of

@@ -1,6 +1,6 @@
-r"""A small four-wheeled car with front-wheel Ackermann steering (seed paper 002's robot).
+r"""A small four-wheeled car with front-wheel Ackermann steering (Trararak et al.'s robot).
 
-Geometry (paper 002, Sec. III-B): chassis 26 cm x 18 cm x 5 cm, wheels of radius 5 cm and
+Geometry (Trararak et al., Sec. III-B): chassis 26 cm x 18 cm x 5 cm, wheels of radius 5 cm and
 3 cm width; the front wheels steer, the rear wheels drive. Not printed, our choices: wheelbase
 18 cm, track (wheel centre to wheel centre) 22 cm (the wheels clear the chassis), total mass 1.0 kg, steering limit 30
 degrees, steering servo rate 3 rad/s.
@@ -79,7 +79,7 @@ class CarGeometry:
         )
 
 
-#: The car of paper 002.
+#: The car of Trararak et al.
 CAR = CarGeometry()
 
 #: Default drive chain of the car: 50 ms dead time, speed clamp 1.2 m/s, 1 m/s^2 rate limit,

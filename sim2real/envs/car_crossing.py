@@ -1,13 +1,13 @@
 r"""``sim2real/CarCrossing-v0``: a small car passes an obstacle while an occluded pedestrian crosses.
 
-Seed paper 002 (Trararak, Hoang and Pham, "Pedestrian avoidance simulation by deep
+Trararak, Hoang and Pham ("Pedestrian avoidance simulation by deep
 reinforcement learning using Webots"), Sec. III-A. The car (:mod:`sim2real.envs._car`: chassis
 26 x 18 x 5 cm, wheels r = 5 cm, front-wheel Ackermann steering) drives along +x on a straight
 two-lane road (two 0.6 m lanes, y in [-0.6, 0.6]); its own lane is the left one (centre
 y = +0.3), the adjacent lane the right one (centre y = -0.3), as the paper's PPO car makes
 "rightward adjustments" to pass.
 
-Scenario (paper 002: car at 0.6 m/s, obstacle 1.3 m ahead, pedestrian 1.8 m ahead crossing
+Scenario (Trararak et al.: car at 0.6 m/s, obstacle 1.3 m ahead, pedestrian 1.8 m ahead crossing
 the adjacent lane at 0.16 m/s, starting when the car "can drive to 1.5 m", goal 2.5 m)
     - the car starts at x = 0 in the centre of its lane (y jittered by U(-0.03, 0.03) m),
       heading +x, rolling at 0.6 m/s;
@@ -24,7 +24,7 @@ the adjacent lane at 0.16 m/s, starting when the car "can drive to 1.5 m", goal 
 
 Each episode's draws come from the env's seeded ``np_random``.
 
-Observation (14 float32 values, the kinds of paper 002 Sec. III-C-a)
+Observation (14 float32 values, the kinds of Trararak et al. Sec. III-C-a)
     0-1: position x / 2.5 m and y / 0.6 m; 2-6: five front distance sensors (rays from the
     front of the chassis at -40, -20, 0, 20, 40 degrees, 1 m range, reading / range); 7: steering
     angle / 30 degrees; 8-9: distance (centre to centre) to the obstacle and to the pedestrian
@@ -33,11 +33,11 @@ Observation (14 float32 values, the kinds of paper 002 Sec. III-C-a)
     3 m) and not hidden behind the obstacle (a line of sight test, which is what makes the
     pedestrian occluded); 13: heading / pi. (The paper lists the robot's roll angle; on a flat
     road the heading is the informative angle.)
-Action (``Discrete(4)``, paper 002 Sec. III-C-b)
+Action (``Discrete(4)``, Trararak et al. Sec. III-C-b)
     0: speed command +0.15 m/s; 1: speed command -0.075 m/s (not below 0); 2: steering command
     +5 degrees (left); 3: steering command -5 degrees (right); the steering command is limited
     to +-30 degrees, the speed by the drive chain (1.2 m/s by default).
-Reward (paper 002 eqs. 7-8, constants in :class:`CarCrossingReward`)
+Reward (Trararak et al. eqs. 7-8, constants in :class:`CarCrossingReward`)
     - progress: :math:`0.15\,(d_t - d_{t+1})` with the distances in decimetres (1.5 per metre)
       when the goal distance changed, and -0.05 when it did not (immobile). Eq. (7) prints
       :math:`(d_{t+1} - d_t)\cdot 0.15` for :math:`\Delta d > 0`: the sign is fixed so that
@@ -167,7 +167,7 @@ def _segment_hits_box(a: FloatArray, b: FloatArray, box: FloatArray) -> bool:
 
 
 class CarCrossingEnv(gym.Env):  # type: ignore[type-arg]
-    """Pass a static obstacle and an occluded crossing pedestrian with a small car (paper 002).
+    """Pass a static obstacle and an occluded crossing pedestrian with a small car (Trararak et al.).
 
     Parameters
     ----------

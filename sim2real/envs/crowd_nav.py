@@ -1,10 +1,10 @@
-r"""``sim2real/CrowdNav-v0``: a TurtleBot 2 with lidar and depth camera among pedestrians (paper 000).
+r"""``sim2real/CrowdNav-v0``: a TurtleBot 2 with lidar and depth camera among pedestrians (Liang et al. 2020).
 
 The robot crosses an enclosed 8 m x 8 m room from x = -3 m to a goal at x = +3 m (reached
 within 0.3 m). The world holds static obstacles (cylinders and boxes), walls and
-pedestrians (:mod:`sim2real.envs.pedestrians`, walking speed by eq. (1) of paper 000).
+pedestrians (:mod:`sim2real.envs.pedestrians`, walking speed by eq. (1) of Liang et al. (2020)).
 
-Scenario families and the complexity factor c in [0, 1] (paper 000, Sec. I-A-2)
+Scenario families and the complexity factor c in [0, 1] (Liang et al. 2020, Sec. I-A-2)
     ``"static"``
         Only immovable obstacles in the room of constant size; c sets their number
         (round(20 c)).
@@ -25,7 +25,7 @@ Scenario families and the complexity factor c in [0, 1] (paper 000, Sec. I-A-2)
 pedestrian count.
 
 Pedestrian policy (``pedestrians=`` or the reset option ``"pedestrians"``)
-    ``"eq1"`` (default): the density-dependent walking speed of paper 000's eq. (1)
+    ``"eq1"`` (default): the density-dependent walking speed of eq. (1) of Liang et al. (2020)
     (:mod:`sim2real.envs.pedestrians`); ``"orca"``: optimal reciprocal collision avoidance
     (:mod:`sim2real.envs.orca`, the policy crowd-navigation papers compare against) at the
     same preferred speeds, goals and start times; pedestrians then avoid the robot with its
@@ -93,7 +93,7 @@ __all__ = [
     "occlusion_fraction",
 ]
 
-#: The scenario families of paper 000.
+#: The scenario families of Liang et al. (2020).
 SCENARIOS = ("static", "dynamic", "occluded")
 
 _HALF_ROOM_M = 4.0
@@ -104,7 +104,7 @@ _GOAL_X_M = 3.0
 _PANEL_D_M = (1.5, 3.0)
 _PED_R_M = (0.18, 0.24)
 _OPTIONS = {"scenario", "complexity", "num_pedestrians", "pedestrian_density", "pedestrians"}
-#: Pedestrian policies: paper 000's eq. (1) speed model, or ORCA (van den Berg et al. 2011).
+#: Pedestrian policies: the speed model of eq. (1) of Liang et al. (2020), or ORCA (van den Berg et al. 2011).
 PEDESTRIAN_POLICIES = ("eq1", "orca")
 
 
@@ -154,7 +154,7 @@ def _scene(cylinders: FloatArray, boxes: FloatArray) -> Scene2D:
 
 
 class CrowdNavEnv(NavEnvBase):
-    """Dense-crowd navigation of a TurtleBot 2 with lidar and depth camera (paper 000).
+    """Dense-crowd navigation of a TurtleBot 2 with lidar and depth camera (Liang et al. 2020).
 
     Parameters
     ----------

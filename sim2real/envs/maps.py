@@ -1,4 +1,4 @@
-r"""Randomised maps of walls and cylinders (paper 001, Sec. III-E, Table I).
+r"""Randomised maps of walls and cylinders (Yang et al., Sec. III-E, Table I).
 
 The generator is the paper's :math:`Env(d_{target}, r_{wall}, n_{min}, n_{max})`: four walls,
 each spawned with probability :math:`r_{wall}` and moved and rotated at random so that they
@@ -114,7 +114,7 @@ class MapConfig:
                 raise Sim2RealValueError(f"map {name} must be a finite number > 0, got {value!r}")
 
 
-#: Table I of paper 001 (d_target 8 m, r_wall 0.8; the n ranges as [min, max]).
+#: Table I of Yang et al. (d_target 8 m, r_wall 0.8; the n ranges as [min, max]).
 PRESETS: dict[str, MapConfig] = {
     "TRAIN": MapConfig(n_min=70, n_max=100),
     "TEST1": MapConfig(n_min=5, n_max=50),

@@ -1,4 +1,4 @@
-r"""Episode metrics of the navigation envs (paper 000's standard metrics).
+r"""Episode metrics of the navigation envs (the standard metrics of Liang et al. 2020).
 
 Success, collision and timeout; path length; time to goal; and smoothness as the mean absolute
 change of the measured v and w per control step and the mean absolute jerk

@@ -1,7 +1,7 @@
-r"""Pedestrians as discs walking at the density-dependent speed of paper 000, eq. (1).
+r"""Pedestrians as discs walking at the density-dependent speed of Liang et al. (2020), eq. (1).
 
 Each pedestrian is a disc with state :math:`[r, \vec p, \vec v^{curr}, \vec v^{pref}] \in
-\mathbb{R}^7` (radius, position, current and preferred velocity; paper 000, Sec. I-A-2). Its
+\mathbb{R}^7` (radius, position, current and preferred velocity; Liang et al. (2020), Sec. I-A-2). Its
 natural walking speed is
 
 .. math::
@@ -22,12 +22,12 @@ head-on this is their centre spacing. The constants only enter through
 and 3 pedestrians/m^2 for a 1.72 m pedestrian — within 0.07 m/s of Weidmann's fundamental
 diagram :math:`v = 1.34\,[1 - e^{-1.913(1/\rho - 1/5.4)}]` (U. Weidmann, *Transporttechnik
 der Fussgänger*, ETH Zürich IVT report 90, 1993: 1.06, 0.61, 0.33 m/s), the empirical
-speed-density relation that paper 000 cites as "the fundamental diagram [12]". We split
+speed-density relation that Liang et al. (2020) cite as "the fundamental diagram [12]". We split
 :math:`k` as :math:`\alpha = 1.4, \beta = 0.35`: :math:`\beta` is the personal-space buffer
 (Narang et al., "Generating pedestrian trajectories consistent with the fundamental diagram
 based on physiological and psychological factors", PLoS ONE 10(4), 2015 — the source of
 eq. (1)), a 35 % margin over the stride length. "Higher than average constants" (scenario b of
-paper 000) scale :math:`\alpha` up.
+Liang et al. (2020)) scale :math:`\alpha` up.
 
 Steering (our choice; the paper does not specify it): each step every walking pedestrian
 tries seven headings within 60 degrees of the direction to its goal, evaluates eq. (1) along
@@ -83,7 +83,7 @@ def walking_speed(
     alpha: FloatArray | float = ALPHA,
     beta: float = BETA,
 ) -> FloatArray:
-    """Eq. (1) of paper 000: natural walking speed, m/s.
+    """Eq. (1) of Liang et al. (2020): natural walking speed, m/s.
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
-r"""``sim2real/Race-v0`` and a PettingZoo race: TurtleBot 3 Burgers against ORCA opponents (seed 003).
+r"""``sim2real/Race-v0`` and a PettingZoo race: TurtleBot 3 Burgers against ORCA opponents (Pozo Ruiz 2024).
 
-Seed 003 (Pozo Ruiz, "Desarrollo y evaluación de un entorno de simulación multi-robot para
+Pozo Ruiz (2024, "Desarrollo y evaluación de un entorno de simulación multi-robot para
 carreras", USFQ 2024) races TurtleBot 3 Burgers on walled tracks against agents that move with
 ORCA (its Table 1: 3-5 agents, unicycle robot, 0.25 s training step). Here:
 
@@ -537,7 +537,7 @@ def _check_action(a: Any, space: spaces.Box) -> FloatArray:
 
 
 class RaceEnv(gym.Env):  # type: ignore[type-arg]
-    """One TurtleBot 3 Burger racing ORCA opponents on a walled track (seed 003).
+    """One TurtleBot 3 Burger racing ORCA opponents on a walled track (Pozo Ruiz 2024).
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 r"""The thesis' traditional racer for ``Race-v0``: a global planner on the map plus DWA.
 
-Seed 003 races robots driven by the ROS navigation stack (move_base): a global planner (A* or
+Pozo Ruiz (2024) races robots driven by the ROS navigation stack (move_base): a global planner (A* or
 Dijkstra) on the costmap of the known track map and the dynamic-window approach (DWA) as the
 local planner, with a 0.25 m inflation radius and 0.2 m goal tolerance. Here:
 

@@ -1,15 +1,15 @@
-r"""``sim2real/RandomMap-v0``: mapless navigation through random walls and cylinders (paper 001).
+r"""``sim2real/RandomMap-v0``: mapless navigation through random walls and cylinders (Yang et al.).
 
 A TurtleBot 3 Burger starts at the origin with a random heading and must reach the goal
 :math:`(d_{target}, 0)` (within 0.3 m) through a map drawn by :mod:`sim2real.envs.maps`.
 
-Observation (40 float32 values, paper 001 Sec. III-B)
+Observation (40 float32 values, Yang et al. Sec. III-B)
     36 lidar ranges (m, LDS-01 limits 0.12-3.5 m; beams every 10 degrees counter-clockwise from
     straight ahead; readings outside the limits read 3.5), goal distance (m) and bearing (rad,
     counter-clockwise from the heading), measured v (m/s) and w (rad/s).
 Action
-    (v, w) with v in [0, 0.21] m/s and w in [-1, 1] rad/s (paper 001 Sec. III-B).
-Reward (paper 001 eqs. 2-5; the constants are ours, in :class:`RandomMapReward`)
+    (v, w) with v in [0, 0.21] m/s and w in [-1, 1] rad/s (Yang et al. Sec. III-B).
+Reward (Yang et al. eqs. 2-5; the constants are ours, in :class:`RandomMapReward`)
     .. math::
 
         r = r_{goal} + r_{crash} + r_{free} + r_{step}
@@ -72,12 +72,12 @@ class RandomMapReward:
 
 
 class RandomMapEnv(NavEnvBase):
-    """Mapless navigation of a TurtleBot 3 Burger through random maps (paper 001).
+    """Mapless navigation of a TurtleBot 3 Burger through random maps (Yang et al.).
 
     Parameters
     ----------
     preset : str
-        ``"TRAIN"``, ``"TEST1"`` ... ``"TEST4"`` (Table I of paper 001).
+        ``"TRAIN"``, ``"TEST1"`` ... ``"TEST4"`` (Table I of Yang et al.).
     map_config : MapConfig, optional
         A custom generator configuration (overrides ``preset``).
     dynamics : str

@@ -1,4 +1,4 @@
-r"""Race tracks of seed 003 (Pozo Ruiz 2024): walls, islands, start and goal lines, grid maps.
+r"""Race tracks of Pozo Ruiz (2024): walls, islands, start and goal lines, grid maps.
 
 The thesis trains on three scenarios (its Fig. 3: a curve path, a cross path and a no-wall
 field) and races on a Gazebo circuit "with straight paths, acute turns and roundabouts" (its

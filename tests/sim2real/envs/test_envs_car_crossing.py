@@ -1,4 +1,4 @@
-"""CarCrossing-v0 (seed 002): spaces, scenario, rewards, hazards, baseline, randomizers."""
+"""CarCrossing-v0 (Trararak et al.): spaces, scenario, rewards, hazards, baseline, randomizers."""
 
 from __future__ import annotations
 

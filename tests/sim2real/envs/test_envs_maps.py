@@ -1,4 +1,4 @@
-"""The map generator of paper 001: presets, reproducibility, safe discs, obstacle density."""
+"""The map generator of Yang et al.: presets, reproducibility, safe discs, obstacle density."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Pedestrians: eq. (1) of paper 000, its calibration, spawning at 3 / m^2, crowd stepping."""
+"""Pedestrians: eq. (1) of Liang et al. (2020), its calibration, spawning at 3 / m^2, crowd stepping."""
 
 from __future__ import annotations
 

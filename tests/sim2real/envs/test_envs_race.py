@@ -1,4 +1,4 @@
-"""Race-v0 and the PettingZoo race (seed 003): tracks, ORCA opponents, outcomes, baseline."""
+"""Race-v0 and the PettingZoo race (Pozo Ruiz 2024): tracks, ORCA opponents, outcomes, baseline."""
 
 from __future__ import annotations
 
