@@ -8,8 +8,8 @@ Temp names are ``.<name>.<pid>.<random>.tmp`` beside the target; :func:`clean_or
 those whose writer process is gone (a run that was killed). Files get the user's umask
 (``0666 & ~umask``, 0644 by default), like any file a program creates.
 
-Example
--------
+Examples
+--------
 >>> import tempfile
 >>> from pathlib import Path
 >>> folder = Path(tempfile.mkdtemp())
