@@ -103,6 +103,7 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
         needs_world: bool,
         drive_distribution: DriveDistribution | None = None,
         drive_spread: float = 1.0,
+        plant_sessions: Any = None,
     ) -> None:
         super().__init__()
         check_env_arguments(
@@ -116,6 +117,12 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
             drive_distribution, drive_spread, self.robot_spec.name
         )
         self._drive_spread = float(drive_spread)
+        if dynamics == "plant" and drive_distribution is not None:
+            raise Sim2RealValueError(
+                "drive_distribution randomises the drive model, which dynamics='plant' does "
+                "not use; pass plant_sessions= for the plant's sessions, or use "
+                "dynamics='reduced'"
+            )
         self.dynamics = dynamics
         #: Control period, s (the randomizers read ``env.unwrapped.control_dt``).
         self.control_dt = float(control_dt)
@@ -129,6 +136,7 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
             self.robot_spec,
             params,
             client=None if self._world is None else self._world.client,
+            plant_sessions=plant_sessions,
         )
         self._tracker = MetricsTracker(control_dt_s=self.control_dt)
         self._scene = Scene2D.build()
@@ -204,6 +212,7 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
         if self._drive_distribution is not None:  # this episode's robot, from np_random
             drawn = self._drive_distribution.sample(self.np_random, 1, spread=self._drive_spread)
             self._backend.set_drive_params(drawn[0])
+        self._backend.new_session(self.np_random)  # dynamics="plant": this episode's plant
         self._backend.reset(x, y, yaw)
         self._tracker.reset(x, y)
         self._prev_goal_dist = self._goal_polar()[0]

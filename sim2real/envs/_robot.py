@@ -1,10 +1,12 @@
-"""The two robot back-ends of the envs: the reduced drive model or the full pybullet robot.
+"""The robot back-ends of the envs: the reduced drive model, the pybullet robot or a plant.
 
-Both take a :class:`robots.spec.RobotSpec` and expose the same small interface: ``reset``,
-``step(cmd_v, cmd_w, duration_s) -> (v, w)``, ``pose`` (x, y, yaw), ``velocity`` (v, w) and the
-drive-parameter protocol. ``"reduced"`` integrates the pose kinematically from the drive
-model's velocity (exact circular arcs over sub-steps of at most ``substep_s``); ``"pybullet"``
-steps the rigid-body robot of :mod:`robots` and reads its pose.
+They take a :class:`robots.spec.RobotSpec` and expose the same small interface: ``reset``,
+``new_session``, ``step(cmd_v, cmd_w, duration_s) -> (v, w)``, ``pose`` (x, y, yaw),
+``velocity`` (v, w) and the drive-parameter protocol. ``"reduced"`` integrates the pose
+kinematically from the drive model's velocity (exact circular arcs over sub-steps of at most
+``substep_s``); ``"pybullet"`` steps the rigid-body robot of :mod:`robots` and reads its pose;
+``"plant"`` drives a foreign plant (:mod:`sim2real.plants.closed_loop`), a base that is not
+the project's drive model, and reports the base's odometry as its velocity.
 """
 
 from __future__ import annotations
@@ -12,14 +14,25 @@ from __future__ import annotations
 import math
 from typing import Any, Protocol
 
+import numpy as np
+
 from robots.params import DriveParams
 from robots.reduced import ReducedDrive
 from sim2real.errors import Sim2RealValueError
+from sim2real.plants.closed_loop import PlantSessions, PlantStepper, as_plant_sessions
+from sim2real.plants.diff_drive import PlantParams
 
-__all__ = ["DYNAMICS", "RobotBackend", "check_env_arguments", "footprint_radius_m", "make_backend"]
+__all__ = [
+    "DYNAMICS",
+    "PlantBackend",
+    "RobotBackend",
+    "check_env_arguments",
+    "footprint_radius_m",
+    "make_backend",
+]
 
 #: The dynamics back-ends an env accepts.
-DYNAMICS = ("reduced", "pybullet")
+DYNAMICS = ("reduced", "pybullet", "plant")
 
 
 def check_env_arguments(
@@ -29,16 +42,18 @@ def check_env_arguments(
     max_episode_steps: int,
     drive_params: DriveParams | None,
     pybullet_body: str = "full rigid-body robot",
+    choices: tuple[str, ...] = DYNAMICS,
 ) -> None:
     """Refuse an env constructor's common arguments that are out of range, in one sentence.
 
     Shared by the navigation envs, CarCrossing-v0 and Race-v0; ``pybullet_body`` names what the
-    pybullet back-end simulates.
+    pybullet back-end simulates, ``choices`` the back-ends the env has.
     """
-    if dynamics not in DYNAMICS:
+    if dynamics not in choices:
+        plant = ", or 'plant' (a foreign base to evaluate on)" if "plant" in choices else ""
         raise Sim2RealValueError(
-            f"dynamics (--dynamics) must be one of {', '.join(DYNAMICS)}, got {dynamics!r}; "
-            f"use 'reduced' (fast) or 'pybullet' ({pybullet_body})"
+            f"dynamics (--dynamics) must be one of {', '.join(choices)}, got {dynamics!r}; "
+            f"use 'reduced' (fast) or 'pybullet' ({pybullet_body}){plant}"
         )
     if not (isinstance(control_dt, int | float) and math.isfinite(control_dt) and control_dt > 0):
         raise Sim2RealValueError(
@@ -106,6 +121,9 @@ class RobotBackend(Protocol):
     def reset(self, x: float, y: float, yaw: float) -> None:
         """Place the robot at rest."""
 
+    def new_session(self, rng: Any) -> None:
+        """Draw the next episode's robot from ``rng`` where the back-end has sessions."""
+
     def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
         """Apply the command for ``duration_s``; return the measured (v, w)."""
         ...
@@ -140,6 +158,9 @@ class ReducedBackend:
     def reset(self, x: float, y: float, yaw: float) -> None:
         self._drive.reset()
         self._pose = (float(x), float(y), float(yaw))
+
+    def new_session(self, rng: Any) -> None:
+        pass
 
     def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
         n = max(1, math.ceil(duration_s / self._substep_s - 1e-9))
@@ -205,6 +226,9 @@ class PybulletBackend:
             start_pose=(x, y, yaw),
         )
 
+    def new_session(self, rng: Any) -> None:
+        pass
+
     def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
         v, w = self._robot.step(cmd_v, cmd_w, duration_s)
         return float(v), float(w)
@@ -220,10 +244,90 @@ class PybulletBackend:
         pass
 
 
+class PlantBackend:
+    """A foreign plant session per episode (:class:`~sim2real.plants.closed_loop.PlantStepper`).
+
+    The pose is integrated from the plant's true body velocity (exact arcs over its sub-steps,
+    as :class:`ReducedBackend`); ``velocity`` is the base's odometry. The drive-parameter
+    protocol reads the spec's parameters and refuses changes: the plant's motion comes from its
+    own physics.
+    """
+
+    def __init__(self, spec: Any, params: DriveParams, sessions: PlantSessions) -> None:
+        self._params = params
+        self.sessions = sessions
+        self._stepper = PlantStepper(sessions.base, np.random.default_rng(0))
+        self._pose = (0.0, 0.0, 0.0)
+
+    @property
+    def session(self) -> PlantParams:
+        """The plant of the current episode."""
+        return self._stepper.params
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        return self._pose
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        return self._stepper.odometry
+
+    def new_session(self, rng: Any) -> None:
+        """Draw the session's plant, then seed its noise (latency, gyro) from ``rng``."""
+        params = self.sessions.draw(rng)
+        self._stepper = PlantStepper(params, np.random.default_rng(int(rng.integers(2**63))))
+
+    def reset(self, x: float, y: float, yaw: float) -> None:
+        self._stepper.reset()
+        self._pose = (float(x), float(y), float(yaw))
+
+    def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
+        v0, w0 = self._stepper.true_velocity
+        t, v, w = self._stepper.step(cmd_v, cmd_w, duration_s)
+        h = duration_s / t.size
+        x, y, yaw = self._pose
+        for v1, w1 in zip(v.tolist(), w.tolist(), strict=True):
+            x, y, yaw = arc_step(x, y, yaw, 0.5 * (v0 + v1), 0.5 * (w0 + w1), h)
+            v0, w0 = v1, w1
+        self._pose = (x, y, yaw)
+        return self._stepper.odometry
+
+    def get_drive_params(self) -> DriveParams:
+        return self._params
+
+    def set_drive_params(self, params: DriveParams) -> None:
+        raise Sim2RealValueError(
+            "set_drive_params does not apply to dynamics='plant': the plant's motion comes from "
+            "its own physics; choose its sessions with plant_sessions=, or train with "
+            "dynamics='reduced'"
+        )
+
+    def close(self) -> None:
+        pass
+
+
 def make_backend(
-    dynamics: str, spec: Any, params: DriveParams, *, client: int | None = None
+    dynamics: str,
+    spec: Any,
+    params: DriveParams,
+    *,
+    client: int | None = None,
+    plant_sessions: Any = None,
 ) -> RobotBackend:
-    """The back-end called ``dynamics`` (one of :data:`DYNAMICS`)."""
+    """The back-end called ``dynamics`` (one of :data:`DYNAMICS`).
+
+    ``plant_sessions`` (``dynamics="plant"`` only): a
+    :class:`~sim2real.plants.closed_loop.PlantSessions`, one fixed
+    :class:`~sim2real.plants.diff_drive.PlantParams`, or ``None`` for the robot's plant with
+    the default session variation.
+    """
+    if plant_sessions is not None and dynamics != "plant":
+        raise Sim2RealValueError(
+            f"plant_sessions drive dynamics='plant' only, got dynamics={dynamics!r}; "
+            "pass dynamics='plant' or leave plant_sessions out"
+        )
+    if dynamics == "plant":
+        return PlantBackend(spec, params, as_plant_sessions(plant_sessions, spec.name))
     if dynamics == "reduced":
         return ReducedBackend(spec, params)
     if dynamics == "pybullet":

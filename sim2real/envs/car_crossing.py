@@ -202,6 +202,7 @@ class CarCrossingEnv(gym.Env):  # type: ignore[type-arg]
             max_episode_steps=max_episode_steps,
             drive_params=drive_params,
             pybullet_body="rigid-body car",
+            choices=("reduced", "pybullet"),
         )
         self.dynamics = dynamics
         #: Control period, s (the randomizers read ``env.unwrapped.control_dt``).

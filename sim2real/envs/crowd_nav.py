@@ -84,6 +84,8 @@ from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, rectangle_seg
 from sim2real.envs.orca import OrcaCrowd
 from sim2real.envs.pedestrians import ALPHA, Crowd, spawn_positions
 from sim2real.errors import Sim2RealValueError
+from sim2real.plants.closed_loop import PlantSessions
+from sim2real.plants.diff_drive import PlantParams
 
 __all__ = [
     "PEDESTRIAN_POLICIES",
@@ -170,7 +172,7 @@ class CrowdNavEnv(NavEnvBase):
     depth_width, depth_height : int
         Depth image size, pixels.
     dynamics : str
-        ``"reduced"`` or ``"pybullet"``.
+        ``"reduced"``, ``"pybullet"`` or ``"plant"`` (a foreign base, to evaluate on).
     control_dt : float
         Control period, s.
     max_episode_steps : int
@@ -186,6 +188,11 @@ class CrowdNavEnv(NavEnvBase):
         env's sub-envs draw the same robots as single envs with the same seeds.
     drive_spread : float
         Multiplies every standard deviation of ``drive_distribution`` (1 = as given).
+    plant_sessions : PlantSessions or PlantParams, optional
+        ``dynamics="plant"`` only: where each episode's plant session comes from, drawn at
+        reset from the env's ``np_random`` after the world (default: the robot's plant with
+        the default payload, floor, battery and latency variation); a ``PlantParams`` is one
+        fixed session.
     robot : str
         Robot spec name (needs a lidar and a depth camera).
     """
@@ -206,6 +213,7 @@ class CrowdNavEnv(NavEnvBase):
         drive_params: DriveParams | None = None,
         drive_distribution: DriveDistribution | None = None,
         drive_spread: float = 1.0,
+        plant_sessions: PlantSessions | PlantParams | None = None,
         robot: str = "turtlebot2",
     ) -> None:
         self.scenario, self.complexity = self._check_scenario(scenario, complexity)
@@ -228,6 +236,7 @@ class CrowdNavEnv(NavEnvBase):
             needs_world=False,
             drive_distribution=drive_distribution,
             drive_spread=drive_spread,
+            plant_sessions=plant_sessions,
         )
         cam = self.robot_spec.depth_camera
         if cam is None:

@@ -70,6 +70,8 @@ from sim2real.envs.metrics import MetricsTracker
 from sim2real.envs.orca import OrcaConfig, orca_velocities
 from sim2real.envs.tracks import TRACKS, Track, get_track
 from sim2real.errors import Sim2RealValueError
+from sim2real.plants.closed_loop import PlantSessions
+from sim2real.plants.diff_drive import PlantParams
 
 __all__ = [
     "RACE_OUTCOMES",
@@ -145,7 +147,7 @@ class RaceCore:
     n_robots, num_opponents : int
         Learning robots and ORCA opponents.
     dynamics : str
-        ``"reduced"`` or ``"pybullet"``.
+        ``"reduced"``, ``"pybullet"`` or ``"plant"`` (foreign bases, to evaluate on).
     control_dt : float
         Control period, s.
     max_episode_steps : int
@@ -156,6 +158,9 @@ class RaceCore:
         The robots' drive parameters (default: the spec's).
     robot : str
         Robot spec name.
+    plant_sessions : PlantSessions or PlantParams, optional
+        ``dynamics="plant"`` only: where each robot's plant session comes from, drawn at each
+        reset (see :class:`RaceEnv`).
     """
 
     def __init__(
@@ -170,6 +175,7 @@ class RaceCore:
         reward: RaceReward,
         drive_params: DriveParams | None,
         robot: str,
+        plant_sessions: PlantSessions | PlantParams | None = None,
     ) -> None:
         from robots.spec import load_spec
 
@@ -203,7 +209,8 @@ class RaceCore:
         params = drive_params if drive_params is not None else self.spec.drive
         client = None if self.world is None else self.world.client
         self.backends: list[RobotBackend] = [
-            make_backend(dynamics, self.spec, params, client=client) for _ in range(n_robots)
+            make_backend(dynamics, self.spec, params, client=client, plant_sessions=plant_sessions)
+            for _ in range(n_robots)
         ]
         self.scene: Scene2D = self.track.scene()
         self.orca = OrcaConfig(time_horizon_s=2.0, obstacle_time_horizon_s=0.5, neighbor_dist_m=2.0)
@@ -252,6 +259,7 @@ class RaceCore:
             self._build_pybullet_static()
         for k, backend in enumerate(self.backends):
             x, y = slots[robot_slots[k]]
+            backend.new_session(rng)  # dynamics="plant": this race's plant of robot k
             backend.reset(float(x), float(y), t.start_yaw_rad + rng.uniform(-0.05, 0.05))
             self.trackers[k].reset(float(x), float(y))
         self.opp_path = []
@@ -546,7 +554,7 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
     num_opponents : int
         ORCA opponents, 0-5 (the thesis: 3-5).
     dynamics : str
-        ``"reduced"`` or ``"pybullet"``.
+        ``"reduced"``, ``"pybullet"`` or ``"plant"`` (a foreign base, to evaluate on).
     control_dt : float
         Control period, s.
     max_episode_steps : int, optional
@@ -557,6 +565,11 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
         Drive parameters (default: the spec's).
     robot : str
         Robot spec name.
+    plant_sessions : PlantSessions or PlantParams, optional
+        ``dynamics="plant"`` only: where each episode's plant session comes from, drawn at
+        reset from the env's ``np_random`` after the start grid (default: the robot's plant
+        with the default payload, floor, battery and latency variation); a ``PlantParams`` is
+        one fixed session.
 
     Notes
     -----
@@ -577,6 +590,7 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
         reward: RaceReward | None = None,
         drive_params: DriveParams | None = None,
         robot: str = "turtlebot3_burger",
+        plant_sessions: PlantSessions | PlantParams | None = None,
     ) -> None:
         super().__init__()
         _check_options(track, num_opponents, 1)
@@ -593,6 +607,7 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
             reward=reward if reward is not None else RaceReward(),
             drive_params=drive_params,
             robot=robot,
+            plant_sessions=plant_sessions,
         )
         self.control_dt = self.core.control_dt
         self.robot_spec = self.core.spec
@@ -782,6 +797,7 @@ def race_parallel_env(
     max_episode_steps: int | None = None,
     reward: RaceReward | None = None,
     drive_params: DriveParams | None = None,
+    plant_sessions: PlantSessions | PlantParams | None = None,
 ) -> RaceParallelEnv:
     """The race of :class:`RaceEnv` with ``n_robots`` learning robots (PettingZoo ParallelEnv).
 
@@ -805,5 +821,6 @@ def race_parallel_env(
         reward=reward if reward is not None else RaceReward(),
         drive_params=drive_params,
         robot="turtlebot3_burger",
+        plant_sessions=plant_sessions,
     )
     return RaceParallelEnv(core)

@@ -52,6 +52,8 @@ from sim2real.envs._nav import NavEnvBase, StepInfo
 from sim2real.envs.geometry import FloatArray
 from sim2real.envs.maps import MapConfig, MapLayout, generate_map, get_preset
 from sim2real.errors import Sim2RealValueError
+from sim2real.plants.closed_loop import PlantSessions
+from sim2real.plants.diff_drive import PlantParams
 
 __all__ = ["RandomMapEnv", "RandomMapReward"]
 
@@ -81,7 +83,8 @@ class RandomMapEnv(NavEnvBase):
     map_config : MapConfig, optional
         A custom generator configuration (overrides ``preset``).
     dynamics : str
-        ``"reduced"`` (drive model in numba, exact 2-D world) or ``"pybullet"``.
+        ``"reduced"`` (drive model in numba, exact 2-D world), ``"pybullet"`` or ``"plant"``
+        (a foreign base, to evaluate on).
     control_dt : float
         Control period, s.
     max_episode_steps : int
@@ -98,6 +101,11 @@ class RandomMapEnv(NavEnvBase):
         env's sub-envs draw the same robots as single envs with the same seeds.
     drive_spread : float
         Multiplies every standard deviation of ``drive_distribution`` (1 = as given).
+    plant_sessions : PlantSessions or PlantParams, optional
+        ``dynamics="plant"`` only: where each episode's plant session comes from, drawn at
+        reset from the env's ``np_random`` after the world (default: the robot's plant with
+        the default payload, floor, battery and latency variation); a ``PlantParams`` is one
+        fixed session.
     robot : str
         Robot spec name.
 
@@ -118,6 +126,7 @@ class RandomMapEnv(NavEnvBase):
         drive_params: DriveParams | None = None,
         drive_distribution: DriveDistribution | None = None,
         drive_spread: float = 1.0,
+        plant_sessions: PlantSessions | PlantParams | None = None,
         robot: str = "turtlebot3_burger",
     ) -> None:
         self.map_config = map_config if map_config is not None else get_preset(preset)
@@ -132,6 +141,7 @@ class RandomMapEnv(NavEnvBase):
             needs_world=False,
             drive_distribution=drive_distribution,
             drive_spread=drive_spread,
+            plant_sessions=plant_sessions,
         )
         self.reward_config = reward if reward is not None else RandomMapReward()
         lid = self.robot_spec.lidar

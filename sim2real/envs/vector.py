@@ -99,7 +99,7 @@ def _info_dtype(value: Any) -> Any:
 
 
 class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
-    """Shared machinery of the native vector navigation envs (reduced dynamics only).
+    """Shared machinery of the native vector navigation envs (reduced dynamics or plant).
 
     Sub-env objects (the single envs) draw the worlds at reset; the vector env copies each
     new world and robot into arrays and steps all robots in compiled loops.
@@ -118,12 +118,14 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         _jit.compile_all()
         self.envs = list(envs)
         first = self.envs[0]
-        if first.dynamics != "reduced":
+        if first.dynamics not in ("reduced", "plant"):
             raise Sim2RealValueError(
-                f"the native vector env steps the reduced drive model only, got "
-                f"dynamics={first.dynamics!r}; use dynamics='reduced' or "
+                f"the native vector env steps the reduced drive model or the plant, got "
+                f"dynamics={first.dynamics!r}; use dynamics='reduced' or 'plant', or "
                 "vectorization_mode='sync' for pybullet"
             )
+        #: ``dynamics="plant"``: each sub-env's plant steps its robot (one call per sub-env).
+        self._plant = first.dynamics == "plant"
         self.num_envs = len(self.envs)
         self.autoreset_mode = AutoresetMode.NEXT_STEP
         self.single_observation_space = first.observation_space
@@ -134,14 +136,14 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self.control_dt = first.control_dt
         self.max_episode_steps = first.max_episode_steps
         n = self.num_envs
-        backend = first._backend
-        assert isinstance(backend, ReducedBackend)
-        self._substep_s = backend._substep_s
         # the sub-step split of ReducedBackend.step and ReducedDrive.step (same arithmetic)
+        drive = first._backend  # with the plant, its arrays stay unused
+        if not isinstance(drive, ReducedBackend):
+            drive = ReducedBackend(first.robot_spec, first.robot_spec.drive)
+        self._substep_s = drive._substep_s
         self._n_sub = max(1, math.ceil(self.control_dt / self._substep_s - 1e-9))
         self._h = self.control_dt / self._n_sub
-        drive = backend._drive
-        self._n_inner = max(1, round(self._h / drive.dt_s))
+        self._n_inner = max(1, round(self._h / drive._drive.dt_s))
         self._dt_inner = self._h / self._n_inner
         lid = first.robot_spec.lidar
         self._lidar_xy = np.array([lid.xyz_m[0], lid.xyz_m[1]], dtype=np.float64)
@@ -157,7 +159,7 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self._hist = np.zeros((n, _HISTORY_ROWS, 3))
         self._n_hist = np.zeros(n, dtype=np.int64)
         self._time = np.zeros(n)
-        self._packed = np.zeros((n, drive._packed.shape[0]))
+        self._packed = np.zeros((n, drive._drive._packed.shape[0]))
         self._delay = np.zeros(n)
         self._timeout = np.zeros(n)
         # world
@@ -206,6 +208,8 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
 
     def _load_drive(self, i: int) -> None:
         """Copy sub-env ``i``'s drive parameters into the arrays."""
+        if self._plant:
+            return
         drive = self._drive(i)
         self._packed[i] = drive._packed
         self._delay[i] = drive.params.delay_s
@@ -248,18 +252,11 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         """Copy sub-env ``i``'s freshly reset episode (robot, world, goal) into the arrays."""
         env = self.envs[i]
         backend = env._backend
-        drive = self._drive(i)
         self._pose[i] = backend.pose
-        self._state[i] = drive._state
-        n = drive._n
-        if n > self._hist.shape[1]:
-            grown = np.zeros((self.num_envs, n, 3))
-            grown[:, : self._hist.shape[1]] = self._hist
-            self._hist = grown
-        self._hist[i, :n] = drive._hist[:n]
-        self._n_hist[i] = n
-        self._time[i] = drive.time_s
-        self._load_drive(i)
+        if self._plant:
+            self._state[i, :2] = backend.velocity
+        else:
+            self._load_reduced(i)
         self._load_scene(i, env._dynamic_scene())
         self._goal[i] = env._goal
         self._prev_goal[i] = env._prev_goal_dist
@@ -277,6 +274,48 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
                 self._extra[key] = column
             column[i] = value
         self._load_more(i)
+
+    def _load_reduced(self, i: int) -> None:
+        """Copy sub-env ``i``'s freshly reset drive model (state, history, clock)."""
+        drive = self._drive(i)
+        self._state[i] = drive._state
+        n = drive._n
+        if n > self._hist.shape[1]:
+            grown = np.zeros((self.num_envs, n, 3))
+            grown[:, : self._hist.shape[1]] = self._hist
+            self._hist = grown
+        self._hist[i, :n] = drive._hist[:n]
+        self._n_hist[i] = n
+        self._time[i] = drive.time_s
+        self._load_drive(i)
+
+    def _move(self, active: np.ndarray, cmd: FloatArray) -> None:
+        """One control step of the active sub-envs' robots (pose, velocity, path length)."""
+        if not self._plant:
+            move_robots(
+                active,
+                cmd,
+                self._n_sub,
+                self._h,
+                self._n_inner,
+                self._dt_inner,
+                self._state,
+                self._hist,
+                self._n_hist,
+                self._time,
+                self._delay,
+                self._timeout,
+                self._packed,
+                self._pose,
+                self._path,
+            )
+            return
+        for k in np.flatnonzero(active):
+            backend = self.envs[int(k)]._backend
+            x0, y0 = self._pose[k, 0], self._pose[k, 1]
+            self._state[k, :2] = backend.step(float(cmd[k, 0]), float(cmd[k, 1]), self.control_dt)
+            self._pose[k] = backend.pose
+            self._path[k] += math.hypot(self._pose[k, 0] - x0, self._pose[k, 1] - y0)
 
     # ------------------------------------------------------------------ hooks
     def _load_more(self, i: int) -> None:
@@ -367,23 +406,7 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         cmd = np.clip(a, self._act_low, self._act_high)
         resets = np.flatnonzero(self._autoreset)
         active = ~self._autoreset
-        move_robots(
-            active,
-            cmd,
-            self._n_sub,
-            self._h,
-            self._n_inner,
-            self._dt_inner,
-            self._state,
-            self._hist,
-            self._n_hist,
-            self._time,
-            self._delay,
-            self._timeout,
-            self._packed,
-            self._pose,
-            self._path,
-        )
+        self._move(active, cmd)
         self._advance(active)
         self._sense(active)
         obs, rewards, outcome = self._finish(active)
@@ -495,7 +518,7 @@ class RandomMapVectorEnv(NavVectorEnv):
         Number of sub-envs.
     **kwargs
         The single env's arguments (``preset``, ``map_config``, ``control_dt``, ...);
-        ``dynamics`` must be ``"reduced"``.
+        ``dynamics`` must be ``"reduced"`` or ``"plant"``.
     """
 
     def __init__(self, num_envs: int = 1, **kwargs: Any) -> None:
@@ -569,7 +592,7 @@ class CrowdNavVectorEnv(NavVectorEnv):
         Number of sub-envs.
     **kwargs
         The single env's arguments (``scenario``, ``complexity``, ``pedestrians``, ...);
-        ``dynamics`` must be ``"reduced"``.
+        ``dynamics`` must be ``"reduced"`` or ``"plant"``.
     """
 
     def __init__(self, num_envs: int = 1, **kwargs: Any) -> None:

@@ -508,6 +508,37 @@ def _pi(err: float, integ: float, kp: float, ki_dt: float, lo: float, hi: float)
     return u, integ + ki_dt * err
 
 
+#: Layout of the plant's integration state (:func:`_kernel`): body velocities, wheel angles,
+#: PI integrators, wheel torques, smoothed references, index of the last arrived command,
+#: clock, next firmware tick, and the previous step's (v, w, angle L, angle R).
+_STATE = (
+    "v",
+    "w",
+    "ang_l",
+    "ang_r",
+    "integ_l",
+    "integ_r",
+    "torque_l",
+    "torque_r",
+    "ref_v",
+    "ref_w",
+    "last_cmd",
+    "t",
+    "next_ctrl",
+    "prev_v",
+    "prev_w",
+    "prev_ang_l",
+    "prev_ang_r",
+)
+
+
+def _fresh_state() -> FloatArray:
+    """The integration state of a base at rest at t = 0 with no command arrived."""
+    state = np.zeros(len(_STATE))
+    state[_STATE.index("last_cmd")] = -1.0
+    return state
+
+
 @numba.njit(cache=True)
 def _kernel(
     p: FloatArray,
@@ -518,8 +549,14 @@ def _kernel(
     dt: float,
     ctrl_dt: float,
     out: FloatArray,
+    state: FloatArray,
 ) -> None:
-    """Integrate the plant; writes (v, w, wheel angle L, wheel angle R) at ``out_t``."""
+    """Integrate the plant from ``state`` until every ``out_t`` is reached.
+
+    Writes (v, w, wheel angle L, wheel angle R) at ``out_t`` (increasing; times the state has
+    already passed are interpolated over its last step) and leaves the state at the first
+    physics step at or after the last, so a run can go on with later commands and times.
+    """
     m, inertia, r, sep = p[0], p[1], p[2], p[3]
     vmax, wmax, acc_v, acc_w, wcap, timeout = p[4], p[5], p[6], p[7], p[8], p[9]
     kp, ki, stall, noload, vnom, vbatt, sag, scrub, fade = (
@@ -542,20 +579,24 @@ def _kernel(
     m_mode = min(0.5 * m, inertia / (sep * sep))
     cmax = max(cf[0], cf[1], cb[0], cb[1], scrub / half, 1e-9)
     scale = max(0.002, 4.0 * cmax * dt / m_mode)
-    v = 0.0
-    w = 0.0
-    ang = np.zeros(2)
-    integ = np.zeros(2)
-    torque = np.zeros(2)
-    ref_v = 0.0
-    ref_w = 0.0
-    j = -1  # last arrived command
+    v, w = state[0], state[1]
+    ang = state[2:4].copy()
+    integ = state[4:6].copy()
+    torque = state[6:8].copy()
+    ref_v, ref_w = state[8], state[9]
+    j = int(state[10])  # last arrived command
+    t, next_ctrl = state[11], state[12]
+    prev = state[13:17].copy()
     n_cmd = arr_t.size
-    t = 0.0
-    next_ctrl = 0.0
     k_out = 0
     n_out = out_t.size
-    prev = np.zeros(4)
+    while k_out < n_out and out_t[k_out] <= t:  # passed in the last step of an earlier call
+        a = (out_t[k_out] - (t - dt)) / dt
+        out[k_out, 0] = prev[0] + a * (v - prev[0])
+        out[k_out, 1] = prev[1] + a * (w - prev[1])
+        out[k_out, 2] = prev[2] + a * (ang[0] - prev[2])
+        out[k_out, 3] = prev[3] + a * (ang[1] - prev[3])
+        k_out += 1
     while k_out < n_out:
         if t >= next_ctrl - 1e-12:
             next_ctrl += ctrl_dt
@@ -611,6 +652,14 @@ def _kernel(
             out[k_out, 3] = prev[3] + a * (ang[1] - prev[3])
             k_out += 1
         t = t_new
+    state[0], state[1] = v, w
+    state[2:4] = ang
+    state[4:6] = integ
+    state[6:8] = torque
+    state[8], state[9] = ref_v, ref_w
+    state[10] = j
+    state[11], state[12] = t, next_ctrl
+    state[13:17] = prev
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -709,6 +758,7 @@ def run_plant(
         params.physics_dt_s,
         1.0 / params.control_rate_hz,
         out,
+        _fresh_state(),
     )
     tick = 2.0 * math.pi / params.ticks_per_rev
     ticks_l = np.floor(out[:, 2] / tick).astype(np.int64)

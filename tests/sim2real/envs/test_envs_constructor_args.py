@@ -25,7 +25,7 @@ ENVS: dict[str, Callable[..., Any]] = {
 }
 
 CASES = [
-    ({"dynamics": "ode"}, "dynamics (--dynamics) must be one of reduced, pybullet, got 'ode'"),
+    ({"dynamics": "ode"}, "dynamics (--dynamics) must be one of reduced, pybullet"),
     ({"control_dt": 0.0}, "control_dt must be a finite number of seconds > 0, got 0.0"),
     ({"control_dt": math.nan}, "control_dt must be a finite number of seconds > 0, got nan"),
     ({"control_dt": -0.1}, "control_dt must be a finite number of seconds > 0, got -0.1"),

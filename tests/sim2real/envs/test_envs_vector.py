@@ -170,7 +170,7 @@ def test_autoreset_follows_next_step_mode() -> None:
     ("kwargs", "match"),
     [
         ({"num_envs": 0}, "num_envs must be an integer >= 1, got 0"),
-        ({"num_envs": 2, "dynamics": "pybullet"}, "reduced drive model only"),
+        ({"num_envs": 2, "dynamics": "pybullet"}, "reduced drive model or the plant"),
         ({"num_envs": 2, "preset": "HARD"}, "unknown map preset 'HARD'"),
     ],
 )
