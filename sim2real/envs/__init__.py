@@ -10,10 +10,14 @@
 - ``sim2real/Race-v0`` (:class:`RaceEnv`) and :func:`race_parallel_env` (PettingZoo): TurtleBot
   3 Burgers race ORCA opponents on walled tracks (Pozo Ruiz 2024).
 
-Both take ``dynamics="reduced"`` (the identified drive model in numba, pose integrated
+They take ``dynamics="reduced"`` (the identified drive model in numba, pose integrated
 kinematically, exact 2-D world) or ``dynamics="pybullet"`` (the rigid-body robot of
 :mod:`robots`), expose ``control_dt`` and the drive-parameter protocol, and CrowdNav the
-camera-pose protocol of ``docs/ARCHITECTURE.md``.
+camera-pose protocol of ``docs/ARCHITECTURE.md``. RandomMap-v0, CrowdNav-v0 and Race-v0 also
+take ``dynamics="plant"``: a foreign base (:mod:`sim2real.plants.closed_loop`), one session
+per episode from ``plant_sessions=``, to evaluate a policy on, never to train on.
+
+May import :mod:`robots` and :mod:`sim2real.plants`.
 
 Examples
 --------

@@ -5,7 +5,9 @@ produce:
 
 - :mod:`~sim2real.plants.diff_drive`: a differential drive with PI wheel loops, a DC motor's
   torque-speed line, battery sag, quantised encoders and command latency; fleets of sessions;
-- :mod:`~sim2real.plants.skid`: a four-wheel skid steer whose slip comes out of tyre forces.
+- :mod:`~sim2real.plants.skid`: a four-wheel skid steer whose slip comes out of tyre forces;
+- :mod:`~sim2real.plants.closed_loop`: the differential drive stepped one command at a time
+  (the envs' ``dynamics="plant"``) and the sessions it is drawn from.
 
 May import :mod:`robots` and :mod:`sim2real.logs`; nothing that fits or measures.
 """
