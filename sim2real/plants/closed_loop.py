@@ -10,8 +10,8 @@ fixed :class:`~sim2real.plants.diff_drive.PlantParams`, or a base with a per-ses
 payload, floor friction, battery charge and latency
 (:class:`~sim2real.plants.diff_drive.SessionVariation`).
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from sim2real.plants.closed_loop import PlantSessions, PlantStepper
 >>> sessions = PlantSessions.of("turtlebot3_burger")
