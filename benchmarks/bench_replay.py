@@ -22,6 +22,7 @@ from _timing import QUICK, alternate, command_times, machine, paired_ratios, rec
 
 from robots.reduced import simulate
 from robots.spec import load_spec
+from robots.units import nanoseconds
 from sim2real.agreement.replay import replay
 from sim2real.logs import read_trace, write_velocity_log
 
@@ -45,10 +46,10 @@ def _make_log(path: Path) -> None:
     t0 = 1_700_000_000_000_000_000
     write_velocity_log(
         path,
-        cmd_t_ns=t0 + np.rint(cmd_t * 1e9).astype(np.int64),
+        cmd_t_ns=t0 + nanoseconds(cmd_t),
         cmd_v=cmd_v,
         cmd_w=cmd_w,
-        meas_t_ns=t0 + np.rint(meas_t * 1e9).astype(np.int64),
+        meas_t_ns=t0 + nanoseconds(meas_t),
         meas_v=true.v + rng.normal(0.0, 0.003, meas_t.size),
         meas_w=true.w + rng.normal(0.0, 0.02, meas_t.size),
     )

@@ -36,6 +36,7 @@ import numpy as np
 from _timing import QUICK, Stats, alternate, machine, record
 
 from robots.reduced import DEFAULT_DT_S, simulate
+from robots.units import nanoseconds
 from sysid import fit_drive
 from sysid.synthetic import (
     WAFFLE_LIKE_BASE,
@@ -172,10 +173,10 @@ def _write(path: Path, log: object) -> Path:
 
     write_velocity_log(
         path,
-        cmd_t_ns=EPOCH_NS + (log.cmd_t_s * 1e9).round().astype("int64"),  # type: ignore[attr-defined]
+        cmd_t_ns=EPOCH_NS + nanoseconds(log.cmd_t_s),  # type: ignore[attr-defined]
         cmd_v=log.cmd_v,  # type: ignore[attr-defined]
         cmd_w=log.cmd_w,  # type: ignore[attr-defined]
-        meas_t_ns=EPOCH_NS + (log.meas_t_s * 1e9).round().astype("int64"),  # type: ignore[attr-defined]
+        meas_t_ns=EPOCH_NS + nanoseconds(log.meas_t_s),  # type: ignore[attr-defined]
         meas_v=log.meas_v,  # type: ignore[attr-defined]
         meas_w=log.meas_w,  # type: ignore[attr-defined]
     )

@@ -32,6 +32,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
+from robots.units import NS_PER_S, nanoseconds
 from sim2real.errors import ClusterLostWarning, Sim2RealFileNotFoundError, Sim2RealValueError
 
 __all__ = [
@@ -720,13 +721,12 @@ def write_synthetic_fleet(
         )
         t, v, w = step_commands(duration_s, seed=seed + i)
         log = synthetic_log(params, spec.geometry, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed + i)
-        ns = 1_000_000_000
         path = write_velocity_log(
             out / f"session_{i:03d}.mcap",
-            cmd_t_ns=np.round(log.cmd_t_s * ns).astype(np.int64) + ns,
+            cmd_t_ns=nanoseconds(log.cmd_t_s) + NS_PER_S,
             cmd_v=log.cmd_v,
             cmd_w=log.cmd_w,
-            meas_t_ns=np.round(log.meas_t_s * ns).astype(np.int64) + ns,
+            meas_t_ns=nanoseconds(log.meas_t_s) + NS_PER_S,
             meas_v=log.meas_v,
             meas_w=log.meas_w,
         )

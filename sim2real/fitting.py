@@ -23,6 +23,7 @@ from typing import Any
 from robots.errors import RobotsError
 from robots.reduced import DEFAULT_DT_S
 from robots.spec import RobotSpec, load_spec
+from robots.units import seconds
 from sim2real.errors import LogValueError, Sim2RealError, Sim2RealValueError
 from sim2real.logs import Trace, read_trace
 from sysid import LogArrays, SysidResult, crop_log, fit_drive, why_not_fittable
@@ -246,7 +247,7 @@ def _pieces(trace: Trace, window: tuple[float, float] | None) -> list[Trace | Lo
         return list(segments)
     out: list[Trace | LogArrays] = []
     for seg in segments:
-        shift_s = (seg.t0_ns - trace.t0_ns) / 1e9
+        shift_s = seconds(seg.t0_ns - trace.t0_ns)
         lo, hi = window[0] - shift_s, window[1] - shift_s
         t = seg.meas_t_s
         if bool(((t >= lo) & (t < hi)).any()):

@@ -8,6 +8,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from robots.units import seconds
 from sim2real.cli._common import add_command
 
 if TYPE_CHECKING:
@@ -142,7 +143,7 @@ def _csv_summary(path: Path, trace: Trace, header: list[str]) -> dict[str, Any]:
 
 
 def _when(t_ns: int) -> str:
-    return datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
+    return datetime.fromtimestamp(seconds(t_ns), tz=timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
 
 
 def _table(info: LogInfo, *, sha256: bool = False) -> str:

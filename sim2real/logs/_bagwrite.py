@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from robots.units import NS_PER_S
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace
 
@@ -20,7 +21,6 @@ __all__ = ["BAG_FORMATS", "write_rosbag"]
 
 #: ``format=`` values of :func:`write_rosbag`.
 BAG_FORMATS = ("ros1", "sqlite3", "mcap")
-_NS = 1_000_000_000
 
 
 def write_rosbag(
@@ -125,7 +125,7 @@ def _messages(trace: Trace, store: Any, *, ros1: bool) -> dict[str, list[tuple[i
     x, y, yaw = _pose(trace)
     out = []
     for i, t in enumerate(trace.meas_t_ns.tolist()):
-        stamp = time_t(sec=t // _NS, nanosec=t % _NS)
+        stamp = time_t(sec=t // NS_PER_S, nanosec=t % NS_PER_S)
         head = (
             header_t(seq=i, stamp=stamp, frame_id="odom")
             if ros1

@@ -21,6 +21,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from robots.units import NS_PER_S
+
 __all__ = [
     "CdrLayoutError",
     "decode_odometry",
@@ -41,7 +43,6 @@ _LE_HEADER = b"\x00\x01\x00\x00"
 _TWIST_BYTES = 48  # 2 x Vector3 of 3 float64
 _POSE_COV_BYTES = 7 * 8 + 36 * 8  # Pose (Point + Quaternion) + float64[36]
 _TWIST_COV_BYTES = _TWIST_BYTES + 36 * 8
-_NS = 1_000_000_000
 
 
 class CdrLayoutError(Exception):
@@ -158,7 +159,7 @@ def is_little_endian(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> bool:
 
 def stamp_ns(sec: np.ndarray, nanosec: np.ndarray) -> np.ndarray:
     """Nanoseconds since the epoch from ``builtin_interfaces/Time`` fields (int64)."""
-    return sec.astype(np.int64) * _NS + nanosec.astype(np.int64)
+    return sec.astype(np.int64) * NS_PER_S + nanosec.astype(np.int64)
 
 
 def decode_twist(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dict[str, np.ndarray]:
@@ -237,7 +238,7 @@ def _f64_cols(*cols: np.ndarray) -> np.ndarray:
 
 def _stamp_cols(t_ns: np.ndarray) -> np.ndarray:
     t = np.asarray(t_ns, dtype=np.int64)
-    sec, nsec = np.divmod(t, _NS)
+    sec, nsec = np.divmod(t, NS_PER_S)
     if (sec < -(2**31)).any() or (sec >= 2**31).any():
         raise OverflowError("a stamp does not fit builtin_interfaces/Time (int32 seconds)")
     out = np.empty((t.size, 8), dtype=np.uint8)
@@ -324,7 +325,7 @@ def encode_joint_state(
     effort: Sequence[float],
 ) -> bytes:
     """One ``sensor_msgs/msg/JointState`` payload (a plain loop: used for test logs)."""
-    sec, nsec = divmod(int(t_ns), _NS)
+    sec, nsec = divmod(int(t_ns), NS_PER_S)
     out = bytearray(_LE_HEADER + struct.pack("<iI", sec, nsec))
     blob, rel = _string(frame_id, 8)
     out += blob

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robots.units import NS_PER_S, nanoseconds, seconds
 from sim2real.errors import LogFormatError, LogValueError
 from sim2real.logs._timeline import drop_outliers
 from sim2real.logs.trace import Trace, TraceMeta
@@ -35,7 +36,6 @@ __all__ = ["CSV_COLUMNS", "read_csv_trace", "write_csv_trace"]
 #: The required columns of a CSV log, in the order :func:`write_csv_trace` writes them.
 CSV_COLUMNS = ("t", "cmd_v", "cmd_w", "meas_v", "meas_w")
 _POSE = ("x", "y", "yaw")
-_NS = 1_000_000_000
 _T_MAX_NS = 2**63  # times are held as int64 nanoseconds
 
 
@@ -43,12 +43,12 @@ def _ns(text: str) -> int:
     """Decimal seconds text -> integer nanoseconds, exactly (``"1.5"`` -> 1500000000)."""
     s = text.strip()
     if "e" in s.lower():  # scientific notation: no exact digits to keep
-        return round(float(s) * _NS)
+        return nanoseconds(float(s))
     neg = s.startswith("-")
     whole, _, frac = s.lstrip("+-").partition(".")
     if not (whole or frac) or not (whole + frac).isdigit():
         raise ValueError(s)
-    ns = int(whole or "0") * _NS + int((frac + "0" * 9)[:9])
+    ns = int(whole or "0") * NS_PER_S + int((frac + "0" * 9)[:9])
     return -ns if neg else ns
 
 
@@ -100,7 +100,7 @@ def read_csv_trace(path: str | Path) -> Trace:
         k = int(np.argmax(steps <= 0))
         raise LogValueError(
             f"CSV log '{p}' has times that do not increase (line {body[k + 1][0]}: t = "
-            f"{t_ns[k + 1] / _NS} s after {t_ns[k] / _NS} s); sort the rows by t and remove "
+            f"{seconds(t_ns[k + 1])} s after {seconds(t_ns[k])} s); sort the rows by t and remove "
             "repeated times"
         )
     warnings: list[str] = []
@@ -150,7 +150,7 @@ def _cell(row: list[str], i: int, col: str, line: int, p: Path, conv: type | obj
 
 
 def _rate(t: np.ndarray) -> float:
-    return float((t.size - 1) / ((t[-1] - t[0]) / 1e9)) if t.size > 1 else 0.0
+    return float((t.size - 1) / seconds(t[-1] - t[0])) if t.size > 1 else 0.0
 
 
 def write_csv_trace(path: str | Path, trace: Trace) -> Path:
@@ -168,7 +168,7 @@ def write_csv_trace(path: str | Path, trace: Trace) -> Path:
     names = list(CSV_COLUMNS) + (list(_POSE) if trace.has_pose else [])
     lines = [",".join(names)]
     for i, t in enumerate(trace.meas_t_ns.tolist()):
-        cells = [f"{t // _NS}.{t % _NS:09d}"]
+        cells = [f"{t // NS_PER_S}.{t % NS_PER_S:09d}"]
         vals = [trace.cmd_v[i], trace.cmd_w[i], trace.meas_v[i], trace.meas_w[i]]
         if trace.has_pose:
             vals += [trace.pose_x[i], trace.pose_y[i], trace.pose_yaw[i]]  # type: ignore[index]

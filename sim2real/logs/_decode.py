@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from robots.units import NS_PER_S
 from sim2real.errors import LogFormatError, LogValueError
 from sim2real.logs import _cdr
 from sim2real.logs._accum import BULK_CDR, with_yaw
@@ -167,8 +168,8 @@ def _stamp(obj: Any) -> int:
         nsec = stamp.get("nanosec", stamp.get("nsec", stamp.get("nsecs")))
         if sec is None or nsec is None:
             raise KeyError("header.stamp.sec/nanosec")
-        return int(sec) * 1_000_000_000 + int(nsec)
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+        return int(sec) * NS_PER_S + int(nsec)
+    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
 
 def _floats(msgs: Sequence[Any], *path: str) -> np.ndarray:

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from robots.units import seconds
 from sim2real.errors import MissingTopicError, Sim2RealFileNotFoundError
 from sim2real.logs._channels import Chan, choose_topic
 from sim2real.logs._digest import FileDigest, LazyText
@@ -93,7 +94,7 @@ class LogInfo:
     start_ns, end_ns : int
         First and last log time over all topics (ns).
     duration_s : float
-        ``(end_ns - start_ns) / 1e9``.
+        ``seconds(end_ns - start_ns)`` (:func:`robots.units.seconds`).
     cmd_topic, meas_topic : str or None
         The topics :func:`~sim2real.logs.read_trace` would use (None when there is none).
     cmd_note, meas_note : str
@@ -151,7 +152,7 @@ class LogInfo:
 
 def _topic_info(chan: Chan) -> TopicInfo:
     t = chan.log_time_ns
-    span = float(t[-1] - t[0]) / 1e9 if t.size else 0.0
+    span = seconds(float(t[-1] - t[0])) if t.size else 0.0
     return TopicInfo(
         topic=chan.topic,
         type=chan.type,
@@ -307,7 +308,7 @@ def _timeline(
         )
     kept = t_meas[keep]
     bounds = segment_bounds(kept)
-    pauses = tuple(float(kept[a] - kept[a - 1]) / 1e9 for a, _ in bounds[1:])
+    pauses = tuple(seconds(float(kept[a] - kept[a - 1])) for a, _ in bounds[1:])
     if pauses:
         warnings.append(
             f"'{meas}' pauses {len(pauses)} time(s) "
@@ -373,7 +374,7 @@ def inspect_log(
         message_count=int(np.sum([c.count for c in log.chans])) if log.chans else 0,
         start_ns=start,
         end_ns=end,
-        duration_s=(end - start) / 1e9,
+        duration_s=seconds(end - start),
         cmd_topic=chosen["command"],
         meas_topic=chosen["measurement"],
         cmd_note=notes["command"],

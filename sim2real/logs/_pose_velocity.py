@@ -29,6 +29,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from robots.units import NS_PER_S, seconds
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs._timeline import scratch_median
 
@@ -144,7 +145,7 @@ def pose_derivative(
 def _window_s(t_ns: np.ndarray) -> float:
     """``clip(5 x median period, 0.3 s, 1.0 s)`` of sorted times in ns."""
     # the differences are scratch: the median may reorder them instead of copying them
-    period = float(scratch_median(np.diff(t_ns))) / 1e9 if t_ns.size > 1 else 0.1
+    period = seconds(float(scratch_median(np.diff(t_ns)))) if t_ns.size > 1 else 0.1
     return min(max(5.0 * period, 0.3), 1.0)  # np.clip's value, without its array overhead
 
 
@@ -226,7 +227,7 @@ def velocities_from_pose(
             )
         return cols
     window = _window_s(t_ns)
-    v, w = _derivative(t_ns, t_ns[0], 1e9, (cols["x"], cols["y"], cols["yaw"]), window, BLOCK)
+    v, w = _derivative(t_ns, t_ns[0], NS_PER_S, (cols["x"], cols["y"], cols["yaw"]), window, BLOCK)
     jumps = _share(v, _JUMP_V, w, _JUMP_W)
     if jumps > 0.01 and mode == "auto":
         return cols

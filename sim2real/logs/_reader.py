@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robots.units import seconds
 from sim2real.errors import (
     LogFormatError,
     LogValueError,
@@ -264,7 +265,7 @@ def _times(
 
 def _check_clocks(raw: dict[str, np.ndarray], cmd: Chan, meas: Chan, warnings: list[str]) -> None:
     diff = raw["log_ns"] - raw["stamp_ns"]
-    gap_s = float(scratch_median(diff)) / 1e9  # scratch: no second copy
+    gap_s = seconds(float(scratch_median(diff)))  # scratch: no second copy
     if abs(gap_s) > _CLOCK_GAP_S:
         warnings.append(
             f"header stamps are {gap_s:+.3f} s (median) away from log times, so they come "
@@ -283,7 +284,7 @@ def _offset_s(raw: dict[str, np.ndarray]) -> float | None:
         return None
     diff = raw["log_ns"][ok]
     diff -= stamps[ok]
-    return float(scratch_median(diff)) / 1e9  # scratch: no second copy
+    return seconds(float(scratch_median(diff)))  # scratch: no second copy
 
 
 def _auto_source(
@@ -342,7 +343,7 @@ def _note_gaps(meas_t: np.ndarray, topic: str, warnings: list[str]) -> None:
     bounds = segment_bounds(meas_t)
     if len(bounds) <= 1:
         return
-    gaps = [(meas_t[a] - meas_t[a - 1]) / 1e9 for a, _ in bounds[1:]]
+    gaps = [seconds(meas_t[a] - meas_t[a - 1]) for a, _ in bounds[1:]]
     warnings.append(
         f"topic '{topic}' pauses {len(gaps)} time(s) for longer than max({GAP_MIN_S:g} s, "
         f"{GAP_FACTOR:g} sampling steps) (longest {max(gaps):.3g} s), so the log is used as "
@@ -411,4 +412,4 @@ def _rate(t: np.ndarray) -> float:
     """Mean rate (Hz) of sorted times in ns."""
     if t.size < 2 or t[-1] == t[0]:
         return 0.0
-    return float((t.size - 1) / ((t[-1] - t[0]) / 1e9))
+    return float((t.size - 1) / seconds(t[-1] - t[0]))

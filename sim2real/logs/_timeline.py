@@ -30,6 +30,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from robots.units import NS_PER_S, seconds
+
 __all__ = [
     "COMMAND_REACH_S",
     "GAP_FACTOR",
@@ -46,7 +48,6 @@ __all__ = [
 
 IntArray = NDArray[np.int64]
 
-_NS = 1_000_000_000
 #: A pause in the measurements longer than this (s) always starts a new segment ...
 GAP_MIN_S = 2.0
 #: ... and so does one longer than this many median sampling steps.
@@ -103,7 +104,7 @@ def gap_threshold_ns(t_ns: IntArray) -> int:
     del positive
     # the steps are scratch: the median may reorder them instead of copying them
     median = float(scratch_median(steps)) if steps.size else 0.0
-    return int(max(GAP_MIN_S * _NS, GAP_FACTOR * median))
+    return int(max(GAP_MIN_S * NS_PER_S, GAP_FACTOR * median))
 
 
 def segment_bounds(t_ns: IntArray) -> list[tuple[int, int]]:
@@ -129,7 +130,7 @@ def drop_isolated(t_ns: IntArray) -> NDArray[np.bool_]:
 
 
 def _reach_ns(meas_t_ns: IntArray) -> int:
-    return max(int(COMMAND_REACH_S * _NS), gap_threshold_ns(meas_t_ns))
+    return max(int(COMMAND_REACH_S * NS_PER_S), gap_threshold_ns(meas_t_ns))
 
 
 def drop_far_commands(cmd_t_ns: IntArray, meas_t_ns: IntArray) -> NDArray[np.bool_]:
@@ -180,7 +181,7 @@ def drop_outliers(
     if keep.all():
         return t, cols
     bad = int(keep.size - np.count_nonzero(keep))
-    gap_s = gap_threshold_ns(t[keep]) / _NS
+    gap_s = seconds(gap_threshold_ns(t[keep]))
     warnings.append(
         f"dropped {bad} of {keep.size} samples of topic '{topic}' whose stamps lie far "
         f"outside the recording (more than {gap_s:.3g} s from all other samples, a corrupt "

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from robots.units import NS_PER_S, seconds
 from sim2real._io import atomic_write
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import _cdr
@@ -23,9 +24,8 @@ from sim2real.logs.trace import Trace
 
 __all__ = ["integrate_pose", "write_joint_state_log", "write_trace", "write_velocity_log"]
 
-_NS = 1_000_000_000
 _ENCODINGS = ("cdr", "json")
-_T_MIN_NS, _T_MAX_NS = -(2**31) * _NS, 2**31 * _NS
+_T_MIN_NS, _T_MAX_NS = -(2**31) * NS_PER_S, 2**31 * NS_PER_S
 
 
 @dataclass
@@ -41,7 +41,7 @@ def _ints(name: str, a: Any) -> np.ndarray:
     if arr.ndim != 1 or not (np.issubdtype(arr.dtype, np.integer) or arr.size == 0):
         raise Sim2RealValueError(
             f"{name} must be a 1-D array of integer nanoseconds, got dtype {arr.dtype} and "
-            f"shape {arr.shape}; convert seconds with (t_s * 1e9).astype(np.int64)"
+            f"shape {arr.shape}; convert seconds with robots.units.nanoseconds(t_s)"
         )
     out = arr.astype(np.int64)
     if out.size and (out.min() < _T_MIN_NS or out.max() >= _T_MAX_NS):
@@ -77,7 +77,7 @@ def integrate_pose(
     >>> float(x[-1])
     1.0
     """
-    dt = np.diff(np.asarray(t_ns, dtype=np.int64)).astype(np.float64) / _NS
+    dt = seconds(np.diff(np.asarray(t_ns, dtype=np.int64)).astype(np.float64))
     v, w = np.nan_to_num(v[:-1]), np.nan_to_num(w[:-1])
     yaw = np.concatenate([[0.0], np.cumsum(w * dt)])
     x = np.concatenate([[0.0], np.cumsum(v * np.cos(yaw[:-1]) * dt)])
@@ -86,7 +86,7 @@ def integrate_pose(
 
 
 def _stamp(t: int) -> dict[str, int]:
-    sec, nsec = divmod(int(t), _NS)
+    sec, nsec = divmod(int(t), NS_PER_S)
     return {"sec": sec, "nanosec": nsec}
 
 
@@ -355,7 +355,7 @@ def write_joint_state_log(
     left = _floats("left_radps", left_radps, jt.size)
     right = _floats("right_radps", right_radps, jt.size)
     vel = np.stack([left, right], axis=1)
-    dt = np.diff(jt, prepend=jt[:1]).astype(np.float64) / _NS
+    dt = seconds(np.diff(jt, prepend=jt[:1]).astype(np.float64))
     pos = np.cumsum(np.nan_to_num(vel) * dt[:, None], axis=0)
     cmd = _cmd_stream(TWIST, cmd_topic, ct, cv, cw, None, "", encoding)
     if encoding == "json":

@@ -22,13 +22,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from robots.units import nanoseconds, seconds
 from sim2real.errors import LogValueError, Sim2RealValueError
 from sim2real.logs._digest import LazyText, lazy_value
 from sim2real.logs._timeline import command_windows, segment_bounds
 
 __all__ = ["ABSURD_FACTOR", "MIN_MEAS_SAMPLES", "Trace", "TraceMeta"]
 
-_NS = 1e9
 #: Velocities beyond this many times the robot's spec limits are physically absurd.
 ABSURD_FACTOR = 10.0
 #: Fewer measurement samples than this cannot be fitted or compared.
@@ -128,7 +128,7 @@ def _frozen(a: np.ndarray | None, dtype: type, name: str) -> np.ndarray | None:
         raise Sim2RealValueError(
             f"Trace field {name} must hold integer nanoseconds, got fractional values such as "
             f"{raw.ravel()[np.argmax(np.mod(raw.ravel(), 1) != 0)]}; convert seconds with "
-            "np.round(t_s * 1e9).astype(np.int64)"
+            "robots.units.nanoseconds(t_s)"
         )
     arr: np.ndarray = np.array(raw, dtype=dtype)  # always a private copy
     if arr.ndim != 1:
@@ -204,18 +204,18 @@ class Trace:
     @property
     def cmd_t_s(self) -> np.ndarray:
         """Command times in seconds since :attr:`t0_ns` (float64)."""
-        return (self.cmd_t_ns - self.t0_ns).astype(np.float64) / _NS
+        return seconds((self.cmd_t_ns - self.t0_ns).astype(np.float64))
 
     @property
     def meas_t_s(self) -> np.ndarray:
         """Measurement times in seconds since :attr:`t0_ns` (float64)."""
-        return (self.meas_t_ns - self.t0_ns).astype(np.float64) / _NS
+        return seconds((self.meas_t_ns - self.t0_ns).astype(np.float64))
 
     @property
     def duration_s(self) -> float:
         """Seconds from :attr:`t0_ns` to the last command or measurement."""
         lasts = [int(a[-1]) for a in (self.cmd_t_ns, self.meas_t_ns) if a.size]
-        return (max(lasts) - self.t0_ns) / _NS if lasts else 0.0
+        return seconds(max(lasts) - self.t0_ns) if lasts else 0.0
 
     @property
     def has_pose(self) -> bool:
@@ -406,7 +406,7 @@ class Trace:
                 f"and end_s={end_s}; pick seconds in [0, {self.duration_s:.3f}]"
             )
         t0 = self.t0_ns
-        lo, hi = t0 + round(start_s * _NS), t0 + round(end_s * _NS)
+        lo, hi = t0 + nanoseconds(start_s), t0 + nanoseconds(end_s)
         m0, m1 = np.searchsorted(self.meas_t_ns, [lo, hi], side="left")
         if m1 <= m0:
             raise Sim2RealValueError(

@@ -56,6 +56,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from robots.units import nanoseconds
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace, TraceMeta
 
@@ -801,10 +802,10 @@ def run_to_trace(run: PlantRun, *, t0_ns: int = T0_NS, name: str = "") -> Trace:
     from sim2real.logs import integrate_pose
 
     k = run.kept
-    meas_t_ns = t0_ns + np.rint(run.stamp_t_s[k] * 1e9).astype(np.int64)
+    meas_t_ns = t0_ns + nanoseconds(run.stamp_t_s[k])
     x, y, yaw = integrate_pose(meas_t_ns, run.meas_v[k], run.meas_w[k])
     return Trace(
-        cmd_t_ns=t0_ns + np.rint(run.cmd_t_s * 1e9).astype(np.int64),
+        cmd_t_ns=t0_ns + nanoseconds(run.cmd_t_s),
         cmd_v=run.cmd_v,
         cmd_w=run.cmd_w,
         meas_t_ns=meas_t_ns,

@@ -60,6 +60,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from robots.units import nanoseconds
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace, TraceMeta
 
@@ -459,10 +460,10 @@ def run_skid_plant(
     meas_w = out[:, 2] + params.gyro_bias_radps
     meas_w = meas_w + params.gyro_noise_radps * rng.standard_normal(ticks.size)
     return Trace(
-        cmd_t_ns=T0_NS + np.rint(t * 1e9).astype(np.int64),
+        cmd_t_ns=T0_NS + nanoseconds(t),
         cmd_v=cv,
         cmd_w=cw,
-        meas_t_ns=T0_NS + np.rint(ticks * 1e9).astype(np.int64),
+        meas_t_ns=T0_NS + nanoseconds(ticks),
         meas_v=meas_v,
         meas_w=meas_w,
         meta=TraceMeta(path=name, cmd_topic="/cmd_vel", meas_topic="/odometry/filtered"),

@@ -18,6 +18,7 @@ MODULES = [
     "robots._kernel",
     "robots.check",
     "robots.files",
+    "robots.units",
     "robots.template",
     "robots.specdoc",
 ]
