@@ -1,8 +1,8 @@
 """Fit a robot's drive parameters to log files: the one fit behind ``sim2real sysid fit``.
 
-:func:`fit_logs` reads each file as :func:`sim2real.logs.read_trace` reads it, drops
-velocities no robot of the spec could reach, crops to a time window, splits a recording at its
-pauses and sets aside the segments with nothing to identify (each said in a note), then calls
+:func:`fit_logs` reads each file as :func:`sim2real.logs.read_for_robot` reads it (drops
+velocities no robot of the spec could reach and the unattended samples), crops to a time
+window, splits a recording at its pauses and sets aside the segments with nothing to identify (each said in a note), then calls
 :func:`sysid.fit_drive` with the spec's geometry, drive defaults, priors and odometry window.
 The command line and Python callers share its defaults, so they get the same numbers.
 
@@ -25,7 +25,7 @@ from robots.reduced import DEFAULT_DT_S
 from robots.spec import RobotSpec, load_spec
 from robots.units import seconds
 from sim2real.errors import LogValueError, Sim2RealError, Sim2RealValueError
-from sim2real.logs import Trace, read_trace
+from sim2real.logs import Trace, read_for_robot
 from sysid import LogArrays, SysidResult, crop_log, fit_drive, why_not_fittable
 
 __all__ = ["LogFit", "fit_logs", "read_fit_logs"]
@@ -64,6 +64,7 @@ def fit_logs(
     odom_topic: str | None = None,
     time_source: str = "auto",
     odom_velocity: str = "auto",
+    keep_all: bool = False,
     odom_v_window_s: float | None = None,
     loss: str = "soft_l1",
     dt_s: float = DEFAULT_DT_S,
@@ -90,6 +91,9 @@ def fit_logs(
         The parameters to fit (``"auto"``: chosen from the excitation).
     cmd_topic, odom_topic, time_source, odom_velocity
         How each file is read (the keywords of :func:`sim2real.logs.read_trace`).
+    keep_all : bool
+        Keep the unattended samples (motion with no command in force, a command held while
+        the wheels stay stopped; :func:`sim2real.logs.without_unattended`).
     odom_v_window_s : float, optional
         The odometry's velocity window, s (default: the spec's, e.g. one encoder period).
     loss, dt_s, bootstrap, seed, progress, map_sessions
@@ -126,6 +130,7 @@ def fit_logs(
             odom_topic=odom_topic,
             time_source=time_source,
             odom_velocity=odom_velocity,
+            keep_all=keep_all,
         )
 
     fit_set, val_set = read(logs, window), read(validate, validate_window)
@@ -163,6 +168,7 @@ def read_fit_logs(
     odom_topic: str | None = None,
     time_source: str = "auto",
     odom_velocity: str = "auto",
+    keep_all: bool = False,
 ) -> list[Trace | LogArrays]:
     """The logs to fit: each file read, screened, cropped and split at its pauses.
 
@@ -178,11 +184,18 @@ def read_fit_logs(
     >>> traces = read_fit_logs(["data/demo_train.mcap"], spec=spec)  # doctest: +SKIP
     """
     notes = [] if notes is None else notes
+    read = {
+        "cmd_topic": cmd_topic,
+        "odom_topic": odom_topic,
+        "time_source": time_source,
+        "odom_velocity": odom_velocity,
+        "keep_all": keep_all,
+    }
     out: list[Trace | LogArrays] = []
     errors: list[Sim2RealError] = []
     for path in paths:
         try:
-            trace = _read_one(path, spec, notes, cmd_topic, odom_topic, time_source, odom_velocity)
+            trace = _read_one(path, spec, notes, read)
         except Sim2RealError as exc:
             if len(paths) == 1:
                 raise
@@ -199,25 +212,14 @@ def _read_one(
     path: str | Path,
     spec: RobotSpec,
     notes: list[str],
-    cmd_topic: str | None,
-    odom_topic: str | None,
-    time_source: str,
-    odom_velocity: str,
+    read: dict[str, Any],
 ) -> Trace:
-    """One log read as the fit reads it: absurd velocities dropped, too little data refused."""
-    trace = read_trace(
-        path,
-        cmd_topic=cmd_topic,
-        odom_topic=odom_topic,
-        time_source=time_source,
-        odom_velocity=odom_velocity,
-        wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
-        wheel_separation_m=spec.wheels.separation_m,
-    )
+    """One log read as the fit reads it (:func:`sim2real.logs.read_for_robot`), noted."""
+    trace, note = read_for_robot(path, spec, **read)
     if trace.meta.time_note:
         notes.append(f"{path}: {trace.meta.time_note}")
-    trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
-    trace.check_enough()
+    if note:
+        notes.append(note)
     return trace
 
 

@@ -709,6 +709,7 @@ def calibrate(
     odom_topic: str | None = None,
     time_source: str = "auto",
     odom_velocity: str = "auto",
+    keep_all: bool = False,
 ) -> CalibrationResult:
     """Read a params file and validation logs and fit the spread (:func:`calibrate_traces`).
 
@@ -717,34 +718,32 @@ def calibrate(
     residuals is too narrow for any other session. The logs are read as ``sysid fit`` and
     ``agree`` read them: ``cmd_topic``, ``odom_topic``, ``time_source`` and ``odom_velocity``
     are those of :func:`sim2real.logs.read_trace` (default: auto-detected topics, header
-    stamps unless they run on another clock, velocities from the pose when the twist is junk).
+    stamps unless they run on another clock, velocities from the pose when the twist is junk),
+    and their unattended samples are left out with a note unless ``keep_all``
+    (:func:`sim2real.logs.without_unattended`).
     """
     from robots.params import read_params_file
     from robots.randomization import DriveDistribution
     from robots.spec import load_spec
-    from sim2real.logs import read_trace
+    from sim2real.logs import read_for_robot
 
     spec = load_spec(robot)
     distribution = DriveDistribution.from_params_file(params_path, robot=spec.name)
     document = read_params_file(params_path).document
     fitted_on = _fit_logs(document)
-    traces = [
-        read_trace(
+    read = [
+        read_for_robot(
             path,
+            spec,
             cmd_topic=cmd_topic,
             odom_topic=odom_topic,
             time_source=time_source,
             odom_velocity=odom_velocity,
-            wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
-            wheel_separation_m=spec.wheels.separation_m,
+            keep_all=keep_all,
         )
         for path in logs
     ]
-    traces = [
-        t.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps) for t in traces
-    ]
-    for trace in traces:
-        trace.check_enough()
+    traces = [trace for trace, _ in read]
     for path, trace in zip(logs, traces, strict=True):
         if getattr(trace.meta, "sha256", None) in fitted_on:
             raise Sim2RealValueError(
@@ -756,7 +755,7 @@ def calibrate(
         for path, trace in zip(logs, traces, strict=True)
         for note in (trace.meta.time_note, *trace.meta.warnings)
         if note
-    )
+    ) + tuple(note for _, note in read if note)
     window = _window_of(document) if odom_v_window_s is None else odom_v_window_s
     result = calibrate_traces(
         traces,

@@ -89,6 +89,9 @@ class StudyConfig:
         How the outputs (JSON ``params_file``, report) name the params file when it is read
         from elsewhere (``sim2real demo`` reads it from its staging folder); default
         ``params_path``.
+    keep_all : bool
+        Keep the unattended samples (motion with no command in force, a command held while
+        the wheels stay stopped), which are otherwise left out with a note.
     """
 
     log: str | Path
@@ -112,6 +115,7 @@ class StudyConfig:
     command_line: str = ""
     title: str = "sim2real agreement report"
     params_shown: str | None = None
+    keep_all: bool = False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -299,7 +303,7 @@ def run_study(
     from sim2real.agreement.figures import measure_agreement
     from sim2real.agreement.replay import replay
     from sim2real.agreement.report import ReportRun
-    from sim2real.logs import read_trace
+    from sim2real.logs import read_for_robot
 
     _check_config(config)
     spec = load_spec(config.robot)
@@ -309,17 +313,15 @@ def run_study(
     params = None
     if config.params_path is not None:
         params = load_drive_params(config.params_path, robot=spec.name, base=spec.drive)
-    trace = read_trace(
+    trace, screened = read_for_robot(
         config.log,
+        spec,
         cmd_topic=config.cmd_topic,
         odom_topic=config.odom_topic,
         time_source=config.time_source,
         odom_velocity=config.odom_velocity,
-        wheel_radius_m=spec.wheels.radius_m,  # a wheel JointState topic: the spec's wheels
-        wheel_separation_m=spec.wheels.separation_m,
+        keep_all=config.keep_all,
     )
-    trace = trace.without_absurd(max_v_mps=spec.max_v_mps, max_w_radps=spec.max_w_radps)
-    trace.check_enough()
     runs = []
     configs: list[tuple[str, Any, str | None]] = [("spec defaults", spec.drive, None)]
     if params is not None:
@@ -333,7 +335,8 @@ def run_study(
     ensemble = _ensemble(config, trace, spec, params, window_s, progress)
     figures = study_figures(runs[-1].agreement, ensemble)
     check_figures(figures, config.log)
-    figures, notes = defined_figures(figures)
+    figures, undefined = defined_figures(figures)
+    notes = ((screened,) if screened else ()) + undefined
     if notes:
         figures["notes"] = list(notes)
     verdict = _verdict(config, spec, trace, runs, ensemble, params)

@@ -239,6 +239,8 @@ def _command_line(args: argparse.Namespace) -> str:
     ):
         if value is not None:
             parts += [flag, str(value)]
+    if getattr(args, "keep_all", False):
+        parts.append("--keep-all")
     return shlex.join(parts)
 
 
@@ -264,6 +266,7 @@ def study_config(args: argparse.Namespace) -> StudyConfig:
         odom_topic=args.odom_topic,
         time_source=args.time_source,
         odom_velocity=args.odom_velocity,
+        keep_all=args.keep_all,
         json_path=args.json,
         report_path=args.report,
         sim_out=args.sim_out,

@@ -104,6 +104,7 @@ def _handle(args: argparse.Namespace) -> int:
         odom_topic=args.odom_topic,
         time_source=args.time_source,
         odom_velocity=args.odom_velocity,
+        keep_all=args.keep_all,
     )
     write_calibrated(args.params, args.out, result)
     for note in result.notes:  # what reading the logs chose or repaired: say it

@@ -84,8 +84,8 @@ def add_read_arguments(parser: argparse.ArgumentParser, *, time_source_note: str
     where the measured velocities come from (the keywords of :func:`sim2real.logs.read_trace`).
 
     Adds ``--cmd-topic``, ``--odom-topic``, ``--time-source {auto,header,log}`` (``auto``
-    default) and ``--odom-velocity {auto,twist,pose}``; ``time_source_note`` ends the
-    ``--time-source`` help (e.g. how a validation log must be read).
+    default), ``--odom-velocity {auto,twist,pose}`` and ``--keep-all``; ``time_source_note``
+    ends the ``--time-source`` help (e.g. how a validation log must be read).
     """
     parser.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
     parser.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
@@ -100,3 +100,11 @@ def add_read_arguments(parser: argparse.ArgumentParser, *, time_source_note: str
         ),
     )
     add_odom_velocity_argument(parser)
+    parser.add_argument(
+        "--keep-all",
+        action="store_true",
+        help=(
+            "keep the unattended samples: the robot moving with no command in force, or a "
+            "command held while the wheels stay stopped (default: left out, with a note)"
+        ),
+    )

@@ -227,6 +227,7 @@ def _fit(args: argparse.Namespace) -> int:
             odom_topic=args.odom_topic,
             time_source=args.time_source,
             odom_velocity=args.odom_velocity,
+            keep_all=args.keep_all,
             odom_v_window_s=v_window,
             loss=args.loss,
             **({} if args.dt is None else {"dt_s": args.dt}),

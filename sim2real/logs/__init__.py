@@ -90,6 +90,8 @@ if TYPE_CHECKING:
     from sim2real.logs._info import LogInfo, TopicInfo, inspect_log
     from sim2real.logs._reader import read_trace
     from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, SCHEMA_TEXT, TWIST, TWIST_STAMPED
+    from sim2real.logs._screen import read_for_robot
+    from sim2real.logs._unattended import Unattended, find_unattended, without_unattended
     from sim2real.logs._writer import (
         integrate_pose,
         write_joint_state_log,
@@ -110,6 +112,7 @@ _LAZY = {
     "TopicInfo": "_info",
     "inspect_log": "_info",
     "read_trace": "_reader",
+    "read_for_robot": "_screen",
     "JOINT_STATE": "_schemas",
     "ODOMETRY": "_schemas",
     "SCHEMA_TEXT": "_schemas",
@@ -121,6 +124,9 @@ _LAZY = {
     "write_velocity_log": "_writer",
     "Trace": "trace",
     "TraceMeta": "trace",
+    "Unattended": "_unattended",
+    "find_unattended": "_unattended",
+    "without_unattended": "_unattended",
 }
 
 
@@ -151,9 +157,13 @@ __all__ = [
     "TopicInfo",
     "Trace",
     "TraceMeta",
+    "Unattended",
+    "find_unattended",
     "inspect_log",
     "integrate_pose",
+    "read_for_robot",
     "read_trace",
+    "without_unattended",
     "write_csv_trace",
     "write_joint_state_log",
     "write_rosbag",

@@ -97,7 +97,9 @@ def test_time_source_auto_reads_past_a_clock_offset(
     log_out = tmp_path / "log.yaml"
     assert main([*argv, "-o", str(log_out), "--ensemble", "4", "--time-source", "log"]) == 0
     assert yaml.safe_load(log_out.read_text())["calibration"] == auto
-    header = calibrate(files["params"], [files["offset"]], robot=ROBOT, n=4, time_source="header")
+    header = calibrate(  # the wrong clock: kept whole (screened, it is mostly unattended)
+        files["params"], [files["offset"]], robot=ROBOT, n=4, time_source="header", keep_all=True
+    )
     # right clock: the noise the log was made with; 15 s off: the steps land on the wrong
     # commands and the "noise" is the whole motion
     assert auto["noise_std_v_mps"] < 3 * NOISE_V and auto["noise_std_w_radps"] < 3 * NOISE_W
@@ -116,8 +118,13 @@ def test_odom_velocity_pose_reads_a_zero_twist(
     assert "--odom-velocity twist" in capsys.readouterr().out  # auto says what it did
     pose = yaml.safe_load(pose_out.read_text())["calibration"]
     assert yaml.safe_load(auto_out.read_text())["calibration"] == pose
-    twist = calibrate(
-        files["params"], [files["zero_twist"]], robot=ROBOT, n=4, odom_velocity="twist"
+    twist = calibrate(  # the zero twist: kept whole (screened, it is mostly unattended)
+        files["params"],
+        [files["zero_twist"]],
+        robot=ROBOT,
+        n=4,
+        odom_velocity="twist",
+        keep_all=True,
     )
     # from the pose: v, w back within a few times the log's noise (the differentiation
     # smooths); from the zeros: the "noise" is the whole motion
