@@ -4,7 +4,7 @@
 themselves (:func:`sim2real.cli.build_parser`), so it cannot drift from the code. ``api/*.md``
 hold one mkdocstrings section per public module of each package (modules and packages whose
 names start with ``_`` are private and left out), found on disk, so a moved module moves in
-the reference too. ``mkdocs.yml`` names this file under ``hooks:``, and :class:`SphinxRoles`
+the reference too; ``sim2real``'s subpackages get a page each, listed in the nav here. ``mkdocs.yml`` names this file under ``hooks:``, and :class:`SphinxRoles`
 as a griffe extension of the python handler.
 """
 
@@ -69,10 +69,32 @@ def public_modules(package: str) -> list[str]:
     return sorted(names, key=lambda n: (n.count(".") > 0, n))
 
 
-def api_page(package: str) -> str:
-    """The markdown of one package's API page: a mkdocstrings section per public module."""
-    lines = [f"# `{package}`", "", PACKAGES[package], ""]
-    for name in public_modules(package):
+def api_pages() -> dict[str, list[str]]:
+    """The API reference's pages: page name -> the modules it documents.
+
+    One page per package, and one per subpackage of ``sim2real`` (its rooms: ``agreement``,
+    ``logs``, ...), whose modules would otherwise make one page of thousands of lines.
+
+    >>> api_pages()["sysid"][:2]
+    ['sysid', 'sysid.errors']
+    """
+    pages: dict[str, list[str]] = {}
+    for package in PACKAGES:
+        for name in public_modules(package):
+            parts = name.split(".")
+            room = package
+            if package == "sim2real" and len(parts) > 1 and (ROOT / parts[0] / parts[1]).is_dir():
+                room = ".".join(parts[:2])
+            pages.setdefault(room, []).append(name)
+    return pages
+
+
+def api_page(page: str, modules: list[str]) -> str:
+    """The markdown of one API page: a mkdocstrings section per module."""
+    lines = [f"# `{page}`", ""]
+    if page in PACKAGES:
+        lines += [PACKAGES[page], ""]
+    for name in modules:
         lines += [f"::: {name}", ""]
     return "\n".join(lines)
 
@@ -110,9 +132,17 @@ def cli_page() -> str:
     return "\n".join(lines)
 
 
+def on_config(config: Any) -> Any:
+    """List the API pages under the nav's "API reference" entry."""
+    for entry in config["nav"]:
+        if isinstance(entry, dict) and "API reference" in entry:
+            entry["API reference"] = [{page: f"api/{page}.md"} for page in api_pages()]
+    return config
+
+
 def on_files(files: Files, config: Any) -> Files:
     """Add the generated pages to the site's files."""
     files.append(File.generated(config, "cli.md", content=cli_page()))
-    for package in PACKAGES:
-        files.append(File.generated(config, f"api/{package}.md", content=api_page(package)))
+    for page, modules in api_pages().items():
+        files.append(File.generated(config, f"api/{page}.md", content=api_page(page, modules)))
     return files

@@ -46,9 +46,14 @@ def test_api_pages_list_the_public_modules_only() -> None:
     assert not [n for n in names if any(part.startswith("_") for part in n.split("."))]
     assert not [n for n in names if n.startswith("sim2real.cli")]
     assert names[0] == "sim2real"
-    assert mkdocs_hooks.api_page("sysid").count("::: sysid") == len(
-        mkdocs_hooks.public_modules("sysid")
+    pages = mkdocs_hooks.api_pages()
+    assert sorted(m for ms in pages.values() for m in ms if m.startswith("sim2real")) == sorted(
+        names
     )
+    assert pages["sim2real.agreement"][0] == "sim2real.agreement"
+    assert "sim2real.cluster" in pages["sim2real"] and "sim2real.logs" not in pages["sim2real"]
+    page = mkdocs_hooks.api_page("sysid", pages["sysid"])
+    assert page.count("::: sysid") == len(mkdocs_hooks.public_modules("sysid"))
 
 
 def test_sphinx_roles_read_as_code() -> None:
@@ -72,3 +77,7 @@ def test_site_builds_strict_without_a_warning(tmp_path: Path) -> None:
     assert 'id="sysid.fit_drive"' in sysid_page and ":class:" not in sysid_page
     for page in ("index", "agreement", "training", "cluster", "spec-format", "benchmarks"):
         assert (tmp_path / ("" if page == "index" else page) / "index.html").is_file(), page
+    # every API page is in the nav
+    index = (tmp_path / "index.html").read_text(encoding="utf-8")
+    for page in mkdocs_hooks.api_pages():
+        assert f'href="api/{page}/"' in index, page
