@@ -33,8 +33,8 @@ odometry spike is not motion):
   start does what its firmware does: that silence is kept. A held command older than the
   timeout is not in force, so the base standing still under it is not flagged either.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from sim2real.logs import Trace
 >>> t = np.arange(0, 200) * 100_000_000
