@@ -32,9 +32,10 @@ INTRO = """# Benchmarks
 Each benchmark in `benchmarks/` measures one figure against a baseline run alongside it in the
 same process (alternated, same repeat count) or against a target; command times are whole
 processes as a user runs them. `make bench` runs the performance benchmarks and writes their
-sections of this page; the slower studies (`bench_novel_robots.py`, `bench_agree_ray.py`,
-`bench_dr_experiment.py`) are run by hand, each followed by `python results_page.py` from
-`benchmarks/`. Every section names the machine and the date of its run.
+sections of this page; the slower studies (`bench_novel_robots.py`, `bench_agree_ray.py`) are
+run by hand, each followed by `python results_page.py` from `benchmarks/`. Every section names
+the machine and the date of its run. The training experiment is on the
+[experiments](experiments.md) page.
 """
 
 
