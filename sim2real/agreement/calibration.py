@@ -79,9 +79,28 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 from numpy.typing import NDArray
+from scipy.optimize import minimize, minimize_scalar
 
+from robots.errors import ParamsFileError
+from robots.params import read_params_file
+from robots.randomization import DriveDistribution, cap_spread
+from robots.spec import load_spec
+from sim2real._io import atomic_write, check_not_an_input
+from sim2real.agreement.figures import (
+    band_coverage,
+    band_noise_draws,
+    check_band_level,
+    check_tolerances,
+    ensemble_members,
+    predictive_band,
+)
+from sim2real.agreement.replay import resolve_robot
 from sim2real.errors import Sim2RealValueError
+from sim2real.logs import read_for_robot
+from sysid import spread_degrees_of_freedom
+from sysid.metrics import active_mask
 
 __all__ = [
     "CALIBRATION_METHOD",
@@ -277,8 +296,6 @@ def _best_noise(
     real: FloatArray, members: FloatArray, quantum: float, span: tuple[float, float]
 ) -> tuple[float, float]:
     """The noise std maximising the likelihood (bounded search in log std): (std, loglik)."""
-    from scipy.optimize import minimize_scalar
-
     q_var = quantum**2 / 12.0
 
     def neg(log_std: float) -> float:
@@ -351,13 +368,6 @@ def match_noise_scale(
     >>> match_noise_scale(real, np.zeros((20, 4000)), 0.11, 0.0)[0]  # inside: kept
     1.0
     """
-    from sim2real.agreement.figures import (
-        band_coverage,
-        band_noise_draws,
-        check_band_level,
-        predictive_band,
-    )
-
     level = check_band_level(level)
     real, members = np.asarray(real, dtype=np.float64), np.asarray(members, dtype=np.float64)
     if not (real.ndim == 1 and real.size and members.ndim == 2 and members.shape[0] >= 1) or (
@@ -449,11 +459,6 @@ def calibrate_traces(
     -------
     CalibrationResult
     """
-    from robots.randomization import cap_spread
-    from sim2real.agreement.figures import check_tolerances, ensemble_members
-    from sim2real.agreement.replay import resolve_robot
-    from sysid.metrics import active_mask
-
     check_tolerances(tol_v, tol_w)
     if isinstance(n, bool) or not isinstance(n, int) or n < 4:
         raise Sim2RealValueError(
@@ -537,7 +542,6 @@ def calibrate_traces(
         for sf in SESSION_GRID:
             evaluate((float(lf), sf))
     best = min(cache, key=lambda k: -cache[k][0])
-    from scipy.optimize import minimize
 
     minimize(
         evaluate,
@@ -634,8 +638,6 @@ def pooled_factors(
     >>> round(a, 3), round(b, 3)
     (0.852, 0.535)
     """
-    from sysid import spread_degrees_of_freedom
-
     nu = spread_degrees_of_freedom(fit_sessions)
     m = float(validation_sessions)
     return (
@@ -672,8 +674,6 @@ def _sessions_of(document: Any, path: str | Path) -> int:
     Raises :class:`robots.errors.ParamsFileError` for a count that is not a whole number
     >= 1: the calibration weighs the file's spread by it.
     """
-    from robots.errors import ParamsFileError
-
     settings = document.get("settings") if isinstance(document, dict) else None
     if not isinstance(settings, dict) or "sessions" not in settings:
         return 1
@@ -722,11 +722,6 @@ def calibrate(
     and their unattended samples are left out with a note unless ``keep_all``
     (:func:`sim2real.logs.without_unattended`).
     """
-    from robots.params import read_params_file
-    from robots.randomization import DriveDistribution
-    from robots.spec import load_spec
-    from sim2real.logs import read_for_robot
-
     spec = load_spec(robot)
     distribution = DriveDistribution.from_params_file(params_path, robot=spec.name)
     document = read_params_file(params_path).document
@@ -805,11 +800,6 @@ def write_calibrated(
     Everything else (the point estimate, scores, provenance) is copied unchanged; the file is
     written to a temp file and renamed.
     """
-    import yaml
-
-    from robots.params import read_params_file
-    from sim2real._io import atomic_write, check_not_an_input
-
     check_not_an_input(out_path, [params_path], what="calibrated params file (-o)")
     document = dict(read_params_file(params_path).document)
     document["randomization"] = result.distribution.to_dict()

@@ -88,7 +88,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.params import DriveParams
-from sim2real.agreement.replay import ReplayResult, TraceLike, replay
+from sim2real.agreement.replay import ReplayResult, TraceLike, replay, resolve_robot
 from sim2real.errors import Sim2RealValueError
 from sysid.metrics import (
     DEFAULT_TOL_V,
@@ -696,7 +696,6 @@ def run_ensemble(
     (0.91, 0.05)
     """
     from randomizers._dynamics import stream_generator
-    from sim2real.agreement.replay import resolve_robot
 
     check_tolerances(tol_v, tol_w)
     level = check_band_level(band_level)

@@ -49,7 +49,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.params import BaseGeometry, DriveParams
+from robots.reduced import DEFAULT_DT_S, simulate
+from robots.spec import load_spec
 from sim2real.errors import Sim2RealValueError
+from sysid.odometry import window_mean
 
 __all__ = [
     "ENGINES",
@@ -150,8 +153,6 @@ class ReplayResult:
 def resolve_robot(robot: str | RobotSpecLike) -> RobotSpecLike:
     """A robot spec from a name (via :func:`robots.load_spec`) or a spec object as given."""
     if isinstance(robot, str):
-        from robots.spec import load_spec
-
         spec: RobotSpecLike = load_spec(robot)
         return spec
     if isinstance(robot, RobotSpecLike):
@@ -248,16 +249,12 @@ def replay(
     start = time.perf_counter()
     rate = float(physics_hz)
     if engine == "reduced":
-        from robots.reduced import DEFAULT_DT_S
-
         rate = 1.0 / DEFAULT_DT_S
     # with a window, also read the simulation at every integration step so the window mean
     # of its piecewise-linear output is exact (the run itself does not change)
     t_out = _fine_times(meas_t, 1.0 / rate) if odom_v_window_s > 0 else meas_t
     initial = (float(meas_v[0]), float(meas_w[0]))
     if engine == "reduced":
-        from robots.reduced import simulate
-
         resp = simulate(
             p,
             spec.geometry,
@@ -273,8 +270,6 @@ def replay(
     else:
         v, w = _replay_pybullet(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial, physics_hz)
     if odom_v_window_s > 0:
-        from sysid.odometry import window_mean
-
         # before the first measurement the base is taken to run at the measured start state
         # (window_mean holds the first value), as the start command assumes
         v = window_mean(t_out, v, meas_t, odom_v_window_s)

@@ -22,15 +22,35 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import platform
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:  # the heavy modules are imported by run_study only
-    from sim2real.agreement.figures import AgreementReport, EnsembleResult
-    from sim2real.agreement.report import ReportRun
-    from sim2real.agreement.verdict import AgreementVerdict, SessionFigures
+from robots.params import load_drive_params
+from robots.randomization import DriveDistribution
+from robots.spec import load_spec
+from sim2real._io import atomic_write, check_not_an_input, check_output_path, output_set
+from sim2real.agreement.figures import (
+    AgreementReport,
+    EnsembleResult,
+    check_band_level,
+    check_ensemble_size,
+    check_tolerances,
+    lag_phrase,
+    measure_agreement,
+    run_ensemble,
+)
+from sim2real.agreement.replay import replay
+from sim2real.agreement.report import ReportInput, ReportRun, param_rows, write_report
+from sim2real.agreement.verdict import AgreementVerdict, SessionFigures, decide, speed_shortfall
+from sim2real.errors import LogValueError, Sim2RealValueError
+from sim2real.logs import read_for_robot, write_velocity_log
+from sim2real.logs._bags import open_log_source
+from sim2real.logs._digest import FileDigest
+from sysid.metrics import active_mask
 
 __all__ = [
     "StudyConfig",
@@ -160,9 +180,6 @@ class StudyResult:
 def _sha256(path: str | Path) -> str:
     """SHA-256 of a file, or of a rosbag2 folder as its reader hashes it (the log_sha256 of --json)."""
     if Path(path).is_dir():
-        from sim2real.logs._bags import open_log_source
-        from sim2real.logs._digest import FileDigest
-
         return FileDigest(open_log_source(Path(path)).digest_paths, name=str(path))()
     h = hashlib.sha256()
     with open(path, "rb") as fh:
@@ -172,9 +189,6 @@ def _sha256(path: str | Path) -> str:
 
 
 def _versions() -> str:
-    import platform
-    from importlib.metadata import PackageNotFoundError, version
-
     parts = [f"python {platform.python_version()}"]
     for dist in ("sim2real", "numpy", "scipy", "pybullet", "mcap", "matplotlib"):
         try:
@@ -225,8 +239,6 @@ def parse_odom_v_window(value: float | str, rate_hz: float, *, v_source: str = "
     >>> parse_odom_v_window("auto", 30.0), parse_odom_v_window(0.05, 30.0)
     (0.03333333333333333, 0.05)
     """
-    from sim2real.errors import Sim2RealValueError
-
     if isinstance(value, str) and value.strip() == "auto":
         return 1.0 / rate_hz if v_source == "wheels" else 0.0
     try:
@@ -242,10 +254,6 @@ def parse_odom_v_window(value: float | str, rate_hz: float, *, v_source: str = "
 
 
 def _check_config(config: StudyConfig) -> None:
-    from sim2real._io import check_not_an_input, check_output_path
-    from sim2real.agreement.figures import check_band_level, check_tolerances
-    from sim2real.errors import Sim2RealValueError
-
     check_tolerances(config.tol_v, config.tol_w)
     outputs = (
         (config.json_path, "--json file"),
@@ -258,8 +266,6 @@ def _check_config(config: StudyConfig) -> None:
             check_not_an_input(path, [config.log, config.params_path], what=what)
     n = config.ensemble_n
     if n is not None:
-        from sim2real.agreement.figures import check_ensemble_size
-
         check_ensemble_size(n)
     if n is not None and config.params_path is None:
         raise Sim2RealValueError(
@@ -297,14 +303,6 @@ def run_study(
     sim2real.errors.Sim2RealError, robots.errors.RobotsError
         On bad input (one sentence naming the argument or file and the fix).
     """
-    from robots.params import load_drive_params
-    from robots.spec import load_spec
-    from sim2real._io import output_set
-    from sim2real.agreement.figures import measure_agreement
-    from sim2real.agreement.replay import replay
-    from sim2real.agreement.report import ReportRun
-    from sim2real.logs import read_for_robot
-
     _check_config(config)
     spec = load_spec(config.robot)
     window_s = parse_odom_v_window(
@@ -377,9 +375,6 @@ def run_study(
 
 def session_figures(trace: Any, spec: Any, runs: Sequence[Any], params: Any) -> SessionFigures:
     """The checked session's figures the verdict weighs (top speeds, fitted delay, shortfall)."""
-    from sim2real.agreement.verdict import SessionFigures, speed_shortfall
-    from sysid.metrics import active_mask
-
     main = runs[-1]
     cmd_v, cmd_w = trace.cmd_at_meas()
     a = main.agreement
@@ -411,8 +406,6 @@ def _verdict(
     ensemble: EnsembleResult | None,
     params: Any,
 ) -> AgreementVerdict:
-    from sim2real.agreement.verdict import decide
-
     return decide(
         defaults=runs[0].agreement,
         fitted=runs[-1].agreement if params is not None else None,
@@ -432,8 +425,6 @@ def _ensemble(
 ) -> EnsembleResult | None:
     if config.ensemble_n is None or params is None or config.params_path is None:
         return None
-    from robots.randomization import DriveDistribution
-    from sim2real.agreement.figures import run_ensemble
 
     distribution = DriveDistribution.from_params_file(config.params_path, robot=spec.name)
     return run_ensemble(
@@ -493,8 +484,6 @@ def check_figures(figures: dict[str, Any], log: str | Path) -> None:
         Naming the missing figure, why it is undefined on this log and what to do, so
         ``sim2real agree`` exits 2 instead of reporting success without a number.
     """
-    from sim2real.errors import LogValueError
-
     missing = set(_undefined(figures))
     key = next(
         (k for k in ("agreement", "rmse_v") if k in missing),
@@ -548,8 +537,6 @@ def _write_report(
     verdict: AgreementVerdict | None = None,
     notes: tuple[str, ...] = (),
 ) -> None:
-    from sim2real.agreement.report import ReportInput, param_rows, write_report
-
     assert config.report_path is not None  # checked by the caller
     files: list[tuple[str, str | Path]] = [("log", config.log)]
     if config.params_path is not None:
@@ -583,8 +570,6 @@ def _write_sim_log(path: str | Path, trace: Any, sim: Any) -> None:
 
     The odometry pose is dead-reckoned from the simulated (v, w) by the writer.
     """
-    from sim2real.logs import write_velocity_log
-
     write_velocity_log(
         path,
         cmd_t_ns=trace.cmd_t_ns,
@@ -598,15 +583,12 @@ def _write_sim_log(path: str | Path, trace: Any, sim: Any) -> None:
 
 def write_json(path: str | Path, figures: dict[str, Any]) -> None:
     """Write ``figures`` as pretty JSON (NaN already mapped to null) via a temp file."""
-    from sim2real._io import atomic_write
-
     with atomic_write(path, "wb", what="--json file") as fh:
         fh.write((json.dumps(figures, indent=2, allow_nan=False) + "\n").encode("utf-8"))
 
 
 def summary_table(runs: Sequence[Any], ensemble: Any = None) -> str:
     """A plain-text table of the agreement figures, one column per replay."""
-    from sim2real.agreement.figures import lag_phrase
 
     def pct(x: float) -> str:
         return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"
