@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sim2real.logs import write_trace
 from sim2real.plants.diff_drive import (
     PlantParams,
     PlantRun,
@@ -96,8 +97,6 @@ def build_sample(kind: str) -> PlantRun:
 
 def write_samples(out_dir: str | Path) -> list[Path]:
     """Build both sample logs and write them as MCAP into ``out_dir``; returns the paths."""
-    from sim2real.logs import write_trace
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []

@@ -26,14 +26,28 @@ import importlib.util
 import inspect
 import math
 import os
+import socket
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from robots.spec import load_spec
 from robots.units import NS_PER_S, nanoseconds
-from sim2real.errors import ClusterLostWarning, Sim2RealFileNotFoundError, Sim2RealValueError
+from sim2real.agreement.study import run_study
+from sim2real.errors import (
+    ClusterLostWarning,
+    Sim2RealError,
+    Sim2RealFileNotFoundError,
+    Sim2RealValueError,
+)
+from sim2real.logs import write_velocity_log
+from sysid.synthetic import step_commands, synthetic_log
 
 __all__ = [
     "agree_many",
@@ -290,8 +304,6 @@ def _stale_cluster_file() -> bool:
     a local Ray, as it does when no record exists. A probe that only times out
     (:data:`_PROBE_S`) is left to Ray, as before.
     """
-    import socket
-
     try:
         host, _, port = _cluster_file().read_text(encoding="utf-8").strip().rpartition(":")
         with socket.create_connection((host, int(port)), timeout=_PROBE_S):
@@ -409,7 +421,11 @@ def map_tasks(
     try:
         started = connect(address, local_cpus=max(1, _cores() - 1), lean=True)
         lost = _work_on_ray(
-            fn, items, shared, leave_s=_RAY_SHUTDOWN_S if release and started else 0.0
+            _import_ray(address),
+            fn,
+            items,
+            shared,
+            leave_s=_RAY_SHUTDOWN_S if release and started else 0.0,
         )
         if lost is not None:
             _carry_on_without_ray(fn, items, shared, address, lost)
@@ -420,9 +436,7 @@ def map_tasks(
         raise
     finally:
         if release and started:
-            import ray
-
-            ray.shutdown()
+            _import_ray(address).shutdown()
     local.join()
     if shared.errors:
         raise shared.errors[min(shared.errors)]
@@ -514,7 +528,12 @@ def _work_here(fn: Callable[[Any], Any], items: Sequence[Any], shared: _Shared) 
 
 
 def _work_on_ray(
-    fn: Callable[[Any], Any], items: Sequence[Any], shared: _Shared, *, leave_s: float = 0.0
+    ray: Any,
+    fn: Callable[[Any], Any],
+    items: Sequence[Any],
+    shared: _Shared,
+    *,
+    leave_s: float = 0.0,
 ) -> BaseException | None:
     """Hand the items left out to Ray tasks, one per cluster CPU at a time, until none is left.
 
@@ -522,8 +541,6 @@ def _work_on_ray(
     Returns None when every batch came back, or Ray's own error (a dead node or worker, a
     cluster gone) that ended it, the batches still out given back to this process.
     """
-    import ray
-
     running: dict[Any, range] = {}
     try:
         slots = max(1, int(ray.cluster_resources().get("CPU", 1)))
@@ -560,10 +577,7 @@ def _carry_on_without_ray(
     lost: BaseException,
 ) -> None:
     """After Ray failed: warn, let go of Ray, and work on the rest in this thread too."""
-    import warnings
-
-    import ray
-
+    ray = _import_ray(address)
     what = " ".join(str(lost).split()).split(". ")[0]
     warnings.warn(
         ClusterLostWarning(
@@ -580,8 +594,6 @@ def _carry_on_without_ray(
 
 def _one_thread() -> Any:
     """A context pinning BLAS/OpenMP pools to one thread (threadpoolctl; ~10 ms to enter)."""
-    from threadpoolctl import threadpool_limits
-
     return threadpool_limits(1)
 
 
@@ -600,9 +612,6 @@ def _study_figures(config: Any) -> tuple[dict[str, Any], tuple[str, ...]]:
     A log that cannot be used (unreadable, nothing to compare) gives
     ``{"log_file": path, "error": sentence}`` instead of figures, so the others go on.
     """
-    from sim2real.agreement.study import run_study
-    from sim2real.errors import Sim2RealError
-
     try:
         result = run_study(config)
     except Sim2RealError as exc:
@@ -705,12 +714,6 @@ def write_synthetic_fleet(
     --------
     >>> paths = write_synthetic_fleet("fleet", 3, duration_s=20.0)  # doctest: +SKIP
     """
-    import numpy as np
-
-    from robots.spec import load_spec
-    from sim2real.logs import write_velocity_log
-    from sysid.synthetic import step_commands, synthetic_log
-
     spec = load_spec(robot)
     out = Path(folder)
     paths = []

@@ -14,6 +14,7 @@ import numpy as np
 
 from robots.params import DriveParams
 from robots.randomization import DriveDistribution
+from robots.spec import load_spec
 from sim2real.envs._robot import (
     RobotBackend,
     check_env_arguments,
@@ -34,8 +35,6 @@ def wrap_angle(a: float) -> float:
 
 
 def _load_spec(robot: str) -> Any:
-    from robots.spec import load_spec
-
     return load_spec(robot)
 
 

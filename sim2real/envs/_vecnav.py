@@ -29,8 +29,11 @@ from pathlib import Path
 import numba
 import numpy as np
 
+import robots._kernel
+import robots.reduced
 from robots import _jit
 from robots.reduced import _advance_history
+from sim2real.envs import _robot, depth, geometry, pedestrians
 from sim2real.envs._robot import arc_step
 from sim2real.envs.depth import render_camera
 from sim2real.envs.geometry import FloatArray, cast_beams, segment_distance
@@ -544,11 +547,14 @@ def _key_cache() -> None:
     """Key this module's numba cache on the sources of every kernel it calls (robots' drive
     kernels, the pose step, the pedestrians' and the depth camera's kernels): numba alone keys
     it on this file, and would load stale machine code after an edit of one of those."""
-    import robots._kernel
-    import robots.reduced
-    from sim2real.envs import _robot, depth, geometry, pedestrians
-
-    modules = (robots._kernel, robots.reduced, _robot, depth, geometry, pedestrians)
+    modules = (
+        robots._kernel,
+        robots.reduced,
+        _robot,
+        depth,
+        geometry,
+        pedestrians,
+    )
     sources = {Path(__file__)} | {Path(str(m.__file__)) for m in modules}
     _jit.key_cache(move_robots, sources)
 

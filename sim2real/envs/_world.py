@@ -3,12 +3,14 @@
 pybullet runs in DIRECT mode, one client per env. Static obstacles (cylinders, boxes, walls)
 are rebuilt at each reset; pedestrians are upright cylinder bodies (with collision shapes, so
 ray tests and the camera see them) moved kinematically every step.
-The envs render depth with :mod:`sim2real.envs.depth`; pybullet's TinyRenderer\n(:func:`render_pybullet_depth`) is the reference it is tested and benchmarked against.
+The envs render depth with :mod:`sim2real.envs.depth`; pybullet's TinyRenderer
+(:func:`render_pybullet_depth`) is the reference it is tested and benchmarked against.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -17,17 +19,24 @@ from sim2real.envs.geometry import FloatArray
 __all__ = ["PybulletWorld", "render_pybullet_depth"]
 
 
+def _pybullet() -> tuple[Any, Any]:
+    """pybullet and :mod:`robots.world`, imported by the first pybullet world: an env with the
+    reduced dynamics never loads pybullet."""
+    from robots import world
+    from robots._pybullet import pybullet
+
+    return pybullet, world
+
+
 class PybulletWorld:
     """Bodies of one env in its own DIRECT pybullet client (ground from :mod:`robots.world`)."""
 
     def __init__(self) -> None:
-        from robots._pybullet import pybullet as p
-        from robots.world import add_ground
-
+        p, self._bodies = _pybullet()
         self.p = p
         self.client: int = p.connect(p.DIRECT)
         p.setGravity(0.0, 0.0, -9.81, physicsClientId=self.client)
-        self.ground = add_ground(self.client)
+        self.ground = self._bodies.add_ground(self.client)
         self._static: list[int] = []
         self._peds: list[int] = []
         self._ped_key: tuple[float, ...] = ()
@@ -39,11 +48,9 @@ class PybulletWorld:
 
     def reset_simulation(self) -> None:
         """Remove every body and start from a fresh physics state (same seed, same rollout)."""
-        from robots.world import add_ground
-
         self.p.resetSimulation(physicsClientId=self.client)
         self.p.setGravity(0.0, 0.0, -9.81, physicsClientId=self.client)
-        self.ground = add_ground(self.client)
+        self.ground = self._bodies.add_ground(self.client)
         self._static, self._peds, self._ped_key = [], [], ()
 
     def close(self) -> None:
@@ -71,14 +78,14 @@ class PybulletWorld:
         cylinder_height_m, box_height_m : float or ndarray
             Heights, m (one value or one per obstacle).
         """
-        from robots.world import add_box
-
         for body in self._static:
             self.p.removeBody(body, physicsClientId=self.client)
         ch = np.broadcast_to(np.asarray(cylinder_height_m, dtype=float), (len(cylinders),))
         bh = np.broadcast_to(np.asarray(box_height_m, dtype=float), (len(boxes),))
         self._static = self._cylinder_batches(cylinders, ch) + [
-            add_box(self.client, (cx, cy, 0.5 * h), (0.5 * ln, 0.5 * wd, 0.5 * h), yaw=yaw)
+            self._bodies.add_box(
+                self.client, (cx, cy, 0.5 * h), (0.5 * ln, 0.5 * wd, 0.5 * h), yaw=yaw
+            )
             for (cx, cy, ln, wd, yaw), h in zip(boxes, bh, strict=True)
         ]
 

@@ -78,6 +78,7 @@ from gymnasium import spaces
 from robots.params import DriveParams
 from sim2real.envs._car import CAR, DEFAULT_CAR_PARAMS, CarModel, PybulletCar, ReducedCar
 from sim2real.envs._robot import check_env_arguments
+from sim2real.envs._world import PybulletWorld
 from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, rectangle_segments
 from sim2real.envs.metrics import MetricsTracker
 from sim2real.errors import Sim2RealValueError
@@ -214,8 +215,6 @@ class CarCrossingEnv(gym.Env):  # type: ignore[type-arg]
         self._world: Any = None
         self.car: CarModel
         if dynamics == "pybullet":
-            from sim2real.envs._world import PybulletWorld
-
             self._world = PybulletWorld()
             self.car = PybulletCar(self._world.client, CAR, params)
         else:

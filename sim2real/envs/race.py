@@ -59,12 +59,14 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from robots.params import DriveParams
+from robots.spec import load_spec
 from sim2real.envs._robot import (
     RobotBackend,
     check_env_arguments,
     footprint_radius_m,
     make_backend,
 )
+from sim2real.envs._world import PybulletWorld
 from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, disc_clearance
 from sim2real.envs.metrics import MetricsTracker
 from sim2real.envs.orca import OrcaConfig, orca_velocities
@@ -177,8 +179,6 @@ class RaceCore:
         robot: str,
         plant_sessions: PlantSessions | PlantParams | None = None,
     ) -> None:
-        from robots.spec import load_spec
-
         check_env_arguments(
             dynamics=dynamics,
             control_dt=control_dt,
@@ -203,8 +203,6 @@ class RaceCore:
         self.beam_angles_rad = lid.angle_min_rad + 2.0 * math.pi * np.arange(N_BEAMS) / N_BEAMS
         self.world: Any = None
         if dynamics == "pybullet":
-            from sim2real.envs._world import PybulletWorld
-
             self.world = PybulletWorld()
         params = drive_params if drive_params is not None else self.spec.drive
         client = None if self.world is None else self.world.client

@@ -82,6 +82,7 @@ Examples
 
 from __future__ import annotations
 
+from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -134,8 +135,6 @@ def __getattr__(name: str) -> Any:
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'sim2real.logs' has no attribute {name!r}")
-    from importlib import import_module
-
     value = getattr(import_module(f"sim2real.logs.{module}"), name)
     globals()[name] = value  # later look-ups skip this function
     return value

@@ -30,11 +30,12 @@ import numpy as np
 from sim2real.errors import LogFormatError, Sim2RealFileNotFoundError
 from sim2real.logs._accum import DRIVE_TYPES, add_segment, times_only
 from sim2real.logs._cdr import gather
-from sim2real.logs._mcap import MAGIC, ChannelRecord, Container, SchemaRecord, Segment
+from sim2real.logs._mcap import MAGIC, ChannelRecord, Container, SchemaRecord, Segment, stream_mcap
 from sim2real.logs._schemas import (
     SCHEMA_TEXT,
     normalize_type,
 )
+from sim2real.logs._summary import stated_counts
 
 __all__ = ["DRIVE_TYPES", "LogSource", "open_log_source", "source_kind"]
 
@@ -56,13 +57,9 @@ class LogSource:
         ``times_only`` keeps log times alone."""
         container = Container(name=str(self.path), times_only=times_only)
         if self.kind == "mcap":
-            from sim2real.logs._mcap import stream_mcap
-
             with self.path.open("rb") as fh:
                 size = os.fstat(fh.fileno()).st_size
                 if not times_only:  # sizes the decoded arrays (memory follows the output)
-                    from sim2real.logs._summary import stated_counts
-
                     container.expected = stated_counts(fh, size)
                     fh.seek(0)
                 return stream_mcap(

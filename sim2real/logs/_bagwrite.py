@@ -12,9 +12,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_typestore
 
 from robots.units import NS_PER_S
 from sim2real.errors import Sim2RealValueError
+from sim2real.logs._writer import integrate_pose
 from sim2real.logs.trace import Trace
 
 __all__ = ["BAG_FORMATS", "write_rosbag"]
@@ -47,8 +52,6 @@ def write_rosbag(
     >>> write_rosbag("run.bag", trace)  # doctest: +SKIP
     >>> write_rosbag("run_bag2", trace, format="mcap")  # doctest: +SKIP
     """
-    from rosbags.typesys import Stores, get_typestore
-
     if format not in BAG_FORMATS:
         raise Sim2RealValueError(
             f"bag format must be one of {', '.join(BAG_FORMATS)}, got {format!r}"
@@ -60,14 +63,9 @@ def write_rosbag(
     store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     msgs = _messages(trace, store, ros1=ros1)
     if ros1:
-        from rosbags.rosbag1 import Writer as Writer1
-
         with Writer1(out) as w1:
             _write_all(w1, store, msgs, cmd_topic, odom_topic, ros1=True)
     else:
-        from rosbags.rosbag2 import StoragePlugin
-        from rosbags.rosbag2 import Writer as Writer2
-
         plugin = StoragePlugin.SQLITE3 if format == "sqlite3" else StoragePlugin.MCAP
         with Writer2(out, version=9, storage_plugin=plugin) as w2:
             _write_all(w2, store, msgs, cmd_topic, odom_topic, ros1=False)
@@ -101,7 +99,6 @@ def _write_all(
 def _pose(trace: Trace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if trace.pose_x is not None and trace.pose_y is not None and trace.pose_yaw is not None:
         return trace.pose_x, trace.pose_y, trace.pose_yaw
-    from sim2real.logs._writer import integrate_pose
 
     return integrate_pose(trace.meas_t_ns, trace.meas_v, trace.meas_w)
 

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from robots.units import NS_PER_S, nanoseconds, seconds
+from sim2real._io import atomic_write
 from sim2real.errors import LogFormatError, LogValueError
 from sim2real.logs._timeline import drop_outliers
 from sim2real.logs.trace import Trace, TraceMeta
@@ -163,7 +164,6 @@ def write_csv_trace(path: str | Path, trace: Trace) -> Path:
             "a CSV log has one time column, so the trace's command and measurement times must "
             "be equal; resample the commands onto the measurement times first"
         )
-    from sim2real._io import atomic_write
 
     names = list(CSV_COLUMNS) + (list(_POSE) if trace.has_pose else [])
     lines = [",".join(names)]

@@ -4,18 +4,19 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from robots.units import seconds
 from sim2real.errors import MissingTopicError, Sim2RealFileNotFoundError
+from sim2real.logs._bags import source_kind
 from sim2real.logs._channels import Chan, choose_topic
 from sim2real.logs._digest import FileDigest, LazyText
+from sim2real.logs._reader import load_log
 from sim2real.logs._schemas import normalize_type
-
-if TYPE_CHECKING:
-    from sim2real.logs._summary import SummaryView
+from sim2real.logs._summary import SummaryView, read_summary
+from sim2real.logs._timeline import drop_far_commands, drop_isolated, segment_bounds
 
 __all__ = [
     "NO_CHECKSUMS",
@@ -181,9 +182,6 @@ class _Scanned:
 
 def _from_summary(path: Path) -> _Scanned | None:
     """The MCAP summary-section answer (None: not an MCAP file with a usable summary)."""
-    from sim2real.logs._bags import source_kind
-    from sim2real.logs._summary import read_summary
-
     if not path.is_file() or source_kind(path) != "mcap":
         return None
     view = read_summary(path)
@@ -221,8 +219,6 @@ def _summary_notes(view: SummaryView) -> list[str]:
 
 
 def _from_scan(path: Path) -> _Scanned:
-    from sim2real.logs._reader import load_log
-
     log = load_log(path)
     warnings = list(log.container.warnings)
     note = _checksum_note(path, log.container.format, log.container.checksums)
@@ -246,8 +242,6 @@ def _checksum_note(path: Path, kind: str, checksums: bool) -> str:
     if kind == "ros1":
         return ROS1_NO_CHECKSUMS
     if kind == "rosbag2":
-        from sim2real.logs._summary import read_summary
-
         storage = [p for p in path.iterdir() if p.suffix in (".db3", ".mcap")]
         if any(p.suffix == ".db3" for p in storage):
             return ROSBAG2_NO_CHECKSUMS
@@ -281,7 +275,6 @@ def _timeline(
 
     The rules are the reader's (:mod:`sim2real.logs._timeline`).
     """
-    from sim2real.logs._timeline import drop_far_commands, drop_isolated, segment_bounds
 
     def times(topic: str | None) -> np.ndarray:
         found = [c.log_time_ns for c in chans if c.topic == topic and c.count]

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from robots.units import NS_PER_S, seconds
+from sim2real import __version__
 from sim2real._io import atomic_write
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import _cdr
@@ -137,8 +138,6 @@ def _json_payloads(type_name: str, cols: dict[str, Any], n: int) -> list[bytes]:
 
 def _write(path: str | Path, streams: Sequence[_Stream], *, encoding: str) -> Path:
     from mcap.writer import CompressionType, Writer
-
-    from sim2real import __version__
 
     lt = np.concatenate([s.log_t_ns for s in streams])
     owner = np.concatenate([np.full(s.log_t_ns.size, k) for k, s in enumerate(streams)])

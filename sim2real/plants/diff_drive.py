@@ -56,9 +56,12 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from robots.spec import load_spec
 from robots.units import nanoseconds
 from sim2real.errors import Sim2RealValueError
+from sim2real.logs import integrate_pose, write_trace
 from sim2real.logs.trace import Trace, TraceMeta
+from sysid.synthetic import step_commands
 
 __all__ = [
     "PROFILES",
@@ -237,8 +240,6 @@ def plant_from_spec(robot: str, **changes: Any) -> PlantParams:
     >>> p.wheel_radius_m, p.odom_rate_hz, p.w_source
     (0.033, 30.0, 'imu')
     """
-    from robots.spec import load_spec
-
     spec = load_spec(robot)
     geo, drive, odo = spec.geometry, spec.drive, spec.odometry
     weight_n = spec.rigid_mass_kg * 9.81
@@ -443,8 +444,6 @@ def command_profile(
     if not duration_s > 0:
         raise Sim2RealValueError(f"duration_s must be positive, got {duration_s}")
     if kind == "random_steps":
-        from sysid.synthetic import step_commands
-
         seed = int(rng.integers(2**31))
         return step_commands(
             duration_s, seed=seed, rate_hz=rate_hz, v_max_mps=max_v_mps, w_max_radps=max_w_radps
@@ -799,8 +798,6 @@ def run_to_trace(run: PlantRun, *, t0_ns: int = T0_NS, name: str = "") -> Trace:
     The pose is dead-reckoned from the reported velocities
     (:func:`sim2real.logs.integrate_pose`), as the base's odometry does.
     """
-    from sim2real.logs import integrate_pose
-
     k = run.kept
     meas_t_ns = t0_ns + nanoseconds(run.stamp_t_s[k])
     x, y, yaw = integrate_pose(meas_t_ns, run.meas_v[k], run.meas_w[k])
@@ -902,8 +899,6 @@ def write_fleet(
     Each file holds ``/cmd_vel`` (``geometry_msgs/msg/Twist``) and ``/odom``
     (``nav_msgs/msg/Odometry``) in CDR (:func:`sim2real.logs.write_trace`).
     """
-    from sim2real.logs import write_trace
-
     out = Path(out_dir)
     if not out.is_dir():
         raise Sim2RealValueError(f"out_dir '{out}' is not an existing folder; create it first")

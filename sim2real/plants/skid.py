@@ -63,6 +63,7 @@ from numpy.typing import NDArray
 from robots.units import nanoseconds
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace, TraceMeta
+from sim2real.plants.diff_drive import command_profile
 
 __all__ = [
     "CHI_RANGE",
@@ -495,8 +496,6 @@ def make_skid_sessions(
     0.849-0.932 (``benchmarks/bench_skid.py``; with proportional loops the scrub's droop made
     a slipperier ground turn the base faster than the fit predicted: 0.81-0.91 at x 0.8).
     """
-    from sim2real.plants.diff_drive import command_profile
-
     if n_sessions < 1:
         raise Sim2RealValueError(f"n_sessions must be at least 1, got {n_sessions}")
     if not (math.isfinite(ground_sd) and 0.0 <= ground_sd <= 1.0):

@@ -20,6 +20,7 @@ from sim2real.logs import (
     SCHEMA_TEXT,
     TWIST,
     _cdr,
+    _info,
     _mcap,
     _summary,
     inspect_log,
@@ -86,7 +87,7 @@ def _write(
 
 def _scanned(path: Path, monkeypatch: pytest.MonkeyPatch):  # type: ignore[no-untyped-def]
     with monkeypatch.context() as m:
-        m.setattr(_summary, "read_summary", lambda p: None)
+        m.setattr(_info, "read_summary", lambda p: None)
         return inspect_log(path)
 
 
