@@ -67,7 +67,7 @@ def fit_logs(
     keep_all: bool = False,
     odom_v_window_s: float | None = None,
     loss: str = "soft_l1",
-    dt_s: float = DEFAULT_DT_S,
+    dt_s: float | None = None,
     bootstrap: int = 0,
     seed: int = 0,
     progress: Callable[[str, float], None] | None = None,
@@ -96,9 +96,11 @@ def fit_logs(
         the wheels stay stopped; :func:`sim2real.logs.without_unattended`).
     odom_v_window_s : float, optional
         The odometry's velocity window, s (default: the spec's, e.g. one encoder period).
-    loss, dt_s, bootstrap, seed, progress, map_sessions
-        Passed to :func:`sysid.fit_drive` (robust loss, model step in s, block-bootstrap
-        refits, their seed, a ``(stage, fraction)`` callback, a parallel map over sessions).
+    dt_s : float, optional
+        The model's integration step, s (default: :func:`sysid.fit_drive`'s, 1/240 s).
+    loss, bootstrap, seed, progress, map_sessions
+        Passed to :func:`sysid.fit_drive` (robust loss, block-bootstrap refits, their seed,
+        a ``(stage, fraction)`` callback, a parallel map over sessions).
 
     Returns
     -------
@@ -144,7 +146,7 @@ def fit_logs(
             validate=val_set,
             robot=spec.name,
             loss=loss,
-            dt_s=dt_s,
+            dt_s=DEFAULT_DT_S if dt_s is None else dt_s,
             odom_v_window_s=spec.odometry.v_window_s
             if odom_v_window_s is None
             else odom_v_window_s,

@@ -466,7 +466,7 @@ def calibrate_traces(
             f"--ensemble {DEFAULT_N}"
         )
     if not traces:
-        raise Sim2RealValueError("calibrate needs at least one validation log; pass one")
+        raise Sim2RealValueError("calibrate needs at least one calibration log; pass one")
     if isinstance(fit_sessions, bool) or not isinstance(fit_sessions, int) or fit_sessions < 1:
         raise Sim2RealValueError(
             f"fit_sessions (the logs the params file was fitted on) must be an integer >= 1, "
@@ -483,7 +483,7 @@ def calibrate_traces(
     n_active = sum(int(lg.active.sum()) for lg in logs)
     if n_active < 20:
         raise Sim2RealValueError(
-            f"the validation log(s) have {n_active} active samples; calibration needs at least "
+            f"the calibration log(s) have {n_active} active samples; calibration needs at least "
             "20 (a log in which the robot moves and turns)"
         )
 
@@ -742,7 +742,7 @@ def calibrate(
     for path, trace in zip(logs, traces, strict=True):
         if getattr(trace.meta, "sha256", None) in fitted_on:
             raise Sim2RealValueError(
-                f"validation log '{path}' is one of the logs params file '{params_path}' was "
+                f"calibration log '{path}' is one of the logs params file '{params_path}' was "
                 "fitted on; calibrate on a log (session) the fit never saw"
             )
     notes = tuple(
@@ -785,7 +785,7 @@ def _short_data_note(traces: Sequence[Any], n_active: int) -> str | None:
     if active_s >= SHORT_VALIDATION_S:
         return None
     return (
-        f"the validation logs hold {active_s:.0f} s of active samples: a spread judged on less "
+        f"the calibration logs hold {active_s:.0f} s of active samples: a spread judged on less "
         f"than {SHORT_VALIDATION_S:.0f} s may be too narrow for a new session (measured: "
         "bands calibrated on ~70 s covered 76-77 % of new sessions); calibrate on more or "
         "longer sessions"

@@ -1,9 +1,12 @@
 """The ``sim2real`` command line: a thin layer over the library functions.
 
-Each command group lives in its own private module (``_logs``, ``_robots``, ``_sysid``,
-``_agree``, ``_envs``, ``_demo``) that exposes ``register(subparsers)``. Handlers return an
-exit code. Bad input raises one of the packages' error types; :func:`main` prints its one-line
-message to stderr and returns 2 (``--debug`` shows the traceback instead).
+Each command group's arguments are defined in a light module of :mod:`sim2real.cli._parsers`
+(``register(subparsers)``), which names the command's handler as ``"GROUP:function"``. The
+handlers live in the private modules of :data:`HANDLER_MODULES` (``_logs``, ``_robots``,
+``_sysid``, ...), which import what they need at their top; :func:`main` imports the one the
+command needs, so ``--help`` and light commands never load the heavy libraries. Handlers
+return an exit code. Bad input raises one of the packages' error types; :func:`main` prints
+its one-line message to stderr and returns 2 (``--debug`` shows the traceback instead).
 
 Examples
 --------
@@ -17,20 +20,38 @@ from __future__ import annotations
 import argparse
 import contextlib
 import gc
+import importlib
 import os
+import select
 import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
+import sim2real
 from randomizers.errors import RandomizerError
 from robots.errors import RobotsError
-from sim2real.cli import _agree, _demo, _envs, _logs, _robots, _sysid, _train
 from sim2real.cli._common import EPILOG_MAIN, HelpFormatter, OneLineErrorParser
+from sim2real.cli._parsers import GROUPS
 from sim2real.errors import Sim2RealError, Sim2RealWarning
 from sysid.errors import SysidError
 
-__all__ = ["USER_ERRORS", "build_parser", "main", "run"]
+__all__ = ["HANDLER_MODULES", "USER_ERRORS", "build_parser", "handler", "main", "run"]
+
+#: The module of each command group's handlers (``set_defaults(handler="GROUP:function")``):
+#: the CLI's deferred imports, in one place. :func:`main` imports only the module of the
+#: command that runs, which keeps the start-up budget of ``--help`` and the light commands
+#: (``tests/sim2real/test_import_budget.py``).
+HANDLER_MODULES: dict[str, str] = {
+    "logs": "sim2real.cli._logs",
+    "robots": "sim2real.cli._robots",
+    "sysid": "sim2real.cli._sysid",
+    "calibrate": "sim2real.cli._calibrate",
+    "agree": "sim2real.cli._agree",
+    "envs": "sim2real.cli._envs",
+    "train": "sim2real.cli._train",
+    "demo": "sim2real.cli._demo",
+}
 
 #: Exceptions that mean "bad input": printed as one sentence, exit code 2.
 USER_ERRORS: tuple[type[BaseException], ...] = (
@@ -51,8 +72,6 @@ class _VersionAction(argparse.Action):
         values: object,
         option_string: str | None = None,
     ) -> None:
-        import sim2real
-
         print(f"sim2real {sim2real.__version__}")
         parser.exit()
 
@@ -71,19 +90,32 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for module in (_logs, _robots, _sysid, _agree, _envs, _train, _demo):
-        module.register(sub)
+    for group in GROUPS:
+        group.register(sub)
     return parser
+
+
+def handler(name: str) -> Callable[[argparse.Namespace], int]:
+    """The handler function a parser names as ``"GROUP:function"`` (its module imported now).
+
+    Examples
+    --------
+    >>> handler("robots:handle_list").__name__
+    'handle_list'
+    """
+    group, _, function = name.partition(":")
+    module = importlib.import_module(HANDLER_MODULES[group])
+    run_command: Callable[[argparse.Namespace], int] = getattr(module, function)
+    return run_command
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 ok, 1 gate failed, 2 bad input, 141 stdout closed)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    handler: Callable[[argparse.Namespace], int] = args.handler
     try:
         with _warnings_as_lines():
-            return int(handler(args))
+            return int(handler(args.handler)(args))
     except USER_ERRORS as exc:
         if args.debug:
             raise
@@ -136,17 +168,13 @@ def run() -> int:
 
     Once the command is done, the garbage collector is frozen (:func:`gc.freeze`) so that the
     interpreter's teardown frees the remaining objects by reference counting only, without
-    the cyclic collections it would otherwise run over them (~120,000 tracked objects after
-    one ``agree`` with numba, pybullet and Ray loaded). Measured here on ``sim2real agree``
-    over 10 logs (2026-11-26, reduced engine, with and without the freeze alternated 5 times
-    in one run, load 1.9-3.3): the time from the end of :func:`main` to the process's exit,
-    median, fell from 0.40 s to 0.04 s (serial) and from 0.53 s to 0.10 s (with ``--ray
-    auto``, whose modules leave more objects behind); the same trick as Instagram's
-    exit without a final collection ("Dismissing Python Garbage Collection at Instagram",
-    2017). Files, subprocesses and ``atexit`` handlers are closed as before (they do not
-    depend on the cyclic collector), and objects kept alive only by a reference cycle are
-    not finalised at exit, which CPython never promised anyway. :func:`main` itself, which
-    tests call in-process, leaves the collector alone.
+    the cyclic collections it would otherwise run over them (after an ``agree`` with numba,
+    pybullet and Ray loaded, over a hundred thousand tracked objects); the same trick as
+    Instagram's exit without a final collection ("Dismissing Python Garbage Collection at
+    Instagram", 2017). Files, subprocesses and ``atexit`` handlers are closed as before (they
+    do not depend on the cyclic collector), and objects kept alive only by a reference cycle
+    are not finalised at exit, which CPython never promised anyway. :func:`main` itself,
+    which tests call in-process, leaves the collector alone.
     """
     code = main()
     gc.freeze()
@@ -159,8 +187,6 @@ def _stdout_closed() -> bool:
     A BrokenPipeError can also come from a pipe to a child process (SB3's ``SubprocVecEnv``
     workers, Ray); only a closed stdout is the quiet exit 141.
     """
-    import select
-
     try:
         fd = sys.stdout.fileno()
     except (AttributeError, OSError, ValueError):  # replaced by an object without a descriptor

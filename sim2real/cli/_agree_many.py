@@ -9,7 +9,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from sim2real.errors import Sim2RealValueError
+from sim2real._io import check_output_path
+from sim2real.agreement.figures import band_verdict
+from sim2real.agreement.study import write_json
+from sim2real.cli._common import gate_line
+from sim2real.cli._progress import progress_bar
+from sim2real.cluster import agree_many, fleet_summary
+from sim2real.errors import LogValueError, Sim2RealValueError
 
 __all__ = ["handle_many"]
 
@@ -74,13 +80,6 @@ def table(figures: list[dict[str, Any]], summary: dict[str, Any]) -> str:
 
 def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
     """Run ``base`` (a StudyConfig) on every log; print, write --json, apply --min-agreement."""
-    from rich.console import Console
-    from rich.progress import Progress
-
-    from sim2real._io import check_output_path
-    from sim2real.agreement.study import write_json
-    from sim2real.cluster import agree_many, fleet_summary
-
     if args.report is not None or args.sim_out is not None:
         raise Sim2RealValueError(
             f"--report and --sim-out take one log, got {len(logs)} logs; drop them, or run "
@@ -89,13 +88,11 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
     if args.json:
         check_output_path(args.json, what="--json file")
     configs = [dataclasses.replace(base, log=str(p), json_path=None, command_line="") for p in logs]
-    console = Console(stderr=True)
-    with Progress(console=console, transient=True, disable=not console.is_terminal) as bar:
-        task = bar.add_task("logs", total=len(configs))
+    with progress_bar("[bold]agree[/] logs", len(configs), counted=True) as update:
         results = agree_many(
             configs,
             address=args.ray,
-            on_done=lambda n: bar.update(task, completed=n),
+            on_done=update,
             release=True,  # a local Ray started for this command stops as its work ends
         )
     figures = [fig for fig, _ in results]
@@ -103,8 +100,6 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
         for warning in warnings:
             print(f"sim2real: warning: {path}: {warning}", file=sys.stderr)
     if all("error" in f for f in figures):
-        from sim2real.errors import LogValueError
-
         raise LogValueError(
             f"none of the {len(logs)} logs could be used; the first: {figures[0]['error']}"
         )
@@ -116,8 +111,6 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
         for note in f.get("notes", ()):
             print(f"note: {Path(str(f.get('log_file'))).name}: {note}")
     if summary.get("coverage_v") is not None and summary.get("coverage_w") is not None:
-        from sim2real.agreement.figures import band_verdict
-
         verdict = band_verdict(
             coverage_v=summary["coverage_v"],
             coverage_w=summary["coverage_w"],
@@ -127,12 +120,8 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
     if args.json:
         write_json(args.json, {"logs": figures, "summary": summary})
         print(f"wrote {args.json}")
-    gate = args.min_agreement
-    pooled = summary["agreement"]
-    if gate is not None and not (pooled is not None and pooled >= gate):
-        print(
-            f"pooled agreement {_pct(pooled)} is below --min-agreement {100 * gate:.1f} %",
-            file=sys.stderr,
-        )
-        return 1
-    return 0
+    if args.min_agreement is None:
+        return 0
+    line, code = gate_line(summary["agreement"], args.min_agreement, what="pooled agreement")
+    print(line, file=sys.stderr if code else sys.stdout)
+    return code

@@ -1,8 +1,9 @@
-"""Shared helpers of the CLI modules: help formatting and argument types."""
+"""Shared helpers of the CLI modules: help formatting, argument types, the gate's line."""
 
 from __future__ import annotations
 
 import argparse
+import math
 from typing import NoReturn
 
 __all__ = [
@@ -10,8 +11,10 @@ __all__ = [
     "HelpFormatter",
     "OneLineErrorParser",
     "add_command",
+    "add_group",
     "add_odom_velocity_argument",
     "add_read_arguments",
+    "gate_line",
 ]
 
 EPILOG_MAIN = """\
@@ -61,6 +64,21 @@ def add_command(
     return parser
 
 
+def add_group(
+    sub: argparse._SubParsersAction,  # type: ignore[type-arg]
+    name: str,
+    *,
+    help: str,
+    description: str,
+    examples: str,
+) -> argparse._SubParsersAction:  # type: ignore[type-arg]
+    """Add a command group (``sim2real NAME SUBCOMMAND``); returns its subcommands' parsers."""
+    group = add_command(sub, name, help=help, description=description, examples=examples)
+    group_sub = group.add_subparsers(dest=f"{name}_command", metavar="SUBCOMMAND")
+    group_sub.required = True
+    return group_sub
+
+
 def add_odom_velocity_argument(parser: argparse.ArgumentParser) -> None:
     """``--odom-velocity {auto,twist,pose}``: where a log's measured velocities come from.
 
@@ -108,3 +126,21 @@ def add_read_arguments(parser: argparse.ArgumentParser, *, time_source_note: str
             "command held while the wheels stay stopped (default: left out, with a note)"
         ),
     )
+
+
+def gate_line(agreement: float | None, gate: float, *, what: str = "agreement") -> tuple[str, int]:
+    """The ``--min-agreement`` verdict as one line and the exit code (0 passed, 1 failed).
+
+    Examples
+    --------
+    >>> gate_line(0.93, 0.9)
+    ('agreement 93.0 % is at or above --min-agreement 90.0 %: passed', 0)
+    >>> gate_line(0.5, 0.9, what="pooled agreement")[1]
+    1
+    """
+    value = (
+        "n/a" if agreement is None or not math.isfinite(agreement) else f"{100 * agreement:.1f} %"
+    )
+    if agreement is not None and math.isfinite(agreement) and agreement >= gate:
+        return f"{what} {value} is at or above --min-agreement {100 * gate:.1f} %: passed", 0
+    return f"{what} {value} is below --min-agreement {100 * gate:.1f} %", 1

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import io
 import math
 import os
@@ -36,52 +37,24 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from sim2real.cli._common import add_command
+from sim2real._io import output_set
+from sim2real.agreement.figures import check_ensemble_size
+from sim2real.agreement.study import run_study, summary_table, write_json
+from sim2real.cli import build_parser
+from sim2real.cli._agree import study_config
+from sim2real.cli._calibrate import handle_calibrate
+from sim2real.cli._parsers.demo import DEFAULT_OUT
+from sim2real.cli._sysid import handle_fit
+from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
+from sim2real.logs import read_trace
 
-__all__ = ["find_data_dir", "register", "run_demo", "tour_commands"]
-
-_EXAMPLES = """\
-  sim2real demo                       # writes sim2real-demo/{report.html,summary.json,params.yaml}
-  sim2real demo --out /tmp/demo --engine reduced
-"""
-
-_DESCRIPTION = """\
-The main job, what `make demo` runs: the README tour's two commands with default options.
-  1. sim2real sysid fit data/demo_train.mcap --robot turtlebot3_burger \\
-         --validate data/demo_validate.mcap -o OUT/params.yaml
-  2. sim2real agree data/demo_validate.mcap --robot turtlebot3_burger --params OUT/params.yaml \\
-         --report OUT/report.html --json OUT/agreement.json --ensemble 10
-  3. write OUT/summary.json (before/after agreement, band coverage) and print a table.
-The sample logs are three sessions of a foreign plant (sim2real.plants.diff_drive), a base simulated with
-physics the fitted model does not have (data/README.md). They are looked up in $SIM2REAL_DATA, then in
-data/ of the source checkout, then in <prefix>/share/sim2real/data of an installed package.
-"""
+__all__ = ["find_data_dir", "handle_demo", "run_demo", "tour_commands"]
 
 TRAIN_LOG = "demo_train.mcap"
 CALIBRATE_LOG = "demo_calibrate.mcap"
 VALIDATE_LOG = "demo_validate.mcap"
 _LOGS = (TRAIN_LOG, CALIBRATE_LOG, VALIDATE_LOG)
 DEMO_ROBOT = "turtlebot3_burger"
-_DEFAULT_OUT = "sim2real-demo"
-
-
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Register ``sim2real demo``."""
-    p = add_command(
-        sub,
-        "demo",
-        help="fit sysid on the bundled training log and report agreement on the validation log",
-        description=_DESCRIPTION,
-        examples=_EXAMPLES,
-    )
-    p.add_argument("--out", default=_DEFAULT_OUT, help="output folder (created if needed)")
-    p.add_argument(
-        "--engine", choices=("pybullet", "reduced"), default="pybullet", help="replay simulator"
-    )
-    p.add_argument("--ensemble", type=int, default=10, metavar="N", help="ensemble size (0: none)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the ensemble draws")
-    p.add_argument("--data", metavar="DIR", help="folder holding the sample logs")
-    p.set_defaults(handler=_handle)
 
 
 def _candidates() -> list[Path]:
@@ -96,8 +69,6 @@ def _candidates() -> list[Path]:
 
 def find_data_dir(explicit: str | Path | None = None) -> Path:
     """The folder holding the bundled sample logs (see the module docstring for the order)."""
-    from sim2real.errors import Sim2RealFileNotFoundError
-
     candidates = [Path(explicit)] if explicit is not None else _candidates()
     for folder in candidates:
         if all((folder / name).is_file() for name in _LOGS):
@@ -148,8 +119,6 @@ def tour_commands(
 
 
 def _check_out(out: Path) -> None:
-    from sim2real.errors import Sim2RealValueError
-
     if out.exists() and not out.is_dir():
         raise Sim2RealValueError(f"--out '{out}' exists and is not a folder; choose a folder")
     for parent in out.parents:  # the nearest existing parent must be a folder to create OUT in
@@ -157,7 +126,7 @@ def _check_out(out: Path) -> None:
             if not parent.is_dir():
                 raise Sim2RealValueError(
                     f"--out '{out}' cannot be created: its parent '{parent}' is a file, not a "
-                    f"folder; choose an --out path under a folder, e.g. --out {_DEFAULT_OUT}"
+                    f"folder; choose an --out path under a folder, e.g. --out {DEFAULT_OUT}"
                 )
             break
 
@@ -194,23 +163,11 @@ def run_demo(
     folder inside OUT and its files move in together at the end, so a failed or killed run
     leaves the previous demo's outputs as they were (and the next run removes its leftovers).
     """
-    import dataclasses
-
-    from sim2real._io import output_set
-    from sim2real.agreement.study import run_study, summary_table, write_json
-    from sim2real.cli import build_parser
-    from sim2real.cli._agree import study_config
-    from sim2real.cli._calibrate import _handle as _calibrate
-    from sim2real.cli._sysid import _fit
-    from sim2real.logs import read_trace
-
     start = time.perf_counter()
     data = find_data_dir(data_dir)
     out = Path(out_dir)
     _check_out(out)
     if ensemble_n >= 2:  # a bad size fails here, not after the fit
-        from sim2real.agreement.figures import check_ensemble_size
-
         check_ensemble_size(ensemble_n)
     for name in _LOGS:  # a bad log fails here, before OUT is created or written
         read_trace(data / name)
@@ -224,11 +181,11 @@ def run_demo(
         )
         print(f"1/3 sim2real {shlex.join(shown[0])}", flush=True)
         with _showing(stage, out):
-            _fit(parser.parse_args(fit_argv))
+            handle_fit(parser.parse_args(fit_argv))
         fit_s = time.perf_counter() - start
         print(f"2/3 sim2real {shlex.join(shown[1])}", flush=True)
         with _showing(stage, out):
-            _calibrate(parser.parse_args(calibrate_argv))
+            handle_calibrate(parser.parse_args(calibrate_argv))
         print(f"3/3 sim2real {shlex.join(shown[2])}", flush=True)
         config = dataclasses.replace(
             study_config(parser.parse_args(agree_argv)),
@@ -296,7 +253,8 @@ def _pct(x: float) -> str:
     return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"
 
 
-def _handle(args: argparse.Namespace) -> int:
+def handle_demo(args: argparse.Namespace) -> int:
+    """``demo``: the README tour on the bundled logs, into ``--out``."""
     run_demo(
         args.out, engine=args.engine, ensemble_n=args.ensemble, seed=args.seed, data_dir=args.data
     )

@@ -1,4 +1,4 @@
-"""`sim2real envs` commands: list the reference envs, evaluate the DWA baseline on one."""
+"""`sim2real envs`: list the reference envs, evaluate a controller on one, robustness."""
 
 from __future__ import annotations
 
@@ -8,31 +8,18 @@ import math
 from pathlib import Path
 from typing import Any
 
-from sim2real.cli._common import add_command
-from sim2real.cli._policy import add_policy_arguments, prepare, register_robustness
+import gymnasium as gym
+from rich.console import Console
+from rich.table import Table
+
+from sim2real._io import atomic_write, check_output_path
+from sim2real.cli._policy import prepare, robustness
+from sim2real.cli._progress import progress_bar
+from sim2real.envs import PAPER_RHO_OBS, PRESETS, SCENARIOS
+from sim2real.envs.baselines import evaluate
 from sim2real.errors import Sim2RealValueError
 
-__all__ = ["register"]
-
-_GROUP_EXAMPLES = """\
-  sim2real envs list                                   # env ids, presets, scenarios
-  sim2real envs eval RandomMap-v0 --episodes 20 --preset TEST3
-  sim2real envs eval CrowdNav-v0 --episodes 10 --scenario occluded --complexity 0.8
-"""
-_LIST_EXAMPLES = """\
-  sim2real envs list
-"""
-_EVAL_EXAMPLES = """\
-  sim2real envs eval RandomMap-v0 --episodes 20                     # TRAIN preset, seeds 0..19
-  sim2real envs eval RandomMap-v0 --episodes 50 --preset TEST4 --seed 100
-  sim2real envs eval sim2real/RandomMap-v0 --episodes 5 --dynamics pybullet
-  sim2real envs eval CrowdNav-v0 --episodes 10 --scenario dynamic --complexity 1.0
-  sim2real envs eval CrowdNav-v0 --episodes 10 --json crowd.json    # also write the numbers
-  sim2real envs eval CarCrossing-v0 --episodes 50                   # rule-based car baseline
-  sim2real envs eval RandomMap-v0 --policy runs/randommap_ppo/model.zip --preset TEST1
-  sim2real envs eval RandomMap-v0 --policy model.zip --params real.yaml --randomize dr.yaml
-  sim2real envs eval Race-v0 --track circuit --opponents 4 --planner dijkstra
-"""
+__all__ = ["handle_eval", "handle_list", "handle_robustness"]
 
 _KNOWN = (
     "sim2real/CrowdNav-v0",
@@ -40,64 +27,6 @@ _KNOWN = (
     "sim2real/CarCrossing-v0",
     "sim2real/Race-v0",
 )
-
-
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Register the ``envs`` command group (``envs list``, ``envs eval``)."""
-    group = add_command(
-        sub,
-        "envs",
-        help="reference training envs: list them, evaluate the baseline controller",
-        description=(
-            "The gymnasium envs of sim2real.envs (registered on import): CrowdNav-v0 (dense "
-            "crowds, Liang et al. (2020)), RandomMap-v0 (random walls and cylinders, Yang et al.) and "
-            "CarCrossing-v0 (a car passes an obstacle and an occluded pedestrian, Trararak et al.) "
-            "and Race-v0 (TurtleBot 3 Burgers race ORCA opponents on walled tracks, Pozo Ruiz (2024))."
-        ),
-        examples=_GROUP_EXAMPLES,
-    )
-    group_sub = group.add_subparsers(dest="envs_command", metavar="SUBCOMMAND")
-    group_sub.required = True
-    lst = add_command(
-        group_sub,
-        "list",
-        help="the env ids, RandomMap presets and CrowdNav scenarios",
-        description="List the registered env ids with their presets or scenario families.",
-        examples=_LIST_EXAMPLES,
-    )
-    lst.set_defaults(handler=_list)
-    ev = add_command(
-        group_sub,
-        "eval",
-        help="run the baseline controller or a trained --policy for N episodes; outcome rates",
-        description=(
-            "Run the env's non-learned baseline (the dynamic-window controller of "
-            "sim2real.envs.baselines; for CarCrossing-v0 the rule-based "
-            "sim2real.envs.car_baseline; for Race-v0 an A* or Dijkstra global plan on the track "
-            "map followed with DWA, sim2real.envs.race_baseline) for N seeded episodes and print success / collision / "
-            "timeout rates and the mean path length, time to goal and smoothness: a reference "
-            "number per preset. --policy evaluates a trained policy instead (sim2real train), "
-            "--params uses a sysid result's drive parameters, --randomize adds a randomizer "
-            "stack."
-        ),
-        examples=_EVAL_EXAMPLES,
-    )
-    ev.add_argument("env", metavar="ENV", help="env id, e.g. RandomMap-v0 or sim2real/CrowdNav-v0")
-    ev.add_argument("--episodes", type=int, default=10, help="number of episodes")
-    ev.add_argument("--seed", type=int, default=0, help="seed of the first episode")
-    ev.add_argument("--preset", help="RandomMap-v0 map preset (TRAIN, TEST1..TEST4)")
-    ev.add_argument("--scenario", help="CrowdNav-v0 scenario (static, dynamic, occluded)")
-    ev.add_argument("--complexity", type=float, help="CrowdNav-v0 complexity factor in [0, 1]")
-    ev.add_argument("--track", help="Race-v0 track (open, curve, cross, circuit)")
-    ev.add_argument("--opponents", type=int, help="Race-v0 number of ORCA opponents (0-5)")
-    ev.add_argument("--planner", help="Race-v0 global planner: astar (default) or dijkstra")
-    ev.add_argument(
-        "--dynamics", default="reduced", help="robot back-end: reduced (fast) or pybullet"
-    )
-    add_policy_arguments(ev)
-    ev.add_argument("--json", metavar="FILE", help="also write the summary and episodes as JSON")
-    ev.set_defaults(handler=_eval)
-    register_robustness(group_sub, _make_env)
 
 
 def _env_id(name: str) -> str:
@@ -110,12 +39,8 @@ def _env_id(name: str) -> str:
     )
 
 
-def _list(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.table import Table
-
-    from sim2real.envs import PAPER_RHO_OBS, PRESETS, SCENARIOS
-
+def handle_list(args: argparse.Namespace) -> int:
+    """``envs list``: the env ids, RandomMap presets and CrowdNav scenarios."""
     console = Console()
     table = Table(title="sim2real envs")
     table.add_column("id", no_wrap=True)
@@ -163,9 +88,6 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
-    import gymnasium as gym
-
-    import sim2real.envs  # noqa: F401  (registers the ids)
 
     env_id = _env_id(args.env)
     if args.episodes < 1:
@@ -237,14 +159,8 @@ def _fmt(value: float, digits: int = 3) -> str:
     return "n/a" if math.isnan(value) else f"{value:.{digits}f}"
 
 
-def _eval(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.progress import Progress
-    from rich.table import Table
-
-    from sim2real._io import atomic_write, check_output_path
-    from sim2real.envs.baselines import evaluate
-
+def handle_eval(args: argparse.Namespace) -> int:
+    """``envs eval ENV``: a controller for N seeded episodes; outcome rates and means."""
     if args.json:
         check_output_path(args.json, what="--json file")
     env, options = _make_env(args)
@@ -253,16 +169,14 @@ def _eval(args: argparse.Namespace) -> int:
         is_car = env.spec.id.endswith("CarCrossing-v0")
         is_race = env.spec.id.endswith("Race-v0")
         env, ctrl, label = prepare(env, args)
-        # disabled off a terminal: rich would print an empty line to a pipe
-        with Progress(console=console, transient=True, disable=not console.is_terminal) as progress:
-            task = progress.add_task(f"{env.spec.id} episodes", total=args.episodes)
+        with progress_bar(f"{env.spec.id} episodes", args.episodes, stdout=True) as update:
             summary = evaluate(
                 env,
                 ctrl,
                 episodes=args.episodes,
                 seed=args.seed,
                 options=options,
-                on_episode=lambda i, row: progress.advance(task),
+                on_episode=lambda i, row: update(i + 1),
             )
     finally:
         env.close()
@@ -321,3 +235,8 @@ def _eval(args: argparse.Namespace) -> int:
         with atomic_write(args.json, "w", what="--json file") as fh:
             json.dump(_plain(doc), fh, indent=2)
     return 0
+
+
+def handle_robustness(args: argparse.Namespace) -> int:
+    """``envs robustness ENV``: the env built as ``envs eval`` builds it."""
+    return robustness(args, _make_env)

@@ -1,77 +1,24 @@
-"""`sim2real logs` commands: inspect velocity logs (MCAP, ROS 1 bag, rosbag2, CSV)."""
+"""`sim2real logs info`: inspect a velocity log (MCAP, ROS 1 bag, rosbag2, CSV)."""
 
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from robots.units import seconds
-from sim2real.cli._common import add_command
+from sim2real.errors import Sim2RealValueError
+from sim2real.logs import LogInfo, Trace, inspect_log, read_trace
+from sim2real.logs._bags import source_kind
 
-if TYPE_CHECKING:
-    from sim2real.logs import LogInfo, Trace
-
-__all__ = ["register"]
-
-_INFO_EXAMPLES = """\
-  sim2real logs info run.mcap                       # topics, counts, rates, chosen topics
-  sim2real logs info run.mcap --json                # the same as JSON
-  sim2real logs info run.mcap --sha256              # also hash the whole file
-  sim2real logs info run.bag                        # a ROS 1 bag (or a rosbag2 folder)
-  sim2real logs info run.csv                        # a CSV log: rows, duration, rate, columns
-  sim2real logs info run.mcap --cmd-topic /cmd_vel_nav --odom-topic /odometry/wheel
-"""
+__all__ = ["handle_info"]
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Register the ``logs`` command group (``logs info``)."""
-    group = add_command(
-        sub,
-        "logs",
-        help="inspect velocity logs (MCAP, ROS 1 bag, rosbag2 folder, CSV)",
-        description=(
-            "Inspect robot velocity logs: MCAP (ROS 2 CDR or JSON), ROS 1 bags, rosbag2 "
-            "folders (sqlite3 or mcap storage) and CSV files."
-        ),
-        examples=_INFO_EXAMPLES,
-    )
-    group_sub = group.add_subparsers(dest="logs_command", metavar="SUBCOMMAND")
-    group_sub.required = True
-    info = add_command(
-        group_sub,
-        "info",
-        help="topics, types, counts, rates and the command/measurement topics of a log",
-        description=(
-            "Print the topics of an MCAP log with their message types, encodings, message "
-            "counts and mean rates (by log time), the log's duration, and which topics "
-            "`read_trace` would use as command (Twist/TwistStamped) and measurement "
-            "(Odometry/JointState). A CSV log (columns t, cmd_v, cmd_w, meas_v, meas_w in "
-            "s, m/s, rad/s; optional pose x, y, yaw in m, m, rad; other columns ignored) has no "
-            "topics: its rows, duration, rate and columns are printed."
-        ),
-        examples=_INFO_EXAMPLES,
-    )
-    info.add_argument(
-        "log", metavar="LOG", help="the log: a .mcap file, ROS 1 .bag, rosbag2 folder or .csv"
-    )
-    info.add_argument("--cmd-topic", metavar="TOPIC", help="command topic (default: detect)")
-    info.add_argument("--odom-topic", metavar="TOPIC", help="measurement topic (default: detect)")
-    info.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    info.add_argument(
-        "--sha256",
-        action="store_true",
-        help="also print the SHA-256 of the whole file (reads every byte; off by default)",
-    )
-    info.set_defaults(handler=_info)
-
-
-def _info(args: argparse.Namespace) -> int:
-    from sim2real.logs import inspect_log
-    from sim2real.logs._bags import source_kind
-
+def handle_info(args: argparse.Namespace) -> int:
+    """``logs info LOG``: topics, counts, rates and the chosen topics (or a CSV's columns)."""
     path = Path(args.log)
     if path.is_file() and source_kind(path) == "csv":
         return _csv_info(path, args)
@@ -85,11 +32,6 @@ def _info(args: argparse.Namespace) -> int:
 
 def _csv_info(path: Path, args: argparse.Namespace) -> int:
     """``logs info`` of a CSV log: read as ``sysid fit``/``agree`` read it, then summarised."""
-    import csv
-
-    from sim2real.errors import Sim2RealValueError
-    from sim2real.logs import read_trace
-
     if args.cmd_topic or args.odom_topic:
         raise Sim2RealValueError(
             f"log file '{path}' is a CSV log, which has columns, not topics; drop "

@@ -1,50 +1,29 @@
-"""Options shared by `envs eval` and `envs robustness`: --policy, --params, --randomize.
-
-Also registers `sim2real envs robustness` (success with and without each randomizer).
-"""
+"""The controller of `envs eval` and `envs robustness` (--policy or the baseline), --params
+and --randomize applied to the env, and `envs robustness` (success with and without each
+randomizer)."""
 
 from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from sim2real.cli._common import add_command
+from rich.console import Console
+from rich.table import Table
+
+import randomizers
+from sim2real._io import atomic_write, check_output_path
+from sim2real.envs.baselines import DWAController
+from sim2real.envs.car_baseline import CarCrossingBaseline
+from sim2real.envs.race_baseline import PLANNERS, RaceBaseline
 from sim2real.errors import Sim2RealValueError
+from sim2real.training.environment import set_params_file
+from sim2real.training.evaluation import check_spaces, load_policy
+from sim2real.training.evaluation import robustness as robustness_rows
 
-__all__ = ["add_policy_arguments", "prepare", "register_robustness"]
-
-_ROBUST_EXAMPLES = """\
-  sim2real envs robustness RandomMap-v0 --randomize examples/randommap_randomizers.yaml
-  sim2real envs robustness RandomMap-v0 --policy runs/randommap_ppo/model.zip \\
-      --randomize examples/randommap_randomizers.yaml --episodes 50 --preset TEST1
-  sim2real envs robustness RandomMap-v0 --params params.yaml --randomize dr.yaml --json r.json
-"""
-
-
-def add_policy_arguments(p: argparse.ArgumentParser, *, randomize_required: bool = False) -> None:
-    """Add --policy, --algorithm, --params and --randomize to an `envs` subcommand."""
-    p.add_argument(
-        "--policy",
-        metavar="MODEL.zip",
-        help="evaluate this trained policy (`sim2real train` output) instead of the DWA baseline",
-    )
-    p.add_argument(
-        "--algorithm",
-        help="algorithm of a --policy zip not written by `sim2real train` (PPO, SAC, TD3, DQN)",
-    )
-    p.add_argument(
-        "--params",
-        metavar="RESULT.yaml",
-        help="drive parameters of a sysid result (`sim2real sysid fit -o`) for the robot",
-    )
-    p.add_argument(
-        "--randomize",
-        metavar="CONFIG.yaml",
-        required=randomize_required,
-        help="randomizer stack (format sim2real.randomizers/1) to evaluate under",
-    )
+__all__ = ["prepare", "robustness"]
 
 
 def _controller(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
@@ -52,15 +31,9 @@ def _controller(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
     if args.algorithm is not None and args.policy is None:
         raise Sim2RealValueError("--algorithm applies to --policy only; add --policy MODEL.zip")
     if args.policy is None:
-        from sim2real.envs.baselines import DWAController
-
         if env.spec is not None and env.spec.id.endswith("CarCrossing-v0"):
-            from sim2real.envs.car_baseline import CarCrossingBaseline
-
             return CarCrossingBaseline.for_env(env), None, "Rule-based baseline"
         if env.spec is not None and env.spec.id.endswith("Race-v0"):
-            from sim2real.envs.race_baseline import PLANNERS, RaceBaseline
-
             planner = getattr(args, "planner", None) or "astar"
             if planner not in PLANNERS:
                 raise Sim2RealValueError(
@@ -68,8 +41,6 @@ def _controller(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
                 )
             return RaceBaseline.for_env(env, method=planner), None, f"{planner} + DWA baseline"
         return DWAController.for_env(env), None, "DWA baseline"
-    from sim2real.training.evaluation import check_spaces, load_policy
-
     policy = load_policy(args.policy, algorithm=args.algorithm)
     check_spaces(policy, policy.wrap(env), env.spec.id if env.spec else "env")
     return policy.controller(), policy.wrap, f"{policy.algorithm} policy {Path(args.policy).name}"
@@ -82,62 +53,27 @@ def prepare(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
     or the DWA baseline.
     """
     if args.params is not None:
-        from sim2real.training.environment import set_params_file
-
         set_params_file(env, args.params)
     controller, wrap, label = _controller(env, args)
     if args.randomize is not None:
-        import randomizers as dr
-
-        env = dr.from_config(env, args.randomize)
+        env = randomizers.from_config(env, args.randomize)
     if wrap is not None:
         env = wrap(env)
     return env, controller, label
 
 
-def register_robustness(group_sub: argparse._SubParsersAction, make_env: Any) -> None:  # type: ignore[type-arg]
-    """Register ``envs robustness``; ``make_env(args)`` builds the env (as `envs eval` does)."""
-    p = add_command(
-        group_sub,
-        "robustness",
-        help="success with no randomizer, with each randomizer of a stack alone, and with all",
-        description=(
-            "Evaluate one controller (a --policy or the DWA baseline) on the same seeded episodes "
-            "under: no randomisation, each randomizer of --randomize alone, and the whole stack. "
-            "Prints success / collision / timeout rates with the Wilson 95 % interval of the "
-            "success rate per condition."
-        ),
-        examples=_ROBUST_EXAMPLES,
-    )
-    p.add_argument("env", metavar="ENV", help="env id, e.g. RandomMap-v0")
-    p.add_argument("--episodes", type=int, default=10, help="episodes per condition")
-    p.add_argument("--seed", type=int, default=0, help="seed of the first episode")
-    p.add_argument("--preset", help="RandomMap-v0 map preset (TRAIN, TEST1..TEST4)")
-    p.add_argument("--scenario", help="CrowdNav-v0 scenario (static, dynamic, occluded)")
-    p.add_argument("--complexity", type=float, help="CrowdNav-v0 complexity factor in [0, 1]")
-    p.add_argument("--dynamics", default="reduced", help="robot back-end: reduced or pybullet")
-    add_policy_arguments(p, randomize_required=True)
-    p.add_argument("--json", metavar="FILE", help="also write the table as JSON")
-    p.set_defaults(handler=lambda args: _robustness(args, make_env))
-
-
-def _robustness(args: argparse.Namespace, make_env: Any) -> int:
-    from rich.console import Console
-    from rich.table import Table
-
-    from sim2real._io import atomic_write, check_output_path
-    from sim2real.training.evaluation import robustness
-
+def robustness(
+    args: argparse.Namespace, make_env: Callable[[argparse.Namespace], tuple[Any, Any]]
+) -> int:
+    """``envs robustness ENV``: one controller with no, each and all randomizers."""
     if args.json:
         check_output_path(args.json, what="--json file")
     env, options = make_env(args)
     try:
         if args.params is not None:
-            from sim2real.training.environment import set_params_file
-
             set_params_file(env, args.params)
         controller, wrap, label = _controller(env, args)
-        rows = robustness(
+        rows = robustness_rows(
             env,
             controller,
             args.randomize,

@@ -1,4 +1,4 @@
-"""`sim2real robots` commands: list the shipped specs, show one, write a new one, check one."""
+"""`sim2real robots`: list the shipped specs, show one, write a new one, check one."""
 
 from __future__ import annotations
 
@@ -6,153 +6,21 @@ import argparse
 import math
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-from sim2real.cli._common import add_command
+import yaml
 
-if TYPE_CHECKING:
-    from robots.spec import RobotSpec
+from robots.check import check_spec
+from robots.errors import SpecError
+from robots.spec import RobotSpec, list_robots, load_spec
+from robots.template import spec_text
+from sim2real._io import atomic_write
+from sim2real.errors import Sim2RealValueError
 
-__all__ = ["register"]
-
-_GROUP_EXAMPLES = """\
-  sim2real robots list                              # name, mass, wheels, speed caps, sensors
-  sim2real robots show turtlebot3_burger            # the full spec with drive defaults, sources
-  sim2real robots show turtlebot2 --yaml > tb2.yaml # as a spec file (edit, then load it by path)
-  sim2real robots new neato --wheel-separation 0.248 --max-speed 0.3 -o neato.yaml
-  sim2real robots check neato.yaml                  # geometry + 1 s pybullet drive test
-"""
-_NEW_EXAMPLES = """\
-  sim2real robots new neato --wheel-separation 0.248 --max-speed 0.3 -o neato.yaml
-  sim2real robots new husky --wheel-separation 0.555 --wheel-radius 0.165 --mass 50 \\
-      --max-speed 1.0 --drive skid -o husky.yaml
-  sim2real robots new husky_diff --wheel-separation 0.555 --wheel-radius 0.165 \\
-      --driver-track-factor 1.875 -o husky_diff.yaml    # diff model, the driver's multiplier
-  sim2real sysid fit run.bag --robot neato.yaml -o params.yaml   # the file works as --robot
-"""
-_CHECK_EXAMPLES = """\
-  sim2real robots check neato.yaml
-  sim2real robots check turtlebot3_burger
-  sim2real robots check my_robot.yaml --no-drive    # geometry only (no pybullet)
-"""
-_LIST_EXAMPLES = """\
-  sim2real robots list
-"""
-_SHOW_EXAMPLES = """\
-  sim2real robots show turtlebot3_waffle_pi
-  sim2real robots show turtlebot2 --yaml
-  sim2real robots show ./my_robot.yaml             # a spec file by path
-"""
+__all__ = ["handle_check", "handle_list", "handle_new", "handle_show"]
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Register the ``robots`` command group (``robots list``, ``robots show``)."""
-    group = add_command(
-        sub,
-        "robots",
-        help="robot specs: list them, show one",
-        description="The robot models shipped with sim2real (specs of published numbers).",
-        examples=_GROUP_EXAMPLES,
-    )
-    group_sub = group.add_subparsers(dest="robots_command", metavar="SUBCOMMAND")
-    group_sub.required = True
-    lst = add_command(
-        group_sub,
-        "list",
-        help="table of the shipped robots",
-        description=(
-            "One line per shipped robot: total rigid mass, wheel radius and separation, top "
-            "speed and yaw rate, and its sensors."
-        ),
-        examples=_LIST_EXAMPLES,
-    )
-    lst.set_defaults(handler=_list)
-    show = add_command(
-        group_sub,
-        "show",
-        help="the full spec of one robot",
-        description=(
-            "Print a robot's spec: bodies, wheels, casters, speed caps, default drive "
-            "parameters, sensors, odometry and the sources of the numbers."
-        ),
-        examples=_SHOW_EXAMPLES,
-    )
-    show.add_argument("name", metavar="NAME", help="a robot name (see `robots list`) or spec path")
-    show.add_argument("--yaml", action="store_true", help="print the spec as a YAML spec file")
-    show.set_defaults(handler=_show)
-    _register_new(group_sub)
-    _register_check(group_sub)
-
-
-def _register_new(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    new = add_command(
-        group_sub,
-        "new",
-        help="write a complete spec from a few published numbers",
-        description=(
-            "Write a complete, commented robot spec from the wheel separation and whatever else "
-            "you know. Every fact not given is a documented prior with a wide spread (which "
-            "`sysid fit` narrows with your logs); the spec is checked (robots check) before it "
-            "is written. Load it anywhere with --robot FILE.yaml."
-        ),
-        examples=_NEW_EXAMPLES,
-    )
-    new.add_argument("name", metavar="NAME", help="robot name (letters, digits, _ and -)")
-    new.add_argument("-o", "--out", metavar="NAME.yaml", help="output spec (default NAME.yaml)")
-    new.add_argument(
-        "--wheel-separation", type=float, required=True, metavar="M", help="track width, m"
-    )
-    new.add_argument("--wheel-radius", type=float, metavar="M", help="wheel radius, m")
-    new.add_argument("--mass", type=float, metavar="KG", help="total mass, kg")
-    new.add_argument("--max-speed", type=float, metavar="MPS", help="top forward speed, m/s")
-    new.add_argument("--max-turn-rate", type=float, metavar="RADPS", help="top yaw rate, rad/s")
-    new.add_argument(
-        "--footprint-radius", type=float, metavar="M", help="radius of the base's outline, m"
-    )
-    new.add_argument(
-        "--drive",
-        choices=("diff", "skid"),
-        default="diff",
-        help="drive type: 'skid' adds the skid steer's slip (track_factor) and tread scrub priors",
-    )
-    new.add_argument(
-        "--driver-track-factor",
-        type=float,
-        metavar="X",
-        help="the driver's wheel_separation_multiplier (e.g. 1.875 for a Husky; default 1 for "
-        "diff, 1.6 for skid)",
-    )
-    new.add_argument("--force", action="store_true", help="overwrite an existing output file")
-    new.set_defaults(handler=_new)
-
-
-def _register_check(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    check = add_command(
-        group_sub,
-        "check",
-        help="sanity-check a spec (geometry and a 1 s pybullet drive test)",
-        description=(
-            "Check a spec: body clear of the ground, wheels on it, centre of mass inside the "
-            "support polygon, and a 1 s pybullet drive test (a forward command moves the base "
-            "forward within 20 % of the commanded speed; a turn command turns it the right "
-            "way). The same checks run whenever a spec loads into pybullet. Exit 2 when a "
-            "check fails."
-        ),
-        examples=_CHECK_EXAMPLES,
-    )
-    check.add_argument("spec", metavar="SPEC", help="a robot name or spec .yaml file")
-    check.add_argument("--no-drive", action="store_true", help="skip the pybullet drive test")
-    check.set_defaults(handler=_check)
-
-
-def _new(args: argparse.Namespace) -> int:
-    from robots.check import check_spec
-    from robots.errors import SpecError
-    from robots.spec import load_spec
-    from robots.template import spec_text
-    from sim2real._io import atomic_write
-    from sim2real.errors import Sim2RealValueError
-
+def handle_new(args: argparse.Namespace) -> int:
+    """``robots new NAME``: write a checked spec from a few published numbers."""
     text = spec_text(
         args.name,
         wheel_separation_m=args.wheel_separation,
@@ -192,11 +60,8 @@ def _new(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check(args: argparse.Namespace) -> int:
-    from robots.check import check_spec
-    from robots.errors import SpecError
-    from robots.spec import load_spec
-
+def handle_check(args: argparse.Namespace) -> int:
+    """``robots check SPEC``: print each check; exit 2 when one fails."""
     report = check_spec(load_spec(args.spec), drive_test=not args.no_drive)
     for item in report.items:
         print(f"{'ok  ' if item.passed else 'FAIL'}  {item.name}: {item.detail}")
@@ -215,9 +80,8 @@ def _sensors(spec: RobotSpec) -> str:
     return text
 
 
-def _list(args: argparse.Namespace) -> int:
-    from robots.spec import list_robots, load_spec
-
+def handle_list(args: argparse.Namespace) -> int:
+    """``robots list``: one line per shipped robot."""
     specs = [load_spec(name) for name in list_robots()]
     head = ("name", "mass_kg", "wheel_r_m", "track_m", "max_v_mps", "max_w_radps", "sensors")
     rows = [
@@ -259,11 +123,8 @@ def _num(x: float) -> str:
     return "inf" if math.isinf(x) else f"{x:.6g}"
 
 
-def _show(args: argparse.Namespace) -> int:
-    import yaml
-
-    from robots.spec import load_spec
-
+def handle_show(args: argparse.Namespace) -> int:
+    """``robots show NAME``: the full spec, or the spec file with ``--yaml``."""
     spec = load_spec(args.name)
     if args.yaml:
         print(yaml.safe_dump(spec.to_dict(), sort_keys=False, width=100), end="")

@@ -1,150 +1,23 @@
-"""`sim2real sysid` commands: fit drive parameters to logs, show a result file."""
+"""`sim2real sysid fit` and `sysid show`: fit drive parameters to logs, show a result file."""
 
 from __future__ import annotations
 
 import argparse
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-from sim2real.cli._common import add_command, add_read_arguments
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from sim2real._io import atomic_write, check_not_an_input, check_output_path
+from sim2real.cli._progress import progress_bar
+from sim2real.cluster import expand_logs, map_tasks
 from sim2real.errors import Sim2RealValueError
-from sysid.metrics import FIT_PERCENT_DEFINITION
+from sim2real.fitting import fit_logs
+from sysid import ParameterEstimate, SysidResult
 
-if TYPE_CHECKING:
-    from rich.console import Console
-
-    from sysid.result import ParameterEstimate, SysidResult
-
-__all__ = ["register"]
-
-_GROUP_EXAMPLES = """\
-  sim2real sysid fit run.mcap --robot turtlebot3_burger -o params.yaml
-  sim2real sysid fit run.bag --robot turtlebot3_burger -o params.yaml   # ROS 1 bag
-  sim2real sysid show params.yaml
-"""
-_FIT_EXAMPLES = """\
-  sim2real sysid fit run.mcap --robot turtlebot3_burger -o params.yaml
-  sim2real sysid fit a.mcap b.mcap c.mcap --robot turtlebot2 -o p.yaml   # a fleet of sessions
-  sim2real sysid fit a.mcap b.mcap --robot turtlebot2 -o p.yaml --validate c.mcap
-  sim2real sysid fit goal.mcap --robot turtlebot3_waffle_pi -o p.yaml \\
-      --window 0:20 --validate goal.mcap --validate-window 20:40   # fit one part, check another
-  sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --free delay_s,added_mass_kg
-  sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --cmd-topic /mobile_base/cmd_vel
-  sim2real sysid fit real.mcap --robot turtlebot3_burger -o p.yaml --odom-v-window auto
-  sim2real sysid fit neato.bag --robot neato.yaml -o p.yaml --odom-velocity pose   # twist is junk
-  sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --bootstrap 20 --seed 1
-  sim2real sysid fit 'fleet/*.mcap' --robot turtlebot3_burger -o fleet.yaml --ray auto
-"""
-_SHOW_EXAMPLES = """\
-  sim2real sysid show params.yaml
-"""
-
-
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Register the ``sysid`` command group (``sysid fit``, ``sysid show``)."""
-    group = add_command(
-        sub,
-        "sysid",
-        help="fit drive-model parameters to logs, show a result",
-        description=(
-            "System identification: fit the drive-model parameters (delay, friction, inertia, "
-            "limits) of a robot to logs of commanded and measured velocity."
-        ),
-        examples=_GROUP_EXAMPLES,
-    )
-    group_sub = group.add_subparsers(dest="sysid_command", metavar="SUBCOMMAND")
-    group_sub.required = True
-    fit = add_command(
-        group_sub,
-        "fit",
-        help="fit the drive parameters to one or more logs",
-        description=(
-            "Simulate the reduced drive model from the logged commands and fit its parameters "
-            "to the measured velocities: a MAP fit (robust least squares plus the spec's priors "
-            "of every drive parameter). Prints each parameter's prior, posterior (value, 95 % "
-            "interval) and how much the data informed it (post/prior sd: ~1 = not at all), "
-            "what the logs could not identify, and FIT % / agreement on the fitting and "
-            "validation logs. Several logs are several sessions: each is fitted and a "
-            "population (mean, between-session spread) is estimated. Writes a params file "
-            "with a 'randomization' block (the distribution to train on, with the odometry "
-            "noise) that 'sim2real agree --params' and the envs read. "
-            f"{FIT_PERCENT_DEFINITION}."
-        ),
-        examples=_FIT_EXAMPLES,
-    )
-    fit.add_argument(
-        "logs",
-        nargs="+",
-        metavar="LOG",
-        help=(
-            "fitting log(s): .mcap files, ROS 1 .bag, rosbag2 folders or .csv; paths or quoted "
-            "globs ('fleet/*.mcap'); several logs are several sessions (a population)"
-        ),
-    )
-    fit.add_argument("--robot", required=True, help="robot spec name (see 'sim2real robots list')")
-    fit.add_argument(
-        "--ray",
-        metavar="auto|ADDRESS",
-        help=(
-            "with several sessions, fit each as a Ray task: 'auto' joins the running cluster or "
-            "starts a local one, ADDRESS is a head node (needs the [cluster] extra)"
-        ),
-    )
-    fit.add_argument("-o", "--output", required=True, metavar="PARAMS.yaml", help="result file")
-    fit.add_argument(
-        "--validate", action="append", default=[], metavar="VAL.mcap", help="validation log(s)"
-    )
-    add_read_arguments(fit)
-    fit.add_argument("--window", metavar="START:END", help="use only this part of the fit logs (s)")
-    fit.add_argument(
-        "--validate-window", metavar="START:END", help="use only this part of the validation logs"
-    )
-    fit.add_argument(
-        "--free",
-        default="auto",
-        help="comma-separated parameters to fit, or 'auto' (chosen from the excitation)",
-    )
-    fit.add_argument(
-        "--loss",
-        default="soft_l1",
-        choices=("linear", "soft_l1", "huber", "cauchy", "arctan"),
-        help="robust loss (default: soft_l1)",
-    )
-    fit.add_argument(
-        "--dt", type=float, default=None, help="model integration step, s (default 1/240)"
-    )
-    fit.add_argument(
-        "--bootstrap",
-        type=int,
-        default=0,
-        metavar="N",
-        help="also refit N block-bootstrap resamples of 10 s segments (a check on the errors)",
-    )
-    fit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap draws")
-    fit.add_argument(
-        "--odom-v-window",
-        default="auto",
-        metavar="S|auto",
-        help=(
-            "odometry v is a wheel-encoder tick difference over this window, s (default 'auto': "
-            "from the spec's odometry, one period for an encoder base, e.g. 1/30 s on a "
-            "TurtleBot3, 0 otherwise); 0 = compare the instantaneous model v"
-        ),
-    )
-    fit.set_defaults(handler=_fit)
-    show = add_command(
-        group_sub,
-        "show",
-        help="print a sysid result file",
-        description="Print the parameters, intervals, scores and warnings of a sysid result file.",
-        examples=_SHOW_EXAMPLES,
-    )
-    show.add_argument("params", metavar="PARAMS.yaml", help="file written by 'sysid fit'")
-    show.set_defaults(handler=_show)
-    from sim2real.cli import _calibrate  # `sysid calibrate` lives with the band (issue 11 B)
-
-    _calibrate.register(group_sub)
+__all__ = ["handle_fit", "handle_show"]
 
 
 def _window(text: str | None, option: str) -> tuple[float, float] | None:
@@ -184,44 +57,24 @@ def _free(text: str) -> str | list[str]:
     return "auto" if names == ["auto"] else names
 
 
-def _fit(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.markup import escape
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from sim2real._io import atomic_write, check_not_an_input, check_output_path
-    from sim2real.cluster import expand_logs, map_tasks
-    from sim2real.fitting import fit_logs
-
+def handle_fit(args: argparse.Namespace) -> int:
+    """``sysid fit LOG...``: fit, write the params file, print the tables and notes."""
     args.logs = [str(p) for p in expand_logs(args.logs)]
     args.validate = [str(p) for p in expand_logs(args.validate, what="--validate")]
     out = check_output_path(args.output, what="params file")
     check_not_an_input(out, [*args.logs, *args.validate], what="params file")
     window = _window(args.window, "--window")
-    val_window = _window(args.validate_window, "--validate-window")
+    validate_window = _window(args.validate_window, "--validate-window")
     free = _free(args.free)
     v_window = None if args.odom_v_window == "auto" else _v_window(args.odom_v_window)
     console = _console()
-    err = Console(stderr=True)
-    with Progress(
-        TextColumn("[bold]sysid[/] {task.description:<18}"),
-        BarColumn(),
-        TimeElapsedColumn(),
-        console=err,
-        transient=True,
-        disable=not err.is_terminal,
-    ) as bar:
-        task = bar.add_task("starting", total=1.0)
-
-        def progress(stage: str, fraction: float) -> None:
-            bar.update(task, completed=fraction, description=stage)
-
+    with progress_bar("[bold]sysid[/] {description}", 1.0) as update:
         fit = fit_logs(
             args.logs,
             robot=args.robot,
             validate=args.validate,
             window=window,
-            validate_window=val_window,
+            validate_window=validate_window,
             free=free,
             cmd_topic=args.cmd_topic,
             odom_topic=args.odom_topic,
@@ -230,10 +83,10 @@ def _fit(args: argparse.Namespace) -> int:
             keep_all=args.keep_all,
             odom_v_window_s=v_window,
             loss=args.loss,
-            **({} if args.dt is None else {"dt_s": args.dt}),
+            dt_s=args.dt,
             bootstrap=args.bootstrap,
             seed=args.seed,
-            progress=progress,
+            progress=lambda stage, fraction: update(fraction, description=stage),
             map_sessions=None
             if args.ray is None
             else lambda fn, groups: map_tasks(fn, groups, address=args.ray),
@@ -247,17 +100,14 @@ def _fit(args: argparse.Namespace) -> int:
     return 0
 
 
-def _show(args: argparse.Namespace) -> int:
-    from sysid import SysidResult
-
+def handle_show(args: argparse.Namespace) -> int:
+    """``sysid show PARAMS.yaml``: print a result file's tables."""
     _print_result(_console(), SysidResult.load(args.params))
     return 0
 
 
 def _console() -> Console:
     """stdout console; wide when not a terminal so piped tables keep one row per line."""
-    from rich.console import Console
-
     probe = Console()
     return probe if probe.is_terminal else Console(width=160)
 
@@ -294,8 +144,6 @@ def _estimate_rows(
 
 def _print_population(console: Console, result: SysidResult) -> None:
     """The randomisation distribution (and the per-session estimates of a fleet)."""
-    from rich.table import Table
-
     dist = result.randomization
     if dist is None:
         return
@@ -323,9 +171,6 @@ def _print_population(console: Console, result: SysidResult) -> None:
 
 
 def _print_result(console: Console, result: SysidResult) -> None:
-    from rich.markup import escape
-    from rich.table import Table
-
     for title, estimates, boot in (
         (f"drive parameters of {result.robot}", result.estimates, result.bootstrap_std),
         (

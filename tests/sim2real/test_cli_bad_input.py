@@ -893,6 +893,6 @@ def test_a_broken_pipe_that_is_not_stdout_is_not_hidden(
     def broken(args: object) -> int:
         raise BrokenPipeError(32, "Broken pipe")  # as Connection.send to a dead worker
 
-    monkeypatch.setattr(robots_cli, "_list", broken)
+    monkeypatch.setattr(robots_cli, "handle_list", broken)
     with pytest.raises(BrokenPipeError):
         main(["robots", "list"])

@@ -78,7 +78,7 @@ def test_a_failing_demo_keeps_the_old_set(
         assert any(p.name == "calibrated.yaml" for p in out.glob(".sim2real-out-*/*"))
         raise Sim2RealValueError("agree failed")
 
-    monkeypatch.setattr("sim2real.agreement.study.run_study", fail)
+    monkeypatch.setattr("sim2real.cli._demo.run_study", fail)
     assert main(_argv(demo_data, out, seed=2)) == 2
     assert "agree failed" in capsys.readouterr().err
     after = {p.name: (p.stat().st_ino, p.read_bytes()) for p in out.iterdir()}

@@ -100,7 +100,7 @@ def test_calibrate_cli_writes_the_calibrated_block(
     assert "band, v: covers" in text and "band, w: covers" in text
     # a 20 s log (18 s active): the CLI says the spread was judged on little data (a note)
     short = [ln for ln in text.splitlines() if "s of active samples" in ln]
-    assert len(short) == 1 and short[0].startswith("note: the validation logs hold 18 s")
+    assert len(short) == 1 and short[0].startswith("note: the calibration logs hold 18 s")
     before = DriveDistribution.from_params_file(params, robot=ROBOT)
     after = DriveDistribution.from_params_file(out, robot=ROBOT)
     from robots.spec import load_spec
@@ -278,7 +278,7 @@ def test_calibrate_help_states_the_matched_range(capsys: pytest.CaptureFixture[s
         main(["sysid", "calibrate", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     low, high = match_range(0.9)
-    assert f"covers {100 * low:.0f}-{100 * high:.0f} % of the validation samples" in text
+    assert f"covers {100 * low:.0f}-{100 * high:.0f} % of the calibration samples" in text
     assert f"narrowed to {100 * high:.0f} %" in text and f"widened to {100 * low:.0f} %" in text
 
 
@@ -291,4 +291,4 @@ def test_no_short_data_note_on_enough_validation_data() -> None:
     trace = SimpleNamespace(meas_t_s=t)
     assert _short_data_note([trace], int(SHORT_VALIDATION_S / 0.02) + 1) is None
     note = _short_data_note([trace], 3000)  # 60 s active
-    assert note is not None and note.startswith("the validation logs hold 60 s of active")
+    assert note is not None and note.startswith("the calibration logs hold 60 s of active")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -60,10 +61,22 @@ def test_defaults_give_lower_agreement_and_no_params_file(log: Path, tmp_path: P
     assert figures["agreement"] < 0.8
 
 
-def test_min_agreement_gate_exit_codes(log: Path, params: Path) -> None:
+def test_min_agreement_gate_exit_codes(
+    log: Path, params: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert _agree(log, "--params", params, "--min-agreement", "0.9") == 0
+    out = capsys.readouterr().out.splitlines()
+    assert re.fullmatch(
+        r"agreement (9\d|100)\.\d % is at or above --min-agreement 90\.0 %: passed", out[-1]
+    )
     assert _agree(log, "--min-agreement", "0.9") == 1  # spec defaults are far off
+    captured = capsys.readouterr()
+    assert "passed" not in captured.out
+    assert re.fullmatch(r"agreement \d+\.\d % is below --min-agreement 90\.0 %\n", captured.err)
     assert _agree(log, "--min-agreement", "0") == 0
+    assert capsys.readouterr().out.splitlines()[-1].endswith("--min-agreement 0.0 %: passed")
+    assert _agree(log) == 0  # no gate, no gate line
+    assert "min-agreement" not in capsys.readouterr().out
 
 
 def test_sim_out_is_readable_with_real_stamps(log: Path, params: Path, tmp_path: Path) -> None:

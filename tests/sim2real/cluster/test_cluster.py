@@ -188,6 +188,9 @@ def test_agree_many_logs_refuses_report_and_gates(
     assert "--report and --sim-out take one log, got 3 logs" in err and err.count("\n") == 1
     assert _agree(fleet, tmp_path / "f.json", "--min-agreement", "0.999") == 1
     assert "pooled agreement" in capsys.readouterr().err
+    assert _agree(fleet, tmp_path / "f.json", "--min-agreement", "0") == 0
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert last.startswith("pooled agreement ") and last.endswith("--min-agreement 0.0 %: passed")
 
 
 def test_agree_many_logs_with_ensemble_prints_band_coverage(

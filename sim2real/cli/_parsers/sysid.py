@@ -1,0 +1,215 @@
+"""Arguments of `sim2real sysid`: fit drive parameters to logs, calibrate the band, show a result."""
+
+from __future__ import annotations
+
+import argparse
+
+from sim2real.cli._common import add_command, add_group, add_read_arguments
+from sysid.metrics import FIT_PERCENT_DEFINITION
+
+__all__ = ["register"]
+
+_GROUP_EXAMPLES = """\
+  sim2real sysid fit run.mcap --robot turtlebot3_burger -o params.yaml
+  sim2real sysid fit run.bag --robot turtlebot3_burger -o params.yaml   # ROS 1 bag
+  sim2real sysid show params.yaml
+"""
+_FIT_EXAMPLES = """\
+  sim2real sysid fit run.mcap --robot turtlebot3_burger -o params.yaml
+  sim2real sysid fit a.mcap b.mcap c.mcap --robot turtlebot2 -o p.yaml   # a fleet of sessions
+  sim2real sysid fit a.mcap b.mcap --robot turtlebot2 -o p.yaml --validate c.mcap
+  sim2real sysid fit goal.mcap --robot turtlebot3_waffle_pi -o p.yaml \\
+      --window 0:20 --validate goal.mcap --validate-window 20:40   # fit one part, check another
+  sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --free delay_s,added_mass_kg
+  sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --cmd-topic /mobile_base/cmd_vel
+  sim2real sysid fit real.mcap --robot turtlebot3_burger -o p.yaml --odom-v-window auto
+  sim2real sysid fit neato.bag --robot neato.yaml -o p.yaml --odom-velocity pose   # twist is junk
+  sim2real sysid fit run.mcap --robot turtlebot2 -o p.yaml --bootstrap 20 --seed 1
+  sim2real sysid fit 'fleet/*.mcap' --robot turtlebot3_burger -o fleet.yaml --ray auto
+"""
+_FIT_DESCRIPTION = (
+    "Simulate the reduced drive model from the logged commands and fit its parameters "
+    "to the measured velocities: a MAP fit (robust least squares plus the spec's priors "
+    "of every drive parameter). Prints each parameter's prior, posterior (value, 95 % "
+    "interval) and how much the data informed it (post/prior sd: ~1 = not at all), "
+    "what the logs could not identify, and FIT % / agreement on the fitting and "
+    "validation logs. Several logs are several sessions: each is fitted and a "
+    "population (mean, between-session spread) is estimated. Writes a params file "
+    "with a 'randomization' block (the distribution to train on, with the odometry "
+    "noise) that 'sim2real agree --params' and the envs read. "
+    f"{FIT_PERCENT_DEFINITION}."
+)
+_SHOW_EXAMPLES = """\
+  sim2real sysid show params.yaml
+"""
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Register the ``sysid`` command group (``sysid fit``, ``sysid show``, ``sysid calibrate``)."""
+    group_sub = add_group(
+        sub,
+        "sysid",
+        help="fit drive-model parameters to logs, show a result",
+        description=(
+            "System identification: fit the drive-model parameters (delay, friction, inertia, "
+            "limits) of a robot to logs of commanded and measured velocity."
+        ),
+        examples=_GROUP_EXAMPLES,
+    )
+    _register_fit(group_sub)
+    show = add_command(
+        group_sub,
+        "show",
+        help="print a sysid result file",
+        description="Print the parameters, intervals, scores and warnings of a sysid result file.",
+        examples=_SHOW_EXAMPLES,
+    )
+    show.add_argument("params", metavar="PARAMS.yaml", help="file written by 'sysid fit'")
+    show.set_defaults(handler="sysid:handle_show")
+    _register_calibrate(group_sub)
+
+
+def _register_fit(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """``sysid fit``: its logs, robot, output and how the logs are read."""
+    fit = add_command(
+        group_sub,
+        "fit",
+        help="fit the drive parameters to one or more logs",
+        description=_FIT_DESCRIPTION,
+        examples=_FIT_EXAMPLES,
+    )
+    fit.add_argument(
+        "logs",
+        nargs="+",
+        metavar="LOG",
+        help=(
+            "fitting log(s): .mcap files, ROS 1 .bag, rosbag2 folders or .csv; paths or quoted "
+            "globs ('fleet/*.mcap'); several logs are several sessions (a population)"
+        ),
+    )
+    fit.add_argument("--robot", required=True, help="robot spec name (see 'sim2real robots list')")
+    fit.add_argument(
+        "--ray",
+        metavar="auto|ADDRESS",
+        help=(
+            "with several sessions, fit each as a Ray task: 'auto' joins the running cluster or "
+            "starts a local one, ADDRESS is a head node (needs the [cluster] extra)"
+        ),
+    )
+    fit.add_argument("-o", "--output", required=True, metavar="PARAMS.yaml", help="result file")
+    fit.add_argument(
+        "--validate", action="append", default=[], metavar="VAL.mcap", help="validation log(s)"
+    )
+    add_read_arguments(fit)
+    _add_fit_options(fit)
+    fit.set_defaults(handler="sysid:handle_fit")
+
+
+def _add_fit_options(fit: argparse.ArgumentParser) -> None:
+    """``sysid fit``'s options of the fit itself: windows, free parameters, loss, bootstrap."""
+    fit.add_argument("--window", metavar="START:END", help="use only this part of the fit logs (s)")
+    fit.add_argument(
+        "--validate-window", metavar="START:END", help="use only this part of the validation logs"
+    )
+    fit.add_argument(
+        "--free",
+        default="auto",
+        help="comma-separated parameters to fit, or 'auto' (chosen from the excitation)",
+    )
+    fit.add_argument(
+        "--loss",
+        default="soft_l1",
+        choices=("linear", "soft_l1", "huber", "cauchy", "arctan"),
+        help="robust loss (default: soft_l1)",
+    )
+    fit.add_argument(
+        "--dt", type=float, default=None, help="model integration step, s (default 1/240)"
+    )
+    fit.add_argument(
+        "--bootstrap",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also refit N block-bootstrap resamples of 10 s segments (a check on the errors)",
+    )
+    fit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap draws")
+    fit.add_argument(
+        "--odom-v-window",
+        default="auto",
+        metavar="S|auto",
+        help=(
+            "odometry v is a wheel-encoder tick difference over this window, s (default 'auto': "
+            "from the spec's odometry, one period for an encoder base, e.g. 1/30 s on a "
+            "TurtleBot3, 0 otherwise); 0 = compare the instantaneous model v"
+        ),
+    )
+
+
+_CALIBRATE_EXAMPLES = """\
+  sim2real sysid fit day1.mcap day2.mcap day3.mcap --robot turtlebot2 -o params.yaml
+  sim2real sysid calibrate params.yaml day4.mcap --robot turtlebot2 -o calibrated.yaml
+  sim2real agree day5.mcap --robot turtlebot2 --params calibrated.yaml --ensemble 30 \\
+      --json agree.json            # coverage of the 90 % band on a session neither step saw
+  sim2real sysid calibrate p.yaml neato_val.bag --robot neato.yaml -o cal.yaml \\
+      --odom-velocity pose          # the driver's twist is junk: velocities from the pose
+  sim2real sysid calibrate p.yaml val.mcap --robot turtlebot2 -o cal.yaml --time-source log
+"""
+
+_CALIBRATE_DESCRIPTION = """\
+Fit the spread of the randomisation in PARAMS.yaml (its 'randomization' block: drive
+parameters and odometry noise) to calibration logs that the fit did not use, by likelihood:
+N robots are drawn with the covariance scaled by a dynamics factor s^2, the logs are replayed
+with each, and s and the odometry noise stds of v and w are chosen to maximise the Gaussian
+predictive log-likelihood of the real velocities (members' mean and variance plus noise, over
+the active samples) -- in the spirit of DROPO (Tiboni et al., 2023). Then each axis's noise
+std is scaled so that the 90 % band, built as 'agree --ensemble' builds it, covers 90-95 % of
+the calibration samples: widened to 90 % where it covers less, narrowed to 95 % where it covers
+more (a Gaussian likelihood over-widens the noise where errors are heavy-tailed). The point
+estimate (the mean) is kept. The output is PARAMS.yaml with the calibrated 'randomization'
+block and a 'calibration' block (factors, noise stds, likelihood before and after, validation
+coverage before and after the matching, the calibration logs with SHA-256). Use it with
+'sim2real agree --ensemble' on yet another log, and in training with
+DynamicsRandomizer.from_sysid and VelocityObservationNoise.from_sysid.
+A log the params file was fitted on is refused. Exit codes: 0 ok, 2 bad input.
+"""
+
+
+def _register_calibrate(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Register ``sysid calibrate`` in the ``sysid`` group's subparsers."""
+    p = add_command(
+        group_sub,
+        "calibrate",
+        help="fit the randomisation's spread to a calibration log the fit did not use",
+        description=_CALIBRATE_DESCRIPTION,
+        examples=_CALIBRATE_EXAMPLES,
+    )
+    p.add_argument("params", metavar="PARAMS.yaml", help="params file written by 'sysid fit'")
+    p.add_argument(
+        "logs", nargs="+", metavar="CALIBRATION.mcap", help="calibration log(s) the fit did not use"
+    )
+    p.add_argument("--robot", required=True, help="robot name (the params file's robot)")
+    p.add_argument(
+        "-o", "--out", required=True, metavar="CALIBRATED.yaml", help="output params file"
+    )
+    p.add_argument(
+        "--ensemble",
+        type=int,
+        default=32,
+        metavar="N",
+        help="robots drawn per likelihood evaluation (>= 4; default 32)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
+    p.add_argument(
+        "--engine",
+        choices=("reduced", "pybullet"),
+        default="reduced",
+        help="simulator (default reduced: the calibration replays the log hundreds of times)",
+    )
+    p.add_argument(
+        "--odom-v-window",
+        default=None,
+        metavar="S|auto",
+        help="odometry window of v, s, or 'auto' (default: the fit's, from the params file)",
+    )
+    add_read_arguments(p, time_source_note="read the calibration logs as the fit read its logs")
+    p.set_defaults(handler="calibrate:handle_calibrate")
