@@ -160,9 +160,30 @@ def spec_text(name: str, *, wheel_separation_m: float, **facts: float | str | No
     return _render(robot)
 
 
-def _render(robot: NewRobot) -> str:
+@dataclass(frozen=True, kw_only=True)
+class _Derived:
+    """The numbers a spec derives from a :class:`NewRobot` (SI units)."""
+
+    width: float
+    m_wheel: float
+    spin: float
+    cross: float
+    m_base: float
+    height: float
+    clearance: float
+    izz: float
+    ixx: float
+    z_body: float
+    caster_r: float
+    caster_x: float
+    i_eff: float
+    k_motor: float
+    tau_max: float
+
+
+def _derive(robot: NewRobot) -> _Derived:
     b, r, m = robot.wheel_separation_m, robot.wheel_radius_m, robot.mass_kg
-    v, w, fr = robot.max_speed_mps, robot.max_turn_rate_radps, robot.footprint_radius_m
+    fr = robot.footprint_radius_m
     width = 0.5 * r
     m_wheel = 0.03 * m
     spin = 0.5 * m_wheel * r * r
@@ -171,44 +192,43 @@ def _render(robot: NewRobot) -> str:
     height = max(0.4 * fr, 1.2 * r)
     clearance = 0.3 * r
     izz = 0.5 * m_base * fr * fr
-    ixx = m_base * (3 * fr * fr + height * height) / 12.0
-    z_body = clearance + 0.5 * height - r  # base_link sits at axle height r
     caster_r = 0.3 * r
-    caster_x = fr - caster_r
     # mass and inertia as the reduced model lumps them (robots.spec mass model)
     m_eff = m + 2 * spin / (r * r)
-    i_eff = izz + 2 * (cross + m_wheel * b * b / 4) + 2 * spin * b * b / (4 * r * r)
-    k_motor = m_eff * r * r / (2 * 0.1)
-    tau_max = 0.5 * m * _G / 2 * r
-    given = robot.given
-    skid = robot.drive == "skid"
-    # Skid steer (Mandow et al. 2007, "Experimental kinematics for wheeled skid-steer mobile
-    # robots": chi ~1.5-2 for their four-wheel base; Clearpath's separation multipliers are
-    # 1.5 (Jackal) and 1.875 (Husky)); the treads' lateral scrub resists turning with about
-    # a tenth of the weight at half the track (differential drive: 1 % for a caster's drag).
-    chi, chi_rule = (
-        (_SKID_CHI, "skid steer, effective track ~1.6 x the geometric one (Mandow 2007, Clearpath)")
-        if skid
-        else (1.0, "differential drive, the wheels roll without lateral slip")
+    return _Derived(
+        width=width,
+        m_wheel=m_wheel,
+        spin=spin,
+        cross=cross,
+        m_base=m_base,
+        height=height,
+        clearance=clearance,
+        izz=izz,
+        ixx=m_base * (3 * fr * fr + height * height) / 12.0,
+        z_body=clearance + 0.5 * height - r,  # base_link sits at axle height r
+        caster_r=caster_r,
+        caster_x=fr - caster_r,
+        i_eff=izz + 2 * (cross + m_wheel * b * b / 4) + 2 * spin * b * b / (4 * r * r),
+        k_motor=m_eff * r * r / (2 * 0.1),
+        tau_max=0.5 * m * _G / 2 * r,
     )
-    driver_rule = (
-        "given: the driver's wheel_separation_multiplier"
-        if "driver_track_factor" in given
-        else "prior: the driver's wheel_separation_multiplier, assumed calibrated to the slip "
-        "(Husky ships 1.875, Jackal 1.5); give your driver's value (--driver-track-factor)"
-        if skid
-        else "the driver's wheel targets use the geometric track (--driver-track-factor: "
-        "your driver's wheel_separation_multiplier)"
-    )
-    scrub_share = 0.1 if skid else 0.01
-    scrub = scrub_share * m * _G * b / 2
-    scrub_rule = (
-        "tread scrub, 10 % of the weight at half the track"
-        if skid
-        else "1 % of the weight at half the track"
-    )
-    scrub_sd = (0.1 if skid else 0.05) * m * _G * b / 2
+
+
+def _render(robot: NewRobot) -> str:
+    d = _derive(robot)
     lines = [
+        *_header_lines(robot),
+        *_body_lines(robot, d),
+        *_drive_lines(robot, d),
+        *_prior_lines(robot, d),
+        *_sensor_lines(d),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _header_lines(robot: NewRobot) -> list[str]:
+    skid = robot.drive == "skid"
+    return [
         f"# {robot.name}: a spec written by `sim2real robots new` from the numbers given below;",
         "# every other fact is a documented prior (comments say which rule made it; see",
         "# robots/template.py). Edit any number you know better, then run",
@@ -227,32 +247,78 @@ def _render(robot: NewRobot) -> str:
             else []
         ),
         "sources:",
-        f'  - "given: {", ".join(sorted(given))}"',
+        f'  - "given: {", ".join(sorted(robot.given))}"',
         '  - "priors: robots/template.py typical-value rules (TurtleBot3, Kobuki, Neato, '
         'Jackal, Husky)"',
+    ]
+
+
+def _body_lines(robot: NewRobot, d: _Derived) -> list[str]:
+    b, r, m = robot.wheel_separation_m, robot.wheel_radius_m, robot.mass_kg
+    v, w, fr = robot.max_speed_mps, robot.max_turn_rate_radps, robot.footprint_radius_m
+    return [
         "base:",
-        f"  mass_kg: {_g(m_base)}  # total {_g(m)} kg ({_src(robot, 'mass_kg', 'm = 250 b^3')})"
+        f"  mass_kg: {_g(d.m_base)}  # total {_g(m)} kg ({_src(robot, 'mass_kg', 'm = 250 b^3')})"
         " less two wheels",
-        f"  inertia_diag_kgm2: [{_g(ixx)}, {_g(ixx)}, {_g(izz)}]  # prior: solid cylinder of the"
-        " footprint",
+        f"  inertia_diag_kgm2: [{_g(d.ixx)}, {_g(d.ixx)}, {_g(d.izz)}]  # prior: solid cylinder"
+        " of the footprint",
         f"  link_height_m: {_g(r)}  # base_link at axle height",
-        f"  body: {{shape: cylinder, radius_m: {_g(fr)}, height_m: {_g(height)}, xyz_m: [0.0, 0.0,"
-        f" {_g(z_body)}]}}  # footprint ({_src(robot, 'footprint_radius_m', '0.7 b')}); prior:"
-        f" height 0.4 x radius, {_g(clearance)} m ground clearance",
+        f"  body: {{shape: cylinder, radius_m: {_g(fr)}, height_m: {_g(d.height)}, xyz_m: [0.0,"
+        f" 0.0, {_g(d.z_body)}]}}  # footprint ({_src(robot, 'footprint_radius_m', '0.7 b')});"
+        f" prior: height 0.4 x radius, {_g(d.clearance)} m ground clearance",
         "wheels:",
         f"  radius_m: {_g(r)}  # {_src(robot, 'wheel_radius_m', 'r = 0.2 b')}",
-        f"  width_m: {_g(width)}  # prior: 0.5 r",
+        f"  width_m: {_g(d.width)}  # prior: 0.5 r",
         f"  separation_m: {_g(b)}  # given",
-        f"  mass_kg: {_g(m_wheel)}  # prior: 3 % of the total mass",
-        f"  spin_inertia_kgm2: {_g(spin)}  # prior: solid disc, m r^2 / 2",
-        f"  cross_inertia_kgm2: {_g(cross)}  # prior: solid disc, m (3 r^2 + w^2) / 12",
+        f"  mass_kg: {_g(d.m_wheel)}  # prior: 3 % of the total mass",
+        f"  spin_inertia_kgm2: {_g(d.spin)}  # prior: solid disc, m r^2 / 2",
+        f"  cross_inertia_kgm2: {_g(d.cross)}  # prior: solid disc, m (3 r^2 + w^2) / 12",
         "casters:  # prior: frictionless skids front and back, so the base cannot tip",
-        f"  - {{x_m: {_g(caster_x)}, y_m: 0.0, radius_m: {_g(caster_r)}, mass_kg: 0.0}}",
-        f"  - {{x_m: {_g(-caster_x)}, y_m: 0.0, radius_m: {_g(caster_r)}, mass_kg: 0.0}}",
+        f"  - {{x_m: {_g(d.caster_x)}, y_m: 0.0, radius_m: {_g(d.caster_r)}, mass_kg: 0.0}}",
+        f"  - {{x_m: {_g(-d.caster_x)}, y_m: 0.0, radius_m: {_g(d.caster_r)}, mass_kg: 0.0}}",
         "point_masses: []",
         "limits:",
         f"  max_v_mps: {_g(v)}  # {_src(robot, 'max_speed_mps', '0.5 m/s')}",
         f"  max_w_radps: {_g(w)}  # {_src(robot, 'max_turn_rate_radps', '2 v_max / b')}",
+    ]
+
+
+def _skid_rules(robot: NewRobot) -> tuple[str, str, str]:
+    """The comments of track_factor, driver_track_factor and coulomb_w_nm."""
+    skid = robot.drive == "skid"
+    # Skid steer (Mandow et al. 2007, "Experimental kinematics for wheeled skid-steer mobile
+    # robots": chi ~1.5-2 for their four-wheel base; Clearpath's separation multipliers are
+    # 1.5 (Jackal) and 1.875 (Husky)); the treads' lateral scrub resists turning with about
+    # a tenth of the weight at half the track (differential drive: 1 % for a caster's drag).
+    chi_rule = (
+        "skid steer, effective track ~1.6 x the geometric one (Mandow 2007, Clearpath)"
+        if skid
+        else "differential drive, the wheels roll without lateral slip"
+    )
+    driver_rule = (
+        "given: the driver's wheel_separation_multiplier"
+        if "driver_track_factor" in robot.given
+        else "prior: the driver's wheel_separation_multiplier, assumed calibrated to the slip "
+        "(Husky ships 1.875, Jackal 1.5); give your driver's value (--driver-track-factor)"
+        if skid
+        else "the driver's wheel targets use the geometric track (--driver-track-factor: "
+        "your driver's wheel_separation_multiplier)"
+    )
+    scrub_rule = (
+        "tread scrub, 10 % of the weight at half the track"
+        if skid
+        else "1 % of the weight at half the track"
+    )
+    return chi_rule, driver_rule, scrub_rule
+
+
+def _drive_lines(robot: NewRobot, d: _Derived) -> list[str]:
+    r, m, v, w = robot.wheel_radius_m, robot.mass_kg, robot.max_speed_mps, robot.max_turn_rate_radps
+    given, skid = robot.given, robot.drive == "skid"
+    chi = _SKID_CHI if skid else 1.0
+    scrub = (0.1 if skid else 0.01) * m * _G * robot.wheel_separation_m / 2
+    chi_rule, driver_rule, scrub_rule = _skid_rules(robot)
+    return [
         "drive:",
         "  delay_s: 0.1  # prior: typical ROS command latency 0.05-0.3 s",
         "  cmd_timeout_s: .inf  # prior: none known (sysid tells whether the log shows one)",
@@ -264,10 +330,10 @@ def _render(robot: NewRobot) -> str:
         "  accel_lim_w_radps2: .inf",
         f"  wheel_speed_max_radps: {_g(v / r)}  # top speed / r; a command beyond it scales both"
         " wheels together (as most drivers do), keeping the turn radius",
-        f"  motor_gain_nms_per_rad: {_g(k_motor)}  # prior: speed-loop time constant 0.1 s,"
+        f"  motor_gain_nms_per_rad: {_g(d.k_motor)}  # prior: speed-loop time constant 0.1 s,"
         " K = m_eff r^2 / (2 T)",
         "  speed_loop_ki_per_s: 0.0  # a P loop until sysid identifies the integral term",
-        f"  wheel_torque_max_nm: {_g(tau_max)}  # prior: traction mu = 0.5 on half the weight",
+        f"  wheel_torque_max_nm: {_g(d.tau_max)}  # prior: traction mu = 0.5 on half the weight",
         "  wheel_stall_torque_nm: .inf  # the motors' torque-speed line: none until you give the"
         " datasheet's stall torque and no-load speed at the wheel (and priors below)",
         "  wheel_no_load_speed_radps: .inf",
@@ -275,11 +341,18 @@ def _render(robot: NewRobot) -> str:
         f"  coulomb_v_bwd_n: {_g(0.01 * m * _G)}",
         f"  coulomb_w_nm: {_g(scrub)}  # prior: {scrub_rule}",
         f"  viscous_v_ns_per_m: {_g(0.1 * m)}  # prior: 0.1 /s of the mass",
-        f"  viscous_w_nms_per_rad: {_g(0.1 * i_eff)}  # prior: 0.1 /s of the yaw inertia",
+        f"  viscous_w_nms_per_rad: {_g(0.1 * d.i_eff)}  # prior: 0.1 /s of the yaw inertia",
         "  added_mass_kg: 0.0",
         "  added_yaw_inertia_kgm2: 0.0",
         f"  track_factor: {_g(chi)}  # prior: {chi_rule}",
         f"  driver_track_factor: {_g(robot.driver_track_factor)}  # {driver_rule}",
+    ]
+
+
+def _prior_lines(robot: NewRobot, d: _Derived) -> list[str]:
+    m, given, skid = robot.mass_kg, robot.given, robot.drive == "skid"
+    scrub_sd = (0.1 if skid else 0.05) * m * _G * robot.wheel_separation_m / 2
+    return [
         "# Priors (robots.params.SCHEMA coordinates: lin = the unit of the value; log and",
         "# log_total_* = a relative spread, 0.7 ~ a factor 2). Wide where a number was not given.",
         "priors:",
@@ -303,20 +376,25 @@ def _render(robot: NewRobot) -> str:
         f"  coulomb_v_bwd_n: {{sd: {_g(0.04 * m * _G)}, session_sd: {_g(0.005 * m * _G)}}}",
         f"  coulomb_w_nm: {{sd: {_g(scrub_sd)}, session_sd: {_g(0.2 * scrub_sd)}}}",
         f"  viscous_v_ns_per_m: {{sd: {_g(1.5 * m)}, session_sd: {_g(0.2 * m)}}}",
-        f"  viscous_w_nms_per_rad: {{sd: {_g(1.5 * i_eff)}, session_sd: {_g(0.2 * i_eff)}}}",
+        f"  viscous_w_nms_per_rad: {{sd: {_g(1.5 * d.i_eff)}, session_sd: {_g(0.2 * d.i_eff)}}}",
         f"  added_mass_kg: {{sd: {0.3 if 'mass_kg' in given else 0.7}, session_sd: 0.1}}"
         "  # payload; a factor 2 when the mass was not given",
         "  added_yaw_inertia_kgm2: {sd: 0.7, session_sd: 0.15}  # body shape is a guess",
         f"  track_factor: {{sd: {0.3 if skid else 0.0}, session_sd: {0.1 if skid else 0.0}}}  "
         f"# {'1.2-2.5, the surface changes it' if skid else 'a differential drive: exactly 1'}",
         "  driver_track_factor: {sd: 0.0, session_sd: 0.0}  # a driver setting: edit it above",
+    ]
+
+
+def _sensor_lines(d: _Derived) -> list[str]:
+    return [
         "lidar:  # placeholder: a typical 360-beam 2D lidar on top; edit to your sensor",
         "  beams: 360",
         "  angle_min_rad: 0.0",
         f"  angle_max_rad: {2 * math.pi * 359 / 360!r}",
         "  range_min_m: 0.12",
         "  range_max_m: 3.5",
-        f"  xyz_m: [0.0, 0.0, {_g(z_body + 0.5 * height + 0.03)}]",
+        f"  xyz_m: [0.0, 0.0, {_g(d.z_body + 0.5 * d.height + 0.03)}]",
         "  rate_hz: 5.0",
         "depth_camera: null",
         "odometry:  # prior: wheel encoders for both (edit w_source to imu if a gyro is used)",
@@ -324,4 +402,3 @@ def _render(robot: NewRobot) -> str:
         "  w_source: wheels",
         "  rate_hz: 20.0",
     ]
-    return "\n".join(lines) + "\n"
