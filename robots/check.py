@@ -39,10 +39,15 @@ from __future__ import annotations
 import hashlib
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from robots._urdf import urdf_text
 from robots.errors import SpecError
+from robots.params import DriveParams
 from robots.spec import RobotSpec
+
+if TYPE_CHECKING:
+    from robots._pybullet_robot import UncheckedPybulletRobot
 
 __all__ = [
     "MIN_CLEARANCE_M",
@@ -209,6 +214,18 @@ def _drive_items(spec: RobotSpec) -> list[CheckItem]:
     params = spec.drive.replace(
         delay_s=0.0, cmd_timeout_s=math.inf, accel_lim_v_mps2=math.inf, accel_lim_w_radps2=math.inf
     )
+    v_cmd, w_cmd = _test_commands(spec, params)
+    with UncheckedPybulletRobot(spec, params=params) as robot:
+        items = [_contact_item(robot)]
+        robot.reset()
+        items.append(_forward_item(robot, v_cmd))
+        robot.reset()
+        items.append(_turn_item(robot, w_cmd))
+    return items
+
+
+def _test_commands(spec: RobotSpec, params: DriveParams) -> tuple[float, float]:
+    """Half the top speed and half the top yaw rate the spec and its drive allow."""
     geo = spec.geometry
     v_top = min(
         spec.max_v_mps, params.speed_lim_v_mps, params.wheel_speed_max_radps * geo.wheel_radius_m
@@ -218,53 +235,51 @@ def _drive_items(spec: RobotSpec) -> list[CheckItem]:
         params.speed_lim_w_radps,
         2.0 * params.wheel_speed_max_radps * geo.wheel_radius_m / geo.wheel_separation_m,
     )
-    v_cmd, w_cmd = 0.5 * v_top, 0.5 * w_top
-    items = []
-    with UncheckedPybulletRobot(spec, params=params) as robot:
-        robot.step(0.0, 0.0, _SETTLE_S)
-        touching = robot.wheel_contacts()
-        items.append(
-            CheckItem(
-                name="wheels touch the ground",
-                passed=all(touching),
-                detail=f"after {_SETTLE_S} s at rest in pybullet the left/right wheel ground "
-                f"contacts are {touching[0]}/{touching[1]} (both must touch)",
-            )
-        )
-        robot.reset()
-        robot.step(v_cmd, 0.0, 0.5 * _DRIVE_S)
-        x0, _, _ = robot.pose
-        robot.step(v_cmd, 0.0, 0.5 * _DRIVE_S)
-        x1, _, yaw1 = robot.pose
-        speed = (x1 - x0) / (0.5 * _DRIVE_S)  # along the start heading (+x)
-        rel = speed / v_cmd - 1.0
-        items.append(
-            CheckItem(
-                name="forward drive",
-                passed=abs(rel) <= SPEED_TOLERANCE and abs(yaw1) < 0.2,
-                detail=f"a forward command of {v_cmd:.3f} m/s drove the base at {speed:+.3f} "
-                f"m/s ({rel:+.0%} of the kinematic speed; needs within +-{SPEED_TOLERANCE:.0%}) "
-                f"and turned it by {yaw1:+.3f} rad (needs |yaw| < 0.2)",
-            )
-        )
-        robot.reset()
-        robot.step(0.0, w_cmd, 0.05)
-        yaw, last = robot.pose[2], robot.pose[2]
-        for _ in range(round(_DRIVE_S / 0.05) - 1):  # unwrapped heading (turns > pi)
-            robot.advance(0.05)
-            now = robot.pose[2]
-            yaw += math.remainder(now - last, 2.0 * math.pi)
-            last = now
-        items.append(
-            CheckItem(
-                name="turn",
-                passed=yaw * w_cmd > 0 and abs(yaw) > 0.2 * w_cmd * _DRIVE_S,
-                detail=f"a yaw-rate command of {w_cmd:+.3f} rad/s turned the base by {yaw:+.3f} "
-                f"rad in {_DRIVE_S} s (needs the same sign and at least 20 % of "
-                f"{w_cmd * _DRIVE_S:+.3f} rad)",
-            )
-        )
-    return items
+    return 0.5 * v_top, 0.5 * w_top
+
+
+def _contact_item(robot: UncheckedPybulletRobot) -> CheckItem:
+    robot.step(0.0, 0.0, _SETTLE_S)
+    touching = robot.wheel_contacts()
+    return CheckItem(
+        name="wheels touch the ground",
+        passed=all(touching),
+        detail=f"after {_SETTLE_S} s at rest in pybullet the left/right wheel ground "
+        f"contacts are {touching[0]}/{touching[1]} (both must touch)",
+    )
+
+
+def _forward_item(robot: UncheckedPybulletRobot, v_cmd: float) -> CheckItem:
+    robot.step(v_cmd, 0.0, 0.5 * _DRIVE_S)
+    x0, _, _ = robot.pose
+    robot.step(v_cmd, 0.0, 0.5 * _DRIVE_S)
+    x1, _, yaw1 = robot.pose
+    speed = (x1 - x0) / (0.5 * _DRIVE_S)  # along the start heading (+x)
+    rel = speed / v_cmd - 1.0
+    return CheckItem(
+        name="forward drive",
+        passed=abs(rel) <= SPEED_TOLERANCE and abs(yaw1) < 0.2,
+        detail=f"a forward command of {v_cmd:.3f} m/s drove the base at {speed:+.3f} "
+        f"m/s ({rel:+.0%} of the kinematic speed; needs within +-{SPEED_TOLERANCE:.0%}) "
+        f"and turned it by {yaw1:+.3f} rad (needs |yaw| < 0.2)",
+    )
+
+
+def _turn_item(robot: UncheckedPybulletRobot, w_cmd: float) -> CheckItem:
+    robot.step(0.0, w_cmd, 0.05)
+    yaw, last = robot.pose[2], robot.pose[2]
+    for _ in range(round(_DRIVE_S / 0.05) - 1):  # unwrapped heading (turns > pi)
+        robot.advance(0.05)
+        now = robot.pose[2]
+        yaw += math.remainder(now - last, 2.0 * math.pi)
+        last = now
+    return CheckItem(
+        name="turn",
+        passed=yaw * w_cmd > 0 and abs(yaw) > 0.2 * w_cmd * _DRIVE_S,
+        detail=f"a yaw-rate command of {w_cmd:+.3f} rad/s turned the base by {yaw:+.3f} "
+        f"rad in {_DRIVE_S} s (needs the same sign and at least 20 % of "
+        f"{w_cmd * _DRIVE_S:+.3f} rad)",
+    )
 
 
 def check_spec(spec: RobotSpec, *, drive_test: bool = True) -> SpecCheck:

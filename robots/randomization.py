@@ -475,12 +475,29 @@ class _Parts:
     fixed: Mapping[str, float]
 
 
+_BLOCK_KEYS = frozenset(
+    {"format", "robot", "geometry", "names", "coords", "mean", "covariance", "fixed", "noise"}
+)
+_REFIT = "refit the params file with 'sim2real sysid fit'"
+
+
 def _validate(dist: _Parts, source: str) -> None:
     """Check a distribution (raises ParamsFileError naming the key and the field)."""
-    refit = "refit the params file with 'sim2real sysid fit'"
+    _validate_names(dist, source)
+    _validate_mean(dist, source)
+    _validate_covariance(dist, source)
+    try:
+        values = dict(dist.fixed)
+        values |= coords_to_values(dist.names, dist.mean, dist.geometry, dist.fixed)
+        DriveParams(**values)
+    except RobotsValueError as exc:
+        raise ParamsFileError(f"{source}: {exc}; {_REFIT}") from None
+
+
+def _validate_names(dist: _Parts, source: str) -> None:
     k = len(dist.names)
     if k == 0:
-        raise _fail(source, "names", "must list at least one varying field", [], refit)
+        raise _fail(source, "names", "must list at least one varying field", [], _REFIT)
     unknown = [n for n in dist.names if n not in SCHEMA]
     if unknown or len(set(dist.names)) != k:
         raise _fail(
@@ -488,7 +505,7 @@ def _validate(dist: _Parts, source: str) -> None:
             "names",
             f"must be distinct DriveParams fields ({list(SCHEMA)})",
             list(dist.names),
-            refit,
+            _REFIT,
         )
     missing = [n for n in SCHEMA if n not in dist.names and n not in dist.fixed]
     extra = [n for n in dist.fixed if n not in SCHEMA or n in dist.names]
@@ -498,37 +515,27 @@ def _validate(dist: _Parts, source: str) -> None:
             "fixed",
             f"must give every field not in names exactly once (missing {missing}, extra {extra})",
             sorted(dist.fixed),
-            refit,
+            _REFIT,
         )
+
+
+def _validate_mean(dist: _Parts, source: str) -> None:
+    k = len(dist.names)
     if len(dist.mean) != k:
-        raise _fail(source, "mean", f"must be {k} numbers (one per name)", list(dist.mean), refit)
+        raise _fail(source, "mean", f"must be {k} numbers (one per name)", list(dist.mean), _REFIT)
     for name, x in zip(dist.names, dist.mean, strict=True):
         if not (isinstance(x, int | float) and math.isfinite(x)):
-            raise _fail(source, "mean", f"entry of '{name}' must be a finite number", x, refit)
+            raise _fail(source, "mean", f"entry of '{name}' must be a finite number", x, _REFIT)
+
+
+def _validate_covariance(dist: _Parts, source: str) -> None:
+    k = len(dist.names)
     rows_ok = all(len(row) == k for row in dist.covariance)
     cov = np.array(dist.covariance, dtype=np.float64) if rows_ok else np.zeros((0,))
     if cov.shape != (k, k):
-        raise _fail(source, "covariance", f"must be a {k} x {k} matrix", dist.covariance, refit)
+        raise _fail(source, "covariance", f"must be a {k} x {k} matrix", dist.covariance, _REFIT)
     for i, name in enumerate(dist.names):
-        var = float(cov[i, i])
-        limit = spread_limit(name, dist.geometry)
-        if not (math.isfinite(var) and var >= 0):
-            raise _fail(
-                source,
-                "covariance",
-                f"variance of '{name}' must be a finite number >= 0",
-                var,
-                refit,
-            )
-        if math.sqrt(var) > limit:
-            raise _fail(
-                source,
-                "covariance",
-                f"standard deviation of '{name}' must be <= {limit:.3g} in its "
-                f"{SCHEMA[name].coord} coordinate (wider is an absurd spread)",
-                math.sqrt(var),
-                refit,
-            )
+        _validate_variance(name, float(cov[i, i]), dist.geometry, source)
     bad = np.argwhere(~np.isfinite(cov) | ~np.isclose(cov, cov.T, rtol=1e-6, atol=1e-12))
     if bad.size:
         i, j = (int(a) for a in bad[0])
@@ -537,7 +544,7 @@ def _validate(dist: _Parts, source: str) -> None:
             "covariance",
             f"must be finite and symmetric; the entry of ('{dist.names[i]}', '{dist.names[j]}')",
             float(cov[i, j]),
-            refit,
+            _REFIT,
         )
     eig = np.linalg.eigvalsh(cov)
     if eig[0] < -1e-9 * max(float(eig[-1]), 1e-300):
@@ -546,82 +553,38 @@ def _validate(dist: _Parts, source: str) -> None:
             "covariance",
             "must be positive semi-definite (smallest eigenvalue)",
             float(eig[0]),
-            refit,
+            _REFIT,
         )
-    try:
-        values = dict(dist.fixed)
-        values |= coords_to_values(dist.names, dist.mean, dist.geometry, dist.fixed)
-        DriveParams(**values)
-    except RobotsValueError as exc:
-        raise ParamsFileError(f"{source}: {exc}; {refit}") from None
+
+
+def _validate_variance(name: str, var: float, geometry: BaseGeometry, source: str) -> None:
+    limit = spread_limit(name, geometry)
+    if not (math.isfinite(var) and var >= 0):
+        raise _fail(
+            source,
+            "covariance",
+            f"variance of '{name}' must be a finite number >= 0",
+            var,
+            _REFIT,
+        )
+    if math.sqrt(var) > limit:
+        raise _fail(
+            source,
+            "covariance",
+            f"standard deviation of '{name}' must be <= {limit:.3g} in its "
+            f"{SCHEMA[name].coord} coordinate (wider is an absurd spread)",
+            math.sqrt(var),
+            _REFIT,
+        )
 
 
 def _parse_block(
     cls: type[DriveDistribution], block: Any, *, robot: str | None, source: str
 ) -> DriveDistribution:
-    refit = "refit the params file with 'sim2real sysid fit'"
-    keys = {
-        "format",
-        "robot",
-        "geometry",
-        "names",
-        "coords",
-        "mean",
-        "covariance",
-        "fixed",
-        "noise",
-    }
-    if not isinstance(block, Mapping) or not block:
-        raise ParamsFileError(f"{source} must be a non-empty mapping, got {block!r}; {refit}")
-    missing = sorted(keys - set(block))
-    unknown = sorted(set(block) - keys)
-    if missing or unknown:
-        raise _fail(
-            source,
-            "keys",
-            f"must be {sorted(keys)} (missing {missing}, unknown {unknown})",
-            sorted(block),
-            refit,
-        )
-    if block["format"] not in (RANDOMIZATION_FORMAT, _FORMAT_1):
-        raise _fail(source, "format", f"must be '{RANDOMIZATION_FORMAT}'", block["format"], refit)
-    old = block["format"] == _FORMAT_1
-    if robot is not None and block["robot"] != robot:
-        raise _fail(
-            source,
-            "robot",
-            f"must be '{robot}' (this block is for another robot)",
-            block["robot"],
-            f"use the params file of {robot} or pass --robot {block['robot']}",
-        )
+    old = _check_block_head(block, robot=robot, source=source)
     names, coords = block["names"], block["coords"]
-    if not (isinstance(names, list) and all(isinstance(n, str) for n in names)):
-        raise _fail(source, "names", "must be a list of DriveParams field names", names, refit)
-    if not isinstance(coords, list) or len(coords) != len(names):
-        raise _fail(
-            source, "coords", f"must be a list of {len(names)} coordinate kinds", coords, refit
-        )
-    for n, c in zip(names, coords, strict=True):
-        if old and n in SCHEMA and SCHEMA[n].per_field is not None and c == "lin":
-            continue  # format 1: the value itself, converted below
-        if n in SCHEMA and SCHEMA[n].coord != c:
-            raise _fail(source, "coords", f"entry of '{n}' must be '{SCHEMA[n].coord}'", c, refit)
-    geometry = _parse_geometry(block["geometry"], f"{source}.geometry")
-    fixed = block["fixed"]
-    if not isinstance(fixed, Mapping):
-        raise _fail(source, "fixed", "must be a mapping of field: value", fixed, refit)
-    parts = _Parts(
-        geometry=geometry,
-        names=tuple(names),
-        mean=tuple(_floats(block["mean"], f"{source}.mean", any_float=True)),
-        covariance=tuple(
-            tuple(_floats(row, f"{source}.covariance", any_float=True))
-            for row in _rows(block["covariance"], source)
-        ),
-        fixed={
-            str(k): _floats([v], f"{source}.fixed.{k}", allow_inf=True)[0] for k, v in fixed.items()
-        },
-    )
+    _check_names_coords(names, coords, old=old, source=source)
+    parts = _block_parts(block, names, source)
     if old:
         parts = _from_format_1(parts, coords)
     _validate(parts, source)
@@ -633,6 +596,69 @@ def _parse_block(
         covariance=parts.covariance,
         fixed=dict(parts.fixed),
         noise=ObservationNoise.from_dict(block["noise"], source=f"{source}.noise"),
+    )
+
+
+def _check_block_head(block: Any, *, robot: str | None, source: str) -> bool:
+    """Refuse a block without its keys, of another format or robot; whether it is format 1."""
+    if not isinstance(block, Mapping) or not block:
+        raise ParamsFileError(f"{source} must be a non-empty mapping, got {block!r}; {_REFIT}")
+    keys = sorted(_BLOCK_KEYS)
+    missing = sorted(_BLOCK_KEYS - set(block))
+    unknown = sorted(set(block) - _BLOCK_KEYS)
+    if missing or unknown:
+        raise _fail(
+            source,
+            "keys",
+            f"must be {keys} (missing {missing}, unknown {unknown})",
+            sorted(block),
+            _REFIT,
+        )
+    if block["format"] not in (RANDOMIZATION_FORMAT, _FORMAT_1):
+        raise _fail(source, "format", f"must be '{RANDOMIZATION_FORMAT}'", block["format"], _REFIT)
+    if robot is not None and block["robot"] != robot:
+        raise _fail(
+            source,
+            "robot",
+            f"must be '{robot}' (this block is for another robot)",
+            block["robot"],
+            f"use the params file of {robot} or pass --robot {block['robot']}",
+        )
+    return bool(block["format"] == _FORMAT_1)
+
+
+def _check_names_coords(names: Any, coords: Any, *, old: bool, source: str) -> None:
+    """Refuse field names that are not a list of strings, or coordinate kinds off the schema."""
+    if not (isinstance(names, list) and all(isinstance(n, str) for n in names)):
+        raise _fail(source, "names", "must be a list of DriveParams field names", names, _REFIT)
+    if not isinstance(coords, list) or len(coords) != len(names):
+        raise _fail(
+            source, "coords", f"must be a list of {len(names)} coordinate kinds", coords, _REFIT
+        )
+    for n, c in zip(names, coords, strict=True):
+        if old and n in SCHEMA and SCHEMA[n].per_field is not None and c == "lin":
+            continue  # format 1: the value itself, converted below
+        if n in SCHEMA and SCHEMA[n].coord != c:
+            raise _fail(source, "coords", f"entry of '{n}' must be '{SCHEMA[n].coord}'", c, _REFIT)
+
+
+def _block_parts(block: Mapping[str, Any], names: list[str], source: str) -> _Parts:
+    """The block's geometry, mean, covariance and fixed values, each read as numbers."""
+    geometry = _parse_geometry(block["geometry"], f"{source}.geometry")
+    fixed = block["fixed"]
+    if not isinstance(fixed, Mapping):
+        raise _fail(source, "fixed", "must be a mapping of field: value", fixed, _REFIT)
+    return _Parts(
+        geometry=geometry,
+        names=tuple(names),
+        mean=tuple(_floats(block["mean"], f"{source}.mean", any_float=True)),
+        covariance=tuple(
+            tuple(_floats(row, f"{source}.covariance", any_float=True))
+            for row in _rows(block["covariance"], source)
+        ),
+        fixed={
+            str(k): _floats([v], f"{source}.fixed.{k}", allow_inf=True)[0] for k, v in fixed.items()
+        },
     )
 
 

@@ -614,21 +614,7 @@ def fit_drive(
         several=len(groups) > 1,
         informative=frozenset(informative),
     )
-    posts: list[Posterior] = []
-    if map_sessions is not None and len(groups) > 1:
-        # one task per session (e.g. Ray): no per-evaluation progress, notes merged in order
-        report("fitting", 0.05)
-        for post, session_notes in map_sessions(session, groups):
-            posts.append(post)
-            notes += session_notes
-    for k, group in enumerate(groups if not posts else []):
-        lo, span = 0.05 + 0.85 * k / len(groups), 0.85 / len(groups)
-
-        def on_eval(n: int, lo: float = lo, span: float = span) -> None:
-            report("fitting", lo + span * min(n / (4 * max_nfev), 1.0))
-
-        post, session_notes = session(group, on_eval=on_eval, notes=notes)
-        posts.append(post)
+    posts = _fit_sessions(session, groups, map_sessions, notes, report, max_nfev)
     notes += _convergence_notes(
         posts, [g.name for g in fit_logs] if len(posts) > 1 else ["fit"], max_nfev
     )
@@ -667,6 +653,34 @@ def fit_drive(
     )
 
 
+def _fit_sessions(
+    session: _Session,
+    groups: Sequence[Sequence[LogArrays]],
+    map_sessions: Callable[[Callable[[Any], Any], Sequence[Any]], Sequence[Any]] | None,
+    notes: list[str],
+    report: Progress,
+    max_nfev: int,
+) -> list[Posterior]:
+    """The posterior of each group of logs, through ``map_sessions`` or in this process."""
+    posts: list[Posterior] = []
+    if map_sessions is not None and len(groups) > 1:
+        # one task per session (e.g. Ray): no per-evaluation progress, notes merged in order
+        report("fitting", 0.05)
+        for post, session_notes in map_sessions(session, groups):
+            posts.append(post)
+            notes += session_notes
+        return posts
+    for k, group in enumerate(groups):
+        lo, span = 0.05 + 0.85 * k / len(groups), 0.85 / len(groups)
+
+        def on_eval(n: int, lo: float = lo, span: float = span) -> None:
+            report("fitting", lo + span * min(n / (4 * max_nfev), 1.0))
+
+        post, _ = session(group, on_eval=on_eval, notes=notes)
+        posts.append(post)
+    return posts
+
+
 def _finish(
     *,
     summary: _Summary,
@@ -700,49 +714,14 @@ def _finish(
         between=s.between,
         sessions=len(posts),
     )
-    replicates, segment_s, seed, loss, f_scale = bootstrap
-    boot_std: dict[str, float] = {}
-    if replicates > 0:
-        report("bootstrap", 0.93)
-        coupled = any(p.coupled for p in posts)
-
-        def solve(pr: Problem, x0: FloatArray) -> Any:
-            return _solve(pr, x0, coupled, loss, f_scale, 12)
-
-        boot_std = _bootstrap_std(
-            fit_logs,
-            s,
-            mapper,
-            solve=solve,
-            problem_kw=problem_kw | {"prior_weight": posts[0].problem.prior_weight},
-            replicates=replicates,
-            segment_s=segment_s,
-            seed=seed,
-        )
+    boot_std = _replicate(bootstrap, s, posts, mapper, fit_logs, problem_kw, report)
     report("scoring", 0.95)
     scores_fit = score_logs(fit_logs, s.params, mapper.geometry, **scoring)
     scores_val = score_logs(val_logs, s.params, mapper.geometry, **scoring) if val_logs else ()
     data = tuple(DataFile(file=g.name, sha256=g.sha256, role="fit") for g in fit_logs) + tuple(
         DataFile(file=g.name, sha256=g.sha256, role="validation") for g in val_logs
     )
-    settings = settings | {
-        "free": list(s.free),
-        "ties": dict(s.ties),
-        "model_evaluations": sum(p.evaluations for p in posts),
-        "model_steps": sum(p.steps for p in posts),
-        "optimizer_status": "; ".join(p.message for p in posts),
-        "converged": all(p.converged for p in posts),
-        "cost": sum(p.cost for p in posts),
-        "std_inflation_autocorr": max(p.inflation for p in posts),
-        "prior_weight": [p.problem.prior_weight for p in posts],
-        "sessions": len(posts),
-        "seconds": time.perf_counter() - started,
-        "note": (
-            "MAP fit against the spec priors: velocity data only identify mass/gain ratios, "
-            "the priors keep masses and inertias near theirs and move the rest into the motor "
-            "gain; see 'identifiable' for what the data fix on their own"
-        ),
-    }
+    settings = settings | _run_settings(s, posts, started)
     sessions = (
         tuple(_session_entry(p, mapper, g.name) for p, g in zip(posts, fit_logs, strict=True))
         if len(posts) > 1
@@ -768,3 +747,56 @@ def _finish(
         sessions=sessions,
         priors=_priors_doc(mapper.priors),
     )
+
+
+def _replicate(
+    bootstrap: tuple[int, float, int, str, float],
+    s: _Summary,
+    posts: Sequence[Posterior],
+    mapper: Mapper,
+    fit_logs: Sequence[LogArrays],
+    problem_kw: dict[str, Any],
+    report: Progress,
+) -> dict[str, float]:
+    """The block-bootstrap standard deviations (empty without replicates)."""
+    replicates, segment_s, seed, loss, f_scale = bootstrap
+    if replicates <= 0:
+        return {}
+    report("bootstrap", 0.93)
+    coupled = any(p.coupled for p in posts)
+
+    def solve(pr: Problem, x0: FloatArray) -> Any:
+        return _solve(pr, x0, coupled, loss, f_scale, 12)
+
+    return _bootstrap_std(
+        fit_logs,
+        s,
+        mapper,
+        solve=solve,
+        problem_kw=problem_kw | {"prior_weight": posts[0].problem.prior_weight},
+        replicates=replicates,
+        segment_s=segment_s,
+        seed=seed,
+    )
+
+
+def _run_settings(s: _Summary, posts: Sequence[Posterior], started: float) -> dict[str, Any]:
+    """The result's settings that the run found (free fields, optimiser, cost, time)."""
+    return {
+        "free": list(s.free),
+        "ties": dict(s.ties),
+        "model_evaluations": sum(p.evaluations for p in posts),
+        "model_steps": sum(p.steps for p in posts),
+        "optimizer_status": "; ".join(p.message for p in posts),
+        "converged": all(p.converged for p in posts),
+        "cost": sum(p.cost for p in posts),
+        "std_inflation_autocorr": max(p.inflation for p in posts),
+        "prior_weight": [p.problem.prior_weight for p in posts],
+        "sessions": len(posts),
+        "seconds": time.perf_counter() - started,
+        "note": (
+            "MAP fit against the spec priors: velocity data only identify mass/gain ratios, "
+            "the priors keep masses and inertias near theirs and move the rest into the motor "
+            "gain; see 'identifiable' for what the data fix on their own"
+        ),
+    }
