@@ -20,8 +20,8 @@ packed parameter vector (:func:`pack_params`), compiled with numba and callable 
 :func:`drive_step` chains the two (what :mod:`robots.reduced` integrates) and
 :func:`pybullet_substep` adds what the rigid-body robot needs around it (the yaw of its
 quaternion, the wheels' slip correction and the axis friction as wheel torques, carried by the
-tyres: :mod:`robots.pybullet_robot`, item 4). To extend the chain, add an entry to the packed vector in
-:func:`pack_params` and use it here: both engines follow (as the skid steer's ``TRACK`` and
+tyres: step 4 of :mod:`robots.pybullet_robot`). To extend the chain, add an entry to the
+packed vector in :func:`pack_params` and use it here: both engines follow (as the skid steer's ``TRACK`` and
 ``CMD_TRACK`` do: see :func:`wheel_loops`; the pybullet robot's slip correction and axis
 friction stay on the geometric track, where its gripping tyres roll).
 

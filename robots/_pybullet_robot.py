@@ -47,16 +47,15 @@ WHEEL_FRICTION = 1.5
 #: the reduced model whatever the tyres (a wheel leaves the ground).
 MIN_LOAD_FRACTION = 0.1
 #: A load the drive puts on a caster at once (a torque step) peaks at twice its steady value on
-#: the stiff, undamped contact (the dynamic load factor of a suddenly applied load; a TurtleBot 2
-#: braking at 2.7 g: caster 12.6 N against 5.7 N steady).
+#: the stiff, undamped contact (the dynamic load factor of a suddenly applied load).
 LOAD_STEP_FACTOR = 2.0
 _G = 9.81
 #: Constraint-solver iterations per physics step (set on the client, with pyramid friction).
-#: pybullet's default 50 leaves the wheel contacts unconverged (yaw rate off by ~1 % and
-#: rippling at the wheel revolution rate); 150 converges at almost no cost (the solver stops
-#: early). Its default cone friction lets a wheel slide for ~10 physics steps when its torque
-#: jumps to saturation (a reversal); ``enableConeFriction=0`` cut the RMS yaw-rate error of the
-#: agreement sequence from 0.025 to 0.001 rad/s and runs 3x faster.
+#: pybullet's default 50 leaves the wheel contacts unconverged (the yaw rate is off and ripples
+#: at the wheel revolution rate); 150 converges at almost no cost (the solver stops early). Its
+#: default cone friction lets a wheel slide for several physics steps when its torque jumps to
+#: saturation (a reversal); pyramid friction (``enableConeFriction=0``) holds it, and is
+#: faster.
 SOLVER_ITERATIONS = 150
 
 _WHEELS = [LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT]
@@ -64,7 +63,7 @@ _WHEEL_TUPLE = (LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT)
 #: Target positions, velocities and gains of the wheels' ``setJointMotorControlArray`` calls:
 #: ``TORQUE_CONTROL`` reads only the forces, but they come after these in pybullet's argument
 #: list, and passing every argument by position (``physicsClientId`` last) halves the call's
-#: cost (0.54 vs 1.09 us here: pybullet parses keyword arguments on every call).
+#: cost (pybullet parses keyword arguments on every call).
 _UNUSED = (0.0, 0.0)
 #: :meth:`PybulletRobot.replay` reads the base pose at least every this many physics steps, so
 #: its yaw unwraps (less than pi per 8 steps of 1/240 s below 94 rad/s).
@@ -80,8 +79,8 @@ def tyre_friction(spec: RobotSpec, params: DriveParams) -> float:
     r"""Tyre friction coefficient with which the pybullet wheels carry every force ``params`` asks.
 
     The reduced model's wheels never slip; the pybullet robot carries the loops' torques and
-    the axis friction through its tyres (module notes, item 4), so a tyre grips while its force
-    stays below :math:`\mu N`. Per wheel, the drive asks at most
+    the axis friction through its tyres (:mod:`robots.pybullet_robot`, step 4), so a tyre
+    grips while its force stays below :math:`\mu N`. Per wheel, the drive asks at most
 
     .. math:: F = \tau_{max}/r + (C_v + b_v v_{max})/2 + (C_w + b_w w_{max})/L
 
@@ -396,13 +395,11 @@ class UncheckedPybulletRobot:
         -----
         pybullet keeps a contact point, and the impulse it carried in the last physics step
         (the solver's warm start), while the two bodies stay within the contact breaking
-        threshold, whatever ``resetBasePositionAndOrientation`` does. Put back where it stood
-        (1 cm after a 0.1 s step), a TurtleBot3 started from its last wheel impulses: up to
-        5.6e-4 m/s and 2e-2 rad/s of wheel speed off in the next second. So the robot is first
-        lifted :data:`_LIFT_M` above the ground and one collision-detection pass
+        threshold, whatever ``resetBasePositionAndOrientation`` does: put back where it stood,
+        a robot would start from its last wheel impulses. So the robot is first lifted
+        :data:`_LIFT_M` above the ground and one collision-detection pass
         (``performCollisionDetection``) drops its contact points and its pairs with obstacles;
-        the other bodies of a shared client keep theirs. Cost ~8 us (was ~5), ~12 us with 100
-        obstacles in the client.
+        the other bodies of a shared client keep theirs.
         """
         _check_pose(x, y, yaw)
         c = self.client

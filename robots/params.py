@@ -271,9 +271,9 @@ class DriveParams:
 #:
 #: Why friction is per mass: velocity logs fix only ratios to the motor gain, so scaling the
 #: gain, the masses, the frictions and the torque cap together leaves every response as it
-#: was (``sysid._coords``). With friction in absolute units its prior had a say in where on that
-#: ridge the fit lands, and a plant whose friction was larger than the spec's nominal pulled
-#: the fitted mass down (a 60 kg base fitted at 41.5 kg, its fleet at 21.7 kg). Per unit mass
+#: is (``sysid._coords``). With friction in absolute units its prior would have a say in where
+#: on that ridge the fit lands, and a plant whose friction is larger than the spec's nominal
+#: pulls the fitted mass down. Per unit mass
 #: the friction coordinates do not move along the ridge: the mass, inertia, gain and torque
 #: priors alone place it, and the ridge is a straight line in the coordinates (masses, gain
 #: and cap all shift by the same log), so a fleet's Gaussian population stays on it.

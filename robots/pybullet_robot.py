@@ -35,36 +35,30 @@ model (:mod:`robots.reduced`):
    odometry reports the body's true yaw rate (a driver calibrated to the slip).
 
 Contacts: tyre friction at least 1.5 x ground 1.0, and as much as the drive can ask
-(:func:`tyre_friction`: a fitted P3-DX's reversals brake at 1.4 g and move up to 83 % of the
-weight onto a caster, so 1.5 let its wheels spin), casters frictionless (the base link has zero
+(:func:`tyre_friction`: a hard reversal brakes the base and moves weight onto a caster, which
+a fixed 1.5 can leave short of grip), casters frictionless (the base link has zero
 friction), link damping zero (pybullet's default 0.04 would add unmodelled drag), pyramid
-friction and 150 solver iterations (:data:`SOLVER_ITERATIONS`), and only touching contact points act.
+friction and 150 solver iterations (:data:`SOLVER_ITERATIONS`), and only touching contact
+points act.
 
 Every physics step thus applies the reduced model's forces to a rigid multibody with real
-contacts; on flat ground the two agree to ~2e-4 m/s and ~3e-3 rad/s RMS (tests), and they part
-where the reduced model has no say: collisions, slopes, wheels leaving the ground.
-Each physics step costs two state reads (both wheels' speeds in one ``getJointStates``, the
-base velocity), one compiled kernel call and one ``setJointMotorControlArray`` besides
-``stepSimulation``, all with positional arguments; the yaw is read once per control step and
-advanced in the kernel. That reaches ~0.75 of ``stepSimulation`` alone on the same robot and
-motion (CPU time, ``benchmarks/bench_perf.py``, which splits a physics step: ~12.8 us
-``stepSimulation``, ~0.2-0.4 us the torque write, ~2.6-2.8 us the two reads, ~0.5-0.9 us the
-kernel call, ~0.3 us of it numba's dispatch, ~0.5 us the work of each control step spread over
-its 24 physics steps). The step, the write and the two reads alone, the least any closed
-torque loop through pybullet's Python API calls, reach ~0.80-0.82. Moving the wheel loops
-into pybullet's C step was measured and rejected: ``PD_CONTROL`` (an explicit PD on the joint
-speed, computed by pybullet's built-in pdControlPlugin before every internal step, torque
-clipped to ``forces``) costs ~170 us per physics step, 14x a bare 12 us step (the plugin reads
-each joint's state through the client API on every tick), and its explicit P loop, with
-per-wheel friction standing in for the axis friction, parts from the reduced model (RMS yaw
-rate 0.09 rad/s against 0.0005 rad/s here, 0.24 rad/s with ``numSubSteps``).
+contacts; on flat ground the two agree within the tolerances of
+``tests/robots/test_robots_pybullet.py``, and they part where the reduced model has no say:
+collisions, slopes, wheels leaving the ground.
+
+Cost: besides ``stepSimulation``, a physics step makes two state reads (both wheels' speeds in
+one ``getJointStates``, the base velocity), one compiled kernel call and one
+``setJointMotorControlArray``, all with positional arguments; the yaw is read once per control
+step and advanced in the kernel (``benchmarks/bench_perf.py`` splits the cost of a step). The
+wheel loops stay out of pybullet's ``PD_CONTROL`` plugin: it reads each joint's state through
+the client API on every tick, and its explicit P loop, with per-wheel friction standing in for
+the axis friction, parts from the reduced model.
 
 Synthetic ground truth for sysid: the default ``physics_hz=240`` equals
-``1 / robots.reduced.DEFAULT_DT_S``, so both models step on the same grid: they then agree to
-~5e-5 m/s and ~5e-4 rad/s RMS and a least-squares fit of the reduced model recovers the parameters
-within ~1 % (tests). With another physics rate, fit with ``simulate(..., dt_s=1 / physics_hz)``:
-the TurtleBot3 yaw loop has a ~20 ms time constant, so a mismatched step biases a fitted yaw
-inertia by 10-30 %.
+``1 / robots.reduced.DEFAULT_DT_S``, so both models step on the same grid and a least-squares
+fit of the reduced model recovers the parameters of a pybullet run (tests). With another
+physics rate, fit with ``simulate(..., dt_s=1 / physics_hz)``: a yaw loop's time constant is a
+few physics steps (~20 ms on a TurtleBot3), so a mismatched step biases a fitted yaw inertia.
 
 Examples
 --------

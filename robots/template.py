@@ -6,8 +6,8 @@ drive parameters -- an explicit wide prior in the spec's ``priors`` section (for
 :mod:`robots.spec`, coordinates of :data:`robots.params.SCHEMA`) that sysid narrows with data.
 Numbers that are given get narrow priors.
 
-Typical-value rules (small indoor bases to field robots: TurtleBot3 Burger/Waffle, Kobuki,
-Neato, Jackal, Husky; see ``/work/shared/robot-specs.md``):
+Typical-value rules (from the published specs of small indoor bases to field robots:
+TurtleBot3 Burger/Waffle, Kobuki, Neato, Jackal, Husky):
 
 - wheel radius ``r = 0.2 b`` for wheel separation ``b`` (those bases span 0.12-0.30 b);
 - total mass ``m = 250 b^3`` kg (a base's volume grows with its size cubed; those bases sit

@@ -197,8 +197,7 @@ def _at_most_prior(t: FloatArray, prior_prec: FloatArray) -> FloatArray:
     The spec's prior covers every base of the type in every condition; one base's
     day-to-day spread cannot exceed it. Without the cap, a few sessions that disagree in a
     direction their data barely inform (a MAP point just off the prior, recovered as a data
-    estimate far away; measured on three foreign-plant sessions: a log-inertia variance of
-    292, a factor :math:`e^{17}`) drive the EM estimate without bound.
+    estimate far away) drive the EM estimate without bound.
     """
     has = prior_prec > 0
     if not np.any(has):

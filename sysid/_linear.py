@@ -6,8 +6,8 @@ response is :math:`g(1 - e^{-(t-d)/T})` for :math:`t \ge d`, so the 10-90 % rise
 :math:`T\ln 9` (the dead time only shifts it), the 2 % settling time :math:`d + T\ln 50`, and
 the -3 dB bandwidth :math:`\sqrt{10^{3/10}-1}/T` (a pure delay has unit gain). A few lines of
 arithmetic instead of an LTI toolbox: exact (no Pade approximant of the delay, whose
-non-minimum-phase undershoot used to lengthen the rise time of slow-delay axes), and
-``sysid fit`` no longer pays a multi-second toolbox import.
+non-minimum-phase undershoot would lengthen the rise time of slow-delay axes), and no
+multi-second toolbox import.
 """
 
 from __future__ import annotations

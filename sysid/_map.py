@@ -399,11 +399,9 @@ def _track_fit(
 
     The effective track trades against the yaw friction, the wheel loops' droop and the torque
     cap (the yaw-loop gain is :math:`K L \\chi L/(2r^2)`), and the trust region can end in a
-    basin of twice the cost from a start that is close to the answer: on a 90 s teleop log of
-    a Husky-like skid-steer plant with tyre forces (not this model) the spec's start (chi
-    1.6) ended at chi 2.49 (cost 1871, agreement 0.77 on its own log), starts at 1.3, 1.7 or
-    2.0 at chi 1.72-1.75 (cost 1061-1085, agreement 0.94). Differential drives (chi fixed)
-    do not come here.
+    basin of twice the cost from a start that is close to the answer (seen on teleop logs of a
+    Husky-like skid-steer plant with tyre forces, not this model). Differential drives (chi
+    fixed) do not come here.
 
     Returns the result, whether its last pass converged and whether the prior weight was
     re-balanced.
@@ -457,11 +455,9 @@ def _final_choice(
     under one :math:`w_p`, and only the final one ranks them by the final negative log
     posterior: while the weight at the best candidate is off by more than 2x
     (:func:`_balanced`), it is set there and every distinct candidate is re-solved to
-    convergence under it (``pool`` is updated in place; at most ``rounds`` rounds). Choosing before the re-balance
-    and then polishing the choice a few steps ended a 90 s fit of skid_robot(28) at cost
-    1116.9 with the track-factor restarts and 1079.8 without them, and moved seed 101's
-    held-out agreement 0.885-0.924 under 1e-7 changes of the plant (now 1067.0 and 1072.6;
-    0.925-0.929).
+    convergence under it (``pool`` is updated in place; at most ``rounds`` rounds). Choosing
+    before the re-balance and then polishing the choice a few steps lets a candidate ranked
+    under the wrong weight win, and makes the choice flip under tiny changes of the plant.
 
     Returns the chosen fit, its index in ``pool``, every candidate's final cost and whether
     the weight was re-balanced.
@@ -667,7 +663,7 @@ def _discretisation_bias(
     r"""Shift of the MAP point, in internal coordinates, that the model's time step causes.
 
     The fitted model is the drive kernel integrated with step :math:`\Delta t`, whose error
-    is first order in :math:`\Delta t` (halving the step halves it; measured ratio 1.7-2.0),
+    is first order in :math:`\Delta t` (halving the step halves it),
     while a real base is continuous. Richardson: the step's error at the estimate is
     :math:`D \approx -2 e` with :math:`e = m_{\Delta t/2} - m_{\Delta t}` (one simulation at
     half the step), and a systematic output error :math:`D` moves the regularised
