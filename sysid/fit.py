@@ -74,6 +74,7 @@ from sysid._map import Posterior, _solve, map_fit
 from sysid._problem import Problem
 from sysid._summary import distribution, estimate_noise, field_estimates, identifiable_estimates
 from sysid._timeout import fit_cmd_timeout
+from sysid.envelope import envelope_of
 from sysid.errors import SysidValueError
 from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
 
@@ -746,6 +747,7 @@ def _finish(
         randomization=dist,
         sessions=sessions,
         priors=_priors_doc(mapper.priors),
+        envelope=envelope_of(fit_logs, tol_v=scoring["tol_v"], tol_w=scoring["tol_w"]),
     )
 
 

@@ -25,6 +25,7 @@ from robots.errors import ParamsFileError
 from robots.files import write_text_atomic
 from robots.params import PARAMS_FILE_FORMAT, DriveParams, load_params_document
 from robots.randomization import DriveDistribution
+from sysid.envelope import Envelope
 from sysid.errors import ResultFileError, SysidFileError
 
 __all__ = ["STATUSES", "DataFile", "FitScores", "ParameterEstimate", "SysidResult"]
@@ -200,6 +201,9 @@ class SysidResult:
         {field: {"value": .., "coord_std": ..}}}``.
     priors : dict
         ``{field: {"nominal", "sd", "session_sd", "coord", "source"}}``: the priors used.
+    envelope : Envelope or None
+        Where the fitting logs drove the robot (:mod:`sysid.envelope`); None when the file
+        was written without one.
     """
 
     robot: str
@@ -219,6 +223,7 @@ class SysidResult:
     randomization: DriveDistribution | None = None
     sessions: tuple[dict[str, Any], ...] = ()
     priors: dict[str, dict[str, Any]] = field(default_factory=dict)
+    envelope: Envelope | None = None
 
     @property
     def converged(self) -> bool:
@@ -257,6 +262,7 @@ class SysidResult:
             "priors": _plain(self.priors),
             "sessions": _plain(list(self.sessions)),
             "randomization": None if self.randomization is None else self.randomization.to_dict(),
+            "envelope": None if self.envelope is None else self.envelope.to_dict(),
         }
 
     def to_yaml(self) -> str:
@@ -347,6 +353,7 @@ class SysidResult:
             ),
             sessions=tuple(dict(s) for s in doc.get("sessions") or ()),
             priors={str(k): dict(v) for k, v in (doc.get("priors") or {}).items()},
+            envelope=Envelope.from_dict(doc.get("envelope") or {}),
         )
 
 

@@ -29,7 +29,7 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
-from robots.params import load_drive_params
+from robots.params import load_drive_params, load_params_document
 from robots.randomization import DriveDistribution
 from robots.spec import load_spec
 from sim2real._io import atomic_write, check_not_an_input, check_output_path, output_set
@@ -50,6 +50,7 @@ from sim2real.errors import LogValueError, Sim2RealValueError
 from sim2real.logs import read_for_robot, write_velocity_log
 from sim2real.logs._bags import open_log_source
 from sim2real.logs._digest import FileDigest
+from sysid.envelope import Envelope, EnvelopeCheck, check_envelope, unknown_envelope
 from sysid.metrics import active_mask
 
 __all__ = [
@@ -57,9 +58,11 @@ __all__ = [
     "StudyResult",
     "check_figures",
     "defined_figures",
+    "envelope_check",
     "parse_odom_v_window",
     "provenance_rows",
     "run_study",
+    "session_figures",
     "study_figures",
     "summary_table",
     "write_json",
@@ -373,11 +376,17 @@ def run_study(
     )
 
 
-def session_figures(trace: Any, spec: Any, runs: Sequence[Any], params: Any) -> SessionFigures:
-    """The checked session's figures the verdict weighs (top speeds, fitted delay, shortfall)."""
+def session_figures(
+    trace: Any, spec: Any, runs: Sequence[Any], params: Any, params_path: str | Path | None = None
+) -> SessionFigures:
+    """The checked session's figures the verdict weighs (top speeds, fitted delay, shortfall,
+    the log against the envelope the fit saw when ``params_path`` is a params file)."""
     main = runs[-1]
     cmd_v, cmd_w = trace.cmd_at_meas()
     a = main.agreement
+    extrapolation = None
+    if params_path is not None:
+        extrapolation = envelope_check(params_path, trace, tol_v=a.tol_v, tol_w=a.tol_w)
     active = active_mask(cmd_v, cmd_w, trace.meas_v, trace.meas_w, tol_v=a.tol_v, tol_w=a.tol_w)
     shortfall = None
     if params is not None:
@@ -391,11 +400,24 @@ def session_figures(trace: Any, spec: Any, runs: Sequence[Any], params: Any) -> 
             tol_w=a.tol_w,
         )
     return SessionFigures(
+        extrapolation=extrapolation,
         fitted_delay_s=None if params is None else float(params.delay_s),
         top_v_mps=float(spec.max_v_mps),
         top_w_radps=float(spec.max_w_radps),
         speed_shortfall=shortfall,
     )
+
+
+def envelope_check(
+    params_path: str | Path, trace: Any, *, tol_v: float, tol_w: float
+) -> EnvelopeCheck:
+    """The checked log against the ``envelope`` block of a params file (unknown without one)."""
+    doc = load_params_document(params_path)
+    block = doc.get("envelope") if isinstance(doc, dict) else None
+    envelope = Envelope.from_dict(block) if isinstance(block, dict) else None
+    if envelope is None:
+        return unknown_envelope(str(params_path))
+    return check_envelope(envelope, trace, tol_v=tol_v, tol_w=tol_w)
 
 
 def _verdict(
@@ -411,7 +433,7 @@ def _verdict(
         fitted=runs[-1].agreement if params is not None else None,
         robot=str(config.robot),
         ensemble=ensemble,
-        session=session_figures(trace, spec, runs, params),
+        session=session_figures(trace, spec, runs, params, config.params_path),
     )
 
 

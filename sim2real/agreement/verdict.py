@@ -50,6 +50,7 @@ __all__ = [
     "GOOD_AGREEMENT",
     "LAG_LIMIT_S",
     "MIN_ACTIVE",
+    "OUTSIDE_SHARE",
     "WIDE_SHARE",
     "WORSE_MARGIN",
     "AgreementVerdict",
@@ -67,6 +68,8 @@ LAG_LIMIT_S = 0.05
 MIN_ACTIVE = 50
 #: The fit counts as worse than the spec defaults when its agreement is this much lower.
 WORSE_MARGIN = 0.02
+#: Commands outside the fitted envelope for at least this share of the time are a reason.
+OUTSIDE_SHARE = 0.01
 #: A calibrated band wider than this share of the top speed (yaw rate) is "wide".
 WIDE_SHARE = 0.2
 #: A calibrated band is only as narrow as the measurement noise allows: up to this many times
@@ -228,7 +231,7 @@ def _extrapolation_reason(s: SessionFigures) -> str | None:
     ext = s.extrapolation
     if ext is None:
         return None
-    if not getattr(ext, "known", False) or getattr(ext, "share_outside", 0.0) > 0.0:
+    if not getattr(ext, "known", False) or getattr(ext, "share_outside", 0.0) >= OUTSIDE_SHARE:
         return str(ext.sentence)
     return None
 
@@ -474,7 +477,9 @@ def _fitted_verdict(
             ok=False,
         )
     kind, ok = _band_state(ensemble)
-    ok = ok and len(band_reasons) == 1 and not reasons
+    ext = s.extrapolation
+    outside = getattr(ext, "known", False) and ext.share_outside >= OUTSIDE_SHARE
+    ok = ok and len(band_reasons) == 1 and not outside
     return AgreementVerdict(
         kind=kind,
         headline=band_reasons[0],
