@@ -608,6 +608,14 @@ def band_noise_draws(n: int, level: float, at_least: int = NOISE_DRAWS) -> int:
     return max(at_least, math.ceil((2.0 / (1.0 - widest) - 1.0) / n))
 
 
+def _stream(seed: int, name: str) -> np.random.Generator:
+    """The generator of the randomizer called ``name`` reset with ``seed``
+    (:func:`randomizers.stream_generator`; imported here: the randomizers load gymnasium)."""
+    from randomizers._dynamics import stream_generator
+
+    return stream_generator(seed, name)
+
+
 def ensemble_members(
     trace: TraceLike,
     *,
@@ -627,10 +635,8 @@ def ensemble_members(
     ``DynamicsRandomizer.from_sysid`` reset with ``seed``. ``v`` and ``w`` have shape
     (n, samples). ``progress(done, n)`` is called after each replay (a progress bar).
     """
-    from randomizers._dynamics import stream_generator
-
     _check_ensemble_args(n, spread, 1)
-    drawn = distribution.sample(stream_generator(seed, DYNAMICS_STREAM), n, spread=spread)
+    drawn = distribution.sample(_stream(seed, DYNAMICS_STREAM), n, spread=spread)
     sims = []
     for k, p in enumerate(drawn):
         sims.append(
@@ -695,8 +701,6 @@ def run_ensemble(
     >>> ens.coverage_v, ens.band_width_v_mps  # doctest: +SKIP
     (0.91, 0.05)
     """
-    from randomizers._dynamics import stream_generator
-
     check_tolerances(tol_v, tol_w)
     level = check_band_level(band_level)
     _check_ensemble_args(n, spread, noise_draws)
@@ -717,7 +721,7 @@ def run_ensemble(
         mv,
         mw,
         distribution.noise,
-        stream_generator(seed, NOISE_STREAM),
+        _stream(seed, NOISE_STREAM),
         noise_draws=noise_draws,
         spread=spread,
     )

@@ -6,8 +6,7 @@ import argparse
 import math
 import sys
 
-from sim2real.training._rllib import require_rllib
-from sim2real.training.config import RLLIB_PPO, load_config, require_train_extra
+from sim2real.training.config import RLLIB_PPO, load_config, require_rllib, require_train_extra
 from sim2real.training.train import train
 
 __all__ = ["handle_train"]

@@ -22,10 +22,9 @@ __all__ = ["PybulletWorld", "render_pybullet_depth"]
 def _pybullet() -> tuple[Any, Any]:
     """pybullet and :mod:`robots.world`, imported by the first pybullet world: an env with the
     reduced dynamics never loads pybullet."""
-    from robots import world
-    from robots._pybullet import pybullet
+    from robots import _pybullet, world
 
-    return pybullet, world
+    return _pybullet.pybullet, world
 
 
 class PybulletWorld:

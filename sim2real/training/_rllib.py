@@ -34,7 +34,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import torch
 import yaml
+from ray.rllib.algorithms.ppo import PPOConfig
+from ray.rllib.core.rl_module.rl_module import RLModule
+from ray.rllib.utils.metrics import (
+    ENV_RUNNER_RESULTS,
+    EPISODE_RETURN_MEAN,
+    NUM_ENV_STEPS_SAMPLED_LIFETIME,
+)
+from ray.tune.registry import register_env
 
 from sim2real._io import atomic_write
 from sim2real.cluster import connect
@@ -45,25 +54,11 @@ __all__ = [
     "ENV_NAME",
     "RLlibController",
     "load_rllib_policy",
-    "require_rllib",
     "train_rllib",
 ]
 
 #: Name under which the env is registered with ``ray.tune.registry.register_env``.
 ENV_NAME = "sim2real_train_env"
-
-
-def require_rllib() -> None:
-    """Raise one sentence when ``ray[rllib]`` cannot be imported."""
-    try:
-        import ray.rllib  # noqa: F401
-    except ImportError as exc:
-        raise Sim2RealValueError(
-            f"algorithm 'rllib-ppo' needs Ray RLlib, which cannot be imported here ({exc}); "
-            "ray[rllib] 2.60 pins gymnasium==1.2.2, so install it in its own venv: "
-            "`make rllib-extra` (or pip install 'ray[rllib]==2.60.0' torch==2.13.0 -e '.[train]'"
-            " in a fresh venv)"
-        ) from None
 
 
 def _make_env(env_config: Mapping[str, Any]) -> Any:
@@ -78,8 +73,6 @@ def _make_env(env_config: Mapping[str, Any]) -> Any:
 
 
 def _ppo_config(cfg: Any, options: Mapping[str, Any]) -> Any:
-    from ray.rllib.algorithms.ppo import PPOConfig
-
     hp = dict(cfg.hyperparameters)
     hidden = hp.pop("fcnet_hiddens", None)
     scaling = {k: bool(cfg.normalize.get(k)) for k in ("observations", "actions")}
@@ -115,25 +108,18 @@ def _ppo_config(cfg: Any, options: Mapping[str, Any]) -> Any:
 
 
 def _sampled(result: Mapping[str, Any]) -> int:
-    from ray.rllib.utils.metrics import ENV_RUNNER_RESULTS, NUM_ENV_STEPS_SAMPLED_LIFETIME
-
     runners = result.get(ENV_RUNNER_RESULTS, {})
     value = runners.get(NUM_ENV_STEPS_SAMPLED_LIFETIME, result.get(NUM_ENV_STEPS_SAMPLED_LIFETIME))
     return int(value or 0)
 
 
 def _mean_return(result: Mapping[str, Any]) -> float:
-    from ray.rllib.utils.metrics import ENV_RUNNER_RESULTS, EPISODE_RETURN_MEAN
-
     value = result.get(ENV_RUNNER_RESULTS, {}).get(EPISODE_RETURN_MEAN)
     return float(value) if value is not None else math.nan
 
 
 def train_rllib(cfg: Any, options: Mapping[str, Any]) -> tuple[Path, int, float, Any]:
     """Train RLlib PPO per ``cfg``; returns (policy dir, env steps, train seconds, module)."""
-    require_rllib()
-    from ray.tune.registry import register_env
-
     address = options["address"]
     connect("auto" if address is None else str(address))
     register_env(ENV_NAME, _make_env)
@@ -188,8 +174,6 @@ class RLlibController:
 
     def act(self, obs: Any) -> Any:
         """The module's greedy (deterministic) action for one observation."""
-        import torch
-
         batch = {"obs": torch.as_tensor(np.asarray(obs, dtype=np.float32)[None])}
         with torch.no_grad():
             out = self.module.forward_inference(batch)
@@ -204,7 +188,4 @@ class RLlibController:
 
 def load_rllib_policy(path: Path) -> Any:
     """The RLModule saved in ``OUT/model`` by :func:`train_rllib`."""
-    require_rllib()
-    from ray.rllib.core.rl_module.rl_module import RLModule
-
     return RLModule.from_checkpoint(str(path.resolve()))

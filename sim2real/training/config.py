@@ -67,6 +67,7 @@ __all__ = [
     "config_from_dict",
     "config_summary",
     "load_config",
+    "require_rllib",
     "require_train_extra",
     "resolve_env_id",
     "rllib_options",
@@ -213,6 +214,19 @@ def require_train_extra(what: str = "sim2real train") -> None:
             "training extra with `pip install torch==2.13.0 && pip install -e '.[train]'` "
             "(in a checkout: `make train-extra`)"
         )
+
+
+def require_rllib() -> None:
+    """Raise one sentence when ``ray[rllib]`` cannot be imported."""
+    try:
+        import ray.rllib  # noqa: F401
+    except ImportError as exc:
+        raise Sim2RealValueError(
+            f"algorithm 'rllib-ppo' needs Ray RLlib, which cannot be imported here ({exc}); "
+            "ray[rllib] 2.60 pins gymnasium==1.2.2, so install it in its own venv: "
+            "`make rllib-extra` (or pip install 'ray[rllib]==2.60.0' torch==2.13.0 -e '.[train]'"
+            " in a fresh venv)"
+        ) from None
 
 
 def _importable(module: str) -> bool:

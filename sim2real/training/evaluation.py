@@ -38,8 +38,7 @@ import yaml
 import randomizers as dr
 from sim2real.envs.baselines import evaluate
 from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
-from sim2real.training._rllib import RLlibController, load_rllib_policy
-from sim2real.training.config import ALGORITHMS, RLLIB_PPO, require_train_extra
+from sim2real.training.config import ALGORITHMS, RLLIB_PPO, require_rllib, require_train_extra
 from sim2real.training.environment import DiscreteActions, describe_space, normalize_spaces
 
 __all__ = [
@@ -131,8 +130,10 @@ class LoadedPolicy:
 
     def controller(self) -> Any:
         """A :class:`PolicyController` of the model (an RLlib one for ``rllib-ppo``)."""
-        if self.algorithm == "rllib-ppo":
-            return RLlibController(self.model)
+        if self.algorithm == RLLIB_PPO:
+            from sim2real.training import _rllib  # Ray RLlib: only an RLlib policy gets here
+
+            return _rllib.RLlibController(self.model)
         return PolicyController(self.model)
 
     def wrap(self, env: Any) -> Any:
@@ -181,7 +182,11 @@ def load_policy(path: str | Path, *, algorithm: str | None = None) -> LoadedPoli
                 f"policy folder '{p}' names algorithm {meta.get('algorithm')!r}; a folder policy "
                 f"must be {RLLIB_PPO}'s OUT/model (SB3 policies are model.zip files)"
             )
-        return LoadedPolicy(model=load_rllib_policy(p), algorithm=RLLIB_PPO, metadata=meta, path=p)
+        require_rllib()
+        from sim2real.training import _rllib  # Ray RLlib, checked above
+
+        model = _rllib.load_rllib_policy(p)
+        return LoadedPolicy(model=model, algorithm=RLLIB_PPO, metadata=meta, path=p)
     if not p.is_file():
         raise Sim2RealFileNotFoundError(
             f"policy '{p}' does not exist; give the model.zip that `sim2real train` wrote"
@@ -196,9 +201,9 @@ def load_policy(path: str | Path, *, algorithm: str | None = None) -> LoadedPoli
             f"policy '{p}' does not say which algorithm trained it (got {algo!r}); pass "
             f"--algorithm with one of {', '.join(sb3_algos)}"
         )
-    import stable_baselines3 as sb3
+    from sim2real.training import _sb3  # the [train] extra, checked above
 
-    model = getattr(sb3, match[0]).load(str(p), device="cpu")
+    model = _sb3.load_model(match[0], p)
     return LoadedPolicy(model=model, algorithm=match[0], metadata=meta, path=p)
 
 

@@ -33,25 +33,20 @@ from __future__ import annotations
 
 import io
 import math
-import time
 import zipfile
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from functools import partial
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import yaml
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
 import randomizers as dr
 from sim2real._io import atomic_write
 from sim2real.errors import Sim2RealValueError
-from sim2real.training._rllib import RLlibController, require_rllib, train_rllib
-from sim2real.training.config import RLLIB_PPO, TrainConfig, require_train_extra
+from sim2real.training.config import RLLIB_PPO, TrainConfig, require_rllib, require_train_extra
 from sim2real.training.environment import (
     DiscreteActions,
     build_env,
@@ -101,46 +96,7 @@ class TrainResult:
     evaluation: dict[str, Any]
 
 
-def _env_factory(cfg: TrainConfig, *, rank: int) -> Callable[[], Any]:
-    """A picklable thunk building env ``rank`` (with SB3's Monitor for episode statistics)."""
-    return partial(
-        _make_monitored,
-        cfg.env_id,
-        cfg.env_kwargs,
-        cfg.randomizers,
-        cfg.discrete_actions,
-        cfg.normalize,
-    )
-
-
-def _make_monitored(
-    env_id: str,
-    kwargs: Mapping[str, Any],
-    randomizers: Mapping[str, Any] | None,
-    discrete: Mapping[str, list[float]] | None,
-    normalize: Mapping[str, bool] | None = None,
-) -> Any:
-    from stable_baselines3.common.monitor import Monitor
-
-    env = build_env(
-        env_id, kwargs, randomizers=randomizers, discrete_actions=discrete, normalize=normalize
-    )
-    return Monitor(env)
-
-
 # --------------------------------------------------------------------------- training
-
-
-def _sb3_class(algorithm: str) -> Any:
-    import stable_baselines3 as sb3
-
-    return getattr(sb3, algorithm)
-
-
-def _policy_name(cfg: TrainConfig, env: Any) -> str:
-    if cfg.policy != "auto":
-        return cfg.policy
-    return "MultiInputPolicy" if isinstance(env.observation_space, gym.spaces.Dict) else "MlpPolicy"
 
 
 def _check_action_space(cfg: TrainConfig, env: Any) -> TrainConfig:
@@ -160,54 +116,6 @@ def _check_action_space(cfg: TrainConfig, env: Any) -> TrainConfig:
     return cfg
 
 
-def _progress_callback(base: type, total: int) -> Any:
-    """An SB3 callback drawing a rich progress bar of the env steps (TTY only)."""
-
-    class RichProgress(base):  # type: ignore[misc, valid-type]
-        def _on_training_start(self) -> None:
-            self._bar = Progress(
-                "[progress.description]{task.description}",
-                BarColumn(),
-                MofNCompleteColumn(),
-                TimeRemainingColumn(),
-                console=Console(stderr=True),
-                transient=True,
-            )
-            self._bar.start()
-            self._task = self._bar.add_task("training", total=total)
-
-        def _on_step(self) -> bool:
-            self._bar.update(self._task, completed=min(self.num_timesteps, total))
-            return True
-
-        def _on_training_end(self) -> None:
-            self._bar.stop()
-
-    return RichProgress()
-
-
-def _episode_log_callback(base: type) -> Any:
-    """An SB3 callback keeping (env step, outcome, return, length) of every training episode."""
-
-    class EpisodeLog(base):  # type: ignore[misc, valid-type]
-        rows: list[tuple[int, str, float, int]]
-
-        def _on_training_start(self) -> None:
-            self.rows = []
-
-        def _on_step(self) -> bool:
-            for info, done in zip(self.locals["infos"], self.locals["dones"], strict=True):
-                episode = info.get("episode")
-                if done and episode is not None:
-                    outcome = str(info.get("outcome", ""))
-                    self.rows.append(
-                        (int(self.num_timesteps), outcome, float(episode["r"]), int(episode["l"]))
-                    )
-            return True
-
-    return EpisodeLog()
-
-
 def write_episodes(path: Path, rows: Sequence[tuple[int, str, float, int]]) -> Path:
     """``OUT/episodes.csv``: one line per training episode (see the module docstring)."""
     with atomic_write(path, "w", what="episodes file") as fh:
@@ -215,42 +123,6 @@ def write_episodes(path: Path, rows: Sequence[tuple[int, str, float, int]]) -> P
         for step, outcome, ret, length in rows:
             fh.write(f"{step},{outcome},{ret:.6g},{length}\n")
     return path
-
-
-def _vec_env(cfg: TrainConfig) -> Any:
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
-
-    thunks = [_env_factory(cfg, rank=i) for i in range(cfg.n_envs)]
-    if cfg.vec_env == "subproc" and cfg.n_envs > 1:
-        vec: Any = SubprocVecEnv(thunks, start_method="forkserver")
-    else:
-        vec = DummyVecEnv(thunks)
-    vec.seed(cfg.seed)
-    if cfg.normalize.get("rewards"):
-        from stable_baselines3.common.vec_env import VecNormalize
-
-        gamma = float(cfg.hyperparameters.get("gamma", 0.99))
-        vec = VecNormalize(vec, norm_obs=False, norm_reward=True, gamma=gamma)
-    return vec
-
-
-def _model(cfg: TrainConfig, vec: Any, probe: Any) -> Any:
-    cls = _sb3_class(cfg.algorithm)
-    try:
-        return cls(
-            _policy_name(cfg, probe),
-            vec,
-            seed=cfg.seed,
-            verbose=0,
-            tensorboard_log=str(cfg.out / "tensorboard"),
-            device="cpu",
-            **cfg.hyperparameters,
-        )
-    except TypeError as exc:
-        raise Sim2RealValueError(
-            f"{cfg.source}: key 'hyperparameters' {cfg.hyperparameters} is not accepted by "
-            f"{cfg.algorithm} ({exc}); use that class's constructor keyword arguments"
-        ) from None
 
 
 def _write_yaml(path: Path, doc: Any, what: str) -> None:
@@ -308,8 +180,7 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
     if cfg.algorithm == RLLIB_PPO:
         return _train_rllib(cfg)
     require_train_extra()
-    import torch
-    from stable_baselines3.common.callbacks import CheckpointCallback
+    from sim2real.training import _sb3  # the [train] extra, checked above
 
     probe = build_env(cfg.env_id, cfg.env_kwargs, randomizers=cfg.randomizers, where=cfg.source)
     cfg = _check_action_space(cfg, probe)
@@ -326,31 +197,9 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
     if cfg.randomizers is not None:
         resolved["randomizers"] = dr.to_config(probe)
     _write_yaml(cfg.out / "config.yaml", resolved, "resolved config")
-    torch.set_num_threads(1)  # small MLPs: more threads only add overhead on 2 cores
-    vec = _vec_env(cfg)
-    try:
-        model = _model(cfg, vec, probe)
-        from stable_baselines3.common.callbacks import BaseCallback
-
-        episode_log = _episode_log_callback(BaseCallback)
-        callbacks: list[Any] = [episode_log]
-        if cfg.checkpoint_every > 0:
-            callbacks.append(
-                CheckpointCallback(
-                    save_freq=max(cfg.checkpoint_every // cfg.n_envs, 1),
-                    save_path=str(cfg.out / "checkpoints"),
-                    name_prefix="model",
-                )
-            )
-        if progress:
-            callbacks.append(_progress_callback(BaseCallback, cfg.timesteps))
-        t0 = time.perf_counter()
-        model.learn(total_timesteps=cfg.timesteps, callback=callbacks, tb_log_name="run")
-        train_time_s = time.perf_counter() - t0
-    finally:
-        vec.close()
+    model, episodes, train_time_s = _sb3.learn(cfg, probe, progress=progress)
     model_path = save_model(model, cfg.out / "model.zip", model_metadata(cfg, probe))
-    write_episodes(cfg.out / "episodes.csv", episode_log.rows)
+    write_episodes(cfg.out / "episodes.csv", episodes)
     probe.close()
     evaluation = final_evaluation(cfg, model)
     _write_yaml(cfg.out / "evaluation.yaml", evaluation, "evaluation file")
@@ -366,6 +215,8 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
 def _train_rllib(cfg: TrainConfig) -> TrainResult:
     """``algorithm: rllib-ppo``: RLlib's PPO on the same env construction (sim2real.training._rllib)."""
     require_rllib()
+    from sim2real.training import _rllib  # Ray RLlib, checked above
+
     if cfg.normalize.get("rewards"):
         raise Sim2RealValueError(
             f"{cfg.source}: normalize 'rewards' is SB3's VecNormalize and does not apply to "
@@ -380,8 +231,8 @@ def _train_rllib(cfg: TrainConfig) -> TrainResult:
         resolved["randomizers"] = dr.to_config(probe)
     probe.close()
     _write_yaml(cfg.out / "config.yaml", resolved, "resolved config")
-    policy_dir, steps, train_s, module = train_rllib(cfg, cfg.rllib)
-    evaluation = final_evaluation(cfg, None, controller=RLlibController(module))
+    policy_dir, steps, train_s, module = _rllib.train_rllib(cfg, cfg.rllib)
+    evaluation = final_evaluation(cfg, None, controller=_rllib.RLlibController(module))
     _write_yaml(cfg.out / "evaluation.yaml", evaluation, "evaluation file")
     return TrainResult(
         out=cfg.out,

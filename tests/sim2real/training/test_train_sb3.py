@@ -111,10 +111,10 @@ def test_normalized_policy_logs_episodes_and_evaluates_scaled(
 ) -> None:
     from stable_baselines3.common.vec_env import VecNormalize
 
+    from sim2real.training._sb3 import _vec_env
     from sim2real.training.config import load_config
     from sim2real.training.environment import build_env
     from sim2real.training.evaluation import evaluate_controller, load_policy
-    from sim2real.training.train import _vec_env
 
     cfg = _config(tmp_path, checkpoint_every=0, timesteps=256, randomizers=None, normalize=True)
     assert isinstance(_vec_env(load_config(cfg)), VecNormalize)  # rewards: training only

@@ -1,0 +1,173 @@
+"""stable-baselines3's side of ``sim2real train``: the vector env, the model, the callbacks.
+
+Needs the ``[train]`` extra (torch, stable-baselines3): :func:`sim2real.training.train.train`
+and :func:`sim2real.training.evaluation.load_policy` import this module once
+:func:`sim2real.training.config.require_train_extra` has found it.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import stable_baselines3 as sb3
+import torch
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+from stable_baselines3.common.monitor import Monitor
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+
+from sim2real.errors import Sim2RealValueError
+from sim2real.training.config import TrainConfig
+from sim2real.training.environment import build_env
+
+__all__ = ["EpisodeLog", "RichProgress", "learn", "load_model"]
+
+
+def learn(cfg: TrainConfig, probe: Any, *, progress: bool = False) -> tuple[Any, list[Any], float]:
+    """Train ``cfg.algorithm`` on ``cfg.n_envs`` envs; returns (model, episode rows, train s).
+
+    ``probe`` is one env as the policy sees it (action grid and scaling applied): it chooses the
+    policy network. The episode rows are those of :func:`sim2real.training.train.write_episodes`.
+    """
+    torch.set_num_threads(1)  # small MLPs: more threads only add overhead on 2 cores
+    vec = _vec_env(cfg)
+    try:
+        model = _model(cfg, vec, probe)
+        episode_log = EpisodeLog()
+        callbacks: list[Any] = [episode_log]
+        if cfg.checkpoint_every > 0:
+            callbacks.append(
+                CheckpointCallback(
+                    save_freq=max(cfg.checkpoint_every // cfg.n_envs, 1),
+                    save_path=str(cfg.out / "checkpoints"),
+                    name_prefix="model",
+                )
+            )
+        if progress:
+            callbacks.append(RichProgress(cfg.timesteps))
+        t0 = time.perf_counter()
+        model.learn(total_timesteps=cfg.timesteps, callback=callbacks, tb_log_name="run")
+        train_time_s = time.perf_counter() - t0
+    finally:
+        vec.close()
+    return model, episode_log.rows, train_time_s
+
+
+def load_model(algorithm: str, path: Path) -> Any:
+    """The SB3 model of class ``algorithm`` (``PPO``, ``SAC``, ...) saved at ``path``, on the CPU."""
+    return getattr(sb3, algorithm).load(str(path), device="cpu")
+
+
+def _env_factory(cfg: TrainConfig, *, rank: int) -> Callable[[], Any]:
+    """A picklable thunk building env ``rank`` (with SB3's Monitor for episode statistics)."""
+    return partial(
+        _make_monitored,
+        cfg.env_id,
+        cfg.env_kwargs,
+        cfg.randomizers,
+        cfg.discrete_actions,
+        cfg.normalize,
+    )
+
+
+def _make_monitored(
+    env_id: str,
+    kwargs: Mapping[str, Any],
+    randomizers: Mapping[str, Any] | None,
+    discrete: Mapping[str, list[float]] | None,
+    normalize: Mapping[str, bool] | None = None,
+) -> Any:
+    env = build_env(
+        env_id, kwargs, randomizers=randomizers, discrete_actions=discrete, normalize=normalize
+    )
+    return Monitor(env)
+
+
+def _policy_name(cfg: TrainConfig, env: Any) -> str:
+    if cfg.policy != "auto":
+        return cfg.policy
+    return "MultiInputPolicy" if isinstance(env.observation_space, gym.spaces.Dict) else "MlpPolicy"
+
+
+def _vec_env(cfg: TrainConfig) -> Any:
+    thunks = [_env_factory(cfg, rank=i) for i in range(cfg.n_envs)]
+    if cfg.vec_env == "subproc" and cfg.n_envs > 1:
+        vec: Any = SubprocVecEnv(thunks, start_method="forkserver")
+    else:
+        vec = DummyVecEnv(thunks)
+    vec.seed(cfg.seed)
+    if cfg.normalize.get("rewards"):
+        gamma = float(cfg.hyperparameters.get("gamma", 0.99))
+        vec = VecNormalize(vec, norm_obs=False, norm_reward=True, gamma=gamma)
+    return vec
+
+
+def _model(cfg: TrainConfig, vec: Any, probe: Any) -> Any:
+    cls = getattr(sb3, cfg.algorithm)
+    try:
+        return cls(
+            _policy_name(cfg, probe),
+            vec,
+            seed=cfg.seed,
+            verbose=0,
+            tensorboard_log=str(cfg.out / "tensorboard"),
+            device="cpu",
+            **cfg.hyperparameters,
+        )
+    except TypeError as exc:
+        raise Sim2RealValueError(
+            f"{cfg.source}: key 'hyperparameters' {cfg.hyperparameters} is not accepted by "
+            f"{cfg.algorithm} ({exc}); use that class's constructor keyword arguments"
+        ) from None
+
+
+class RichProgress(BaseCallback):  # type: ignore[misc]
+    """An SB3 callback drawing a rich progress bar of ``total`` env steps (TTY only)."""
+
+    def __init__(self, total: int) -> None:
+        super().__init__()
+        self.total = total
+
+    def _on_training_start(self) -> None:
+        self._bar = Progress(
+            "[progress.description]{task.description}",
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+            transient=True,
+        )
+        self._bar.start()
+        self._task = self._bar.add_task("training", total=self.total)
+
+    def _on_step(self) -> bool:
+        self._bar.update(self._task, completed=min(self.num_timesteps, self.total))
+        return True
+
+    def _on_training_end(self) -> None:
+        self._bar.stop()
+
+
+class EpisodeLog(BaseCallback):  # type: ignore[misc]
+    """An SB3 callback keeping (env step, outcome, return, length) of every training episode."""
+
+    rows: list[tuple[int, str, float, int]]
+
+    def _on_training_start(self) -> None:
+        self.rows = []
+
+    def _on_step(self) -> bool:
+        for info, done in zip(self.locals["infos"], self.locals["dones"], strict=True):
+            episode = info.get("episode")
+            if done and episode is not None:
+                outcome = str(info.get("outcome", ""))
+                self.rows.append(
+                    (int(self.num_timesteps), outcome, float(episode["r"]), int(episode["l"]))
+                )
+        return True
