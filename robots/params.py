@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import shlex
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -41,6 +42,7 @@ __all__ = [
     "PER_TOTAL",
     "SCHEMA",
     "SIGN_RULES",
+    "SPECS_DIR",
     "UNITS",
     "BaseGeometry",
     "DriveParams",
@@ -53,6 +55,9 @@ __all__ = [
     "load_params_document",
     "read_params_file",
 ]
+
+#: Folder of the shipped spec files (``robots.spec`` loads them by name).
+SPECS_DIR = Path(__file__).resolve().parent / "specs"
 
 #: ``format:`` key of a sysid result / drive-parameter YAML file.
 PARAMS_FILE_FORMAT = "sim2real.sysid/1"
@@ -955,6 +960,27 @@ class ParamsFile:
     stds: dict[str, float]
     document: dict[str, Any] = dataclasses.field(default_factory=dict)
 
+    def robot_option(self) -> str:
+        """The ``--robot`` option that loads this file's robot, as a user can paste it.
+
+        The spec file the fit used when it was given as a file (``settings.spec_file``) and
+        still exists; else the robot's name when a spec of that name is shipped; else a
+        pointer to the robot's own spec file (a name alone would not load).
+
+        Examples
+        --------
+        >>> ParamsFile(path=Path("p.yaml"), robot="turtlebot2", values={}, stds={},
+        ...            document={}).robot_option()
+        '--robot turtlebot2'
+        """
+        settings = self.document.get("settings")
+        spec_file = settings.get("spec_file") if isinstance(settings, dict) else None
+        if isinstance(spec_file, str) and Path(spec_file).is_file():
+            return f"--robot {shlex.quote(spec_file)}"
+        if (SPECS_DIR / f"{self.robot}.yaml").is_file():
+            return f"--robot {self.robot}"
+        return f"--robot with the spec file of robot '{self.robot}' (e.g. its {self.robot}.yaml)"
+
 
 def load_params_document(path: str | Path) -> Any:
     """Parse a params (sysid result) YAML file: the one place that file is read and parsed.
@@ -1034,7 +1060,7 @@ def load_drive_params(path: str | Path, *, robot: str, base: DriveParams) -> Dri
     if pf.robot != robot:
         raise ParamsFileError(
             f"params file '{pf.path}' was identified for robot '{pf.robot}', not '{robot}'; "
-            f"pass --robot {pf.robot} or fit a params file for {robot}"
+            f"pass {pf.robot_option()} or fit a params file for {robot}"
         )
     try:
         return base.replace(**pf.values)

@@ -425,7 +425,7 @@ class DriveDistribution:
         if pf.robot != robot:
             raise ParamsFileError(
                 f"params file '{pf.path}' was identified for robot '{pf.robot}', not '{robot}'; "
-                f"pass --robot {pf.robot} or fit a params file for {robot}"
+                f"pass {pf.robot_option()} or fit a params file for {robot}"
             )
         if "randomization" not in pf.document:
             raise ParamsFileError(

@@ -54,7 +54,7 @@ import yaml
 
 from robots._spec_parse import Section
 from robots.errors import RobotsValueError, SpecError, UnknownRobotError
-from robots.params import SCHEMA, BaseGeometry, DriveParams, Prior, generic_priors
+from robots.params import SCHEMA, SPECS_DIR, BaseGeometry, DriveParams, Prior, generic_priors
 
 __all__ = [
     "SPECS_DIR",
@@ -70,8 +70,6 @@ __all__ = [
     "load_spec",
 ]
 
-#: Folder of the shipped spec files.
-SPECS_DIR = Path(__file__).resolve().parent / "specs"
 
 Vec3 = tuple[float, float, float]
 

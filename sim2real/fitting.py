@@ -16,11 +16,12 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from robots.errors import RobotsError
+from robots.params import SPECS_DIR
 from robots.reduced import DEFAULT_DT_S
 from robots.spec import RobotSpec, load_spec
 from robots.units import seconds
@@ -105,7 +106,9 @@ def fit_logs(
     Returns
     -------
     LogFit
-        The :class:`sysid.SysidResult` and the notes of reading the logs.
+        The :class:`sysid.SysidResult` and the notes of reading the logs. When ``robot`` is
+        a spec file (not a shipped spec), ``result.settings["spec_file"]`` is its absolute
+        path, which errors about the params file name as the ``--robot`` that loads it.
 
     Raises
     ------
@@ -157,6 +160,10 @@ def fit_logs(
         )
     except RobotsError as exc:  # the fit itself made a model the schema refuses
         raise _fit_failure(logs, exc) from exc
+    if spec.path.resolve().parent != SPECS_DIR:  # a spec file: its name alone would not load it
+        result = replace(
+            result, settings={**result.settings, "spec_file": str(spec.path.resolve())}
+        )
     return LogFit(result=result, notes=tuple(notes))
 
 

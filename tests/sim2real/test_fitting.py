@@ -7,12 +7,14 @@ from pathlib import Path
 import pytest
 import yaml
 
+from robots.params import SPECS_DIR, ParamsFile
 from robots.spec import load_spec
 from sim2real.cli import main
 from sim2real.fitting import fit_logs, read_fit_logs
 
 REPO = Path(__file__).resolve().parents[2]
 DEMO_TRAIN = REPO / "data" / "demo_train.mcap"
+DEMO_VALIDATE = REPO / "data" / "demo_validate.mcap"
 
 
 @pytest.mark.slow
@@ -43,3 +45,36 @@ def test_window_crops_and_pauses_split(tmp_path: Path) -> None:
     span = sum(float(p.meas_t_s[-1] - p.meas_t_s[0]) for p in part)
     assert 15.0 < span <= 20.0
     assert sum(p.meas_t_s.size for p in part) < sum(p.meas_t_s.size for p in whole)
+
+
+@pytest.mark.slow
+def test_params_of_a_spec_file_name_the_file_in_the_advice(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec_file = tmp_path / "mybot.yaml"  # a robot known only by its spec file
+    text = (SPECS_DIR / "turtlebot3_burger.yaml").read_text(encoding="utf-8")
+    spec_file.write_text(text.replace("name: turtlebot3_burger", "name: mybot"), encoding="utf-8")
+    params = tmp_path / "params.yaml"
+    fit = ["sysid", "fit", str(DEMO_TRAIN), "--robot", str(spec_file), "-o", str(params)]
+    assert main([*fit, "--free", "delay_s"]) == 0
+    assert yaml.safe_load(params.read_text())["settings"]["spec_file"] == str(spec_file)
+    capsys.readouterr()
+    agree = ["agree", str(DEMO_VALIDATE), "--params", str(params), "--engine", "reduced"]
+    assert main([*agree, "--robot", "turtlebot3_burger"]) == 2
+    err = capsys.readouterr().err
+    assert f"pass --robot {spec_file} or fit a params file for turtlebot3_burger" in err
+    assert main([*agree, "--robot", str(spec_file)]) == 0  # the advice works as printed
+
+
+def test_robot_option_of_a_params_file(tmp_path: Path) -> None:
+    def option(robot: str, settings: dict[str, str] | None = None) -> str:
+        doc = {} if settings is None else {"settings": settings}
+        pf = ParamsFile(path=tmp_path / "p.yaml", robot=robot, values={}, stds={}, document=doc)
+        return pf.robot_option()
+
+    spec_file = tmp_path / "my bot.yaml"
+    spec_file.write_text("name: mybot\n", encoding="utf-8")
+    assert option("turtlebot2") == "--robot turtlebot2"  # shipped: the name loads it
+    assert option("mybot", {"spec_file": str(spec_file)}) == f"--robot '{spec_file}'"
+    gone = option("mybot", {"spec_file": str(tmp_path / "gone.yaml")})
+    assert gone.startswith("--robot with the spec file of robot 'mybot'")
