@@ -1,4 +1,4 @@
-"""`sim2real sysid fit` and `sysid show`: fit drive parameters to logs, show a result file."""
+"""`sim2real sysid fit`, `sysid show` and `sysid plan`: fit, show a result, plan a recording."""
 
 from __future__ import annotations
 
@@ -15,9 +15,11 @@ from sim2real.cli._progress import progress_bar
 from sim2real.cluster import expand_logs, map_tasks
 from sim2real.errors import Sim2RealValueError
 from sim2real.fitting import fit_logs
+from sim2real.planning import write_plan
 from sysid import ParameterEstimate, SysidResult
+from sysid.plan import MASS_GAIN
 
-__all__ = ["handle_fit", "handle_show"]
+__all__ = ["handle_fit", "handle_plan", "handle_show"]
 
 
 def _window(text: str | None, option: str) -> tuple[float, float] | None:
@@ -96,6 +98,36 @@ def handle_fit(args: argparse.Namespace) -> int:
     _print_result(console, fit.result)
     for note in fit.notes:
         console.print(f"[cyan]note:[/] {escape(note)}", highlight=False)
+    console.print(f"wrote [bold]{escape(str(out))}[/]")
+    return 0
+
+
+def handle_plan(args: argparse.Namespace) -> int:
+    """``sysid plan --robot R -o excite.mcap``: write the script, print what it identifies."""
+    out = check_output_path(args.output, what="command script")
+    plan = write_plan(
+        out, args.robot, duration_s=args.duration, area_m=args.area, rate_hz=args.rate
+    )
+    console = _console()
+    lim = plan.limits
+    console.print(
+        f"[bold]{escape(plan.robot)}[/]: {plan.t_s.size} commands at {plan.rate_hz:g} Hz over "
+        f"{plan.duration_s:g} s; |v| up to {abs(plan.v_mps).max():.3g} m/s, |w| up to "
+        f"{abs(plan.w_radps).max():.3g} rad/s (limits {lim['v_mps']:g} m/s, "
+        f"{lim['w_radps']:g} rad/s, wheel cap {lim['wheel_radps']:g} rad/s); the ideal path "
+        f"stays within {plan.extent_m:.2f} m of the start",
+        highlight=False,
+    )
+    for block in plan.blocks:
+        console.print(f"  {block.start_s:6.1f}-{block.end_s:6.1f} s  {block.kind}", highlight=False)
+    console.print("designed to identify:", highlight=False)
+    for name, kinds in plan.identifies().items():
+        console.print(f"  {name:<28} by {', '.join(kinds)}", highlight=False)
+    console.print(
+        f"velocity data fix each axis's response, not the split of {', '.join(MASS_GAIN)}: "
+        "that direction rests on the spec's priors",
+        highlight=False,
+    )
     console.print(f"wrote [bold]{escape(str(out))}[/]")
     return 0
 

@@ -95,6 +95,7 @@ if TYPE_CHECKING:
     from sim2real.logs._unattended import Unattended, find_unattended, without_unattended
     from sim2real.logs._writer import (
         integrate_pose,
+        write_commands,
         write_joint_state_log,
         write_trace,
         write_velocity_log,
@@ -120,6 +121,7 @@ _LAZY = {
     "TWIST": "_schemas",
     "TWIST_STAMPED": "_schemas",
     "integrate_pose": "_writer",
+    "write_commands": "_writer",
     "write_joint_state_log": "_writer",
     "write_trace": "_writer",
     "write_velocity_log": "_writer",
@@ -163,6 +165,7 @@ __all__ = [
     "read_for_robot",
     "read_trace",
     "without_unattended",
+    "write_commands",
     "write_csv_trace",
     "write_joint_state_log",
     "write_rosbag",

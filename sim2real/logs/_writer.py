@@ -23,7 +23,13 @@ from sim2real.logs import _cdr
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, SCHEMA_TEXT, TWIST, TWIST_STAMPED
 from sim2real.logs.trace import Trace
 
-__all__ = ["integrate_pose", "write_joint_state_log", "write_trace", "write_velocity_log"]
+__all__ = [
+    "integrate_pose",
+    "write_commands",
+    "write_joint_state_log",
+    "write_trace",
+    "write_velocity_log",
+]
 
 _ENCODINGS = ("cdr", "json")
 _T_MIN_NS, _T_MAX_NS = -(2**31) * NS_PER_S, 2**31 * NS_PER_S
@@ -289,6 +295,31 @@ def write_velocity_log(
         )
         odom = _Stream(odom_topic, ODOMETRY, mlt, payloads)
     return _write(path, [cmd, odom], encoding=encoding)
+
+
+def write_commands(
+    path: str | Path,
+    *,
+    cmd_t_ns: np.ndarray,
+    cmd_v: np.ndarray,
+    cmd_w: np.ndarray,
+    cmd_topic: str = "/cmd_vel",
+) -> Path:
+    """Write a command script: ``geometry_msgs/msg/Twist`` on ``cmd_topic`` only, ROS 2 CDR.
+
+    ``ros2 bag play`` sends the messages at their log times ``cmd_t_ns`` (int ns) with
+    ``linear.x = cmd_v`` (m/s) and ``angular.z = cmd_w`` (rad/s); written atomically.
+
+    Examples
+    --------
+    >>> t = np.arange(5) * 100_000_000
+    >>> write_commands("script.mcap", cmd_t_ns=t, cmd_v=np.ones(5), cmd_w=np.zeros(5))  # doctest: +SKIP
+    PosixPath('script.mcap')
+    """
+    ct = _ints("cmd_t_ns", cmd_t_ns)
+    cv, cw = _floats("cmd_v", cmd_v, ct.size), _floats("cmd_w", cmd_w, ct.size)
+    cmd = _cmd_stream(TWIST, cmd_topic, ct, cv, cw, None, "", "cdr")
+    return _write(path, [cmd], encoding="cdr")
 
 
 def write_trace(

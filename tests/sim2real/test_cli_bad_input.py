@@ -813,6 +813,7 @@ COMMANDS = [
     ["sysid"],
     ["sysid", "fit"],
     ["sysid", "show"],
+    ["sysid", "plan"],
     ["sysid", "calibrate"],
     ["agree"],
     ["envs"],

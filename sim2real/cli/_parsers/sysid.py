@@ -42,10 +42,15 @@ _FIT_DESCRIPTION = (
 _SHOW_EXAMPLES = """\
   sim2real sysid show params.yaml
 """
+_PLAN_EXAMPLES = """\
+  sim2real sysid plan --robot turtlebot2 --duration 90 -o excite.mcap
+  ros2 bag play excite.mcap    # while 'ros2 bag record /cmd_vel /odom' records the session
+  sim2real sysid plan --robot my_base.yaml --duration 120 --area 2.5 -o excite.mcap
+"""
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Register the ``sysid`` command group (``sysid fit``, ``sysid show``, ``sysid calibrate``)."""
+    """Register the ``sysid`` command group (``sysid fit``, ``show``, ``calibrate``, ``plan``)."""
     group_sub = add_group(
         sub,
         "sysid",
@@ -67,6 +72,40 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     show.add_argument("params", metavar="PARAMS.yaml", help="file written by 'sysid fit'")
     show.set_defaults(handler="sysid:handle_show")
     _register_calibrate(group_sub)
+    _register_plan(group_sub)
+
+
+def _register_plan(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    plan = add_command(
+        group_sub,
+        "plan",
+        help="write the command script to record for a fit (ros2 bag play)",
+        description=(
+            "Design a command script for a base from its spec: held v and w steps up to 110 %% "
+            "of the speed limits with stops and reversals, slow ramps both ways, and turns "
+            "while driving up to the wheel-speed cap, each driven out and back so the base "
+            "stays within --area. Writes /cmd_vel (geometry_msgs/msg/Twist) in a ROS 2 MCAP "
+            "file that 'ros2 bag play' sends to the base; record /cmd_vel and /odom meanwhile "
+            "and fit the recording with 'sim2real sysid fit'. Prints what each block is "
+            "designed to identify."
+        ),
+        examples=_PLAN_EXAMPLES,
+    )
+    plan.add_argument("--robot", required=True, help="robot spec name or spec file")
+    plan.add_argument(
+        "--duration", type=float, default=90.0, help="length of the script, s (default 90)"
+    )
+    plan.add_argument(
+        "--area",
+        type=float,
+        default=3.0,
+        help="side of the free floor square the base starts in the middle of, m (default 3)",
+    )
+    plan.add_argument(
+        "--rate", type=float, default=10.0, help="command publishing rate, Hz (default 10)"
+    )
+    plan.add_argument("-o", "--output", required=True, help="the .mcap command script to write")
+    plan.set_defaults(handler="sysid:handle_plan")
 
 
 def _register_fit(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

@@ -1,0 +1,308 @@
+"""An excitation plan: the command script to record so that a fit identifies the drive.
+
+A go-to-goal or teleop session excites what its task needs: a few speeds, gentle turns, rarely
+a limit. :func:`plan_excitation` writes a script for a base from its spec alone, made of
+blocks that each excite named parameters of :class:`robots.params.DriveParams`:
+
+- **v steps** and **w steps**: held steps of several sizes, up to 110 % of the speed limits
+  (the firmware clamps: the limits are reached), each followed by a stop: delay, response
+  time constants, speed-loop integral action, torque and acceleration limits, speed limits;
+- **ramps**: slow ramps forward and backward: Coulomb friction each way, apart from viscous;
+- **turns while driving**: arcs and weaves at several speeds and turn rates, the fastest with
+  the outer wheel's target above the wheel-speed cap: the cap and the coupling of the axes.
+
+Every moving block is driven out and back (the same commands reversed in order and sign), so
+the ideal path returns to its start and stays within a square of side ``area_m``. The script is
+deterministic: the same spec and duration give the same commands. Velocity data fix each axis's
+response, not the split between motor gain and mass (:mod:`sysid.fit`): no plan identifies
+``motor_gain_nms_per_rad``, ``added_mass_kg`` and ``added_yaw_inertia_kgm2`` apart.
+
+Examples
+--------
+>>> from robots.spec import load_spec
+>>> plan = plan_excitation(load_spec("turtlebot3_burger"), 90.0)
+>>> plan.t_s.size, round(float(abs(plan.v_mps).max()), 3)
+(900, 0.242)
+>>> "wheel_speed_max_radps" in plan.identifies()
+True
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sysid.errors import SysidValueError
+
+__all__ = ["ExcitationPlan", "PlanBlock", "plan_excitation"]
+
+FloatArray = NDArray[np.float64]
+
+#: Commands go this far beyond the speed limits, so that the clamps act.
+OVERDRIVE = 1.1
+#: The fastest arcs ask the outer wheel for this multiple of the wheel-speed cap.
+WHEEL_OVERDRIVE = 1.2
+#: The mass-gain direction: velocity data identify ``T = m / k``, not ``m`` and ``k`` apart.
+MASS_GAIN = ("motor_gain_nms_per_rad", "added_mass_kg", "added_yaw_inertia_kgm2")
+
+#: Block kind -> the DriveParams fields it is designed to identify.
+_EXCITES: dict[str, tuple[str, ...]] = {
+    "v steps": (
+        "delay_s",
+        "speed_lim_v_mps",
+        "accel_lim_v_mps2",
+        "wheel_torque_max_nm",
+        "speed_loop_ki_per_s",
+        "viscous_v_ns_per_m",
+        "wheel_stall_torque_nm",
+        "wheel_no_load_speed_radps",
+        *MASS_GAIN[:2],
+    ),
+    "w steps": (
+        "delay_s",
+        "speed_lim_w_radps",
+        "accel_lim_w_radps2",
+        "coulomb_w_nm",
+        "viscous_w_nms_per_rad",
+        "motor_gain_nms_per_rad",
+        "added_yaw_inertia_kgm2",
+    ),
+    "ramps": ("coulomb_v_fwd_n", "coulomb_v_bwd_n", "viscous_v_ns_per_m"),
+    "turns while driving": ("wheel_speed_max_radps", "track_factor", "driver_track_factor"),
+}
+
+
+@dataclass(frozen=True, kw_only=True)
+class PlanBlock:
+    """One block of a plan.
+
+    Attributes
+    ----------
+    kind : str
+        ``"v steps"``, ``"w steps"``, ``"ramps"`` or ``"turns while driving"``.
+    start_s, end_s : float
+        Its span in the script, s.
+    identifies : tuple of str
+        The DriveParams fields it is designed to identify.
+    """
+
+    kind: str
+    start_s: float
+    end_s: float
+    identifies: tuple[str, ...]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ExcitationPlan:
+    """A command script (see the module docstring).
+
+    Attributes
+    ----------
+    robot : str
+        The spec the plan was designed from.
+    t_s, v_mps, w_radps : ndarray
+        Commands republished at ``rate_hz`` from t = 0, s, m/s, rad/s.
+    rate_hz : float
+        Publishing rate, Hz.
+    duration_s : float
+        Length of the script, s.
+    blocks : tuple of PlanBlock
+        The blocks, in order.
+    limits : dict
+        The limits designed to: ``v_mps``, ``w_radps``, ``wheel_radps`` (spec values).
+    extent_m : float
+        Largest distance of the ideal (perfectly tracked) path from its start, m.
+    """
+
+    robot: str
+    t_s: FloatArray
+    v_mps: FloatArray
+    w_radps: FloatArray
+    rate_hz: float
+    duration_s: float
+    blocks: tuple[PlanBlock, ...]
+    limits: dict[str, float]
+    extent_m: float
+
+    def identifies(self) -> dict[str, tuple[str, ...]]:
+        """DriveParams field -> the kinds of block that excite it (in plan order)."""
+        out: dict[str, list[str]] = {}
+        for block in self.blocks:
+            for name in block.identifies:
+                kinds = out.setdefault(name, [])
+                if block.kind not in kinds:
+                    kinds.append(block.kind)
+        return {name: tuple(kinds) for name, kinds in out.items()}
+
+
+class _Script:
+    """Commands at a fixed rate, built block by block."""
+
+    def __init__(self, rate_hz: float) -> None:
+        self.hz = rate_hz
+        self.rows: list[tuple[float, float]] = []
+
+    def hold(self, v: float, w: float, seconds: float) -> list[tuple[float, float]]:
+        return [(v, w)] * max(1, round(seconds * self.hz))
+
+    def ramp(self, v0: float, v1: float, seconds: float) -> list[tuple[float, float]]:
+        n = max(2, round(seconds * self.hz))
+        return [(float(v), 0.0) for v in np.linspace(v0, v1, n)]
+
+    def out_and_back(self, leg: list[tuple[float, float]], rest_s: float) -> None:
+        """``leg``, a rest, the same commands reversed in order and sign, a rest."""
+        back = [(-v, -w) for v, w in reversed(leg)]
+        self.rows += leg + self.hold(0.0, 0.0, rest_s) + back + self.hold(0.0, 0.0, rest_s)
+
+
+def _check(spec: Any, duration_s: Any, rate_hz: Any, area_m: Any) -> None:
+    for name, value, low in (("duration_s", duration_s, 10.0), ("rate_hz", rate_hz, 1.0)):
+        if isinstance(value, bool) or not (isinstance(value, int | float) and value >= low):
+            raise SysidValueError(
+                f"{name} must be a number >= {low:g}, got {value!r}; a plan needs room for "
+                "its blocks"
+                if name == "duration_s"
+                else f"{name} must be a number >= {low:g} Hz, got {value!r}"
+            )
+    if isinstance(area_m, bool) or not (isinstance(area_m, int | float) and area_m >= 0.5):
+        raise SysidValueError(
+            f"area_m must be a number >= 0.5 (side of the free floor square, m), got {area_m!r}"
+        )
+    if not hasattr(spec, "drive") or not hasattr(spec, "geometry"):
+        raise SysidValueError(
+            f"spec must be a robots.spec.RobotSpec, got {type(spec).__name__}; load one with "
+            "robots.spec.load_spec(name)"
+        )
+
+
+def _cycle(script: _Script, k: int, lim: dict[str, float], hold_s: float) -> list[PlanBlock]:
+    """Cycle ``k`` of the four blocks (sizes vary from cycle to cycle)."""
+    v, w, half_track = lim["v_mps"], lim["w_radps"], lim["half_track_m"]
+    sizes_v = [(0.35, OVERDRIVE, 0.7, 0.15), (0.55, 0.9, OVERDRIVE, 0.25)][k % 2]
+    sizes_w = [(0.3, OVERDRIVE, 0.6, 0.06), (0.45, 0.8, OVERDRIVE, 0.1)][k % 2]
+    blocks = []
+
+    def block(kind: str, start: int) -> None:
+        hz = script.hz
+        blocks.append(
+            PlanBlock(
+                kind=kind,
+                start_s=start / hz,
+                end_s=len(script.rows) / hz,
+                identifies=_EXCITES[kind],
+            )
+        )
+
+    start = len(script.rows)
+    for a in sizes_v:
+        script.out_and_back(script.hold(a * v, 0.0, hold_s), 0.8)
+    # a reversal at the limit: twice the step, the torque cap acts over the whole speed range
+    script.rows += script.hold(OVERDRIVE * v, 0.0, hold_s) + script.hold(
+        -OVERDRIVE * v, 0.0, hold_s
+    )
+    script.rows += script.hold(0.0, 0.0, 0.8)
+    block("v steps", start)
+    start = len(script.rows)
+    for b in sizes_w:
+        leg = script.hold(0.0, b * w, lim["hold_w_s"])
+        script.rows += leg + script.hold(0.0, 0.0, 0.6) + [(0.0, -x) for _, x in leg]
+        script.rows += script.hold(0.0, 0.0, 0.6)
+    turn = lim["hold_w_s"]
+    script.rows += script.hold(0.0, OVERDRIVE * w, turn) + script.hold(0.0, -OVERDRIVE * w, turn)
+    script.rows += script.hold(0.0, 0.0, 0.6)
+    block("w steps", start)
+    start = len(script.rows)
+    ramp_s = min(3.0, 2.0 * hold_s)
+    script.out_and_back(script.ramp(0.0, v, ramp_s) + script.ramp(v, 0.0, ramp_s), 0.6)
+    block("ramps", start)
+    start = len(script.rows)
+    # the outer wheel asks WHEEL_OVERDRIVE x its cap: (v + w h) / r = 1.2 cap
+    w_cap = (WHEEL_OVERDRIVE * lim["wheel_mps"] - v) / half_track
+    w_arc = min(max(w_cap, 0.3 * w), OVERDRIVE * w)
+    sign = 1.0 if k % 2 == 0 else -1.0
+    script.out_and_back(script.hold(v, sign * w_arc, 0.6 * hold_s + 0.6), 0.6)
+    weave = script.hold(0.6 * v, 0.5 * w, 1.0) + script.hold(0.6 * v, -0.5 * w, 1.0)
+    script.out_and_back(weave, 0.6)
+    block("turns while driving", start)
+    return blocks
+
+
+def _extent(v: FloatArray, w: FloatArray, dt: float) -> float:
+    """Largest distance from the start of the perfectly tracked (unicycle) path, m."""
+    yaw = np.concatenate(([0.0], np.cumsum(w * dt)))[:-1] + 0.5 * w * dt
+    x = np.cumsum(v * np.cos(yaw) * dt)
+    y = np.cumsum(v * np.sin(yaw) * dt)
+    return float(np.hypot(x, y).max()) if x.size else 0.0
+
+
+def plan_excitation(
+    spec: Any, duration_s: float, *, rate_hz: float = 10.0, area_m: float = 3.0
+) -> ExcitationPlan:
+    """The excitation plan of ``spec``'s base for ``duration_s`` seconds.
+
+    Parameters
+    ----------
+    spec : robots.spec.RobotSpec
+        The base: its speed limits, wheel-speed cap and track.
+    duration_s : float
+        Length of the script, s (>= 10).
+    rate_hz : float
+        Publishing rate of the commands, Hz.
+    area_m : float
+        Side of the free floor square the base starts in the middle of, m: held legs are
+        shortened so that the ideal path stays within half of it from the start.
+
+    Returns
+    -------
+    ExcitationPlan
+        The commands and what each block is designed to identify.
+    """
+    _check(spec, duration_s, rate_hz, area_m)
+    drive, geo = spec.drive, spec.geometry
+    v = min(drive.speed_lim_v_mps, spec.max_v_mps)
+    w = min(drive.speed_lim_w_radps, spec.max_w_radps)
+    wheel = drive.wheel_speed_max_radps
+    if not math.isfinite(wheel):
+        wheel = OVERDRIVE * v / geo.wheel_radius_m
+    lim = {
+        "v_mps": float(v),
+        "w_radps": float(w),
+        "wheel_radps": float(wheel),
+        "wheel_mps": float(wheel * geo.wheel_radius_m),
+        "half_track_m": 0.5 * geo.wheel_separation_m,
+        # in-place turns held until the smoother has reached 110 % of the limit, and 0.8 s on
+        "hold_w_s": float(np.clip(OVERDRIVE * w / drive.accel_lim_w_radps2 + 0.8, 1.2, 4.0)),
+    }
+    # the longest held leg runs at 110 % of the limit for hold_s: half the square's half-side
+    hold_s = float(np.clip(0.25 * area_m / (OVERDRIVE * v), 0.6, 2.0))
+    script = _Script(float(rate_hz))
+    script.rows += script.hold(0.0, 0.0, 1.5)
+    n = round(duration_s * rate_hz)
+    blocks: list[PlanBlock] = []
+    k = 0
+    while len(script.rows) < n:
+        blocks += _cycle(script, k, lim, hold_s)
+        k += 1
+    cmd = np.asarray(script.rows[:n], dtype=np.float64)
+    cmd[-round(1.0 * rate_hz) :] = 0.0  # the script ends at rest
+    ends = [min(b.end_s, duration_s) for b in blocks]
+    kept = tuple(
+        PlanBlock(kind=b.kind, start_s=b.start_s, end_s=e, identifies=b.identifies)
+        for b, e in zip(blocks, ends, strict=True)
+        if b.start_s < duration_s - 1.0
+    )
+    return ExcitationPlan(
+        robot=spec.name,
+        t_s=np.arange(n) / float(rate_hz),
+        v_mps=cmd[:, 0].copy(),
+        w_radps=cmd[:, 1].copy(),
+        rate_hz=float(rate_hz),
+        duration_s=float(duration_s),
+        blocks=kept,
+        limits={k: lim[k] for k in ("v_mps", "w_radps", "wheel_radps")},
+        extent_m=_extent(cmd[:, 0], cmd[:, 1], 1.0 / rate_hz),
+    )

@@ -1,0 +1,83 @@
+"""The excitation plan (sysid.plan): within the limits and the floor, deterministic, complete."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from robots.params import DriveParams
+from robots.spec import load_spec
+from sysid.errors import SysidValueError
+from sysid.plan import MASS_GAIN, OVERDRIVE, plan_excitation
+
+ROBOTS = ("turtlebot3_burger", "turtlebot2", "turtlebot3_waffle_pi")
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    robot=st.sampled_from(ROBOTS),
+    duration_s=st.floats(10.0, 200.0),
+    area_m=st.floats(0.5, 6.0),
+)
+def test_the_plan_stays_within_the_limits_and_the_floor(
+    robot: str, duration_s: float, area_m: float
+) -> None:
+    spec = load_spec(robot)
+    plan = plan_excitation(spec, duration_s, area_m=area_m)
+    v_lim = min(spec.drive.speed_lim_v_mps, spec.max_v_mps)
+    w_lim = min(spec.drive.speed_lim_w_radps, spec.max_w_radps)
+    assert plan.t_s.size == round(duration_s * 10.0)
+    assert np.abs(plan.v_mps).max() <= OVERDRIVE * v_lim + 1e-12
+    assert np.abs(plan.w_radps).max() <= OVERDRIVE * w_lim + 1e-12
+    assert np.all(plan.v_mps[-10:] == 0.0) and np.all(plan.w_radps[-10:] == 0.0)
+    # the held legs are shortened to the floor, down to a floor of 0.6 s at 110 %
+    reach = max(0.5 * area_m, OVERDRIVE * v_lim * 0.6 * 2)
+    assert plan.extent_m <= reach
+    assert all(0.0 <= b.start_s < b.end_s <= duration_s for b in plan.blocks)
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_a_90_s_plan_reaches_every_limit_and_excites_every_prior(robot: str) -> None:
+    spec = load_spec(robot)
+    plan = plan_excitation(spec, 90.0)
+    v_lim = min(spec.drive.speed_lim_v_mps, spec.max_v_mps)
+    w_lim = min(spec.drive.speed_lim_w_radps, spec.max_w_radps)
+    assert np.abs(plan.v_mps).max() == pytest.approx(OVERDRIVE * v_lim)
+    assert np.abs(plan.w_radps).max() == pytest.approx(OVERDRIVE * w_lim)
+    assert (plan.v_mps > 0).any() and (plan.v_mps < 0).any()
+    half = 0.5 * spec.geometry.wheel_separation_m
+    outer = (np.abs(plan.v_mps) + half * np.abs(plan.w_radps)) / spec.geometry.wheel_radius_m
+    assert outer.max() >= spec.drive.wheel_speed_max_radps  # the wheel cap acts
+    kinds = {b.kind for b in plan.blocks}
+    assert kinds == {"v steps", "w steps", "ramps", "turns while driving"}
+    fitted = {n for n in DriveParams.names() if spec.priors[n].sd > 0}
+    assert fitted <= set(plan.identifies())
+    assert set(MASS_GAIN) <= fitted
+
+
+def test_the_same_spec_and_duration_give_the_same_script() -> None:
+    a = plan_excitation(load_spec("turtlebot2"), 60.0)
+    b = plan_excitation(load_spec("turtlebot2"), 60.0)
+    np.testing.assert_array_equal(a.v_mps, b.v_mps)
+    np.testing.assert_array_equal(a.w_radps, b.w_radps)
+    assert a.blocks == b.blocks and a.extent_m == b.extent_m
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"duration_s": 5.0}, "duration_s must be a number >= 10, got 5.0"),
+        ({"duration_s": math.nan}, "duration_s must be a number >= 10, got nan"),
+        ({"duration_s": 60.0, "rate_hz": 0.5}, "rate_hz must be a number >= 1 Hz"),
+        ({"duration_s": 60.0, "area_m": 0.1}, "area_m must be a number >= 0.5"),
+    ],
+)
+def test_bad_input_is_one_sentence(kwargs: dict[str, float], match: str) -> None:
+    with pytest.raises(SysidValueError, match=match):
+        plan_excitation(load_spec("turtlebot2"), **kwargs)
+    with pytest.raises(SysidValueError, match=r"spec must be a robots\.spec\.RobotSpec, got str"):
+        plan_excitation("turtlebot2", 60.0)
