@@ -13,11 +13,12 @@ from rich.console import Console
 from rich.table import Table
 
 from sim2real._io import atomic_write, check_output_path
-from sim2real.cli._policy import prepare, robustness
+from sim2real.cli._policy import ci_text, prepare, robustness
 from sim2real.cli._progress import progress_bar
 from sim2real.envs import PAPER_RHO_OBS, PRESETS, SCENARIOS
 from sim2real.envs.baselines import evaluate
 from sim2real.errors import Sim2RealValueError
+from sim2real.training.evaluation import outcome_intervals
 
 __all__ = ["handle_eval", "handle_list", "handle_robustness"]
 
@@ -195,10 +196,12 @@ def handle_eval(args: argparse.Namespace) -> int:
         title=f"{label} on {env.spec.id} {what} ({summary.episodes} episodes, "
         f"seeds {args.seed}..{last}, dynamics {args.dynamics}{robot})"
     )
+    ci = outcome_intervals(summary)
     table.add_column("metric")
     table.add_column("value", justify="right")
-    table.add_row("success rate", f"{summary.success_rate:.2f}")
-    table.add_row("collision rate", f"{summary.collision_rate:.2f}")
+    table.add_column("95 % CI", justify="right")
+    table.add_row("success rate", f"{summary.success_rate:.2f}", ci_text(ci.success_ci95, 2))
+    table.add_row("collision rate", f"{summary.collision_rate:.2f}", ci_text(ci.collision_ci95, 2))
     table.add_row("timeout rate", f"{summary.timeout_rate:.2f}")
     if is_car:
         off = sum(bool(r.get("off_road")) for r in summary.per_episode) / summary.episodes
@@ -208,7 +211,11 @@ def handle_eval(args: argparse.Namespace) -> int:
         table.add_row("wall collision rate", f"{wall:.2f}")
     m = summary.means
     table.add_row("path length m", _fmt(m["path_length_m"], 2))
-    table.add_row("time to goal s (successes)", _fmt(m["time_to_goal_s"], 2))
+    table.add_row(
+        "time to goal s (successes)",
+        _fmt(m["time_to_goal_s"], 2),
+        ci_text(ci.time_to_goal_ci95, 2),
+    )
     table.add_row("mean |dv| per step m/s", _fmt(m["mean_abs_dv_mps"], 4))
     table.add_row("mean |dw| per step rad/s", _fmt(m["mean_abs_dw_radps"], 4))
     table.add_row("mean |jerk v| m/s^3", _fmt(m["mean_abs_jerk_v_mps3"], 3))
@@ -227,8 +234,11 @@ def handle_eval(args: argparse.Namespace) -> int:
             "randomize": args.randomize,
             "seed": args.seed,
             "success_rate": summary.success_rate,
+            "success_ci95": list(ci.success_ci95),
             "collision_rate": summary.collision_rate,
+            "collision_ci95": list(ci.collision_ci95),
             "timeout_rate": summary.timeout_rate,
+            "time_to_goal_ci95": list(ci.time_to_goal_ci95),
             "means": summary.means,
             "episodes": list(summary.per_episode),
         }

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -23,7 +24,13 @@ from sim2real.training.environment import set_params_file
 from sim2real.training.evaluation import check_spaces, load_policy
 from sim2real.training.evaluation import robustness as robustness_rows
 
-__all__ = ["prepare", "robustness"]
+__all__ = ["ci_text", "prepare", "robustness"]
+
+
+def ci_text(ci: tuple[float, float], digits: int) -> str:
+    """``[lo, hi]`` of an interval, ``n/a`` when undefined."""
+    lo, hi = ci
+    return "n/a" if math.isnan(lo) or math.isnan(hi) else f"[{lo:.{digits}f}, {hi:.{digits}f}]"
 
 
 def _controller(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
@@ -46,14 +53,26 @@ def _controller(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
     return policy.controller(), policy.wrap, f"{policy.algorithm} policy {Path(args.policy).name}"
 
 
+def _apply_params(env: Any, args: argparse.Namespace) -> None:
+    """--params: the sysid result's drive parameters (the drive model's; not the plant's)."""
+    if args.params is None:
+        return
+    if args.dynamics == "plant":
+        raise Sim2RealValueError(
+            "--params sets the drive model's parameters, which --dynamics plant does not use "
+            "(the plant's motion comes from its own physics); drop --params or use --dynamics "
+            "reduced"
+        )
+    set_params_file(env, args.params)
+
+
 def prepare(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:
     """Apply --params and --randomize to ``env``; return (env, controller, label).
 
     The controller is the policy of --policy (its observation space checked against the env's)
     or the DWA baseline.
     """
-    if args.params is not None:
-        set_params_file(env, args.params)
+    _apply_params(env, args)
     controller, wrap, label = _controller(env, args)
     if args.randomize is not None:
         env = randomizers.from_config(env, args.randomize)
@@ -70,8 +89,7 @@ def robustness(
         check_output_path(args.json, what="--json file")
     env, options = make_env(args)
     try:
-        if args.params is not None:
-            set_params_file(env, args.params)
+        _apply_params(env, args)
         controller, wrap, label = _controller(env, args)
         rows = robustness_rows(
             env,
@@ -88,18 +106,22 @@ def robustness(
         title=f"robustness of the {label} on {env.spec.id if env.spec else args.env} "
         f"({args.episodes} episodes per condition, seeds {args.seed}..{args.seed + args.episodes - 1})"
     )
-    for col in ("randomizer", "success", "95 % CI", "collision", "timeout"):
+    columns = ("randomizer", "success", "95 % CI", "collision", "95 % CI ", "timeout")
+    for col in (*columns, "time to goal s", "95 % CI  "):
         table.add_column(col, justify="left" if col == "randomizer" else "right")
     for r in rows:
-        lo, hi = r.success_ci95
         table.add_row(
             r.condition,
             f"{r.success_rate:.2f}",
-            f"[{lo:.2f}, {hi:.2f}]",
+            ci_text(r.success_ci95, 2),
             f"{r.collision_rate:.2f}",
+            ci_text(r.collision_ci95, 2),
             f"{r.timeout_rate:.2f}",
+            "n/a" if math.isnan(r.time_to_goal_s) else f"{r.time_to_goal_s:.2f}",
+            ci_text(r.time_to_goal_ci95, 2),
         )
-    Console().print(table)
+    probe = Console()  # wide off a terminal, so a piped table keeps one row per line
+    (probe if probe.is_terminal else Console(width=160)).print(table)
     if args.json:
         doc_out = {
             "env": args.env,
@@ -113,7 +135,10 @@ def robustness(
                     "success_rate": r.success_rate,
                     "success_ci95": list(r.success_ci95),
                     "collision_rate": r.collision_rate,
+                    "collision_ci95": list(r.collision_ci95),
                     "timeout_rate": r.timeout_rate,
+                    "time_to_goal_s": r.time_to_goal_s,
+                    "time_to_goal_ci95": list(r.time_to_goal_ci95),
                 }
                 for r in rows
             ],

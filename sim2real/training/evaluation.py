@@ -8,7 +8,9 @@
   differs from the env's.
 - :func:`robustness` evaluates one controller without randomisation, under each randomizer of a
   stack alone, and under the whole stack.
-- :func:`wilson_interval` is the 95 % score interval of a success rate.
+- :func:`wilson_interval` is the 95 % score interval of a success rate;
+  :func:`outcome_intervals` gives an evaluation's success and collision rates with theirs and
+  the mean time to goal with its 95 % interval.
 
 Examples
 --------
@@ -43,10 +45,12 @@ from sim2real.training.environment import DiscreteActions, describe_space, norma
 
 __all__ = [
     "LoadedPolicy",
+    "OutcomeIntervals",
     "PolicyController",
     "RobustnessRow",
     "evaluate_controller",
     "load_policy",
+    "outcome_intervals",
     "robustness",
     "wilson_interval",
 ]
@@ -71,6 +75,68 @@ def wilson_interval(successes: int, n: int, *, z: float = 1.959964) -> tuple[flo
     centre = (p + z * z / (2 * n)) / denom
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
     return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+@dataclass(frozen=True, kw_only=True)
+class OutcomeIntervals:
+    """An evaluation's outcome figures with their 95 % intervals.
+
+    Attributes
+    ----------
+    episodes : int
+        Episodes run.
+    success_rate, collision_rate : float
+        Fractions of the episodes.
+    success_ci95, collision_ci95 : tuple of float
+        Their Wilson 95 % intervals (:func:`wilson_interval`).
+    time_to_goal_s : float
+        Mean time to goal over the successful episodes, s (NaN without one).
+    time_to_goal_ci95 : tuple of float
+        Its 95 % interval, mean +- 1.96 standard errors, s (NaN with fewer than 2 successes).
+    """
+
+    episodes: int
+    success_rate: float
+    collision_rate: float
+    success_ci95: tuple[float, float]
+    collision_ci95: tuple[float, float]
+    time_to_goal_s: float
+    time_to_goal_ci95: tuple[float, float]
+
+
+def outcome_intervals(summary: Any) -> OutcomeIntervals:
+    """The outcome figures of an :class:`~sim2real.envs.EvalSummary` with 95 % intervals.
+
+    Examples
+    --------
+    >>> from sim2real.envs import EvalSummary
+    >>> rows = ({"outcome": "success", "time_to_goal_s": 10.0},
+    ...         {"outcome": "success", "time_to_goal_s": 12.0},
+    ...         {"outcome": "collision", "time_to_goal_s": float("nan")})
+    >>> s = EvalSummary(episodes=3, success_rate=2 / 3, collision_rate=1 / 3, timeout_rate=0.0,
+    ...                 means={}, per_episode=rows)
+    >>> r = outcome_intervals(s)
+    >>> [round(x, 3) for x in (*r.success_ci95, r.time_to_goal_s, *r.time_to_goal_ci95)]
+    [0.208, 0.939, 11.0, 9.04, 12.96]
+    """
+    n = int(summary.episodes)
+    times = np.array(
+        [float(r.get("time_to_goal_s", math.nan)) for r in summary.per_episode], dtype=float
+    )
+    times = times[np.isfinite(times)]
+    mean = float(times.mean()) if times.size else math.nan
+    half = (
+        1.959964 * float(times.std(ddof=1)) / math.sqrt(times.size) if times.size > 1 else math.nan
+    )
+    return OutcomeIntervals(
+        episodes=n,
+        success_rate=float(summary.success_rate),
+        collision_rate=float(summary.collision_rate),
+        success_ci95=wilson_interval(round(summary.success_rate * n), n),
+        collision_ci95=wilson_interval(round(summary.collision_rate * n), n),
+        time_to_goal_s=mean,
+        time_to_goal_ci95=(mean - half, mean + half),
+    )
 
 
 class PolicyController:
@@ -269,6 +335,12 @@ class RobustnessRow:
         Outcome rates.
     success_ci95 : tuple of float
         Wilson 95 % interval of the success rate.
+    collision_ci95 : tuple of float
+        Wilson 95 % interval of the collision rate.
+    time_to_goal_s : float
+        Mean time to goal over the successes, s (NaN without one).
+    time_to_goal_ci95 : tuple of float
+        Its 95 % interval (:class:`OutcomeIntervals`), s.
     """
 
     condition: str
@@ -277,6 +349,9 @@ class RobustnessRow:
     collision_rate: float
     timeout_rate: float
     success_ci95: tuple[float, float]
+    collision_ci95: tuple[float, float] = (math.nan, math.nan)
+    time_to_goal_s: float = math.nan
+    time_to_goal_ci95: tuple[float, float] = (math.nan, math.nan)
 
 
 def robustness(
@@ -309,7 +384,9 @@ def robustness(
         conditions.append((label, [entry]))
     conditions.append(("all", entries))
     base = env.unwrapped
-    nominal = base.get_drive_params() if hasattr(base, "get_drive_params") else None
+    # the plant has no drive parameters to restore (its sessions come from the seeds)
+    has_drive = hasattr(base, "get_drive_params") and getattr(base, "dynamics", "") != "plant"
+    nominal = base.get_drive_params() if has_drive else None
     rows = []
     for label, subset in conditions:
         if nominal is not None:  # a DynamicsRandomizer's last draw must not leak into the next
@@ -322,7 +399,7 @@ def robustness(
         if wrap is not None:
             wrapped = wrap(wrapped)
         s = evaluate_controller(wrapped, controller, episodes=episodes, seed=seed, options=options)
-        wins = round(s.success_rate * s.episodes)
+        ci = outcome_intervals(s)
         rows.append(
             RobustnessRow(
                 condition=label,
@@ -330,7 +407,10 @@ def robustness(
                 success_rate=s.success_rate,
                 collision_rate=s.collision_rate,
                 timeout_rate=s.timeout_rate,
-                success_ci95=wilson_interval(wins, s.episodes),
+                success_ci95=ci.success_ci95,
+                collision_ci95=ci.collision_ci95,
+                time_to_goal_s=ci.time_to_goal_s,
+                time_to_goal_ci95=ci.time_to_goal_ci95,
             )
         )
     return rows

@@ -26,6 +26,7 @@ _EVAL_EXAMPLES = """\
   sim2real envs eval RandomMap-v0 --policy runs/randommap_ppo/model.zip --preset TEST1
   sim2real envs eval RandomMap-v0 --policy model.zip --params real.yaml --randomize dr.yaml
   sim2real envs eval Race-v0 --track circuit --opponents 4 --planner dijkstra
+  sim2real envs eval RandomMap-v0 --policy model.zip --dynamics plant --episodes 100 --seed 1000
 """
 
 
@@ -68,9 +69,11 @@ def _register_eval(group_sub: argparse._SubParsersAction) -> None:  # type: igno
             "sim2real.envs.car_baseline; for Race-v0 an A* or Dijkstra global plan on the track "
             "map followed with DWA, sim2real.envs.race_baseline) for N seeded episodes and print success / collision / "
             "timeout rates and the mean path length, time to goal and smoothness: a reference "
-            "number per preset. --policy evaluates a trained policy instead (sim2real train), "
-            "--params uses a sysid result's drive parameters, --randomize adds a randomizer "
-            "stack."
+            "number per preset, with the Wilson 95 %% intervals of the success and collision "
+            "rates and the 95 %% interval of the mean time to goal. --policy evaluates a trained "
+            "policy instead (sim2real train), --params uses a sysid result's drive parameters, "
+            "--randomize adds a randomizer stack, --dynamics plant drives a foreign base (one "
+            "plant session per episode, drawn from the episode's seed) that no training saw."
         ),
         examples=_EVAL_EXAMPLES,
     )
@@ -100,7 +103,13 @@ def _add_env_arguments(p: argparse.ArgumentParser, *, episodes_help: str) -> Non
     p.add_argument("--scenario", help="CrowdNav-v0 scenario (static, dynamic, occluded)")
     p.add_argument("--complexity", type=float, help="CrowdNav-v0 complexity factor in [0, 1]")
     p.add_argument(
-        "--dynamics", default="reduced", help="robot back-end: reduced (fast) or pybullet"
+        "--dynamics",
+        default="reduced",
+        help=(
+            "robot back-end: reduced (fast), pybullet, or plant (a foreign base to evaluate "
+            "on: one plant session per episode, payload, floor, battery and latency drawn "
+            "from the episode's seed; RandomMap-v0, CrowdNav-v0, Race-v0)"
+        ),
     )
 
 
