@@ -1046,17 +1046,20 @@ def read_params_file(path: str | Path) -> ParamsFile:
     return ParamsFile(path=p, robot=robot, values=values, stds=stds, document=doc)
 
 
-def load_drive_params(path: str | Path, *, robot: str, base: DriveParams) -> DriveParams:
+def load_drive_params(
+    path: str | Path | ParamsFile, *, robot: str, base: DriveParams
+) -> DriveParams:
     """Override ``base`` (the spec defaults) with the values in a params file for ``robot``.
 
-    Raises :class:`~robots.errors.ParamsFileError` when the file is for another robot.
+    ``path`` is the file, or a :class:`ParamsFile` :func:`read_params_file` read already (a
+    command that uses the file for several things reads it once). Raises :class:`~robots.errors.ParamsFileError` when the file is for another robot.
 
     Examples
     --------
     >>> load_drive_params("params.yaml", robot="turtlebot3_burger", base=DriveParams())
     ... # doctest: +SKIP
     """
-    pf = read_params_file(path)
+    pf = path if isinstance(path, ParamsFile) else read_params_file(path)
     if pf.robot != robot:
         raise ParamsFileError(
             f"params file '{pf.path}' was identified for robot '{pf.robot}', not '{robot}'; "

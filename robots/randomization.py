@@ -59,6 +59,7 @@ from robots.params import (
     SCHEMA,
     BaseGeometry,
     DriveParams,
+    ParamsFile,
     Prior,
     coords_to_values,
     read_params_file,
@@ -412,8 +413,10 @@ class DriveDistribution:
         return _parse_block(cls, block, robot=robot, source=source)
 
     @classmethod
-    def from_params_file(cls, path: str | Path, *, robot: str) -> DriveDistribution:
+    def from_params_file(cls, path: str | Path | ParamsFile, *, robot: str) -> DriveDistribution:
         """The distribution in the ``randomization`` block of a params file for ``robot``.
+
+        ``path`` is the file, or a :class:`~robots.params.ParamsFile` read already.
 
         Examples
         --------
@@ -421,7 +424,7 @@ class DriveDistribution:
         ... # doctest: +SKIP
         >>> dist.sample(np.random.default_rng(0), 10)  # doctest: +SKIP
         """
-        pf = read_params_file(path)
+        pf = path if isinstance(path, ParamsFile) else read_params_file(path)
         if pf.robot != robot:
             raise ParamsFileError(
                 f"params file '{pf.path}' was identified for robot '{pf.robot}', not '{robot}'; "

@@ -723,8 +723,9 @@ def calibrate(
     (:func:`sim2real.logs.without_unattended`).
     """
     spec = load_spec(robot)
-    distribution = DriveDistribution.from_params_file(params_path, robot=spec.name)
-    document = read_params_file(params_path).document
+    params_file = read_params_file(params_path)  # read once: the spread and the settings
+    distribution = DriveDistribution.from_params_file(params_file, robot=spec.name)
+    document = params_file.document
     fitted_on = _fit_logs(document)
     read = [
         read_for_robot(

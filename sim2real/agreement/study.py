@@ -29,7 +29,7 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
-from robots.params import load_drive_params, load_params_document
+from robots.params import ParamsFile, load_drive_params, read_params_file
 from robots.randomization import DriveDistribution
 from robots.spec import load_spec
 from sim2real._io import atomic_write, check_not_an_input, check_output_path, output_set
@@ -311,9 +311,11 @@ def run_study(
     window_s = parse_odom_v_window(
         config.odom_v_window, spec.odometry.rate_hz, v_source=spec.odometry.v_source
     )
+    # the params file is read once here and handed to whatever uses it
+    params_file = None if config.params_path is None else read_params_file(config.params_path)
     params = None
-    if config.params_path is not None:
-        params = load_drive_params(config.params_path, robot=spec.name, base=spec.drive)
+    if params_file is not None:
+        params = load_drive_params(params_file, robot=spec.name, base=spec.drive)
     trace, screened = read_for_robot(
         config.log,
         spec,
@@ -333,14 +335,14 @@ def run_study(
             trace, sim, tol_v=config.tol_v, tol_w=config.tol_w, params_file=pfile
         )
         runs.append(ReportRun(label=label, replay=sim, agreement=rep))
-    ensemble = _ensemble(config, trace, spec, params, window_s, progress)
+    ensemble = _ensemble(config, trace, spec, params_file, window_s, progress)
     figures = study_figures(runs[-1].agreement, ensemble)
     check_figures(figures, config.log)
     figures, undefined = defined_figures(figures)
     notes = ((screened,) if screened else ()) + undefined
     if notes:
         figures["notes"] = list(notes)
-    verdict = _verdict(config, spec, trace, runs, ensemble, params)
+    verdict = _verdict(config, spec, trace, runs, ensemble, params, params_file)
     written: list[Path] = []
     # the outputs are one set: all move in at the end, or none (a kill keeps the old set)
     with output_set([config.json_path, config.report_path, config.sim_out]) as out:
@@ -356,6 +358,7 @@ def run_study(
                 tuple(runs),
                 ensemble,
                 window_s,
+                params_file,
                 verdict,
                 notes,
             )
@@ -377,16 +380,20 @@ def run_study(
 
 
 def session_figures(
-    trace: Any, spec: Any, runs: Sequence[Any], params: Any, params_path: str | Path | None = None
+    trace: Any,
+    spec: Any,
+    runs: Sequence[Any],
+    params: Any,
+    params_file: ParamsFile | None = None,
 ) -> SessionFigures:
     """The checked session's figures the verdict weighs (top speeds, fitted delay, shortfall,
-    the log against the envelope the fit saw when ``params_path`` is a params file)."""
+    the log against the envelope the fit saw when ``params_file`` is given)."""
     main = runs[-1]
     cmd_v, cmd_w = trace.cmd_at_meas()
     a = main.agreement
     extrapolation = None
-    if params_path is not None:
-        extrapolation = envelope_check(params_path, trace, tol_v=a.tol_v, tol_w=a.tol_w)
+    if params_file is not None:
+        extrapolation = envelope_check(params_file, trace, tol_v=a.tol_v, tol_w=a.tol_w)
     active = active_mask(cmd_v, cmd_w, trace.meas_v, trace.meas_w, tol_v=a.tol_v, tol_w=a.tol_w)
     shortfall = None
     if params is not None:
@@ -409,14 +416,13 @@ def session_figures(
 
 
 def envelope_check(
-    params_path: str | Path, trace: Any, *, tol_v: float, tol_w: float
+    params_file: ParamsFile, trace: Any, *, tol_v: float, tol_w: float
 ) -> EnvelopeCheck:
     """The checked log against the ``envelope`` block of a params file (unknown without one)."""
-    doc = load_params_document(params_path)
-    block = doc.get("envelope") if isinstance(doc, dict) else None
+    block = params_file.document.get("envelope")
     envelope = Envelope.from_dict(block) if isinstance(block, dict) else None
     if envelope is None:
-        return unknown_envelope(str(params_path))
+        return unknown_envelope(str(params_file.path))
     return check_envelope(envelope, trace, tol_v=tol_v, tol_w=tol_w)
 
 
@@ -427,13 +433,14 @@ def _verdict(
     runs: Sequence[Any],
     ensemble: EnsembleResult | None,
     params: Any,
+    params_file: ParamsFile | None,
 ) -> AgreementVerdict:
     return decide(
         defaults=runs[0].agreement,
         fitted=runs[-1].agreement if params is not None else None,
         robot=str(config.robot),
         ensemble=ensemble,
-        session=session_figures(trace, spec, runs, params, config.params_path),
+        session=session_figures(trace, spec, runs, params, params_file),
     )
 
 
@@ -441,14 +448,13 @@ def _ensemble(
     config: StudyConfig,
     trace: Any,
     spec: Any,
-    params: Any,
+    params_file: ParamsFile | None,
     window_s: float,
     progress: Callable[[int, int], None] | None = None,
 ) -> EnsembleResult | None:
-    if config.ensemble_n is None or params is None or config.params_path is None:
+    if config.ensemble_n is None or params_file is None:
         return None
-
-    distribution = DriveDistribution.from_params_file(config.params_path, robot=spec.name)
+    distribution = DriveDistribution.from_params_file(params_file, robot=spec.name)
     return run_ensemble(
         trace,
         robot=spec,
@@ -556,6 +562,7 @@ def _write_report(
     runs: tuple[ReportRun, ...],
     ensemble: EnsembleResult | None,
     window_s: float,
+    params_file: ParamsFile | None,
     verdict: AgreementVerdict | None = None,
     notes: tuple[str, ...] = (),
 ) -> None:
@@ -570,7 +577,7 @@ def _write_report(
             trace=trace,
             runs=runs,
             ensemble=ensemble,
-            params=param_rows(spec.drive, runs[-1].replay.params, config.params_path),
+            params=param_rows(spec.drive, runs[-1].replay.params, params_file),
             provenance=provenance_rows(
                 files=files,
                 shown=shown,

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from robots.params import DriveParams, load_params_document
+from robots.params import DriveParams, ParamsFile, load_params_document
 from sim2real._io import atomic_write, check_output_path
 from sim2real.agreement.figures import AgreementReport, EnsembleResult, band_verdict
 from sim2real.agreement.replay import ReplayResult, TraceLike
@@ -156,9 +156,11 @@ def _float_or_none(x: Any) -> float | None:
 
 
 def param_rows(
-    defaults: DriveParams, used: DriveParams, params_file: str | Path | None = None
+    defaults: DriveParams, used: DriveParams, params_file: str | Path | ParamsFile | None = None
 ) -> tuple[ParamRow, ...]:
     """Rows of the parameter table: defaults, values used, std/ci95/status from the file.
+
+    ``params_file`` is the file, or a :class:`~robots.params.ParamsFile` read already.
 
     Examples
     --------
@@ -168,7 +170,11 @@ def param_rows(
     """
     entries: Mapping[str, Any] = {}
     if params_file is not None:
-        doc = load_params_document(params_file)
+        doc = (
+            params_file.document
+            if isinstance(params_file, ParamsFile)
+            else load_params_document(params_file)
+        )
         if isinstance(doc, dict) and isinstance(doc.get("parameters"), dict):
             entries = doc["parameters"]
     rows = []

@@ -60,3 +60,25 @@ def test_band_level_outside_0_1_is_refused(files: tuple[Path, Path], level: floa
     )
     with pytest.raises(Sim2RealValueError, match="--band-level"):
         run_study(config)
+
+
+def test_agree_parses_the_params_file_once(
+    files: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the point replay, the ensemble, the verdict's envelope and the report's parameter table
+    # all use the params file: one command reads and parses it once
+    log, params = files
+    reads: list[Path] = []
+    read_text = Path.read_text
+
+    def counting(self: Path, *args: object, **kwargs: object) -> str:
+        if self.resolve() == params.resolve():
+            reads.append(self)
+        return read_text(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Path, "read_text", counting)
+    argv = ["agree", str(log), "--robot", ROBOT, "--engine", "reduced", "--params", str(params)]
+    report = tmp_path / "r.html"
+    assert main([*argv, "--ensemble", "4", "--report", str(report)]) == 0
+    assert report.is_file()
+    assert len(reads) == 1
