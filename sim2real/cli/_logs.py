@@ -109,7 +109,7 @@ def _table(info: LogInfo, *, sha256: bool = False) -> str:
     for t in info.topics:
         lines.append(
             f"{t.topic:<{w_topic}}  {t.type:<{w_type}}  {t.message_encoding:<8}  "
-            f"{t.count:>7}  {t.rate_hz:7.2f}"
+            f"{t.count:>7}  {'-' if t.rate_hz is None else f'{t.rate_hz:.2f}':>7}"
         )
     lines.append("")
     for label, topic, note in (

@@ -37,7 +37,7 @@ from sim2real.logs._schemas import (
 )
 from sim2real.logs._summary import stated_counts
 
-__all__ = ["DRIVE_TYPES", "LogSource", "open_log_source", "source_kind"]
+__all__ = ["DRIVE_TYPES", "STANDARD_PACKAGES", "LogSource", "open_log_source", "source_kind"]
 
 _ROS1_MAGIC = b"#ROSBAG V"
 
@@ -165,10 +165,51 @@ def _note_unknown(container: Container, unknown: Iterable[tuple[str, str]]) -> N
         )
 
 
-def _known_type(type_name: str) -> bool:
-    from rosbags.typesys import Stores, get_typestore
+#: The packages of the standard ROS 1 and ROS 2 message definitions: common_msgs and
+#: common_interfaces, ros_comm and rcl_interfaces, geometry and geometry2 (tf, tf2_msgs), the
+#: middleware's and rosbag2's own, nodelet bonds and dynamic_reconfigure. A channel of one of
+#: these packages is a standard message even where the reader does not decode it.
+STANDARD_PACKAGES = frozenset(
+    {
+        "action_msgs",
+        "actionlib",
+        "actionlib_msgs",
+        "bond",
+        "builtin_interfaces",
+        "composition_interfaces",
+        "diagnostic_msgs",
+        "dynamic_reconfigure",
+        "geometry_msgs",
+        "libstatistics_collector",
+        "lifecycle_msgs",
+        "map_msgs",
+        "nav_msgs",
+        "pcl_msgs",
+        "rcl_interfaces",
+        "rmw_dds_common",
+        "rosbag2_interfaces",
+        "roscpp",
+        "rosgraph_msgs",
+        "sensor_msgs",
+        "service_msgs",
+        "shape_msgs",
+        "statistics_msgs",
+        "std_msgs",
+        "std_srvs",
+        "stereo_msgs",
+        "tf",
+        "tf2_msgs",
+        "trajectory_msgs",
+        "type_description_interfaces",
+        "unique_identifier_msgs",
+        "visualization_msgs",
+    }
+)
 
-    return type_name in get_typestore(Stores.ROS1_NOETIC).types
+
+def _known_type(type_name: str) -> bool:
+    """Whether ``type_name`` (``pkg/msg/Type``) is a message of a standard ROS package."""
+    return type_name.split("/", 1)[0] in STANDARD_PACKAGES
 
 
 # ------------------------------------------------------------------------------- ROS 1 bag

@@ -26,7 +26,15 @@ __all__ = [
     "LogInfo",
     "TopicInfo",
     "inspect_log",
+    "topic_rate_hz",
 ]
+
+#: A topic's rate is given from this many messages spanning at least this long (s) on.
+MIN_RATE_MESSAGES, MIN_RATE_SPAN_S = 10, 1.0
+#: Messages per step of the local rate, and how far (factor) it may stray from the mean rate
+#: before the topic counts as bursty (messages bunched in time, e.g. a startup burst of
+#: /rosout or a teleop that publishes only while a key is held).
+RATE_STEP, BURST_FACTOR = 5, 2.0
 
 #: The note of an MCAP log without any CRC (chunk or data section).
 NO_CHECKSUMS = "this file has no checksums; corruption cannot be detected"
@@ -58,8 +66,9 @@ class TopicInfo:
         E.g. ``cdr`` / ``ros2msg`` or ``json`` / ``jsonschema``.
     count : int
         Number of messages.
-    rate_hz : float
-        Mean rate by log time, ``(n - 1) / (t_last - t_first)`` (0 below 2 messages).
+    rate_hz : float or None
+        Mean rate by log time, ``(n - 1) / (t_last - t_first)``; None when that is no rate
+        (:func:`topic_rate_hz`: too few messages, or bursty).
     first_ns, last_ns : int
         First and last log time (ns since the epoch; 0 when empty).
     """
@@ -69,7 +78,7 @@ class TopicInfo:
     message_encoding: str
     schema_encoding: str
     count: int
-    rate_hz: float
+    rate_hz: float | None
     first_ns: int
     last_ns: int
 
@@ -151,16 +160,42 @@ class LogInfo:
         return out
 
 
+def topic_rate_hz(log_time_ns: np.ndarray) -> float | None:
+    """The mean rate of a topic's messages, ``(n - 1) / span``, or None when it is no rate.
+
+    None below :data:`MIN_RATE_MESSAGES` messages or a :data:`MIN_RATE_SPAN_S` span, and when
+    the topic is bursty: its median local rate (over :data:`RATE_STEP` messages) differs from
+    the mean by more than :data:`BURST_FACTOR` times. Regular pairs or groups (two bonds
+    published together) keep their mean rate.
+
+    Examples
+    --------
+    >>> t = np.arange(0, 10**10, 10**8)  # 100 messages at 10 Hz
+    >>> round(topic_rate_hz(t), 2)
+    10.0
+    >>> burst = np.arange(13) * 17 * 10**6  # 13 messages in 0.2 s
+    >>> topic_rate_hz(burst) is None
+    True
+    """
+    t = np.sort(np.asarray(log_time_ns, dtype=np.int64))
+    span = seconds(float(t[-1] - t[0])) if t.size else 0.0
+    if t.size < MIN_RATE_MESSAGES or span < MIN_RATE_SPAN_S:
+        return None
+    mean = (t.size - 1) / span
+    step_s = seconds(np.median(t[RATE_STEP:] - t[:-RATE_STEP]).item()) / RATE_STEP
+    local = 1.0 / step_s if step_s > 0 else float("inf")
+    return mean if mean / BURST_FACTOR <= local <= mean * BURST_FACTOR else None
+
+
 def _topic_info(chan: Chan) -> TopicInfo:
     t = chan.log_time_ns
-    span = seconds(float(t[-1] - t[0])) if t.size else 0.0
     return TopicInfo(
         topic=chan.topic,
         type=chan.type,
         message_encoding=chan.encoding,
         schema_encoding=chan.schema.encoding if chan.schema is not None else "",
         count=chan.count,
-        rate_hz=(t.size - 1) / span if span > 0 else 0.0,
+        rate_hz=topic_rate_hz(t),
         first_ns=int(t[0]) if t.size else 0,
         last_ns=int(t[-1]) if t.size else 0,
     )

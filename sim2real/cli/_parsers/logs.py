@@ -36,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="topics, types, counts, rates and the command/measurement topics of a log",
         description=(
             "Print the topics of an MCAP log with their message types, encodings, message "
-            "counts and mean rates (by log time), the log's duration, and which topics "
+            "counts and mean rates (by log time; - for a topic of too few or bunched messages), "
+            "the log's duration, and which topics "
             "`read_trace` would use as command (Twist/TwistStamped) and measurement "
             "(Odometry/JointState). A CSV log (columns t, cmd_v, cmd_w, meas_v, meas_w in "
             "s, m/s, rad/s; optional pose x, y, yaw in m, m, rad; other columns ignored) has no "

@@ -24,6 +24,7 @@ from tests.ros1_bags import write_joint_state_bag
 T0_NS = 1_700_000_000_123_456_789
 FIELDS = ("cmd_t_ns", "cmd_v", "cmd_w", "meas_t_ns", "meas_v", "meas_w", "pose_x", "pose_y")
 BUMP_MSG = "bool leftFront\nbool rightFront\nbool leftSide\nbool rightSide\n"
+TF_MSG = "geometry_msgs/TransformStamped[] transforms\n"
 
 
 def recording(n: int = 240, seed: int = 3) -> Trace:
@@ -134,6 +135,7 @@ def _bag_with_extras(path: Path, *, topics: tuple[str, str] = ("/cmd_vel", "/odo
 
     store = get_typestore(Stores.ROS1_NOETIC)
     store.register(get_types_from_msg(BUMP_MSG, "neato_node/msg/Bump"))
+    store.register(get_types_from_msg(TF_MSG, "tf2_msgs/msg/TFMessage"))
     src = write_rosbag(path.with_suffix(".src.bag"), recording(60))
     with Writer(path) as wr:
         conns = {
@@ -142,6 +144,8 @@ def _bag_with_extras(path: Path, *, topics: tuple[str, str] = ("/cmd_vel", "/odo
         }
         bump = wr.add_connection("/bump", "neato_node/msg/Bump", typestore=store)
         scan = wr.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store)
+        tf = wr.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=store)
+        rosout = wr.add_connection("/rosout", "rosgraph_msgs/msg/Log", typestore=store)
         with Reader(src) as rd:
             for c, t, raw in rd.messages():
                 wr.write(conns[c.topic], t, raw)
@@ -150,6 +154,10 @@ def _bag_with_extras(path: Path, *, topics: tuple[str, str] = ("/cmd_vel", "/odo
             msg = Bump(leftFront=i % 2, rightFront=0, leftSide=0, rightSide=1)
             wr.write(bump, T0_NS + i * 10**8, store.serialize_ros1(msg, "neato_node/msg/Bump"))
             wr.write(scan, T0_NS + i * 10**8, b"\x00" * 8)  # never decoded: only counted
+        for i in range(60):  # 10 Hz, no transform (an empty array)
+            wr.write(tf, T0_NS + i * 10**8, b"\x00" * 4)
+        for i in range(11):  # a node's start-up lines: 11 messages within 0.2 s
+            wr.write(rosout, T0_NS + i * 2 * 10**7, b"\x00" * 8)
     return path
 
 
@@ -159,10 +167,26 @@ def test_custom_and_unrelated_channels_are_skipped_with_one_note(tmp_path: Path)
     assert tr.meta.meas_count == 60
     notes = [w for w in tr.meta.warnings if "skipped" in w]
     assert len(notes) == 1 and "/bump (neato_node/msg/Bump)" in notes[0]
-    assert "/scan" not in notes[0]  # a standard type is not "unknown"
+    for standard in ("/scan", "/tf", "/rosout"):  # standard types are not "unknown"
+        assert standard not in notes[0]
     info = inspect_log(path)
     assert info.topic("/bump").count == 10 and info.topic("/scan").count == 10
     assert (info.cmd_topic, info.meas_topic) == ("/cmd_vel", "/odom")
+    assert info.topic("/tf").rate_hz == pytest.approx(10.0)
+    assert info.topic("/rosout").count == 11 and info.topic("/rosout").rate_hz is None
+
+
+def test_logs_info_gives_no_rate_to_a_burst(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _bag_with_extras(tmp_path / "neato_like.bag")
+    assert main(["logs", "info", str(path)]) == 0
+    rows = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines() if line}
+    assert rows["/rosout"][-2:] == ["11", "-"]  # 11 messages in 0.2 s: no rate
+    assert rows["/tf"][-1] == "10.00" and rows["/bump"][-1] == "-"  # /bump: 10 in 0.9 s
+    assert main(["logs", "info", str(path), "--json"]) == 0
+    topics = {t["topic"]: t for t in json.loads(capsys.readouterr().out)["topics"]}
+    assert topics["/rosout"]["rate_hz"] is None and topics["/tf"]["rate_hz"] == pytest.approx(10)
 
 
 def test_joint_state_in_a_bag(tmp_path: Path) -> None:
