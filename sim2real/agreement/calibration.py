@@ -483,7 +483,8 @@ def calibrate_traces(
     n_active = sum(int(lg.active.sum()) for lg in logs)
     if n_active < 20:
         raise Sim2RealValueError(
-            f"the calibration log(s) have {n_active} active samples; calibration needs at least "
+            f"the calibration log(s) {_names(traces)} have {n_active} active samples; "
+            "calibration needs at least "
             "20 (a log in which the robot moves and turns)"
         )
 
@@ -773,6 +774,11 @@ def calibrate(
 #: in ``benchmarks/bench_novel_robots.py`` two 40 s sessions per base (~70 s active) left new
 #: sessions' v coverage at 75.7-77.4 % where two 90 s sessions gave 81.8-92.4 %.
 SHORT_VALIDATION_S = 120.0
+
+
+def _names(traces: Sequence[Any]) -> str:
+    """The traces' files, quoted and comma-separated (as a sentence names them)."""
+    return ", ".join(f"'{getattr(t.meta, 'path', '') or 'trace'}'" for t in traces)
 
 
 def _short_data_note(traces: Sequence[Any], n_active: int) -> str | None:
