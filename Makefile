@@ -15,16 +15,25 @@ TORCH ?= torch==2.13.0
 
 .PHONY: demo test lint venv dev docs bench clean data train-extra rllib-extra test-train
 
+# numba compiles the reduced drive model's kernels on their first use (~13 s of CPU) and keeps
+# them in its on-disk cache (robots/_jit.py): a short fit at install compiles them once, so the
+# first `sim2real sysid fit`, `sysid calibrate` or `agree --engine reduced` loads them instead.
+# $(call warm,BIN-FOLDER)
+warm = $(1)/sim2real sysid fit data/demo_train.mcap --robot turtlebot3_burger --window 0:20 \
+	-o $(1)/../.warm-params.yaml > /dev/null
+
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 
 $(STAMP_RUN): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e .
+	$(call warm,$(BIN))
 	touch $@
 
 $(STAMP_DEV): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e '.[dev]'
+	$(call warm,$(BIN))
 	touch $@ $(STAMP_RUN)
 
 $(STAMP_TRAIN): pyproject.toml $(STAMP_DEV)
@@ -41,6 +50,7 @@ $(STAMP_RLLIB): pyproject.toml
 	$(VENV_RLLIB)/bin/python -m pip install -q --upgrade pip
 	$(VENV_RLLIB)/bin/python -m pip install -q '$(TORCH)'
 	$(VENV_RLLIB)/bin/python -m pip install -q -e '.[dev,train,rllib]'
+	$(call warm,$(VENV_RLLIB)/bin)
 	touch $@
 
 venv: $(STAMP_RUN)
