@@ -64,9 +64,10 @@ COURSE = {
 MAX_STEPS = 120
 #: (full, smoke) budgets.
 BUDGETS = {
-    "full": {"sessions": 6, "session_s": 90.0, "timesteps": 150_000, "seeds": [0, 1, 2]},
+    "full": {"sessions": 6, "session_s": 90.0, "timesteps": 100_000, "seeds": [0, 1, 2]},
     "smoke": {"sessions": 3, "session_s": 30.0, "timesteps": 1024, "seeds": [0]},
 }
+CONDITIONS = ("spec", "fitted", "calibrated DR", "blind DR")
 PLANT_SEED0 = 800_000
 SIM_SEED0 = 900_000
 
@@ -188,9 +189,20 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     ap.add_argument("--smoke", action="store_true", help="the whole loop at a tiny budget")
     ap.add_argument("--episodes", type=int, help="evaluation episodes per model and world")
+    ap.add_argument("--timesteps", type=int, help="env steps per training run (budget's default)")
+    ap.add_argument("--seeds", type=int, nargs="+", help="training seeds (budget's default)")
+    ap.add_argument(
+        "--conditions",
+        nargs="+",
+        choices=CONDITIONS,
+        default=list(CONDITIONS),
+        help="conditions to train and evaluate (default all four)",
+    )
     ap.add_argument("--out", type=Path, default=Path("bench-transfer"))
     args = ap.parse_args(argv)
-    budget = BUDGETS["smoke" if args.smoke else "full"]
+    budget = dict(BUDGETS["smoke" if args.smoke else "full"])
+    budget["timesteps"] = args.timesteps or budget["timesteps"]
+    budget["seeds"] = args.seeds or budget["seeds"]
     episodes = args.episodes or (4 if args.smoke else 34)
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -201,6 +213,8 @@ def main(argv: list[str] | None = None) -> int:
     rows: dict[str, dict[str, list[Any]]] = {}
     for seed in budget["seeds"]:
         for name, (kwargs, stack) in conditions(fitted, calibrated, blind).items():
+            if name not in args.conditions:
+                continue
             run = args.out / f"{name.replace(' ', '_')}_seed{seed}"
             model = train_run(run, kwargs, stack, seed, budget["timesteps"])
             for world, kw, st, seed0 in (
