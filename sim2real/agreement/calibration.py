@@ -459,124 +459,30 @@ def calibrate_traces(
     -------
     CalibrationResult
     """
-    check_tolerances(tol_v, tol_w)
-    if isinstance(n, bool) or not isinstance(n, int) or n < 4:
-        raise Sim2RealValueError(
-            f"calibration ensemble size (--ensemble) must be an integer >= 4, got {n!r}; e.g. "
-            f"--ensemble {DEFAULT_N}"
-        )
-    if not traces:
-        raise Sim2RealValueError("calibrate needs at least one calibration log; pass one")
-    if isinstance(fit_sessions, bool) or not isinstance(fit_sessions, int) or fit_sessions < 1:
-        raise Sim2RealValueError(
-            f"fit_sessions (the logs the params file was fitted on) must be an integer >= 1, "
-            f"got {fit_sessions!r}; pass the fit's settings.sessions"
-        )
-    spec = resolve_robot(robot)
-    logs = []
-    for trace in traces:
-        rv = np.asarray(trace.meas_v, dtype=np.float64)
-        rw = np.asarray(trace.meas_w, dtype=np.float64)
-        cv, cw = trace.cmd_at_meas()
-        active = active_mask(cv, cw, rv, rw, tol_v=tol_v, tol_w=tol_w)
-        logs.append(_Log(trace=trace, active=active, v=rv[active], w=rw[active]))
-    n_active = sum(int(lg.active.sum()) for lg in logs)
-    if n_active < 20:
-        raise Sim2RealValueError(
-            f"the calibration log(s) {_names(traces)} have {n_active} active samples; "
-            "calibration needs at least "
-            "20 (a log in which the robot moves and turns)"
-        )
-
-    fitted = distribution.covariance_array
-    session = session_covariance(distribution, spec)
-
-    def mixed(factor: float, session_factor: float) -> Any:
-        # a field the logs do not inform cannot be widened without bound (correlations kept)
-        cov = cap_spread(
-            factor**2 * fitted + session_factor**2 * session,
-            distribution.names,
-            distribution.geometry,
-        )
-        return dataclasses.replace(
-            distribution, covariance=tuple(tuple(float(c) for c in row) for row in cov)
-        )
-
-    def members(factor: float, session_factor: float) -> tuple[FloatArray, FloatArray]:
-        vs, ws = [], []
-        dist = mixed(factor, session_factor)
-        for lg in logs:
-            _, mv, mw = ensemble_members(
-                lg.trace,
-                robot=spec,
-                distribution=dist,
-                n=n,
-                seed=seed,
-                engine=engine,
-                odom_v_window_s=odom_v_window_s,
-            )
-            vs.append(mv[:, lg.active])
-            ws.append(mw[:, lg.active])
-        return np.concatenate(vs, axis=1), np.concatenate(ws, axis=1)
-
-    real_v = np.concatenate([lg.v for lg in logs])
-    real_w = np.concatenate([lg.w for lg in logs])
-    noise = distribution.noise
-    cache: dict[tuple[float, float], tuple[float, float, float]] = {}
-
-    best_members: list[Any] = []  # [loglik, members v, members w] of the best point so far
-
-    def evaluate(x: Sequence[float]) -> float:
-        """-loglik at (log factor, session factor); noise stds maximised inside."""
-        key = (round(float(x[0]), 6), round(min(max(float(x[1]), 0.0), SESSION_MAX), 6))
-        if key not in cache:
-            mv, mw = members(math.exp(key[0]), key[1])
-            sv, llv = _best_noise(real_v, mv, noise.quantum_v_mps, NOISE_RANGE)
-            sw, llw = _best_noise(real_w, mw, noise.quantum_w_radps, NOISE_RANGE)
-            cache[key] = (llv + llw, sv, sw)
-            if not best_members or llv + llw > best_members[0]:  # the coverage matching's
-                best_members[:] = [llv + llw, mv, mw]
-        return -cache[key][0]
-
-    log_lo, log_hi = math.log(FACTOR_RANGE[0]), math.log(FACTOR_RANGE[1])
-    for lf in np.linspace(log_lo, log_hi, GRID_POINTS):
-        for sf in SESSION_GRID:
-            evaluate((float(lf), sf))
-    best = min(cache, key=lambda k: -cache[k][0])
-
-    minimize(
-        evaluate,
-        np.array(best),
-        method="Nelder-Mead",
-        bounds=[(log_lo, log_hi), (0.0, SESSION_MAX)],
-        options={"maxfev": REFINE_EVALUATIONS, "xatol": 0.02, "fatol": 1e-4,
-                 "initial_simplex": [best, (best[0] + 0.3, best[1]), (best[0], best[1] + 0.25)]},
-    )  # fmt: skip
-    best = min(cache, key=lambda k: -cache[k][0])
-    lik_factor, lik_session = math.exp(best[0]), best[1]
+    _check_calibration_args(traces, n, tol_v, tol_w, fit_sessions)
+    search = _FactorSearch(
+        _validation_logs(traces, tol_v, tol_w),
+        spec=resolve_robot(robot),
+        distribution=distribution,
+        n=n,
+        seed=seed,
+        engine=engine,
+        odom_v_window_s=odom_v_window_s,
+    )
+    lik_factor, lik_session = search.likelihood_optimum()
     factor, session_factor = pooled_factors(
         lik_factor, lik_session, fit_sessions=fit_sessions, validation_sessions=len(traces)
     )
-    _, mvb, mwb = best_members  # the likelihood optimum's ensembles
-    ll, std_v, std_w = cache[best]
-    if (factor, session_factor) != (lik_factor, lik_session):
-        mvb, mwb = members(factor, session_factor)
-        std_v, llv = _best_noise(real_v, mvb, noise.quantum_v_mps, NOISE_RANGE)
-        std_w, llw = _best_noise(real_w, mwb, noise.quantum_w_radps, NOISE_RANGE)
-        ll = llv + llw
-    mv1, mw1 = members(1.0, 0.0)
-    ll_before = predictive_log_likelihood(
-        real_v, mv1, noise.std_v_mps**2 + noise.quantum_v_mps**2 / 12.0
-    ) + predictive_log_likelihood(
-        real_w, mw1, noise.std_w_radps**2 + noise.quantum_w_radps**2 / 12.0
-    )
+    mvb, mwb, ll, std_v, std_w = search.at(factor, session_factor)
+    noise = distribution.noise
+    real_v, real_w = search.real_v, search.real_w
     scale_v, cov_v0, cov_v = match_noise_scale(real_v, mvb, std_v, noise.quantum_v_mps, seed=seed)
     scale_w, cov_w0, cov_w = match_noise_scale(
         real_w, mwb, std_w, noise.quantum_w_radps, seed=seed + 1
     )
     std_v, std_w = std_v * scale_v, std_w * scale_w
     calibrated = dataclasses.replace(
-        mixed(factor, session_factor),
+        search.mixed(factor, session_factor),
         noise=dataclasses.replace(noise, std_v_mps=std_v, std_w_radps=std_w),
     )
     return CalibrationResult(
@@ -591,14 +497,14 @@ def calibrate_traces(
         noise_factor_v=std_v / noise.std_v_mps if noise.std_v_mps > 0 else math.nan,
         noise_factor_w=std_w / noise.std_w_radps if noise.std_w_radps > 0 else math.nan,
         log_likelihood=ll,
-        log_likelihood_before=ll_before,
+        log_likelihood_before=search.log_likelihood_before(),
         noise_scale_v=scale_v,
         noise_scale_w=scale_w,
         coverage_v_likelihood=cov_v0,
         coverage_w_likelihood=cov_w0,
         coverage_v=cov_v,
         coverage_w=cov_w,
-        n_active=n_active,
+        n_active=search.n_active,
         n=n,
         seed=seed,
         engine=engine,
@@ -609,6 +515,164 @@ def calibrate_traces(
             (str(getattr(t.meta, "path", "")), str(getattr(t.meta, "sha256", ""))) for t in traces
         ),
     )
+
+
+def _check_calibration_args(
+    traces: Sequence[Any], n: int, tol_v: float, tol_w: float, fit_sessions: int
+) -> None:
+    check_tolerances(tol_v, tol_w)
+    if isinstance(n, bool) or not isinstance(n, int) or n < 4:
+        raise Sim2RealValueError(
+            f"calibration ensemble size (--ensemble) must be an integer >= 4, got {n!r}; e.g. "
+            f"--ensemble {DEFAULT_N}"
+        )
+    if not traces:
+        raise Sim2RealValueError("calibrate needs at least one calibration log; pass one")
+    if isinstance(fit_sessions, bool) or not isinstance(fit_sessions, int) or fit_sessions < 1:
+        raise Sim2RealValueError(
+            f"fit_sessions (the logs the params file was fitted on) must be an integer >= 1, "
+            f"got {fit_sessions!r}; pass the fit's settings.sessions"
+        )
+
+
+def _validation_logs(traces: Sequence[Any], tol_v: float, tol_w: float) -> list[_Log]:
+    """Each log's active samples; refused when all of them hold fewer than 20."""
+    logs = []
+    for trace in traces:
+        rv = np.asarray(trace.meas_v, dtype=np.float64)
+        rw = np.asarray(trace.meas_w, dtype=np.float64)
+        cv, cw = trace.cmd_at_meas()
+        active = active_mask(cv, cw, rv, rw, tol_v=tol_v, tol_w=tol_w)
+        logs.append(_Log(trace=trace, active=active, v=rv[active], w=rw[active]))
+    n_active = sum(int(lg.active.sum()) for lg in logs)
+    if n_active < 20:
+        raise Sim2RealValueError(
+            f"the calibration log(s) {_names(traces)} have {n_active} active samples; "
+            "calibration needs at least 20 (a log in which the robot moves and turns)"
+        )
+    return logs
+
+
+class _FactorSearch:
+    """The predictive likelihood of the validation logs over (dynamics, session) factors.
+
+    Every factor pair replays the same ``n`` draws (common random numbers); the noise stds are
+    maximised inside each evaluation, and evaluations are cached by their rounded factors.
+    """
+
+    def __init__(
+        self,
+        logs: list[_Log],
+        *,
+        spec: Any,
+        distribution: Any,
+        n: int,
+        seed: int,
+        engine: str,
+        odom_v_window_s: float,
+    ) -> None:
+        self.logs, self.spec, self.distribution = logs, spec, distribution
+        self.n, self.seed, self.engine, self.odom_v_window_s = n, seed, engine, odom_v_window_s
+        self.fitted = distribution.covariance_array
+        self.session = session_covariance(distribution, spec)
+        self.real_v = np.concatenate([lg.v for lg in logs])
+        self.real_w = np.concatenate([lg.w for lg in logs])
+        self.n_active = sum(int(lg.active.sum()) for lg in logs)
+        self.cache: dict[tuple[float, float], tuple[float, float, float]] = {}
+        self.best_members: list[Any] = []  # [loglik, members v, members w] of the best point
+
+    def mixed(self, factor: float, session_factor: float) -> Any:
+        """The distribution with covariance ``factor^2 fitted + session_factor^2 session``."""
+        # a field the logs do not inform cannot be widened without bound (correlations kept)
+        cov = cap_spread(
+            factor**2 * self.fitted + session_factor**2 * self.session,
+            self.distribution.names,
+            self.distribution.geometry,
+        )
+        return dataclasses.replace(
+            self.distribution, covariance=tuple(tuple(float(c) for c in row) for row in cov)
+        )
+
+    def members(self, factor: float, session_factor: float) -> tuple[FloatArray, FloatArray]:
+        """The ensembles' (v, w) at the active samples of every log, side by side."""
+        vs, ws = [], []
+        dist = self.mixed(factor, session_factor)
+        for lg in self.logs:
+            _, mv, mw = ensemble_members(
+                lg.trace,
+                robot=self.spec,
+                distribution=dist,
+                n=self.n,
+                seed=self.seed,
+                engine=self.engine,
+                odom_v_window_s=self.odom_v_window_s,
+            )
+            vs.append(mv[:, lg.active])
+            ws.append(mw[:, lg.active])
+        return np.concatenate(vs, axis=1), np.concatenate(ws, axis=1)
+
+    def _noise_fit(self, mv: FloatArray, mw: FloatArray) -> tuple[float, float, float]:
+        """(loglik, std v, std w) with the noise stds maximising the likelihood."""
+        noise = self.distribution.noise
+        sv, llv = _best_noise(self.real_v, mv, noise.quantum_v_mps, NOISE_RANGE)
+        sw, llw = _best_noise(self.real_w, mw, noise.quantum_w_radps, NOISE_RANGE)
+        return llv + llw, sv, sw
+
+    def evaluate(self, x: Sequence[float]) -> float:
+        """-loglik at (log factor, session factor); noise stds maximised inside."""
+        key = (round(float(x[0]), 6), round(min(max(float(x[1]), 0.0), SESSION_MAX), 6))
+        if key not in self.cache:
+            mv, mw = self.members(math.exp(key[0]), key[1])
+            self.cache[key] = self._noise_fit(mv, mw)
+            ll = self.cache[key][0]
+            if not self.best_members or ll > self.best_members[0]:  # the coverage matching's
+                self.best_members[:] = [ll, mv, mw]
+        return -self.cache[key][0]
+
+    def _best(self) -> tuple[float, float]:
+        return min(self.cache, key=lambda k: -self.cache[k][0])
+
+    def likelihood_optimum(self) -> tuple[float, float]:
+        """(dynamics factor, session factor) of the largest likelihood: a grid, then
+        Nelder-Mead from its best point."""
+        log_lo, log_hi = math.log(FACTOR_RANGE[0]), math.log(FACTOR_RANGE[1])
+        for lf in np.linspace(log_lo, log_hi, GRID_POINTS):
+            for sf in SESSION_GRID:
+                self.evaluate((float(lf), sf))
+        best = self._best()
+        minimize(
+            self.evaluate,
+            np.array(best),
+            method="Nelder-Mead",
+            bounds=[(log_lo, log_hi), (0.0, SESSION_MAX)],
+            options={"maxfev": REFINE_EVALUATIONS, "xatol": 0.02, "fatol": 1e-4,
+                     "initial_simplex": [best, (best[0] + 0.3, best[1]), (best[0], best[1] + 0.25)]},
+        )  # fmt: skip
+        best = self._best()
+        return math.exp(best[0]), best[1]
+
+    def at(
+        self, factor: float, session_factor: float
+    ) -> tuple[FloatArray, FloatArray, float, float, float]:
+        """(members v, members w, loglik, std v, std w) at the calibrated factors: the
+        likelihood optimum's when they are its (after :meth:`likelihood_optimum`)."""
+        best = self._best()
+        _, mv, mw = self.best_members
+        ll, std_v, std_w = self.cache[best]
+        if (factor, session_factor) != (math.exp(best[0]), best[1]):
+            mv, mw = self.members(factor, session_factor)
+            ll, std_v, std_w = self._noise_fit(mv, mw)
+        return mv, mw, ll, std_v, std_w
+
+    def log_likelihood_before(self) -> float:
+        """The likelihood of the file's own distribution (factors 1 and 0, its noise)."""
+        noise = self.distribution.noise
+        mv1, mw1 = self.members(1.0, 0.0)
+        return predictive_log_likelihood(
+            self.real_v, mv1, noise.std_v_mps**2 + noise.quantum_v_mps**2 / 12.0
+        ) + predictive_log_likelihood(
+            self.real_w, mw1, noise.std_w_radps**2 + noise.quantum_w_radps**2 / 12.0
+        )
 
 
 def pooled_factors(

@@ -61,6 +61,7 @@ from robots.units import nanoseconds
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import integrate_pose, write_trace
 from sim2real.logs.trace import Trace, TraceMeta
+from sim2real.plants._clock import check_commands, odometry_clock
 from sysid.synthetic import step_commands
 
 __all__ = [
@@ -540,6 +541,17 @@ def _fresh_state() -> FloatArray:
 
 
 @numba.njit(cache=True)
+def _write_out(
+    out: FloatArray, k: int, a: float, prev: FloatArray, v: float, w: float, ang: FloatArray
+) -> None:
+    """Row ``k`` of ``out``: (v, w, wheel angles) a fraction ``a`` of the step from ``prev``."""
+    out[k, 0] = prev[0] + a * (v - prev[0])
+    out[k, 1] = prev[1] + a * (w - prev[1])
+    out[k, 2] = prev[2] + a * (ang[0] - prev[2])
+    out[k, 3] = prev[3] + a * (ang[1] - prev[3])
+
+
+@numba.njit(cache=True)
 def _kernel(
     p: FloatArray,
     arr_t: FloatArray,
@@ -591,11 +603,7 @@ def _kernel(
     k_out = 0
     n_out = out_t.size
     while k_out < n_out and out_t[k_out] <= t:  # passed in the last step of an earlier call
-        a = (out_t[k_out] - (t - dt)) / dt
-        out[k_out, 0] = prev[0] + a * (v - prev[0])
-        out[k_out, 1] = prev[1] + a * (w - prev[1])
-        out[k_out, 2] = prev[2] + a * (ang[0] - prev[2])
-        out[k_out, 3] = prev[3] + a * (ang[1] - prev[3])
+        _write_out(out, k_out, (out_t[k_out] - (t - dt)) / dt, prev, v, w, ang)
         k_out += 1
     while k_out < n_out:
         if t >= next_ctrl - 1e-12:
@@ -645,11 +653,7 @@ def _kernel(
         ang[1] += dt * (v_new + half * w_new) / r
         v, w = v_new, w_new
         while k_out < n_out and out_t[k_out] <= t_new:
-            a = (out_t[k_out] - t) / dt
-            out[k_out, 0] = prev[0] + a * (v - prev[0])
-            out[k_out, 1] = prev[1] + a * (w - prev[1])
-            out[k_out, 2] = prev[2] + a * (ang[0] - prev[2])
-            out[k_out, 3] = prev[3] + a * (ang[1] - prev[3])
+            _write_out(out, k_out, (out_t[k_out] - t) / dt, prev, v, w, ang)
             k_out += 1
         t = t_new
     state[0], state[1] = v, w
@@ -732,22 +736,11 @@ def run_plant(
     >>> round(float(run.true_v[-1]), 2)
     0.0
     """
-    t = np.asarray(cmd_t_s, dtype=np.float64)
-    cv = np.asarray(cmd_v, dtype=np.float64)
-    cw = np.asarray(cmd_w, dtype=np.float64)
-    if not (t.ndim == 1 and t.size == cv.size == cw.size and np.all(np.diff(t) > 0)):
-        raise Sim2RealValueError(
-            "cmd_t_s, cmd_v and cmd_w must be 1-D of equal length with increasing times, got "
-            f"sizes {t.size}, {cv.size}, {cw.size}"
-        )
+    t, cv, cw = check_commands(cmd_t_s, cmd_v, cmd_w)
     if not np.all(np.isfinite(cv)) or not np.all(np.isfinite(cw)) or not duration_s > 0:
         raise Sim2RealValueError("commands must be finite and duration_s positive")
     arrival = _arrivals(params, t, rng)
-    period = 1.0 / params.odom_rate_hz
-    phase = rng.uniform(0.0, period)
-    ticks_t = (phase + period * np.arange(int((duration_s - phase) / period) + 1)).astype(
-        np.float64
-    )
+    period, ticks_t = odometry_clock(rng, params.odom_rate_hz, duration_s)
     out = np.zeros((ticks_t.size, 4))
     _kernel(
         _pack(params),

@@ -63,6 +63,7 @@ from numpy.typing import NDArray
 from robots.units import nanoseconds
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace, TraceMeta
+from sim2real.plants._clock import check_commands, odometry_clock
 from sim2real.plants.diff_drive import command_profile
 
 __all__ = [
@@ -441,19 +442,10 @@ def run_skid_plant(
     Draws from ``rng``, in this order: the command latencies, the odometry clock's phase,
     the encoder-v noise and the gyro noise.
     """
-    t = np.asarray(cmd_t_s, dtype=np.float64)
-    cv = np.asarray(cmd_v, dtype=np.float64)
-    cw = np.asarray(cmd_w, dtype=np.float64)
-    if not (t.ndim == 1 and t.size == cv.size == cw.size and np.all(np.diff(t) > 0)):
-        raise Sim2RealValueError(
-            "cmd_t_s, cmd_v and cmd_w must be 1-D of equal length with increasing times"
-        )
+    t, cv, cw = check_commands(cmd_t_s, cmd_v, cmd_w)
     lat = np.maximum(params.latency_s + params.latency_jitter_s * rng.standard_normal(t.size), 0)
     arrival = np.maximum.accumulate(t + lat)
-    period = 1.0 / params.odom_rate_hz
-    phase = rng.uniform(0.0, period)
-    n_ticks = int((duration_s - phase) / period) + 1
-    ticks = (phase + period * np.arange(n_ticks)).astype(np.float64)
+    _, ticks = odometry_clock(rng, params.odom_rate_hz, duration_s)
     out = _states(params, arrival, cv, cw, ticks)
     r = params.wheel_radius_m
     meas_v = 0.5 * r * (out[:, 3] + out[:, 4])

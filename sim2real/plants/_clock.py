@@ -1,0 +1,56 @@
+"""What every plant's session shares: the command arrays checked and the odometry clock."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sim2real.errors import Sim2RealValueError
+
+__all__ = ["check_commands", "odometry_clock"]
+
+FloatArray = NDArray[np.float64]
+
+
+def check_commands(
+    cmd_t_s: Sequence[float] | FloatArray,
+    cmd_v: Sequence[float] | FloatArray,
+    cmd_w: Sequence[float] | FloatArray,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The command times (s), v (m/s) and w (rad/s) as float arrays, checked.
+
+    Examples
+    --------
+    >>> t, v, w = check_commands([0.0, 0.1], [0.1, 0.2], [0.0, 0.0])
+    >>> t.dtype.name, v.tolist()
+    ('float64', [0.1, 0.2])
+    """
+    t = np.asarray(cmd_t_s, dtype=np.float64)
+    cv = np.asarray(cmd_v, dtype=np.float64)
+    cw = np.asarray(cmd_w, dtype=np.float64)
+    if not (t.ndim == 1 and t.size == cv.size == cw.size and np.all(np.diff(t) > 0)):
+        raise Sim2RealValueError(
+            "cmd_t_s, cmd_v and cmd_w must be 1-D of equal length with increasing times, got "
+            f"sizes {t.size}, {cv.size}, {cw.size}"
+        )
+    return t, cv, cw
+
+
+def odometry_clock(
+    rng: np.random.Generator, rate_hz: float, duration_s: float
+) -> tuple[float, FloatArray]:
+    """(period s, tick times s) of an odometry clock at ``rate_hz`` over ``duration_s``: its
+    phase is drawn from ``rng`` (one uniform draw), uniform over one period.
+
+    Examples
+    --------
+    >>> period, ticks = odometry_clock(np.random.default_rng(0), 10.0, 1.0)
+    >>> period, ticks.size
+    (0.1, 10)
+    """
+    period = 1.0 / rate_hz
+    phase = rng.uniform(0.0, period)
+    n_ticks = int((duration_s - phase) / period) + 1
+    return period, (phase + period * np.arange(n_ticks)).astype(np.float64)
