@@ -200,6 +200,8 @@ def run_demo(
         summary["elapsed_s"] = round(time.perf_counter() - start, 2)
         write_json(staged.staged(out / "summary.json"), summary)
     print(summary_table(outcome.runs, outcome.ensemble))
+    if outcome.verdict is not None:  # the report's verdict, in the same words
+        print("\n".join(outcome.verdict.lines()))
     before, after = summary["defaults"]["agreement"], summary["sysid"]["agreement"]
     cov = summary["coverage"]
     print(

@@ -222,6 +222,32 @@ def find_unattended(
     -------
     Unattended
     """
+    parts = trace.segments()  # a pause in the odometry: each side on its own
+    if len(parts) > 1 and sum(p.meas_t_ns.size for p in parts) == trace.meas_t_ns.size:
+        found = [_find(p, settle_s, cmd_timeout_s) for p in parts]
+        motion = np.concatenate([f.motion for f in found])
+        stopped = np.concatenate([f.stopped for f in found])
+        active = np.concatenate([f.active for f in found])
+        return _unattended(trace.meas_t_s, motion, stopped, active)
+    return _find(trace, settle_s, cmd_timeout_s)
+
+
+def _unattended(
+    t: FloatArray, motion: BoolArray, stopped: BoolArray, active: BoolArray
+) -> Unattended:
+    flagged = motion | stopped
+    n_active = int(active.sum())
+    return Unattended(
+        motion=motion,
+        stopped=stopped,
+        active=active,
+        ranges_s=_merged(t, flagged),
+        share=float(flagged[active].sum() / n_active) if n_active else 0.0,
+    )
+
+
+def _find(trace: Trace, settle_s: float, cmd_timeout_s: float) -> Unattended:
+    """:func:`find_unattended` on one segment (no pause in its odometry)."""
     t = trace.meas_t_s
     cv, cw = trace.cmd_at_meas()
     v, w = _median3(trace.meas_v), _median3(trace.meas_w)
@@ -244,16 +270,7 @@ def find_unattended(
         motion |= inside & moving
         stopped |= inside & ~moving
     stopped &= ~motion
-    active = moving | asks | ~zero
-    flagged = motion | stopped
-    n_active = int(active.sum())
-    return Unattended(
-        motion=motion,
-        stopped=stopped,
-        active=active,
-        ranges_s=_merged(t, flagged),
-        share=float(flagged[active].sum() / n_active) if n_active else 0.0,
-    )
+    return _unattended(t, motion, stopped, moving | asks | ~zero)
 
 
 def _age(trace: Trace) -> FloatArray:

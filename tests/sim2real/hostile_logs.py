@@ -169,7 +169,7 @@ def _write_raw(
 
 def figures_finite(figures: dict[str, Any]) -> list[str]:
     """Keys of the agree JSON whose documented number is missing or not finite."""
-    provenance = {"params_file", "log_file", "log_sha256", "robot"}
+    provenance = {"params_file", "log_file", "log_sha256", "robot", "notes"}  # notes: sentences
     bad = []
     for key, value in figures.items():
         if key in provenance:

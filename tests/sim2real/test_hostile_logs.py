@@ -471,7 +471,9 @@ def test_a_year_long_pause_stays_under_half_a_gigabyte(year_gap_log: Path, comma
         argv = {
             "logs": ["logs", "info", year_gap_log.name],
             "sysid": [*_SYSID, year_gap_log.name, "-o", "p.yaml"],
-            "agree": ["agree", year_gap_log.name, "--robot", ROBOT, "--json", "a.json"],
+            "agree": [  # --keep-all: every sample of both segments counted
+                *("agree", year_gap_log.name, "--robot", ROBOT, "--json", "a.json", "--keep-all")
+            ],
         }[command]
         proc, peak_mb = _sub(*argv, cwd=folder)
     finally:
