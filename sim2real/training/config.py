@@ -463,6 +463,12 @@ def config_from_dict(
     env_id = resolve_env_id(env["id"], where=f"{where}: env id")
     evaluation = _mapping(doc.get("evaluation"), "evaluation", where)
     env_kwargs = _with_params_path(_mapping(env.get("kwargs"), "env.kwargs", where), folder)
+    if env_kwargs.get("dynamics") == "plant":
+        raise Sim2RealValueError(
+            f"{where}: env.kwargs dynamics 'plant' is a foreign base that stands in for the real "
+            "robot and is never trained on; train with dynamics 'reduced' and evaluate on the "
+            "plant (evaluation.kwargs dynamics: plant, or sim2real envs eval --dynamics plant)"
+        )
     eval_kwargs = _with_params_path(
         _mapping(evaluation.get("kwargs"), "evaluation.kwargs", where), folder
     )

@@ -195,3 +195,15 @@ def test_drive_params_cannot_be_set_on_the_plant() -> None:
     assert env.get_drive_params() == load_spec("turtlebot3_burger").drive
     with pytest.raises(Sim2RealValueError, match="does not apply to dynamics='plant'"):
         env.set_drive_params(env.get_drive_params())
+
+
+def test_a_training_config_on_the_plant_is_refused_its_evaluation_is_not() -> None:
+    from sim2real.training.config import config_from_dict
+
+    env = {"id": "sim2real/RandomMap-v0", "kwargs": {"dynamics": "plant"}}
+    with pytest.raises(Sim2RealValueError, match="is never trained on; train with dynamics"):
+        config_from_dict({"env": env})
+    ok = config_from_dict(
+        {"env": "sim2real/RandomMap-v0", "evaluation": {"kwargs": {"dynamics": "plant"}}}
+    )
+    assert ok.eval_kwargs["dynamics"] == "plant"
