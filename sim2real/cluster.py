@@ -107,9 +107,9 @@ def connect(address: str, *, local_cpus: int | None = None, lean: bool = False) 
     A local Ray started here runs without the dashboard and without usage reporting (background
     work that would otherwise take CPU from the tasks on a small machine), and its workers at
     this process's scheduling priority: Ray's default (``RAY_worker_niceness`` 15) runs every
-    task at nice 15, so on a machine doing anything else the per-log tasks got a fraction of the
-    CPU the serial loop gets (measured: 0.8x the serial speed at load ~10). An explicit
-    ``RAY_worker_niceness`` in the environment is kept.
+    task at nice 15, so on a machine doing anything else the per-log tasks get only a fraction
+    of the CPU the serial loop gets. An explicit ``RAY_worker_niceness`` in the environment is
+    kept.
 
     Call it from the main thread: Ray ties the processes it starts to the life of the calling
     *thread* (Linux ``PR_SET_PDEATHSIG``, prctl(2)), so a local Ray started from a thread that
@@ -173,11 +173,9 @@ def _lean_init_kw(lean: bool) -> dict[str, Any]:
     driver registers and holds that driver's registration reply until the worker has
     registered too (``WorkerPool::RegisterDriver``, Ray 2.60), ~0.4 s of ``import ray`` in the
     new process. The driver waits for it inside the ``CoreWorker`` constructor without
-    releasing the GIL, so this process's thread, already working on items, stood still for
-    0.36-0.56 s (measured here: a busy thread's longest pause during ``ray.init``, 5 runs, under
-    load ~2-3; 0.10-0.11 s without the prestart, the GCS start's ``fork``). Without it the
-    worker starts with the first task, about as early: :func:`map_tasks` submits one right after
-    ``ray.init`` returns.
+    releasing the GIL, so this process's thread, already working on items, would stand still
+    for that time. Without it the worker starts with the first task, about as early:
+    :func:`map_tasks` submits one right after ``ray.init`` returns.
     """
     return {"_system_config": {"prestart_worker_first_driver": False}} if lean else {}
 
@@ -190,9 +188,9 @@ def _lean_head(ray: Any, lean: bool) -> Iterator[bool]:
     services; three of them serve a long-lived cluster, not one command's tasks: the
     autoscaler monitor (adds nodes), the log monitor (streams workers' stdout/stderr to the
     driver; our tasks return their warnings as values) and the dashboard's API server (job
-    submission, state API). Each costs ~0.4 CPU-s to start (it imports Ray), and stopping the
-    monitor alone makes ``ray.shutdown()`` wait 1 s (Ray 2.60, measured here: 1.1-1.4 s
-    shutdown with them, 0.1 s without; 2.9 -> 1.7 CPU-s of services in the first 5 s).
+    submission, state API). Each imports Ray as it starts, and stopping the monitor makes
+    ``ray.shutdown()`` wait 1 s (its SIGTERM handler reports to a GCS already stopped, and Ray
+    waits 1 s before SIGKILL; Ray 2.60).
 
     ``ray start`` has switches for the first two (``--no-monitor``,
     ``--include-log-monitor=false``) but ``ray.init()`` has none, so this sets the same
@@ -260,11 +258,10 @@ def _registered_first(get_node: Callable[[str, str], Any]) -> Callable[[str, str
     raylet, and when the node is not there yet, asks again after 1 s, and again
     (``GlobalStateAccessor::GetNode``, a 1 s sleep; Ray 2.60). The raylet registers only once
     its two agents (the dashboard agent and the runtime-env agent, Python processes that
-    import Ray) are up, 2-4 s after the start on 2 cores (measured here, load 2-3), so
-    ``ray.init`` went on up to a second after the node was ready, while nothing could run on
-    it. This asks every :data:`_REGISTERED_POLL_S` (one GCS query for that node id; a busy
-    thread of this process saw no pause over 50 ms meanwhile) and then lets Ray's call find the node at once. An error of the asking
-    (another Ray's API) leaves the wait to Ray, as before.
+    import Ray) are up, seconds after the start on a small machine, so ``ray.init`` would go
+    on up to a second after the node is ready, while nothing can run on it. This asks every
+    :data:`_REGISTERED_POLL_S` (one GCS query for that node id) and then lets Ray's call find
+    the node at once. An error of the asking (another Ray's API) leaves the wait to Ray.
     """
 
     def wait_then_get(gcs_address: str, node_id: str) -> Any:
@@ -298,11 +295,10 @@ def _stale_cluster_file() -> bool:
 
     ``ray start`` / ``ray.init()`` write the head's ``HOST:PORT`` to :func:`_cluster_file`; a
     Ray that was killed (or a machine that rebooted) leaves it behind, and
-    ``ray.init(address="auto")`` then waits for that GCS without end (measured here: > 60 s,
-    retrying every 5 s). A port that refuses a TCP connection (or a record that is not
-    ``HOST:PORT``) means nobody is running there: ``--ray auto`` removes the record and starts
-    a local Ray, as it does when no record exists. A probe that only times out
-    (:data:`_PROBE_S`) is left to Ray, as before.
+    ``ray.init(address="auto")`` then waits for that GCS without end (retrying every 5 s). A
+    port that refuses a TCP connection (or a record that is not ``HOST:PORT``) means nobody is
+    running there: ``--ray auto`` removes the record and starts a local Ray, as it does when no
+    record exists. A probe that only times out (:data:`_PROBE_S`) is left to Ray.
     """
     try:
         host, _, port = _cluster_file().read_text(encoding="utf-8").strip().rpartition(":")
@@ -443,11 +439,9 @@ def map_tasks(
     return shared.results
 
 
-#: Wall time of ``ray.shutdown()`` of a local Ray started lean (:func:`_lean_head`; Ray 2.60,
-#: measured 0.08-0.14 s; with the autoscaler monitor it was 1.1-1.4 s: its SIGTERM handler
-#: reports to the GCS already stopped, and Ray waits 1 s before SIGKILL). With ``release``,
-#: the last items that this process's thread can do in that time are left to it, so the
-#: shutdown overlaps them instead of following them.
+#: Wall time of ``ray.shutdown()`` of a local Ray started lean (:func:`_lean_head`), s. With
+#: ``release``, the last items that this process's thread can do in that time are left to it,
+#: so the shutdown overlaps them instead of following them.
 _RAY_SHUTDOWN_S = 0.15
 
 

@@ -6,6 +6,11 @@ message definitions, so a simulated run and a real run open side by side in Foxg
 ``ros2 bag`` tooling and in this reader. :func:`inspect_log` describes a log
 (``sim2real logs info``).
 
+Owns the log formats, the :class:`Trace`, its time base and repairs, and the screening of a
+recording for a robot (:func:`read_for_robot`). May import :mod:`robots.units` (the one time
+conversion), :mod:`sim2real.errors` and :mod:`sim2real._io`; nothing that simulates, fits or
+measures, so every other room can read logs.
+
 Formats
 -------
 A reader factory picks the reader from the path: an MCAP file (ROS 2 CDR or JSON, our own

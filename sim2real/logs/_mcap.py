@@ -24,7 +24,7 @@ when the writer filled them in (non-zero); the data CRC runs over the bytes as t
 checked against the ``Statistics`` record of the summary when there is one. A file with no
 CRC at all (what rosbags and several recorders write) is flagged (``Container.checksums`` is
 False, and ``logs info`` says that corruption cannot be detected). A message whose channel id
-no Channel record defines is an error naming its byte offset (it used to be dropped silently).
+no Channel record defines is an error naming its byte offset (never dropped silently).
 """
 
 from __future__ import annotations

@@ -32,8 +32,8 @@ logs of several sessions of one base. Everything is deterministic for a seed.
 Integration: semi-implicit Euler of the rigid base (mass and yaw inertia with the wheels'
 spin inertia, :attr:`robots.spec.RobotSpec.geometry`) at ``physics_dt_s`` (0.5 ms) in a numba
 kernel; Coulomb terms are regularised with ``tanh`` over a contact speed small enough to be
-stable at that step. A 90 s session takes tens of milliseconds after the first compile,
-about 1500x real time (``benchmarks/bench_plants.py``).
+stable at that step. A 90 s session takes tens of milliseconds after the first compile
+(``benchmarks/bench_plants.py`` measures it).
 
 Examples
 --------
@@ -82,7 +82,7 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-#: Epoch of the simulated logs' clock (2023-11-14T22:13:20Z; an arbitrary start), ns.
+#: Epoch of the simulated logs' clock (1.7e9 s after the Unix epoch; an arbitrary start), ns.
 T0_NS = 1_700_000_000_000_000_000
 
 #: Command profiles of :func:`command_profile`.

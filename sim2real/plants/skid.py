@@ -482,11 +482,8 @@ def make_skid_sessions(
 
     A fit on one session predicts another on a different ground nearly as well as on the
     same: the slip is set by the tyre stiffnesses, and the yaw scrub, which grows with mu,
-    only loads the wheel loops, whose integral term takes it up. Fitted on
-    :func:`husky_like` at mu 0.8, measured on a held-out teleop session at mu x (0.8, 0.9,
-    1.0, 1.2), four command seeds: agreement 0.870-0.925, 0.872-0.934, 0.871-0.940,
-    0.849-0.932 (``benchmarks/bench_skid.py``; with proportional loops the scrub's droop made
-    a slipperier ground turn the base faster than the fit predicted: 0.81-0.91 at x 0.8).
+    only loads the wheel loops, whose integral term takes it up
+    (``benchmarks/bench_skid.py`` measures a fit at one mu on sessions at other mu).
     """
     if n_sessions < 1:
         raise Sim2RealValueError(f"n_sessions must be at least 1, got {n_sessions}")

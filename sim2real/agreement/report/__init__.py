@@ -11,6 +11,12 @@ sim), the parameter table with intervals, the provenance (files with SHA-256, ve
 command line) and the definitions. Plots are drawn by :mod:`sim2real.agreement.report._plots`, the page
 by :mod:`sim2real.agreement.report._html`.
 
+Owns the page and the plots, and computes nothing of its own: the figures, the band and the
+verdict come from :mod:`sim2real.agreement.figures` and :mod:`sim2real.agreement.verdict`.
+May import those, :mod:`sim2real.agreement.replay`'s result types, :mod:`robots.params`,
+:mod:`sysid.metrics` and matplotlib (drawn lazily, off the CLI's start-up path); never
+:mod:`sim2real.agreement.study`, which calls it.
+
 Examples
 --------
 >>> from sim2real.agreement.report import ReportInput, ReportRun, write_report
