@@ -118,7 +118,7 @@ def check_name(name: Any, env: gym.Env[Any, Any], default: str) -> str:
 class Randomizer:
     """Mixin of every randomizer wrapper: generator, curriculum scale and info records.
 
-    Subclasses call :meth:`_init_randomizer` in ``__init__`` and :meth:`_begin_episode` at the
+    Subclasses call :meth:`_wrap` (or :meth:`_init_randomizer`) in ``__init__`` and :meth:`_begin_episode` at the
     start of ``reset`` (before drawing anything), and put their samples in
     ``info["randomization"][self.name]`` with :meth:`_record`.
 
@@ -143,6 +143,21 @@ class Randomizer:
         self._next_scale = scale
         self.rng = np.random.Generator(np.random.PCG64(self._seed_sequence(None)))
         self._normals = NormalPool(dtype)
+
+    def _wrap(
+        self,
+        env: gym.Env[Any, Any],
+        *,
+        name: str,
+        scale: float,
+        dtype: Any = np.float64,
+        **arguments: Any,
+    ) -> None:
+        """Wrap ``env``: record the constructor ``arguments``, then ``scale`` and ``name`` (what
+        ``env.spec`` and a saved config show), and :meth:`_init_randomizer`."""
+        gym.utils.RecordConstructorArgs.__init__(self, **arguments, scale=scale, name=name)  # type: ignore[arg-type]
+        gym.Wrapper.__init__(self, env)  # type: ignore[arg-type]
+        self._init_randomizer(name, scale, dtype)
 
     def _standard_normal(self, n: int) -> np.ndarray:
         """``n`` i.i.d. N(0, 1) samples from this randomizer's stream (a short-lived view)."""

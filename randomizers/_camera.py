@@ -108,16 +108,14 @@ class CameraPoseJitter(
         scale = check_scale(scale)
         require_protocol(env, CAMERA_PROTOCOL, "CameraPoseJitter")
         name = check_name(name, env, "CameraPoseJitter")
-        gym.utils.RecordConstructorArgs.__init__(
-            self,
+        self._wrap(
+            env,
             position_std_m=position_std_m,
             orientation_std_deg=orientation_std_deg,
             resample=resample,
             scale=scale,
             name=name,
         )
-        gym.Wrapper.__init__(self, env)
-        self._init_randomizer(name, scale)
         self.position_std_m = position_std_m
         self.orientation_std_deg = orientation_std_deg
         self.resample = resample

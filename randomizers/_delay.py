@@ -219,8 +219,8 @@ class OdometryDelay(ObservationRandomizer):
         fill = check_choice(fill, argument="fill", choices=_FILL)
         scale = check_scale(scale)
         name = check_name(name, env, "OdometryDelay" + index_label(key, sel.index))
-        gym.utils.RecordConstructorArgs.__init__(
-            self,
+        self._wrap(
+            env,
             **_delay_kwargs(spec, delay_s, delay_steps),
             key=key,
             index=index_kwarg(sel.index),
@@ -229,8 +229,6 @@ class OdometryDelay(ObservationRandomizer):
             scale=scale,
             name=name,
         )
-        gym.ObservationWrapper.__init__(self, env)
-        self._init_randomizer(name, scale)
         self._sel = sel
         self._spec = spec
         self.fill = fill
@@ -306,16 +304,14 @@ class ActionDelay(gym.ActionWrapper[Any, Any, Any], Randomizer, gym.utils.Record
         fill = check_choice(fill, argument="fill", choices=_FILL)
         scale = check_scale(scale)
         name = check_name(name, env, "ActionDelay")
-        gym.utils.RecordConstructorArgs.__init__(
-            self,
+        self._wrap(
+            env,
             **_delay_kwargs(spec, delay_s, delay_steps),
             fill=fill,
             dt_s=None if dt_s is None else float(dt_s),
             scale=scale,
             name=name,
         )
-        gym.ActionWrapper.__init__(self, env)
-        self._init_randomizer(name, scale)
         self._spec = spec
         self.fill = fill
         self.delay_steps = 0

@@ -281,26 +281,19 @@ class DynamicsRandomizer(
             _check_distributions(uni, nor, lim)
         name = check_name(name, env, "DynamicsRandomizer")
         if dist is None:
-            gym.utils.RecordConstructorArgs.__init__(
-                self,
-                uniform={k: list(v) for k, v in uni.items()} or None,
-                normal={k: list(v) for k, v in nor.items()} or None,
-                bounds={k: list(v) for k, v in lim.items()} or None,
-                scale=scale,
-                name=name,
-            )
+            arguments: dict[str, Any] = {
+                "uniform": {k: list(v) for k, v in uni.items()} or None,
+                "normal": {k: list(v) for k, v in nor.items()} or None,
+                "bounds": {k: list(v) for k, v in lim.items()} or None,
+            }
         else:
-            gym.utils.RecordConstructorArgs.__init__(
-                self,
-                sysid=str(sysid),
-                robot=dist.robot,
-                fields=None if fields is None else list(dist.names),
-                spread=spread,
-                scale=scale,
-                name=name,
-            )
-        gym.Wrapper.__init__(self, env)
-        self._init_randomizer(name, scale)
+            arguments = {
+                "sysid": str(sysid),
+                "robot": dist.robot,
+                "fields": None if fields is None else list(dist.names),
+                "spread": spread,
+            }
+        self._wrap(env, scale=scale, name=name, **arguments)
         self._uniform = uni
         self._normal = nor
         self._bounds = lim

@@ -104,8 +104,8 @@ class GoalNoise(ObservationRandomizer):
             )
         scale = check_scale(scale)
         name = check_name(name, env, "GoalNoise" + index_label(key, sel.index))
-        gym.utils.RecordConstructorArgs.__init__(
-            self,
+        self._wrap(
+            env,
             std_m=std_m,
             key=key,
             index=index_kwarg(sel.index),
@@ -115,8 +115,6 @@ class GoalNoise(ObservationRandomizer):
             scale=scale,
             name=name,
         )
-        gym.ObservationWrapper.__init__(self, env)
-        self._init_randomizer(name, scale)
         self._sel = sel
         self.std_m = std_m
         self.coords = coords

@@ -107,17 +107,16 @@ class ObservationNoise(ObservationRandomizer):
         _check_std_scale(std_value, sel.low, sel.high, sel.dtype, "ObservationNoise", "std")
         scale = check_scale(scale)
         name = check_name(name, env, "ObservationNoise" + index_label(key, sel.index))
-        gym.utils.RecordConstructorArgs.__init__(
-            self,
+        self._wrap(
+            env,
             std=std_value if isinstance(std_value, float) else std_value.tolist(),
             key=key,
             index=index_kwarg(sel.index),
             clip=bool(clip),
             scale=scale,
             name=name,
+            dtype=sel.dtype,
         )
-        gym.ObservationWrapper.__init__(self, env)
-        self._init_randomizer(name, scale, sel.dtype)
         self._sel = sel
         self._std = std_value
         self._clip = bool(clip)
@@ -497,8 +496,8 @@ class DepthNoise(ObservationRandomizer):
         _check_std_scale(std_m, near_m, far_m, sel.dtype, "DepthNoise", "std_m")
         scale = check_scale(scale)
         name = check_name(name, env, "DepthNoise" + index_label(key, sel.index))
-        gym.utils.RecordConstructorArgs.__init__(
-            self,
+        self._wrap(
+            env,
             std_m=std_m,
             near_m=near_m,
             far_m=far_m,
@@ -506,9 +505,8 @@ class DepthNoise(ObservationRandomizer):
             index=index_kwarg(sel.index),
             scale=scale,
             name=name,
+            dtype=sel.dtype,
         )
-        gym.ObservationWrapper.__init__(self, env)
-        self._init_randomizer(name, scale, sel.dtype)
         self._sel = sel
         self.std_m = std_m
         self.near_m = near_m
@@ -703,8 +701,8 @@ class LidarNoise(ObservationRandomizer):
         _check_std_scale(std_m, lo, hi, sel.dtype, "LidarNoise", "std_m")
         scale = check_scale(scale)
         name = check_name(name, env, "LidarNoise" + index_label(key, sel.index))
-        gym.utils.RecordConstructorArgs.__init__(
-            self,
+        self._wrap(
+            env,
             std_m=std_m,
             dropout=dropout,
             key=key,
@@ -713,9 +711,8 @@ class LidarNoise(ObservationRandomizer):
             range_max_m=hi,
             scale=scale,
             name=name,
+            dtype=sel.dtype,
         )
-        gym.ObservationWrapper.__init__(self, env)
-        self._init_randomizer(name, scale, sel.dtype)
         self._sel = sel
         self.std_m = std_m
         self.dropout = dropout

@@ -110,8 +110,8 @@ class VelocityObservationNoise(ObservationRandomizer):
             raise RandomizerValueError(f"{wrapper}: {exc}") from None
         scale = check_scale(scale)
         name = check_name(name, env, wrapper + index_label(key, sel.index))
-        gym.utils.RecordConstructorArgs.__init__(
-            self,
+        self._wrap(
+            env,
             std_v_mps=checked["std_v_mps"],
             std_w_radps=checked["std_w_radps"],
             quantum_v_mps=checked["quantum_v_mps"],
@@ -121,9 +121,8 @@ class VelocityObservationNoise(ObservationRandomizer):
             clip=bool(clip),
             scale=scale,
             name=name,
+            dtype=sel.dtype,
         )
-        gym.ObservationWrapper.__init__(self, env)
-        self._init_randomizer(name, scale, sel.dtype)
         self._sel = sel
         self._clip = bool(clip)
         #: The noise model applied at scale 1.

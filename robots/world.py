@@ -71,16 +71,7 @@ def add_box(
     vis = p.createVisualShape(
         p.GEOM_BOX, halfExtents=list(half_extents), rgbaColor=list(rgba), physicsClientId=client
     )
-    return int(
-        p.createMultiBody(
-            baseMass=0.0,
-            baseCollisionShapeIndex=col,
-            baseVisualShapeIndex=vis,
-            basePosition=list(center_xyz),
-            baseOrientation=_quat_yaw(yaw),
-            physicsClientId=client,
-        )
-    )
+    return _static_body(client, col, vis, center_xyz, yaw)
 
 
 def add_cylinder(
@@ -102,12 +93,25 @@ def add_cylinder(
         rgbaColor=list(rgba),
         physicsClientId=client,
     )
+    return _static_body(client, col, vis, center_xyz, 0.0)
+
+
+def _static_body(
+    client: int,
+    collision: int,
+    visual: int,
+    center_xyz: Sequence[float],
+    yaw: float,
+) -> int:
+    """A massless (static) body of the given shapes at ``center_xyz`` (m) turned by ``yaw``
+    (rad); its body id."""
     return int(
         p.createMultiBody(
             baseMass=0.0,
-            baseCollisionShapeIndex=col,
-            baseVisualShapeIndex=vis,
+            baseCollisionShapeIndex=collision,
+            baseVisualShapeIndex=visual,
             basePosition=list(center_xyz),
+            baseOrientation=_quat_yaw(yaw),
             physicsClientId=client,
         )
     )
