@@ -496,18 +496,7 @@ def _parse(top: Section, path: Path) -> RobotSpec:
     sources = top.raw("sources")
     if not (isinstance(sources, list) and sources and all(isinstance(s, str) for s in sources)):
         raise top.fail("sources", "must be a non-empty list of citation strings", sources)
-    base = top.section("base")
-    base_mass = base.number("mass_kg", positive=True)
-    inertia = base.vector("inertia_diag_kgm2", positive=True)
-    if 2.0 * max(inertia) > sum(inertia):
-        raise base.fail(
-            "inertia_diag_kgm2",
-            "must obey the triangle inequality ixx + iyy >= izz etc. (a rigid body)",
-            list(inertia),
-        )
-    height = base.number("link_height_m", nonneg=True)
-    body = _body(base.section("body"))
-    base.finish()
+    base_mass, inertia, height, body = _base(top.section("base"))
     wheels = _wheels(top.section("wheels"))
     casters = tuple(_caster(s, height) for s in top.sections("casters"))
     points = tuple(_point(s) for s in top.sections("point_masses"))
@@ -548,6 +537,22 @@ def _parse(top: Section, path: Path) -> RobotSpec:
         path=path,
         priors=priors,
     )
+
+
+def _base(base: Section) -> tuple[float, tuple[float, ...], float, BodySpec]:
+    """The base section: mass (kg), inertia diagonal (kg m^2), link height (m) and body."""
+    base_mass = base.number("mass_kg", positive=True)
+    inertia = base.vector("inertia_diag_kgm2", positive=True)
+    if 2.0 * max(inertia) > sum(inertia):
+        raise base.fail(
+            "inertia_diag_kgm2",
+            "must obey the triangle inequality ixx + iyy >= izz etc. (a rigid body)",
+            list(inertia),
+        )
+    height = base.number("link_height_m", nonneg=True)
+    body = _body(base.section("body"))
+    base.finish()
+    return base_mass, inertia, height, body
 
 
 def _vec3(values: tuple[float, ...]) -> Vec3:

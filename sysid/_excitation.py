@@ -197,72 +197,97 @@ def _auto_free(
             )
             continue
         if axis == "v":
-            free += ["added_mass_kg", "coulomb_v_fwd_n"]
-            neg = np.sum(cat["cmd_v"] < -MIN_RANGE_V)
-            pos = np.sum(cat["cmd_v"] > MIN_RANGE_V)
-            if neg >= 3 and pos >= 3:
-                free.append("coulomb_v_bwd_n")
-            else:
-                ties["coulomb_v_bwd_n"] = "coulomb_v_fwd_n"
-                notes.append(f"no reversal in the log (cmd_v never changes sign): {_TIE_NOTE}")
+            _free_forward(cat["cmd_v"], free, ties, notes)
         else:
             free += ["added_yaw_inertia_kgm2", "coulomb_w_nm"]
-        cmd = cat["cmd_v" if axis == "v" else "cmd_w"]
-        floor = MIN_RANGE_V if axis == "v" else MIN_RANGE_W
-        visc = "viscous_v_ns_per_m" if axis == "v" else "viscous_w_nms_per_rad"
-        if _spread(cmd, floor) >= 0.3:
-            free.append(visc)
-        else:
-            lvl = (
-                float(np.median(np.abs(cmd[np.abs(cmd) > floor])))
-                if np.any(np.abs(cmd) > floor)
-                else 0.0
-            )
-            notes.append(
-                f"the log holds essentially one {'forward speed' if axis == 'v' else 'yaw rate'}"
-                f" level ({lvl:.2f} {'m/s' if axis == 'v' else 'rad/s'}): viscous and Coulomb "
-                f"friction trade off; {visc} barely informed by the log (its posterior stays near its prior)"
-            )
-        acc = "accel_lim_v_mps2" if axis == "v" else "accel_lim_w_radps2"
-        step = STEP_V if axis == "v" else STEP_W
-        jumps = max(
-            float(np.max(np.abs(np.diff(_cmd_with_rest(g, getattr(g, f"cmd_{axis}")))), initial=0))
-            for g in logs
-        )
-        if jumps >= step:
-            free.append(acc)
-        else:
-            notes.append(
-                f"no command step of {step:g} {'m/s' if axis == 'v' else 'rad/s'} or more on "
-                f"the {axis} axis (largest {jumps:.3g}): {acc} barely informed by the log (its posterior stays near its prior)"
-            )
+        _free_viscous(cat[f"cmd_{axis}"], axis, free, notes)
+        _free_accel(logs, axis, free, notes)
     if "added_mass_kg" in free or "added_yaw_inertia_kgm2" in free:
         # velocity data fix mass/gain ratios: the gain is fitted too, the priors split them
         free.append("motor_gain_nms_per_rad")
+    _free_speed_cap(logs, geometry, base, free, ties, notes)
+    return free, ties, notes
+
+
+def _free_forward(
+    cmd_v: FloatArray, free: list[str], ties: dict[str, str], notes: list[str]
+) -> None:
+    """The forward axis's mass and Coulomb friction; the backward one only with reversals."""
+    free += ["added_mass_kg", "coulomb_v_fwd_n"]
+    neg = np.sum(cmd_v < -MIN_RANGE_V)
+    pos = np.sum(cmd_v > MIN_RANGE_V)
+    if neg >= 3 and pos >= 3:
+        free.append("coulomb_v_bwd_n")
+    else:
+        ties["coulomb_v_bwd_n"] = "coulomb_v_fwd_n"
+        notes.append(f"no reversal in the log (cmd_v never changes sign): {_TIE_NOTE}")
+
+
+def _free_viscous(cmd: FloatArray, axis: str, free: list[str], notes: list[str]) -> None:
+    """The axis's viscous friction, when the log holds more than one command level."""
+    floor = MIN_RANGE_V if axis == "v" else MIN_RANGE_W
+    visc = "viscous_v_ns_per_m" if axis == "v" else "viscous_w_nms_per_rad"
+    if _spread(cmd, floor) >= 0.3:
+        free.append(visc)
+        return
+    lvl = float(np.median(np.abs(cmd[np.abs(cmd) > floor]))) if np.any(np.abs(cmd) > floor) else 0.0
+    notes.append(
+        f"the log holds essentially one {'forward speed' if axis == 'v' else 'yaw rate'}"
+        f" level ({lvl:.2f} {'m/s' if axis == 'v' else 'rad/s'}): viscous and Coulomb "
+        f"friction trade off; {visc} barely informed by the log (its posterior stays near its prior)"
+    )
+
+
+def _free_accel(logs: Sequence[LogArrays], axis: str, free: list[str], notes: list[str]) -> None:
+    """The axis's acceleration limit, when a command steps by at least ``STEP_V``/``STEP_W``."""
+    acc = "accel_lim_v_mps2" if axis == "v" else "accel_lim_w_radps2"
+    step = STEP_V if axis == "v" else STEP_W
+    jumps = max(
+        float(np.max(np.abs(np.diff(_cmd_with_rest(g, getattr(g, f"cmd_{axis}")))), initial=0))
+        for g in logs
+    )
+    if jumps >= step:
+        free.append(acc)
+    else:
+        notes.append(
+            f"no command step of {step:g} {'m/s' if axis == 'v' else 'rad/s'} or more on "
+            f"the {axis} axis (largest {jumps:.3g}): {acc} barely informed by the log (its posterior stays near its prior)"
+        )
+
+
+def _free_speed_cap(
+    logs: Sequence[LogArrays],
+    geometry: BaseGeometry,
+    base: DriveParams,
+    free: list[str],
+    ties: dict[str, str],
+    notes: list[str],
+) -> None:
+    """The wheel-speed cap, when a wheel is driven near it (or falls short of its command)."""
     cap = base.wheel_speed_max_radps
     peak_cmd = _peak_wheel_cmd(logs, geometry)
     peak_meas = _peak_wheel_meas(logs, geometry)
-    if (math.isfinite(cap) and peak_cmd >= 0.9 * cap) or (
-        not math.isfinite(cap) and peak_meas < 0.75 * peak_cmd
+    if not (
+        (math.isfinite(cap) and peak_cmd >= 0.9 * cap)
+        or (not math.isfinite(cap) and peak_meas < 0.75 * peak_cmd)
     ):
-        free.append("wheel_speed_max_radps")
-        if "added_mass_kg" in free and "viscous_v_ns_per_m" not in free:
-            # one forward level and a cap: the speed deficit is either friction or saturation
-            for name in ("coulomb_v_fwd_n", "coulomb_v_bwd_n"):
-                if name in free:
-                    free.remove(name)
-            ties.pop("coulomb_v_bwd_n", None)
-            notes.append(
-                "the forward command holds one level and drives the wheels into their speed "
-                "cap: Coulomb friction and the cap both explain the speed deficit; the cap is "
-                "fitted and coulomb_v_fwd_n / coulomb_v_bwd_n are barely informed by the log (their posteriors stay near their priors)"
-            )
-    else:
         notes.append(
             f"no wheel near its speed cap (peak commanded wheel speed {peak_cmd:.1f} rad/s): "
             "wheel_speed_max_radps barely informed by the log (its posterior stays near its prior)"
         )
-    return free, ties, notes
+        return
+    free.append("wheel_speed_max_radps")
+    if "added_mass_kg" in free and "viscous_v_ns_per_m" not in free:
+        # one forward level and a cap: the speed deficit is either friction or saturation
+        for name in ("coulomb_v_fwd_n", "coulomb_v_bwd_n"):
+            if name in free:
+                free.remove(name)
+        ties.pop("coulomb_v_bwd_n", None)
+        notes.append(
+            "the forward command holds one level and drives the wheels into their speed "
+            "cap: Coulomb friction and the cap both explain the speed deficit; the cap is "
+            "fitted and coulomb_v_fwd_n / coulomb_v_bwd_n are barely informed by the log (their posteriors stay near their priors)"
+        )
 
 
 def _with_priors(

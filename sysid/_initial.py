@@ -341,59 +341,18 @@ def initial_coords(
     cross-correlating the measurement with the zero-delay model response.
     """
     mapper = Mapper(geometry, base, priors)
-    notes: list[str] = []
-    for log in logs:
-        sv, sw = spike_mask(log.meas_v, 0.05), spike_mask(log.meas_w, 0.3)
-        if sv.any() or sw.any():
-            peak = float(np.max(np.abs(log.meas_v[sv]))) if sv.any() else 0.0
-            notes.append(
-                f"{log.name}: {int(sv.sum())} v and {int(sw.sum())} w odometry spike(s)"
-                + (f" (|v| up to {peak:.2f} m/s)" if sv.any() else "")
-                + "; ignored by the initial estimates and down-weighted by the robust loss"
-            )
+    notes = _spike_notes(logs)
     windows = [crop_log(g, *busiest_window(g, _MAX_SMOOTH), lead_s=2.0) for g in logs]
     axes = [a for a in ("v", "w") if any(COORDS[f].axis == a for f in free)]
     data: dict[str, list[_Smoothed]] = {}
     acc: dict[str, float] = {}
     for axis in axes:
-        masks = [
-            ~spike_mask(g.meas_v if axis == "v" else g.meas_w, 0.05 if axis == "v" else 0.3)
-            for g in windows
-        ]
-        data[axis] = _smooth(windows, masks, axis)
-        field = _AXIS_FIELDS[axis][3]
-        acc[axis] = float(getattr(base, field))
-        if (
-            field in free
-            and not math.isfinite(acc[axis])
-            and data[axis]
-            and not release_accel_limits
-        ):
-            accels = np.concatenate([np.abs(d.a[d.good]) for d in data[axis]])
-            acc[axis] = max(1.1 * float(np.percentile(accels, 99)), 0.2)
-    start = base
-    if "wheel_speed_max_radps" in free and not math.isfinite(base.wheel_speed_max_radps):
-        half = 0.5 * geometry.wheel_separation_m
-        peak_w = max(
-            float(np.percentile(np.abs(g.meas_v) + np.abs(g.meas_w) * half, 99)) for g in logs
-        )
-        start = base.replace(
-            wheel_speed_max_radps=max(1.15 * peak_w / geometry.wheel_radius_m, 0.5)
-        )
+        data[axis], acc[axis] = _axis_start(windows, axis, base, free, release_accel_limits)
+    start = _speed_cap_start(logs, geometry, base, free)
     prob = Problem(windows, mapper, (), {}, scale_v=0.02, scale_w=0.1, dt_s=0.01)
     fallback = start.replace(delay_s=base.delay_s)
     if "delay_s" in free:
-        best_cost, params = math.inf, fallback
-        for d in np.arange(0.0, 0.61, 0.01):
-            cand = _params_at(float(d), data, acc, start, mapper, free)
-            if cand is None:
-                continue
-            cost = _window_cost(prob, cand)
-            if cost < best_cost:
-                best_cost, params = cost, cand
-        refined = _xcorr_delay(prob, params, axes or ["v", "w"])
-        if refined is not None and abs(refined - params.delay_s) <= 0.015:
-            params = _params_at(max(refined, 0.0), data, acc, start, mapper, free) or params
+        params = _delay_scan(prob, data, acc, start, mapper, free, axes, fallback)
     else:
         params = _params_at(base.delay_s, data, acc, start, mapper, free) or fallback
     for field, source in ties.items():
@@ -405,3 +364,75 @@ def initial_coords(
         margin = 1e-6 * (c.upper - c.lower)
         coords[field] = float(np.clip(x, c.lower + margin, c.upper - margin))
     return coords, notes
+
+
+def _spike_notes(logs: Sequence[LogArrays]) -> list[str]:
+    """A note for each log with odometry spikes (the initial estimates ignore them)."""
+    notes: list[str] = []
+    for log in logs:
+        sv, sw = spike_mask(log.meas_v, 0.05), spike_mask(log.meas_w, 0.3)
+        if sv.any() or sw.any():
+            peak = float(np.max(np.abs(log.meas_v[sv]))) if sv.any() else 0.0
+            notes.append(
+                f"{log.name}: {int(sv.sum())} v and {int(sw.sum())} w odometry spike(s)"
+                + (f" (|v| up to {peak:.2f} m/s)" if sv.any() else "")
+                + "; ignored by the initial estimates and down-weighted by the robust loss"
+            )
+    return notes
+
+
+def _axis_start(
+    windows: Sequence[LogArrays],
+    axis: str,
+    base: DriveParams,
+    free: Sequence[str],
+    release_accel_limits: bool,
+) -> tuple[list[_Smoothed], float]:
+    """The smoothed measurements of one axis and the start of its acceleration limit."""
+    masks = [
+        ~spike_mask(g.meas_v if axis == "v" else g.meas_w, 0.05 if axis == "v" else 0.3)
+        for g in windows
+    ]
+    data = _smooth(windows, masks, axis)
+    field = _AXIS_FIELDS[axis][3]
+    acc = float(getattr(base, field))
+    if field in free and not math.isfinite(acc) and data and not release_accel_limits:
+        accels = np.concatenate([np.abs(d.a[d.good]) for d in data])
+        acc = max(1.1 * float(np.percentile(accels, 99)), 0.2)
+    return data, acc
+
+
+def _speed_cap_start(
+    logs: Sequence[LogArrays], geometry: BaseGeometry, base: DriveParams, free: Sequence[str]
+) -> DriveParams:
+    """``base`` with a free wheel-speed cap of no spec value started above the logs' peak."""
+    if "wheel_speed_max_radps" not in free or math.isfinite(base.wheel_speed_max_radps):
+        return base
+    half = 0.5 * geometry.wheel_separation_m
+    peak_w = max(float(np.percentile(np.abs(g.meas_v) + np.abs(g.meas_w) * half, 99)) for g in logs)
+    return base.replace(wheel_speed_max_radps=max(1.15 * peak_w / geometry.wheel_radius_m, 0.5))
+
+
+def _delay_scan(
+    prob: Problem,
+    data: dict[str, list[_Smoothed]],
+    acc: dict[str, float],
+    start: DriveParams,
+    mapper: Mapper,
+    free: Sequence[str],
+    axes: list[str],
+    fallback: DriveParams,
+) -> DriveParams:
+    """The parameters of the best delay on a 10 ms grid, refined by cross-correlation."""
+    best_cost, params = math.inf, fallback
+    for d in np.arange(0.0, 0.61, 0.01):
+        cand = _params_at(float(d), data, acc, start, mapper, free)
+        if cand is None:
+            continue
+        cost = _window_cost(prob, cand)
+        if cost < best_cost:
+            best_cost, params = cost, cand
+    refined = _xcorr_delay(prob, params, axes or ["v", "w"])
+    if refined is not None and abs(refined - params.delay_s) <= 0.015:
+        params = _params_at(max(refined, 0.0), data, acc, start, mapper, free) or params
+    return params

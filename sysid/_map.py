@@ -742,13 +742,7 @@ def map_fit(
 
     released = released_start(logs, mapper, exc, free)
     extra = [] if released is None else [released]
-    if "track_factor" in free:
-        res, converged, rebalanced = _track_fit(prob, x0, extra, solve, max_nfev, notes)
-    else:
-        (res, converged), rebalanced = _optimise(prob, x0, solve, max_nfev, extra), False
-    message = str(res.message)
-    if rebalanced:
-        message += " (the prior weight re-balanced at the solution, the candidates re-solved)"
+    res, converged, message = _map_point(prob, x0, extra, solve, max_nfev, notes)
     s2, c = noise_scale(prob, prob.data_residuals(np.asarray(res.x)), len(free))
     if not _balanced(prob, s2 * c):
         # the prior's weight rests on the residual scale, first estimated at the start point:
@@ -765,21 +759,9 @@ def map_fit(
     final = Problem(logs, mapper, kept, ties, **problem_kw)
     final.prior_weight = math.sqrt(s2 * c)
     jac = np.asarray(res.jac)[: prob.n_data][:, keep]
-    f = prob.data_residuals(x)
-    with threadpool_limits(limits=1):
-        sizes = [g.meas_t_s.size for g in prob.logs]
-        meat = score_covariance(sizes, _row_scores(jac, f, loss, f_scale), _bandwidth(prob, f))
-        info_u = data_information(jac, meat)
-        # the population (sysid._fleet) weighs sessions by the Gauss-Newton information with
-        # the autocorrelation factor, as it was tuned on; the sandwich is this log's posterior
-        session_info = jac.T @ jac / (s2 * c)
-        z, cov, info, cov_u, weak = _posterior_cov(info_u, final, x[keep], session_info)
-    bias = _discretisation_bias(final, x[keep], jac, problem_kw)
-    bias[list(weak)] = 0.0
-    _, g = final.schema_coords(x[keep])
-    cov_u += np.outer(bias, bias)
-    cov += np.outer(g @ bias, g @ bias)
-    _timing_floor(final, z, cov, cov_u)
+    z, cov, info, cov_u, weak = _map_covariance(
+        prob, final, x, keep, jac, s2 * c, (loss, f_scale), problem_kw
+    )
     return Posterior(
         free=kept,
         ties=ties,
@@ -800,3 +782,54 @@ def map_fit(
         steps=prob.n_steps,
         coupled=exc.coupled,
     )
+
+
+def _map_point(
+    prob: Problem,
+    x0: FloatArray,
+    extra: list[FloatArray],
+    solve: Callable[[Problem, FloatArray, int], Any],
+    max_nfev: int,
+    notes: list[str],
+) -> tuple[Any, bool, str]:
+    """The optimiser's result from ``x0`` and the ``extra`` starts (a skid steer's track-factor
+    restarts too), whether it converged and its message."""
+    if "track_factor" in prob.free:
+        res, converged, rebalanced = _track_fit(prob, x0, extra, solve, max_nfev, notes)
+    else:
+        (res, converged), rebalanced = _optimise(prob, x0, solve, max_nfev, extra), False
+    message = str(res.message)
+    if rebalanced:
+        message += " (the prior weight re-balanced at the solution, the candidates re-solved)"
+    return res, converged, message
+
+
+def _map_covariance(
+    prob: Problem,
+    final: Problem,
+    x: FloatArray,
+    keep: list[int],
+    jac: FloatArray,
+    scale2: float,
+    robust: tuple[str, float],
+    problem_kw: dict[str, Any],
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, list[int]]:
+    """Posterior (z, cov, info, cov_u, weak) of the kept coordinates at the MAP point ``x``: the
+    sandwich covariance of the data, the prior, and the model's time-step bias."""
+    loss, f_scale = robust
+    f = prob.data_residuals(x)
+    with threadpool_limits(limits=1):
+        sizes = [g.meas_t_s.size for g in prob.logs]
+        meat = score_covariance(sizes, _row_scores(jac, f, loss, f_scale), _bandwidth(prob, f))
+        info_u = data_information(jac, meat)
+        # the population (sysid._fleet) weighs sessions by the Gauss-Newton information with
+        # the autocorrelation factor, as it was tuned on; the sandwich is this log's posterior
+        session_info = jac.T @ jac / scale2
+        z, cov, info, cov_u, weak = _posterior_cov(info_u, final, x[keep], session_info)
+    bias = _discretisation_bias(final, x[keep], jac, problem_kw)
+    bias[list(weak)] = 0.0
+    _, g = final.schema_coords(x[keep])
+    cov_u += np.outer(bias, bias)
+    cov += np.outer(g @ bias, g @ bias)
+    _timing_floor(final, z, cov, cov_u)
+    return z, cov, info, cov_u, weak

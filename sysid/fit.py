@@ -582,15 +582,12 @@ def fit_drive(
     report = progress or (lambda stage, frac: None)
     fit_logs = [as_log_arrays(g, i) for i, g in enumerate(logs)]
     val_logs = [as_log_arrays(g, len(fit_logs) + i) for i, g in enumerate(validate)]
-    pri = _check_priors(priors, base_params, geometry)
-    base = _prior_base(base_params, pri)
-    base, timeout_notes = fit_cmd_timeout(fit_logs, base)  # held or timed-out commands
-    mapper = Mapper(geometry, base, pri)
-    informative = {n for n, p in pri.items() if p.informative}
-    notes = [
+    mapper, notes = _start(fit_logs, geometry, base_params, priors)
+    notes[:0] = [
         f"{log_name(g, i)}: {w}" for i, g in enumerate([*logs, *validate]) for w in log_warnings(g)
     ]
-    notes += timeout_notes
+    base = mapper.base
+    informative = {n for n, p in mapper.priors.items() if p.informative}
     report("checking excitation", 0.0)
     sv, sw = _scales(fit_logs, scale, tol_v, tol_w)
     problem_kw: dict[str, Any] = {
@@ -622,15 +619,11 @@ def fit_drive(
     report("uncertainty", 0.92)
     summary = _single(posts[0]) if len(posts) == 1 else _fleet(posts, fit_logs, mapper, problem_kw)
     notes += mapper.floor_notes(summary.params)
-    res_v, res_w = (
-        np.concatenate(parts) for parts in zip(*map(_channel_residuals, posts), strict=True)
-    )
-    noise = estimate_noise(fit_logs, res_v, res_w)
     return _finish(
         summary=summary,
         posts=posts,
         mapper=mapper,
-        noise=noise,
+        noise=_noise(posts, fit_logs),
         fit_logs=fit_logs,
         val_logs=val_logs,
         notes=notes,
@@ -652,6 +645,28 @@ def fit_drive(
         started=started,
         report=report,
     )
+
+
+def _start(
+    fit_logs: Sequence[LogArrays],
+    geometry: BaseGeometry,
+    base_params: DriveParams,
+    priors: Mapping[str, Prior] | None,
+) -> tuple[Mapper, list[str]]:
+    """The coordinate mapper of the checked priors around ``base_params`` (with the command
+    timeout the logs show) and the timeout's notes."""
+    pri = _check_priors(priors, base_params, geometry)
+    base = _prior_base(base_params, pri)
+    base, timeout_notes = fit_cmd_timeout(fit_logs, base)  # held or timed-out commands
+    return Mapper(geometry, base, pri), timeout_notes
+
+
+def _noise(posts: Sequence[Posterior], fit_logs: Sequence[LogArrays]) -> ObservationNoise:
+    """The observation noise the fits' residuals show."""
+    res_v, res_w = (
+        np.concatenate(parts) for parts in zip(*map(_channel_residuals, posts), strict=True)
+    )
+    return estimate_noise(fit_logs, res_v, res_w)
 
 
 def _fit_sessions(
