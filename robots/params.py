@@ -503,12 +503,13 @@ def _field(
 
 #: The drive-parameter schema, one entry per :class:`DriveParams` field in declaration order.
 #: Generic priors (used when a spec has no ``priors`` entry): typical command latencies are
-#: 0.05-0.3 s (Liang et al. 2020; Kobuki issue #389 measures ~0.2 s), so the delay prior is
-#: 0.1 s wide; a motor gain nobody publishes is known to a factor e (log sd 1); payload changes
-#: the total mass by ~30 % (log sd 0.3); floor friction is a few % of the weight. Wheel-speed
-#: loops in base firmware are PI/PID (Kobuki's protocol sets P, I, D wheel-controller gains;
-#: Dynamixel servos in velocity mode run a PI loop with a nonzero default I gain), tuned with
-#: integral times of ~0.05-0.5 s: the reset rate ``speed_loop_ki_per_s`` gets an 8 /s prior sd.
+#: 0.05-0.3 s (Liang et al. 2020; GitHub yujinrobot/kobuki issue #389: ~0.2 s), so the delay
+#: prior is 0.1 s wide; a motor gain nobody publishes is known to a factor e (log sd 1);
+#: payload changes the total mass by ~30 % (log sd 0.3); floor friction is a few % of the
+#: weight. Wheel-speed loops in base firmware are PI/PID (Kobuki's protocol sets P, I, D
+#: wheel-controller gains; Dynamixel servos in velocity mode run a PI loop with a nonzero
+#: default I gain), tuned with integral times of ~0.05-0.5 s: the reset rate
+#: ``speed_loop_ki_per_s`` gets an 8 /s prior sd.
 SCHEMA: dict[str, FieldSchema] = {
     f.name: f
     for f in (
