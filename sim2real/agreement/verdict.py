@@ -44,7 +44,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from sim2real.agreement.figures import band_verdict, lag_phrase
+from sim2real.agreement.figures import band_verdict, calibrated_range, lag_phrase
 
 __all__ = [
     "GOOD_AGREEMENT",
@@ -286,13 +286,17 @@ def _band_state(ensemble: Any) -> tuple[str, bool]:
 
 
 def _wide_reason(ensemble: Any, s: SessionFigures) -> str | None:
-    """A calibrated band that covers by being wide: one sentence (else None)."""
+    """A band that covers by being wide: one sentence (else None); an axis it covers too
+    little is not wide enough to say so."""
     wide = []
-    for axis, width, top, noise, unit in (
-        ("v", ensemble.band_width_v_mps, s.top_v_mps, s.noise_band_width_v_mps, "m/s"),
-        ("w", ensemble.band_width_w_radps, s.top_w_radps, s.noise_band_width_w_radps, "rad/s"),
-    ):
-        if not (_finite(width) and _finite(top)) or top is None or top <= 0:
+    low = calibrated_range(ensemble.band_level)[0]
+    for axis, width, top, noise, unit, cov in (
+        ("v", ensemble.band_width_v_mps, s.top_v_mps, s.noise_band_width_v_mps, "m/s",
+         ensemble.coverage_v),
+        ("w", ensemble.band_width_w_radps, s.top_w_radps, s.noise_band_width_w_radps, "rad/s",
+         ensemble.coverage_w),
+    ):  # fmt: skip
+        if not (_finite(width) and _finite(top)) or top is None or top <= 0 or cov < low:
             continue
         if width <= WIDE_SHARE * top:
             continue

@@ -46,9 +46,14 @@ coverage_v, coverage_w (share of active real samples inside the band), band_leve
 band_width_v_mps, band_width_w_radps (median width), ensemble_n and coverage_by_level, and a
 sentence says whether the band is too narrow, calibrated (80-99 % for a 90 % band) or too
 wide. Fit the spread to a validation log with 'sim2real sysid calibrate'.
+One verdict follows the table (the report shows the same words): its headline (the band, or
+a fit worse than the spec defaults with its likely cause, a latency that differs, too little
+data), the reasons (commands outside the envelope the fit saw, a band calibrated by being
+wide) and the next step. Samples where the robot moves with no command in force or a command
+is held while the wheels stay stopped are left out with one note (--keep-all keeps them).
 A figure undefined on the log (the lag of v on a spin in place) is left out of the JSON,
-with a note naming it; the JSON never holds null for a number. With several logs, a log that
-cannot be used gets a row saying why and the others go on.
+with a note naming it in its 'notes' list; the JSON never holds null for a number. With
+several logs, a log that cannot be used gets a row saying why and the others go on.
 Exit codes: 0 ok, 1 agreement below --min-agreement, 2 bad input (also when nothing can be
 compared: no active sample, no measured motion, or no log of several could be used).
 """

@@ -139,6 +139,8 @@ def test_a_band_calibrated_by_being_wide_is_said() -> None:
     assert any(
         "holds the robot by being wide" in r and "53 % of the top speed" in r for r in wide.reasons
     )
+    narrow_w = _decide(0.95, _Ens(0.5, band_width_v_mps=0.16, band_width_w_radps=1.0), session=top)
+    assert not any("by being wide" in r for r in narrow_w.reasons)  # covers too little
     noisy = SessionFigures(top_v_mps=0.3, top_w_radps=2.0, noise_band_width_v_mps=0.14)
     assert _decide(0.95, _Ens(0.9, band_width_v_mps=0.16), session=noisy).ok
     ceiling = SessionFigures(noise_ceiling=0.6)
