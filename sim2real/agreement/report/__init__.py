@@ -39,7 +39,7 @@ import numpy as np
 
 from robots.params import DriveParams, ParamsFile, load_params_document
 from sim2real._io import atomic_write, check_output_path
-from sim2real.agreement.figures import AgreementReport, EnsembleResult, band_verdict
+from sim2real.agreement.figures import AgreementReport, EnsembleResult
 from sim2real.agreement.replay import ReplayResult, TraceLike
 from sim2real.agreement.report._html import Figure, HeadlineCard, Table, render_page
 from sim2real.agreement.report._plots import (
@@ -280,14 +280,9 @@ def _cards(data: ReportInput) -> list[HeadlineCard]:
             HeadlineCard(
                 label=f"coverage of the {100 * e.band_level:g} % band (N={e.n})",
                 fraction=e.coverage,
-                detail=f"v {_pct(e.coverage_v)} · w {_pct(e.coverage_w)} — "
-                + band_verdict(
-                    coverage_v=e.coverage_v,
-                    coverage_w=e.coverage_w,
-                    band_level=e.band_level,
-                    band_width_v_mps=e.band_width_v_mps,
-                    band_width_w_radps=e.band_width_w_radps,
-                ),
+                # the band's verdict and next step are the page's verdict, said once above
+                detail=f"v {_pct(e.coverage_v)} · w {_pct(e.coverage_w)} · median width "
+                f"{e.band_width_v_mps:.2g} m/s, {e.band_width_w_radps:.2g} rad/s",
             )
         )
     return cards

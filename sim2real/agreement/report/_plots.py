@@ -14,12 +14,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "MIN_BAND_SHARE",
     "Band",
     "SimSeries",
+    "band_legend",
     "error_histograms_png",
     "rolling_agreement",
     "rolling_agreement_png",
     "time_series_png",
+    "visible_band",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -34,6 +37,9 @@ _OTHER_SIM_COLORS = ("#7F7F7F", "#CC79A7", "#009E73")
 _BAND_COLOR = _MAIN_SIM_COLOR
 _CMD_COLOR = "#AAAAAA"
 _DPI = 100
+#: A band narrower than this share of its axis's data span is drawn that wide (centred on
+#: the band), so a reader sees where it lies; its legend gives its true median width.
+MIN_BAND_SHARE = 0.05
 
 
 def _sim_color(k: int, n: int) -> str:
@@ -61,6 +67,48 @@ class Band:
     lo_w: FloatArray
     hi_w: FloatArray
     label: str
+
+
+def visible_band(
+    lo: FloatArray, hi: FloatArray, span: float
+) -> tuple[FloatArray, FloatArray, bool]:
+    """The band's edges as drawn: at least :data:`MIN_BAND_SHARE` of ``span`` wide, centred
+    on the band; and whether it was widened anywhere.
+
+    Examples
+    --------
+    >>> lo, hi, widened = visible_band(np.array([0.1]), np.array([0.1015]), span=0.5)
+    >>> round(float(hi[0] - lo[0]), 4), widened
+    (0.025, True)
+    """
+    mid, half = (hi + lo) / 2.0, (hi - lo) / 2.0
+    least = MIN_BAND_SHARE * span / 2.0
+    return mid - np.maximum(half, least), mid + np.maximum(half, least), bool(np.any(half < least))
+
+
+def band_legend(band: Band, *, widened: bool) -> str:
+    """The band's legend: its label and true median widths, and, when it was ``widened`` to
+    be seen on an axis (:func:`visible_band`), that it is drawn wider.
+
+    Examples
+    --------
+    >>> b = Band(lo_v=np.zeros(3), hi_v=np.full(3, 0.0015), lo_w=np.zeros(3),
+    ...          hi_w=np.full(3, 0.054), label="90 % band")
+    >>> band_legend(b, widened=True)
+    '90 % band: median 0.0015 m/s, 0.054 rad/s wide (drawn >= 5 % of the axis to be seen)'
+    """
+    width_v = float(np.median(band.hi_v - band.lo_v))
+    width_w = float(np.median(band.hi_w - band.lo_w))
+    text = f"{band.label}: median {width_v:.2g} m/s, {width_w:.2g} rad/s wide"
+    share = f"{100 * MIN_BAND_SHARE:g} %"
+    return text + (f" (drawn >= {share} of the axis to be seen)" if widened else "")
+
+
+def _span(*series: FloatArray) -> float:
+    """The data span of an axis (max - min over the finite values), at least 1e-9."""
+    values = np.concatenate([np.asarray(x, dtype=np.float64).ravel() for x in series])
+    values = values[np.isfinite(values)]
+    return max(float(np.ptp(values)), 1e-9) if values.size else 1.0
 
 
 def _figure(width_in: float, height_in: float, rows: int = 1, cols: int = 1):  # type: ignore[no-untyped-def]
@@ -94,17 +142,22 @@ def time_series_png(
     """v and w over time: real, each simulation, the command and the ensemble band.
 
     Real and the main (last) simulation are a colour-blind-safe blue/vermillion pair, the band
-    is drawn in the main simulation's colour, and the legend sits above the axes, outside the
-    data.
+    is drawn in the main simulation's colour (at least :data:`MIN_BAND_SHARE` of the axis's
+    data span wide, so a narrow band stays visible; the legend gives its true median width),
+    and the legend sits above the axes, outside the data.
     """
     fig, axes = _figure(11.0, height_in, rows=2)
+    widened = False
     for row, (name, unit, real, cmd) in enumerate(
         (("v", "m/s", real_v, cmd_v), ("w", "rad/s", real_w, cmd_w))
     ):
         ax = axes[row, 0]
         if band is not None:
             lo, hi = (band.lo_v, band.hi_v) if name == "v" else (band.lo_w, band.hi_w)
-            ax.fill_between(t_s, lo, hi, color=_BAND_COLOR, alpha=0.22, lw=0, label=band.label)
+            span = _span(real, *[sim.v if name == "v" else sim.w for sim in sims])
+            lo, hi, wider = visible_band(lo, hi, span)
+            widened = widened or wider
+            ax.fill_between(t_s, lo, hi, color=_BAND_COLOR, alpha=0.25, lw=0, label="band")
         if cmd_t_s is not None and cmd is not None:
             ax.step(cmd_t_s, cmd, where="post", color=_CMD_COLOR, lw=0.8, ls="--", label="command")
         ax.plot(t_s, real, color=_REAL_COLOR, lw=1.1, label="real")
@@ -119,7 +172,10 @@ def time_series_png(
         ax.grid(True, alpha=0.3)
         ax.margins(x=0.005)
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside upper center", ncols=len(labels), fontsize=9)
+    if band is not None:
+        labels[0] = band_legend(band, widened=widened)
+    ncols = len(labels) if band is None else min(len(labels), 3)  # the band's label is long
+    fig.legend(handles, labels, loc="outside upper center", ncols=ncols, fontsize=9)
     axes[1, 0].set_xlabel("time since log start [s]")
     return _png(fig)
 

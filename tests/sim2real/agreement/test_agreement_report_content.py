@@ -11,12 +11,20 @@ import numpy as np
 import pytest
 import yaml
 from _agreement_fixtures import ROBOT, hidden_params, spec, write_log
+from hypothesis import given
+from hypothesis import strategies as st
 
 from robots.params import DriveParams
 from sim2real.agreement.figures import measure_agreement
 from sim2real.agreement.replay import replay
 from sim2real.agreement.report import ReportInput, ReportRun, param_rows, write_report
-from sim2real.agreement.report._plots import rolling_agreement
+from sim2real.agreement.report._plots import (
+    MIN_BAND_SHARE,
+    Band,
+    band_legend,
+    rolling_agreement,
+    visible_band,
+)
 from sim2real.agreement.report._steps import Step, find_steps, step_response
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import read_trace
@@ -122,3 +130,28 @@ def test_page_is_self_contained_and_escapes_text(tmp_path: Path) -> None:
     with pytest.raises(Sim2RealValueError, match="runs is empty"):
         write_report(tmp_path / "x.html", ReportInput(trace=trace, runs=()))
     assert not (tmp_path / "x.html").exists()
+
+
+@given(
+    width=st.floats(0.0, 2.0),
+    span=st.floats(0.01, 10.0),
+    centre=st.floats(-5.0, 5.0),
+)
+def test_a_band_is_drawn_wide_enough_to_see_and_never_narrower(
+    width: float, span: float, centre: float
+) -> None:
+    lo, hi = np.array([centre - width / 2]), np.array([centre + width / 2])
+    lo_d, hi_d, widened = visible_band(lo, hi, span)
+    assert lo_d[0] <= lo[0] + 1e-12 and hi_d[0] >= hi[0] - 1e-12  # the true band inside
+    assert hi_d[0] - lo_d[0] == pytest.approx(max(width, MIN_BAND_SHARE * span))
+    assert (lo_d[0] + hi_d[0]) / 2 == pytest.approx(centre, abs=1e-9)  # centred on it
+    assert widened == (width < MIN_BAND_SHARE * span)
+
+
+def test_the_band_legend_gives_the_true_width_and_says_when_drawn_wider() -> None:
+    t = np.linspace(0.0, 1.0, 5)
+    band = Band(lo_v=t, hi_v=t + 0.0015, lo_w=t, hi_w=t + 0.054, label="90 % band (N=10)")
+    text = band_legend(band, widened=True)
+    assert text.startswith("90 % band (N=10): median 0.0015 m/s, 0.054 rad/s wide")
+    assert text.endswith(f"(drawn >= {100 * MIN_BAND_SHARE:g} % of the axis to be seen)")
+    assert "drawn" not in band_legend(band, widened=False)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -214,3 +215,9 @@ def test_terminal_and_report_print_the_same_verdict(
         assert sentence in page
     head = "verdict: The 90 % band is" if with_params else "verdict: The spec defaults reach"
     assert lines[0].startswith(head)
+    for line in lines:  # each sentence said once: the cards give figures, not the verdict again
+        sentence = line.split(": ", 1)[1] if not line.startswith("  - ") else line[4:]
+        assert page.count(sentence) == 1, sentence
+    if with_params:  # the band's card: its coverage per axis and its median widths
+        card = re.search(r"coverage of the 90 % band \(N=4\).*?</div></div>", page, re.S)
+        assert card and re.search(r"median width [\d.e-]+ m/s, [\d.e-]+ rad/s", card.group(0))
