@@ -18,9 +18,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from robots.spec import RobotSpec, load_spec
+from robots.units import nanoseconds
 from sim2real.logs import write_commands
 from sysid.plan import ExcitationPlan, plan_excitation
 
@@ -59,7 +58,7 @@ def write_plan(
     plan = plan_excitation(spec, duration_s, rate_hz=rate_hz, area_m=area_m)
     write_commands(
         path,
-        cmd_t_ns=SCRIPT_T0_NS + np.rint(plan.t_s * 1e9).astype(np.int64),
+        cmd_t_ns=SCRIPT_T0_NS + nanoseconds(plan.t_s),
         cmd_v=plan.v_mps,
         cmd_w=plan.w_radps,
     )
