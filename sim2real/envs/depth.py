@@ -103,6 +103,54 @@ def _side_or_cap(
 
 
 @numba.njit(cache=True)
+def _cylinder_span(
+    ex: float, ey: float, dx: float, dy: float, a: float, cyl: FloatArray
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """2-D entry and exit (ray parameters) of the ray from (ex, ey) along (dx, dy), with
+    ``a = dx^2 + dy^2``, into the circle ``cyl = (x, y, r, ...)``; entry > exit: no hit."""
+    fx, fy = ex - cyl[0], ey - cyl[1]
+    b = dx * fx + dy * fy
+    q = fx * fx + fy * fy - cyl[2] * cyl[2]
+    if b >= 0.0 and q > 0.0:  # outside and heading away
+        return np.inf, -np.inf
+    disc = b * b - a * q
+    if disc < 0.0:
+        return np.inf, -np.inf
+    root = np.sqrt(disc)
+    t_out = (-b + root) / a
+    if t_out <= 0.0:
+        return np.inf, -np.inf
+    return max((-b - root) / a, 0.0), t_out
+
+
+@numba.njit(cache=True)
+def _box_span(
+    ex: float, ey: float, dx: float, dy: float, a: float, box: FloatArray
+) -> tuple[float, float]:  # pragma: no cover - compiled
+    """:func:`_cylinder_span` for the box ``(cx, cy, half_l, half_w, cos, sin, h, r_bound)``:
+    a slab test in the box frame after a cheap reject with the bounding circle."""
+    px, py = ex - box[0], ey - box[1]
+    b = dx * px + dy * py
+    q = px * px + py * py - box[7] * box[7]
+    if q > 0.0 and (b >= 0.0 or b * b < a * q):
+        return np.inf, -np.inf
+    co, si = box[4], box[5]
+    lx, ly = co * px + si * py, -si * px + co * py
+    ldx, ldy = co * dx + si * dy, -si * dx + co * dy
+    t_in, t_out = 0.0, np.inf
+    for o, v, half in ((lx, ldx, box[2]), (ly, ldy, box[3])):
+        if abs(v) < 1e-15:
+            if abs(o) > half:
+                return np.inf, -np.inf
+        else:
+            t1, t2 = (-half - o) / v, (half - o) / v
+            if t1 > t2:
+                t1, t2 = t2, t1
+            t_in, t_out = max(t_in, t1), min(t_out, t2)
+    return t_in, t_out
+
+
+@numba.njit(cache=True)
 def _render_rays(
     eye: FloatArray, d: FloatArray, cyl: FloatArray, boxes: FloatArray, out: FloatArray
 ) -> None:  # pragma: no cover - compiled
@@ -118,44 +166,12 @@ def _render_rays(
             out[i] = best
             continue
         for c in range(cyl.shape[0]):
-            fx, fy = ex - cyl[c, 0], ey - cyl[c, 1]
-            b = dx * fx + dy * fy
-            q = fx * fx + fy * fy - cyl[c, 2] * cyl[c, 2]
-            if b >= 0.0 and q > 0.0:  # outside and heading away
-                continue
-            disc = b * b - a * q
-            if disc < 0.0:
-                continue
-            root = np.sqrt(disc)
-            t_out = (-b + root) / a
-            if t_out <= 0.0:
-                continue
-            t_in = max((-b - root) / a, 0.0)
-            if t_in < best:
+            t_in, t_out = _cylinder_span(ex, ey, dx, dy, a, cyl[c])
+            if t_in <= t_out and t_in < best:
                 best = _side_or_cap(ez, dz, t_in, t_out, cyl[c, 3], best)
         for k in range(boxes.shape[0]):
-            # slab test in the box frame: boxes[k] = (cx, cy, half_l, half_w, cos, sin, h)
-            px, py = ex - boxes[k, 0], ey - boxes[k, 1]
-            # cheap reject with the bounding circle (radius boxes[k, 7])
-            b = dx * px + dy * py
-            q = px * px + py * py - boxes[k, 7] * boxes[k, 7]
-            if q > 0.0 and (b >= 0.0 or b * b < a * q):
-                continue
-            co, si = boxes[k, 4], boxes[k, 5]
-            lx, ly = co * px + si * py, -si * px + co * py
-            ldx, ldy = co * dx + si * dy, -si * dx + co * dy
-            t_in, t_out = 0.0, np.inf
-            ok = True
-            for o, v, half in ((lx, ldx, boxes[k, 2]), (ly, ldy, boxes[k, 3])):
-                if abs(v) < 1e-15:
-                    if abs(o) > half:
-                        ok = False
-                else:
-                    t1, t2 = (-half - o) / v, (half - o) / v
-                    if t1 > t2:
-                        t1, t2 = t2, t1
-                    t_in, t_out = max(t_in, t1), min(t_out, t2)
-            if ok and t_in <= t_out and t_in < best:
+            t_in, t_out = _box_span(ex, ey, dx, dy, a, boxes[k])
+            if t_in <= t_out and t_in < best:
                 best = _side_or_cap(ez, dz, t_in, t_out, boxes[k, 6], best)
         out[i] = best
 
@@ -189,46 +205,14 @@ def _render_columns(
         n_hit = 0
         if a >= 1e-18:
             for c in range(cyl.shape[0]):
-                fx, fy = ex - cyl[c, 0], ey - cyl[c, 1]
-                b = dx * fx + dy * fy
-                q = fx * fx + fy * fy - cyl[c, 2] * cyl[c, 2]
-                if b >= 0.0 and q > 0.0:  # outside and heading away
-                    continue
-                disc = b * b - a * q
-                if disc < 0.0:
-                    continue
-                root = np.sqrt(disc)
-                t_out = (-b + root) / a
-                if t_out <= 0.0:
-                    continue
-                hit_in[n_hit] = max((-b - root) / a, 0.0)
-                hit_out[n_hit] = t_out
-                hit_h[n_hit] = cyl[c, 3]
-                n_hit += 1
+                t_in, t_out = _cylinder_span(ex, ey, dx, dy, a, cyl[c])
+                if t_in <= t_out:
+                    hit_in[n_hit], hit_out[n_hit], hit_h[n_hit] = t_in, t_out, cyl[c, 3]
+                    n_hit += 1
             for k in range(boxes.shape[0]):
-                px, py = ex - boxes[k, 0], ey - boxes[k, 1]
-                b = dx * px + dy * py
-                q = px * px + py * py - boxes[k, 7] * boxes[k, 7]
-                if q > 0.0 and (b >= 0.0 or b * b < a * q):
-                    continue
-                co, si = boxes[k, 4], boxes[k, 5]
-                lx, ly = co * px + si * py, -si * px + co * py
-                ldx, ldy = co * dx + si * dy, -si * dx + co * dy
-                t_in, t_out = 0.0, np.inf
-                ok = True
-                for o, v, half in ((lx, ldx, boxes[k, 2]), (ly, ldy, boxes[k, 3])):
-                    if abs(v) < 1e-15:
-                        if abs(o) > half:
-                            ok = False
-                    else:
-                        t1, t2 = (-half - o) / v, (half - o) / v
-                        if t1 > t2:
-                            t1, t2 = t2, t1
-                        t_in, t_out = max(t_in, t1), min(t_out, t2)
-                if ok and t_in <= t_out:
-                    hit_in[n_hit] = t_in
-                    hit_out[n_hit] = t_out
-                    hit_h[n_hit] = boxes[k, 6]
+                t_in, t_out = _box_span(ex, ey, dx, dy, a, boxes[k])
+                if t_in <= t_out:
+                    hit_in[n_hit], hit_out[n_hit], hit_h[n_hit] = t_in, t_out, boxes[k, 6]
                     n_hit += 1
         # nearest entry first: a body entered beyond a ray's best hit cannot change it (every
         # hit on it lies at or beyond its entry), so each ray stops there
