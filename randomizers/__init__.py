@@ -19,6 +19,9 @@ Stacks are built from and saved to YAML with :func:`from_config` / :func:`save_c
 Names are loaded on first use (PEP 562), so ``import randomizers.errors`` does not pull in
 gymnasium or numba.
 
+A floor above :mod:`robots`: randomizers imports robots (drive parameters, files), never
+:mod:`sysid` or :mod:`sim2real`.
+
 Examples
 --------
 >>> import gymnasium as gym

@@ -5,6 +5,9 @@ Every name is loaded on first use (PEP 562), so ``import robots.spec`` or
 :class:`ReducedDrive`), pybullet with :class:`PybulletRobot`, :class:`Lidar` and
 :class:`DepthCamera`.
 
+The bottom floor: robots imports no other package of the project. :mod:`robots.files` (the
+atomic write) and :mod:`robots.units` (nanoseconds and seconds) serve the floors above.
+
 Examples
 --------
 >>> import robots

@@ -6,6 +6,9 @@ to logs of commanded and measured velocity, with uncertainty and validation scor
 Names are loaded on first use (PEP 562): ``import sysid.errors`` or ``sysid.metrics`` does not
 pull in scipy or numba; :func:`fit_drive` does.
 
+A floor above :mod:`robots`: sysid imports robots (the drive model, specs, files), never
+:mod:`randomizers` or :mod:`sim2real`.
+
 Examples
 --------
 >>> from sysid import fit_drive
