@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 from pathlib import Path
 
@@ -159,12 +160,13 @@ def test_agree_leaves_them_out_with_one_note_and_keep_all_keeps_them(
     real[((t >= 5.4) & (t < 15.5)) | ((t >= 35.4) & (t < 45.5))] = 0.3
     real[(t >= 22) & (t < 27)] = 0.25  # a joystick
     log = _write(tmp_path / "joy.mcap", real, cmd)
-    out = tmp_path / "a.json"
-    assert _agree(log, "--json", out) == 0
+    out, report = tmp_path / "a.json", tmp_path / "r.html"
+    assert _agree(log, "--json", out, "--report", report) == 0
     stdout = capsys.readouterr().out
     notes = [ln for ln in stdout.splitlines() if ln.startswith("note: left out")]
     assert len(notes) == 1 and "22.0-26.9 s" in notes[0]
     assert "moved with no command in force" in notes[0]
+    assert notes[0] in html.unescape(report.read_text())  # the report says it too
     screened = json.loads(out.read_text())
     assert _agree(log, "--json", out, "--keep-all") == 0
     assert "note: left out" not in capsys.readouterr().out
