@@ -407,7 +407,60 @@ def decide(
             next_step=_fit_step(robot, log) + ".",
             ok=False,
         )
-    return _fitted_verdict(defaults, fitted, ensemble, s, reasons, params, robot, log)
+    where = {"log": log, "robot": robot, "params": params}
+    return _fitted_verdict(defaults, fitted, ensemble, s, reasons, where)
+
+
+#: Next steps of the headlines before the band's.
+_WORSE_STEP = (
+    "refit on a log that drives like this one (its speeds, turns while driving and stops), or "
+    "several sessions at once (sysid fit a.mcap b.mcap ...); until then the spec defaults "
+    "simulate this robot better than {params}."
+)
+_LATENCY_STEP = (
+    "randomise the command delay (delay_s) across sessions, or refit on a log with sharp "
+    "command steps recorded like this one (same driver, same clock)."
+)
+_POOR_STEP = (
+    "see in the rolling agreement where it fails, and refit on a longer log with varied "
+    "driving (steps, turns, reversals, the speeds you use)."
+)
+_BAND_STEP = (
+    "see how far sim may stray from real: 'sim2real agree {log} --robot {robot} --params "
+    "{params} --ensemble 30'."
+)
+
+
+def _problem(
+    defaults: _Agreement, fitted: _Agreement, ensemble: Any, s: SessionFigures
+) -> tuple[str, str, str] | None:
+    """``(kind, headline, next step template)`` of the first finding before the band's."""
+    after, before = _pct(fitted.agreement), _pct(defaults.agreement)
+    if fitted.agreement < defaults.agreement - WORSE_MARGIN:
+        cause = _likely_cause(fitted, s)
+        return (
+            "fit_worse",
+            f"The fit does worse than the spec defaults on this log: {after} against {before}; "
+            f"likely cause: {cause}.",
+            _WORSE_STEP,
+        )
+    latency = _latency_reason(fitted, s)
+    if latency is not None:
+        return "latency", f"The latency of this session differs: {latency}.", _LATENCY_STEP
+    if not fitted.agreement >= GOOD_AGREEMENT:
+        return (
+            "poor_fit",
+            f"The fit reaches {after} (spec defaults {before}), short of {_pct(GOOD_AGREEMENT)}.",
+            _POOR_STEP,
+        )
+    if ensemble is None:
+        return (
+            "no_band",
+            f"The fit reaches {after} (spec defaults {before}); no band was run, so nothing "
+            "says how far sim may stray from real.",
+            _BAND_STEP,
+        )
+    return None
 
 
 def _fitted_verdict(
@@ -416,80 +469,31 @@ def _fitted_verdict(
     ensemble: Any,
     s: SessionFigures,
     reasons: list[str],
-    params: str,
-    robot: str,
-    log: str,
+    where: dict[str, str],
 ) -> AgreementVerdict:
+    """The verdict of a fitted run; ``where`` holds the ``log``, ``robot`` and ``params``."""
     band_reasons = [] if ensemble is None else [_band_sentence(ensemble)]
     if ensemble is not None and (wide := _wide_reason(ensemble, s)) is not None:
         band_reasons.append(wide)
-    if fitted.agreement < defaults.agreement - WORSE_MARGIN:
-        cause = _likely_cause(fitted, s)
+    problem = _problem(defaults, fitted, ensemble, s)
+    if problem is not None:
+        kind, headline, step = problem
         return AgreementVerdict(
-            kind="fit_worse",
-            headline=(
-                f"The fit does worse than the spec defaults on this log: {_pct(fitted.agreement)}"
-                f" against {_pct(defaults.agreement)}; likely cause: {cause}."
-            ),
+            kind=kind,
+            headline=headline,
             reasons=tuple(reasons + band_reasons),
-            next_step=(
-                "refit on a log that drives like this one (its speeds, turns while driving and "
-                "stops), or several sessions at once (sysid fit a.mcap b.mcap ...); until then "
-                f"the spec defaults simulate this robot better than {params}."
-            ),
-            ok=False,
-        )
-    latency = _latency_reason(fitted, s)
-    if latency is not None:
-        return AgreementVerdict(
-            kind="latency",
-            headline=f"The latency of this session differs: {latency}.",
-            reasons=tuple(reasons + band_reasons),
-            next_step=(
-                "randomise the command delay (delay_s) across sessions, or refit on a log with "
-                "sharp command steps recorded like this one (same driver, same clock)."
-            ),
-            ok=False,
-        )
-    if not fitted.agreement >= GOOD_AGREEMENT:
-        return AgreementVerdict(
-            kind="poor_fit",
-            headline=(
-                f"The fit reaches {_pct(fitted.agreement)} (spec defaults "
-                f"{_pct(defaults.agreement)}), short of {_pct(GOOD_AGREEMENT)}."
-            ),
-            reasons=tuple(reasons + band_reasons),
-            next_step=(
-                "see in the rolling agreement where it fails, and refit on a longer log with "
-                "varied driving (steps, turns, reversals, the speeds you use)."
-            ),
-            ok=False,
-        )
-    if ensemble is None:
-        return AgreementVerdict(
-            kind="no_band",
-            headline=(
-                f"The fit reaches {_pct(fitted.agreement)} (spec defaults "
-                f"{_pct(defaults.agreement)}); no band was run, so nothing says how far sim may "
-                "stray from real."
-            ),
-            reasons=tuple(reasons),
-            next_step=(
-                f"see how far sim may stray from real: 'sim2real agree {log} --robot {robot} "
-                f"--params {params} --ensemble 30'."
-            ),
+            next_step=step.format(**where),
             ok=False,
         )
     kind, ok = _band_state(ensemble)
     ext = s.extrapolation
     outside = getattr(ext, "known", False) and ext.share_outside >= OUTSIDE_SHARE
-    ok = ok and len(band_reasons) == 1 and not outside
     return AgreementVerdict(
         kind=kind,
         headline=band_reasons[0],
         reasons=tuple(reasons + band_reasons[1:]),
-        next_step=_band_next(kind, ensemble, params) + ".",
-        ok=ok,
+        next_step=_band_next(kind, ensemble, where["params"]) + ".",
+        ok=ok and len(band_reasons) == 1 and not outside,
     )
 
 
