@@ -35,7 +35,7 @@ from randomizers._goal import GoalNoise
 from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
 from randomizers._odometry_noise import VelocityObservationNoise
 from randomizers.errors import RandomizerConfigError, RandomizerError
-from robots.files import write_text_atomic
+from robots.files import output_problem, write_text_atomic
 
 __all__ = ["CONFIG_FORMAT", "RANDOMIZERS", "from_config", "save_config", "to_config"]
 
@@ -188,14 +188,10 @@ def to_config(env: Any) -> dict[str, Any]:
 
 def save_config(env: Any, path: str | Path) -> Path:
     """Write :func:`to_config` of ``env`` to ``path`` atomically (:mod:`robots.files`)."""
-    target = Path(path)
-    folder = target.parent if str(target.parent) else Path(".")
-    if not folder.is_dir():
-        raise RandomizerConfigError(
-            f"cannot write randomizer config '{target}': folder '{folder}' does not exist; "
-            "create it first"
-        )
-    return write_text_atomic(target, yaml.safe_dump(to_config(env), sort_keys=False))
+    problem = output_problem(path, what="randomizer config")
+    if problem is not None:
+        raise RandomizerConfigError(problem)
+    return write_text_atomic(path, yaml.safe_dump(to_config(env), sort_keys=False))
 
 
 def _plain(value: Any) -> Any:

@@ -29,7 +29,14 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
 
-__all__ = ["atomic_write", "clean_orphans", "file_mode", "process_alive", "write_text_atomic"]
+__all__ = [
+    "atomic_write",
+    "clean_orphans",
+    "file_mode",
+    "output_problem",
+    "process_alive",
+    "write_text_atomic",
+]
 
 _TEMP_RE = re.compile(r"^\..+\.(\d+)\.[^.]+\.tmp$")
 
@@ -52,6 +59,29 @@ def process_alive(pid: int) -> bool:
     except PermissionError:  # exists, owned by someone else
         return True
     return True
+
+
+def output_problem(path: str | Path, *, what: str = "output file") -> str | None:
+    """Why ``path`` cannot be written as a file (one sentence naming it), or None.
+
+    Its folder must exist and it must not be a folder itself. Each package raises its own error
+    with the sentence.
+
+    Examples
+    --------
+    >>> output_problem("/nonexistent-folder/a.yaml", what="params file")
+    "params file '/nonexistent-folder/a.yaml' is in folder '/nonexistent-folder', which does not exist; create it first or choose another path"
+    """
+    target = Path(path)
+    folder = target.parent if str(target.parent) else Path(".")
+    if not folder.is_dir():
+        return (
+            f"{what} '{target}' is in folder '{folder}', which does not exist; create it first "
+            "or choose another path"
+        )
+    if target.is_dir():
+        return f"{what} '{target}' is a folder; give a file name"
+    return None
 
 
 def clean_orphans(folder: str | Path) -> None:

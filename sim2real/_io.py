@@ -40,16 +40,10 @@ _SET_RE = re.compile(r"^\.sim2real-out-(\d+)-")
 
 def check_output_path(path: str | Path, *, what: str = "output file") -> Path:
     """Return ``path`` as a Path after checking its folder exists (clear error otherwise)."""
-    p = Path(path)
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise Sim2RealFileNotFoundError(
-            f"{what} '{p}' is in folder '{parent}', which does not exist; create it first or "
-            "choose another path"
-        )
-    if p.is_dir():
-        raise Sim2RealFileNotFoundError(f"{what} '{p}' is a folder; give a file name")
-    return p
+    problem = files.output_problem(path, what=what)
+    if problem is not None:
+        raise Sim2RealFileNotFoundError(problem)
+    return Path(path)
 
 
 def check_not_an_input(

@@ -22,7 +22,7 @@ from typing import Any
 import yaml
 
 from robots.errors import ParamsFileError
-from robots.files import write_text_atomic
+from robots.files import output_problem, write_text_atomic
 from robots.params import PARAMS_FILE_FORMAT, DriveParams, load_params_document
 from robots.randomization import DriveDistribution
 from sysid.envelope import Envelope
@@ -272,19 +272,13 @@ class SysidResult:
     def save(self, path: str | Path) -> Path:
         """Write :meth:`to_yaml` to ``path`` atomically (:func:`robots.files.atomic_write`).
 
-        Raises :class:`~sysid.errors.SysidFileError` when the folder does not exist; nothing
-        is left behind on failure.
+        Raises :class:`~sysid.errors.SysidFileError` when the folder does not exist or ``path``
+        is a folder; nothing is left behind on failure.
         """
-        target = Path(path)
-        folder = target.parent if str(target.parent) else Path(".")
-        if not folder.is_dir():
-            raise SysidFileError(
-                f"output file '{target}' is in folder '{folder}', which does not exist; create "
-                "it first or choose another path"
-            )
-        if target.is_dir():
-            raise SysidFileError(f"output file '{target}' is a folder; give a file name")
-        return write_text_atomic(target, self.to_yaml())
+        problem = output_problem(path)
+        if problem is not None:
+            raise SysidFileError(problem)
+        return write_text_atomic(path, self.to_yaml())
 
     @classmethod
     def load(cls, path: str | Path) -> SysidResult:

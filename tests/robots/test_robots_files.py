@@ -10,7 +10,13 @@ from pathlib import Path
 
 import pytest
 
-from robots.files import atomic_write, clean_orphans, process_alive, write_text_atomic
+from robots.files import (
+    atomic_write,
+    clean_orphans,
+    output_problem,
+    process_alive,
+    write_text_atomic,
+)
 
 
 @pytest.mark.parametrize(("mask", "mode"), [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
@@ -62,3 +68,13 @@ def test_clean_orphans_removes_only_the_temp_files_of_dead_writers(tmp_path: Pat
 def test_a_missing_folder_is_refused(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError):
         write_text_atomic(tmp_path / "nope" / "a.txt", "x")
+
+
+def test_output_problem_names_a_missing_folder_or_a_folder(tmp_path: Path) -> None:
+    assert output_problem(tmp_path / "a.yaml") is None
+    missing = output_problem(tmp_path / "nope" / "a.yaml", what="params file")
+    assert missing == (
+        f"params file '{tmp_path / 'nope' / 'a.yaml'}' is in folder '{tmp_path / 'nope'}', which "
+        "does not exist; create it first or choose another path"
+    )
+    assert output_problem(tmp_path) == f"output file '{tmp_path}' is a folder; give a file name"
