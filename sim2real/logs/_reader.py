@@ -160,33 +160,11 @@ def read_trace(
         from sim2real.logs._csv import read_csv_trace
 
         return read_csv_trace(path)
-    log = load_log(path, sort_times=False)  # the channels' counts and types are used, not times
-    warnings = list(log.container.warnings)
-    cmd = choose_topic(log.chans, "command", cmd_topic, name=log.name)
-    meas = choose_topic(log.chans, "measurement", odom_topic, name=log.name)
-    for chan, role in ((cmd, "command"), (meas, "measurement")):
-        if chan.count == 0:
-            raise LogValueError(
-                f"{role} topic '{chan.topic}' of log file '{log.name}' has no messages; "
-                "record the topic or choose another one"
-            )
-    if meas.type == JOINT_STATE:
-        _check_wheels(wheel_radius_m, wheel_separation_m, meas.topic)
-    cmd_raw = decode_channel(log.container, cmd, name=log.name, type_name=cmd.type, release=True)
-    meas_raw = decode_channel(
-        log.container,
-        meas,
-        name=log.name,
-        type_name=meas.type,
-        wheel_joints=wheel_joints,
-        release=True,
+    decoded = _decode_streams(
+        path, cmd_topic, odom_topic, wheel_radius_m, wheel_separation_m, wheel_joints
     )
-    # from here on only the decoded arrays are needed: let the channel table and the log
-    # times of every channel go (memory follows the output)
-    name, digest = log.name, log.digest
-    # (a new empty array: a [:0] slice would keep the whole sorted times alive as its base)
-    cmd, meas = (replace(c, log_time_ns=np.zeros(0, np.int64)) for c in (cmd, meas))
-    del log
+    name, digest, cmd, meas, cmd_raw, meas_raw, warnings = decoded
+    del decoded  # the columns below keep what they need of the decoded arrays
     time_note = ""
     source = time_source
     if time_source == "auto":
@@ -235,6 +213,46 @@ def read_trace(
         pose_yaw=meas_cols.get("yaw"),
         meta=meta,
     )
+
+
+def _decode_streams(
+    path: str | Path,
+    cmd_topic: str | None,
+    odom_topic: str | None,
+    wheel_radius_m: float | None,
+    wheel_separation_m: float | None,
+    wheel_joints: tuple[str, str] | None,
+) -> tuple[str, FileDigest, Chan, Chan, dict[str, np.ndarray], dict[str, np.ndarray], list[str]]:
+    """The log's name and digest, the chosen command and measurement channels (their log
+    times let go), their decoded arrays and the reader's warnings so far.
+
+    Only the decoded arrays outlive this call: the channel table and the log times of every
+    channel go with the log (memory follows the output).
+    """
+    log = load_log(path, sort_times=False)  # the channels' counts and types are used, not times
+    warnings = list(log.container.warnings)
+    cmd = choose_topic(log.chans, "command", cmd_topic, name=log.name)
+    meas = choose_topic(log.chans, "measurement", odom_topic, name=log.name)
+    for chan, role in ((cmd, "command"), (meas, "measurement")):
+        if chan.count == 0:
+            raise LogValueError(
+                f"{role} topic '{chan.topic}' of log file '{log.name}' has no messages; "
+                "record the topic or choose another one"
+            )
+    if meas.type == JOINT_STATE:
+        _check_wheels(wheel_radius_m, wheel_separation_m, meas.topic)
+    cmd_raw = decode_channel(log.container, cmd, name=log.name, type_name=cmd.type, release=True)
+    meas_raw = decode_channel(
+        log.container,
+        meas,
+        name=log.name,
+        type_name=meas.type,
+        wheel_joints=wheel_joints,
+        release=True,
+    )
+    # (a new empty array: a [:0] slice would keep the whole sorted times alive as its base)
+    cmd, meas = (replace(c, log_time_ns=np.zeros(0, np.int64)) for c in (cmd, meas))
+    return log.name, log.digest, cmd, meas, cmd_raw, meas_raw, warnings
 
 
 def _check_wheels(radius: float | None, separation: float | None, topic: str) -> None:
