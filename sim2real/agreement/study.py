@@ -325,16 +325,7 @@ def run_study(
         odom_velocity=config.odom_velocity,
         keep_all=config.keep_all,
     )
-    runs = []
-    configs: list[tuple[str, Any, str | None]] = [("spec defaults", spec.drive, None)]
-    if params is not None:
-        configs.append(("sysid params", params, config.params_shown or str(config.params_path)))
-    for label, p, pfile in configs:
-        sim = replay(trace, robot=spec, params=p, engine=config.engine, odom_v_window_s=window_s)
-        rep = measure_agreement(
-            trace, sim, tol_v=config.tol_v, tol_w=config.tol_w, params_file=pfile
-        )
-        runs.append(ReportRun(label=label, replay=sim, agreement=rep))
+    runs = _replays(config, trace, spec, params, window_s)
     ensemble = _ensemble(config, trace, spec, params_file, window_s, progress)
     figures = study_figures(runs[-1].agreement, ensemble)
     check_figures(figures, config.log)
@@ -343,29 +334,9 @@ def run_study(
     if notes:
         figures["notes"] = list(notes)
     verdict = _verdict(config, spec, trace, runs, ensemble, params, params_file)
-    written: list[Path] = []
-    # the outputs are one set: all move in at the end, or none (a kill keeps the old set)
-    with output_set([config.json_path, config.report_path, config.sim_out]) as out:
-        if config.json_path is not None:
-            write_json(out.staged(config.json_path), figures)
-            written.append(Path(config.json_path))
-        if config.report_path is not None:
-            staged = out.staged(config.report_path)
-            _write_report(
-                replace(config, report_path=staged),
-                trace,
-                spec,
-                tuple(runs),
-                ensemble,
-                window_s,
-                params_file,
-                verdict,
-                notes,
-            )
-            written.append(Path(config.report_path))
-        if config.sim_out is not None:
-            _write_sim_log(out.staged(config.sim_out), trace, runs[-1].replay)
-            written.append(Path(config.sim_out))
+    written = _write_outputs(
+        config, figures, trace, spec, tuple(runs), ensemble, window_s, params_file, verdict, notes
+    )
     return StudyResult(
         main=runs[-1].agreement,
         runs=tuple(runs),
@@ -377,6 +348,55 @@ def run_study(
         verdict=verdict,
         notes=notes,
     )
+
+
+def _replays(
+    config: StudyConfig, trace: Any, spec: Any, params: Any, window_s: float
+) -> list[ReportRun]:
+    """The spec defaults' replay, then the params file's (when given), each measured."""
+    runs = []
+    configs: list[tuple[str, Any, str | None]] = [("spec defaults", spec.drive, None)]
+    if params is not None:
+        configs.append(("sysid params", params, config.params_shown or str(config.params_path)))
+    for label, p, pfile in configs:
+        sim = replay(trace, robot=spec, params=p, engine=config.engine, odom_v_window_s=window_s)
+        rep = measure_agreement(
+            trace, sim, tol_v=config.tol_v, tol_w=config.tol_w, params_file=pfile
+        )
+        runs.append(ReportRun(label=label, replay=sim, agreement=rep))
+    return runs
+
+
+def _write_outputs(
+    config: StudyConfig,
+    figures: dict[str, Any],
+    trace: Any,
+    spec: Any,
+    runs: tuple[ReportRun, ...],
+    ensemble: EnsembleResult | None,
+    window_s: float,
+    params_file: ParamsFile | None,
+    verdict: AgreementVerdict,
+    notes: tuple[str, ...],
+) -> list[Path]:
+    """Write the JSON figures, the report and the simulated log that ``config`` asks for."""
+    written: list[Path] = []
+    # the outputs are one set: all move in at the end, or none (a kill keeps the old set)
+    with output_set([config.json_path, config.report_path, config.sim_out]) as out:
+        if config.json_path is not None:
+            write_json(out.staged(config.json_path), figures)
+            written.append(Path(config.json_path))
+        if config.report_path is not None:
+            staged = out.staged(config.report_path)
+            report_config = replace(config, report_path=staged)
+            _write_report(
+                report_config, trace, spec, runs, ensemble, window_s, params_file, verdict, notes
+            )
+            written.append(Path(config.report_path))
+        if config.sim_out is not None:
+            _write_sim_log(out.staged(config.sim_out), trace, runs[-1].replay)
+            written.append(Path(config.sim_out))
+    return written
 
 
 def session_figures(
