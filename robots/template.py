@@ -88,23 +88,7 @@ class NewRobot:
             "footprint_radius_m": footprint_radius_m,
             "driver_track_factor": driver_track_factor,
         }
-        for key, value in facts.items():
-            if value is not None and not (math.isfinite(value) and value > 0):
-                raise RobotsValueError(
-                    f"{key} must be a finite number > 0, got {value!r}; give it in SI units "
-                    "(m, kg, m/s, rad/s)"
-                )
-        if not name.replace("_", "").replace("-", "").isalnum():
-            raise RobotsValueError(
-                f"robot name must be letters, digits, '_' or '-', got {name!r}; e.g. my_robot"
-            )
-        if drive not in DRIVES:
-            raise RobotsValueError(f"drive must be one of {list(DRIVES)}, got {drive!r}")
-        if driver_track_factor is not None and not 0.5 <= driver_track_factor <= 5.0:
-            raise RobotsValueError(
-                f"driver_track_factor (the driver's wheel_separation_multiplier) must be in "
-                f"[0.5, 5], got {driver_track_factor!r}; e.g. 1.875 for a Husky's driver"
-            )
+        _check_facts(name, drive, facts)
         b = wheel_separation_m
         r = wheel_radius_m or 0.2 * b
         v = max_speed_mps or 0.5
@@ -127,6 +111,28 @@ class NewRobot:
             drive=drive,
             driver_track_factor=driver_track_factor or (_SKID_CHI if drive == "skid" else 1.0),
             given=frozenset(k for k, val in facts.items() if val is not None),
+        )
+
+
+def _check_facts(name: str, drive: str, facts: dict[str, float | None]) -> None:
+    """Refuse a name, drive or number :meth:`NewRobot.from_facts` cannot use, in one sentence."""
+    for key, value in facts.items():
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise RobotsValueError(
+                f"{key} must be a finite number > 0, got {value!r}; give it in SI units "
+                "(m, kg, m/s, rad/s)"
+            )
+    if not name.replace("_", "").replace("-", "").isalnum():
+        raise RobotsValueError(
+            f"robot name must be letters, digits, '_' or '-', got {name!r}; e.g. my_robot"
+        )
+    if drive not in DRIVES:
+        raise RobotsValueError(f"drive must be one of {list(DRIVES)}, got {drive!r}")
+    factor = facts["driver_track_factor"]
+    if factor is not None and not 0.5 <= factor <= 5.0:
+        raise RobotsValueError(
+            f"driver_track_factor (the driver's wheel_separation_multiplier) must be in "
+            f"[0.5, 5], got {factor!r}; e.g. 1.875 for a Husky's driver"
         )
 
 
