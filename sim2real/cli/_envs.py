@@ -165,10 +165,7 @@ def handle_eval(args: argparse.Namespace) -> int:
     if args.json:
         check_output_path(args.json, what="--json file")
     env, options = _make_env(args)
-    console = Console()
     try:
-        is_car = env.spec.id.endswith("CarCrossing-v0")
-        is_race = env.spec.id.endswith("Race-v0")
         env, ctrl, label = prepare(env, args)
         with progress_bar(f"{env.spec.id} episodes", args.episodes, stdout=True) as update:
             summary = evaluate(
@@ -181,6 +178,17 @@ def handle_eval(args: argparse.Namespace) -> int:
             )
     finally:
         env.close()
+    ci = outcome_intervals(summary)
+    Console().print(_eval_table(args, env.spec.id, label, summary, ci))
+    if args.json:
+        doc = _eval_document(args, env.spec.id, label, options, summary, ci)
+        with atomic_write(args.json, "w", what="--json file") as fh:
+            json.dump(_plain(doc), fh, indent=2)
+    return 0
+
+
+def _eval_table(args: argparse.Namespace, env_id: str, label: str, summary: Any, ci: Any) -> Table:
+    """``envs eval``'s table: outcome rates with their 95 % intervals, then the means."""
     what = (
         args.preset.upper()
         if args.preset
@@ -193,58 +201,70 @@ def handle_eval(args: argparse.Namespace) -> int:
         if value
     )
     table = Table(
-        title=f"{label} on {env.spec.id} {what} ({summary.episodes} episodes, "
+        title=f"{label} on {env_id} {what} ({summary.episodes} episodes, "
         f"seeds {args.seed}..{last}, dynamics {args.dynamics}{robot})"
     )
-    ci = outcome_intervals(summary)
     table.add_column("metric")
     table.add_column("value", justify="right")
     table.add_column("95 % CI", justify="right")
     table.add_row("success rate", f"{summary.success_rate:.2f}", ci_text(ci.success_ci95, 2))
     table.add_row("collision rate", f"{summary.collision_rate:.2f}", ci_text(ci.collision_ci95, 2))
     table.add_row("timeout rate", f"{summary.timeout_rate:.2f}")
-    if is_car:
-        off = sum(bool(r.get("off_road")) for r in summary.per_episode) / summary.episodes
-        table.add_row("off-road rate", f"{off:.2f}")
-    if is_race:
-        wall = sum(bool(r.get("wall_collision")) for r in summary.per_episode) / summary.episodes
-        table.add_row("wall collision rate", f"{wall:.2f}")
+    for key, name, env_kind in (
+        ("off_road", "off-road rate", "CarCrossing-v0"),
+        ("wall_collision", "wall collision rate", "Race-v0"),
+    ):
+        if env_id.endswith(env_kind):
+            share = sum(bool(r.get(key)) for r in summary.per_episode) / summary.episodes
+            table.add_row(name, f"{share:.2f}")
     m = summary.means
     table.add_row("path length m", _fmt(m["path_length_m"], 2))
     table.add_row(
-        "time to goal s (successes)",
-        _fmt(m["time_to_goal_s"], 2),
-        ci_text(ci.time_to_goal_ci95, 2),
+        "time to goal s (successes)", _fmt(m["time_to_goal_s"], 2), ci_text(ci.time_to_goal_ci95, 2)
     )
-    table.add_row("mean |dv| per step m/s", _fmt(m["mean_abs_dv_mps"], 4))
-    table.add_row("mean |dw| per step rad/s", _fmt(m["mean_abs_dw_radps"], 4))
-    table.add_row("mean |jerk v| m/s^3", _fmt(m["mean_abs_jerk_v_mps3"], 3))
-    table.add_row("mean |jerk w| rad/s^3", _fmt(m["mean_abs_jerk_w_radps3"], 3))
-    table.add_row("mean return", _fmt(m["return"], 2))
-    console.print(table)
-    if args.json:
-        doc = {
-            "env": env.spec.id,
-            "preset": args.preset,
-            "options": options,
-            "dynamics": args.dynamics,
-            "controller": label,
-            "policy": args.policy,
-            "params": args.params,
-            "randomize": args.randomize,
-            "seed": args.seed,
-            "success_rate": summary.success_rate,
-            "success_ci95": list(ci.success_ci95),
-            "collision_rate": summary.collision_rate,
-            "collision_ci95": list(ci.collision_ci95),
-            "timeout_rate": summary.timeout_rate,
-            "time_to_goal_ci95": list(ci.time_to_goal_ci95),
-            "means": summary.means,
-            "episodes": list(summary.per_episode),
-        }
-        with atomic_write(args.json, "w", what="--json file") as fh:
-            json.dump(_plain(doc), fh, indent=2)
-    return 0
+    for name, key, digits in _MEANS:
+        table.add_row(name, _fmt(m[key], digits))
+    return table
+
+
+#: ``envs eval``'s smoothness and return rows: (row name, key of the means, digits).
+_MEANS = (
+    ("mean |dv| per step m/s", "mean_abs_dv_mps", 4),
+    ("mean |dw| per step rad/s", "mean_abs_dw_radps", 4),
+    ("mean |jerk v| m/s^3", "mean_abs_jerk_v_mps3", 3),
+    ("mean |jerk w| rad/s^3", "mean_abs_jerk_w_radps3", 3),
+    ("mean return", "return", 2),
+)
+
+
+def _eval_document(
+    args: argparse.Namespace,
+    env_id: str,
+    label: str,
+    options: dict[str, Any] | None,
+    summary: Any,
+    ci: Any,
+) -> dict[str, Any]:
+    """``envs eval --json``'s document: the setting, the rates with intervals, each episode."""
+    return {
+        "env": env_id,
+        "preset": args.preset,
+        "options": options,
+        "dynamics": args.dynamics,
+        "controller": label,
+        "policy": args.policy,
+        "params": args.params,
+        "randomize": args.randomize,
+        "seed": args.seed,
+        "success_rate": summary.success_rate,
+        "success_ci95": list(ci.success_ci95),
+        "collision_rate": summary.collision_rate,
+        "collision_ci95": list(ci.collision_ci95),
+        "timeout_rate": summary.timeout_rate,
+        "time_to_goal_ci95": list(ci.time_to_goal_ci95),
+        "means": summary.means,
+        "episodes": list(summary.per_episode),
+    }
 
 
 def handle_robustness(args: argparse.Namespace) -> int:

@@ -102,8 +102,19 @@ def robustness(
         )
     finally:
         env.close()
+    table = _robustness_table(args, label, env.spec.id if env.spec else args.env, rows)
+    probe = Console()  # wide off a terminal, so a piped table keeps one row per line
+    (probe if probe.is_terminal else Console(width=160)).print(table)
+    if args.json:
+        with atomic_write(args.json, "w", what="--json file") as fh:
+            json.dump(_robustness_document(args, label, rows), fh, indent=2)
+    return 0
+
+
+def _robustness_table(args: argparse.Namespace, label: str, env_id: str, rows: Any) -> Table:
+    """One row per condition: success, collision and timeout rates, time to goal, intervals."""
     table = Table(
-        title=f"robustness of the {label} on {env.spec.id if env.spec else args.env} "
+        title=f"robustness of the {label} on {env_id} "
         f"({args.episodes} episodes per condition, seeds {args.seed}..{args.seed + args.episodes - 1})"
     )
     columns = ("randomizer", "success", "95 % CI", "collision", "95 % CI ", "timeout")
@@ -120,29 +131,28 @@ def robustness(
             "n/a" if math.isnan(r.time_to_goal_s) else f"{r.time_to_goal_s:.2f}",
             ci_text(r.time_to_goal_ci95, 2),
         )
-    probe = Console()  # wide off a terminal, so a piped table keeps one row per line
-    (probe if probe.is_terminal else Console(width=160)).print(table)
-    if args.json:
-        doc_out = {
-            "env": args.env,
-            "controller": label,
-            "randomize": str(args.randomize),
-            "episodes": args.episodes,
-            "seed": args.seed,
-            "rows": [
-                {
-                    "condition": r.condition,
-                    "success_rate": r.success_rate,
-                    "success_ci95": list(r.success_ci95),
-                    "collision_rate": r.collision_rate,
-                    "collision_ci95": list(r.collision_ci95),
-                    "timeout_rate": r.timeout_rate,
-                    "time_to_goal_s": r.time_to_goal_s,
-                    "time_to_goal_ci95": list(r.time_to_goal_ci95),
-                }
-                for r in rows
-            ],
-        }
-        with atomic_write(args.json, "w", what="--json file") as fh:
-            json.dump(doc_out, fh, indent=2)
-    return 0
+    return table
+
+
+def _robustness_document(args: argparse.Namespace, label: str, rows: Any) -> dict[str, Any]:
+    """``envs robustness --json``'s document: the setting and one entry per condition."""
+    return {
+        "env": args.env,
+        "controller": label,
+        "randomize": str(args.randomize),
+        "episodes": args.episodes,
+        "seed": args.seed,
+        "rows": [
+            {
+                "condition": r.condition,
+                "success_rate": r.success_rate,
+                "success_ci95": list(r.success_ci95),
+                "collision_rate": r.collision_rate,
+                "collision_ci95": list(r.collision_ci95),
+                "timeout_rate": r.timeout_rate,
+                "time_to_goal_s": r.time_to_goal_s,
+                "time_to_goal_ci95": list(r.time_to_goal_ci95),
+            }
+            for r in rows
+        ],
+    }

@@ -202,25 +202,8 @@ def _print_population(console: Console, result: SysidResult) -> None:
     )
 
 
-def _print_result(console: Console, result: SysidResult) -> None:
-    for title, estimates, boot in (
-        (f"drive parameters of {result.robot}", result.estimates, result.bootstrap_std),
-        (
-            "identifiable combinations (independent of the motor-gain prior)",
-            result.identifiable,
-            {},
-        ),
-    ):
-        table = Table(title=title, title_justify="left")
-        cols = ["parameter", "value", "std", "95 % interval", "unit", "status"]
-        if any(e.coord is not None for e in estimates):
-            cols += ["prior (coordinate sd)", "post/prior sd"]
-        for col in cols + (["bootstrap std"] if boot else []):
-            table.add_column(col, justify="right" if "std" in col or col == "value" else "left")
-        for row in _estimate_rows(result, estimates, boot):
-            table.add_row(*row)
-        console.print(table)
-    _print_population(console, result)
+def _scores_table(result: SysidResult) -> Table:
+    """FIT %, agreement and RMSE of each fitting and validation log."""
     scores = Table(title="scores", title_justify="left")
     for col in (
         "log",
@@ -247,7 +230,30 @@ def _print_result(console: Console, result: SysidResult) -> None:
                 f"{s.rmse_v:.4f}",
                 f"{s.rmse_w:.4f}",
             )
-    console.print(scores)
+    return scores
+
+
+def _print_result(console: Console, result: SysidResult) -> None:
+    """A result's tables (estimates, identifiable combinations, population, scores) and notes."""
+    for title, estimates, boot in (
+        (f"drive parameters of {result.robot}", result.estimates, result.bootstrap_std),
+        (
+            "identifiable combinations (independent of the motor-gain prior)",
+            result.identifiable,
+            {},
+        ),
+    ):
+        table = Table(title=title, title_justify="left")
+        cols = ["parameter", "value", "std", "95 % interval", "unit", "status"]
+        if any(e.coord is not None for e in estimates):
+            cols += ["prior (coordinate sd)", "post/prior sd"]
+        for col in cols + (["bootstrap std"] if boot else []):
+            table.add_column(col, justify="right" if "std" in col or col == "value" else "left")
+        for row in _estimate_rows(result, estimates, boot):
+            table.add_row(*row)
+        console.print(table)
+    _print_population(console, result)
+    console.print(_scores_table(result))
     for axis, stats in result.linear.items():
         if stats:
             console.print(

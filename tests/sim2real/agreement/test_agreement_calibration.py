@@ -87,6 +87,8 @@ def test_calibrate_cli_writes_the_calibrated_block(
     assert main([*argv, "--ensemble", "8"]) == 0
     text = capsys.readouterr().out
     assert "dynamics spread factor" in text and f"wrote {out}" in text
+    assert "validation" not in text  # its log is the calibration log, and it says so
+    assert "of the calibration samples" in text and "1 calibration log(s)" in text
     doc = yaml.safe_load(out.read_text())
     cal = doc["calibration"]
     assert (
