@@ -15,7 +15,7 @@ import sys
 
 from sim2real.agreement.study import StudyConfig, StudyResult, run_study, summary_table
 from sim2real.cli._agree_many import handle_many
-from sim2real.cli._common import gate_line
+from sim2real.cli._common import gate_line, read_options
 from sim2real.cli._progress import progress_bar
 from sim2real.cluster import expand_logs
 from sim2real.errors import Sim2RealValueError
@@ -75,11 +75,7 @@ def study_config(args: argparse.Namespace) -> StudyConfig:
         spread=args.spread,
         band_level=args.band_level,
         odom_v_window=args.odom_v_window,
-        cmd_topic=args.cmd_topic,
-        odom_topic=args.odom_topic,
-        time_source=args.time_source,
-        odom_velocity=args.odom_velocity,
-        keep_all=args.keep_all,
+        **read_options(args),
         json_path=args.json,
         report_path=args.report,
         sim_out=args.sim_out,

@@ -14,6 +14,7 @@ from robots.spec import load_spec
 from sim2real._io import check_not_an_input, check_output_path
 from sim2real.agreement.calibration import CalibrationResult, calibrate, write_calibrated
 from sim2real.agreement.study import parse_odom_v_window
+from sim2real.cli._common import read_options
 
 __all__ = ["handle_calibrate"]
 
@@ -33,11 +34,7 @@ def handle_calibrate(args: argparse.Namespace) -> int:
         seed=args.seed,
         engine=args.engine,
         odom_v_window_s=window,
-        cmd_topic=args.cmd_topic,
-        odom_topic=args.odom_topic,
-        time_source=args.time_source,
-        odom_velocity=args.odom_velocity,
-        keep_all=args.keep_all,
+        **read_options(args),
     )
     write_calibrated(args.params, args.out, result)
     for note in result.notes:  # what reading the logs chose or repaired: say it

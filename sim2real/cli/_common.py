@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from typing import NoReturn
+from typing import Any, NoReturn
 
 __all__ = [
     "EPILOG_MAIN",
@@ -15,6 +15,7 @@ __all__ = [
     "add_odom_velocity_argument",
     "add_read_arguments",
     "gate_line",
+    "read_options",
 ]
 
 EPILOG_MAIN = """\
@@ -144,3 +145,24 @@ def gate_line(agreement: float | None, gate: float, *, what: str = "agreement") 
     if agreement is not None and math.isfinite(agreement) and agreement >= gate:
         return f"{what} {value} is at or above --min-agreement {100 * gate:.1f} %: passed", 0
     return f"{what} {value} is below --min-agreement {100 * gate:.1f} %", 1
+
+
+def read_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The parsed options of :func:`add_read_arguments`, as the keywords of the library's
+    log readers (``cmd_topic``, ``odom_topic``, ``time_source``, ``odom_velocity``,
+    ``keep_all``).
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser()
+    >>> add_read_arguments(p)
+    >>> read_options(p.parse_args(["--time-source", "log"]))["time_source"]
+    'log'
+    """
+    return {
+        "cmd_topic": args.cmd_topic,
+        "odom_topic": args.odom_topic,
+        "time_source": args.time_source,
+        "odom_velocity": args.odom_velocity,
+        "keep_all": args.keep_all,
+    }

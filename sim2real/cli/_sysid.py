@@ -11,6 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from sim2real._io import atomic_write, check_not_an_input, check_output_path
+from sim2real.cli._common import read_options
 from sim2real.cli._progress import progress_bar
 from sim2real.cluster import expand_logs, map_tasks
 from sim2real.errors import Sim2RealValueError
@@ -78,11 +79,7 @@ def handle_fit(args: argparse.Namespace) -> int:
             window=window,
             validate_window=validate_window,
             free=free,
-            cmd_topic=args.cmd_topic,
-            odom_topic=args.odom_topic,
-            time_source=args.time_source,
-            odom_velocity=args.odom_velocity,
-            keep_all=args.keep_all,
+            **read_options(args),
             odom_v_window_s=v_window,
             loss=args.loss,
             dt_s=args.dt,
