@@ -753,16 +753,7 @@ def run_plant(
         out,
         _fresh_state(),
     )
-    tick = 2.0 * math.pi / params.ticks_per_rev
-    ticks_l = np.floor(out[:, 2] / tick).astype(np.int64)
-    ticks_r = np.floor(out[:, 3] / tick).astype(np.int64)
-    r, sep = params.wheel_radius_m, params.wheel_separation_m
-    d_l = np.diff(ticks_l, prepend=ticks_l[0]) * tick * r
-    d_r = np.diff(ticks_r, prepend=ticks_r[0]) * tick * r
-    meas_v = 0.5 * (d_l + d_r) / period
-    gyro = out[:, 1] + params.gyro_bias_radps
-    gyro = gyro + params.gyro_noise_radps * rng.standard_normal(ticks_t.size)
-    meas_w = gyro if params.w_source == "imu" else (d_r - d_l) / sep / period
+    ticks_l, ticks_r, meas_v, meas_w = _odometry(params, out, period, rng)
     lim = 0.3 * period
     jitter = np.clip(params.stamp_jitter_s * rng.standard_normal(ticks_t.size), -lim, lim)
     kept = rng.random(ticks_t.size) >= params.odom_drop_fraction
@@ -783,6 +774,25 @@ def run_plant(
         meas_w=meas_w,
         kept=kept,
     )
+
+
+def _odometry(
+    params: PlantParams, out: FloatArray, period: float, rng: np.random.Generator
+) -> tuple[NDArray[np.int64], NDArray[np.int64], FloatArray, FloatArray]:
+    """(encoder ticks L, R, reported v, reported w) at the odometry ticks from the true
+    (v, w, wheel angles) ``out``: v from the quantised encoders, w from them or the gyro
+    (bias and noise, drawn from ``rng``)."""
+    tick = 2.0 * math.pi / params.ticks_per_rev
+    ticks_l = np.floor(out[:, 2] / tick).astype(np.int64)
+    ticks_r = np.floor(out[:, 3] / tick).astype(np.int64)
+    r, sep = params.wheel_radius_m, params.wheel_separation_m
+    d_l = np.diff(ticks_l, prepend=ticks_l[0]) * tick * r
+    d_r = np.diff(ticks_r, prepend=ticks_r[0]) * tick * r
+    meas_v = 0.5 * (d_l + d_r) / period
+    gyro = out[:, 1] + params.gyro_bias_radps
+    gyro = gyro + params.gyro_noise_radps * rng.standard_normal(out.shape[0])
+    meas_w = gyro if params.w_source == "imu" else (d_r - d_l) / sep / period
+    return ticks_l, ticks_r, meas_v, meas_w
 
 
 def run_to_trace(run: PlantRun, *, t0_ns: int = T0_NS, name: str = "") -> Trace:

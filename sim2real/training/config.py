@@ -444,31 +444,11 @@ def config_from_dict(
     out: str | Path | None = None,
 ) -> TrainConfig:
     """Like :func:`load_config` for an already-parsed mapping (paths relative to ``folder``)."""
-    fmt = doc.get("format", CONFIG_FORMAT)  # first: another file (a sysid result) says so
-    if fmt != CONFIG_FORMAT:
-        raise Sim2RealValueError(f"{where}: key 'format' must be '{CONFIG_FORMAT}', got {fmt!r}")
-    unknown = sorted(set(doc) - set(_KEYS))
-    if unknown:
-        raise Sim2RealValueError(
-            f"{where}: unknown key(s) {unknown}; known keys are {', '.join(_KEYS)}"
-        )
-    env = doc.get("env")
-    if isinstance(env, str):
-        env = {"id": env}
-    if not isinstance(env, Mapping) or "id" not in env:
-        raise Sim2RealValueError(
-            f"{where}: key 'env' must be a mapping with 'id' (e.g. sim2real/RandomMap-v0) and "
-            f"optional 'kwargs', got {env!r}"
-        )
+    _check_keys(doc, where)
+    env = _env_entry(doc.get("env"), where)
     env_id = resolve_env_id(env["id"], where=f"{where}: env id")
     evaluation = _mapping(doc.get("evaluation"), "evaluation", where)
-    env_kwargs = _with_params_path(_mapping(env.get("kwargs"), "env.kwargs", where), folder)
-    if env_kwargs.get("dynamics") == "plant":
-        raise Sim2RealValueError(
-            f"{where}: env.kwargs dynamics 'plant' is a foreign base that stands in for the real "
-            "robot and is never trained on; train with dynamics 'reduced' and evaluate on the "
-            "plant (evaluation.kwargs dynamics: plant, or sim2real envs eval --dynamics plant)"
-        )
+    env_kwargs = _training_kwargs(env, folder, where)
     eval_kwargs = _with_params_path(
         _mapping(evaluation.get("kwargs"), "evaluation.kwargs", where), folder
     )
@@ -498,6 +478,46 @@ def config_from_dict(
         raise Sim2RealValueError(
             f"{where}: key 'vec_env' must be one of {', '.join(_VEC_ENVS)}, got {cfg.vec_env!r}"
         )
+    return replace(cfg, **_overrides(timesteps, seed, out))
+
+
+def _check_keys(doc: Mapping[str, Any], where: str) -> None:
+    fmt = doc.get("format", CONFIG_FORMAT)  # first: another file (a sysid result) says so
+    if fmt != CONFIG_FORMAT:
+        raise Sim2RealValueError(f"{where}: key 'format' must be '{CONFIG_FORMAT}', got {fmt!r}")
+    unknown = sorted(set(doc) - set(_KEYS))
+    if unknown:
+        raise Sim2RealValueError(
+            f"{where}: unknown key(s) {unknown}; known keys are {', '.join(_KEYS)}"
+        )
+
+
+def _env_entry(env: Any, where: str) -> Mapping[str, Any]:
+    """The ``env`` key as a mapping with ``id`` (a bare id is accepted)."""
+    if isinstance(env, str):
+        env = {"id": env}
+    if not isinstance(env, Mapping) or "id" not in env:
+        raise Sim2RealValueError(
+            f"{where}: key 'env' must be a mapping with 'id' (e.g. sim2real/RandomMap-v0) and "
+            f"optional 'kwargs', got {env!r}"
+        )
+    return env
+
+
+def _training_kwargs(env: Mapping[str, Any], folder: Path, where: str) -> dict[str, Any]:
+    """The training env's kwargs (a relative params file made absolute); never a plant."""
+    env_kwargs = _with_params_path(_mapping(env.get("kwargs"), "env.kwargs", where), folder)
+    if env_kwargs.get("dynamics") == "plant":
+        raise Sim2RealValueError(
+            f"{where}: env.kwargs dynamics 'plant' is a foreign base that stands in for the real "
+            "robot and is never trained on; train with dynamics 'reduced' and evaluate on the "
+            "plant (evaluation.kwargs dynamics: plant, or sim2real envs eval --dynamics plant)"
+        )
+    return env_kwargs
+
+
+def _overrides(timesteps: int | None, seed: int | None, out: str | Path | None) -> dict[str, Any]:
+    """The command line's ``--timesteps``, ``--seed`` and ``--out``, checked."""
     overrides: dict[str, Any] = {}
     if timesteps is not None:
         overrides["timesteps"] = _int(
@@ -507,7 +527,7 @@ def config_from_dict(
         overrides["seed"] = _int({"seed": seed}, "seed", 0, "--seed", low=0)
     if out is not None:
         overrides["out"] = Path(out)
-    return replace(cfg, **overrides)
+    return overrides
 
 
 def config_summary(cfg: TrainConfig) -> dict[str, Any]:
