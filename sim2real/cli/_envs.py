@@ -89,35 +89,16 @@ def handle_list(args: argparse.Namespace) -> int:
 
 
 def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
-
+    """The env of ``envs eval`` / ``envs robustness`` and its reset options; a flag of
+    another env is refused in one sentence."""
     env_id = _env_id(args.env)
     if args.episodes < 1:
         raise Sim2RealValueError(
             f"--episodes must be >= 1, got {args.episodes}; e.g. --episodes 10"
         )
-    track = getattr(args, "track", None)  # `envs robustness` has no race flags
-    opponents = getattr(args, "opponents", None)
-    race_only = {
-        "--track": track,
-        "--opponents": opponents,
-        "--planner": getattr(args, "planner", None),
-    }
-    given = [flag for flag, value in race_only.items() if value is not None]
     if env_id.endswith("Race-v0"):
-        if args.preset is not None or args.scenario is not None or args.complexity is not None:
-            raise Sim2RealValueError(
-                "--preset, --scenario and --complexity do not apply to Race-v0; use --track, "
-                "--opponents and --planner"
-            )
-        kw: dict[str, Any] = {"track": track or "circuit"}
-        if opponents is not None:
-            kw["num_opponents"] = opponents
-        return gym.make(env_id, dynamics=args.dynamics, **kw), None
-    if given:
-        raise Sim2RealValueError(
-            f"{', '.join(given)} {'applies' if len(given) == 1 else 'apply'} to Race-v0 only, "
-            f"not {args.env}; drop {'it' if len(given) == 1 else 'them'}"
-        )
+        return _race_env(args, env_id), None
+    _refuse_race_flags(args)
     if env_id.endswith("CarCrossing-v0"):
         if args.preset is not None or args.scenario is not None or args.complexity is not None:
             raise Sim2RealValueError(
@@ -136,12 +117,39 @@ def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
         raise Sim2RealValueError(
             "--preset applies to RandomMap-v0 only; use --scenario and --complexity for CrowdNav-v0"
         )
-    options: dict[str, Any] = {}
-    if args.scenario is not None:
-        options["scenario"] = args.scenario
-    if args.complexity is not None:
-        options["complexity"] = args.complexity
+    options = {
+        k: getattr(args, k) for k in ("scenario", "complexity") if getattr(args, k) is not None
+    }
     return gym.make(env_id, dynamics=args.dynamics), options or None
+
+
+def _race_flags(args: argparse.Namespace) -> dict[str, Any]:
+    """``--track``, ``--opponents``, ``--planner`` as given (``envs robustness`` has none)."""
+    return {flag: getattr(args, flag[2:], None) for flag in ("--track", "--opponents", "--planner")}
+
+
+def _race_env(args: argparse.Namespace, env_id: str) -> Any:
+    """Race-v0 on ``--track`` (circuit) with ``--opponents``."""
+    if args.preset is not None or args.scenario is not None or args.complexity is not None:
+        raise Sim2RealValueError(
+            "--preset, --scenario and --complexity do not apply to Race-v0; use --track, "
+            "--opponents and --planner"
+        )
+    race = _race_flags(args)
+    kw: dict[str, Any] = {"track": race["--track"] or "circuit"}
+    if race["--opponents"] is not None:
+        kw["num_opponents"] = race["--opponents"]
+    return gym.make(env_id, dynamics=args.dynamics, **kw)
+
+
+def _refuse_race_flags(args: argparse.Namespace) -> None:
+    """Refuse Race-v0's flags on another env."""
+    given = [flag for flag, value in _race_flags(args).items() if value is not None]
+    if given:
+        raise Sim2RealValueError(
+            f"{', '.join(given)} {'applies' if len(given) == 1 else 'apply'} to Race-v0 only, "
+            f"not {args.env}; drop {'it' if len(given) == 1 else 'them'}"
+        )
 
 
 def _plain(value: Any) -> Any:
