@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robots.spec import load_spec
 from sim2real.cli import main
@@ -190,3 +192,31 @@ def test_a_mostly_unattended_log_is_refused_in_one_sentence(
     fit = ["sysid", "fit", str(log), "--robot", "turtlebot2", "-o", str(tmp_path / "p.yaml")]
     assert main(fit) == 2
     assert "is mostly unattended" in capsys.readouterr().err
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    delay_s=st.floats(0.0, 0.5),
+    tau_s=st.floats(0.02, 0.5),
+    noise=st.floats(0.0, 0.01),
+    rate_hz=st.sampled_from([5.0, 10.0, 20.0, 50.0]),
+)
+def test_a_robot_that_follows_its_commands_has_no_unattended_sample(
+    seed: int, delay_s: float, tau_s: float, noise: float, rate_hz: float
+) -> None:
+    """Steps at a steady command rate, answered with a delay and a first-order lag: nothing
+    is flagged, whatever the rates, the delay, the lag and the noise."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 40.0, 1.0 / rate_hz)
+    holds = rng.uniform(0.5, 4.0, 40).cumsum()
+    levels = rng.choice([0.0, 0.0, 0.1, 0.3, -0.2], size=41)
+    cmd = levels[np.searchsorted(holds, t)]
+    dt = t[1] - t[0]
+    real = np.zeros(t.size)
+    lagged = levels[np.searchsorted(holds, t - delay_s)]
+    for k in range(1, t.size):
+        real[k] = real[k - 1] + (lagged[k] - real[k - 1]) * (1 - np.exp(-dt / tau_s))
+    real += rng.normal(0.0, noise, t.size)
+    found = find_unattended(_trace(real, cmd, hz=rate_hz))
+    assert not found.flagged.any(), found.ranges_s
