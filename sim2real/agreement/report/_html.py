@@ -46,8 +46,10 @@ figure.lead{margin:8px 0 0;padding:4px 8px}figure.lead figcaption{margin-top:0}
 details{margin:14px 0;background:#fff;border-radius:8px;padding:4px 12px;
 box-shadow:0 1px 3px rgba(0,0,0,.08)}summary{cursor:pointer;font-weight:600;padding:6px 0}
 details h2{margin-top:10px}.card{overflow-wrap:anywhere}
-#verdict p{overflow-wrap:anywhere}#verdict .headline{margin:8px 0 0;font-size:.95rem}
+#verdict p{overflow-wrap:anywhere}#verdict .next p{margin:0}
 #verdict .reasons{margin:4px 0 0;padding-left:20px;font-size:.86rem}
+#verdict details.why{margin:0;padding:0;box-shadow:none;background:none}
+#verdict details.why summary{padding:0;font-size:.84rem;font-weight:400;color:#555}
 """
 
 _CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
@@ -128,14 +130,25 @@ def _verdict(v: Verdict, title: str, subtitle: str) -> str:
     )
     cls = "next ok" if v.ok else "next"
     headline = f'<p class="headline"><b>Verdict:</b> {_e(v.headline)}</p>' if v.headline else ""
-    reasons = "".join(f"<li>{_e(r)}</li>" for r in v.reasons)
     return (
         f'<section id="verdict"><h1>{_e(title)}</h1><p class="sub">{_e(subtitle)}</p>'
-        f'<div class="stats">{stats}</div>{headline}'
+        f'<div class="stats">{stats}</div><div class="{cls}">{headline}'
+        f'<p class="step"><b>Next step:</b> {_e(v.next_step)}</p>{_why(v)}</div></section>'
+    )
+
+
+def _why(v: Verdict) -> str:
+    """The verdict's reasons and the data notes, collapsed (the first screen keeps the plot)."""
+    if not (v.reasons or v.notes):
+        return ""
+    counts = [f"{len(v.reasons)} finding{'s' * (len(v.reasons) != 1)}"] if v.reasons else []
+    counts += [f"{len(v.notes)} note{'s' * (len(v.notes) != 1)}"] if v.notes else []
+    reasons = "".join(f"<li>{_e(r)}</li>" for r in v.reasons)
+    return (
+        f'<details class="why"><summary>Why: {", ".join(counts)}</summary>'
         + (f'<ul class="reasons">{reasons}</ul>' if reasons else "")
-        + f'<p class="{cls}"><b>Next step:</b> {_e(v.next_step)}</p>'
         + "".join(f'<p class="note">note: {_e(n)}</p>' for n in v.notes)
-        + "</section>"
+        + "</details>"
     )
 
 
