@@ -24,7 +24,7 @@ import json
 import math
 import platform
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -334,9 +334,12 @@ def run_study(
     if notes:
         figures["notes"] = list(notes)
     verdict = _verdict(config, spec, trace, runs, ensemble, params, params_file)
-    written = _write_outputs(
-        config, figures, trace, spec, tuple(runs), ensemble, window_s, params_file, verdict, notes
-    )
+    report = None
+    if config.report_path is not None:
+        report = _report_input(
+            config, trace, spec, tuple(runs), ensemble, window_s, params_file, verdict, notes
+        )
+    written = _write_outputs(config, figures, trace, runs[-1].replay, report)
     return StudyResult(
         main=runs[-1].agreement,
         runs=tuple(runs),
@@ -371,30 +374,22 @@ def _write_outputs(
     config: StudyConfig,
     figures: dict[str, Any],
     trace: Any,
-    spec: Any,
-    runs: tuple[ReportRun, ...],
-    ensemble: EnsembleResult | None,
-    window_s: float,
-    params_file: ParamsFile | None,
-    verdict: AgreementVerdict,
-    notes: tuple[str, ...],
+    sim: Any,
+    report: ReportInput | None,
 ) -> list[Path]:
-    """Write the JSON figures, the report and the simulated log that ``config`` asks for."""
+    """Write the JSON figures, the report and the simulated log (the replay ``sim``) that
+    ``config`` asks for."""
     written: list[Path] = []
     # the outputs are one set: all move in at the end, or none (a kill keeps the old set)
     with output_set([config.json_path, config.report_path, config.sim_out]) as out:
         if config.json_path is not None:
             write_json(out.staged(config.json_path), figures)
             written.append(Path(config.json_path))
-        if config.report_path is not None:
-            staged = out.staged(config.report_path)
-            report_config = replace(config, report_path=staged)
-            _write_report(
-                report_config, trace, spec, runs, ensemble, window_s, params_file, verdict, notes
-            )
+        if config.report_path is not None and report is not None:
+            write_report(out.staged(config.report_path), report)
             written.append(Path(config.report_path))
         if config.sim_out is not None:
-            _write_sim_log(out.staged(config.sim_out), trace, runs[-1].replay)
+            _write_sim_log(out.staged(config.sim_out), trace, sim)
             written.append(Path(config.sim_out))
     return written
 
@@ -575,7 +570,7 @@ def study_figures(main: AgreementReport, ensemble: EnsembleResult | None) -> dic
     return figures
 
 
-def _write_report(
+def _report_input(
     config: StudyConfig,
     trace: Any,
     spec: Any,
@@ -585,32 +580,29 @@ def _write_report(
     params_file: ParamsFile | None,
     verdict: AgreementVerdict | None = None,
     notes: tuple[str, ...] = (),
-) -> None:
-    assert config.report_path is not None  # checked by the caller
+) -> ReportInput:
+    """What the HTML report shows of this run (figures, parameter table, provenance)."""
     files: list[tuple[str, str | Path]] = [("log", config.log)]
     if config.params_path is not None:
         files.append(("params", config.params_path))
     shown = {str(config.params_path): config.params_shown} if config.params_shown else {}
-    write_report(
-        config.report_path,
-        ReportInput(
-            trace=trace,
-            runs=runs,
-            ensemble=ensemble,
-            params=param_rows(spec.drive, runs[-1].replay.params, params_file),
-            provenance=provenance_rows(
-                files=files,
-                shown=shown,
-                robot=spec,
-                engine=config.engine,
-                seed=config.seed if ensemble is not None else None,
-                command_line=config.command_line,
-                odom_v_window_s=window_s,
-            ),
-            title=config.title,
-            verdict=verdict,
-            notes=notes,
+    return ReportInput(
+        trace=trace,
+        runs=runs,
+        ensemble=ensemble,
+        params=param_rows(spec.drive, runs[-1].replay.params, params_file),
+        provenance=provenance_rows(
+            files=files,
+            shown=shown,
+            robot=spec,
+            engine=config.engine,
+            seed=config.seed if ensemble is not None else None,
+            command_line=config.command_line,
+            odom_v_window_s=window_s,
         ),
+        title=config.title,
+        verdict=verdict,
+        notes=notes,
     )
 
 
