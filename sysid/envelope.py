@@ -19,8 +19,8 @@ samples, and which drive parameters that leaves uncertain. A sample is outside w
 exceeds the envelope by 10 % plus a floor (the agreement tolerance of that quantity), so the
 noise of two recordings of the same driving does not count.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from sysid import LogArrays
 >>> t = np.arange(0, 20, 0.05)
