@@ -67,43 +67,13 @@ def read_csv_trace(path: str | Path) -> Trace:
     p = Path(path)
     raw = p.read_bytes()
     rows = list(csv.reader(raw.decode("utf-8-sig", errors="replace").splitlines()))
-    header = [h.strip() for h in rows[0]] if rows else []
-    missing = [c for c in CSV_COLUMNS if c not in header]
-    if missing:
-        raise LogFormatError(
-            f"CSV log '{p}' lacks the column(s) {', '.join(missing)} (header: "
-            f"{','.join(header) or 'empty'}); its first row must name the columns "
-            f"{','.join(CSV_COLUMNS)} (optional x,y,yaw)"
-        )
-    pose = all(c in header for c in _POSE)
-    names = list(CSV_COLUMNS) + (list(_POSE) if pose else [])
-    idx = {c: header.index(c) for c in names}
+    idx = _column_index(rows, p)
     body = [(n, r) for n, r in enumerate(rows[1:], start=2) if any(c.strip() for c in r)]
     if len(body) < 2:
         raise LogValueError(
             f"CSV log '{p}' has {len(body)} data row(s); a trace needs at least 2 samples"
         )
-    t_ns = np.empty(len(body), np.int64)
-    cols = {c: np.empty(len(body)) for c in names if c != "t"}
-    for i, (line, row) in enumerate(body):
-        t = _cell(row, idx["t"], "t", line, p, _ns)
-        if not -_T_MAX_NS < t < _T_MAX_NS:  # int64 nanoseconds: +-292 years around 1970
-            raise LogValueError(
-                f"CSV log '{p}' line {line} column 't' holds {row[idx['t']].strip()!r}, which "
-                "as seconds lies more than 292 years from 1970; t must be in seconds (divide "
-                "nanoseconds by 1e9, milliseconds by 1e3)"
-            )
-        t_ns[i] = t
-        for c, arr in cols.items():
-            arr[i] = _cell(row, idx[c], c, line, p, float)
-    steps = np.diff(t_ns)
-    if np.any(steps <= 0):
-        k = int(np.argmax(steps <= 0))
-        raise LogValueError(
-            f"CSV log '{p}' has times that do not increase (line {body[k + 1][0]}: t = "
-            f"{seconds(t_ns[k + 1])} s after {seconds(t_ns[k])} s); sort the rows by t and remove "
-            "repeated times"
-        )
+    t_ns, cols = _parse_rows(body, idx, p)
     warnings: list[str] = []
     t_ns, cols = drop_outliers(t_ns, cols, "t", warnings)  # a row with a corrupt far time
     meta = TraceMeta(
@@ -134,6 +104,49 @@ def read_csv_trace(path: str | Path) -> Trace:
         pose_yaw=cols.get("yaw"),
         meta=meta,
     )
+
+
+def _column_index(rows: list[list[str]], p: Path) -> dict[str, int]:
+    """Where each column of the trace stands in the header row (the pose only when whole)."""
+    header = [h.strip() for h in rows[0]] if rows else []
+    missing = [c for c in CSV_COLUMNS if c not in header]
+    if missing:
+        raise LogFormatError(
+            f"CSV log '{p}' lacks the column(s) {', '.join(missing)} (header: "
+            f"{','.join(header) or 'empty'}); its first row must name the columns "
+            f"{','.join(CSV_COLUMNS)} (optional x,y,yaw)"
+        )
+    pose = all(c in header for c in _POSE)
+    names = list(CSV_COLUMNS) + (list(_POSE) if pose else [])
+    return {c: header.index(c) for c in names}
+
+
+def _parse_rows(
+    body: list[tuple[int, list[str]]], idx: dict[str, int], p: Path
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Times (int64 ns, strictly increasing) and the other columns of the data rows."""
+    t_ns = np.empty(len(body), np.int64)
+    cols = {c: np.empty(len(body)) for c in idx if c != "t"}
+    for i, (line, row) in enumerate(body):
+        t = _cell(row, idx["t"], "t", line, p, _ns)
+        if not -_T_MAX_NS < t < _T_MAX_NS:  # int64 nanoseconds: +-292 years around 1970
+            raise LogValueError(
+                f"CSV log '{p}' line {line} column 't' holds {row[idx['t']].strip()!r}, which "
+                "as seconds lies more than 292 years from 1970; t must be in seconds (divide "
+                "nanoseconds by 1e9, milliseconds by 1e3)"
+            )
+        t_ns[i] = t
+        for c, arr in cols.items():
+            arr[i] = _cell(row, idx[c], c, line, p, float)
+    steps = np.diff(t_ns)
+    if np.any(steps <= 0):
+        k = int(np.argmax(steps <= 0))
+        raise LogValueError(
+            f"CSV log '{p}' has times that do not increase (line {body[k + 1][0]}: t = "
+            f"{seconds(t_ns[k + 1])} s after {seconds(t_ns[k])} s); sort the rows by t and remove "
+            "repeated times"
+        )
+    return t_ns, cols
 
 
 def _cell(row: list[str], i: int, col: str, line: int, p: Path, conv: type | object) -> float:
