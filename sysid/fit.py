@@ -340,17 +340,7 @@ def _fleet(
     mu_p = np.array([p[0] if p else 0.0 for p in priors])
     prec = np.array([1.0 / p[1] ** 2 if p else 0.0 for p in priors])
     s0 = np.diag([max(mapper.priors[n].session_sd, 1e-6) ** 2 for n in names])
-    sessions = []
-    for p in posts:
-        z = mu_p.copy()
-        info = np.zeros((len(names), len(names)))
-        idx = [(i, p.free.index(n)) for i, n in enumerate(names) if n in p.free]
-        idx = [(i, j) for i, j in idx if j not in p.weak]
-        rows = [i for i, _ in idx]
-        cols = [j for _, j in idx]
-        z[rows] = p.z[cols]
-        info[np.ix_(rows, rows)] = p.info[np.ix_(cols, cols)]
-        sessions.append(SessionInfo(z=z, info=info))
+    sessions = [_session_info(p, names, mu_p) for p in posts]
     pop = population(sessions, prior_mu=mu_p, prior_prec=prec, session_cov=s0)
     # the population mean is unconstrained; keep it inside the schema's range (its sign rules),
     # as every single-log MAP point is, so params, intervals and the randomisation mean agree
@@ -381,6 +371,20 @@ def _fleet(
         between=pop.between,
         problem=prob,
     )
+
+
+def _session_info(post: Posterior, names: Sequence[str], mu_p: FloatArray) -> SessionInfo:
+    """One session's estimate and information over ``names`` (the prior mean where its fit
+    left a field out or found it weak)."""
+    z = mu_p.copy()
+    info = np.zeros((len(names), len(names)))
+    idx = [(i, post.free.index(n)) for i, n in enumerate(names) if n in post.free]
+    idx = [(i, j) for i, j in idx if j not in post.weak]
+    rows = [i for i, _ in idx]
+    cols = [j for _, j in idx]
+    z[rows] = post.z[cols]
+    info[np.ix_(rows, rows)] = post.info[np.ix_(cols, cols)]
+    return SessionInfo(z=z, info=info)
 
 
 def _session_entry(post: Posterior, mapper: Mapper, name: str) -> dict[str, Any]:
