@@ -65,3 +65,23 @@ def test_lazy_package_attributes_still_resolve() -> None:
     assert "DepthNoise" in dir(randomizers)
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         _ = robots.nope  # type: ignore[attr-defined]
+
+
+def test_sysid_show_imports_no_fitting_code(tmp_path: Path) -> None:
+    from robots.params import DriveParams
+    from sysid import SysidResult
+
+    params = tmp_path / "params.yaml"
+    result = SysidResult(
+        robot="turtlebot3_burger",
+        params=DriveParams(),
+        estimates=(),
+        identifiable=(),
+        correlation_names=(),
+        correlation=(),
+    )
+    params.write_text(result.to_yaml(), encoding="utf-8")
+    imported = _imported("sysid", "show", str(params))
+    assert "sysid" in imported and "rich" in imported
+    heavy = {"scipy", "numba", "matplotlib", "pybullet", "control", "filterpy", "mcap"}
+    assert sorted(imported & heavy) == []

@@ -70,7 +70,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         examples=_SHOW_EXAMPLES,
     )
     show.add_argument("params", metavar="PARAMS.yaml", help="file written by 'sysid fit'")
-    show.set_defaults(handler="sysid:handle_show")
+    show.set_defaults(handler="result:handle_show")
     _register_calibrate(group_sub)
     _register_plan(group_sub)
 
