@@ -647,6 +647,26 @@ def ensemble_members(
     return drawn, np.stack([s.v for s in sims]), np.stack([s.w for s in sims])
 
 
+def _coverage_curve(
+    rv: FloatArray,
+    rw: FloatArray,
+    sv: FloatArray,
+    sw: FloatArray,
+    active: NDArray[np.bool_],
+    level: float,
+) -> tuple[tuple[float, float, float], ...]:
+    """(level, coverage v, coverage w) of the bands of :data:`COVERAGE_LEVELS` and ``level``
+    drawn from the predictive samples ``sv``, ``sw``."""
+    curve = []
+    for lv in sorted({*COVERAGE_LEVELS, level}):
+        lo_v, hi_v = predictive_band(sv, lv)
+        lo_w, hi_w = predictive_band(sw, lv)
+        curve.append(
+            (lv, band_coverage(rv, lo_v, hi_v, active), band_coverage(rw, lo_w, hi_w, active))
+        )
+    return tuple(curve)
+
+
 def run_ensemble(
     trace: TraceLike,
     *,
@@ -729,13 +749,7 @@ def run_ensemble(
     rw = np.asarray(trace.meas_w, dtype=np.float64)
     cmd_v, cmd_w = trace.cmd_at_meas()
     active = active_mask(cmd_v, cmd_w, rv, rw, tol_v=tol_v, tol_w=tol_w)
-    curve = []
-    for lv in sorted({*COVERAGE_LEVELS, level}):
-        lo_v, hi_v = predictive_band(sv, lv)
-        lo_w, hi_w = predictive_band(sw, lv)
-        curve.append(
-            (lv, band_coverage(rv, lo_v, hi_v, active), band_coverage(rw, lo_w, hi_w, active))
-        )
+    curve = _coverage_curve(rv, rw, sv, sw, active, level)
     lo_v, hi_v = predictive_band(sv, level)
     lo_w, hi_w = predictive_band(sw, level)
     inside = _within(rv, lo_v, hi_v) & _within(rw, lo_w, hi_w)
@@ -755,7 +769,7 @@ def run_ensemble(
         coverage_w=band_coverage(rw, lo_w, hi_w, active),
         band_width_v_mps=_median_width(lo_v, hi_v, active),
         band_width_w_radps=_median_width(lo_w, hi_w, active),
-        coverage_by_level=tuple(curve),
+        coverage_by_level=curve,
         params=tuple(drawn),
         sampled=tuple(distribution.names),
         members_v=mv,
