@@ -8,8 +8,12 @@ Modules, in the order a run uses them:
   velocities, the ensemble band and its coverage;
 - :mod:`~sim2real.agreement.calibration` fits the spread of a params file's randomisation to a
   log the fit did not use;
+- :mod:`~sim2real.agreement.verdict` decides, once, what an agreement run means and what to do
+  next (the CLI and the report print its words);
+- :mod:`~sim2real.agreement.report` draws the HTML page and plots of a run;
 - :mod:`~sim2real.agreement.study` runs the whole ``sim2real agree`` job and writes its outputs.
 
-May import :mod:`robots`, :mod:`sysid`, :mod:`sim2real.logs` and :mod:`sim2real.agreement.report`; never
-the CLI, the training code or the envs.
+May import :mod:`robots`, :mod:`sysid`, :mod:`randomizers` (the ensemble's random streams) and
+:mod:`sim2real.logs`; never the CLI, the training code, the envs or :mod:`sim2real.cluster`
+(which fans :mod:`~sim2real.agreement.study` out over many logs).
 """
