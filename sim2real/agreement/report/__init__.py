@@ -365,23 +365,11 @@ def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
     rv = np.asarray(trace.meas_v, dtype=np.float64)
     rw = np.asarray(trace.meas_w, dtype=np.float64)
     sims = [SimSeries(label=r.label, v=r.replay.v, w=r.replay.w) for r in data.runs]
-    band = None
-    if data.ensemble is not None:
-        e = data.ensemble
-        band = Band(
-            lo_v=e.lo_v,
-            hi_v=e.hi_v,
-            lo_w=e.lo_w,
-            hi_w=e.hi_w,
-            label=f"{100 * e.band_level:g} % predictive band (N={e.n})",
-        )
+    band = _band(data.ensemble)
     first = data.runs[0].agreement
     cmd_v, cmd_w = trace.cmd_at_meas()
     active = active_mask(cmd_v, cmd_w, rv, rw, tol_v=first.tol_v, tol_w=first.tol_w)
-    rolling = []
-    for r in data.runs:
-        ok = (np.abs(r.replay.v - rv) <= first.tol_v) & (np.abs(r.replay.w - rw) <= first.tol_w)
-        rolling.append((r.label, rolling_agreement(t, ok, active, window_s=ROLLING_WINDOW_S)))
+    rolling = _rolling(data.runs, t, rv, rw, active)
     zoom = _zoom_figure(data, sims, band)
     figures = [
         (
@@ -426,6 +414,31 @@ def _figures(data: ReportInput) -> list[tuple[str, Figure]]:
         ),
     ]
     return figures
+
+
+def _band(ensemble: EnsembleResult | None) -> Band | None:
+    """The ensemble's predictive band as the plots draw it (None without an ensemble)."""
+    if ensemble is None:
+        return None
+    return Band(
+        lo_v=ensemble.lo_v,
+        hi_v=ensemble.hi_v,
+        lo_w=ensemble.lo_w,
+        hi_w=ensemble.hi_w,
+        label=f"{100 * ensemble.band_level:g} % predictive band (N={ensemble.n})",
+    )
+
+
+def _rolling(
+    runs: Sequence[ReportRun], t: np.ndarray, rv: np.ndarray, rw: np.ndarray, active: np.ndarray
+) -> list[tuple[str, np.ndarray]]:
+    """Each run's rolling agreement (the first run's tolerances, as the figures use)."""
+    first = runs[0].agreement
+    rolling = []
+    for r in runs:
+        ok = (np.abs(r.replay.v - rv) <= first.tol_v) & (np.abs(r.replay.w - rw) <= first.tol_w)
+        rolling.append((r.label, rolling_agreement(t, ok, active, window_s=ROLLING_WINDOW_S)))
+    return rolling
 
 
 #: Length of the close-up window, s.
