@@ -28,6 +28,25 @@ def _num(x: Any, spec: str) -> str:
     return format(float(x), spec) if x is not None and math.isfinite(float(x)) else "n/a"
 
 
+def _row(name: str, figures: dict[str, Any], *, band: bool, fit: bool = True) -> tuple[str, ...]:
+    """One row of :func:`table`: agreement, FIT % (blank when not ``fit``: the pooled row),
+    coverage with a ``band``, active samples."""
+    fit_percent = (
+        (_num(figures.get("fit_percent_v"), ".1f"), _num(figures.get("fit_percent_w"), ".1f"))
+        if fit
+        else ("", "")
+    )
+    return (
+        name,
+        _pct(figures.get("agreement")),
+        _pct(figures.get("agreement_v")),
+        _pct(figures.get("agreement_w")),
+        *fit_percent,
+        *((_pct(figures.get("coverage_v")), _pct(figures.get("coverage_w"))) if band else ()),
+        str(figures.get("n_active")),
+    )
+
+
 def table(figures: list[dict[str, Any]], summary: dict[str, Any]) -> str:
     """One row per log and a pooled summary row, plain text; with an ensemble, the band's
     coverage of v and w in each. A log that could not be used gets a row saying why."""
@@ -36,31 +55,8 @@ def table(figures: list[dict[str, Any]], summary: dict[str, Any]) -> str:
     figures = [f for f in figures if "error" not in f]
     head: tuple[str, ...] = ("log", "agreement", "agr. v", "agr. w", "FIT % v", "FIT % w")
     head += ("cov. v", "cov. w", "active") if band else ("active",)
-    rows = [
-        (
-            Path(str(f.get("log_file"))).name,
-            _pct(f.get("agreement")),
-            _pct(f.get("agreement_v")),
-            _pct(f.get("agreement_w")),
-            _num(f.get("fit_percent_v"), ".1f"),
-            _num(f.get("fit_percent_w"), ".1f"),
-            *((_pct(f.get("coverage_v")), _pct(f.get("coverage_w"))) if band else ()),
-            str(f.get("n_active")),
-        )
-        for f in figures
-    ]
-    rows.append(
-        (
-            f"pooled ({summary['n_logs']} logs)",
-            _pct(summary["agreement"]),
-            _pct(summary["agreement_v"]),
-            _pct(summary["agreement_w"]),
-            "",
-            "",
-            *((_pct(summary["coverage_v"]), _pct(summary["coverage_w"])) if band else ()),
-            str(summary["n_active"]),
-        )
-    )
+    rows = [_row(Path(str(f.get("log_file"))).name, f, band=band) for f in figures]
+    rows.append(_row(f"pooled ({summary['n_logs']} logs)", summary, band=band, fit=False))
     widths = [max(len(r[i]) for r in (head, *rows)) for i in range(len(head))]
     lines = [
         "  ".join(
@@ -87,22 +83,7 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
         )
     if args.json:
         check_output_path(args.json, what="--json file")
-    configs = [dataclasses.replace(base, log=str(p), json_path=None, command_line="") for p in logs]
-    with progress_bar("[bold]agree[/] logs", len(configs), counted=True) as update:
-        results = agree_many(
-            configs,
-            address=args.ray,
-            on_done=update,
-            release=True,  # a local Ray started for this command stops as its work ends
-        )
-    figures = [fig for fig, _ in results]
-    for path, (_, warnings) in zip(logs, results, strict=True):
-        for warning in warnings:
-            print(f"sim2real: warning: {path}: {warning}", file=sys.stderr)
-    if all("error" in f for f in figures):
-        raise LogValueError(
-            f"none of the {len(logs)} logs could be used; the first: {figures[0]['error']}"
-        )
+    figures = _run_all(args, logs, base)
     summary = fleet_summary(figures)
     where = "serial" if args.ray is None else f"Ray ({args.ray})"
     print(f"{len(logs)} logs: robot {args.robot}, engine {args.engine}, {where}")
@@ -125,3 +106,25 @@ def handle_many(args: argparse.Namespace, logs: list[Path], base: Any) -> int:
     line, code = gate_line(summary["agreement"], args.min_agreement, what="pooled agreement")
     print(line, file=sys.stderr if code else sys.stdout)
     return code
+
+
+def _run_all(args: argparse.Namespace, logs: list[Path], base: Any) -> list[dict[str, Any]]:
+    """Each log's figures (a row saying why for a log that could not be used), with a bar;
+    the reading warnings on stderr; refused when no log could be used."""
+    configs = [dataclasses.replace(base, log=str(p), json_path=None, command_line="") for p in logs]
+    with progress_bar("[bold]agree[/] logs", len(configs), counted=True) as update:
+        results = agree_many(
+            configs,
+            address=args.ray,
+            on_done=update,
+            release=True,  # a local Ray started for this command stops as its work ends
+        )
+    for path, (_, warnings) in zip(logs, results, strict=True):
+        for warning in warnings:
+            print(f"sim2real: warning: {path}: {warning}", file=sys.stderr)
+    figures = [fig for fig, _ in results]
+    if all("error" in f for f in figures):
+        raise LogValueError(
+            f"none of the {len(logs)} logs could be used; the first: {figures[0]['error']}"
+        )
+    return figures
