@@ -17,7 +17,8 @@ The headline is the first of these that holds:
 4. **latency of this session differs**: the fitted replay lags or leads the real robot by
    more than :data:`LAG_LIMIT_S`, or the session's own best latency is that far from the
    fitted delay;
-5. **the fit is short of** :data:`GOOD_AGREEMENT`;
+5. **the fit is short of** :data:`GOOD_AGREEMENT` (or of the noise ceiling less
+   :data:`CEILING_SLACK`, when the measurement noise allows no more);
 6. **the band**: none run, too narrow, too wide or calibrated
    (:func:`sim2real.agreement.figures.band_verdict`).
 
@@ -47,6 +48,7 @@ import numpy as np
 from sim2real.agreement.figures import band_verdict, calibrated_range, lag_phrase
 
 __all__ = [
+    "CEILING_SLACK",
     "GOOD_AGREEMENT",
     "LAG_LIMIT_S",
     "MIN_ACTIVE",
@@ -64,6 +66,8 @@ __all__ = [
 GOOD_AGREEMENT = 0.8
 #: A lag (or a latency difference) beyond this is a timing error worth fixing first, s.
 LAG_LIMIT_S = 0.05
+#: A fit within this much of the noise ceiling is as good as the measurement noise allows.
+CEILING_SLACK = 0.05
 #: Fewer active samples than this make the figures too uncertain to judge.
 MIN_ACTIVE = 50
 #: The fit counts as worse than the spec defaults when its agreement is this much lower.
@@ -314,6 +318,15 @@ def _wide_reason(ensemble: Any, s: SessionFigures) -> str | None:
     )
 
 
+def _good_agreement(s: SessionFigures) -> float:
+    """The agreement a fit must reach: :data:`GOOD_AGREEMENT`, or within
+    :data:`CEILING_SLACK` of the noise ceiling when the measurement noise allows no more."""
+    ceiling = s.noise_ceiling
+    if ceiling is not None and _finite(ceiling):
+        return min(GOOD_AGREEMENT, ceiling - CEILING_SLACK)
+    return GOOD_AGREEMENT
+
+
 def _ceiling_reason(s: SessionFigures) -> str | None:
     ceiling = s.noise_ceiling
     if ceiling is not None and _finite(ceiling) and ceiling < GOOD_AGREEMENT:
@@ -447,10 +460,12 @@ def _problem(
     latency = _latency_reason(fitted, s)
     if latency is not None:
         return "latency", f"The latency of this session differs: {latency}.", _LATENCY_STEP
-    if not fitted.agreement >= GOOD_AGREEMENT:
+    good = _good_agreement(s)
+    if not fitted.agreement >= good:
         return (
             "poor_fit",
-            f"The fit reaches {after} (spec defaults {before}), short of {_pct(GOOD_AGREEMENT)}.",
+            f"The fit reaches {after} (spec defaults {before}), short of {_pct(good)}"
+            + (" (the noise ceiling less 5 points)." if good < GOOD_AGREEMENT else "."),
             _POOR_STEP,
         )
     if ensemble is None:

@@ -146,6 +146,10 @@ def test_a_band_calibrated_by_being_wide_is_said() -> None:
     assert _decide(0.95, _Ens(0.9, band_width_v_mps=0.16), session=noisy).ok
     ceiling = SessionFigures(noise_ceiling=0.6)
     assert any("noise ceiling" in r for r in _decide(0.95, _Ens(0.9), session=ceiling).reasons)
+    # 0.56 is within 5 points of a 0.60 ceiling: the fit is as good as the noise allows
+    assert _decide(0.56, _Ens(0.9), before=0.4, session=ceiling).kind == "calibrated"
+    short = _decide(0.54, _Ens(0.9), before=0.4, session=ceiling)
+    assert short.kind == "poor_fit" and "short of 55.0 % (the noise ceiling less" in short.headline
 
 
 def test_coverage_counts_a_sample_on_a_quantised_band_edge() -> None:
