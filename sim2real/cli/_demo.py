@@ -166,11 +166,7 @@ def run_demo(
     start = time.perf_counter()
     data = find_data_dir(data_dir)
     out = Path(out_dir)
-    _check_out(out)
-    if ensemble_n >= 2:  # a bad size fails here, not after the fit
-        check_ensemble_size(ensemble_n)
-    for name in _LOGS:  # a bad log fails here, before OUT is created or written
-        read_trace(data / name)
+    _check_inputs(out, data, ensemble_n)
     shown = tour_commands(out, data, engine=engine, ensemble_n=ensemble_n, seed=seed)
     parser = build_parser()
     out.mkdir(parents=True, exist_ok=True)
@@ -199,6 +195,21 @@ def run_demo(
         summary["fit_s"] = round(fit_s, 2)
         summary["elapsed_s"] = round(time.perf_counter() - start, 2)
         write_json(staged.staged(out / "summary.json"), summary)
+    _print_outcome(outcome, summary, out)
+    return summary
+
+
+def _check_inputs(out: Path, data: Path, ensemble_n: int) -> None:
+    """Refuse a bad OUT, ensemble size or sample log before OUT is created or written."""
+    _check_out(out)
+    if ensemble_n >= 2:  # a bad size fails here, not after the fit
+        check_ensemble_size(ensemble_n)
+    for name in _LOGS:
+        read_trace(data / name)
+
+
+def _print_outcome(outcome: Any, summary: dict[str, Any], out: Path) -> None:
+    """The agreement table, the verdict, the before/after line and the files written."""
     print(summary_table(outcome.runs, outcome.ensemble))
     if outcome.verdict is not None:  # the report's verdict, in the same words
         print("\n".join(outcome.verdict.lines()))
@@ -212,7 +223,6 @@ def run_demo(
         f"wrote {out / 'params.yaml'}, {out / 'calibrated.yaml'}, {out / 'report.html'}, "
         f"{out / 'agreement.json'}, {out / 'summary.json'}"
     )
-    return summary
 
 
 def _summary(outcome: Any, argvs: list[list[str]], data: Path, out: Path) -> dict[str, Any]:
