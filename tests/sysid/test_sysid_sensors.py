@@ -1,0 +1,117 @@
+"""sysid.sensors on scans with known truth (the project's ray caster in a static room)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sysid.errors import ExcitationError, ResultFileError, SysidValueError
+from sysid.sensors import PoseArrays, ScanArrays, estimate_sensor, load_sensor
+from tests.sysid.sensor_truth import MOUNT_XY_M, Truth, draw_truth, synthetic_recording
+
+
+def _errors(truth: Truth, seed: int) -> dict[str, tuple[bool, bool]]:
+    """Per quantity: (within the issue's target, 95 % interval holds the truth)."""
+    scans, odom = synthetic_recording(truth, seed)
+    est = estimate_sensor(scans, odom, mount_xy_m=MOUNT_XY_M, seed=seed)
+    out = {}
+    mid = len(est.noise_range_m) // 2
+    for name, i in (("std_near", 0), ("std_mid", mid), ("std_far", -1)):
+        true_std = truth.std_at(est.noise_range_m[i])
+        out[name] = (
+            abs(est.noise_std_m[i] / true_std - 1.0) <= 0.15,
+            est.noise_std_lo_m[i] <= true_std <= est.noise_std_hi_m[i],
+        )
+    lo, hi = est.dropout_ci
+    out["dropout"] = (abs(est.dropout - truth.dropout) <= 0.015, lo <= truth.dropout <= hi)
+    lo, hi = est.time_offset_ci
+    out["offset"] = (abs(est.time_offset_s - truth.offset_s) <= 0.010, lo <= truth.offset_s <= hi)
+    lo, hi = est.mounting_yaw_ci
+    out["yaw"] = (
+        abs(est.mounting_yaw_rad - truth.yaw_rad) <= math.radians(0.5),
+        lo <= truth.yaw_rad <= hi,
+    )
+    return out
+
+
+def test_one_recording_meets_the_targets() -> None:
+    truth = draw_truth(np.random.default_rng(7))
+    errors = _errors(truth, 7)
+    assert all(ok for ok, _ in errors.values()), errors
+
+
+@pytest.mark.slow
+def test_intervals_cover_the_truth_over_20_draws() -> None:
+    draws = [_errors(draw_truth(np.random.default_rng(100 + i)), 100 + i) for i in range(20)]
+    for name in draws[0]:
+        within = sum(d[name][0] for d in draws)
+        covered = sum(d[name][1] for d in draws)
+        assert within == 20, (name, within)
+        assert covered >= 17, (name, covered)  # >= 85 % of 20
+
+
+def test_estimate_round_trips_through_yaml(tmp_path: Path) -> None:
+    truth = draw_truth(np.random.default_rng(3))
+    scans, odom = synthetic_recording(truth, 3, duration_s=20.0)
+    est = estimate_sensor(scans, odom, mount_xy_m=MOUNT_XY_M, n_boot=20)
+    est.save(tmp_path / "sensors.yaml")
+    back = load_sensor(tmp_path / "sensors.yaml")
+    assert back.beams == 360
+    assert back.noise_std_per_m == pytest.approx(est.noise_std_per_m)
+    assert back.dropout_ci == pytest.approx(est.dropout_ci)
+    assert len(back.dropout_by_beam) == 360
+    assert back.unidentified == est.unidentified
+
+
+def test_load_rejects_other_files(tmp_path: Path) -> None:
+    path = tmp_path / "x.yaml"
+    path.write_text("format: sim2real.sysid/1\n")
+    with pytest.raises(ResultFileError, match=r"is not a 'sim2real\.sysid\.sensors/1' file"):
+        load_sensor(path)
+
+
+def _scans(n: int, beams: int, t0: float = 0.0) -> ScanArrays:
+    return ScanArrays(
+        t_s=t0 + 0.2 * np.arange(n),
+        ranges_m=np.full((n, beams), 2.0),
+        angle_min_rad=-math.pi,
+        angle_increment_rad=2 * math.pi / beams,
+        range_min_m=0.06,
+        range_max_m=5.0,
+    )
+
+
+def _odom(t0: float, n: int) -> PoseArrays:
+    z = np.zeros(n)
+    return PoseArrays(t_s=t0 + 0.1 * np.arange(n), x_m=z, y_m=z, yaw_rad=z)
+
+
+def test_changing_beam_count_is_refused() -> None:
+    with pytest.raises(SysidValueError, match="360 beams and those of 'a' 180"):
+        estimate_sensor([_scans(30, 180), _scans(30, 360)], [_odom(0, 80)] * 2, names=["a", "b"])
+
+
+def test_no_still_stretch_and_no_motion_is_refused() -> None:
+    # the odometry lies on another clock: no scan falls inside it
+    with pytest.raises(ExcitationError, match="no still stretch"):
+        estimate_sensor(_scans(30, 360), _odom(1000.0, 80))
+
+
+def test_still_only_recording_names_what_it_cannot_identify() -> None:
+    rng = np.random.default_rng(1)
+    scans = _scans(40, 360)
+    noisy = ScanArrays(
+        t_s=scans.t_s,
+        ranges_m=2.0 + 0.5 * np.cos(4 * scans.angles_rad) + rng.normal(0, 0.02, (40, 360)),
+        angle_min_rad=scans.angle_min_rad,
+        angle_increment_rad=scans.angle_increment_rad,
+        range_min_m=0.06,
+        range_max_m=5.0,
+    )
+    est = estimate_sensor(noisy, _odom(-1.0, 110), n_boot=30)
+    assert est.noise_std_at(2.0) == pytest.approx(0.02, rel=0.1)
+    assert math.isnan(est.time_offset_s) and math.isnan(est.mounting_yaw_rad)
+    assert len(est.unidentified) == 2
