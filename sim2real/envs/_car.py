@@ -262,7 +262,9 @@ class PybulletCar:
         self.body_id = -1
 
     # ------------------------------------------------------------------ building
-    def _build(self, x: float, y: float, yaw: float) -> None:
+    def _shapes(self) -> tuple[int, int, int, int, int]:
+        """pybullet shapes of the chassis (collision, visual), a wheel (collision, visual) and
+        a steering knuckle (collision)."""
         p, c, g = self.p, self.client, self.geometry
         half = [0.5 * g.chassis_length_m, 0.5 * g.chassis_width_m, 0.5 * g.chassis_height_m]
         chassis_col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
@@ -287,6 +289,11 @@ class PybulletCar:
             physicsClientId=c,
         )
         knuckle_col = p.createCollisionShape(p.GEOM_SPHERE, radius=0.005, physicsClientId=c)
+        return chassis_col, chassis_vis, wheel_col, wheel_vis, knuckle_col
+
+    def _build(self, x: float, y: float, yaw: float) -> None:
+        p, c, g = self.p, self.client, self.geometry
+        chassis_col, chassis_vis, wheel_col, wheel_vis, knuckle_col = self._shapes()
         hx, hy = 0.5 * g.wheelbase_m, 0.5 * g.track_m
         z_axle = g.wheel_radius_m
         # base frame at the chassis centre, at axle height
@@ -320,13 +327,18 @@ class PybulletCar:
             linkJointAxis=[link[6] for link in links],
             physicsClientId=c,
         )
+        self._configure(len(links))
+
+    def _configure(self, n_links: int) -> None:
+        """Friction, no contacts inside the car, free-rolling front wheels."""
+        p, c = self.p, self.client
         # the chassis floats between the wheels (ground clearance = wheel radius - half height)
-        for j in range(len(links)):
+        for j in range(n_links):
             p.changeDynamics(
                 self.body_id, j, lateralFriction=1.0, rollingFriction=0.0, physicsClientId=c
             )
         p.changeDynamics(self.body_id, -1, lateralFriction=0.0, physicsClientId=c)
-        for j in range(len(links)):  # no contacts inside the car
+        for j in range(n_links):  # no contacts inside the car
             for k in range(-1, j):
                 p.setCollisionFilterPair(self.body_id, self.body_id, k, j, 0, physicsClientId=c)
         for j in _FRONT_WHEELS:  # front wheels roll freely
