@@ -230,13 +230,7 @@ def replay(
     >>> sim_odom = replay(trace, robot="turtlebot3_burger", engine="reduced",
     ...                   odom_v_window_s=1 / 30)  # doctest: +SKIP
     """
-    if engine not in ENGINES:
-        raise Sim2RealValueError(
-            f"engine must be one of {list(ENGINES)}, got {engine!r}; e.g. --engine reduced"
-        )
-    if not (math.isfinite(physics_hz) and physics_hz > 0):
-        raise Sim2RealValueError(f"physics_hz must be a finite number > 0, got {physics_hz!r}")
-    _check_window(odom_v_window_s)
+    _check_replay_args(engine, physics_hz, odom_v_window_s)
     spec = resolve_robot(robot)
     p = spec.drive if params is None else params
     segments = trace.segments() if hasattr(trace, "segments") else (trace,)
@@ -255,18 +249,7 @@ def replay(
     t_out = _fine_times(meas_t, 1.0 / rate) if odom_v_window_s > 0 else meas_t
     initial = (float(meas_v[0]), float(meas_w[0]))
     if engine == "reduced":
-        resp = simulate(
-            p,
-            spec.geometry,
-            cmd_t_s=cmd_t,
-            cmd_v=cmd_v,
-            cmd_w=cmd_w,
-            t_out_s=t_out,
-            v0=initial[0],
-            w0=initial[1],
-            python=None,  # a short one-off replay runs without loading numba
-        )
-        v, w = np.asarray(resp.v, dtype=np.float64), np.asarray(resp.w, dtype=np.float64)
+        v, w = _replay_reduced(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial)
     else:
         v, w = _replay_pybullet(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial, physics_hz)
     if odom_v_window_s > 0:
@@ -286,6 +269,40 @@ def replay(
         elapsed_s=time.perf_counter() - start,
         odom_v_window_s=float(odom_v_window_s),
     )
+
+
+def _check_replay_args(engine: str, physics_hz: float, odom_v_window_s: float) -> None:
+    if engine not in ENGINES:
+        raise Sim2RealValueError(
+            f"engine must be one of {list(ENGINES)}, got {engine!r}; e.g. --engine reduced"
+        )
+    if not (math.isfinite(physics_hz) and physics_hz > 0):
+        raise Sim2RealValueError(f"physics_hz must be a finite number > 0, got {physics_hz!r}")
+    _check_window(odom_v_window_s)
+
+
+def _replay_reduced(
+    spec: RobotSpecLike,
+    p: DriveParams,
+    cmd_t: FloatArray,
+    cmd_v: FloatArray,
+    cmd_w: FloatArray,
+    t_out: FloatArray,
+    initial: tuple[float, float],
+) -> tuple[FloatArray, FloatArray]:
+    """(v, w) at ``t_out`` of the reduced drive model from the start state ``initial``."""
+    resp = simulate(
+        p,
+        spec.geometry,
+        cmd_t_s=cmd_t,
+        cmd_v=cmd_v,
+        cmd_w=cmd_w,
+        t_out_s=t_out,
+        v0=initial[0],
+        w0=initial[1],
+        python=None,  # a short one-off replay runs without loading numba
+    )
+    return np.asarray(resp.v, dtype=np.float64), np.asarray(resp.w, dtype=np.float64)
 
 
 def _replay_segments(
