@@ -104,18 +104,7 @@ class Problem:
         )
         self._starts = [initial_state(g) for g in self.logs]
         self._grid_cache: dict[tuple[int, float, float], GridCommands] = {}
-        rows_v, rows_w, offset = [], [], 0
-        for g in self.logs:
-            n = g.meas_t_s.size
-            rows_v.append(np.arange(offset, offset + n))
-            rows_w.append(np.arange(offset + n, offset + 2 * n))
-            offset += 2 * n
-        self.n_rows = offset
-        self.rows = {
-            "v": np.concatenate(rows_v),
-            "w": np.concatenate(rows_w),
-            "vw": np.arange(offset),
-        }
+        self.rows, self.n_rows = _residual_rows(self.logs)
         self.meas = np.concatenate(
             [np.concatenate([g.meas_v * self.gain_v, g.meas_w * self.gain_w]) for g in self.logs]
         )
@@ -385,3 +374,16 @@ class Problem:
                 rows = self.rows[COORDS[self.free[j]].axis]
                 jac[rows, j] = (fp[rows] - f0[rows]) / h
         return jac
+
+
+def _residual_rows(logs: Sequence[LogArrays]) -> tuple[dict[str, NDArray[np.int64]], int]:
+    """The data residual rows of each channel ("v", "w", both "vw") and their number: each
+    log's v rows, then its w rows, log after log."""
+    rows_v, rows_w, offset = [], [], 0
+    for g in logs:
+        n = g.meas_t_s.size
+        rows_v.append(np.arange(offset, offset + n))
+        rows_w.append(np.arange(offset + n, offset + 2 * n))
+        offset += 2 * n
+    rows = {"v": np.concatenate(rows_v), "w": np.concatenate(rows_w), "vw": np.arange(offset)}
+    return rows, offset
