@@ -131,28 +131,7 @@ def select(
     float_only: bool = True,
 ) -> Selection:
     """Resolve ``key``/``index`` against ``observation_space`` (clear errors otherwise)."""
-    if isinstance(observation_space, spaces.Dict):
-        keys = list(observation_space.spaces)
-        if key is None:
-            raise RandomizerValueError(
-                f"{wrapper}: argument 'key' is required for a Dict observation space; "
-                f"keys present: {keys}"
-            )
-        if key not in observation_space.spaces:
-            raise MissingObservationKeyError(
-                f"{wrapper}: argument 'key'={key!r} is not in the observation space; keys "
-                f"present: {keys}"
-            )
-        sub = observation_space.spaces[key]
-        where = f"observation entry '{key}'"
-    else:
-        if key is not None:
-            raise RandomizerTypeError(
-                f"{wrapper}: argument 'key'={key!r} needs a Dict observation space, but it is "
-                f"{type(observation_space).__name__}; drop 'key' (use 'index' for a Box)"
-            )
-        sub = observation_space
-        where = "the observation space"
+    sub, where = _entry(observation_space, key, wrapper)
     if not isinstance(sub, spaces.Box):
         raise RandomizerTypeError(
             f"{wrapper}: {where} must be a gymnasium Box, got {type(sub).__name__} ({sub}); "
@@ -179,6 +158,31 @@ def select(
         high=np.ascontiguousarray(high),
         bounded=bounded,
     )
+
+
+def _entry(
+    observation_space: spaces.Space[Any], key: str | None, wrapper: str
+) -> tuple[spaces.Space[Any], str]:
+    """The space ``key`` names (the whole space without a key) and how errors call it."""
+    if not isinstance(observation_space, spaces.Dict):
+        if key is not None:
+            raise RandomizerTypeError(
+                f"{wrapper}: argument 'key'={key!r} needs a Dict observation space, but it is "
+                f"{type(observation_space).__name__}; drop 'key' (use 'index' for a Box)"
+            )
+        return observation_space, "the observation space"
+    keys = list(observation_space.spaces)
+    if key is None:
+        raise RandomizerValueError(
+            f"{wrapper}: argument 'key' is required for a Dict observation space; "
+            f"keys present: {keys}"
+        )
+    if key not in observation_space.spaces:
+        raise MissingObservationKeyError(
+            f"{wrapper}: argument 'key'={key!r} is not in the observation space; keys "
+            f"present: {keys}"
+        )
+    return observation_space.spaces[key], f"observation entry '{key}'"
 
 
 def index_label(key: str | None, index: tuple[int, int] | None) -> str:
