@@ -90,7 +90,9 @@ _OFFSET_SPAN_S = 0.4
 _OFFSET_STEP_S = 0.002
 _BLOCK = 10
 _MIN_TRANS_M = 0.02
+_MIN_TRANSLATING = 10
 _N_BINS = 6
+_SIGMA_FLOOR_M = 1e-4
 _NAN_PAIR = (math.nan, math.nan)
 
 
@@ -377,18 +379,33 @@ def _groups(scans_list: Sequence[ScanArrays], stills: Sequence[BoolArray]) -> _G
 
 
 def _fit_noise(r: FloatArray, s2: FloatArray, k: FloatArray, w: FloatArray) -> FloatArray:
-    """ML fit of ``sigma(r) = a + b r`` to sample variances ``s2`` with dof ``k`` (weights
-    ``w``: bootstrap counts), by Fisher scoring."""
+    """ML fit of ``sigma(r) = a + b r`` (``a, b >= 0``) to sample variances ``s2`` with dof
+    ``k`` (weights ``w``: bootstrap counts), by projected Fisher scoring with step halving."""
     kw = k * w
-    theta = np.array([math.sqrt(max(float(np.average(s2, weights=kw)), 1e-12)), 0.0])
     x = np.column_stack([np.ones_like(r), r])
-    for _ in range(30):
-        sig = np.maximum(x @ theta, 1e-6)
+
+    def nll(th: FloatArray) -> float:
+        sig2 = np.maximum(x @ th, _SIGMA_FLOOR_M) ** 2
+        return float(np.sum(kw * (np.log(sig2) + s2 / sig2)))
+
+    theta = np.array([math.sqrt(max(float(np.average(s2, weights=kw)), 1e-12)), 0.0])
+    cost = nll(theta)
+    for _ in range(50):
+        sig = np.maximum(x @ theta, _SIGMA_FLOOR_M)
         score = x.T @ (kw * (s2 / sig**2 - 1.0) / sig)
         info = (x * (2.0 * kw / sig**2)[:, None]).T @ x
         step = np.linalg.solve(info + 1e-12 * np.eye(2), score)
-        theta = theta + step
-        if abs(step[0]) < 1e-9 and abs(step[1]) < 1e-9:
+        for _ in range(30):
+            trial = np.maximum(theta + step, 0.0)
+            trial_cost = nll(trial)
+            if trial_cost <= cost:
+                break
+            step = 0.5 * step
+        else:
+            break
+        moved = float(np.max(np.abs(trial - theta)))
+        theta, cost = trial, trial_cost
+        if moved < 1e-9:
             break
     return theta
 
@@ -549,7 +566,7 @@ def _mount_yaw(
     ux = bx + (c - 1.0) * lx - s * ly
     uy = by + s * lx + (c - 1.0) * ly
     big = np.hypot(ux, uy) >= _MIN_TRANS_M
-    if not big.any():
+    if int(big.sum()) < _MIN_TRANSLATING:
         return math.nan
     ang = np.arctan2(uy, ux) - np.arctan2(pairs.dy, pairs.dx)
     resid = np.angle(np.exp(1j * ang))
@@ -602,6 +619,8 @@ def _timing(
         off_boot[i] = _best_offset(grid, inc, pairs.dth, wb)[0]
         if moving:
             yaw_boot[i] = _mount_yaw(pairs, odoms, off, mount_xy, wb)
+    if moving:  # the draws as angles next to the estimate (intervals across +-pi stay whole)
+        yaw_boot = yaw + np.angle(np.exp(1j * (yaw_boot - yaw)))
     return _Timing(off, off_boot, scale, yaw, yaw_boot, turning, moving)
 
 
@@ -711,8 +730,8 @@ def _notes(still: _StillResult | None, timing: _Timing | None) -> tuple[str, ...
         )
     if timing is None or not timing.moving:
         notes.append(
-            "mounting_yaw_rad: no matched scan pair translates 2 cm or more, so the mounting "
-            "yaw is not identified"
+            "mounting_yaw_rad: fewer than 10 matched scan pairs translate 2 cm or more, so "
+            "the mounting yaw is not identified"
         )
     return tuple(notes)
 

@@ -46,6 +46,7 @@ HANDLER_MODULES: dict[str, str] = {
     "logs": "sim2real.cli._logs",
     "robots": "sim2real.cli._robots",
     "sysid": "sim2real.cli._sysid",
+    "sensors": "sim2real.cli._sensors",
     "result": "sim2real.cli._result",
     "calibrate": "sim2real.cli._calibrate",
     "agree": "sim2real.cli._agree",

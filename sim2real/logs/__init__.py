@@ -95,6 +95,7 @@ if TYPE_CHECKING:
     from sim2real.logs._csv import CSV_COLUMNS, write_csv_trace
     from sim2real.logs._info import LogInfo, TopicInfo, inspect_log
     from sim2real.logs._reader import read_trace
+    from sim2real.logs._scans import LASER_SCAN, LaserScans, read_scans
     from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, SCHEMA_TEXT, TWIST, TWIST_STAMPED
     from sim2real.logs._screen import read_for_robot
     from sim2real.logs._unattended import Unattended, find_unattended, without_unattended
@@ -119,6 +120,9 @@ _LAZY = {
     "TopicInfo": "_info",
     "inspect_log": "_info",
     "read_trace": "_reader",
+    "LASER_SCAN": "_scans",
+    "LaserScans": "_scans",
+    "read_scans": "_scans",
     "read_for_robot": "_screen",
     "JOINT_STATE": "_schemas",
     "ODOMETRY": "_schemas",
@@ -155,10 +159,12 @@ __all__ = [
     "BAG_FORMATS",
     "CSV_COLUMNS",
     "JOINT_STATE",
+    "LASER_SCAN",
     "ODOMETRY",
     "SCHEMA_TEXT",
     "TWIST",
     "TWIST_STAMPED",
+    "LaserScans",
     "LogInfo",
     "TopicInfo",
     "Trace",
@@ -168,6 +174,7 @@ __all__ = [
     "inspect_log",
     "integrate_pose",
     "read_for_robot",
+    "read_scans",
     "read_trace",
     "without_unattended",
     "write_commands",

@@ -40,7 +40,7 @@ def _plan(container: Container, cid: int) -> str:
     enc = rec.message_encoding
     if enc == "json" and not type_name:
         return "raw"  # its type is guessed from a payload
-    if container.times_only or type_name not in DRIVE_TYPES:
+    if container.times_only or type_name not in (*DRIVE_TYPES, *container.keep_types):
         return "skip"
     if (enc == "cdr" and type_name in BULK_CDR) or (enc == "ros1" and type_name in BULK_ROS1):
         return "bulk"

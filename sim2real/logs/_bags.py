@@ -51,11 +51,11 @@ class LogSource:
     #: The files whose concatenated bytes the log's SHA-256 covers (see open_log_source).
     digest_paths: tuple[Path, ...] = ()
 
-    def scan(self, *, times_only: bool = False) -> Container:
+    def scan(self, *, times_only: bool = False, keep_types: tuple[str, ...] = ()) -> Container:
         """The log's container: channels, schemas, warnings, and per channel the log times
         and the messages decoded chunk by chunk (:func:`sim2real.logs._accum.add_segment`);
-        ``times_only`` keeps log times alone."""
-        container = Container(name=str(self.path), times_only=times_only)
+        ``times_only`` keeps log times alone; ``keep_types`` keeps the payloads of more types."""
+        container = Container(name=str(self.path), times_only=times_only, keep_types=keep_types)
         if self.kind == "mcap":
             with self.path.open("rb") as fh:
                 size = os.fstat(fh.fileno()).st_size
@@ -240,7 +240,7 @@ def _ros1_container(reader: Any, fh: BinaryIO, container: Container) -> Containe
         index = reader.indexes.get(conn.id, [])
         flat = itertools.chain.from_iterable(index)  # IndexData(time, chunk_pos, offset)
         rows = np.fromiter(flat, np.int64, count=3 * len(index)).reshape(-1, 3)
-        if type_name not in DRIVE_TYPES:
+        if type_name not in (*DRIVE_TYPES, *table.container.keep_types):
             others.append((cid, rows[:, 0]))
             if not _known_type(type_name):
                 unknown.append((conn.topic, type_name))
@@ -313,7 +313,7 @@ def _rosbag2_container(reader: Any, container: Container) -> Container:
         type_name = normalize_type(conn.msgtype)
         cid = table.channel(conn.topic, type_name, "cdr", conn.msgdef.data)
         cids[conn.id] = cid
-        if type_name in DRIVE_TYPES:
+        if type_name in (*DRIVE_TYPES, *table.container.keep_types):
             wanted.append(conn)
         else:
             others[cid] = []

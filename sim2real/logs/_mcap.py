@@ -196,6 +196,8 @@ class Container:
     name: str = ""
     #: True: a sink keeps log times only (``logs info``), no payload is decoded.
     times_only: bool = False
+    #: Message types whose payloads a sink keeps besides the drive types (e.g. LaserScan).
+    keep_types: tuple[str, ...] = ()
 
     def message_count(self) -> int:
         """Total number of message records found."""

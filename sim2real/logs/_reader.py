@@ -55,12 +55,19 @@ class LoadedLog:
         return self.digest()
 
 
-def load_log(path: str | Path, *, decode: bool = True, sort_times: bool = True) -> LoadedLog:
+def load_log(
+    path: str | Path,
+    *,
+    decode: bool = True,
+    sort_times: bool = True,
+    keep_types: tuple[str, ...] = (),
+) -> LoadedLog:
     """Stream a log through its reader: MCAP file, ROS 1 bag or rosbag2 folder.
 
     The messages of the channels a trace can use are decoded chunk by chunk as they stream
     past (``decode=False``: only log times are kept, for ``logs info``). ``sort_times=False``
-    leaves each channel's log times unsorted (a caller that needs only the counts). Bad
+    leaves each channel's log times unsorted (a caller that needs only the counts).
+    ``keep_types`` keeps the raw payloads of more message types (e.g. LaserScan). Bad
     files give one clear error.
     """
     p = Path(path)
@@ -75,7 +82,7 @@ def load_log(path: str | Path, *, decode: bool = True, sort_times: bool = True) 
             "read_trace (sysid fit, agree) instead"
         )
     digest = FileDigest(source.digest_paths, name=str(p))  # hashed only if someone asks
-    container = source.scan(times_only=not decode)
+    container = source.scan(times_only=not decode, keep_types=keep_types)
     if container.warnings and container.message_count() == 0:
         raise LogFormatError(
             f"{container.warnings[-1]}, and no complete message remains before the cut; "

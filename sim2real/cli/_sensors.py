@@ -1,0 +1,76 @@
+"""`sim2real sysid sensors`: identify a lidar from recordings and print the estimate."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from sim2real.errors import Sim2RealValueError
+from sim2real.sensor_id import identify_sensor
+from sysid.sensors import SensorEstimate
+
+__all__ = ["handle_sensors", "summary_lines"]
+
+
+def handle_sensors(args: argparse.Namespace) -> int:
+    """``sysid sensors LOG [LOG ...] --robot ROBOT -o sensors.yaml``."""
+    if args.bootstrap < 20:
+        raise Sim2RealValueError(
+            f"--bootstrap is {args.bootstrap}, but 95 % intervals need at least 20 resamples; "
+            "pass --bootstrap 200"
+        )
+    est = identify_sensor(
+        args.logs,
+        robot=args.robot,
+        scan_topic=args.scan_topic,
+        odom_topic=args.odom_topic,
+        n_boot=args.bootstrap,
+        seed=args.seed,
+    )
+    est.save(args.output)
+    print("\n".join(summary_lines(est)))
+    print(f"wrote {args.output}")
+    return 0
+
+
+def _ci(lo: float, hi: float, scale: float = 1.0, fmt: str = ".3g") -> str:
+    if math.isnan(lo):
+        return "-"
+    return f"[{lo * scale:{fmt}}, {hi * scale:{fmt}}]"
+
+
+def summary_lines(est: SensorEstimate) -> list[str]:
+    """The estimate as lines of text (95 % intervals in brackets)."""
+    lines = [
+        f"lidar: {est.beams} beams from {math.degrees(est.angle_min_rad):.1f} deg every "
+        f"{math.degrees(est.angle_increment_rad):.3f} deg, {est.range_min_m:g}-"
+        f"{est.range_max_m:g} m, {est.scan_rate_hz:.2f} Hz; {est.still_scans} still scans, "
+        f"{est.matched_pairs} matched scan pairs",
+        f"range noise std = {est.noise_std_0_m * 1e3:.2f} mm "
+        f"{_ci(*est.noise_std_0_ci, 1e3)} + {est.noise_std_per_m * 1e3:.2f} mm/m "
+        f"{_ci(*est.noise_std_per_m_ci, 1e3)} x range",
+    ]
+    for r, s, lo, hi, d in zip(
+        est.noise_range_m,
+        est.noise_std_m,
+        est.noise_std_lo_m,
+        est.noise_std_hi_m,
+        est.dropout_by_range,
+        strict=True,
+    ):
+        if not math.isnan(r):
+            lines.append(
+                f"  at {r:.2f} m: std {s * 1e3:.2f} mm {_ci(lo, hi, 1e3)}, invalid {d:.1%}"
+            )
+    lines += [
+        f"invalid returns (beams on a surface): {est.dropout:.2%} "
+        f"{_ci(*est.dropout_ci, 100, '.2f')} %",
+        f"spurious short returns: {est.spurious_short:.3%} "
+        f"{_ci(*est.spurious_short_ci, 100, '.3f')} %",
+        f"scan time offset (add to stamps): {est.time_offset_s * 1e3:.1f} ms "
+        f"{_ci(*est.time_offset_ci, 1e3, '.1f')}, odometry yaw scale {est.yaw_scale:.3f}",
+        f"mounting yaw: {math.degrees(est.mounting_yaw_rad):.2f} deg "
+        f"{_ci(*est.mounting_yaw_ci, 180 / math.pi, '.2f')}",
+    ]
+    lines += [f"not identified: {note}" for note in est.unidentified]
+    return lines

@@ -1,0 +1,83 @@
+"""Identify a robot's lidar from log files: the one path behind ``sim2real sysid sensors``.
+
+:func:`identify_sensor` reads each log's LaserScan topic and odometry poses
+(:func:`sim2real.logs.read_scans`), puts both on seconds since the log's first scan, takes the
+lidar's mount position from the robot spec and calls :func:`sysid.sensors.estimate_sensor`.
+
+Examples
+--------
+>>> from sim2real.sensor_id import identify_sensor
+>>> est = identify_sensor(["run.mcap"], robot="neato.yaml")  # doctest: +SKIP
+>>> est.save("sensors.yaml")  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from robots.spec import load_spec
+from robots.units import seconds
+from sim2real.logs import LaserScans, read_scans
+from sysid.sensors import PoseArrays, ScanArrays, SensorEstimate, estimate_sensor
+
+__all__ = ["identify_sensor", "scan_arrays"]
+
+
+def scan_arrays(scans: LaserScans) -> tuple[ScanArrays, PoseArrays]:
+    """The scans and odometry of one log as the estimator takes them (s since the first scan)."""
+    t0 = int(scans.stamp_ns[0])
+    return (
+        ScanArrays(
+            t_s=seconds(scans.stamp_ns - t0),
+            ranges_m=scans.ranges_m,
+            angle_min_rad=scans.angle_min_rad,
+            angle_increment_rad=scans.angle_increment_rad,
+            range_min_m=scans.range_min_m,
+            range_max_m=scans.range_max_m,
+        ),
+        PoseArrays(
+            t_s=seconds(scans.odom_stamp_ns - t0),
+            x_m=scans.odom_x_m,
+            y_m=scans.odom_y_m,
+            yaw_rad=scans.odom_yaw_rad,
+        ),
+    )
+
+
+def identify_sensor(
+    paths: Sequence[str | Path],
+    *,
+    robot: str | Path,
+    scan_topic: str | None = None,
+    odom_topic: str | None = None,
+    n_boot: int = 200,
+    seed: int = 0,
+) -> SensorEstimate:
+    """Identify the lidar of ``robot`` from one or more logs of it.
+
+    Parameters
+    ----------
+    paths : sequence of path
+        MCAP files, ROS 1 bags or rosbag2 folders with a LaserScan topic and odometry.
+    robot : str or Path
+        Robot spec name or file (its lidar mount position is used).
+    scan_topic, odom_topic : str, optional
+        Topics to read (default: ``/scan`` / ``/odom`` or the only one of the type).
+    n_boot, seed : int
+        Bootstrap resamples and their seed.
+
+    Returns
+    -------
+    SensorEstimate
+    """
+    spec = load_spec(robot)
+    mount = (float(spec.lidar.xyz_m[0]), float(spec.lidar.xyz_m[1]))
+    scans, odoms, names = [], [], []
+    for path in paths:
+        log = read_scans(path, scan_topic=scan_topic, odom_topic=odom_topic)
+        s, o = scan_arrays(log)
+        scans.append(s)
+        odoms.append(o)
+        names.append(str(path))
+    return estimate_sensor(scans, odoms, mount_xy_m=mount, names=names, n_boot=n_boot, seed=seed)

@@ -1,0 +1,53 @@
+"""`sysid sensors` on two real recordings of one Neato unit (its XV-11 lidar)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from sim2real.cli import main
+from sim2real.sensor_id import identify_sensor
+
+pytestmark = [pytest.mark.realdata]
+
+LOGS = (
+    "neato_ksoltan_bag-file-name_2018-09-15-10-16-08.mcap",
+    "neato_ksoltan_testdrive_2018-09-18-20-17-54.mcap",
+)
+
+
+def _overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    return max(a[0], b[0]) <= min(a[1], b[1])
+
+
+def test_two_recordings_of_one_unit_agree(realdata_dir: Path, tmp_path: Path) -> None:
+    spec = tmp_path / "neato.yaml"
+    assert (
+        main(
+            [
+                "robots",
+                "new",
+                "neato",
+                "--wheel-separation",
+                "0.248",
+                "--max-speed",
+                "0.3",
+                "-o",
+                str(spec),
+            ]
+        )
+        == 0
+    )
+    a, b = (identify_sensor([realdata_dir / name], robot=spec) for name in LOGS)
+    for est in (a, b):
+        assert est.beams == 361 and est.range_max_m == pytest.approx(5.0)
+        assert est.still_scans >= 10
+        # noise grows with range: 4-8 mm per metre, no floor (XV-11 triangulation)
+        assert 0.004 < est.noise_std_per_m < 0.008
+        assert 0.01 < est.dropout < 0.08
+    assert _overlap(a.noise_std_per_m_ci, b.noise_std_per_m_ci)
+    assert _overlap(a.dropout_ci, b.dropout_ci)
+    assert _overlap(a.time_offset_ci, b.time_offset_ci)
+    # the scans are stamped when a revolution ends: 0.1-0.3 s after odometry's clock says
+    assert -0.30 < a.time_offset_s < -0.10 and -0.30 < b.time_offset_s < -0.10
