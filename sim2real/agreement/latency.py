@@ -1,0 +1,228 @@
+r"""How much of a sim-vs-real gap is latency and how much is noise: two reference figures.
+
+A point estimate fitted on one session carries that session's command latency. Another
+session of the same robot can run at another latency (another computer, another network,
+another driver load), and no fit of other sessions can know it. :func:`session_latency`
+finds the checked session's own best command latency, keeping every other parameter: the
+gap between the fitted agreement and the agreement at that latency is latency; what is
+left is dynamics (or noise).
+
+:func:`noise_ceiling` is the agreement a perfect model would reach, given the odometry noise
+of the params file: a sample's error is then the noise alone, so with white Gaussian noise
+of standard deviation :math:`\sigma_v`, :math:`\sigma_w` (quantisation :math:`q` adds
+:math:`q^2/12` to the variance)
+
+.. math:: A_{\max} = \operatorname{erf}\!\Big(\frac{tol_v}{\sqrt2\,\sigma_v}\Big)\,
+          \operatorname{erf}\!\Big(\frac{tol_w}{\sqrt2\,\sigma_w}\Big),
+
+and the noise-only 90 % band is :math:`2 \cdot 1.645\,\sigma = 3.29\,\sigma` wide: no
+predictive band that contains the real odometry can be narrower.
+
+Examples
+--------
+>>> from robots.randomization import ObservationNoise
+>>> c = noise_ceiling(ObservationNoise(std_v_mps=0.01, std_w_radps=0.05), tol_v=0.02, tol_w=0.1)
+>>> round(c.agreement, 3), round(c.band_width_v_mps, 4)
+(0.911, 0.0329)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from scipy.stats import norm
+
+if TYPE_CHECKING:
+    from robots.params import DriveParams
+    from robots.randomization import ObservationNoise
+    from sim2real.agreement.figures import AgreementReport
+    from sim2real.agreement.replay import RobotSpecLike, TraceLike
+
+__all__ = [
+    "LATENCY_COARSE_STEP_S",
+    "LATENCY_FINE_STEP_S",
+    "LATENCY_MAX_S",
+    "REFERENCE_KEYS",
+    "NoiseCeiling",
+    "SessionLatency",
+    "noise_ceiling",
+    "session_latency",
+]
+
+#: JSON keys of ``sim2real agree --json`` with a params file (after the band's keys):
+#: ``best_delay_s`` (this log's own best command latency, s), ``fitted_delay_s``,
+#: ``agreement_at_best_delay`` (0..1), ``noise_ceiling`` (0..1; with the file's noise model),
+#: ``noise_band_width_v_mps``, ``noise_band_width_w_radps`` (the noise-only band).
+REFERENCE_KEYS = (
+    "best_delay_s",
+    "fitted_delay_s",
+    "agreement_at_best_delay",
+    "noise_ceiling",
+    "noise_band_width_v_mps",
+    "noise_band_width_w_radps",
+)
+#: The search range of a session's command latency, s (ROS command latencies: 0-0.6 s).
+LATENCY_MAX_S = 0.6
+#: Coarse and fine grid steps of the search, s.
+LATENCY_COARSE_STEP_S = 0.05
+LATENCY_FINE_STEP_S = 0.01
+
+
+@dataclass(frozen=True, kw_only=True)
+class SessionLatency:
+    """The checked session's own best command latency and the agreement at it.
+
+    Attributes
+    ----------
+    delay_s : float
+        The command latency (transport delay) that maximises the point agreement on the
+        checked log, every other parameter kept, s.
+    fitted_delay_s : float
+        The params' own delay, s.
+    report : AgreementReport
+        The agreement figures of the replay at ``delay_s``.
+    """
+
+    delay_s: float
+    fitted_delay_s: float
+    report: AgreementReport
+
+
+@dataclass(frozen=True, kw_only=True)
+class NoiseCeiling:
+    """What the measurement noise alone allows (see the module docstring).
+
+    Attributes
+    ----------
+    agreement : float
+        Expected agreement (0..1) of a perfect model: both axes within tolerance.
+    agreement_v, agreement_w : float
+        The same per axis.
+    band_width_v_mps, band_width_w_radps : float
+        Width of the central 90 % band of the noise alone, m/s and rad/s.
+    """
+
+    agreement: float
+    agreement_v: float
+    agreement_w: float
+    band_width_v_mps: float
+    band_width_w_radps: float
+
+
+def _within_prob(tol: float, sd: float) -> float:
+    return 1.0 if sd <= 0.0 else math.erf(tol / (math.sqrt(2.0) * sd))
+
+
+def noise_ceiling(
+    noise: ObservationNoise, *, tol_v: float, tol_w: float, level: float = 0.9
+) -> NoiseCeiling:
+    """The agreement and band width that the odometry noise ``noise`` alone allows.
+
+    Parameters
+    ----------
+    noise : ObservationNoise
+        The params file's odometry noise (its ``randomization.noise``).
+    tol_v, tol_w : float
+        Agreement tolerances, m/s and rad/s.
+    level : float
+        Central probability of the band, in (0, 1).
+
+    Returns
+    -------
+    NoiseCeiling
+    """
+    sd_v = math.hypot(noise.std_v_mps, noise.quantum_v_mps / math.sqrt(12.0))
+    sd_w = math.hypot(noise.std_w_radps, noise.quantum_w_radps / math.sqrt(12.0))
+    a_v, a_w = _within_prob(tol_v, sd_v), _within_prob(tol_w, sd_w)
+    z = float(norm.ppf(0.5 + level / 2.0))
+    return NoiseCeiling(
+        agreement=a_v * a_w,
+        agreement_v=a_v,
+        agreement_w=a_w,
+        band_width_v_mps=2.0 * z * sd_v,
+        band_width_w_radps=2.0 * z * sd_w,
+    )
+
+
+def _score(rep: AgreementReport) -> tuple[float, float]:
+    """Agreement first; of equal agreements the smaller error (RMSE in tolerance units)."""
+    err = math.hypot(rep.rmse_v / rep.tol_v, rep.rmse_w / rep.tol_w)
+    return (rep.agreement, -err if math.isfinite(err) else -math.inf)
+
+
+def session_latency(
+    trace: TraceLike,
+    *,
+    robot: RobotSpecLike,
+    params: DriveParams,
+    engine: str = "reduced",
+    odom_v_window_s: float = 0.0,
+    tol_v: float,
+    tol_w: float,
+    params_file: str | None = None,
+) -> SessionLatency:
+    """The command latency that fits the checked log best, every other parameter kept.
+
+    The latency is searched with the reduced model (the latency is the session's, not the
+    engine's) on a 0.05 s grid over 0-0.6 s and the fitted delay, then on a 0.01 s grid
+    around the best; the agreement at it is measured with ``engine``.
+
+    Parameters
+    ----------
+    trace : Trace
+        The checked log.
+    robot : RobotSpec
+        The robot.
+    params : DriveParams
+        The fitted drive parameters.
+    engine : {"reduced", "pybullet"}
+        Simulator of the reported agreement.
+    odom_v_window_s : float
+        Odometry window of v, s (as :func:`sim2real.agreement.replay.replay`).
+    tol_v, tol_w : float
+        Agreement tolerances, m/s and rad/s.
+    params_file : str, optional
+        Provenance copied into the report.
+
+    Returns
+    -------
+    SessionLatency
+
+    Examples
+    --------
+    >>> lat = session_latency(trace, robot=spec, params=p, tol_v=0.02, tol_w=0.1)  # doctest: +SKIP
+    >>> lat.delay_s, lat.report.agreement  # doctest: +SKIP
+    (0.23, 0.86)
+    """
+    from sim2real.agreement.figures import measure_agreement
+    from sim2real.agreement.replay import replay
+
+    def run(delay_s: float, eng: str) -> Any:
+        sim = replay(
+            trace,
+            robot=robot,
+            params=params.replace(delay_s=delay_s),
+            engine=eng,
+            odom_v_window_s=odom_v_window_s,
+        )
+        return measure_agreement(trace, sim, tol_v=tol_v, tol_w=tol_w, params_file=params_file)
+
+    scores: dict[float, tuple[float, float]] = {}
+
+    def search(grid: np.ndarray) -> float:
+        for d in grid:
+            key = round(float(d), 6)
+            if key not in scores and 0.0 <= key <= LATENCY_MAX_S:
+                scores[key] = _score(run(key, "reduced"))
+        return max(scores, key=lambda k: scores[k])
+
+    coarse = np.arange(0.0, LATENCY_MAX_S + 1e-9, LATENCY_COARSE_STEP_S)
+    best = search(np.append(coarse, params.delay_s))
+    span = LATENCY_COARSE_STEP_S - LATENCY_FINE_STEP_S
+    best = search(np.arange(best - span, best + span + 1e-9, LATENCY_FINE_STEP_S))
+    return SessionLatency(
+        delay_s=best, fitted_delay_s=float(params.delay_s), report=run(best, engine)
+    )
