@@ -8,7 +8,8 @@ gap between the fitted agreement and the agreement at that latency is latency; w
 left is dynamics (or noise).
 
 :func:`noise_ceiling` is the agreement a perfect model would reach, given the odometry noise
-of the params file: a sample's error is then the noise alone, so with white Gaussian noise
+the fit estimated (``agree`` undoes a calibration's noise factors,
+:func:`sim2real.agreement.study.fitted_noise`): a sample's error is then the noise alone, so with white Gaussian noise
 of standard deviation :math:`\sigma_v`, :math:`\sigma_w` (quantisation :math:`q` adds
 :math:`q^2/12` to the variance)
 
@@ -35,11 +36,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.stats import norm
 
+from sim2real.agreement.figures import AgreementReport, measure_agreement
+from sim2real.agreement.replay import RobotSpecLike, TraceLike, replay
+
 if TYPE_CHECKING:
     from robots.params import DriveParams
     from robots.randomization import ObservationNoise
-    from sim2real.agreement.figures import AgreementReport
-    from sim2real.agreement.replay import RobotSpecLike, TraceLike
 
 __all__ = [
     "LATENCY_COARSE_STEP_S",
@@ -197,8 +199,6 @@ def session_latency(
     >>> lat.delay_s, lat.report.agreement  # doctest: +SKIP
     (0.23, 0.86)
     """
-    from sim2real.agreement.figures import measure_agreement
-    from sim2real.agreement.replay import replay
 
     def run(delay_s: float, eng: str) -> Any:
         sim = replay(

@@ -24,13 +24,14 @@ import json
 import math
 import platform
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
+from robots.errors import RobotsValueError
 from robots.params import ParamsFile, load_drive_params, read_params_file
-from robots.randomization import DriveDistribution
+from robots.randomization import DriveDistribution, ObservationNoise
 from robots.spec import load_spec
 from sim2real._io import atomic_write, check_not_an_input, check_output_path, output_set
 from sim2real.agreement.figures import (
@@ -42,6 +43,12 @@ from sim2real.agreement.figures import (
     lag_phrase,
     measure_agreement,
     run_ensemble,
+)
+from sim2real.agreement.latency import (
+    NoiseCeiling,
+    SessionLatency,
+    noise_ceiling,
+    session_latency,
 )
 from sim2real.agreement.replay import replay
 from sim2real.agreement.report import ReportInput, ReportRun, param_rows, write_report
@@ -59,8 +66,10 @@ __all__ = [
     "check_figures",
     "defined_figures",
     "envelope_check",
+    "fitted_noise",
     "parse_odom_v_window",
     "provenance_rows",
+    "reference_figures",
     "run_study",
     "session_figures",
     "study_figures",
@@ -155,7 +164,8 @@ class StudyResult:
         The ensemble, when requested.
     figures : dict
         The JSON figures (:data:`sim2real.agreement.figures.AGREEMENT_KEYS`, plus the band's keys with
-        an ensemble); what ``--json`` writes.
+        an ensemble, plus :data:`sim2real.agreement.latency.REFERENCE_KEYS` with a params
+        file); what ``--json`` writes.
     warnings : tuple of str
         Repairs made while reading the log (dropped NaN samples, re-sorted stamps, ...).
     written : tuple of Path
@@ -167,6 +177,13 @@ class StudyResult:
         prints and the report shows.
     notes : tuple of str
         Notes on the data: segments left out, figures left undefined on this log.
+    latency : SessionLatency or None
+        With a params file: this log's own best command latency and the agreement at it
+        (:func:`sim2real.agreement.latency.session_latency`).
+    ceiling : NoiseCeiling or None
+        With a params file: the agreement and the band width that the odometry noise the fit
+        estimated alone allows (:func:`sim2real.agreement.latency.noise_ceiling` of
+        :func:`fitted_noise`).
     """
 
     main: AgreementReport
@@ -178,6 +195,8 @@ class StudyResult:
     time_note: str = ""
     verdict: AgreementVerdict | None = None
     notes: tuple[str, ...] = ()
+    latency: SessionLatency | None = None
+    ceiling: NoiseCeiling | None = None
 
 
 def _sha256(path: str | Path) -> str:
@@ -327,13 +346,15 @@ def run_study(
     )
     runs = _replays(config, trace, spec, params, window_s)
     ensemble = _ensemble(config, trace, spec, params_file, window_s, progress)
+    latency, ceiling = _reference_figures(config, trace, spec, params, params_file, window_s)
     figures = study_figures(runs[-1].agreement, ensemble)
+    figures.update(reference_figures(latency, ceiling))
     check_figures(figures, config.log)
     figures, undefined = defined_figures(figures)
     notes = ((screened,) if screened else ()) + undefined
     if notes:
         figures["notes"] = list(notes)
-    verdict = _verdict(config, spec, trace, runs, ensemble, params, params_file)
+    verdict = _verdict(config, spec, trace, runs, ensemble, params, params_file, (latency, ceiling))
     report = None
     if config.report_path is not None:
         report = _report_input(
@@ -350,6 +371,8 @@ def run_study(
         time_note=trace.meta.time_note,
         verdict=verdict,
         notes=notes,
+        latency=latency,
+        ceiling=ceiling,
     )
 
 
@@ -394,15 +417,83 @@ def _write_outputs(
     return written
 
 
+def _reference_figures(
+    config: StudyConfig,
+    trace: Any,
+    spec: Any,
+    params: Any,
+    params_file: ParamsFile | None,
+    window_s: float,
+) -> tuple[SessionLatency | None, NoiseCeiling | None]:
+    """The session's own best latency and the noise ceiling of the params file (None
+    without a params file; no ceiling when the file has no randomisation block)."""
+    if params is None or params_file is None:
+        return None, None
+    latency = session_latency(
+        trace,
+        robot=spec,
+        params=params,
+        engine=config.engine,
+        odom_v_window_s=window_s,
+        tol_v=config.tol_v,
+        tol_w=config.tol_w,
+        params_file=config.params_shown or str(config.params_path),
+    )
+    if "randomization" not in params_file.document:  # no noise model: no ceiling
+        return latency, None
+    noise = fitted_noise(
+        DriveDistribution.from_params_file(params_file, robot=spec.name).noise,
+        params_file.document.get("calibration"),
+    )
+    ceiling = noise_ceiling(noise, tol_v=config.tol_v, tol_w=config.tol_w, level=config.band_level)
+    return latency, ceiling
+
+
+def fitted_noise(noise: ObservationNoise, calibration: Any) -> ObservationNoise:
+    """The odometry noise the fit estimated: a calibrated file's noise with the calibration's
+    factors (``noise_factor_v`` / ``_w``: calibrated std / fitted std) undone; the file's
+    noise when it was not calibrated or a factor is not a number > 0."""
+    if not isinstance(calibration, Mapping):
+        return noise
+    stds = {}
+    for axis, field in (("v", "std_v_mps"), ("w", "std_w_radps")):
+        factor = calibration.get(f"noise_factor_{axis}")
+        ok = isinstance(factor, int | float) and math.isfinite(factor) and factor > 0
+        stds[field] = getattr(noise, field) / factor if ok else getattr(noise, field)
+    try:
+        return replace(noise, **stds)
+    except RobotsValueError:  # an absurd quotient (a factor near 0): the file's own noise
+        return noise
+
+
+def reference_figures(
+    latency: SessionLatency | None, ceiling: NoiseCeiling | None
+) -> dict[str, float]:
+    """The JSON keys of the session's latency and the noise ceiling (:data:`REFERENCE_KEYS`;
+    absent when not measured)."""
+    out: dict[str, float] = {}
+    if latency is not None:
+        out["best_delay_s"] = latency.delay_s
+        out["fitted_delay_s"] = latency.fitted_delay_s
+        out["agreement_at_best_delay"] = latency.report.agreement
+    if ceiling is not None:
+        out["noise_ceiling"] = ceiling.agreement
+        out["noise_band_width_v_mps"] = ceiling.band_width_v_mps
+        out["noise_band_width_w_radps"] = ceiling.band_width_w_radps
+    return out
+
+
 def session_figures(
     trace: Any,
     spec: Any,
     runs: Sequence[Any],
     params: Any,
     params_file: ParamsFile | None = None,
+    reference: tuple[SessionLatency | None, NoiseCeiling | None] = (None, None),
 ) -> SessionFigures:
     """The checked session's figures the verdict weighs (top speeds, fitted delay, shortfall,
-    the log against the envelope the fit saw when ``params_file`` is given)."""
+    the log against the envelope the fit saw when ``params_file`` is given, this log's own
+    best latency and the noise ceiling)."""
     main = runs[-1]
     cmd_v, cmd_w = trace.cmd_at_meas()
     a = main.agreement
@@ -421,9 +512,15 @@ def session_figures(
             tol_v=a.tol_v,
             tol_w=a.tol_w,
         )
+    latency, ceiling = reference
     return SessionFigures(
         extrapolation=extrapolation,
         fitted_delay_s=None if params is None else float(params.delay_s),
+        best_delay_s=None if latency is None else latency.delay_s,
+        agreement_at_best_delay=None if latency is None else latency.report.agreement,
+        noise_ceiling=None if ceiling is None else ceiling.agreement,
+        noise_band_width_v_mps=None if ceiling is None else ceiling.band_width_v_mps,
+        noise_band_width_w_radps=None if ceiling is None else ceiling.band_width_w_radps,
         top_v_mps=float(spec.max_v_mps),
         top_w_radps=float(spec.max_w_radps),
         speed_shortfall=shortfall,
@@ -449,13 +546,14 @@ def _verdict(
     ensemble: EnsembleResult | None,
     params: Any,
     params_file: ParamsFile | None,
+    reference: tuple[SessionLatency | None, NoiseCeiling | None] = (None, None),
 ) -> AgreementVerdict:
     return decide(
         defaults=runs[0].agreement,
         fitted=runs[-1].agreement if params is not None else None,
         robot=str(config.robot),
         ensemble=ensemble,
-        session=session_figures(trace, spec, runs, params, params_file),
+        session=session_figures(trace, spec, runs, params, params_file, reference),
     )
 
 
@@ -628,8 +726,13 @@ def write_json(path: str | Path, figures: dict[str, Any]) -> None:
         fh.write((json.dumps(figures, indent=2, allow_nan=False) + "\n").encode("utf-8"))
 
 
-def summary_table(runs: Sequence[Any], ensemble: Any = None) -> str:
-    """A plain-text table of the agreement figures, one column per replay."""
+def summary_table(
+    runs: Sequence[Any], ensemble: Any = None, *, latency: Any = None, ceiling: Any = None
+) -> str:
+    """A plain-text table of the agreement figures, one column per replay; with ``latency``
+    and ``ceiling`` (:class:`StudyResult`'s) also the session's own best latency, the
+    agreement at it and what the measurement noise allows.
+    """
 
     def pct(x: float) -> str:
         return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"
@@ -651,11 +754,24 @@ def summary_table(runs: Sequence[Any], ensemble: Any = None) -> str:
         ("timing w", [lag_phrase(x.lag_s_w) for x in a]),
         ("active/samples", [f"{x.n_active}/{x.n_samples}" for x in a]),
     ]
+
+    def last(text: str) -> list[str]:
+        return ([""] * (len(runs) - 1)) + [text]
+
+    if latency is not None:
+        lines += [
+            ("delay: fitted / this log's best [s]",
+             last(f"{latency.fitted_delay_s:.3f} / {latency.delay_s:.3f}")),
+            ("agreement at this log's best delay", last(pct(latency.report.agreement))),
+        ]  # fmt: skip
+    if ceiling is not None:
+        lines += [
+            ("noise ceiling (perfect model)", last(pct(ceiling.agreement))),
+            ("noise-only band width v [m/s]", last(num(ceiling.band_width_v_mps, ".4f"))),
+            ("noise-only band width w [rad/s]", last(num(ceiling.band_width_w_radps, ".4f"))),
+        ]
     if ensemble is not None:
         level = f"{100 * ensemble.band_level:g} % band"
-
-        def last(text: str) -> list[str]:
-            return ([""] * (len(runs) - 1)) + [text]
 
         lines += [
             (f"coverage v, {level} (N={ensemble.n})", last(pct(ensemble.coverage_v))),

@@ -131,7 +131,9 @@ def handle_agree(args: argparse.Namespace) -> int:
     for warning in result.warnings:  # data repaired while reading: say so, do not hide it
         print(f"sim2real: warning: {args.log}: {warning}", file=sys.stderr)
     print(f"{args.log}: robot {args.robot}, engine {args.engine}")
-    print(summary_table(result.runs, result.ensemble))
+    print(
+        summary_table(result.runs, result.ensemble, latency=result.latency, ceiling=result.ceiling)
+    )
     if result.verdict is not None:  # the one verdict, as the report words it
         print("\n".join(result.verdict.lines()))
     for note in result.notes:

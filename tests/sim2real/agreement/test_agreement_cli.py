@@ -12,6 +12,7 @@ from _agreement_fixtures import HIDDEN, ROBOT, T0_NS, hidden_params, write_log, 
 
 from robots.spec import load_spec
 from sim2real.agreement.figures import AGREEMENT_KEYS, BAND_KEYS, measure_agreement
+from sim2real.agreement.latency import REFERENCE_KEYS
 from sim2real.agreement.replay import replay
 from sim2real.cli import main
 from sim2real.logs import read_trace
@@ -37,7 +38,7 @@ def test_json_has_exactly_the_keys_and_the_library_numbers(
     out = tmp_path / "agree.json"
     assert _agree(log, "--params", params, "--json", out) == 0
     figures = json.loads(out.read_text())
-    assert tuple(figures) == AGREEMENT_KEYS
+    assert tuple(figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS)
     trace = read_trace(log)
     expected = measure_agreement(
         trace,
@@ -183,7 +184,7 @@ def test_ensemble_adds_coverage_to_json(log: Path, params: Path, tmp_path: Path)
     out = tmp_path / "e.json"
     assert _agree(log, "--params", params, "--ensemble", "6", "--seed", "3", "--json", out) == 0
     figures = json.loads(out.read_text())
-    assert tuple(figures) == (*AGREEMENT_KEYS, *BAND_KEYS)
+    assert tuple(figures) == (*AGREEMENT_KEYS, *BAND_KEYS, *REFERENCE_KEYS)
     assert None not in figures.values()
     assert 0.0 <= figures["coverage"] <= min(figures["coverage_v"], figures["coverage_w"]) <= 1
     assert figures["band_level"] == 0.9 and figures["ensemble_n"] == 6

@@ -12,6 +12,7 @@ from _agreement_fixtures import HIDDEN, ROBOT, hidden_params, spec, write_log, w
 
 from robots.reduced import simulate
 from sim2real.agreement.figures import AGREEMENT_KEYS, measure_agreement, run_ensemble
+from sim2real.agreement.latency import REFERENCE_KEYS
 from sim2real.agreement.replay import replay
 from sim2real.cli import main
 from sim2real.errors import Sim2RealValueError
@@ -193,7 +194,7 @@ def test_cli_auto_window_is_one_odometry_period(tmp_path: Path) -> None:
     )
     assert "odometry v window" in report.read_text() and "0.03333 s" in report.read_text()
     figures = json.loads(out.read_text())
-    assert tuple(figures) == AGREEMENT_KEYS
+    assert tuple(figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS)
     trace = read_trace(log)
 
     def fit_v(window_s: float) -> float:

@@ -10,6 +10,7 @@ import pytest
 from _agreement_fixtures import HIDDEN, ROBOT, write_log, write_params
 
 from sim2real.agreement.figures import AGREEMENT_KEYS
+from sim2real.agreement.latency import REFERENCE_KEYS
 from sim2real.agreement.study import StudyConfig, run_study
 from sim2real.cli import main
 from sim2real.errors import Sim2RealValueError
@@ -32,7 +33,7 @@ def test_run_study_returns_the_figures_the_cli_writes(
     assert [r.label for r in result.runs] == ["spec defaults", "sysid params"]
     assert result.main is result.runs[-1].agreement
     assert result.written == (out,)
-    assert tuple(result.figures) == AGREEMENT_KEYS
+    assert tuple(result.figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS)
     assert json.loads(out.read_text()) == result.figures
     cli_out = tmp_path / "cli.json"
     argv = ["agree", str(log), "--robot", ROBOT, "--engine", "reduced"]
