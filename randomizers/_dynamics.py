@@ -441,6 +441,7 @@ def _marginal(
         covariance=tuple(tuple(float(c) for c in row) for row in cov),
         fixed=fixed,
         noise=dist.noise,
+        lower={k: v for k, v in dist.lower.items() if k in wanted},
     )
 
 

@@ -49,6 +49,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
+from statistics import NormalDist
 from typing import Any
 
 import numpy as np
@@ -75,6 +76,8 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+
+_NORMAL = NormalDist()
 
 #: ``format:`` key of the ``randomization`` block.
 RANDOMIZATION_FORMAT = "sim2real.randomization/2"
@@ -243,6 +246,11 @@ class DriveDistribution:
         ``{field: value}`` for every other DriveParams field (may be inf for limits).
     noise : ObservationNoise
         Odometry noise model.
+    lower : dict
+        ``{field: value}``: lower bounds that the fitted logs prove for limits they never
+        reached (the log needed this much, so the robot has at least that). Draws of these
+        fields (``log`` coordinates only) follow their marginal truncated below the bound
+        (see :meth:`sample_coords`); the mean is kept.
     """
 
     robot: str
@@ -252,9 +260,11 @@ class DriveDistribution:
     covariance: tuple[tuple[float, ...], ...]
     fixed: dict[str, float] = field(default_factory=dict)
     noise: ObservationNoise = field(default_factory=ObservationNoise)
+    lower: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         _validate(self._parts(), "DriveDistribution")
+        _validate_lower(self.lower, self.names, "DriveDistribution.lower")
 
     def _parts(self) -> _Parts:
         return _Parts(
@@ -299,11 +309,23 @@ class DriveDistribution:
     # --- sampling ----------------------------------------------------------------------------
 
     def sample_coords(self, rng: np.random.Generator, n: int, *, spread: float = 1.0) -> FloatArray:
-        """``n`` draws in coordinates, shape (n, k) (see the module docstring)."""
+        r"""``n`` draws in coordinates, shape (n, k) (see the module docstring).
+
+        A field with a lower bound :math:`L` (:attr:`lower`) is then mapped through its
+        marginal :math:`N(\mu, \sigma^2)`, :math:`\sigma` = spread x its sd, onto the same
+        normal truncated below :math:`L`:
+        :math:`z' = \mu + \sigma\,\Phi^{-1}(a + (1 - a)\,\Phi((z - \mu)/\sigma))`,
+        :math:`a = \Phi((L - \mu)/\sigma)`. The map is monotone, so the draws keep their
+        ranks and correlations, and the same generator state gives the same robots.
+        """
         _check_draw_args(rng, n, spread)
         k = len(self.names)
         e = np.clip(rng.standard_normal((n, k)), -TRUNCATE_SIGMA, TRUNCATE_SIGMA)
         out: FloatArray = self.mean_array + spread * e @ _principal_root(self.covariance_array)
+        for name, bound in self.lower.items():
+            j = self.names.index(name)
+            sd = spread * math.sqrt(max(float(self.covariance_array[j, j]), 0.0))
+            out[:, j] = _truncated_below(out[:, j], self.mean[j], sd, math.log(bound))
         return out
 
     def sample(self, rng: np.random.Generator, n: int, *, spread: float = 1.0) -> list[DriveParams]:
@@ -348,6 +370,7 @@ class DriveDistribution:
             covariance=_tuples(cov),
             fixed=dict(self.fixed),
             noise=self.noise,
+            lower=dict(self.lower),
         )
 
     # --- construction and files --------------------------------------------------------------
@@ -385,7 +408,8 @@ class DriveDistribution:
         )
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``randomization`` block (plain YAML types)."""
+        """The ``randomization`` block (plain YAML types; ``lower`` only when there are bounds)."""
+        lower = {"lower": {k: float(v) for k, v in self.lower.items()}} if self.lower else {}
         return {
             "format": RANDOMIZATION_FORMAT,
             "robot": self.robot,
@@ -398,6 +422,7 @@ class DriveDistribution:
             "covariance": [[float(c) for c in row] for row in self.covariance],
             "fixed": {k: float(v) for k, v in self.fixed.items()},
             "noise": self.noise.to_dict(),
+            **lower,
         }
 
     @classmethod
@@ -599,6 +624,7 @@ def _parse_block(
         covariance=parts.covariance,
         fixed=dict(parts.fixed),
         noise=ObservationNoise.from_dict(block["noise"], source=f"{source}.noise"),
+        lower=_parse_lower(block.get("lower", {}), parts.names, f"{source}.lower"),
     )
 
 
@@ -608,7 +634,7 @@ def _check_block_head(block: Any, *, robot: str | None, source: str) -> bool:
         raise ParamsFileError(f"{source} must be a non-empty mapping, got {block!r}; {_REFIT}")
     keys = sorted(_BLOCK_KEYS)
     missing = sorted(_BLOCK_KEYS - set(block))
-    unknown = sorted(set(block) - _BLOCK_KEYS)
+    unknown = sorted(set(block) - _BLOCK_KEYS - {"lower"})  # 'lower' is optional
     if missing or unknown:
         raise _fail(
             source,
@@ -663,6 +689,45 @@ def _block_parts(block: Mapping[str, Any], names: list[str], source: str) -> _Pa
             str(k): _floats([v], f"{source}.fixed.{k}", allow_inf=True)[0] for k, v in fixed.items()
         },
     )
+
+
+def _parse_lower(value: Any, names: Sequence[str], source: str) -> dict[str, float]:
+    if not isinstance(value, Mapping):
+        raise _fail(
+            source.rpartition(".")[0], "lower", "must be a mapping of field: lower bound", value,
+            _REFIT,
+        )  # fmt: skip
+    out = {str(k): _floats([v], f"{source}.{k}")[0] for k, v in value.items()}
+    _validate_lower(out, names, source)
+    return out
+
+
+def _validate_lower(lower: Mapping[str, float], names: Sequence[str], source: str) -> None:
+    """Bounds only on varying fields of ``log`` coordinates, each a finite number > 0."""
+    for name, bound in lower.items():
+        if name not in names or SCHEMA[name].coord != "log":
+            raise ParamsFileError(
+                f"{source}.{name}: a lower bound needs a varying field with a 'log' coordinate "
+                f"(one of {[n for n in names if SCHEMA[n].coord == 'log']}), got {name!r}; "
+                "refit the params file with 'sim2real sysid fit'"
+            )
+        if isinstance(bound, bool) or not (
+            isinstance(bound, int | float) and math.isfinite(bound) and bound > 0
+        ):
+            raise ParamsFileError(
+                f"{source}.{name} must be a finite number > 0, got {bound!r}; refit the params "
+                "file with 'sim2real sysid fit'"
+            )
+
+
+def _truncated_below(z: FloatArray, mu: float, sd: float, bound: float) -> FloatArray:
+    """``z`` drawn from N(mu, sd^2) mapped onto that normal truncated below ``bound``."""
+    if sd <= 0.0:
+        return np.maximum(z, bound)
+    a = _NORMAL.cdf((bound - mu) / sd)
+    u = [min(max(_NORMAL.cdf((x - mu) / sd), 1e-15), 1.0 - 1e-15) for x in z.tolist()]
+    out = np.array([mu + sd * _NORMAL.inv_cdf(a + (1.0 - a) * x) for x in u], dtype=np.float64)
+    return np.maximum(out, bound)
 
 
 def _from_format_1(parts: _Parts, coords: Sequence[str]) -> _Parts:

@@ -71,6 +71,7 @@ from sysid._fleet import SessionInfo, population
 from sysid._linear import first_order_stats
 from sysid._logs import LogArrays, as_log_arrays, log_name, log_warnings
 from sysid._map import Posterior, _solve, map_fit
+from sysid._needs import limit_needs, lower_bounds
 from sysid._problem import Problem
 from sysid._summary import distribution, estimate_noise, field_estimates, identifiable_estimates
 from sysid._timeout import fit_cmd_timeout
@@ -701,6 +702,19 @@ def _fit_sessions(
     return posts
 
 
+def _proven_lower_bounds(s: _Summary, mapper: Mapper, dist: DriveDistribution) -> dict[str, float]:
+    """Lower bounds of the limits the fit logs never reached (:mod:`sysid._needs`)."""
+    sims = s.problem.simulate(s.params)
+    needs = limit_needs(
+        [g.meas_t_s for g in s.problem.logs],
+        [r.v for r in sims],
+        [r.w for r in sims],
+        s.params,
+        mapper.geometry,
+    )
+    return lower_bounds(needs, s.params, dist.names)
+
+
 def _finish(
     *,
     summary: _Summary,
@@ -734,6 +748,7 @@ def _finish(
         between=s.between,
         sessions=len(posts),
     )
+    dist = dataclasses.replace(dist, lower=_proven_lower_bounds(s, mapper, dist))
     boot_std = _replicate(bootstrap, s, posts, mapper, fit_logs, problem_kw, report)
     report("scoring", 0.95)
     scores_fit = score_logs(fit_logs, s.params, mapper.geometry, **scoring)
