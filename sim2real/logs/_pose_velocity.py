@@ -9,7 +9,14 @@ Smoothed differentiation: at each sample a straight line is fitted by least squa
 x, y and the unwrapped yaw over the samples within +-W/2 (a centred local-linear, i.e.
 first-order Savitzky-Golay, derivative on irregular times; no lag, noise falls as W^-3/2);
 v is the fitted (dx/dt, dy/dt) projected on the heading, w is d(yaw)/dt. The window is
-``W = clip(5 x median odometry period, 0.3 s, 1.0 s)``.
+``W = clip(5 x median pose update period, 0.3 s, 1.0 s)``.
+
+Held poses: a driver may republish its last pose between updates (the 2017 Neato driver sends
+Odometry at 20 Hz with a pose that changes about every third message). The repeats carry no
+new measurement, and a line fitted through them is fitted to a staircase: only the first
+message of each pose enters the fits (the update period sets the window), and the velocity
+at a repeat is interpolated between the updates around it. A pose held for more than two
+update periods is the robot standing still, and those repeats stay in.
 
 Detection (``odom_velocity="auto"``), over the samples where the pose moves
 (``|v_pose| > 0.05 m/s`` or ``|w_pose| > 0.2 rad/s``; at least 20 of them per channel):
@@ -149,6 +156,33 @@ def _window_s(t_ns: np.ndarray) -> float:
     return min(max(5.0 * period, 0.3), 1.0)  # np.clip's value, without its array overhead
 
 
+def _update_derivative(
+    t_ns: np.ndarray, pose: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Pose velocities fitted on the pose updates only (first message of each pose), read at
+    every message time, and the window used (see the module docstring)."""
+    x, y, yaw = pose
+    new = np.ones(t_ns.size, dtype=bool)
+    new[1:] = (np.diff(x) != 0) | (np.diff(y) != 0) | (np.diff(yaw) != 0)
+    idx = np.flatnonzero(new)
+    if idx.size < 5 or idx.size == t_ns.size:  # no repeats (or too few updates): every sample
+        window = _window_s(t_ns)
+        v, w = _derivative(t_ns, t_ns[0], NS_PER_S, pose, window, BLOCK)
+        return v, w, window
+    # a pose held for longer than two update periods is the robot standing still: those
+    # repeats are measurements (of no motion) and stay in
+    t_update = t_ns[idx]
+    period = float(scratch_median(np.diff(t_update)))
+    since = t_ns - t_update[np.searchsorted(t_update, t_ns, "right") - 1]
+    keep = np.flatnonzero(new | (since > 2.0 * period))
+    tk = t_ns[keep]
+    window = _window_s(t_update)
+    vk, wk = _derivative(tk, t_ns[0], NS_PER_S, (x[keep], y[keep], yaw[keep]), window, BLOCK)
+    t = seconds(t_ns - t_ns[0])
+    tks = seconds(tk - t_ns[0])
+    return np.interp(t, tks, vk), np.interp(t, tks, wk), window
+
+
 def _share(v: np.ndarray, lim_v: float, w: np.ndarray, lim_w: float) -> float:
     """Share of the samples with ``|v| > lim_v`` or ``|w| > lim_w`` (block by block)."""
     hits = 0
@@ -226,8 +260,7 @@ def velocities_from_pose(
                 "(or fewer than 5 samples); use 'twist'"
             )
         return cols
-    window = _window_s(t_ns)
-    v, w = _derivative(t_ns, t_ns[0], NS_PER_S, (cols["x"], cols["y"], cols["yaw"]), window, BLOCK)
+    v, w, window = _update_derivative(t_ns, (cols["x"], cols["y"], cols["yaw"]))
     jumps = _share(v, _JUMP_V, w, _JUMP_W)
     if jumps > 0.01 and mode == "auto":
         return cols

@@ -162,3 +162,39 @@ def test_read_trace_hands_its_arrays_over_without_copies(tmp_path: Path) -> None
         meas_w=tr.meas_w,
     )
     assert built.meas_v is not mine and mine.flags.writeable
+
+
+def _held(values: np.ndarray, every: int) -> np.ndarray:
+    """``values`` as a driver republishing its last pose: updated every ``every`` messages."""
+    return values[(np.arange(values.size) // every) * every]
+
+
+def test_held_pose_is_differentiated_over_its_updates() -> None:
+    """A pose republished at 30 Hz and updated every third message (a 10 Hz pose, the
+    2017 Neato driver): the velocity follows the updates, not the staircase of repeats, and
+    a pose held through a stop reads 0."""
+    t, v, w, x, y, yaw = _drive(n=1200, rate_hz=30.0)
+    stop = (t > 20.0) & (t < 25.0)
+    x, y, yaw = x.copy(), y.copy(), yaw.copy()
+    for a in (x, y, yaw):  # the robot stands still from 20 s to 25 s, then goes on
+        i0 = np.flatnonzero(stop)[0]
+        a[stop] = a[i0]
+        a[t >= 25.0] -= a[np.flatnonzero(t >= 25.0)[0]] - a[i0]
+    cols = {"v": np.zeros_like(v), "w": np.zeros_like(w),
+            "x": _held(x, 3), "y": _held(y, 3), "yaw": _held(yaw, 3)}  # fmt: skip
+    ns = T0_NS + np.round(t * 1e9).astype(np.int64)
+    warnings: list[str] = []
+    out = velocities_from_pose(ns, cols, "/odom", warnings, mode="pose")
+    assert "over 0.50 s windows" in warnings[0]  # 5 pose updates of 0.1 s, not 5 messages
+    moving = (t > 2.0) & (t < 18.0)
+    assert np.max(np.abs(out["v"][moving] - v[moving])) < 0.01
+    assert np.max(np.abs(out["w"][moving] - w[moving])) < 0.02
+    still = (t > 21.0) & (t < 24.0)
+    assert np.max(np.abs(out["v"][still])) < 1e-9 and np.max(np.abs(out["w"][still])) < 1e-9
+    # every message a new pose: the same fit as before (all samples)
+    _, _, _, x0, y0, yaw0 = _drive(n=1200, rate_hz=30.0)
+    fresh = velocities_from_pose(
+        ns, {**cols, "x": x0, "y": y0, "yaw": yaw0}, "/odom", [], mode="pose"
+    )
+    pv, pw = pose_derivative(t, x0, y0, yaw0, 0.3)
+    assert np.allclose(fresh["v"], pv) and np.allclose(fresh["w"], pw)
