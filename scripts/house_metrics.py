@@ -2,7 +2,8 @@
 function lengths and dated lines.
 
 ``python scripts/house_metrics.py`` prints the figures; ``--list imports|cycles|long|dates``
-lists the places behind one of them. The same functions back ``tests/test_house.py``.
+lists the places behind one of them. The same functions back ``tests/test_house.py`` and
+``tests/test_floors.py``.
 """
 
 from __future__ import annotations
