@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-__all__ = ["compose", "invert", "match_scans", "scan_points"]
+__all__ = ["compose", "invert", "match_scans", "scan_points", "translation_conditioning"]
 
 FloatArray = NDArray[np.float64]
 Pose = tuple[float, float, float]
@@ -120,3 +120,20 @@ def match_scans(
         if abs(dth) < 1e-6 and math.hypot(dx, dy) < 1e-6:
             break
     return (x, y, th)
+
+
+def translation_conditioning(source: FloatArray, target: FloatArray, pose: Pose) -> float:
+    """How well a match pins the translation: the smaller over the larger eigenvalue of the
+    point-to-line information about ``(dx, dy)`` (0: a corridor, one direction free; 1: all
+    directions alike)."""
+    normals, has_normal = _normals(target, 0.3)
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    moved = source @ np.array([[c, s], [-s, c]]) + np.array([pose[0], pose[1]])
+    dist, idx = cKDTree(target).query(moved, distance_upper_bound=0.1)
+    use = np.isfinite(dist)
+    use[use] &= has_normal[idx[use]]
+    n = normals[idx[use]]
+    if n.shape[0] < _MIN_POINTS:
+        return 0.0
+    eig = np.linalg.eigvalsh(n.T @ n)
+    return float(eig[0] / max(eig[1], 1e-12))

@@ -68,7 +68,13 @@ from numpy.typing import NDArray
 from scipy.stats import chi2
 
 from robots.files import atomic_write
-from sysid._scanmatch import compose, invert, match_scans, scan_points
+from sysid._scanmatch import (
+    compose,
+    invert,
+    match_scans,
+    scan_points,
+    translation_conditioning,
+)
 from sysid.errors import ExcitationError, ResultFileError, SysidValueError
 
 __all__ = ["FORMAT", "PoseArrays", "ScanArrays", "SensorEstimate", "estimate_sensor", "load_sensor"]
@@ -88,9 +94,11 @@ _MAX_PAIR_GAP_S = 1.0
 _STRIDE = 3
 _OFFSET_SPAN_S = 0.4
 _OFFSET_STEP_S = 0.002
+_MAX_OFFSET_CI_S = 0.3
 _BLOCK = 10
 _MIN_TRANS_M = 0.02
-_MIN_TRANSLATING = 10
+_MIN_TRANSLATING = 20
+_MIN_CONDITIONING = 0.1
 _N_BINS = 6
 _SIGMA_FLOOR_M = 1e-4
 _NAN_PAIR = (math.nan, math.nan)
@@ -482,12 +490,13 @@ class _Pairs:
     dx: FloatArray
     dy: FloatArray
     dth: FloatArray
+    conditioning: FloatArray
 
 
 def _match_pairs(
     scans_list: Sequence[ScanArrays], odoms: Sequence[PoseArrays], mount_xy: tuple[float, float]
 ) -> _Pairs:
-    rows: list[tuple[float, float, int, float, float, float]] = []
+    rows: list[tuple[float, ...]] = []
     mount = (mount_xy[0], mount_xy[1], 0.0)
     for ri, (scans, odom) in enumerate(zip(scans_list, odoms, strict=True)):
         valid = scans.valid()
@@ -504,9 +513,10 @@ def _match_pairs(
             guess = compose(compose(invert(mount), base), mount)
             pose = match_scans(pts[j], pts[i], guess)
             if pose is not None:
-                rows.append((t[i], t[j], ri, *pose))
-    a = np.array(rows, dtype=np.float64).reshape(-1, 6)
-    return _Pairs(a[:, 0], a[:, 1], a[:, 2].astype(np.intp), a[:, 3], a[:, 4], a[:, 5])
+                cond = translation_conditioning(pts[j], pts[i], pose)
+                rows.append((t[i], t[j], ri, *pose, cond))
+    a = np.array(rows, dtype=np.float64).reshape(-1, 7)
+    return _Pairs(a[:, 0], a[:, 1], a[:, 2].astype(np.intp), a[:, 3], a[:, 4], a[:, 5], a[:, 6])
 
 
 def _odom_increments(
@@ -565,12 +575,17 @@ def _mount_yaw(
     c, s = np.cos(bth), np.sin(bth)
     ux = bx + (c - 1.0) * lx - s * ly
     uy = by + s * lx + (c - 1.0) * ly
-    big = np.hypot(ux, uy) >= _MIN_TRANS_M
+    big = (np.hypot(ux, uy) >= _MIN_TRANS_M) & (pairs.conditioning >= _MIN_CONDITIONING)
     if int(big.sum()) < _MIN_TRANSLATING:
         return math.nan
-    ang = np.arctan2(uy, ux) - np.arctan2(pairs.dy, pairs.dx)
-    resid = np.angle(np.exp(1j * ang))
-    keep = big & (np.abs(resid - np.median(resid[big])) < 0.2)
+    turn = np.exp(1j * (np.arctan2(uy, ux) - np.arctan2(pairs.dy, pairs.dx)))
+    centre = np.angle(np.sum(turn[big]))  # circular: mounts near +-pi stay whole
+    for _ in range(3):
+        keep = big & (np.abs(np.angle(turn * np.exp(-1j * centre))) < 0.2)
+        if not keep.any():
+            return math.nan
+        centre = np.angle(np.sum(turn[keep]))
+    ang = np.angle(turn)
     wt = w * (ux**2 + uy**2) * keep
     if wt.sum() <= 0:
         return math.nan
@@ -619,6 +634,8 @@ def _timing(
         off_boot[i] = _best_offset(grid, inc, pairs.dth, wb)[0]
         if moving:
             yaw_boot[i] = _mount_yaw(pairs, odoms, off, mount_xy, wb)
+    lo, hi = _ci(off_boot)
+    turning = turning and hi - lo <= _MAX_OFFSET_CI_S
     if moving:  # the draws as angles next to the estimate (intervals across +-pi stay whole)
         yaw_boot = yaw + np.angle(np.exp(1j * (yaw_boot - yaw)))
     return _Timing(off, off_boot, scale, yaw, yaw_boot, turning, moving)
@@ -725,13 +742,15 @@ def _notes(still: _StillResult | None, timing: _Timing | None) -> tuple[str, ...
         )
     if timing is None or not timing.turning:
         notes.append(
-            "time_offset_s: the yaw rate never changes between matched scans, so the scan "
-            "timing against odometry is not identified"
+            "time_offset_s: the yaw rate changes too little between matched scans (the 95 % "
+            "interval would be wider than 0.3 s), so the scan timing against odometry is not "
+            "identified"
         )
     if timing is None or not timing.moving:
         notes.append(
-            "mounting_yaw_rad: fewer than 10 matched scan pairs translate 2 cm or more, so "
-            "the mounting yaw is not identified"
+            "mounting_yaw_rad: fewer than 20 matched scan pairs translate 2 cm or more with "
+            "the translation pinned in every direction (not a corridor), so the mounting yaw "
+            "is not identified"
         )
     return tuple(notes)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -51,3 +52,14 @@ def test_two_recordings_of_one_unit_agree(realdata_dir: Path, tmp_path: Path) ->
     assert _overlap(a.time_offset_ci, b.time_offset_ci)
     # the scans are stamped when a revolution ends: 0.1-0.3 s after odometry's clock says
     assert -0.30 < a.time_offset_s < -0.10 and -0.30 < b.time_offset_s < -0.10
+    # this driver's scan x axis points backwards: a mounting yaw of 180 degrees
+    for est in (a, b):
+        lo, hi = est.mounting_yaw_ci
+        off = math.remainder(est.mounting_yaw_rad - math.pi, 2 * math.pi)
+        assert abs(off) < math.radians(2.0)
+        assert lo - 0.01 <= est.mounting_yaw_rad <= hi + 0.01
+    gap = math.remainder(a.mounting_yaw_rad - b.mounting_yaw_rad, 2 * math.pi)
+    half = 0.5 * (
+        a.mounting_yaw_ci[1] - a.mounting_yaw_ci[0] + b.mounting_yaw_ci[1] - b.mounting_yaw_ci[0]
+    )
+    assert abs(gap) <= half  # the two intervals overlap
