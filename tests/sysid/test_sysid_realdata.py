@@ -102,3 +102,21 @@ def test_neato_fit_with_generic_geometry(neato_log: Path) -> None:
     (val,) = res.scores_validation
     assert fit.fit_percent_v > 30 and fit.fit_percent_w > 30
     assert val.fit_percent_v > 0
+
+
+def test_drexel_limits_never_reached_keep_their_prior_above_what_the_log_needed(
+    drexel: tuple[SysidResult, LogArrays],
+) -> None:
+    """The first half drives at 0.2 m/s and turns at up to ~1.05 rad/s, below the Waffle Pi's
+    caps (0.25 m/s, 1.82 rad/s): the log proves lower bounds near what it drove, and no draw
+    of the randomisation lies below them."""
+    res, _ = drexel
+    lower = res.randomization.lower
+    assert lower["speed_lim_v_mps"] == pytest.approx(0.20, abs=0.01)
+    assert lower["speed_lim_w_radps"] == pytest.approx(1.05, abs=0.1)
+    assert 0.19 / 0.033 <= lower["wheel_speed_max_radps"] < 0.9 * res.params.wheel_speed_max_radps
+    for name, bound in lower.items():
+        assert bound < 0.9 * getattr(res.params, name)  # never reached: a bound, not a value
+    draws = res.randomization.sample(np.random.default_rng(3), 200)
+    for name, bound in lower.items():
+        assert min(getattr(p, name) for p in draws) >= bound * (1 - 1e-9)
