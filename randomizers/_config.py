@@ -13,7 +13,8 @@ entry wraps the env directly::
 Each entry's other keys are the wrapper's keyword arguments. A ``DynamicsRandomizer`` entry with
 a ``sysid`` key (the path of a ``sim2real sysid fit`` result, relative to the config file) is
 built with :meth:`DynamicsRandomizer.from_sysid` (its ``scale``, ``fields``, ``robot`` and
-``name`` keys pass through). :func:`to_config` writes every
+``name`` keys pass through); a ``LidarNoise`` entry with a ``sysid`` key (a ``sim2real sysid
+sensors`` result) likewise with :meth:`LidarNoise.from_sysid`. :func:`to_config` writes every
 argument (including the current ``scale`` and ``name``), so ``from_config(env, to_config(w))``
 rebuilds the same stack with the same random streams.
 """
@@ -140,8 +141,9 @@ def from_config(
             )
         kwargs = {k: v for k, v in entry.items() if k != "type"}
         try:
-            if "sysid" in kwargs and cls is DynamicsRandomizer:
-                wrapped = _from_sysid(wrapped, kwargs, folder)
+            from_file = cls is DynamicsRandomizer or kwargs.get("sysid") is not None
+            if "sysid" in kwargs and cls in (DynamicsRandomizer, LidarNoise) and from_file:
+                wrapped = _from_sysid(cls, wrapped, kwargs, folder)
             else:
                 wrapped = cls(wrapped, **kwargs)
         except RandomizerError as exc:
@@ -151,8 +153,8 @@ def from_config(
     return wrapped
 
 
-def _from_sysid(env: Any, kwargs: dict[str, Any], folder: Path | None) -> Any:
-    """A DynamicsRandomizer around the sysid result named by ``kwargs['sysid']``."""
+def _from_sysid(cls: Any, env: Any, kwargs: dict[str, Any], folder: Path | None) -> Any:
+    """A DynamicsRandomizer or LidarNoise around the sysid result named by ``kwargs['sysid']``."""
     rest = dict(kwargs)
     sysid = rest.pop("sysid")
     if not isinstance(sysid, str | Path):
@@ -165,9 +167,10 @@ def _from_sysid(env: Any, kwargs: dict[str, Any], folder: Path | None) -> Any:
     if not path.is_file():
         raise RandomizerConfigError(
             f"key 'sysid' names '{path}', which does not exist; give the path of a "
-            "'sim2real sysid fit' result, relative to the config file"
+            "'sim2real sysid fit' (or, for LidarNoise, 'sysid sensors') result, relative to "
+            "the config file"
         )
-    return DynamicsRandomizer.from_sysid(path, env=env, **rest)
+    return cls.from_sysid(path, env=env, **rest)
 
 
 def to_config(env: Any) -> dict[str, Any]:

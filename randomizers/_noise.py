@@ -9,9 +9,11 @@ dropped lidar beams).
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -19,6 +21,7 @@ import numba
 import numpy as np
 
 from randomizers._base import check_name, check_nonnegative, check_number, check_scale
+from randomizers._dynamics import check_spread
 from randomizers._gauss import (
     _ACCEPT_I64,
     _FX,
@@ -29,6 +32,7 @@ from randomizers._gauss import (
     _slow_pass,
     raw_words,
 )
+from randomizers._lidar_sysid import load_sensor_noise
 from randomizers._observation import ObservationRandomizer
 from randomizers._pcg64 import (
     JUMPS,
@@ -627,7 +631,8 @@ class LidarNoise(ObservationRandomizer):
     r"""Gaussian range noise plus random beam dropout on a lidar scan.
 
     Each valid beam :math:`r` (finite and ``< range_max_m``) becomes
-    :math:`\mathrm{clip}(r + c\,\sigma z, r_{min}, r_{max})`, and with probability
+    :math:`\mathrm{clip}(r + c\,\sigma(r) z, r_{min}, r_{max})` with
+    :math:`\sigma(r) = \sigma_0 + \sigma_1 r`, and with probability
     :math:`c\,p` it is dropped: set to ``range_max_m`` (no return). Invalid beams (NaN, inf,
     ``>= range_max_m``) are kept. The default σ = 0.01 m is the LDS-01 noise of the TurtleBot3
     Gazebo model (robot-specs.md).
@@ -650,6 +655,13 @@ class LidarNoise(ObservationRandomizer):
         Curriculum scale c in [0, 1] multiplying σ and p.
     name : str, optional
         Unique name in the stack; default ``LidarNoise[<key>]``.
+    std_per_m : float
+        Growth σ1 of the noise std with range, m per m (>= 0; default 0: σ = ``std_m``).
+    sysid : str, optional
+        A ``sim2real sysid sensors`` result: each episode draws σ0, σ1 and p from it (see
+        :meth:`from_sysid`; ``std_m``, ``std_per_m`` and ``dropout`` are then ignored).
+    spread : float
+        Multiplier on the identified standard deviations (1 = as identified).
 
     Examples
     --------
@@ -682,9 +694,17 @@ class LidarNoise(ObservationRandomizer):
         range_max_m: float | None = None,
         scale: float = 1.0,
         name: str | None = None,
+        std_per_m: float = 0.0,
+        sysid: str | None = None,
+        spread: float = 1.0,
     ) -> None:
         sel = select(env.observation_space, key=key, index=index, wrapper="LidarNoise")
+        spread = check_spread(spread)
+        dist = None if sysid is None else load_sensor_noise(sysid)
+        if dist is not None:  # the identified means until the first episode draws its own
+            std_m, std_per_m, dropout = dist.std_m[0], dist.std_per_m[0], dist.dropout[0]
         std_m = check_nonnegative(std_m, argument="std_m", unit="m")
+        std_per_m = check_nonnegative(std_per_m, argument="std_per_m", unit="m/m")
         dropout = check_nonnegative(dropout, argument="dropout")
         if dropout > 1.0:
             raise RandomizerValueError(
@@ -712,18 +732,61 @@ class LidarNoise(ObservationRandomizer):
             scale=scale,
             name=name,
             dtype=sel.dtype,
+            std_per_m=std_per_m,
+            sysid=sysid,
+            spread=spread,
         )
         self._sel = sel
         self.std_m = std_m
+        self.std_per_m = std_per_m
         self.dropout = dropout
         self.range_min_m = lo
         self.range_max_m = hi
         self._dropped = 0
+        self._dist = dist
+        self._spread = spread
+
+    @classmethod
+    def from_sysid(
+        cls,
+        path: str | Path,
+        *,
+        env: gym.Env[Any, Any] | None = None,
+        spread: float = 1.0,
+        **kwargs: Any,
+    ) -> Any:
+        """Noise drawn per episode from a ``sim2real sysid sensors`` result.
+
+        Each episode draws ``std_m``, ``std_per_m`` and ``dropout`` from normals centred on
+        the identified values with the standard deviations of their 95 % intervals times
+        ``spread`` (1 = as identified), clipped to >= 0; the curriculum ``scale`` then
+        multiplies the noise and dropout as usual. Other keyword arguments (``key``,
+        ``index``, ``range_min_m``, ``range_max_m``, ``scale``, ``name``) pass through.
+        Without ``env`` it returns a picklable ``env -> wrapper`` callable.
+
+        Examples
+        --------
+        >>> make = LidarNoise.from_sysid("sensors.yaml", spread=2.0)  # doctest: +SKIP
+        >>> env = make(base_env)  # doctest: +SKIP
+        """
+        load_sensor_noise(path)  # fail here, not in a worker
+        factory: Any = functools.partial(cls, sysid=str(path), spread=spread, **kwargs)
+        return factory if env is None else factory(env)
+
+    def sample_episode(self) -> None:
+        """Draw this episode's noise from the identified distribution (with ``sysid``)."""
+        if self._dist is not None:
+            self.std_m, self.std_per_m, self.dropout = self._dist.sample(self.rng, self._spread)
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with a noisy scan (a new object)."""
         ranges = np.ascontiguousarray(self._sel.get(observation))
         z = self._standard_normal(ranges.size)
+        std = self.scale * self.std_m
+        if self.std_per_m > 0.0:  # sigma(r) = std_m + std_per_m r, one per beam
+            r = np.where(np.isfinite(ranges), ranges, 0.0).reshape(-1)
+            z = z * (self.std_m + self.std_per_m * r)
+            std = self.scale
         u = self.rng.random(ranges.size)
         out = np.empty(ranges.shape, dtype=self._sel.dtype)
         self._dropped = _noisy_ranges(
@@ -731,7 +794,7 @@ class LidarNoise(ObservationRandomizer):
             z,
             u,
             out.reshape(-1),
-            self.scale * self.std_m,
+            std,
             self.scale * self.dropout,
             self.range_min_m,
             self.range_max_m,
@@ -746,6 +809,7 @@ class LidarNoise(ObservationRandomizer):
         """Effective std, dropout probability, beams dropped in this scan, scale."""
         return {
             "std_m": self.scale * self.std_m,
+            "std_per_m": self.scale * self.std_per_m,
             "dropout": self.scale * self.dropout,
             "dropped": self._dropped,
             "scale": self.scale,

@@ -1,0 +1,95 @@
+"""The per-episode lidar noise distribution of a ``sim2real sysid sensors`` result (private).
+
+The result file (``format: sim2real.sysid.sensors/1``) gives the noise model
+:math:`\\sigma(r) = \\sigma_0 + \\sigma_1 r` and the invalid-return rate, each with a 95 %
+interval. :class:`SensorNoiseDistribution` reads each as a normal with the estimate as mean and
+the interval's half width over 1.96 as standard deviation, and draws one value per episode:
+``spread`` (1 = as identified) multiplies the standard deviations, like the dynamics; draws
+are clipped to ``>= 0`` (the rate to ``[0, 1]``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from randomizers.errors import RandomizerConfigError
+
+__all__ = ["SENSORS_FORMAT", "SensorNoiseDistribution", "load_sensor_noise"]
+
+#: The ``format`` key of a ``sim2real sysid sensors`` result.
+SENSORS_FORMAT = "sim2real.sysid.sensors/1"
+_Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorNoiseDistribution:
+    """Means and standard deviations of ``std_m`` (m), ``std_per_m`` (m/m) and ``dropout``."""
+
+    std_m: tuple[float, float]
+    std_per_m: tuple[float, float]
+    dropout: tuple[float, float]
+    range_min_m: float
+    range_max_m: float
+
+    def sample(self, rng: np.random.Generator, spread: float) -> tuple[float, float, float]:
+        """One episode's ``(std_m, std_per_m, dropout)``.
+
+        Examples
+        --------
+        >>> d = SensorNoiseDistribution(std_m=(0.0, 0.0), std_per_m=(0.005, 0.001),
+        ...                             dropout=(0.05, 0.01), range_min_m=0.02, range_max_m=5.0)
+        >>> s0, s1, p = d.sample(np.random.default_rng(0), 1.0)
+        >>> bool(s0 == 0.0 and 0.0 < s1 < 0.01 and 0.0 < p < 0.1)
+        True
+        """
+        z = rng.standard_normal(3)
+        s0 = max(0.0, self.std_m[0] + spread * self.std_m[1] * z[0])
+        s1 = max(0.0, self.std_per_m[0] + spread * self.std_per_m[1] * z[1])
+        p = min(1.0, max(0.0, self.dropout[0] + spread * self.dropout[1] * z[2]))
+        return s0, s1, p
+
+
+def _field(data: dict[str, Any], key: str, path: Path) -> tuple[float, float]:
+    value = data.get(key)
+    ci = data.get(key.removesuffix("_m") + "_ci" if key == "noise_std_0_m" else key + "_ci")
+    if value is None or not isinstance(ci, list) or len(ci) != 2 or None in ci:
+        raise RandomizerConfigError(
+            f"sensor file '{path}' has no identified '{key}' (the recording could not identify "
+            "it: see its 'unidentified' notes); record a still stretch and identify again, or "
+            "give LidarNoise std_m and dropout by hand"
+        )
+    mean = float(value)
+    sd = (float(ci[1]) - float(ci[0])) / (2.0 * _Z95)
+    if not (math.isfinite(mean) and math.isfinite(sd)):
+        raise RandomizerConfigError(f"sensor file '{path}' key '{key}' is not finite: {value!r}")
+    return mean, max(sd, 0.0)
+
+
+def load_sensor_noise(path: str | Path) -> SensorNoiseDistribution:
+    """Read the noise distribution of a ``sim2real sysid sensors`` result file."""
+    p = Path(path)
+    try:
+        data = yaml.safe_load(p.read_text(encoding="utf-8"))
+    except (OSError, yaml.YAMLError) as exc:
+        raise RandomizerConfigError(
+            f"sensor file '{p}' cannot be read as YAML ({exc}); give the file written by "
+            "`sim2real sysid sensors`"
+        ) from None
+    if not isinstance(data, dict) or data.get("format") != SENSORS_FORMAT:
+        raise RandomizerConfigError(
+            f"sensor file '{p}' is not a '{SENSORS_FORMAT}' file; write one with "
+            "`sim2real sysid sensors`"
+        )
+    return SensorNoiseDistribution(
+        std_m=_field(data, "noise_std_0_m", p),
+        std_per_m=_field(data, "noise_std_per_m", p),
+        dropout=_field(data, "dropout", p),
+        range_min_m=float(data["range_min_m"]),
+        range_max_m=float(data["range_max_m"]),
+    )
