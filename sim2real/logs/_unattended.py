@@ -21,7 +21,8 @@ odometry spike is not motion):
   with the noise from the median absolute sample-to-sample change;
 - *unattended motion*: moving while the held command is zero on both axes, more than
   ``settle_s`` after the command last asked for motion (so a robot still coasting to a stop
-  is kept);
+  is kept) and more than 0.5 s before the next command asks for it (a velocity derived from
+  the pose over a centred window starts a little early);
 - *held while stopped*: a command asking for motion (above twice the thresholds) in force
   while the robot does not move, in a run longer than ``settle_s`` (a start-up delay is
   shorter);
@@ -72,6 +73,9 @@ FloatArray = NDArray[np.float64]
 SETTLE_S = 2.0
 #: A recording whose active samples are more than this share unattended is refused.
 MOSTLY_UNATTENDED = 0.5
+#: Motion this long before a command asks for it is that command's (a velocity derived from
+#: the pose over a centred window, or stamps a little off between the two streams), s.
+LEAD_S = 0.5
 #: A base with a command timeout has stopped this long after it, s.
 STOP_S = 1.0
 #: A command magnitude at or below this is zero (m/s or rad/s).
@@ -156,6 +160,14 @@ def _runs(mask: BoolArray) -> list[tuple[int, int]]:
     """``[(start, stop), ...]`` of the runs of True in ``mask`` (stop exclusive)."""
     edges = np.flatnonzero(np.diff(np.concatenate(([0], mask.astype(np.int8), [0]))))
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def _until_motion_asked(trace: Trace) -> FloatArray:
+    """Seconds until the next command asking for motion, at each measurement (inf: none)."""
+    cmd_t, t = trace.cmd_t_s, trace.meas_t_s
+    asks = (np.abs(trace.cmd_v) > CMD_ZERO) | (np.abs(trace.cmd_w) > CMD_ZERO)
+    times = np.append(cmd_t[asks], np.inf)  # none after the last: never
+    return np.asarray(times[np.searchsorted(times, t, side="left")] - t, dtype=np.float64)
 
 
 def _since_motion_asked(trace: Trace) -> FloatArray:
@@ -258,6 +270,7 @@ def _find(trace: Trace, settle_s: float, cmd_timeout_s: float) -> Unattended:
     in_force = _age(trace) <= cmd_timeout_s
     asks = (np.abs(cv) > 2 * move_v) | (np.abs(cw) > 2 * move_w)
     motion = moving & zero & (_since_motion_asked(trace) > settle_s)
+    motion &= _until_motion_asked(trace) > LEAD_S  # a smoothed or early odometry stamp
     stopped = np.zeros(t.size, dtype=bool)
     for a, b in _runs(asks & in_force & ~moving):
         if t[b - 1] - t[a] > settle_s:
