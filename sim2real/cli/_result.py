@@ -88,6 +88,21 @@ def _print_population(console: Console, result: SysidResult) -> None:
     )
 
 
+def _fit_pct(x: float) -> str:
+    return f"{x:.1f}" if math.isfinite(x) else "-"
+
+
+def _undefined_scores(result: SysidResult) -> list[str]:
+    """One note per FIT % that a log leaves undefined (its measured axis is constant)."""
+    return [
+        f"FIT % {axis} is undefined on {Path(s.log).name}: its measured {axis} is constant "
+        f"(a log that {'spins in place' if axis == 'v' else 'drives straight'})"
+        for s in (*result.scores_fit, *result.scores_validation)
+        for axis, x in (("v", s.fit_percent_v), ("w", s.fit_percent_w))
+        if not math.isfinite(x)
+    ]
+
+
 def _scores_table(result: SysidResult) -> Table:
     """FIT %, agreement and RMSE of each fitting and validation log."""
     scores = Table(title="scores", title_justify="left")
@@ -108,8 +123,8 @@ def _scores_table(result: SysidResult) -> Table:
             scores.add_row(
                 Path(s.log).name,
                 role,
-                f"{s.fit_percent_v:.1f}",
-                f"{s.fit_percent_w:.1f}",
+                _fit_pct(s.fit_percent_v),
+                _fit_pct(s.fit_percent_w),
                 f"{100 * s.agreement:.1f} %",
                 f"{100 * s.agreement_v:.1f} %",
                 f"{100 * s.agreement_w:.1f} %",
@@ -140,6 +155,8 @@ def print_result(console: Console, result: SysidResult) -> None:
         console.print(table)
     _print_population(console, result)
     console.print(_scores_table(result))
+    for note in _undefined_scores(result):
+        console.print(f"[cyan]note:[/] {escape(note)}", highlight=False)
     for axis, stats in result.linear.items():
         if stats:
             console.print(

@@ -96,6 +96,8 @@ def test_sysid_fit_goes_on_past_a_bad_log(
     assert main(argv) == 0 and out.is_file()
     stdout = " ".join(capsys.readouterr().out.split())
     assert "note: left out: log file" in stdout and "corrupt.mcap" in stdout
+    assert "note: FIT % v is undefined on spin.mcap: its measured v is constant" in stdout
+    assert " nan " not in stdout
     other = tmp_path / "corrupt2.mcap"
     other.write_bytes(b"junk" * 99)
     assert main(["sysid", "fit", str(corrupt), str(other), "--robot", ROBOT, "-o", str(out)]) == 2
