@@ -12,10 +12,12 @@ is drawn per episode: uniform in seconds, or uniform over the integers ``low..hi
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -23,6 +25,7 @@ import numpy as np
 from gymnasium.wrappers.utils import create_zero_array
 
 from randomizers._base import Randomizer, check_choice, check_name, check_number, check_scale
+from randomizers._lidar_sysid import scan_latency_s
 from randomizers._observation import ObservationRandomizer
 from randomizers._select import index_kwarg, index_label, select
 from randomizers.errors import MissingProtocolError, RandomizerTypeError, RandomizerValueError
@@ -234,6 +237,24 @@ class OdometryDelay(ObservationRandomizer):
         self.fill = fill
         self.delay_steps = 0
         self._queue: deque[np.ndarray] = deque()
+
+    @classmethod
+    def from_sysid(
+        cls, path: str | Path, *, env: gym.Env[Any, Any] | None = None, **kwargs: Any
+    ) -> Any:
+        """Delay an entry (e.g. the scan, ``key="scan"``) by the latency a ``sim2real sysid
+        sensors`` result identified: ``delay_s`` uniform over its interval per episode.
+
+        Other keyword arguments (``key``, ``index``, ``fill``, ``dt_s``, ``scale``, ``name``)
+        pass through. Without ``env`` it returns a picklable ``env -> wrapper`` callable.
+
+        Examples
+        --------
+        >>> make = OdometryDelay.from_sysid("sensors.yaml", key="scan")  # doctest: +SKIP
+        """
+        low, high = scan_latency_s(path)
+        factory: Any = functools.partial(cls, delay_s=[low, high], **kwargs)
+        return factory if env is None else factory(env)
 
     def sample_episode(self) -> None:
         """Draw the episode's delay in steps."""

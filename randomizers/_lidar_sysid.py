@@ -20,7 +20,7 @@ import yaml
 
 from randomizers.errors import RandomizerConfigError
 
-__all__ = ["SENSORS_FORMAT", "SensorNoiseDistribution", "load_sensor_noise"]
+__all__ = ["SENSORS_FORMAT", "SensorNoiseDistribution", "load_sensor_noise", "scan_latency_s"]
 
 #: The ``format`` key of a ``sim2real sysid sensors`` result.
 SENSORS_FORMAT = "sim2real.sysid.sensors/1"
@@ -71,9 +71,26 @@ def _field(data: dict[str, Any], key: str, path: Path) -> tuple[float, float]:
     return mean, max(sd, 0.0)
 
 
-def load_sensor_noise(path: str | Path) -> SensorNoiseDistribution:
-    """Read the noise distribution of a ``sim2real sysid sensors`` result file."""
+def scan_latency_s(path: str | Path) -> tuple[float, float]:
+    """The scan's latency against odometry as a ``[low, high]`` delay range, s.
+
+    ``time_offset_s`` is added to scan stamps to reach the odometry's clock, so a negative
+    offset means the scan is older than its stamp says: the delay range is the negated 95 %
+    interval of the offset, clipped to >= 0.
+    """
     p = Path(path)
+    data = _read(p)
+    ci = data.get("time_offset_ci")
+    if data.get("time_offset_s") is None or not isinstance(ci, list) or None in ci:
+        raise RandomizerConfigError(
+            f"sensor file '{p}' has no identified 'time_offset_s' (see its 'unidentified' "
+            "notes); record turns that start and stop and identify again, or give delay_s by hand"
+        )
+    return max(0.0, -float(ci[1])), max(0.0, -float(ci[0]))
+
+
+def _read(p: Path) -> dict[str, Any]:
+    """The mapping of a sensor result file (format checked)."""
     try:
         data = yaml.safe_load(p.read_text(encoding="utf-8"))
     except (OSError, yaml.YAMLError) as exc:
@@ -86,6 +103,13 @@ def load_sensor_noise(path: str | Path) -> SensorNoiseDistribution:
             f"sensor file '{p}' is not a '{SENSORS_FORMAT}' file; write one with "
             "`sim2real sysid sensors`"
         )
+    return data
+
+
+def load_sensor_noise(path: str | Path) -> SensorNoiseDistribution:
+    """Read the noise distribution of a ``sim2real sysid sensors`` result file."""
+    p = Path(path)
+    data = _read(p)
     return SensorNoiseDistribution(
         std_m=_field(data, "noise_std_0_m", p),
         std_per_m=_field(data, "noise_std_per_m", p),

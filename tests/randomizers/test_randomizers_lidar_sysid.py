@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from randomizers import LidarNoise, from_config, to_config
+from randomizers import LidarNoise, OdometryDelay, from_config, to_config
 from randomizers.errors import RandomizerConfigError
 from sysid.sensors import estimate_sensor
 from tests.sysid.sensor_truth import MOUNT_XY_M, draw_truth, synthetic_recording
@@ -81,3 +81,47 @@ def test_unidentified_noise_is_refused(sensors_yaml: Path, tmp_path: Path) -> No
     bad.write_text(yaml.safe_dump(data))
     with pytest.raises(RandomizerConfigError, match="has no identified 'noise_std_per_m'"):
         LidarNoise.from_sysid(bad, env=Scan())
+
+
+class ScanClock(gym.Env[Any, Any]):
+    """The scan holds the step number, so a delay shows as an older step."""
+
+    observation_space = gym.spaces.Dict({"scan": gym.spaces.Box(0.0, 1e6, (4,), np.float32)})
+    action_space = gym.spaces.Discrete(1)
+
+    def __init__(self) -> None:
+        self.t = 0
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
+        super().reset(seed=seed)
+        self.t = 0
+        return {"scan": np.zeros(4, np.float32)}, {}
+
+    def step(self, action: Any) -> Any:
+        self.t += 1
+        return {"scan": np.full(4, self.t, np.float32)}, 0.0, False, False, {}
+
+
+def test_scan_latency_from_the_identified_offset(tmp_path: Path) -> None:
+    data = {
+        "format": "sim2real.sysid.sensors/1",
+        "time_offset_s": -0.2,
+        "time_offset_ci": [-0.26, -0.14],
+    }
+    path = tmp_path / "sensors.yaml"
+    path.write_text(yaml.safe_dump(data))
+    env = OdometryDelay.from_sysid(path, env=ScanClock(), key="scan", dt_s=0.02)
+    delays = set()
+    for seed in range(30):
+        _, info = env.reset(seed=seed)
+        steps = info["randomization"]["OdometryDelay[scan]"]["delay_steps"]
+        assert 7 <= steps <= 13  # 0.14-0.26 s at 20 ms steps
+        for _ in range(steps + 2):
+            obs = env.step(0)[0]
+        assert obs["scan"][0] == 2  # steps + 2 taken, the scan shows step 2
+        delays.add(steps)
+    assert len(delays) > 3
+    data["time_offset_ci"] = [None, None]
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(RandomizerConfigError, match="no identified 'time_offset_s'"):
+        OdometryDelay.from_sysid(path, env=ScanClock(), key="scan", dt_s=0.02)
