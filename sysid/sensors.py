@@ -11,8 +11,8 @@ Range noise
     set aside (spurious returns), the sample variance of the rest with ``n - 1`` degrees of
     freedom is one observation of :math:`\sigma(r)^2` at the median range ``r``, and the
     model :math:`\sigma(r) = \sigma_0 + \sigma_1 r` is fitted by maximum likelihood (Fisher
-    scoring); groups beyond the 99.9 % chi-square quantile of the first fit (mixed returns at
-    edges) are dropped and the fit repeated.
+    scoring), after dropping the groups beyond the 99.9 % chi-square quantile of the median
+    variance of their range bin (mixed returns at edges).
 Invalid returns
     A return is invalid when it is NaN, infinite, ``<= 0``, below ``range_min_m`` or at or
     beyond ``range_max_m``. In still stretches a beam "has a surface" when at least 3 and 30 %
@@ -57,7 +57,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -388,7 +388,9 @@ def _groups(scans_list: Sequence[ScanArrays], stills: Sequence[BoolArray]) -> _G
 
 def _fit_noise(r: FloatArray, s2: FloatArray, k: FloatArray, w: FloatArray) -> FloatArray:
     """ML fit of ``sigma(r) = a + b r`` (``a, b >= 0``) to sample variances ``s2`` with dof
-    ``k`` (weights ``w``: bootstrap counts), by projected Fisher scoring with step halving."""
+    ``k`` (weights ``w``: bootstrap counts): projected Fisher scoring with step halving from
+    a constant and from a proportional start, the better of the two (the likelihood of a
+    bounded fit can have a second optimum at ``b = 0``)."""
     kw = k * w
     x = np.column_stack([np.ones_like(r), r])
 
@@ -396,13 +398,36 @@ def _fit_noise(r: FloatArray, s2: FloatArray, k: FloatArray, w: FloatArray) -> F
         sig2 = np.maximum(x @ th, _SIGMA_FLOOR_M) ** 2
         return float(np.sum(kw * (np.log(sig2) + s2 / sig2)))
 
-    theta = np.array([math.sqrt(max(float(np.average(s2, weights=kw)), 1e-12)), 0.0])
+    flat = np.array([math.sqrt(max(float(np.average(s2, weights=kw)), 1e-12)), 0.0])
+    ratio = np.sqrt(s2) / np.maximum(r, 1e-3)
+    slope = np.array([0.0, max(float(np.median(ratio[kw > 0])) if np.any(kw > 0) else 0.0, 1e-6)])
+    fits = [_score_fit(start, x, s2, kw, nll) for start in (flat, slope)]
+    return min(fits, key=nll)
+
+
+def _score_fit(
+    theta: FloatArray,
+    x: FloatArray,
+    s2: FloatArray,
+    kw: FloatArray,
+    nll: Callable[[FloatArray], float],
+) -> FloatArray:
+    """Projected Fisher scoring with step halving from ``theta`` (a parameter held at its
+    bound 0 by the score is left out of the step)."""
     cost = nll(theta)
     for _ in range(50):
         sig = np.maximum(x @ theta, _SIGMA_FLOOR_M)
         score = x.T @ (kw * (s2 / sig**2 - 1.0) / sig)
         info = (x * (2.0 * kw / sig**2)[:, None]).T @ x
         step = np.linalg.solve(info + 1e-12 * np.eye(2), score)
+        free = ~((theta <= 0.0) & (step < 0.0))  # a bound that holds: step the others alone
+        if not free.all():
+            step = np.zeros(2)
+            if free.any():
+                sub = np.ix_(free, free)
+                step[free] = np.linalg.solve(
+                    info[sub] + 1e-12 * np.eye(int(free.sum())), score[free]
+                )
         for _ in range(30):
             trial = np.maximum(theta + step, 0.0)
             trial_cost = nll(trial)
@@ -426,6 +451,21 @@ def _ci(samples: FloatArray) -> Interval:
     return (float(lo), float(hi))
 
 
+def _not_mixed(r: FloatArray, s2: FloatArray, k: FloatArray) -> BoolArray:
+    """Groups whose variance is within the 99.9 % chi-square quantile of the median variance
+    of their range bin (a beam on an edge mixes two surfaces), judged without a model."""
+    edges = np.quantile(r, np.linspace(0.0, 1.0, _N_BINS + 1))
+    which = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, _N_BINS - 1)
+    keep = np.ones(r.size, dtype=bool)
+    for b in range(_N_BINS):
+        sel = which == b
+        if not sel.any():
+            continue
+        ref = float(np.median(s2[sel] / (chi2.ppf(0.5, k[sel]) / k[sel])))
+        keep[sel] = s2[sel] <= ref * chi2.ppf(0.999, k[sel]) / k[sel]
+    return keep
+
+
 @dataclass(frozen=True)
 class _StillResult:
     theta: FloatArray
@@ -442,9 +482,7 @@ class _StillResult:
 def _still_estimates(g: _Groups, beams: int, n_boot: int, rng: np.random.Generator) -> _StillResult:
     ok = g.noise_ok
     r, s2, k = g.median_m[ok], g.var_m2[ok], g.dof[ok]
-    theta = _fit_noise(r, s2, k, np.ones_like(r))
-    sig = np.maximum(theta[0] + theta[1] * r, 1e-6)
-    inl = s2 / sig**2 <= chi2.ppf(0.999, k) / k
+    inl = _not_mixed(r, s2, k)
     r, s2, k, nb = r[inl], s2[inl], k[inl], g.beam[ok][inl]
     theta = _fit_noise(r, s2, k, np.ones_like(r))
     edges = np.quantile(g.median_m, np.linspace(0.0, 1.0, _N_BINS + 1))
