@@ -21,7 +21,7 @@ from robots.units import seconds
 from sim2real.logs import LaserScans, read_scans
 from sysid.sensors import PoseArrays, ScanArrays, SensorEstimate, estimate_sensor
 
-__all__ = ["identify_sensor", "scan_arrays"]
+__all__ = ["identify_sensor", "read_sensor_logs", "scan_arrays"]
 
 
 def scan_arrays(scans: LaserScans) -> tuple[ScanArrays, PoseArrays]:
@@ -45,6 +45,18 @@ def scan_arrays(scans: LaserScans) -> tuple[ScanArrays, PoseArrays]:
     )
 
 
+def read_sensor_logs(
+    paths: Sequence[str | Path], *, scan_topic: str | None = None, odom_topic: str | None = None
+) -> tuple[list[ScanArrays], list[PoseArrays]]:
+    """The scans and odometry of each log, as the estimator takes them."""
+    scans, odoms = [], []
+    for path in paths:
+        s, o = scan_arrays(read_scans(path, scan_topic=scan_topic, odom_topic=odom_topic))
+        scans.append(s)
+        odoms.append(o)
+    return scans, odoms
+
+
 def identify_sensor(
     paths: Sequence[str | Path],
     *,
@@ -53,6 +65,7 @@ def identify_sensor(
     odom_topic: str | None = None,
     n_boot: int = 200,
     seed: int = 0,
+    logs: tuple[list[ScanArrays], list[PoseArrays]] | None = None,
 ) -> SensorEstimate:
     """Identify the lidar of ``robot`` from one or more logs of it.
 
@@ -66,6 +79,8 @@ def identify_sensor(
         Topics to read (default: ``/scan`` / ``/odom`` or the only one of the type).
     n_boot, seed : int
         Bootstrap resamples and their seed.
+    logs : tuple, optional
+        The logs already read by :func:`read_sensor_logs` (``paths`` then only names them).
 
     Returns
     -------
@@ -73,11 +88,10 @@ def identify_sensor(
     """
     spec = load_spec(robot)
     mount = (float(spec.lidar.xyz_m[0]), float(spec.lidar.xyz_m[1]))
-    scans, odoms, names = [], [], []
-    for path in paths:
-        log = read_scans(path, scan_topic=scan_topic, odom_topic=odom_topic)
-        s, o = scan_arrays(log)
-        scans.append(s)
-        odoms.append(o)
-        names.append(str(path))
+    scans, odoms = (
+        logs
+        if logs is not None
+        else read_sensor_logs(paths, scan_topic=scan_topic, odom_topic=odom_topic)
+    )
+    names = [str(p) for p in paths]
     return estimate_sensor(scans, odoms, mount_xy_m=mount, names=names, n_boot=n_boot, seed=seed)

@@ -77,7 +77,16 @@ from sysid._scanmatch import (
 )
 from sysid.errors import ExcitationError, ResultFileError, SysidValueError
 
-__all__ = ["FORMAT", "PoseArrays", "ScanArrays", "SensorEstimate", "estimate_sensor", "load_sensor"]
+__all__ = [
+    "FORMAT",
+    "PoseArrays",
+    "ScanArrays",
+    "SensorEstimate",
+    "StillSpread",
+    "estimate_sensor",
+    "load_sensor",
+    "still_spread",
+]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -464,6 +473,56 @@ def _not_mixed(r: FloatArray, s2: FloatArray, k: FloatArray) -> BoolArray:
         ref = float(np.median(s2[sel] / (chi2.ppf(0.5, k[sel]) / k[sel])))
         keep[sel] = s2[sel] <= ref * chi2.ppf(0.999, k[sel]) / k[sel]
     return keep
+
+
+@dataclass(frozen=True, kw_only=True)
+class StillSpread:
+    """Scan-to-scan spread per beam and still stretch, as the noise fit uses it.
+
+    Attributes
+    ----------
+    median_m, std_m : ndarray
+        Median range (m) and sample standard deviation of the inlier returns (m) per group.
+    dof : ndarray
+        Degrees of freedom of each standard deviation (inlier returns - 1).
+    beam : ndarray of int
+        The beam of each group.
+    """
+
+    median_m: FloatArray
+    std_m: FloatArray
+    dof: FloatArray
+    beam: NDArray[np.intp]
+
+
+def still_spread(
+    scans: ScanArrays | Sequence[ScanArrays], odom: PoseArrays | Sequence[PoseArrays]
+) -> StillSpread:
+    """The per-beam spread of the still stretches (mixed-return groups left out).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ranges = 2.0 + np.random.default_rng(0).normal(0.0, 0.01, (20, 90))
+    >>> scans = ScanArrays(t_s=0.2 * np.arange(20), ranges_m=ranges, angle_min_rad=0.0,
+    ...                    angle_increment_rad=0.07, range_min_m=0.1, range_max_m=5.0)
+    >>> z = np.zeros(60)
+    >>> spread = still_spread(scans, PoseArrays(t_s=0.1 * np.arange(60) - 1.0, x_m=z, y_m=z,
+    ...                                         yaw_rad=z))
+    >>> bool(0.009 < np.median(spread.std_m) < 0.011)
+    True
+    """
+    scans_list = [scans] if isinstance(scans, ScanArrays) else list(scans)
+    odoms = [odom] if isinstance(odom, PoseArrays) else list(odom)
+    g = _groups(scans_list, [_still_mask(s, o) for s, o in zip(scans_list, odoms, strict=True)])
+    ok = g.noise_ok
+    keep = _not_mixed(g.median_m[ok], g.var_m2[ok], g.dof[ok]) if ok.any() else ok[ok]
+    return StillSpread(
+        median_m=g.median_m[ok][keep],
+        std_m=np.sqrt(g.var_m2[ok][keep]),
+        dof=g.dof[ok][keep],
+        beam=g.beam[ok][keep],
+    )
 
 
 @dataclass(frozen=True)

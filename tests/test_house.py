@@ -30,6 +30,7 @@ MAY_IMPORT = {
     "sim2real.fitting": LIBRARY | {"sim2real.logs"},
     "sim2real.planning": LIBRARY | {"sim2real.logs"},
     "sim2real.sensor_id": LIBRARY | {"sim2real.logs"},
+    "sim2real.sensor_report": LIBRARY,
     "sim2real.agreement": LIBRARY | {"sim2real.logs"},
     "sim2real.cluster": LIBRARY | {"sim2real.logs", "sim2real.agreement"},
     "sim2real.envs": LIBRARY | {"sim2real.plants"},

@@ -6,8 +6,9 @@ import argparse
 import math
 
 from sim2real.errors import Sim2RealValueError
-from sim2real.sensor_id import identify_sensor
-from sysid.sensors import SensorEstimate
+from sim2real.sensor_id import identify_sensor, read_sensor_logs
+from sim2real.sensor_report import write_sensor_report
+from sysid.sensors import SensorEstimate, still_spread
 
 __all__ = ["handle_sensors", "summary_lines"]
 
@@ -19,17 +20,16 @@ def handle_sensors(args: argparse.Namespace) -> int:
             f"--bootstrap is {args.bootstrap}, but 95 % intervals need at least 20 resamples; "
             "pass --bootstrap 200"
         )
+    logs = read_sensor_logs(args.logs, scan_topic=args.scan_topic, odom_topic=args.odom_topic)
     est = identify_sensor(
-        args.logs,
-        robot=args.robot,
-        scan_topic=args.scan_topic,
-        odom_topic=args.odom_topic,
-        n_boot=args.bootstrap,
-        seed=args.seed,
+        args.logs, robot=args.robot, n_boot=args.bootstrap, seed=args.seed, logs=logs
     )
     est.save(args.output)
     print("\n".join(summary_lines(est)))
     print(f"wrote {args.output}")
+    if args.report:
+        write_sensor_report(args.report, est, still_spread(*logs))
+        print(f"wrote {args.report}")
     return 0
 
 

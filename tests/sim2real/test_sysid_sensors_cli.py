@@ -11,7 +11,8 @@ import pytest
 
 from sim2real.cli import main
 from sim2real.logs import read_scans
-from sysid.sensors import PoseArrays, ScanArrays, load_sensor
+from sim2real.sensor_report import simulated_spread
+from sysid.sensors import PoseArrays, ScanArrays, load_sensor, still_spread
 from tests.sim2real.test_cli_bad_input import assert_bad_input, cli
 from tests.sysid.sensor_truth import MOUNT_XY_M, draw_truth, synthetic_recording
 
@@ -220,3 +221,35 @@ def test_no_still_stretch_and_no_motion_is_one_sentence(
     )
     assert_bad_input(run, "no still stretch", "no scan pair with motion")
     assert not (tmp_path / "s.yaml").exists()
+
+
+def test_report_draws_the_simulated_lidar_over_the_real_spread(
+    tmp_path: Path,
+    recording: tuple[ScanArrays, PoseArrays],
+    spec_file: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    scans, odom = recording
+    log = _write(tmp_path / "r2", scans, odom, ros1=False)
+    report = tmp_path / "sensors.html"
+    run = cli(
+        capsys,
+        "sysid",
+        "sensors",
+        log,
+        "--robot",
+        spec_file,
+        "-o",
+        tmp_path / "s.yaml",
+        "--report",
+        report,
+    )
+    assert run.code == 0, run.err
+    page = report.read_text()
+    assert page.count("data:image/png;base64,") == 2
+    assert "noise std growth, mm per m" in page
+    # on a recording with known noise, the simulated lidar's spreads match the real ones
+    est = load_sensor(tmp_path / "s.yaml")
+    spread = still_spread(scans, odom)
+    sim = simulated_spread(est, spread)
+    assert np.median(sim) / np.median(spread.std_m) == pytest.approx(1.0, abs=0.05)

@@ -43,6 +43,7 @@ _SENSORS_EXAMPLES = """\
   sim2real sysid sensors run.mcap --robot turtlebot3_burger -o sensors.yaml
   sim2real sysid sensors a.mcap b.mcap --robot neato.yaml -o sensors.yaml   # one sensor, 2 logs
   sim2real sysid sensors run.bag --robot my_base.yaml -o s.yaml --scan-topic /base_scan
+  sim2real sysid sensors run.mcap --robot my_base.yaml -o s.yaml --report sensors.html
 """
 _SENSORS_DESCRIPTION = (
     "Identify a 2-D lidar from recordings of its LaserScan topic and odometry: range noise "
@@ -106,6 +107,12 @@ def _register_sensors(group_sub: argparse._SubParsersAction) -> None:  # type: i
     p.add_argument("--odom-topic", help="Odometry topic (default: /odom or the only one)")
     p.add_argument("--bootstrap", type=int, default=200, help="bootstrap resamples (default 200)")
     p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
+    p.add_argument(
+        "--report",
+        metavar="REPORT.html",
+        help="also write an HTML check: noise vs range with its band and the simulated "
+        "lidar over the real spreads, invalid returns per beam and range",
+    )
     p.set_defaults(handler="sensors:handle_sensors")
 
 
