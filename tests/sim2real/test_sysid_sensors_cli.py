@@ -117,6 +117,14 @@ def recording() -> tuple[ScanArrays, PoseArrays]:
 
 
 @pytest.fixture(scope="module")
+def mcap_log(
+    tmp_path_factory: pytest.TempPathFactory, recording: tuple[ScanArrays, PoseArrays]
+) -> Path:
+    """The synthetic recording as a ROS 2 MCAP file."""
+    return _write(tmp_path_factory.mktemp("mcap") / "r2", *recording, ros1=False)
+
+
+@pytest.fixture(scope="module")
 def spec_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A robot spec whose lidar sits where the synthetic recordings mount it."""
     path = tmp_path_factory.mktemp("spec") / "base.yaml"
@@ -156,13 +164,9 @@ def test_mcap_and_ros1_bag_read_the_same_scans(
 
 
 def test_cli_identifies_the_synthetic_lidar_in_time(
-    tmp_path: Path,
-    recording: tuple[ScanArrays, PoseArrays],
-    spec_file: Path,
-    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path, mcap_log: Path, spec_file: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    scans, odom = recording
-    log = _write(tmp_path / "r2", scans, odom, ros1=False)
+    log = mcap_log
     out = tmp_path / "sensors.yaml"
     start = time.perf_counter()
     run = cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out)
@@ -178,10 +182,9 @@ def test_cli_identifies_the_synthetic_lidar_in_time(
 
 
 def test_log_without_scans_lists_its_topics(
-    tmp_path: Path, recording: tuple[ScanArrays, PoseArrays], capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, mcap_log: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    scans, odom = recording
-    log = _write(tmp_path / "r2", scans, odom, ros1=False)
+    log = mcap_log
     run = cli(
         capsys,
         "sysid",
@@ -226,11 +229,12 @@ def test_no_still_stretch_and_no_motion_is_one_sentence(
 def test_report_draws_the_simulated_lidar_over_the_real_spread(
     tmp_path: Path,
     recording: tuple[ScanArrays, PoseArrays],
+    mcap_log: Path,
     spec_file: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     scans, odom = recording
-    log = _write(tmp_path / "r2", scans, odom, ros1=False)
+    log = mcap_log
     report = tmp_path / "sensors.html"
     run = cli(
         capsys,
