@@ -33,26 +33,29 @@ class SensorNoiseDistribution:
 
     std_m: tuple[float, float]
     std_per_m: tuple[float, float]
+    std_per_m2: tuple[float, float]
     dropout: tuple[float, float]
     range_min_m: float
     range_max_m: float
 
-    def sample(self, rng: np.random.Generator, spread: float) -> tuple[float, float, float]:
-        """One episode's ``(std_m, std_per_m, dropout)``.
+    def sample(self, rng: np.random.Generator, spread: float) -> tuple[float, float, float, float]:
+        """One episode's ``(std_m, std_per_m, std_per_m2, dropout)``.
 
         Examples
         --------
         >>> d = SensorNoiseDistribution(std_m=(0.0, 0.0), std_per_m=(0.005, 0.001),
-        ...                             dropout=(0.05, 0.01), range_min_m=0.02, range_max_m=5.0)
-        >>> s0, s1, p = d.sample(np.random.default_rng(0), 1.0)
+        ...                             std_per_m2=(0.0, 0.0), dropout=(0.05, 0.01),
+        ...                             range_min_m=0.02, range_max_m=5.0)
+        >>> s0, s1, s2, p = d.sample(np.random.default_rng(0), 1.0)
         >>> bool(s0 == 0.0 and 0.0 < s1 < 0.01 and 0.0 < p < 0.1)
         True
         """
-        z = rng.standard_normal(3)
+        z = rng.standard_normal(4)
         s0 = max(0.0, self.std_m[0] + spread * self.std_m[1] * z[0])
         s1 = max(0.0, self.std_per_m[0] + spread * self.std_per_m[1] * z[1])
-        p = min(1.0, max(0.0, self.dropout[0] + spread * self.dropout[1] * z[2]))
-        return s0, s1, p
+        s2 = max(0.0, self.std_per_m2[0] + spread * self.std_per_m2[1] * z[2])
+        p = min(1.0, max(0.0, self.dropout[0] + spread * self.dropout[1] * z[3]))
+        return s0, s1, s2, p
 
 
 def _field(data: dict[str, Any], key: str, path: Path) -> tuple[float, float]:
@@ -113,6 +116,7 @@ def load_sensor_noise(path: str | Path) -> SensorNoiseDistribution:
     return SensorNoiseDistribution(
         std_m=_field(data, "noise_std_0_m", p),
         std_per_m=_field(data, "noise_std_per_m", p),
+        std_per_m2=_field(data, "noise_std_per_m2", p),
         dropout=_field(data, "dropout", p),
         range_min_m=float(data["range_min_m"]),
         range_max_m=float(data["range_max_m"]),

@@ -632,7 +632,7 @@ class LidarNoise(ObservationRandomizer):
 
     Each valid beam :math:`r` (finite and ``< range_max_m``) becomes
     :math:`\mathrm{clip}(r + c\,\sigma(r) z, r_{min}, r_{max})` with
-    :math:`\sigma(r) = \sigma_0 + \sigma_1 r`, and with probability
+    :math:`\sigma(r) = \sigma_0 + \sigma_1 r + \sigma_2 r^2`, and with probability
     :math:`c\,p` it is dropped: set to ``range_max_m`` (no return). Invalid beams (NaN, inf,
     ``>= range_max_m``) are kept. The default σ = 0.01 m is the LDS-01 noise of the TurtleBot3
     Gazebo model (robot-specs.md).
@@ -655,11 +655,13 @@ class LidarNoise(ObservationRandomizer):
         Curriculum scale c in [0, 1] multiplying σ and p.
     name : str, optional
         Unique name in the stack; default ``LidarNoise[<key>]``.
-    std_per_m : float
-        Growth σ1 of the noise std with range, m per m (>= 0; default 0: σ = ``std_m``).
+    std_per_m, std_per_m2 : float
+        Growth σ1 (m per m) and σ2 (1/m) of the noise std with range and its square (>= 0;
+        default 0: σ = ``std_m``).
     sysid : str, optional
-        A ``sim2real sysid sensors`` result: each episode draws σ0, σ1 and p from it (see
-        :meth:`from_sysid`; ``std_m``, ``std_per_m`` and ``dropout`` are then ignored).
+        A ``sim2real sysid sensors`` result: each episode draws σ0, σ1, σ2 and p from it (see
+        :meth:`from_sysid`; ``std_m``, ``std_per_m``, ``std_per_m2`` and ``dropout`` are then
+        ignored).
     spread : float
         Multiplier on the identified standard deviations (1 = as identified).
 
@@ -695,6 +697,7 @@ class LidarNoise(ObservationRandomizer):
         scale: float = 1.0,
         name: str | None = None,
         std_per_m: float = 0.0,
+        std_per_m2: float = 0.0,
         sysid: str | None = None,
         spread: float = 1.0,
     ) -> None:
@@ -703,8 +706,10 @@ class LidarNoise(ObservationRandomizer):
         dist = None if sysid is None else load_sensor_noise(sysid)
         if dist is not None:  # the identified means until the first episode draws its own
             std_m, std_per_m, dropout = dist.std_m[0], dist.std_per_m[0], dist.dropout[0]
+            std_per_m2 = dist.std_per_m2[0]
         std_m = check_nonnegative(std_m, argument="std_m", unit="m")
         std_per_m = check_nonnegative(std_per_m, argument="std_per_m", unit="m/m")
+        std_per_m2 = check_nonnegative(std_per_m2, argument="std_per_m2", unit="1/m")
         dropout = check_nonnegative(dropout, argument="dropout")
         if dropout > 1.0:
             raise RandomizerValueError(
@@ -733,12 +738,14 @@ class LidarNoise(ObservationRandomizer):
             name=name,
             dtype=sel.dtype,
             std_per_m=std_per_m,
+            std_per_m2=std_per_m2,
             sysid=sysid,
             spread=spread,
         )
         self._sel = sel
         self.std_m = std_m
         self.std_per_m = std_per_m
+        self.std_per_m2 = std_per_m2
         self.dropout = dropout
         self.range_min_m = lo
         self.range_max_m = hi
@@ -757,7 +764,7 @@ class LidarNoise(ObservationRandomizer):
     ) -> Any:
         """Noise drawn per episode from a ``sim2real sysid sensors`` result.
 
-        Each episode draws ``std_m``, ``std_per_m`` and ``dropout`` from normals centred on
+        Each episode draws ``std_m``, ``std_per_m``, ``std_per_m2`` and ``dropout`` from normals centred on
         the identified values with the standard deviations of their 95 % intervals times
         ``spread`` (1 = as identified), clipped to >= 0; the curriculum ``scale`` then
         multiplies the noise and dropout as usual. Other keyword arguments (``key``,
@@ -776,16 +783,17 @@ class LidarNoise(ObservationRandomizer):
     def sample_episode(self) -> None:
         """Draw this episode's noise from the identified distribution (with ``sysid``)."""
         if self._dist is not None:
-            self.std_m, self.std_per_m, self.dropout = self._dist.sample(self.rng, self._spread)
+            draw = self._dist.sample(self.rng, self._spread)
+            self.std_m, self.std_per_m, self.std_per_m2, self.dropout = draw
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with a noisy scan (a new object)."""
         ranges = np.ascontiguousarray(self._sel.get(observation))
         z = self._standard_normal(ranges.size)
         std = self.scale * self.std_m
-        if self.std_per_m > 0.0:  # sigma(r) = std_m + std_per_m r, one per beam
+        if self.std_per_m > 0.0 or self.std_per_m2 > 0.0:  # sigma(r), one per beam
             r = np.where(np.isfinite(ranges), ranges, 0.0).reshape(-1)
-            z = z * (self.std_m + self.std_per_m * r)
+            z = z * (self.std_m + (self.std_per_m + self.std_per_m2 * r) * r)
             std = self.scale
         u = self.rng.random(ranges.size)
         out = np.empty(ranges.shape, dtype=self._sel.dtype)
@@ -810,6 +818,7 @@ class LidarNoise(ObservationRandomizer):
         return {
             "std_m": self.scale * self.std_m,
             "std_per_m": self.scale * self.std_per_m,
+            "std_per_m2": self.scale * self.std_per_m2,
             "dropout": self.scale * self.dropout,
             "dropped": self._dropped,
             "scale": self.scale,

@@ -34,7 +34,8 @@ def simulated_spread(est: SensorEstimate, spread: StillSpread, seed: int = 0) ->
     """Sample standard deviations of the identified noise on the same groups (same ranges
     and degrees of freedom), m."""
     rng = np.random.default_rng(seed)
-    sigma = est.noise_std_0_m + est.noise_std_per_m * spread.median_m
+    r = spread.median_m
+    sigma = est.noise_std_0_m + (est.noise_std_per_m + est.noise_std_per_m2 * r) * r
     out = np.empty(spread.median_m.size)
     for i, (s, k) in enumerate(zip(sigma.tolist(), spread.dof.tolist(), strict=True)):
         out[i] = float(np.std(rng.normal(0.0, s, int(k) + 1), ddof=1))
@@ -109,6 +110,11 @@ def _rows(est: SensorEstimate) -> list[tuple[str, str, str]]:
             "noise std growth, mm per m",
             f"{est.noise_std_per_m * 1e3:.4g}",
             ci(est.noise_std_per_m_ci, 1e3),
+        ),
+        (
+            "noise std growth with range squared, mm per m²",
+            f"{est.noise_std_per_m2 * 1e3:.4g}",
+            ci(est.noise_std_per_m2_ci, 1e3),
         ),
         ("invalid returns, %", f"{est.dropout * 100:.4g}", ci(est.dropout_ci, 100)),
         (

@@ -10,7 +10,8 @@ Range noise
     beam and stretch, returns further than ``max(5 cm, 6 x 1.4826 MAD)`` from the median are
     set aside (spurious returns), the sample variance of the rest with ``n - 1`` degrees of
     freedom is one observation of :math:`\sigma(r)^2` at the median range ``r``, and the
-    model :math:`\sigma(r) = \sigma_0 + \sigma_1 r` is fitted by maximum likelihood (Fisher
+    model :math:`\sigma(r) = \sigma_0 + \sigma_1 r + \sigma_2 r^2` (all >= 0; a triangulation
+    sensor's error grows with the square of range) is fitted by maximum likelihood (Fisher
     scoring), after dropping the groups beyond the 99.9 % chi-square quantile of the median
     variance of their range bin (mixed returns at edges).
 Invalid returns
@@ -176,8 +177,9 @@ class SensorEstimate:
     ----------
     beams, angle_min_rad, angle_increment_rad, range_min_m, range_max_m, scan_rate_hz
         The sensor's layout as recorded (rad, m, Hz).
-    noise_std_0_m, noise_std_per_m : float
-        The noise model :math:`\\sigma(r) = \\sigma_0 + \\sigma_1 r` (m and m/m).
+    noise_std_0_m, noise_std_per_m, noise_std_per_m2 : float
+        The noise model :math:`\\sigma(r) = \\sigma_0 + \\sigma_1 r + \\sigma_2 r^2` (m, m/m
+        and 1/m).
     noise_range_m, noise_std_m, noise_std_lo_m, noise_std_hi_m : tuple of float
         The model at the centres of the range bins of the data, with its interval (m).
     dropout, dropout_ci : float, interval
@@ -212,6 +214,8 @@ class SensorEstimate:
     noise_std_0_ci: Interval
     noise_std_per_m: float
     noise_std_per_m_ci: Interval
+    noise_std_per_m2: float
+    noise_std_per_m2_ci: Interval
     noise_range_m: tuple[float, ...]
     noise_std_m: tuple[float, ...]
     noise_std_lo_m: tuple[float, ...]
@@ -234,7 +238,9 @@ class SensorEstimate:
 
     def noise_std_at(self, range_m: float) -> float:
         """The identified noise standard deviation at ``range_m``, m."""
-        return self.noise_std_0_m + self.noise_std_per_m * range_m
+        return (
+            self.noise_std_0_m + (self.noise_std_per_m + self.noise_std_per_m2 * range_m) * range_m
+        )
 
     def to_dict(self) -> dict[str, object]:
         """Plain YAML-ready values, with the ``format`` key."""
@@ -396,21 +402,25 @@ def _groups(scans_list: Sequence[ScanArrays], stills: Sequence[BoolArray]) -> _G
 
 
 def _fit_noise(r: FloatArray, s2: FloatArray, k: FloatArray, w: FloatArray) -> FloatArray:
-    """ML fit of ``sigma(r) = a + b r`` (``a, b >= 0``) to sample variances ``s2`` with dof
-    ``k`` (weights ``w``: bootstrap counts): projected Fisher scoring with step halving from
-    a constant and from a proportional start, the better of the two (the likelihood of a
-    bounded fit can have a second optimum at ``b = 0``)."""
+    """ML fit of ``sigma(r) = a + b r + c r^2`` (``a, b, c >= 0``) to sample variances ``s2``
+    with dof ``k`` (weights ``w``: bootstrap counts): projected Fisher scoring with step
+    halving from a constant, a proportional and a quadratic start, the best of them (a bounded
+    fit's likelihood can have several optima on its bounds)."""
     kw = k * w
-    x = np.column_stack([np.ones_like(r), r])
+    x = np.column_stack([np.ones_like(r), r, r * r])
 
     def nll(th: FloatArray) -> float:
         sig2 = np.maximum(x @ th, _SIGMA_FLOOR_M) ** 2
         return float(np.sum(kw * (np.log(sig2) + s2 / sig2)))
 
-    flat = np.array([math.sqrt(max(float(np.average(s2, weights=kw)), 1e-12)), 0.0])
-    ratio = np.sqrt(s2) / np.maximum(r, 1e-3)
-    slope = np.array([0.0, max(float(np.median(ratio[kw > 0])) if np.any(kw > 0) else 0.0, 1e-6)])
-    fits = [_score_fit(start, x, s2, kw, nll) for start in (flat, slope)]
+    used = kw > 0
+    starts = [np.array([math.sqrt(max(float(np.average(s2, weights=kw)), 1e-12)), 0.0, 0.0])]
+    for power in (1, 2):
+        ratio = np.sqrt(s2[used]) / np.maximum(r[used], 1e-3) ** power
+        start = np.zeros(3)
+        start[power] = max(float(np.median(ratio)) if ratio.size else 0.0, 1e-6)
+        starts.append(start)
+    fits = [_score_fit(start, x, s2, kw, nll) for start in starts]
     return min(fits, key=nll)
 
 
@@ -428,10 +438,10 @@ def _score_fit(
         sig = np.maximum(x @ theta, _SIGMA_FLOOR_M)
         score = x.T @ (kw * (s2 / sig**2 - 1.0) / sig)
         info = (x * (2.0 * kw / sig**2)[:, None]).T @ x
-        step = np.linalg.solve(info + 1e-12 * np.eye(2), score)
+        step = np.linalg.solve(info + 1e-12 * np.eye(theta.size), score)
         free = ~((theta <= 0.0) & (step < 0.0))  # a bound that holds: step the others alone
         if not free.all():
-            step = np.zeros(2)
+            step = np.zeros(theta.size)
             if free.any():
                 sub = np.ix_(free, free)
                 step[free] = np.linalg.solve(
@@ -553,7 +563,7 @@ def _still_estimates(g: _Groups, beams: int, n_boot: int, rng: np.random.Generat
     tot_beam = np.bincount(g.beam, g.n_scans, beams)
     short_beam = np.bincount(g.beam, g.n_short, beams)
     valid_beam = np.bincount(g.beam, g.n_valid, beams)
-    theta_boot = np.empty((n_boot, 2))
+    theta_boot = np.empty((n_boot, 3))
     drop_boot, short_boot = np.empty(n_boot), np.empty(n_boot)
     for i in range(n_boot):
         counts = np.bincount(rng.integers(0, beams, beams), minlength=beams).astype(np.float64)
@@ -861,6 +871,8 @@ def _still_fields(still: _StillResult | None, beams: int) -> dict[str, Any]:
             "noise_std_0_ci": _NAN_PAIR,
             "noise_std_per_m": math.nan,
             "noise_std_per_m_ci": _NAN_PAIR,
+            "noise_std_per_m2": math.nan,
+            "noise_std_per_m2_ci": _NAN_PAIR,
             "noise_range_m": nan_t,
             "noise_std_m": nan_t,
             "noise_std_lo_m": nan_t,
@@ -872,13 +884,16 @@ def _still_fields(still: _StillResult | None, beams: int) -> dict[str, Any]:
             "spurious_short": math.nan,
             "spurious_short_ci": _NAN_PAIR,
         }
-    x = np.column_stack([np.ones_like(still.centres), still.centres])
+    c = still.centres
+    x = np.column_stack([np.ones_like(c), c, c * c])
     lo, hi = np.percentile(still.theta_boot @ x.T, [2.5, 97.5], axis=0)
     return {
         "noise_std_0_m": float(still.theta[0]),
         "noise_std_0_ci": _ci(still.theta_boot[:, 0]),
         "noise_std_per_m": float(still.theta[1]),
         "noise_std_per_m_ci": _ci(still.theta_boot[:, 1]),
+        "noise_std_per_m2": float(still.theta[2]),
+        "noise_std_per_m2_ci": _ci(still.theta_boot[:, 2]),
         "noise_range_m": _floats(still.centres),
         "noise_std_m": _floats(x @ still.theta),
         "noise_std_lo_m": _floats(lo),

@@ -48,7 +48,8 @@ def summary_lines(est: SensorEstimate) -> list[str]:
         f"{est.matched_pairs} matched scan pairs",
         f"range noise std = {est.noise_std_0_m * 1e3:.2f} mm "
         f"{_ci(*est.noise_std_0_ci, 1e3)} + {est.noise_std_per_m * 1e3:.2f} mm/m "
-        f"{_ci(*est.noise_std_per_m_ci, 1e3)} x range",
+        f"{_ci(*est.noise_std_per_m_ci, 1e3)} x range + {est.noise_std_per_m2 * 1e3:.2f} mm/m2 "
+        f"{_ci(*est.noise_std_per_m2_ci, 1e3)} x range^2",
     ]
     for r, s, lo, hi, d in zip(
         est.noise_range_m,

@@ -48,7 +48,7 @@ def test_each_episode_draws_its_noise_around_the_identified_values(sensors_yaml:
         obs, info = env.reset(seed=episode)
         rec = info["randomization"]["LidarNoise"]
         kept = obs[obs < 5.0]
-        sigma = rec["std_m"] + rec["std_per_m"] * RANGE_M
+        sigma = rec["std_m"] + (rec["std_per_m"] + rec["std_per_m2"] * RANGE_M) * RANGE_M
         assert np.std(kept - RANGE_M) == pytest.approx(sigma, rel=0.1)
         assert 1.0 - kept.size / obs.size == pytest.approx(rec["dropout"], abs=0.02)
         draws.append((rec["std_per_m"], rec["dropout"]))

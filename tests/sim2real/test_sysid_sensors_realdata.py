@@ -44,15 +44,16 @@ def test_two_recordings_of_one_unit_agree(realdata_dir: Path, tmp_path: Path) ->
     for est in (a, b):
         assert est.beams == 361 and est.range_max_m == pytest.approx(5.0)
         assert est.still_scans >= 10
-        # noise grows with range: 2-6 mm per metre, no floor (XV-11 triangulation)
-        assert 0.002 < est.noise_std_per_m < 0.006
+        # a triangulation sensor: the noise grows with the square of range, 1-2 mm per m^2
+        assert 0.001 < est.noise_std_per_m2 < 0.002
+        assert est.noise_std_0_m < 0.002 and est.noise_std_per_m < 0.001
         assert 0.01 < est.dropout < 0.08
     # Konolige et al. (2008), the design of the XV-11's laser distance sensor: "3 cm accuracy
     # out to 6 m"; the upper 95 % bound of the identified std stays under it at every range
     # bin of both recordings (the farthest bins lie near 4 m)
     for est in (a, b):
         assert max(est.noise_std_hi_m) < 0.03
-    assert _overlap(a.noise_std_per_m_ci, b.noise_std_per_m_ci)
+    assert _overlap(a.noise_std_per_m2_ci, b.noise_std_per_m2_ci)
     assert _overlap(a.dropout_ci, b.dropout_ci)
     assert _overlap(a.time_offset_ci, b.time_offset_ci)
     # the scans are stamped when a revolution ends: 0.1-0.3 s after odometry's clock says
