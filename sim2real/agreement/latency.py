@@ -31,10 +31,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from statistics import NormalDist
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.stats import norm
 
 from sim2real.agreement.figures import AgreementReport, measure_agreement
 from sim2real.agreement.replay import RobotSpecLike, TraceLike, replay
@@ -139,7 +139,7 @@ def noise_ceiling(
     sd_v = math.hypot(noise.std_v_mps, noise.quantum_v_mps / math.sqrt(12.0))
     sd_w = math.hypot(noise.std_w_radps, noise.quantum_w_radps / math.sqrt(12.0))
     a_v, a_w = _within_prob(tol_v, sd_v), _within_prob(tol_w, sd_w)
-    z = float(norm.ppf(0.5 + level / 2.0))
+    z = NormalDist().inv_cdf(0.5 + level / 2.0)
     return NoiseCeiling(
         agreement=a_v * a_w,
         agreement_v=a_v,
