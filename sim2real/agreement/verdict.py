@@ -68,6 +68,8 @@ GOOD_AGREEMENT = 0.8
 LAG_LIMIT_S = 0.05
 #: A fit within this much of the noise ceiling is as good as the measurement noise allows.
 CEILING_SLACK = 0.05
+#: A replay that beats the noise ceiling by more than this shows the noise estimate overstates.
+CEILING_BEATEN = 0.02
 #: Fewer active samples than this make the figures too uncertain to judge.
 MIN_ACTIVE = 50
 #: The fit counts as worse than the spec defaults when its agreement is this much lower.
@@ -327,14 +329,27 @@ def _good_agreement(s: SessionFigures) -> float:
     return GOOD_AGREEMENT
 
 
-def _ceiling_reason(s: SessionFigures) -> str | None:
+def _ceiling_reason(s: SessionFigures, reached: float) -> str | None:
+    """Why the noise ceiling matters, or why it does not describe this log.
+
+    ``reached`` is the best agreement a replay reached on this log (fitted, or at this log's
+    own best latency). A replay cannot beat a ceiling that its noise model states truly; when
+    it does by more than :data:`CEILING_BEATEN`, the noise the fit estimated overstates this
+    log's odometry noise (another unit, another velocity source), and the verdict says so
+    instead of judging the fit against it."""
     ceiling = s.noise_ceiling
-    if ceiling is not None and _finite(ceiling) and ceiling < GOOD_AGREEMENT:
+    if ceiling is None or not _finite(ceiling) or ceiling >= GOOD_AGREEMENT:
+        return None
+    if _finite(reached) and reached > ceiling + CEILING_BEATEN:
         return (
-            f"the measurement noise caps the agreement a perfect model could reach at "
-            f"{_pct(ceiling)} (noise ceiling): judge the fit against that"
+            f"the fit reaches {_pct(reached)}, above the {_pct(ceiling)} that the odometry "
+            "noise it estimated would allow (noise ceiling): that estimate overstates this "
+            "log's noise, so the ceiling is not used to judge it"
         )
-    return None
+    return (
+        f"the measurement noise caps the agreement a perfect model could reach at "
+        f"{_pct(ceiling)} (noise ceiling): judge the fit against that"
+    )
 
 
 def _fit_step(robot: str, log: str) -> str:
@@ -397,7 +412,13 @@ def decide(
     log = main.log_file or "LOG.mcap"
     params = (fitted.params_file if fitted is not None else None) or "params.yaml"
     reasons: list[str] = []
-    for reason in (_extrapolation_reason(s), _ceiling_reason(s)):
+    reached = max(
+        main.agreement,
+        s.agreement_at_best_delay
+        if fitted is not None and s.agreement_at_best_delay is not None
+        else -math.inf,
+    )
+    for reason in (_extrapolation_reason(s), _ceiling_reason(s, reached)):
         if reason is not None:
             reasons.append(reason)
     if main.n_active < MIN_ACTIVE:

@@ -145,11 +145,31 @@ def test_a_band_calibrated_by_being_wide_is_said() -> None:
     noisy = SessionFigures(top_v_mps=0.3, top_w_radps=2.0, noise_band_width_v_mps=0.14)
     assert _decide(0.95, _Ens(0.9, band_width_v_mps=0.16), session=noisy).ok
     ceiling = SessionFigures(noise_ceiling=0.6)
-    assert any("noise ceiling" in r for r in _decide(0.95, _Ens(0.9), session=ceiling).reasons)
+    assert any("caps the agreement" in r for r in _decide(0.58, _Ens(0.9), session=ceiling).reasons)
     # 0.56 is within 5 points of a 0.60 ceiling: the fit is as good as the noise allows
     assert _decide(0.56, _Ens(0.9), before=0.4, session=ceiling).kind == "calibrated"
     short = _decide(0.54, _Ens(0.9), before=0.4, session=ceiling)
     assert short.kind == "poor_fit" and "short of 55.0 % (the noise ceiling less" in short.headline
+
+
+def test_a_ceiling_the_fit_beats_is_not_used_to_judge_it() -> None:
+    """A replay cannot beat a true noise ceiling: beaten, the noise estimate overstates."""
+    ceiling = SessionFigures(noise_ceiling=0.766, agreement_at_best_delay=0.853)
+    beaten = _decide(0.833, _Ens(0.9), session=ceiling)
+    [reason] = [r for r in beaten.reasons if "noise ceiling" in r]
+    assert "reaches 85.3 %, above the 76.6 %" in reason and "overstates" in reason
+    assert not any("caps the agreement" in r for r in beaten.reasons)
+    # within 2 points of the ceiling is sampling, not evidence against the noise estimate
+    close = _decide(0.78, _Ens(0.9), session=SessionFigures(noise_ceiling=0.766))
+    assert any(
+        "caps the agreement a perfect model could reach at 76.6 %" in r for r in close.reasons
+    )
+    # the defaults alone (no fit) are judged by their own agreement
+    no_fit = decide(
+        defaults=_A(0.9, params_file=None), fitted=None, robot="r",
+        session=SessionFigures(noise_ceiling=0.6, agreement_at_best_delay=0.95),
+    )  # fmt: skip
+    assert any("reaches 90.0 %" in r for r in no_fit.reasons)
 
 
 def test_coverage_counts_a_sample_on_a_quantised_band_edge() -> None:
