@@ -372,10 +372,11 @@ def _spike_notes(logs: Sequence[LogArrays]) -> list[str]:
     for log in logs:
         sv, sw = spike_mask(log.meas_v, 0.05), spike_mask(log.meas_w, 0.3)
         if sv.any() or sw.any():
-            peak = float(np.max(np.abs(log.meas_v[sv]))) if sv.any() else 0.0
+            jump_v = log.meas_v - median_filter(log.meas_v, size=5, mode="nearest")
+            peak = float(np.max(np.abs(jump_v[sv]))) if sv.any() else 0.0
             notes.append(
                 f"{log.name}: {int(sv.sum())} v and {int(sw.sum())} w odometry spike(s)"
-                + (f" (|v| up to {peak:.2f} m/s)" if sv.any() else "")
+                + (f" (v up to {peak:.2f} m/s off its neighbours)" if sv.any() else "")
                 + "; ignored by the initial estimates and down-weighted by the robust loss"
             )
     return notes
