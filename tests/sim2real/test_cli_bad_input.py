@@ -814,6 +814,7 @@ COMMANDS = [
     ["sysid", "fit"],
     ["sysid", "show"],
     ["sysid", "plan"],
+    ["sysid", "sensors"],
     ["sysid", "calibrate"],
     ["agree"],
     ["envs"],
