@@ -20,6 +20,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from robots.errors import RobotsError
 from robots.params import SPECS_DIR
 from robots.reduced import DEFAULT_DT_S
@@ -29,7 +31,7 @@ from sim2real.errors import LogValueError, Sim2RealError, Sim2RealValueError
 from sim2real.logs import Trace, read_for_robot
 from sysid import LogArrays, SysidResult, crop_log, fit_drive, why_not_fittable
 
-__all__ = ["LogFit", "fit_logs", "read_fit_logs"]
+__all__ = ["BEYOND_SPEC_FACTOR", "LogFit", "beyond_spec_notes", "fit_logs", "read_fit_logs"]
 
 #: ``map_sessions`` of :func:`sysid.fit_drive`: maps a function over the sessions' groups.
 MapSessions = Callable[[Callable[[Any], Any], Sequence[Any]], Sequence[Any]]
@@ -139,6 +141,7 @@ def fit_logs(
         )
 
     fit_set, val_set = read(logs, window), read(validate, validate_window)
+    notes.extend(beyond_spec_notes(fit_set, spec))
     try:
         result = fit_drive(
             fit_set,
@@ -165,6 +168,52 @@ def fit_logs(
             result, settings={**result.settings, "spec_file": str(spec.path.resolve())}
         )
     return LogFit(result=result, notes=tuple(notes))
+
+
+#: A log whose robot moves this much faster than the spec's top speed contradicts the spec.
+BEYOND_SPEC_FACTOR = 1.25
+
+
+def beyond_spec_notes(pieces: Sequence[Trace | LogArrays], spec: RobotSpec) -> list[str]:
+    """A note for each axis on which the logs measure the robot well beyond its spec's top speed.
+
+    The spec's top speeds (``limits.max_v_mps``, ``limits.max_w_radps``, and the wheel speed
+    cap derived from them) are priors the fit moves only as far as their spread allows; a
+    robot measured at
+    :data:`BEYOND_SPEC_FACTOR` times the cap or more (99th percentile of the measured speed,
+    so single odometry spikes do not count) tells that the spec's number is wrong, not the
+    robot. The note says what to set.
+
+    Examples
+    --------
+    >>> from robots.spec import load_spec
+    >>> from sysid import LogArrays
+    >>> t = np.arange(100) * 0.1
+    >>> fast = LogArrays(cmd_t_s=t, cmd_v=np.full(100, 1.0), cmd_w=np.zeros(100), meas_t_s=t,
+    ...                  meas_v=np.full(100, 1.0), meas_w=np.zeros(100), name="run.mcap")
+    >>> print(beyond_spec_notes([fast], load_spec("turtlebot3_burger"))[0][:67])
+    the logs measure v up to 1 m/s, 4.55x the spec's top speed 0.22 m/s
+    """
+    limits = (
+        ("v", "m/s", spec.max_v_mps, "meas_v", "--max-speed", "top speed"),
+        ("w", "rad/s", spec.max_w_radps, "meas_w", "--max-turn-rate", "top yaw rate"),
+    )
+    notes: list[str] = []
+    for axis, unit, cap, column, option, what in limits:
+        speeds = [np.abs(np.asarray(getattr(p, column), dtype=float)) for p in pieces]
+        speeds = [x[np.isfinite(x)] for x in speeds if x.size]
+        if not speeds or not np.isfinite(cap) or cap <= 0.0:
+            continue
+        top = float(np.percentile(np.concatenate(speeds), 99.0))
+        if top >= BEYOND_SPEC_FACTOR * cap:
+            notes.append(
+                f"the logs measure {axis} up to {top:.3g} {unit}, {top / cap:.3g}x the spec's "
+                f"{what} {cap:.3g} {unit}: the fit keeps its speed cap near that prior, so "
+                f"the simulation cannot drive as fast; give the spec the robot's own {what} "
+                f"('sim2real robots new NAME ... {option}', which sets the limits and the wheel "
+                f"speed cap together) and refit"
+            )
+    return notes
 
 
 def read_fit_logs(

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
 from robots.params import SPECS_DIR, ParamsFile
 from robots.spec import load_spec
 from sim2real.cli import main
-from sim2real.fitting import fit_logs, read_fit_logs
+from sim2real.fitting import beyond_spec_notes, fit_logs, read_fit_logs
+from sysid import LogArrays
 
 REPO = Path(__file__).resolve().parents[2]
 DEMO_TRAIN = REPO / "data" / "demo_train.mcap"
@@ -78,3 +80,51 @@ def test_robot_option_of_a_params_file(tmp_path: Path) -> None:
     assert option("mybot", {"spec_file": str(spec_file)}) == f"--robot '{spec_file}'"
     gone = option("mybot", {"spec_file": str(tmp_path / "gone.yaml")})
     assert gone.startswith("--robot with the spec file of robot 'mybot'")
+
+
+def _pieces(v: np.ndarray, w: np.ndarray) -> list[LogArrays]:
+    t = np.arange(v.size) * 0.05
+    return [LogArrays(cmd_t_s=t, cmd_v=v, cmd_w=w, meas_t_s=t, meas_v=v, meas_w=w, name="x")]
+
+
+def test_a_robot_faster_than_its_spec_is_noted() -> None:
+    spec = load_spec("turtlebot3_burger")  # top speed 0.22 m/s, top yaw rate 2.84 rad/s
+    n = 400
+    within = _pieces(np.full(n, 1.2 * 0.22), np.full(n, 1.2 * 2.84))
+    assert beyond_spec_notes(within, spec) == []  # under 1.25x: the spec's spread covers it
+    fast_v = np.full(n, 0.6)
+    spiky = fast_v.copy()
+    spiky[:] = 0.2
+    spiky[::200] = 5.0  # two single-sample spikes: not the robot's speed
+    assert beyond_spec_notes(_pieces(spiky, np.zeros(n)), spec) == []
+    [note] = beyond_spec_notes(_pieces(fast_v, np.zeros(n)), spec)
+    assert note.startswith("the logs measure v up to 0.6 m/s, 2.73x the spec's top speed 0.22")
+    assert "--max-speed" in note
+    [note_w] = beyond_spec_notes(_pieces(np.zeros(n), np.full(n, -4.0)), spec)
+    assert "w up to 4 rad/s" in note_w and "top yaw rate 2.84 rad/s" in note_w
+    assert "--max-turn-rate" in note_w
+
+
+def test_the_demo_log_is_within_its_spec() -> None:
+    spec = load_spec("turtlebot3_burger")
+    pieces = read_fit_logs([DEMO_TRAIN], spec=spec, window=None, notes=[])
+    assert beyond_spec_notes(pieces, spec) == []
+
+
+@pytest.mark.realdata
+@pytest.mark.slow
+def test_sysid_fit_says_when_the_spec_top_speed_is_far_too_low(
+    realdata_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A large skid steer given a spec with the template's 0.5 m/s top speed (real Warthog)."""
+    spec = tmp_path / "warthog.yaml"
+    new = ["robots", "new", "warthog", "--wheel-separation", "1.08", "--wheel-radius", "0.3",
+           "--drive", "skid", "-o", str(spec)]  # fmt: skip
+    assert main(new) == 0
+    log = realdata_dir / "warthog_close" / "trace.csv"
+    fit = ["sysid", "fit", str(log), "--robot", str(spec), "-o", str(tmp_path / "p.yaml")]
+    assert main(fit) == 0
+    printed = capsys.readouterr()
+    said = " ".join((printed.out + printed.err).split())
+    assert "the logs measure v up to 3." in said and "the spec's top speed 0.5 m/s" in said
+    assert "--max-speed" in said
