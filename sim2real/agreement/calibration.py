@@ -39,13 +39,22 @@ ones widen it past any robot (a = 1.3-1.6 in 9, bands up to 0.33 m/s wide). So t
 (:func:`pooled_factors`): the file's spread counts as many sessions as the fit saw (plus the
 spec prior's pseudo-sessions), the optimum as many as there are validation logs.
 
+Noise the logs cannot identify
+------------------------------
+Where the members' spread already explains the residuals, the likelihood cannot tell a
+noise std of 0 from the file's and its bounded search ends anywhere down to
+:data:`NOISE_RANGE`'s floor; a band built on that noise is as narrow as the spread. So each
+axis's likelihood variance is weighted by the share :math:`\rho` of a noise-only log's
+Fisher information on :math:`\sigma^2` that the logs hold (:func:`noise_information_share`)
+and the file's variance by :math:`1 - \rho` (:func:`shrunk_noise_std`): the identified noise.
+
 Coverage matching
 -----------------
 A Gaussian likelihood judges the whole predictive density, and where the errors have heavier
 tails than a Gaussian (timing errors at command steps) it widens :math:`\sigma` to cover them:
 the band is then too wide at its centre and a 90 % band covered ~99 % of unseen sessions of a
 synthetic TurtleBot3 fleet. So the last step checks the band itself: with (a, b) kept, the
-central :data:`MATCH_LEVEL` band, built as ``agree --ensemble`` builds it
+central :data:`MATCH_LEVEL` band with the identified noise, built as ``agree --ensemble`` builds it
 (:func:`sim2real.agreement.figures.predictive_band`), should cover between the level and halfway to
 100 % of the validation logs' active samples (:func:`match_range`: 90-95 % for a 90 % band);
 outside that range each axis's noise std is scaled by the factor :math:`c` at which the
@@ -109,8 +118,10 @@ __all__ = [
     "calibrate_traces",
     "match_noise_scale",
     "match_range",
+    "noise_information_share",
     "pooled_factors",
     "predictive_log_likelihood",
+    "shrunk_noise_std",
     "write_calibrated",
 ]
 
@@ -169,12 +180,13 @@ class CalibrationResult:
         fitted factors with the likelihood's noise stds (before the coverage matching), and
         with the file's distribution as it was.
     noise_scale_v, noise_scale_w : float
-        Coverage matching (module docstring): final noise std / the likelihood's.
+        Coverage matching (module docstring): final noise std / the identified one (the
+        likelihood's, shrunk toward the file's by :func:`shrunk_noise_std`).
     match_level : float
         Band level of the matching.
     coverage_v_likelihood, coverage_w_likelihood : float
         Share of the validation logs' active samples inside the ``match_level`` band with the
-        likelihood's noise stds.
+        identified noise stds.
     coverage_v, coverage_w : float
         The same with the matched noise stds (the calibrated distribution).
     n_active : int
@@ -418,6 +430,50 @@ def match_noise_scale(
     return math.exp(hi_s), at_one, coverage(math.exp(hi_s))
 
 
+def noise_information_share(members: FloatArray, std: float, quantum: float) -> float:
+    r"""How much the validation samples say about the noise variance, per sample (0-1).
+
+    With the members' spread :math:`s_k = (1 + 1/n)\,\widehat{\mathrm{var}}_k` and the
+    predictive variance :math:`V_k = s_k + \sigma^2 + q^2/12`, one sample's Fisher information
+    on :math:`\sigma^2` is :math:`1 / (2 V_k^2)`, a sample of pure noise's
+    :math:`1 / (2 \sigma^4)`. Their ratio averaged over the samples,
+    :math:`\rho = \overline{(\sigma^2 / V_k)^2}`, is the share of a noise-only log's
+    information the log holds: near 1 where the noise dominates the predictive variance, near
+    0 where the members' spread explains the residuals and the noise is not identified.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> round(noise_information_share(np.zeros((4, 10)), 0.1, 0.0), 6)  # noise only
+    1.0
+    >>> members = np.tile([[0.0], [1.0]], (1, 10))  # spread 0.75 per sample
+    >>> round(noise_information_share(members, 0.5, 0.0), 3)  # (0.25 / 1.0) ** 2
+    0.062
+    """
+    n = members.shape[0]
+    spread = (1.0 + 1.0 / n) * members.var(axis=0, ddof=1) if n > 1 else 0.0 * members[0]
+    noise_var = std**2
+    total = np.maximum(spread + noise_var + quantum**2 / 12.0, 1e-24)
+    return float(np.mean((noise_var / total) ** 2))
+
+
+def shrunk_noise_std(calibrated_std: float, file_std: float, share: float) -> float:
+    r"""The noise std kept: the calibration's and the file's variances weighted by information.
+
+    :math:`\sigma_c^2 = \rho\,\sigma_{cal}^2 + (1 - \rho)\,\sigma_f^2` with the share
+    :math:`\rho` of :func:`noise_information_share`: a validation log whose residuals the
+    members' spread already explains cannot tell a noise of 0 from the file's, and keeps the
+    file's estimate; one whose residuals are noise replaces it.
+
+    Examples
+    --------
+    >>> shrunk_noise_std(0.001, 0.02, 0.0), shrunk_noise_std(0.001, 0.02, 1.0)
+    (0.02, 0.001)
+    """
+    rho = min(max(share, 0.0), 1.0)
+    return math.sqrt(rho * calibrated_std**2 + (1.0 - rho) * file_std**2)
+
+
 def calibrate_traces(
     traces: Sequence[Any],
     *,
@@ -473,8 +529,15 @@ def calibrate_traces(
     factor, session_factor = pooled_factors(
         lik_factor, lik_session, fit_sessions=fit_sessions, validation_sessions=len(traces)
     )
-    mvb, mwb, ll, std_v, std_w = search.at(factor, session_factor)
+    mvb, mwb, ll, lik_v, lik_w = search.at(factor, session_factor)
     noise = distribution.noise
+    # a noise std the validation logs cannot identify keeps the file's estimate
+    std_v = shrunk_noise_std(
+        lik_v, noise.std_v_mps, noise_information_share(mvb, lik_v, noise.quantum_v_mps)
+    )
+    std_w = shrunk_noise_std(
+        lik_w, noise.std_w_radps, noise_information_share(mwb, lik_w, noise.quantum_w_radps)
+    )
     real_v, real_w = search.real_v, search.real_w
     scale_v, cov_v0, cov_v = match_noise_scale(real_v, mvb, std_v, noise.quantum_v_mps, seed=seed)
     scale_w, cov_w0, cov_w = match_noise_scale(

@@ -76,5 +76,5 @@ def _print_calibration(args: argparse.Namespace, result: CalibrationResult) -> N
     ):
         print(
             f"  {level} band, {axis}: covers {100 * before:.1f} % of the calibration samples with "
-            f"the likelihood's noise, {100 * after:.1f} % with it x{scale:.3g}"
+            f"the identified noise, {100 * after:.1f} % with it x{scale:.3g}"
         )
