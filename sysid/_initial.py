@@ -372,14 +372,19 @@ def _spike_notes(logs: Sequence[LogArrays]) -> list[str]:
     for log in logs:
         sv, sw = spike_mask(log.meas_v, 0.05), spike_mask(log.meas_w, 0.3)
         if sv.any() or sw.any():
-            jump_v = log.meas_v - median_filter(log.meas_v, size=5, mode="nearest")
-            peak = float(np.max(np.abs(jump_v[sv]))) if sv.any() else 0.0
             notes.append(
                 f"{log.name}: {int(sv.sum())} v and {int(sw.sum())} w odometry spike(s)"
-                + (f" (v up to {peak:.2f} m/s off its neighbours)" if sv.any() else "")
+                + (_largest_spike(log.meas_v, sv) if sv.any() else "")
                 + "; ignored by the initial estimates and down-weighted by the robust loss"
             )
     return notes
+
+
+def _largest_spike(v: FloatArray, spikes: BoolArray) -> str:
+    """The largest v spike: its value and how far it sits off its neighbours' median, m/s."""
+    jump = v - median_filter(v, size=5, mode="nearest")
+    k = int(np.argmax(np.where(spikes, np.abs(jump), -1.0)))
+    return f" (the largest at {v[k]:.2f} m/s, {abs(jump[k]):.2f} m/s off its neighbours)"
 
 
 def _axis_start(

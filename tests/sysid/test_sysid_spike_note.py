@@ -21,14 +21,14 @@ def test_a_dropout_is_measured_from_its_neighbours() -> None:
     v[20] = 0.0  # one sample of the driver's zero in the middle of a 0.3 m/s run
     [note] = _spike_notes([_log(v)])
     assert note.startswith("drive.mcap: 1 v and 0 w odometry spike(s)")
-    assert "(v up to 0.30 m/s off its neighbours)" in note
+    assert "(the largest at 0.00 m/s, 0.30 m/s off its neighbours)" in note
 
 
 def test_a_burst_is_measured_from_its_neighbours() -> None:
     v = np.full(40, 0.2)
     v[10] = 1.35
     [note] = _spike_notes([_log(v)])
-    assert "(v up to 1.15 m/s off its neighbours)" in note
+    assert "(the largest at 1.35 m/s, 1.15 m/s off its neighbours)" in note
 
 
 def test_a_clean_log_has_no_note() -> None:
