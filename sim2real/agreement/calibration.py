@@ -919,9 +919,9 @@ def _short_data_note(traces: Sequence[Any], n_active: int) -> str | None:
         return None
     return (
         f"the calibration logs hold {active_s:.0f} s of active samples: a spread judged on less "
-        f"than {SHORT_VALIDATION_S:.0f} s may be too narrow for a new session (measured: "
-        "bands calibrated on ~70 s covered 76-77 % of new sessions); calibrate on more or "
-        "longer sessions"
+        f"than {SHORT_VALIDATION_S:.0f} s may be too narrow for a new session (see "
+        "docs/benchmarks.md, bench_novel_robots, for how such bands cover new sessions); "
+        "calibrate on more or longer sessions"
     )
 
 

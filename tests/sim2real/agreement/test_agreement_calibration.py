@@ -294,3 +294,5 @@ def test_no_short_data_note_on_enough_validation_data() -> None:
     assert _short_data_note([trace], int(SHORT_VALIDATION_S / 0.02) + 1) is None
     note = _short_data_note([trace], 3000)  # 60 s active
     assert note is not None and note.startswith("the calibration logs hold 60 s of active")
+    # the note names the benchmark that measures new sessions' coverage, not a figure of it
+    assert "docs/benchmarks.md, bench_novel_robots" in note and "%" not in note
