@@ -23,6 +23,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sysid.definitions import FIT_PERCENT_DEFINITION
 from sysid.errors import SysidValueError
 
 __all__ = [
@@ -40,11 +41,6 @@ __all__ = [
 DEFAULT_TOL_V = 0.02
 #: Default agreement tolerance on yaw rate, rad/s.
 DEFAULT_TOL_W = 0.1
-#: What "FIT %" means everywhere (CLI help, report): the one definition, see :func:`fit_percent`.
-FIT_PERCENT_DEFINITION = (
-    "FIT % = 100 (1 - |y - y_sim| / |y - mean(y)|) per channel over all samples (MATLAB "
-    "'compare'; |.| the Euclidean norm): 100 = perfect, 0 = no better than the mean, < 0 worse"
-)
 #: A command is "held" (non-zero) above this magnitude (m/s or rad/s).
 CMD_EPS = 1e-3
 

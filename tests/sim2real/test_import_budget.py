@@ -43,6 +43,11 @@ def test_light_commands_import_no_heavy_package(argv: tuple[str, ...]) -> None:
     assert sorted(imported & set(HEAVY)) == []
 
 
+def test_help_imports_no_numpy() -> None:
+    # the parsers quote score definitions (sysid.definitions) without the code computing them
+    assert "numpy" not in _imported("--help")
+
+
 def test_agree_reduced_without_report_imports_no_plotting_or_fitting() -> None:
     # a 150 s log: one replay interprets the drive kernel (robots.reduced.INTERPRET_BUDGET_STEPS)
     # rather than loading numba for it; no ensemble, so no progress bar (rich) either

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from sim2real.cli._common import add_command, add_group, add_read_arguments
-from sysid.metrics import FIT_PERCENT_DEFINITION
+from sysid.definitions import FIT_PERCENT_DEFINITION
 
 __all__ = ["register"]
 
