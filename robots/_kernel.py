@@ -41,9 +41,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
 from robots._jit import njit
+from robots.arrays import FloatArray
 from robots.params import BaseGeometry, DriveParams
 
 __all__ = [
@@ -57,7 +57,6 @@ __all__ = [
     "wheel_loops",
 ]
 
-FloatArray = NDArray[np.float64]
 
 # Index of each entry of the packed parameter vector.
 SPEED_V, SPEED_W, ACC_V, ACC_W, WMAX, K, TMAX = 0, 1, 2, 3, 4, 5, 6

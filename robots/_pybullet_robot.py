@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from robots._kernel import pack_params, pybullet_substep
 from robots._pybullet import pybullet as p
 from robots._urdf import LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT, urdf_path
+from robots.arrays import FloatArray
 from robots.errors import RobotsError, RobotsValueError
 from robots.params import DriveParams
 from robots.reduced import _check_inputs, _delayed_commands, delayed_step_average
@@ -36,7 +37,6 @@ __all__ = [
     "tyre_friction",
 ]
 
-FloatArray = NDArray[np.float64]
 _Robot = TypeVar("_Robot", bound="UncheckedPybulletRobot")
 
 #: Least lateral friction coefficient of the wheel tyres (times the ground's 1.0); a drive that

@@ -53,8 +53,8 @@ from statistics import NormalDist
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from robots.errors import ParamsFileError, RobotsValueError
 from robots.params import (
     SCHEMA,
@@ -75,7 +75,6 @@ __all__ = [
     "spread_limit",
 ]
 
-FloatArray = NDArray[np.float64]
 
 _NORMAL = NormalDist()
 

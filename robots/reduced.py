@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from robots import _jit
 from robots._jit import njit
 from robots._kernel import drive_step, pack_params
+from robots.arrays import FloatArray
 from robots.errors import RobotsValueError
 from robots.params import BaseGeometry, DriveParams
 
@@ -71,8 +72,6 @@ _HISTORY_ROWS = 256
 #: Default integration step of the reduced model, s: pybullet's default 240 Hz physics step, so
 #: the reduced model and :class:`robots.PybulletRobot` step on the same grid by default.
 DEFAULT_DT_S = 1.0 / 240.0
-
-FloatArray = NDArray[np.float64]
 
 
 @njit(cache=True)

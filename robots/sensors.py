@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots._pybullet import pybullet as p
+from robots.arrays import FloatArray
 from robots.errors import RobotsValueError
 from robots.pybullet_robot import PybulletRobot
 from robots.spec import CameraSpec, LidarSpec
@@ -44,7 +45,6 @@ from robots.spec import CameraSpec, LidarSpec
 __all__ = ["DepthCamera", "Lidar", "rpy_matrix"]
 
 Float32Array = NDArray[np.float32]
-FloatArray = NDArray[np.float64]
 
 
 def rpy_matrix(rpy: Sequence[float]) -> FloatArray:

@@ -13,15 +13,13 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from sysid._coords import Mapper
 from sysid._logs import LogArrays, crop_log
 from sysid._problem import Problem
 
 __all__ = ["segment_bootstrap", "segments"]
-
-FloatArray = NDArray[np.float64]
 
 
 def segments(logs: Sequence[LogArrays], segment_s: float) -> list[LogArrays]:

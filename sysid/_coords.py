@@ -52,13 +52,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from robots.params import SCHEMA, BaseGeometry, DriveParams, FieldSchema, Prior, generic_priors
 
 __all__ = ["COORDS", "NOT_FITTABLE", "Coord", "Mapper", "soft_floor", "soft_floor_inverse"]
-
-FloatArray = NDArray[np.float64]
 
 
 def soft_floor(y: float, hard: float, knee: float) -> float:

@@ -7,8 +7,8 @@ from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from robots.params import BaseGeometry, DriveParams
 from sysid._coords import COORDS, NOT_FITTABLE
 from sysid._logs import LogArrays, as_log_arrays
@@ -16,7 +16,6 @@ from sysid.errors import ExcitationError, SysidValueError
 
 __all__ = ["Excitation", "analyse", "held_command", "why_not_fittable"]
 
-FloatArray = NDArray[np.float64]
 
 #: Minimum total measured span and number of measurement samples for a fit.
 MIN_SPAN_S = 3.0

@@ -36,7 +36,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+
+from robots.arrays import FloatArray
 
 __all__ = [
     "BAND_LEVEL",
@@ -49,7 +50,6 @@ __all__ = [
     "spread_degrees_of_freedom",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Weight (in sessions) of the spec's default between-session spread in the estimate of T.
 PRIOR_SESSIONS = 3.0

@@ -27,9 +27,9 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
 from scipy.ndimage import median_filter
 
+from robots.arrays import BoolArray, FloatArray
 from robots.params import BaseGeometry, DriveParams, Prior
 from sysid._coords import COORDS, Mapper
 from sysid._excitation import held_command
@@ -39,8 +39,6 @@ from sysid.metrics import xcorr_lag_s
 
 __all__ = ["busiest_window", "initial_coords", "spike_mask"]
 
-FloatArray = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
 
 #: At most this many samples go through the (pure-Python) RTS smoother per axis.
 _MAX_SMOOTH = 1500

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from sysid.errors import SysidValueError
 
 __all__ = [
@@ -21,7 +21,6 @@ __all__ = [
     "log_warnings",
 ]
 
-FloatArray = NDArray[np.float64]
 
 _FIELDS = ("cmd_t_s", "cmd_v", "cmd_w", "meas_t_s", "meas_v", "meas_w")
 

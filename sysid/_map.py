@@ -24,10 +24,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
+from robots.arrays import FloatArray
 from robots.params import DriveParams
 from sysid._coords import Mapper
 from sysid._excitation import Excitation
@@ -37,7 +37,6 @@ from sysid._problem import Problem
 
 __all__ = ["Posterior", "data_information", "map_fit", "noise_scale", "score_covariance"]
 
-FloatArray = NDArray[np.float64]
 
 #: Logs longer than this (s, in total) are first fitted on their busiest windows.
 _COARSE_SPAN_S = 150.0

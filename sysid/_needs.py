@@ -24,13 +24,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from robots.params import BaseGeometry, DriveParams
 
 __all__ = ["REACHED_SHARE", "limit_needs", "lower_bounds"]
 
-FloatArray = NDArray[np.float64]
 
 #: A demand of at least this share of a limit's fitted value means the limit acted.
 REACHED_SHARE = 0.9

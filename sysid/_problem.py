@@ -14,6 +14,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from robots.params import DriveParams
 from robots.reduced import GridCommands, ReducedResponse, pack_params, simulate_grid
 from sysid._coords import COORDS, Mapper
@@ -21,7 +22,6 @@ from sysid._logs import LogArrays
 
 __all__ = ["Problem", "initial_state"]
 
-FloatArray = NDArray[np.float64]
 
 #: Grid commands (:class:`robots.reduced.GridCommands`) kept per log, most recent first.
 _CACHED_GRIDS = 4

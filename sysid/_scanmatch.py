@@ -14,9 +14,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from robots.arrays import FloatArray
+
 __all__ = ["compose", "invert", "match_scans", "scan_points", "translation_conditioning"]
 
-FloatArray = NDArray[np.float64]
 Pose = tuple[float, float, float]
 
 _MIN_POINTS = 30

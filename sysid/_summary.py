@@ -9,6 +9,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from robots.params import SCHEMA, DriveParams
 from robots.randomization import DriveDistribution, ObservationNoise, cap_spread
 from sysid import metrics
@@ -28,7 +29,6 @@ __all__ = [
     "quantum",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Two-sided 95 % quantile of the standard normal distribution.
 Z95 = 1.959963984540054

@@ -44,8 +44,8 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from sysid._excitation import held_command
 from sysid._logs import as_log_arrays
 from sysid.metrics import DEFAULT_TOL_V, DEFAULT_TOL_W, active_mask
@@ -61,7 +61,6 @@ __all__ = [
     "unknown_envelope",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Velocity change window of the accelerations, s.
 ACCEL_WINDOW_S = 0.2

@@ -51,8 +51,8 @@ from numbers import Integral
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from robots.params import (
     SCHEMA,
     BaseGeometry,
@@ -81,7 +81,6 @@ from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
 
 __all__ = ["Progress", "fit_drive", "score_logs"]
 
-FloatArray = NDArray[np.float64]
 
 #: ``progress(stage, fraction)`` callback: stage text and overall fraction done in [0, 1].
 Progress = Callable[[str, float], None]

@@ -26,13 +26,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from robots.arrays import FloatArray
 from sysid.errors import SysidValueError
 
 __all__ = ["running_integral", "window_mean"]
-
-FloatArray = NDArray[np.float64]
 
 
 def _check(t: FloatArray, y: FloatArray) -> None:

@@ -34,13 +34,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from sysid.errors import SysidValueError
 
 __all__ = ["ExcitationPlan", "PlanBlock", "plan_excitation"]
 
-FloatArray = NDArray[np.float64]
 
 #: Commands go this far beyond the speed limits, so that the clamps act.
 OVERDRIVE = 1.1

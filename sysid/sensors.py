@@ -68,6 +68,7 @@ import yaml
 from numpy.typing import NDArray
 from scipy.stats import chi2
 
+from robots.arrays import BoolArray, FloatArray
 from robots.files import atomic_write
 from sysid._scanmatch import (
     compose,
@@ -89,8 +90,6 @@ __all__ = [
     "still_spread",
 ]
 
-FloatArray = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
 Interval = tuple[float, float]
 
 #: The ``format`` key of a sensor result file.

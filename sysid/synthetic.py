@@ -23,8 +23,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
+from robots.arrays import FloatArray
 from robots.params import BaseGeometry, DriveParams
 from robots.reduced import simulate
 from sysid._logs import LogArrays
@@ -38,7 +38,6 @@ __all__ = [
     "synthetic_log",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: A TurtleBot3-Waffle-Pi-like base (spec mass and inertia, r = 0.033 m, L = 0.287 m).
 WAFFLE_LIKE_GEOMETRY = BaseGeometry(

@@ -19,6 +19,7 @@ MODULES = [
     "robots.check",
     "robots.files",
     "robots.units",
+    "robots.arrays",
     "robots.template",
     "robots.specdoc",
 ]
