@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -35,7 +35,15 @@ from sysid._initial import busiest_window, initial_coords
 from sysid._logs import LogArrays, crop_log
 from sysid._problem import Problem
 
-__all__ = ["Posterior", "data_information", "map_fit", "noise_scale", "score_covariance"]
+__all__ = [
+    "FittedCoords",
+    "MapOptions",
+    "Posterior",
+    "data_information",
+    "map_fit",
+    "noise_scale",
+    "score_covariance",
+]
 
 
 #: Logs longer than this (s, in total) are first fitted on their busiest windows.
@@ -95,8 +103,33 @@ _LIMITS = (
 
 
 @dataclass(frozen=True, kw_only=True)
-class Posterior:
-    """Outcome of :func:`map_fit`.
+class MapOptions:
+    """How :func:`map_fit` solves.
+
+    Attributes
+    ----------
+    problem_kw : dict
+        Keywords of every :class:`~sysid._problem.Problem` it builds (scales, weights, step).
+    loss : str
+        scipy's robust loss (``soft_l1``, ``linear``, ``huber``, ``cauchy``, ``arctan``).
+    f_scale : float
+        Its soft margin between inlier and outlier residuals.
+    max_nfev : int
+        Evaluation limit of the optimiser.
+    python : bool
+        Simulate in plain Python rather than with the compiled kernel.
+    """
+
+    problem_kw: dict[str, Any]
+    loss: str
+    f_scale: float
+    max_nfev: int
+    python: bool = False
+
+
+@dataclass(frozen=True, kw_only=True)
+class FittedCoords:
+    """The fitted coordinates, their MAP point and posterior covariance.
 
     Attributes
     ----------
@@ -113,14 +146,37 @@ class Posterior:
     cov : ndarray
         Posterior covariance in schema coordinates (inf on the diagonal of coordinates that
         nothing determines).
-    info : ndarray
-        Data information :math:`G^{-T} J^T J G^{-1}/(s^2 c)` in schema coordinates.
     weak : tuple of int
         Indices of coordinates that neither the data nor a prior determine.
     params : DriveParams
         Parameters at the MAP point.
     problem : Problem
         The problem over :attr:`free` (for derived quantities and scoring).
+    """
+
+    free: tuple[str, ...]
+    ties: dict[str, str]
+    u: FloatArray
+    cov_u: FloatArray
+    z: FloatArray
+    cov: FloatArray
+    weak: tuple[int, ...]
+    params: DriveParams
+    problem: Problem
+
+    def coords(self) -> dict[str, Any]:
+        """These fields as keywords (to build another :class:`FittedCoords` from them)."""
+        return {f.name: getattr(self, f.name) for f in fields(FittedCoords)}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Posterior(FittedCoords):
+    """Outcome of :func:`map_fit`: the :class:`FittedCoords` and how the fit went.
+
+    Attributes
+    ----------
+    info : ndarray
+        Data information :math:`G^{-T} J^T J G^{-1}/(s^2 c)` in schema coordinates.
     inflation : float
         Autocorrelation factor :math:`c`.
     residuals : ndarray
@@ -137,16 +193,7 @@ class Posterior:
         The axes were coupled (dense Jacobian).
     """
 
-    free: tuple[str, ...]
-    ties: dict[str, str]
-    u: FloatArray
-    cov_u: FloatArray
-    z: FloatArray
-    cov: FloatArray
     info: FloatArray
-    weak: tuple[int, ...]
-    params: DriveParams
-    problem: Problem
     inflation: float
     residuals: FloatArray
     converged: bool
@@ -716,16 +763,14 @@ def map_fit(
     logs: Sequence[LogArrays],
     mapper: Mapper,
     exc: Excitation,
+    options: MapOptions,
     *,
-    problem_kw: dict[str, Any],
-    loss: str,
-    f_scale: float,
-    max_nfev: int,
-    python: bool = False,
     on_eval: Callable[[int], None] | None = None,
     notes: list[str],
 ) -> Posterior:
     """MAP estimate and posterior of the free coordinates of ``exc`` on ``logs``."""
+    problem_kw, loss, f_scale = options.problem_kw, options.loss, options.f_scale
+    max_nfev, python = options.max_nfev, options.python
     x0_map, spike_notes = initial_coords(
         logs, mapper.geometry, mapper.base, exc.free, exc.ties, mapper.priors
     )

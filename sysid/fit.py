@@ -70,7 +70,7 @@ from sysid._excitation import analyse, held_command
 from sysid._fleet import SessionInfo, population
 from sysid._linear import first_order_stats
 from sysid._logs import LogArrays, as_log_arrays, log_name, log_warnings
-from sysid._map import Posterior, _solve, map_fit
+from sysid._map import FittedCoords, MapOptions, Posterior, _solve, map_fit
 from sysid._needs import limit_needs, lower_bounds
 from sysid._problem import Problem
 from sysid._summary import distribution, estimate_noise, field_estimates, identifiable_estimates
@@ -276,19 +276,11 @@ def _prior_base(base: DriveParams, priors: Mapping[str, Prior]) -> DriveParams:
 
 
 @dataclass(frozen=True, kw_only=True)
-class _Summary:
-    """What a result reports about the fitted coordinates (one log or a population)."""
+class _Summary(FittedCoords):
+    """What a result reports about the fitted coordinates (one log or a population): those of
+    the one log's posterior, or the population's mean and its ``between``-session covariance."""
 
-    params: DriveParams
-    free: tuple[str, ...]
-    ties: dict[str, str]
-    u: FloatArray
-    cov_u: FloatArray
-    z: FloatArray
-    cov: FloatArray
-    weak: tuple[int, ...]
     between: FloatArray | None
-    problem: Problem
 
 
 def _channel_residuals(post: Posterior) -> tuple[FloatArray, FloatArray]:
@@ -311,18 +303,7 @@ def _convergence_notes(posts: Sequence[Posterior], names: Sequence[str], nfev: i
 
 
 def _single(post: Posterior) -> _Summary:
-    return _Summary(
-        params=post.params,
-        free=post.free,
-        ties=post.ties,
-        u=post.u,
-        cov_u=post.cov_u,
-        z=post.z,
-        cov=post.cov,
-        weak=post.weak,
-        between=None,
-        problem=post.problem,
-    )
+    return _Summary(**post.coords(), between=None)
 
 
 def _fleet(
@@ -446,11 +427,7 @@ class _Session:
     base: DriveParams
     free: Any
     mapper: Mapper
-    problem_kw: dict[str, Any]
-    loss: str
-    f_scale: float
-    max_nfev: int
-    python: bool
+    options: MapOptions
     several: bool
     informative: frozenset[str] = frozenset()
 
@@ -466,18 +443,7 @@ class _Session:
         exc = analyse(group, self.geometry, self.base, self.free, set(self.informative))
         prefix = f"{group[0].name}: " if self.several else ""
         out += [prefix + w for w in exc.warnings]
-        post = map_fit(
-            group,
-            self.mapper,
-            exc,
-            problem_kw=self.problem_kw,
-            loss=self.loss,
-            f_scale=self.f_scale,
-            max_nfev=self.max_nfev,
-            python=self.python,
-            on_eval=on_eval,
-            notes=out,
-        )
+        post = map_fit(group, self.mapper, exc, self.options, on_eval=on_eval, notes=out)
         out += [
             f"{prefix}{post.free[j]} is not determined by the log and has no prior (flat "
             "direction of the fit): it is kept at its value and not randomised; fix it (--free) "
@@ -608,11 +574,9 @@ def fit_drive(
         base=base,
         free=free,
         mapper=mapper,
-        problem_kw=problem_kw,
-        loss=loss,
-        f_scale=f_scale,
-        max_nfev=max_nfev,
-        python=python,
+        options=MapOptions(
+            problem_kw=problem_kw, loss=loss, f_scale=f_scale, max_nfev=max_nfev, python=python
+        ),
         several=len(groups) > 1,
         informative=frozenset(informative),
     )
