@@ -604,13 +604,18 @@ def _study_figures(config: Any) -> tuple[dict[str, Any], tuple[str, ...]]:
     """One log's agreement figures and read warnings (a Ray task; light to ship back).
 
     A log that cannot be used (unreadable, nothing to compare) gives
-    ``{"log_file": path, "error": sentence}`` instead of figures, so the others go on.
+    ``{"log_file": path, "error": sentence}`` instead of figures, so the others go on. The
+    figures of a log that could be used carry its ``verdict``
+    (:meth:`sim2real.agreement.verdict.AgreementVerdict.to_dict`).
     """
     try:
         result = run_study(config)
     except Sim2RealError as exc:
         return {"log_file": str(config.log), "error": str(exc)}, ()
-    return result.figures, result.warnings
+    figures = dict(result.figures)
+    if result.verdict is not None:
+        figures["verdict"] = result.verdict.to_dict()
+    return figures, result.warnings
 
 
 def agree_many(

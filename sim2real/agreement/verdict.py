@@ -40,6 +40,7 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -155,12 +156,42 @@ class AgreementVerdict:
     next_step: str
     ok: bool
 
-    def lines(self) -> tuple[str, ...]:
-        """The verdict as the terminal prints it: headline, reasons, next step."""
+    def lines(self, *, about: str = "") -> tuple[str, ...]:
+        """The verdict as the terminal prints it: headline, reasons, next step; ``about``
+        (a log's name, in a fleet) is put in the first line: ``verdict (a.mcap): ...``."""
         return (
-            f"verdict: {self.headline}",
+            f"verdict{f' ({about})' if about else ''}: {self.headline}",
             *(f"  - {r}" for r in self.reasons),
             f"next step: {self.next_step}",
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``verdict`` entry of a log's JSON figures (plain JSON types).
+
+        Examples
+        --------
+        >>> v = AgreementVerdict(kind="no_fit", headline="H.", reasons=("r.",),
+        ...                      next_step="s.", ok=False)
+        >>> AgreementVerdict.from_dict(v.to_dict()) == v
+        True
+        """
+        return {
+            "kind": self.kind,
+            "headline": self.headline,
+            "reasons": list(self.reasons),
+            "next_step": self.next_step,
+            "ok": bool(self.ok),
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> AgreementVerdict:
+        """Inverse of :meth:`to_dict` (a fleet's per-log verdicts come back as JSON)."""
+        return cls(
+            kind=str(data["kind"]),
+            headline=str(data["headline"]),
+            reasons=tuple(str(r) for r in data["reasons"]),
+            next_step=str(data["next_step"]),
+            ok=bool(data["ok"]),
         )
 
 

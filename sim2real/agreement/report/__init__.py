@@ -41,7 +41,14 @@ from robots.params import DriveParams, ParamsFile, load_params_document
 from sim2real._io import atomic_write, check_output_path
 from sim2real.agreement.figures import AgreementReport, EnsembleResult
 from sim2real.agreement.replay import ReplayResult, TraceLike
-from sim2real.agreement.report._html import Figure, HeadlineCard, Table, render_page
+from sim2real.agreement.report._html import (
+    Figure,
+    FleetEntry,
+    HeadlineCard,
+    Table,
+    render_fleet_page,
+    render_page,
+)
 from sim2real.agreement.report._plots import (
     Band,
     SimSeries,
@@ -62,6 +69,7 @@ __all__ = [
     "ReportInput",
     "ReportRun",
     "param_rows",
+    "write_fleet_report",
     "write_report",
 ]
 
@@ -549,3 +557,65 @@ def write_report(path: str | Path, data: ReportInput, *, write_pngs: bool = True
     with atomic_write(target, "wb", what="report file") as fh:
         fh.write(page.encode("utf-8"))
     return ReportFiles(html=target, images=tuple(images))
+
+
+def write_fleet_report(
+    path: str | Path,
+    *,
+    figures: Sequence[Mapping[str, Any]],
+    header: Sequence[str],
+    rows: Sequence[Sequence[str]],
+    subtitle: str,
+    pooled: str = "",
+    title: str = "sim2real agreement report: fleet",
+) -> Path:
+    """Write the page of a multi-log ``agree``: the fleet table, then each log's verdict.
+
+    Parameters
+    ----------
+    path : str or Path
+        The HTML file to write (written to a temp file and renamed).
+    figures : sequence of mapping
+        Each log's figures as ``agree --json`` writes them under ``logs``: its ``log_file``
+        and ``verdict`` (:meth:`sim2real.agreement.verdict.AgreementVerdict.to_dict`) and
+        ``notes``, or ``error`` for a log that could not be used.
+    header, rows : sequence
+        The fleet table as the terminal prints it (already formatted cells).
+    subtitle, pooled, title : str
+        The line under the title, the pooled band sentence ("" for none), the page title.
+
+    Returns
+    -------
+    Path
+        The page written.
+
+    Examples
+    --------
+    >>> write_fleet_report("fleet.html", figures=[{"log_file": "a.mcap", "error": "empty"}],
+    ...                    header=["log"], rows=[["a.mcap"]], subtitle="1 log")  # doctest: +SKIP
+    PosixPath('fleet.html')
+    """
+    target = check_output_path(path, what="report file")
+    entries = []
+    for f in figures:
+        verdict = f.get("verdict")
+        entries.append(
+            FleetEntry(
+                name=Path(str(f.get("log_file"))).name,
+                verdict=AgreementVerdict.from_dict(verdict)
+                if "error" not in f and isinstance(verdict, Mapping)
+                else None,
+                error=str(f.get("error", "no verdict was decided for this log")),
+                notes=tuple(str(n) for n in f.get("notes", ())),
+            )
+        )
+    page = render_fleet_page(
+        title=title,
+        subtitle=subtitle,
+        summary=Table(title="Logs", header=list(header), rows=[list(r) for r in rows]),
+        pooled=pooled,
+        entries=entries,
+    )
+    with atomic_write(target, "wb", what="report file") as fh:
+        fh.write(page.encode("utf-8"))
+    return target

@@ -13,7 +13,18 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-__all__ = ["Figure", "HeadlineCard", "Stat", "Table", "Verdict", "render_page"]
+from sim2real.agreement.verdict import AgreementVerdict
+
+__all__ = [
+    "Figure",
+    "FleetEntry",
+    "HeadlineCard",
+    "Stat",
+    "Table",
+    "Verdict",
+    "render_fleet_page",
+    "render_page",
+]
 
 _CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0;color:#1d1d1f;
@@ -50,6 +61,11 @@ details h2{margin-top:10px}.card{overflow-wrap:anywhere}
 #verdict .reasons{margin:4px 0 0;padding-left:20px;font-size:.86rem}
 #verdict details.why{margin:0;padding:0;box-shadow:none;background:none}
 #verdict details.why summary{padding:0;font-size:.84rem;font-weight:400;color:#555}
+section.log{background:#fff;border-radius:10px;box-shadow:0 1px 3px rgba(0,0,0,.12);
+padding:6px 16px 10px;margin:14px 0}section.log h2{margin-top:6px}
+section.log .next{margin:6px 0 0;padding:6px 10px;background:#fff8e1;
+border-left:4px solid #b36b00}section.log .next.ok{background:#eaf6ee;border-left-color:#1b7e3c}
+section.log .reasons{margin:4px 0 0;padding-left:20px;font-size:.86rem}
 """
 
 _CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
@@ -108,6 +124,20 @@ class Verdict:
     ok: bool = False
     headline: str = ""
     reasons: Sequence[str] = ()
+    notes: Sequence[str] = ()
+
+
+@dataclass(frozen=True, kw_only=True)
+class FleetEntry:
+    """One log of a fleet page: its name and verdict, or why it was left out.
+
+    ``verdict`` is the log's :class:`sim2real.agreement.verdict.AgreementVerdict` (None with
+    ``error``, which says why the log could not be used); ``notes`` are its data notes.
+    """
+
+    name: str
+    verdict: AgreementVerdict | None = None
+    error: str = ""
     notes: Sequence[str] = ()
 
 
@@ -187,6 +217,16 @@ def _figure(fig: Figure, *, lead: bool = False) -> str:
     return f"<h2>{_e(fig.title)}</h2><figure>{img}</figure>"
 
 
+def _head(title: str) -> str:
+    """The page's head, up to the opening ``<main>`` (offline policy, inline style)."""
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">\n'
+        f'<meta http-equiv="Content-Security-Policy" content="{_CSP}">\n'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        f"<title>{_e(title)}</title><style>{_CSS}</style></head><body><main>"
+    )
+
+
 def _details(summary: str, body: str) -> str:
     return f"<details><summary>{_e(summary)}</summary>{body}</details>"
 
@@ -212,11 +252,7 @@ def render_page(
     """
     defs = "".join(f"<li><b>{_e(k)}</b>: {_e(v)}</li>" for k, v in definitions.items())
     parts = [
-        "<!DOCTYPE html>",
-        '<html lang="en"><head><meta charset="utf-8">',
-        f'<meta http-equiv="Content-Security-Policy" content="{_CSP}">',
-        '<meta name="viewport" content="width=device-width, initial-scale=1">',
-        f"<title>{_e(title)}</title><style>{_CSS}</style></head><body><main>",
+        _head(title),
         _verdict(verdict, title, subtitle),
         _figure(lead, lead=True),
         '<h2>Agreement</h2><div class="cards">' + "".join(_card(c) for c in cards) + "</div>",
@@ -224,6 +260,40 @@ def render_page(
         *(_figure(f) for f in figures),
         *(_details(t.title, _table(t)) for t in tables),
         _details("How to read this report", f'<ul class="note">{defs}</ul>'),
+        "</main></body></html>",
+    ]
+    return "\n".join(parts) + "\n"
+
+
+def _fleet_entry(i: int, entry: FleetEntry) -> str:
+    """One log's section: the verdict's headline, reasons and next step (or why it was left
+    out), and its notes."""
+    v = entry.verdict
+    if v is None:
+        body = f'<p class="headline"><b>Left out:</b> {_e(entry.error)}</p>'
+    else:
+        reasons = "".join(f"<li>{_e(r)}</li>" for r in v.reasons)
+        body = (
+            f'<p class="headline"><b>Verdict:</b> {_e(v.headline)}</p>'
+            + (f'<ul class="reasons">{reasons}</ul>' if reasons else "")
+            + f'<div class="{"next ok" if v.ok else "next"}"><p class="step">'
+            f"<b>Next step:</b> {_e(v.next_step)}</p></div>"
+        )
+    notes = "".join(f'<p class="note">note: {_e(n)}</p>' for n in entry.notes)
+    return f'<section class="log" id="log-{i}"><h2>{_e(entry.name)}</h2>{body}{notes}</section>'
+
+
+def render_fleet_page(
+    *, title: str, subtitle: str, summary: Table, pooled: str, entries: Sequence[FleetEntry]
+) -> str:
+    """The page of a multi-log run: the fleet table, the pooled sentence, then one section per
+    log with its verdict (no external resources; all text escaped)."""
+    parts = [
+        _head(title),
+        f'<h1>{_e(title)}</h1><p class="sub">{_e(subtitle)}</p>',
+        _table(summary),
+        f'<p class="headline" id="pooled">{_e(pooled)}</p>' if pooled else "",
+        *(_fleet_entry(i, e) for i, e in enumerate(entries)),
         "</main></body></html>",
     ]
     return "\n".join(parts) + "\n"

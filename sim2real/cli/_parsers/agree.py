@@ -22,6 +22,8 @@ _EXAMPLES = """\
   sim2real agree neato.bag --robot neato.yaml --params p.yaml --odom-velocity pose
   sim2real agree 'fleet/*.mcap' --robot turtlebot3_burger --params params.yaml \\
       --json fleet.json --ray auto # one Ray task per log; {"logs": [...], "summary": {...}}
+  sim2real agree a.mcap b.mcap c.mcap --robot turtlebot3_burger --params params.yaml \\
+      --report fleet.html          # the fleet table and one verdict per log
 """
 
 _DESCRIPTION = """\
@@ -85,7 +87,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--tol-v", type=float, default=0.02, help="tolerance on v, m/s")
     p.add_argument("--tol-w", type=float, default=0.1, help="tolerance on w, rad/s")
     p.add_argument("--json", metavar="OUT.json", help="write the figures as JSON")
-    p.add_argument("--report", metavar="OUT.html", help="write the HTML report (+ PNGs)")
+    p.add_argument(
+        "--report",
+        metavar="OUT.html",
+        help=(
+            "write the HTML report (+ PNGs); with several logs, one page with the fleet "
+            "table and each log's verdict"
+        ),
+    )
     p.add_argument("--sim-out", metavar="SIM.mcap", help="write the simulated run as MCAP")
     p.add_argument(
         "--min-agreement", type=float, metavar="F", help="exit 1 when agreement < F (0..1)"

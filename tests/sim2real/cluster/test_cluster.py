@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import math
 import os
@@ -180,12 +181,12 @@ def test_agree_many_logs_json_layout(
     assert "pooled (3 logs)" in out and "serial" in out
 
 
-def test_agree_many_logs_refuses_report_and_gates(
+def test_agree_many_logs_refuses_sim_out_and_gates(
     fleet: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert _agree(fleet, tmp_path / "f.json", "--report", str(tmp_path / "r.html")) == 2
+    assert _agree(fleet, tmp_path / "f.json", "--sim-out", str(tmp_path / "s.mcap")) == 2
     err = capsys.readouterr().err
-    assert "--report and --sim-out take one log, got 3 logs" in err and err.count("\n") == 1
+    assert "--sim-out takes one log, got 3 logs" in err and err.count("\n") == 1
     assert _agree(fleet, tmp_path / "f.json", "--min-agreement", "0.999") == 1
     assert "pooled agreement" in capsys.readouterr().err
     assert _agree(fleet, tmp_path / "f.json", "--min-agreement", "0") == 0
@@ -202,7 +203,8 @@ def test_agree_many_logs_with_ensemble_prints_band_coverage(
     assert main([*fit, "-o", str(params)]) == 0
     capsys.readouterr()
     band = ["--params", str(params), "--ensemble", "4", "--seed", "1"]
-    assert _agree(fleet, tmp_path / "band.json", *band) == 0
+    report = tmp_path / "fleet.html"
+    assert _agree(fleet, tmp_path / "band.json", *band, "--report", str(report)) == 0
     doc = json.loads((tmp_path / "band.json").read_text())
     figs, summary = doc["logs"], doc["summary"]
     n = sum(f["n_active"] for f in figs)
@@ -223,6 +225,20 @@ def test_agree_many_logs_with_ensemble_prints_band_coverage(
     assert main([*argv, "--engine", "reduced", *band, "--json", str(single)]) == 0
     one = json.loads(single.read_text())
     assert figs[2]["coverage_v"] == pytest.approx(one["coverage_v"], rel=1e-12)
+    # one verdict per log, in the terminal, the JSON and the page, in the words agree prints
+    # for that log alone
+    alone = capsys.readouterr().out.splitlines()
+    headline = next(line for line in alone if line.startswith("verdict: "))
+    heads = [line for line in lines if line.startswith("verdict (session_00")]
+    assert [h.split(")")[0] for h in heads] == [f"verdict (session_00{i}.mcap" for i in range(3)]
+    assert heads[2].split("): ", 1)[1] == headline.removeprefix("verdict: ")
+    assert [f["verdict"]["headline"] for f in figs] == [h.split("): ", 1)[1] for h in heads]
+    page = html.unescape(report.read_text())
+    assert page.count('<section class="log"') == 3
+    for f in figs:
+        for sentence in (f["verdict"]["headline"], f["verdict"]["next_step"]):
+            assert sentence in page and sentence in out
+        assert all(reason in page and reason in out for reason in f["verdict"]["reasons"])
 
 
 @pytest.mark.cluster
