@@ -2,7 +2,10 @@ r"""Optimal reciprocal collision avoidance (ORCA) for disc agents in the plane.
 
 J. van den Berg, S. J. Guy, M. Lin and D. Manocha, "Reciprocal n-body collision avoidance",
 Robotics Research (ISRR 2009), Springer Tracts in Advanced Robotics 70, 2011, pp. 3-19.
-Implemented here from the paper (no maintained ORCA package on PyPI installs from wheels).
+Implemented here from the paper, in double precision and compiled with numba. The tests check
+one step against RVO2, the authors' C++ library (the ``pyrvo`` wheel compiles its sources; a
+``[dev]`` dependency): between agents the velocities agree to RVO2's single precision, except
+where RVO2's float32 "3-D linear program" leaves its own speed disc and ours keeps it.
 
 For agent A and a neighbour B (relative position :math:`p = p_B - p_A`, combined radius
 :math:`r = r_A + r_B`, time horizon :math:`\tau`) the velocity obstacle
