@@ -34,7 +34,7 @@ def clip(x: float, lim: float) -> float:
     return lim if x > lim else (-lim if x < -lim else x)
 
 
-class CommandShaper:
+class CommandShaper(_kernel.PackedParams):
     """Clamp, rate-limit and cap a (v, w) command into per-wheel speed targets.
 
     Parameters
@@ -48,16 +48,6 @@ class CommandShaper:
         self.params = params
         self.ref_v = 0.0
         self.ref_w = 0.0
-
-    @property
-    def params(self) -> DriveParams:
-        """The drive parameters in use."""
-        return self._params
-
-    @params.setter
-    def params(self, params: DriveParams) -> None:
-        self._params = params
-        self._packed = _kernel.pack_params(params, self.geometry)
 
     def reset(self, v: float = 0.0, w: float = 0.0) -> None:
         """Set the smoother's reference (the base's current velocity)."""

@@ -48,6 +48,7 @@ from robots.params import BaseGeometry, DriveParams
 
 __all__ = [
     "N_PACKED",
+    "PackedParams",
     "axis_friction",
     "clip",
     "drive_step",
@@ -72,28 +73,35 @@ N_PACKED = 21
 ZERO_TARGET_RADPS = 1e-9
 
 
+#: The entries of the packed vector that are a DriveParams field as it is.
+_AS_IS = {
+    SPEED_V: "speed_lim_v_mps",
+    SPEED_W: "speed_lim_w_radps",
+    ACC_V: "accel_lim_v_mps2",
+    ACC_W: "accel_lim_w_radps2",
+    WMAX: "wheel_speed_max_radps",
+    K: "motor_gain_nms_per_rad",
+    TMAX: "wheel_torque_max_nm",
+    CFWD: "coulomb_v_fwd_n",
+    CBWD: "coulomb_v_bwd_n",
+    CW: "coulomb_w_nm",
+    BV: "viscous_v_ns_per_m",
+    BW: "viscous_w_nms_per_rad",
+    TRACK: "track_factor",
+    CMD_TRACK: "driver_track_factor",
+    KI: "speed_loop_ki_per_s",
+}
+
+
 def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
     """Pack parameters and geometry into the flat float vector the kernels take."""
     p = np.empty(N_PACKED)
-    p[SPEED_V] = params.speed_lim_v_mps
-    p[SPEED_W] = params.speed_lim_w_radps
-    p[ACC_V] = params.accel_lim_v_mps2
-    p[ACC_W] = params.accel_lim_w_radps2
-    p[WMAX] = params.wheel_speed_max_radps
-    p[K] = params.motor_gain_nms_per_rad
-    p[TMAX] = params.wheel_torque_max_nm
-    p[CFWD] = params.coulomb_v_fwd_n
-    p[CBWD] = params.coulomb_v_bwd_n
-    p[CW] = params.coulomb_w_nm
-    p[BV] = params.viscous_v_ns_per_m
-    p[BW] = params.viscous_w_nms_per_rad
+    for index, name in _AS_IS.items():
+        p[index] = getattr(params, name)
     p[MASS] = params.total_mass_kg(geometry)
     p[INERTIA] = params.total_yaw_inertia_kgm2(geometry)
     p[R] = geometry.wheel_radius_m
     p[L] = geometry.wheel_separation_m
-    p[TRACK] = params.track_factor
-    p[CMD_TRACK] = params.driver_track_factor
-    p[KI] = params.speed_loop_ki_per_s
     # the torque-speed line needs both ends: without either there is none (a flat cap)
     line = math.isfinite(params.wheel_stall_torque_nm) and math.isfinite(
         params.wheel_no_load_speed_radps
@@ -101,6 +109,25 @@ def pack_params(params: DriveParams, geometry: BaseGeometry) -> FloatArray:
     p[TS] = params.wheel_stall_torque_nm if line else math.inf
     p[W0] = params.wheel_no_load_speed_radps if line else math.inf
     return p
+
+
+class PackedParams:
+    """Drive parameters kept with their packed vector (:func:`pack_params`), re-packed each
+    time they are set; a subclass sets ``geometry`` before ``params``."""
+
+    geometry: BaseGeometry
+    _params: DriveParams
+    _packed: FloatArray
+
+    @property
+    def params(self) -> DriveParams:
+        """The drive parameters in use."""
+        return self._params
+
+    @params.setter
+    def params(self, params: DriveParams) -> None:
+        self._params = params
+        self._packed = pack_params(params, self.geometry)
 
 
 @njit(cache=True, inline="always")

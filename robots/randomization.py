@@ -262,17 +262,8 @@ class DriveDistribution:
     lower: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        _validate(self._parts(), "DriveDistribution")
+        _validate(self, "DriveDistribution")
         _validate_lower(self.lower, self.names, "DriveDistribution.lower")
-
-    def _parts(self) -> _Parts:
-        return _Parts(
-            geometry=self.geometry,
-            names=self.names,
-            mean=self.mean,
-            covariance=self.covariance,
-            fixed=self.fixed,
-        )
 
     # --- views -------------------------------------------------------------------------------
 
@@ -502,13 +493,16 @@ class _Parts:
     fixed: Mapping[str, float]
 
 
+#: What the validators check: a distribution, or the parts of one read from a file.
+_Checked = _Parts | DriveDistribution
+
 _BLOCK_KEYS = frozenset(
     {"format", "robot", "geometry", "names", "coords", "mean", "covariance", "fixed", "noise"}
 )
 _REFIT = "refit the params file with 'sim2real sysid fit'"
 
 
-def _validate(dist: _Parts, source: str) -> None:
+def _validate(dist: _Checked, source: str) -> None:
     """Check a distribution (raises ParamsFileError naming the key and the field)."""
     _validate_names(dist, source)
     _validate_mean(dist, source)
@@ -521,7 +515,7 @@ def _validate(dist: _Parts, source: str) -> None:
         raise ParamsFileError(f"{source}: {exc}; {_REFIT}") from None
 
 
-def _validate_names(dist: _Parts, source: str) -> None:
+def _validate_names(dist: _Checked, source: str) -> None:
     k = len(dist.names)
     if k == 0:
         raise _fail(source, "names", "must list at least one varying field", [], _REFIT)
@@ -546,7 +540,7 @@ def _validate_names(dist: _Parts, source: str) -> None:
         )
 
 
-def _validate_mean(dist: _Parts, source: str) -> None:
+def _validate_mean(dist: _Checked, source: str) -> None:
     k = len(dist.names)
     if len(dist.mean) != k:
         raise _fail(source, "mean", f"must be {k} numbers (one per name)", list(dist.mean), _REFIT)
@@ -555,7 +549,7 @@ def _validate_mean(dist: _Parts, source: str) -> None:
             raise _fail(source, "mean", f"entry of '{name}' must be a finite number", x, _REFIT)
 
 
-def _validate_covariance(dist: _Parts, source: str) -> None:
+def _validate_covariance(dist: _Checked, source: str) -> None:
     k = len(dist.names)
     rows_ok = all(len(row) == k for row in dist.covariance)
     cov = np.array(dist.covariance, dtype=np.float64) if rows_ok else np.zeros((0,))

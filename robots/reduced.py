@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 
 from robots import _jit
 from robots._jit import njit
-from robots._kernel import drive_step, pack_params
+from robots._kernel import PackedParams, drive_step, pack_params
 from robots.arrays import FloatArray
 from robots.errors import RobotsValueError
 from robots.params import BaseGeometry, DriveParams
@@ -611,7 +611,7 @@ def _within_interpret_budget(n_steps: int) -> bool:
     return True
 
 
-class ReducedDrive:
+class ReducedDrive(PackedParams):
     """Step-by-step reduced drive model for envs (``dynamics="reduced"``).
 
     Commands are given once per control step; the transport delay is realised with a command
@@ -638,16 +638,6 @@ class ReducedDrive:
         self.dt_s = dt_s
         self.params = params
         self.reset()
-
-    @property
-    def params(self) -> DriveParams:
-        """The drive parameters in use."""
-        return self._params
-
-    @params.setter
-    def params(self, params: DriveParams) -> None:
-        self._params = params
-        self._packed = pack_params(params, self.geometry)
 
     def reset(self, v: float = 0.0, w: float = 0.0) -> None:
         """Set the base velocity and clear the command history."""
