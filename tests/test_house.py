@@ -18,14 +18,15 @@ Graph = tuple[dict[str, set[str]], list[house_metrics.LocalImport]]
 
 #: What each room of sim2real may import of the project (its own room aside). The CLI composes
 #: everything; the library rooms never import the CLI, and nothing below training imports it.
-LIBRARY = {"sim2real.errors", "sim2real._io", "robots", "sysid", "randomizers"}
+LIBRARY = {"sim2real.errors", "sim2real._io", "sim2real._arrays", "robots", "sysid", "randomizers"}
 MAY_IMPORT = {
     "sim2real": set(),
     "sim2real.__main__": {"sim2real.cli"},
     "sim2real.errors": set(),
+    "sim2real._arrays": set(),
     "sim2real._io": {"robots", "sim2real.errors"},
-    "sim2real.logs": {"robots", "sim2real._io", "sim2real.errors"},
-    "sim2real.plants": {"robots", "sysid", "sim2real.errors", "sim2real.logs"},
+    "sim2real.logs": {"robots", "sim2real._io", "sim2real._arrays", "sim2real.errors"},
+    "sim2real.plants": {"robots", "sysid", "sim2real._arrays", "sim2real.errors", "sim2real.logs"},
     "sim2real._samples": {"sim2real.logs", "sim2real.plants"},
     "sim2real.fitting": LIBRARY | {"sim2real.logs"},
     "sim2real.planning": LIBRARY | {"sim2real.logs"},

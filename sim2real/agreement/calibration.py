@@ -96,6 +96,7 @@ from robots.errors import ParamsFileError
 from robots.params import read_params_file
 from robots.randomization import DriveDistribution, cap_spread
 from robots.spec import load_spec
+from sim2real._arrays import FloatArray
 from sim2real._io import atomic_write, check_not_an_input
 from sim2real.agreement.figures import (
     band_coverage,
@@ -125,7 +126,6 @@ __all__ = [
     "write_calibrated",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Name of the method in the output file's ``calibration`` block.
 CALIBRATION_METHOD = (

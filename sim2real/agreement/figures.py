@@ -88,6 +88,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.params import DriveParams
+from sim2real._arrays import FloatArray
 from sim2real.agreement.replay import ReplayResult, TraceLike, replay, resolve_robot
 from sim2real.errors import Sim2RealValueError
 from sysid.metrics import (
@@ -129,7 +130,6 @@ __all__ = [
     "run_ensemble",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Largest ensemble (``--ensemble``): each member is one full replay of the log.
 MAX_ENSEMBLE = 10_000

@@ -46,11 +46,11 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import NDArray
 
 from robots.params import BaseGeometry, DriveParams
 from robots.reduced import DEFAULT_DT_S, simulate
 from robots.spec import load_spec
+from sim2real._arrays import FloatArray, IntArray
 from sim2real.errors import Sim2RealValueError
 from sysid.odometry import window_mean
 
@@ -63,8 +63,6 @@ __all__ = [
     "resolve_robot",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: Simulation engines :func:`replay` accepts.
 ENGINES = ("pybullet", "reduced")

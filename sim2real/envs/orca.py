@@ -55,13 +55,13 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from sim2real._arrays import BoolArray
 from sim2real.envs.geometry import FloatArray, Scene2D
 from sim2real.envs.pedestrians import Crowd
 from sim2real.errors import Sim2RealValueError
 
 __all__ = ["KEEP_RIGHT_RAD", "OrcaAgents", "OrcaConfig", "OrcaCrowd", "orca_velocities"]
 
-BoolArray = NDArray[np.bool_]
 _EPS = 1e-9
 #: Clockwise turn of every agent's preferred direction ("keep right"), rad.
 KEEP_RIGHT_RAD = math.radians(2.0)

@@ -8,8 +8,8 @@ message definitions, so a simulated run and a real run open side by side in Foxg
 
 Owns the log formats, the :class:`Trace`, its time base and repairs, and the screening of a
 recording for a robot (:func:`read_for_robot`). May import :mod:`robots.units` (the one time
-conversion), :mod:`sim2real.errors` and :mod:`sim2real._io`; nothing that simulates, fits or
-measures, so every other room can read logs.
+conversion), :mod:`sim2real.errors`, :mod:`sim2real._io` and :mod:`sim2real._arrays`; nothing
+that simulates, fits or measures, so every other room can read logs.
 
 Formats
 -------

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.units import NS_PER_S, seconds
+from sim2real._arrays import IntArray
 
 __all__ = [
     "COMMAND_REACH_S",
@@ -46,7 +47,6 @@ __all__ = [
     "segment_bounds",
 ]
 
-IntArray = NDArray[np.int64]
 
 #: A pause in the measurements longer than this (s) always starts a new segment ...
 GAP_MIN_S = 2.0

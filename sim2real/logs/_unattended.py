@@ -53,8 +53,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from sim2real._arrays import BoolArray, FloatArray
 from sim2real.errors import LogValueError
 from sim2real.logs.trace import Trace
 
@@ -66,8 +66,6 @@ __all__ = [
     "without_unattended",
 ]
 
-BoolArray = NDArray[np.bool_]
-FloatArray = NDArray[np.float64]
 
 #: A robot answers a command change within this long (delay, ramp, a slow odometry hold), s.
 SETTLE_S = 2.0

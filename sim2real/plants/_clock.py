@@ -5,13 +5,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
+from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 
 __all__ = ["check_commands", "odometry_clock"]
-
-FloatArray = NDArray[np.float64]
 
 
 def check_commands(

@@ -58,6 +58,7 @@ from numpy.typing import NDArray
 
 from robots.spec import load_spec
 from robots.units import nanoseconds
+from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import integrate_pose, write_trace
 from sim2real.logs.trace import Trace, TraceMeta
@@ -80,7 +81,6 @@ __all__ = [
     "write_fleet",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Epoch of the simulated logs' clock (1.7e9 s after the Unix epoch; an arbitrary start), ns.
 T0_NS = 1_700_000_000_000_000_000

@@ -58,9 +58,9 @@ from typing import Any
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
 
 from robots.units import nanoseconds
+from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace, TraceMeta
 from sim2real.plants._clock import check_commands, odometry_clock
@@ -77,7 +77,6 @@ __all__ = [
     "skid_robot",
 ]
 
-FloatArray = NDArray[np.float64]
 _G = 9.81
 T0_NS = 1_700_000_000_000_000_000
 

@@ -11,7 +11,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+
+from sim2real._arrays import BoolArray, FloatArray
 
 __all__ = [
     "MIN_BAND_SHARE",
@@ -25,8 +26,6 @@ __all__ = [
     "visible_band",
 ]
 
-FloatArray = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
 
 # Okabe & Ito's colour-blind-safe palette (Okabe and Ito 2008, "Color Universal Design"):
 # real in blue, the main simulation (the last run, e.g. the sysid fit) and its band in
