@@ -27,7 +27,7 @@ from gymnasium.wrappers.utils import create_zero_array
 from randomizers._base import Randomizer, check_choice, check_name, check_number, check_scale
 from randomizers._lidar_sysid import scan_latency_s
 from randomizers._observation import ObservationRandomizer
-from randomizers._select import index_kwarg, index_label, select
+from randomizers._select import select
 from randomizers.errors import MissingProtocolError, RandomizerTypeError, RandomizerValueError
 
 __all__ = ["ActionDelay", "OdometryDelay", "steps_from_seconds"]
@@ -220,19 +220,16 @@ class OdometryDelay(ObservationRandomizer):
         )
         spec = _delay_spec(env, delay_s, delay_steps, dt_s, "OdometryDelay")
         fill = check_choice(fill, argument="fill", choices=_FILL)
-        scale = check_scale(scale)
-        name = check_name(name, env, "OdometryDelay" + index_label(key, sel.index))
-        self._wrap(
+        self._wrap_selection(
             env,
-            **_delay_kwargs(spec, delay_s, delay_steps),
-            key=key,
-            index=index_kwarg(sel.index),
-            fill=fill,
-            dt_s=None if dt_s is None else float(dt_s),
+            sel,
+            wrapper="OdometryDelay",
             scale=scale,
             name=name,
+            **_delay_kwargs(spec, delay_s, delay_steps),
+            options={"fill": fill, "dt_s": None if dt_s is None else float(dt_s)},
+            dtype=np.float64,
         )
-        self._sel = sel
         self._spec = spec
         self.fill = fill
         self.delay_steps = 0

@@ -8,9 +8,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from randomizers._base import check_choice, check_name, check_nonnegative, check_scale
+from randomizers._base import check_choice, check_nonnegative
 from randomizers._observation import ObservationRandomizer
-from randomizers._select import index_kwarg, index_label, select
+from randomizers._select import select
 from randomizers.errors import RandomizerValueError
 
 __all__ = ["GoalNoise"]
@@ -102,20 +102,16 @@ class GoalNoise(ObservationRandomizer):
                 f"GoalNoise: coords='polar' needs exactly 2 entries (distance, bearing) on the "
                 f"last axis, got {width}; select them with 'index'"
             )
-        scale = check_scale(scale)
-        name = check_name(name, env, "GoalNoise" + index_label(key, sel.index))
-        self._wrap(
+        self._wrap_selection(
             env,
-            std_m=std_m,
-            key=key,
-            index=index_kwarg(sel.index),
-            coords=coords,
-            resample=resample,
-            clip=bool(clip),
+            sel,
+            wrapper="GoalNoise",
             scale=scale,
             name=name,
+            std_m=std_m,
+            options={"coords": coords, "resample": resample, "clip": bool(clip)},
+            dtype=np.float64,
         )
-        self._sel = sel
         self.std_m = std_m
         self.coords = coords
         self.resample = resample

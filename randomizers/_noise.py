@@ -20,7 +20,7 @@ import gymnasium as gym
 import numba
 import numpy as np
 
-from randomizers._base import check_name, check_nonnegative, check_number, check_scale
+from randomizers._base import check_nonnegative, check_number
 from randomizers._dynamics import check_spread
 from randomizers._gauss import (
     _ACCEPT_I64,
@@ -45,7 +45,7 @@ from randomizers._pcg64 import (
     pcg64_state,
     put_pcg64_state,
 )
-from randomizers._select import index_kwarg, index_label, select
+from randomizers._select import select
 from randomizers.errors import RandomizerValueError
 
 __all__ = ["DepthNoise", "LidarNoise", "ObservationNoise"]
@@ -109,19 +109,15 @@ class ObservationNoise(ObservationRandomizer):
         sel = select(env.observation_space, key=key, index=index, wrapper="ObservationNoise")
         std_value = _check_std(std, sel.shape[-1] if sel.shape else 1, argument="std")
         _check_std_scale(std_value, sel.low, sel.high, sel.dtype, "ObservationNoise", "std")
-        scale = check_scale(scale)
-        name = check_name(name, env, "ObservationNoise" + index_label(key, sel.index))
-        self._wrap(
+        self._wrap_selection(
             env,
-            std=std_value if isinstance(std_value, float) else std_value.tolist(),
-            key=key,
-            index=index_kwarg(sel.index),
-            clip=bool(clip),
+            sel,
+            wrapper="ObservationNoise",
             scale=scale,
             name=name,
-            dtype=sel.dtype,
+            std=std_value if isinstance(std_value, float) else std_value.tolist(),
+            options={"clip": bool(clip)},
         )
-        self._sel = sel
         self._std = std_value
         self._clip = bool(clip)
 
@@ -498,20 +494,16 @@ class DepthNoise(ObservationRandomizer):
                 "pass the camera's clip range"
             )
         _check_std_scale(std_m, near_m, far_m, sel.dtype, "DepthNoise", "std_m")
-        scale = check_scale(scale)
-        name = check_name(name, env, "DepthNoise" + index_label(key, sel.index))
-        self._wrap(
+        self._wrap_selection(
             env,
+            sel,
+            wrapper="DepthNoise",
+            scale=scale,
+            name=name,
             std_m=std_m,
             near_m=near_m,
             far_m=far_m,
-            key=key,
-            index=index_kwarg(sel.index),
-            scale=scale,
-            name=name,
-            dtype=sel.dtype,
         )
-        self._sel = sel
         self.std_m = std_m
         self.near_m = near_m
         self.far_m = far_m
@@ -724,25 +716,12 @@ class LidarNoise(ObservationRandomizer):
                 f"[{lo}, {hi}] m; pass the sensor's range_min_m and range_max_m"
             )
         _check_std_scale(std_m, lo, hi, sel.dtype, "LidarNoise", "std_m")
-        scale = check_scale(scale)
-        name = check_name(name, env, "LidarNoise" + index_label(key, sel.index))
-        self._wrap(
-            env,
-            std_m=std_m,
-            dropout=dropout,
-            key=key,
-            index=index_kwarg(sel.index),
-            range_min_m=lo,
-            range_max_m=hi,
-            scale=scale,
-            name=name,
-            dtype=sel.dtype,
-            std_per_m=std_per_m,
-            std_per_m2=std_per_m2,
-            sysid=sysid,
-            spread=spread,
+        options: dict[str, Any] = {"range_min_m": lo, "range_max_m": hi, "std_per_m": std_per_m}
+        options |= {"std_per_m2": std_per_m2, "sysid": sysid, "spread": spread}
+        model = {"std_m": std_m, "dropout": dropout}
+        self._wrap_selection(
+            env, sel, wrapper="LidarNoise", scale=scale, name=name, options=options, **model
         )
-        self._sel = sel
         self.std_m = std_m
         self.std_per_m = std_per_m
         self.std_per_m2 = std_per_m2

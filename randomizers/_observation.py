@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
 
-from randomizers._base import Randomizer
+from randomizers._base import Randomizer, check_name, check_scale
+from randomizers._select import Selection, index_kwarg, index_label
 
 __all__ = ["ObservationRandomizer"]
 
@@ -20,6 +22,38 @@ class ObservationRandomizer(
     observation and records :meth:`episode_record`; ``step`` transforms each observation and
     records :meth:`step_record` when it is not None.
     """
+
+    _sel: Selection
+
+    def _wrap_selection(
+        self,
+        env: gym.Env[Any, Any],
+        sel: Selection,
+        *,
+        wrapper: str,
+        scale: Any,
+        name: Any,
+        options: Mapping[str, Any] | None = None,
+        dtype: Any = None,
+        **model: Any,
+    ) -> None:
+        """:meth:`_wrap` around the observation part ``sel``: check ``scale`` and ``name``
+        (default ``wrapper[key][start:stop]``), record the ``model`` arguments, the selection
+        (``key``, ``index``) and the ``options``, draw in ``dtype`` (default the part's) and
+        keep ``sel``."""
+        scale = check_scale(scale)
+        name = check_name(name, env, wrapper + index_label(sel.key, sel.index))
+        self._wrap(
+            env,
+            **model,
+            key=sel.key,
+            index=index_kwarg(sel.index),
+            **(options or {}),
+            scale=scale,
+            name=name,
+            dtype=sel.dtype if dtype is None else dtype,
+        )
+        self._sel = sel
 
     def sample_episode(self) -> None:
         """Draw the per-episode values (after reseeding, before the env's reset)."""

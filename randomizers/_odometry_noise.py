@@ -18,10 +18,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from randomizers._base import check_name, check_nonnegative, check_scale
+from randomizers._base import check_nonnegative
 from randomizers._dynamics import env_robot, load_distribution
 from randomizers._observation import ObservationRandomizer
-from randomizers._select import index_kwarg, index_label, select
+from randomizers._select import select
 from randomizers.errors import RandomizerValueError
 from robots.randomization import ObservationNoise as NoiseModel
 
@@ -108,22 +108,15 @@ class VelocityObservationNoise(ObservationRandomizer):
             model = NoiseModel(**checked)
         except ValueError as exc:
             raise RandomizerValueError(f"{wrapper}: {exc}") from None
-        scale = check_scale(scale)
-        name = check_name(name, env, wrapper + index_label(key, sel.index))
-        self._wrap(
+        self._wrap_selection(
             env,
-            std_v_mps=checked["std_v_mps"],
-            std_w_radps=checked["std_w_radps"],
-            quantum_v_mps=checked["quantum_v_mps"],
-            quantum_w_radps=checked["quantum_w_radps"],
-            key=key,
-            index=index_kwarg(sel.index),
-            clip=bool(clip),
+            sel,
+            wrapper=wrapper,
             scale=scale,
             name=name,
-            dtype=sel.dtype,
+            options={"clip": bool(clip)},
+            **checked,
         )
-        self._sel = sel
         self._clip = bool(clip)
         #: The noise model applied at scale 1.
         self.noise = model
