@@ -461,21 +461,20 @@ def _check_distributions(
             f"DynamicsRandomizer: parameter(s) {both} appear in both 'uniform' and 'normal'; "
             "give each parameter one distribution"
         )
-    for field, (low, high) in uni.items():
-        if low > high:
-            raise RandomizerValueError(
-                f"DynamicsRandomizer: argument 'uniform' entry '{field}' must have low <= high, "
-                f"got [{low}, {high}]"
-            )
+    _check_ranges("uniform", uni)
     for field, (_, std) in nor.items():
         if std < 0:
             raise RandomizerValueError(
                 f"DynamicsRandomizer: argument 'normal' entry '{field}' has std {std} < 0; the "
                 "standard deviation must be >= 0"
             )
-    for field, (low, high) in lim.items():
+    _check_ranges("bounds", lim)
+
+
+def _check_ranges(argument: str, ranges: dict[str, tuple[float, float]]) -> None:
+    for field, (low, high) in ranges.items():
         if low > high:
             raise RandomizerValueError(
-                f"DynamicsRandomizer: argument 'bounds' entry '{field}' must have low <= high, "
-                f"got [{low}, {high}]"
+                f"DynamicsRandomizer: argument '{argument}' entry '{field}' must have low <= "
+                f"high, got [{low}, {high}]"
             )
