@@ -21,8 +21,9 @@ A good start point makes the nonlinear fit converge in a few iterations (the 2 s
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numba
@@ -258,6 +259,7 @@ _AXIS_FIELDS = {
 
 def _params_at(
     delay: float,
+    *,
     data: dict[str, list[_Smoothed]],
     acc: dict[str, float],
     base: DriveParams,
@@ -349,10 +351,11 @@ def initial_coords(
     start = _speed_cap_start(logs, geometry, base, free)
     prob = Problem(windows, mapper, (), {}, scale_v=0.02, scale_w=0.1, dt_s=0.01)
     fallback = start.replace(delay_s=base.delay_s)
+    at = functools.partial(_params_at, data=data, acc=acc, base=start, mapper=mapper, free=free)
     if "delay_s" in free:
-        params = _delay_scan(prob, data, acc, start, mapper, free, axes, fallback)
+        params = _delay_scan(prob, at, axes, fallback)
     else:
-        params = _params_at(base.delay_s, data, acc, start, mapper, free) or fallback
+        params = at(base.delay_s) or fallback
     for field, source in ties.items():
         params = params.replace(**{field: getattr(params, source)})
     coords = {}
@@ -419,18 +422,15 @@ def _speed_cap_start(
 
 def _delay_scan(
     prob: Problem,
-    data: dict[str, list[_Smoothed]],
-    acc: dict[str, float],
-    start: DriveParams,
-    mapper: Mapper,
-    free: Sequence[str],
+    at: Callable[[float], DriveParams | None],
     axes: list[str],
     fallback: DriveParams,
 ) -> DriveParams:
-    """The parameters of the best delay on a 10 ms grid, refined by cross-correlation."""
+    """The parameters of the best delay on a 10 ms grid, refined by cross-correlation (``at``:
+    the regressions' parameters at a delay, :func:`_params_at`)."""
     best_cost, params = math.inf, fallback
     for d in np.arange(0.0, 0.61, 0.01):
-        cand = _params_at(float(d), data, acc, start, mapper, free)
+        cand = at(float(d))
         if cand is None:
             continue
         cost = _window_cost(prob, cand)
@@ -438,5 +438,5 @@ def _delay_scan(
             best_cost, params = cost, cand
     refined = _xcorr_delay(prob, params, axes or ["v", "w"])
     if refined is not None and abs(refined - params.delay_s) <= 0.015:
-        params = _params_at(max(refined, 0.0), data, acc, start, mapper, free) or params
+        params = at(max(refined, 0.0)) or params
     return params

@@ -17,6 +17,7 @@ from sysid._coords import Mapper
 from sysid._excitation import held_command
 from sysid._fleet import new_session_factor
 from sysid._logs import LogArrays
+from sysid._map import FittedCoords
 from sysid._problem import Problem
 from sysid.result import ParameterEstimate
 
@@ -84,15 +85,9 @@ def _estimate(
     )
 
 
-def field_estimates(
-    mapper: Mapper,
-    params: DriveParams,
-    free: Sequence[str],
-    z: FloatArray,
-    cov: FloatArray,
-    ties: dict[str, str],
-) -> tuple[ParameterEstimate, ...]:
-    """Every DriveParams field: fitted (from ``z``, ``cov``), prior, tied or fixed."""
+def field_estimates(mapper: Mapper, fitted: FittedCoords) -> tuple[ParameterEstimate, ...]:
+    """Every DriveParams field: fitted (from the fit's ``z``, ``cov``), prior, tied or fixed."""
+    params, free, z, cov, ties = fitted.params, fitted.free, fitted.z, fitted.cov, fitted.ties
     out = []
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if len(free) else np.zeros(0)
     for name in DriveParams.names():
@@ -195,11 +190,7 @@ def identifiable_estimates(
 def distribution(
     robot: str,
     mapper: Mapper,
-    params: DriveParams,
-    free: Sequence[str],
-    z: FloatArray,
-    cov: FloatArray,
-    ties: dict[str, str],
+    fitted: FittedCoords,
     noise: ObservationNoise,
     *,
     between: FloatArray | None = None,
@@ -219,6 +210,7 @@ def distribution(
     copy their source's row. Everything else (known exactly, "no limit", undetermined
     coordinates) is fixed at its value in ``params``.
     """
+    params, free, z, cov, ties = fitted.params, fitted.free, fitted.z, fitted.cov, fitted.ties
     geo = mapper.geometry
     factor = new_session_factor(sessions)
     finite = [j for j, f in enumerate(free) if math.isfinite(float(cov[j, j]))]

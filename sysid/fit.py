@@ -697,20 +697,9 @@ def _finish(
 ) -> SysidResult:
     s = summary
     corr = _correlation(s.cov, list(s.weak), list(s.free), notes)
-    estimates = field_estimates(mapper, s.params, s.free, s.z, s.cov, s.ties)
+    estimates = field_estimates(mapper, s)
     identifiable = identifiable_estimates(s.problem, s.u, s.cov_u, s.weak)
-    dist: DriveDistribution = distribution(
-        robot,
-        mapper,
-        s.params,
-        s.free,
-        s.z,
-        s.cov,
-        s.ties,
-        noise,
-        between=s.between,
-        sessions=len(posts),
-    )
+    dist = distribution(robot, mapper, s, noise, between=s.between, sessions=len(posts))
     dist = dataclasses.replace(dist, lower=_proven_lower_bounds(s, mapper, dist))
     boot_std = _replicate(bootstrap, s, posts, mapper, fit_logs, problem_kw, report)
     report("scoring", 0.95)
