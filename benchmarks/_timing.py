@@ -7,6 +7,7 @@ Not a public module (benchmarks are scripts); imported as ``from _timing import 
 
 from __future__ import annotations
 
+import argparse
 import os
 import resource
 import statistics
@@ -22,6 +23,7 @@ __all__ = [
     "QUICK",
     "Stats",
     "alternate",
+    "bench_arguments",
     "command_times",
     "fmt_ratio",
     "machine",
@@ -39,6 +41,18 @@ RESULTS = Path(os.environ.get("SIM2REAL_BENCH_RESULTS", REPO / "benchmarks" / ".
 #: ``BENCH_QUICK=1`` (``make bench BENCH_QUICK=1``): fewer repeats and shorter runs, for checking
 #: that every benchmark runs; the figures are then noisier (``docs/benchmarks.md`` says so).
 QUICK = os.environ.get("BENCH_QUICK", "") not in ("", "0")
+
+
+def bench_arguments(
+    doc: str | None, *, fewer: str, parts: Sequence[str], only_help: str, repeatable: bool = True
+) -> argparse.ArgumentParser:
+    """The arguments the benchmarks with parts share: ``--quick`` (``fewer`` of something, or
+    ``BENCH_QUICK=1``) and ``--only`` one of the ``parts`` (``repeatable``: a list of them)."""
+    parser = argparse.ArgumentParser(description=(doc or "").splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help=f"fewer {fewer} (or BENCH_QUICK=1)")
+    action = "append" if repeatable else "store"
+    parser.add_argument("--only", action=action, choices=parts, help=only_help)
+    return parser
 
 
 @dataclass(frozen=True, kw_only=True)

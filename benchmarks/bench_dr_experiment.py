@@ -263,25 +263,33 @@ def main(argv: list[str] | None = None) -> int:
         f"wall time per run {min(walls):.0f}-{max(walls):.0f} s, whole experiment "
         f"{total_s / 60:.0f} min",
         "",
-        "| trained | evaluated on | success per seed | success pooled (Wilson 95 %) "
-        "| collision pooled (Wilson 95 %) |",
+        f"| trained | evaluated on | {POOLED_HEADER} |",
         "|---|---|---|---|---|",
     ]
     for key, row in rows.items():
         name, where = key.split("@")
-        n = sum(row["n"])
-        ks, kc = sum(row["success"]), sum(row["collision"])
-        (sl, sh), (cl, ch) = wilson_interval(ks, n), wilson_interval(kc, n)
-        per_seed = ", ".join(f"{k}/{m}" for k, m in zip(row["success"], row["n"], strict=True))
-        lines.append(
-            f"| {name} | {where} | {per_seed} | {ks}/{n} = {ks / n:.2f} [{sl:.2f}, {sh:.2f}] | "
-            f"{kc}/{n} = {kc / n:.2f} [{cl:.2f}, {ch:.2f}] |"
-        )
+        lines.append(f"| {name} | {where} | {pooled_cells(row)} |")
     table = "\n".join(lines)
     print(table)
     (args.out / "results.md").write_text(table + "\n")
     (args.out / "results.yaml").write_text(yaml.safe_dump(rows, sort_keys=False))
     return 0
+
+
+#: The header of :func:`pooled_cells`' three cells.
+POOLED_HEADER = "success per seed | success pooled (Wilson 95 %) | collision pooled (Wilson 95 %)"
+
+
+def pooled_cells(row: dict[str, list[Any]]) -> str:
+    """Three table cells of one row of runs: the successes per seed, then the pooled success
+    and collision rates with their Wilson 95 % intervals."""
+    n, ks, kc = sum(row["n"]), sum(row["success"]), sum(row["collision"])
+    (sl, sh), (cl, ch) = wilson_interval(ks, n), wilson_interval(kc, n)
+    per_seed = ", ".join(f"{k}/{m}" for k, m in zip(row["success"], row["n"], strict=True))
+    return (
+        f"{per_seed} | {ks}/{n} = {ks / n:.2f} [{sl:.2f}, {sh:.2f}] | "
+        f"{kc}/{n} = {kc / n:.2f} [{cl:.2f}, {ch:.2f}]"
+    )
 
 
 if __name__ == "__main__":

@@ -27,7 +27,6 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
-import argparse
 import math
 import statistics
 import time
@@ -38,7 +37,16 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pybullet as p
-from _timing import QUICK, Stats, alternate, fmt_ratio, machine, paired_ratios, record
+from _timing import (
+    QUICK,
+    Stats,
+    alternate,
+    bench_arguments,
+    fmt_ratio,
+    machine,
+    paired_ratios,
+    record,
+)
 
 import sim2real.envs  # noqa: F401  (registers the ids)
 from sim2real.envs._world import PybulletWorld, render_pybullet_depth
@@ -57,6 +65,16 @@ def repeat(fn: Callable[[], object], calls: int) -> Callable[[], None]:
             fn()
 
     return run
+
+
+def _print_times(t: dict[str, Stats], labels: dict[str, str], per_call: float, unit: str) -> None:
+    """A line per contender (its time per call, ``per_call`` x the repeat's), each after the
+    first followed by the first's time over its own."""
+    first = next(iter(labels))
+    for key, label in labels.items():
+        print(f"  {label:<24}{t[key].fmt(per_call, unit)}")
+        if key != first:
+            print(f"    {first}/{key} time".ljust(26) + fmt_ratio(t[first], t[key]))
 
 
 def bench_lidar(repeats: int) -> None:
@@ -84,11 +102,8 @@ def bench_lidar(repeats: int) -> None:
     n_obj = len(layout.cylinders) + len(layout.walls)
     us = 1e6 / calls
     print(f"lidar, 36 beams vs a TRAIN map ({n_obj} obstacles), per scan:")
-    print(f"  pybullet rayTestBatch   {t['pybullet'].fmt(us, 'us')}")
-    print(f"  2-D caster, numpy       {t['numpy'].fmt(us, 'us')}")
-    print(f"    pybullet/numpy time   {fmt_ratio(t['pybullet'], t['numpy'])}")
-    print(f"  2-D caster, numba       {t['numba'].fmt(us, 'us')}")
-    print(f"    pybullet/numba time   {fmt_ratio(t['pybullet'], t['numba'])}")
+    labels = {"pybullet": "pybullet rayTestBatch", "numpy": "2-D caster, numpy"}
+    _print_times(t, labels | {"numba": "2-D caster, numba"}, us, "us")
 
 
 def bench_depth(repeats: int) -> None:
@@ -118,9 +133,9 @@ def bench_depth(repeats: int) -> None:
     n = len(scene.cylinders) + len(scene.boxes)
     ms = 1e3 / calls
     print(f"depth 64x48, CrowdNav dynamic c=1 ({n} bodies), per frame:")
-    print(f"  pybullet TinyRenderer   {t['pybullet'].fmt(ms, 'ms')}")
-    print(f"  numba 2.5-D ray caster  {t['numba'].fmt(ms, 'ms')}")
-    print(f"    pybullet/numba time   {fmt_ratio(t['pybullet'], t['numba'])}")
+    _print_times(
+        t, {"pybullet": "pybullet TinyRenderer", "numba": "numba 2.5-D ray caster"}, ms, "ms"
+    )
 
 
 @dataclass
@@ -291,14 +306,8 @@ PARTS: dict[str, tuple[str, ...]] = {
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer steps (or BENCH_QUICK=1)")
-    parser.add_argument(
-        "--only",
-        action="append",
-        choices=sorted(PARTS),
-        help="run only this part (repeatable), e.g. --only vector (the vector-env targets)",
-    )
+    only = "run only this part (repeatable), e.g. --only vector (the vector-env targets)"
+    parser = bench_arguments(__doc__, fewer="steps", parts=sorted(PARTS), only_help=only)
     args = parser.parse_args()
     quick = args.quick or QUICK
     scale = 0.1 if quick else 1.0

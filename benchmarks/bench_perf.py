@@ -25,7 +25,6 @@ are whole processes as a user runs them, cold (empty bytecode and numba caches) 
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 import tempfile
@@ -39,6 +38,7 @@ from _timing import (
     REPO,
     Stats,
     alternate,
+    bench_arguments,
     command_times,
     machine,
     paired_ratios,
@@ -351,15 +351,8 @@ PARTS = ("cli", "pybullet", "depth")
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer repeats (or BENCH_QUICK=1)")
-    parser.add_argument(
-        "--only",
-        action="append",
-        choices=PARTS,
-        help="run only this part (repeatable), e.g. --only pybullet",
-    )
-    args = parser.parse_args()
+    only = "run only this part (repeatable), e.g. --only pybullet"
+    args = bench_arguments(__doc__, fewer="repeats", parts=PARTS, only_help=only).parse_args()
     args.quick = args.quick or QUICK
     reps = 5 if args.quick else 11
     chosen = set(args.only or PARTS)

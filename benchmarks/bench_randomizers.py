@@ -14,7 +14,6 @@ Run: ``.venv/bin/python benchmarks/bench_randomizers.py [--quick] [--only depth]
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import os
 import statistics
@@ -26,7 +25,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from _timing import QUICK, alternate, fmt_ratio, record
+from _timing import QUICK, alternate, bench_arguments, fmt_ratio, record
 
 import randomizers
 from randomizers import DepthNoise
@@ -249,12 +248,10 @@ class _StepTimer(gym.Wrapper[Any, Any, Any, Any]):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer repetitions (or BENCH_QUICK=1)")
-    parser.add_argument(
-        "--only",
-        choices=("stack", "depth", "pybullet"),
-        help="run one part: 1. the stack's overhead, 2. DepthNoise vs the floor, 3. pybullet",
+    parts = ("stack", "depth", "pybullet")
+    only = "run one part: 1. the stack's overhead, 2. DepthNoise vs the floor, 3. pybullet"
+    parser = bench_arguments(
+        __doc__, fewer="repetitions", parts=parts, only_help=only, repeatable=False
     )
     args = parser.parse_args()
     scale = 0.1 if (args.quick or QUICK) else 1.0

@@ -58,6 +58,19 @@ def _obstacles(client: int) -> None:
             add_cylinder(client, (x, y, 0.5), 0.15, 1.0)
 
 
+def _driven(
+    base: PybulletRobot | ReducedDrive, v: np.ndarray, w: np.ndarray, dt: float
+) -> Callable[[], None]:
+    """One timed run: reset ``base``, then step it through the commands (v, w) every ``dt`` s."""
+
+    def run() -> None:
+        base.reset()
+        for a, b in zip(v, w, strict=True):
+            base.step(float(a), float(b), dt)
+
+    return run
+
+
 def bench_drive(spec: RobotSpec, seconds: float) -> None:
     print(f"robot {spec.name}, {seconds:g} s of random steps and arcs per rate")
     print(
@@ -69,25 +82,10 @@ def bench_drive(spec: RobotSpec, seconds: float) -> None:
         n = round(seconds * rate)
         v, w = _commands(spec, n)
         robot = PybulletRobot(spec)
-
-        def run_pb(
-            robot: PybulletRobot = robot, v: np.ndarray = v, w: np.ndarray = w, dt: float = dt
-        ) -> None:
-            robot.reset()
-            for a, b in zip(v, w, strict=True):
-                robot.step(float(a), float(b), dt)
-
         drive = ReducedDrive(spec.drive, spec.geometry)
         drive.step(0.0, 0.0, dt)  # compile
-
-        def run_red(
-            drive: ReducedDrive = drive, v: np.ndarray = v, w: np.ndarray = w, dt: float = dt
-        ) -> None:
-            drive.reset()
-            for a, b in zip(v, w, strict=True):
-                drive.step(float(a), float(b), dt)
-
-        st = alternate({"pybullet": run_pb, "reduced": run_red}, REPEATS)
+        runs = {"pybullet": _driven(robot, v, w, dt), "reduced": _driven(drive, v, w, dt)}
+        st = alternate(runs, REPEATS)
         robot.close()
         t_pb, t_red = st["pybullet"].median, st["reduced"].median
         lo, med, hi = paired_ratios(st["pybullet"], st["reduced"])

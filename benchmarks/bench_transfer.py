@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from bench_dr_experiment import HYPERPARAMETERS, ODOM
+from bench_dr_experiment import HYPERPARAMETERS, ODOM, POOLED_HEADER, pooled_cells
 
 from robots.randomization import DriveDistribution
 from robots.spec import load_spec
@@ -47,7 +47,7 @@ from sim2real.plants.closed_loop import PlantSessions
 from sim2real.plants.recording import record_plan
 from sim2real.training.config import config_from_dict
 from sim2real.training.environment import build_env
-from sim2real.training.evaluation import evaluate_controller, load_policy, wilson_interval
+from sim2real.training.evaluation import evaluate_controller, load_policy
 from sim2real.training.train import train
 
 ROBOT = "turtlebot3_burger"
@@ -167,21 +167,14 @@ def table(rows: dict[str, dict[str, list[Any]]], header: str) -> str:
     lines = [
         header,
         "",
-        "| condition | world | success per seed | success pooled (Wilson 95 %) "
-        "| collision pooled (Wilson 95 %) | time to goal s |",
+        f"| condition | world | {POOLED_HEADER} | time to goal s |",
         "|---|---|---|---|---|---|",
     ]
     for key, row in rows.items():
         name, world = key.split("@")
-        n, ks, kc = sum(row["n"]), sum(row["success"]), sum(row["collision"])
-        (sl, sh), (cl, ch) = wilson_interval(ks, n), wilson_interval(kc, n)
-        per_seed = ", ".join(f"{k}/{m}" for k, m in zip(row["success"], row["n"], strict=True))
         times = [t for t in row["time"] if t == t]
         ttg = f"{sum(times) / len(times):.2f}" if times else "n/a"
-        lines.append(
-            f"| {name} | {world} | {per_seed} | {ks}/{n} = {ks / n:.2f} [{sl:.2f}, {sh:.2f}] "
-            f"| {kc}/{n} = {kc / n:.2f} [{cl:.2f}, {ch:.2f}] | {ttg} |"
-        )
+        lines.append(f"| {name} | {world} | {pooled_cells(row)} | {ttg} |")
     return "\n".join(lines)
 
 
