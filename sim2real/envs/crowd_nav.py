@@ -35,7 +35,10 @@ Observation (``Dict``)
     ``"lidar"``: ranges of the 2-D lidar of the spec (m; outside its limits read the maximum);
     ``"depth"``: depth image (m along the optical axis, shape (height, width), 64 x 48 by
     default; no return reads ``far_m``); ``"goal"``: goal distance (m) and bearing (rad) in
-    the base frame; ``"velocity"``: measured (v [m/s], w [rad/s]).
+    the base frame; ``"velocity"``: measured (v [m/s], w [rad/s]); with ``neighbours=K`` > 0
+    also ``"neighbours"``: the K nearest pedestrians relative to the robot, in its frame, K
+    rows of (x, y [m], vx, vy [m/s]) flattened, nearest first, zero rows where fewer walk
+    (the human states a crowd-aware policy such as SARL, Chen et al. 2019, attends over).
 Action
     (v, w), v in [0, max_v] m/s and w in [-max_w, max_w] rad/s of the robot spec (0.7 m/s,
     3.14 rad/s for the TurtleBot 2).
@@ -80,7 +83,13 @@ from robots.params import DriveParams
 from robots.randomization import DriveDistribution
 from sim2real.envs._nav import NavEnvBase, StepInfo
 from sim2real.envs.depth import DepthCamera, DepthScene
-from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, rectangle_segments
+from sim2real.envs.geometry import (
+    FloatArray,
+    Scene2D,
+    cast_rays,
+    nearest_relative_states,
+    rectangle_segments,
+)
 from sim2real.envs.orca import OrcaCrowd
 from sim2real.envs.pedestrians import ALPHA, Crowd, spawn_positions
 from sim2real.errors import Sim2RealValueError
@@ -105,6 +114,7 @@ _START_X_M = -3.0
 _GOAL_X_M = 3.0
 _PANEL_D_M = (1.5, 3.0)
 _PED_R_M = (0.18, 0.24)
+_NEIGHBOUR_BOUND = 20.0  # m and m/s: beyond the room's diagonal and any relative speed
 _OPTIONS = {"scenario", "complexity", "num_pedestrians", "pedestrian_density", "pedestrians"}
 #: Pedestrian policies: the speed model of eq. (1) of Liang et al. (2020), or ORCA (van den Berg et al. 2011).
 PEDESTRIAN_POLICIES = ("eq1", "orca")
@@ -171,6 +181,8 @@ class CrowdNavEnv(NavEnvBase):
         Pedestrian policy, one of :data:`PEDESTRIAN_POLICIES` (``"eq1"`` or ``"orca"``).
     depth_width, depth_height : int
         Depth image size, pixels.
+    neighbours : int
+        Nearest pedestrians in the observation's ``"neighbours"`` entry (0 = no such entry).
     dynamics : str
         ``"reduced"``, ``"pybullet"`` or ``"plant"`` (a foreign base, to evaluate on).
     control_dt : float
@@ -206,6 +218,7 @@ class CrowdNavEnv(NavEnvBase):
         pedestrians: str = "eq1",
         depth_width: int = 64,
         depth_height: int = 48,
+        neighbours: int = 0,
         dynamics: str = "reduced",
         control_dt: float = 0.1,
         max_episode_steps: int = 600,
@@ -224,6 +237,12 @@ class CrowdNavEnv(NavEnvBase):
                 f"num_pedestrians must be an integer >= 0 or None, got {num_pedestrians!r}"
             )
         self.num_pedestrians = num_pedestrians
+        if isinstance(neighbours, bool) or not (isinstance(neighbours, int) and neighbours >= 0):
+            raise Sim2RealValueError(
+                f"neighbours must be an integer >= 0 (pedestrians observed), got {neighbours!r}"
+            )
+        #: (slots, values per slot) of the ``"neighbours"`` entry, None without one
+        self.neighbour_slots: tuple[int, int] | None = (neighbours, 4) if neighbours else None
         self.pedestrians = self._check_policy(pedestrians)
         self._episode_policy = self.pedestrians
         super().__init__(
@@ -276,6 +295,15 @@ class CrowdNavEnv(NavEnvBase):
                 ),
                 "velocity": spaces.Box(
                     np.array([-vmax, -wmax], f32), np.array([vmax, wmax], f32), dtype=f32
+                ),
+                **(
+                    {
+                        "neighbours": spaces.Box(
+                            -_NEIGHBOUR_BOUND, _NEIGHBOUR_BOUND, (4 * neighbours,), f32
+                        )
+                    }
+                    if neighbours
+                    else {}
                 ),
             }
         )
@@ -566,12 +594,25 @@ class CrowdNavEnv(NavEnvBase):
         d, bearing = self._goal_polar()
         v, w = self._backend.velocity
         vel = space["velocity"]  # type: ignore[index]
-        return {
+        obs = {
             "lidar": lidar.astype(np.float32),
             "depth": depth.astype(np.float32),
             "goal": np.array([min(d, 20.0), bearing], dtype=np.float32),
             "velocity": np.clip(np.array([v, w]), vel.low, vel.high).astype(np.float32),
         }
+        if self.neighbour_slots is not None:
+            obs["neighbours"] = self._neighbours(x, y, yaw, v, self.neighbour_slots[0])
+        return obs
+
+    def _neighbours(self, x: float, y: float, yaw: float, v: float, slots: int) -> FloatArray:
+        crowd = self.crowd
+        xy = np.zeros((0, 2)) if crowd is None else crowd.position_m
+        vel = np.zeros((0, 2)) if crowd is None else crowd.velocity_mps
+        rows = nearest_relative_states(
+            np.array([x, y]), yaw, np.array([v * math.cos(yaw), v * math.sin(yaw)]), xy, vel, slots
+        )
+        bound = _NEIGHBOUR_BOUND
+        return np.clip(rows.reshape(-1), -bound, bound).astype(np.float32)
 
     def _reward(self, s: StepInfo) -> float:
         cfg = self.reward_config

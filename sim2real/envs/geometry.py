@@ -38,6 +38,7 @@ __all__ = [
     "cast_rays_multi",
     "cast_rays_numpy",
     "disc_clearance",
+    "nearest_relative_states",
     "point_segment_distance",
     "ray_distance",
     "rectangle_segments",
@@ -431,3 +432,35 @@ def disc_clearance(scene: Scene2D, xy: FloatArray, radius_m: float) -> float:
     if scene.seg_a.shape[0]:
         gap = min(gap, float(point_segment_distance(p, scene.seg_a, scene.seg_b).min()))
     return gap - radius_m
+
+
+def nearest_relative_states(
+    xy: FloatArray,
+    yaw_rad: float,
+    velocity_xy_mps: FloatArray,
+    others_xy: FloatArray,
+    others_velocity_mps: FloatArray,
+    slots: int,
+) -> FloatArray:
+    """The ``slots`` nearest movers relative to a robot, in its frame, shape (slots, 4).
+
+    Each row is (x, y [m], vx, vy [m/s]): a mover's position and its velocity minus the
+    robot's, rotated into the robot's frame; nearest first, zero rows where there are fewer
+    movers (a real mover never sits exactly at the robot's centre).
+
+    Examples
+    --------
+    >>> rows = nearest_relative_states(np.zeros(2), math.pi / 2, np.zeros(2),
+    ...                                np.array([[0.0, 2.0], [1.0, 0.0]]), np.zeros((2, 2)), 3)
+    >>> rows.round(6).tolist()
+    [[0.0, -1.0, 0.0, 0.0], [2.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]]
+    """
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    rel = np.asarray(others_xy, dtype=np.float64).reshape(-1, 2) - np.asarray(xy)
+    vel = np.asarray(others_velocity_mps, dtype=np.float64).reshape(-1, 2) - velocity_xy_mps
+    order = np.argsort(np.hypot(rel[:, 0], rel[:, 1]), kind="stable")[:slots]
+    rot = np.array([[c, s], [-s, c]])
+    out = np.zeros((slots, 4))
+    out[: len(order), :2] = rel[order] @ rot.T
+    out[: len(order), 2:] = vel[order] @ rot.T
+    return out

@@ -67,7 +67,13 @@ from sim2real.envs._robot import (
     make_backend,
 )
 from sim2real.envs._world import PybulletWorld
-from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, disc_clearance
+from sim2real.envs.geometry import (
+    FloatArray,
+    Scene2D,
+    cast_rays,
+    disc_clearance,
+    nearest_relative_states,
+)
 from sim2real.envs.metrics import MetricsTracker
 from sim2real.envs.orca import OrcaConfig, orca_velocities
 from sim2real.envs.tracks import TRACKS, Track, get_track
@@ -452,14 +458,9 @@ class RaceCore:
         bearing = math.atan2(g[1], g[0]) - yaw
         bearing = math.atan2(math.sin(bearing), math.cos(bearing))
         v, w = b.velocity
-        rel = movers_xy - np.array([x, y])
-        order = np.argsort(np.hypot(*rel.T)) if len(rel) else np.zeros(0, dtype=int)
-        nb = np.zeros((N_NEIGHBOURS, 4))
-        rot = np.array([[c, s], [-s, c]])
-        vel_self = np.array([v * c, v * s])
-        for slot, j in enumerate(order[:N_NEIGHBOURS]):
-            nb[slot, :2] = rot @ rel[j]
-            nb[slot, 2:] = rot @ (movers_v[j] - vel_self)
+        nb = nearest_relative_states(
+            np.array([x, y]), yaw, np.array([v * c, v * s]), movers_xy, movers_v, N_NEIGHBOURS
+        )
         return np.concatenate([ranges, [x, y, yaw, v, w, goal_d, bearing], nb.reshape(-1)]).astype(
             np.float32
         )
@@ -615,6 +616,8 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
         self._act_box = self.core.action_space()
         self.observation_space = self._obs_box
         self.action_space = self._act_box
+        #: (slots, values per slot) of the neighbours at the end of the observation
+        self.neighbour_slots: tuple[int, int] | None = (N_NEIGHBOURS, 4)
         self._done = False
 
     @property

@@ -616,6 +616,12 @@ class CrowdNavVectorEnv(NavVectorEnv):
         super().__init__([CrowdNavEnv(**kwargs) for _ in range(n)])
         first = self.envs[0]
         assert isinstance(first, CrowdNavEnv)
+        if first.neighbour_slots is not None:
+            raise Sim2RealValueError(
+                f"CrowdNavVectorEnv does not observe neighbours, got neighbours="
+                f"{first.neighbour_slots[0]}; use single CrowdNav-v0 envs (SB3's vector envs) "
+                "for a crowd-aware policy, or neighbours=0"
+            )
         self._beam_angles = np.asarray(first.lidar_angles_rad, dtype=np.float64)
         self._ranges = np.zeros((n, self._beam_angles.shape[0]))
         space: Any = first.observation_space

@@ -23,8 +23,9 @@ from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
 from sim2real.errors import Sim2RealValueError
-from sim2real.training.config import TrainConfig
-from sim2real.training.environment import build_env
+from sim2real.training._sarl import SarlExtractor
+from sim2real.training.config import SARL_POLICY, TrainConfig
+from sim2real.training.environment import build_env, neighbour_slots
 
 __all__ = ["EpisodeLog", "RichProgress", "learn", "load_model"]
 
@@ -90,7 +91,7 @@ def _make_monitored(
 
 
 def _policy_name(cfg: TrainConfig, env: Any) -> str:
-    if cfg.policy != "auto":
+    if cfg.policy not in ("auto", SARL_POLICY):
         return cfg.policy
     return "MultiInputPolicy" if isinstance(env.observation_space, gym.spaces.Dict) else "MlpPolicy"
 
@@ -110,6 +111,15 @@ def _vec_env(cfg: TrainConfig) -> Any:
 
 def _model(cfg: TrainConfig, vec: Any, probe: Any) -> Any:
     cls = getattr(sb3, cfg.algorithm)
+    hyper = dict(cfg.hyperparameters)
+    if cfg.policy == SARL_POLICY:
+        k, f = neighbour_slots(probe, where=cfg.source)
+        extractor = {"neighbours": k, "neighbour_features": f}
+        hyper["policy_kwargs"] = {
+            **dict(hyper.get("policy_kwargs") or {}),
+            "features_extractor_class": SarlExtractor,
+            "features_extractor_kwargs": extractor,
+        }
     try:
         return cls(
             _policy_name(cfg, probe),
@@ -118,7 +128,7 @@ def _model(cfg: TrainConfig, vec: Any, probe: Any) -> Any:
             verbose=0,
             tensorboard_log=str(cfg.out / "tensorboard"),
             device="cpu",
-            **cfg.hyperparameters,
+            **hyper,
         )
     except TypeError as exc:
         raise Sim2RealValueError(

@@ -10,7 +10,9 @@ Relative paths are relative to the config file::
                                        # params: RESULT.yaml (drive parameters) are understood
     randomizers: randommap_randomizers.yaml  # a randomizer config file, an inline one, or null
     algorithm: PPO                     # PPO, SAC, TD3, DQN (stable-baselines3) or rllib-ppo
-    policy: auto                       # MlpPolicy for Box observations, MultiInputPolicy for Dict
+    policy: auto                       # MlpPolicy for Box observations, MultiInputPolicy for Dict;
+                                       # sarl: SARL*'s attention over neighbours (Race-v0, or
+                                       # CrowdNav-v0 with kwargs neighbours: K)
     hyperparameters: {n_steps: 256, batch_size: 64}   # SB3 constructor keyword arguments
     timesteps: 20000
     n_envs: 2
@@ -61,8 +63,10 @@ from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
 __all__ = [
     "ALGORITHMS",
     "CONFIG_FORMAT",
+    "POLICIES",
     "RLLIB_KEYS",
     "RLLIB_PPO",
+    "SARL_POLICY",
     "TrainConfig",
     "config_from_dict",
     "config_summary",
@@ -79,6 +83,10 @@ CONFIG_FORMAT = "sim2real.train/1"
 ALGORITHMS = ("PPO", "SAC", "TD3", "DQN")
 #: RLlib's PPO (``ray[rllib]``; see :mod:`sim2real.training._rllib`).
 RLLIB_PPO = "rllib-ppo"
+#: The crowd-aware policy (:mod:`sim2real.training._sarl`): SB3's policy on SARL*'s features.
+SARL_POLICY = "sarl"
+#: Values of the config's ``policy`` key (SB3 policy names, ``auto`` and :data:`SARL_POLICY`).
+POLICIES = ("auto", "MlpPolicy", "MultiInputPolicy", "CnnPolicy", SARL_POLICY)
 _VEC_ENVS = ("subproc", "dummy")
 _KEYS = (
     "format",
@@ -306,6 +314,16 @@ def _algorithm(value: Any, where: str) -> str:
     )
 
 
+def _policy(value: Any, where: str) -> str:
+    for name in POLICIES:
+        if str(value).lower() == name.lower():
+            return name
+    raise Sim2RealValueError(
+        f"{where}: key 'policy' is {value!r}, which is not a known policy preset; use one of "
+        f"{', '.join(POLICIES)}"
+    )
+
+
 def _randomizers(value: Any, folder: Path, where: str) -> dict[str, Any] | None:
     """The randomizer config as a mapping with absolute ``sysid`` paths (None = no stack)."""
     if value is None:
@@ -457,7 +475,7 @@ def config_from_dict(
         env_kwargs=env_kwargs,
         randomizers=_randomizers(doc.get("randomizers"), folder, where),
         algorithm=_algorithm(doc.get("algorithm", "PPO"), where),
-        policy=str(doc.get("policy", "auto")),
+        policy=_policy(doc.get("policy", "auto"), where),
         hyperparameters=_mapping(doc.get("hyperparameters"), "hyperparameters", where),
         timesteps=_int(doc, "timesteps", 100_000, where, low=1),
         n_envs=_int(doc, "n_envs", 1, where, low=1),

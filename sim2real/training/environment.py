@@ -24,6 +24,7 @@ __all__ = [
     "build_env",
     "default_action_grid",
     "describe_space",
+    "neighbour_slots",
     "normalize_spaces",
     "set_params_file",
 ]
@@ -144,6 +145,30 @@ def normalize_spaces(env: Any, normalize: Mapping[str, bool], *, where: str = "e
     if normalize.get("actions") and isinstance(env.action_space, gym.spaces.Box):
         env = gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0))
     return env
+
+
+def neighbour_slots(env: Any, *, where: str = "env") -> tuple[int, int]:
+    """(slots, values per slot) of the neighbours ``env`` observes, for SARL* (``policy: sarl``).
+
+    Raises one sentence for an env without them (RandomMap-v0, CarCrossing-v0, CrowdNav-v0
+    without ``neighbours``).
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> import sim2real.envs
+    >>> neighbour_slots(gym.make("sim2real/Race-v0", track="open"))
+    (5, 4)
+    """
+    slots = getattr(env.unwrapped, "neighbour_slots", None)
+    if slots is None or slots[0] < 1:
+        name = env.unwrapped.spec.id if env.unwrapped.spec is not None else type(env).__name__
+        raise Sim2RealValueError(
+            f"{where}: policy 'sarl' attends over the neighbours an env observes, but {name} "
+            "observes none; use sim2real/Race-v0, or sim2real/CrowdNav-v0 with env.kwargs "
+            "neighbours: 5, or another policy"
+        )
+    return int(slots[0]), int(slots[1])
 
 
 def set_params_file(env: Any, path: str | Path) -> None:

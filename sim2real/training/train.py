@@ -46,12 +46,19 @@ import yaml
 import randomizers as dr
 from sim2real._io import atomic_write
 from sim2real.errors import Sim2RealValueError
-from sim2real.training.config import RLLIB_PPO, TrainConfig, require_rllib, require_train_extra
+from sim2real.training.config import (
+    RLLIB_PPO,
+    SARL_POLICY,
+    TrainConfig,
+    require_rllib,
+    require_train_extra,
+)
 from sim2real.training.environment import (
     DiscreteActions,
     build_env,
     default_action_grid,
     describe_space,
+    neighbour_slots,
     normalize_spaces,
 )
 from sim2real.training.evaluation import PolicyController, evaluate_controller
@@ -189,6 +196,8 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
             f"{cfg.source}: {cfg.algorithm} needs a continuous (Box) action space but "
             f"{cfg.env_id} has {probe.action_space}; use PPO or DQN"
         )
+    if cfg.policy == SARL_POLICY:
+        _check_sarl(cfg, probe)
     if cfg.discrete_actions is not None:
         probe = DiscreteActions(probe, **cfg.discrete_actions)
     probe = normalize_spaces(probe, cfg.normalize, where=cfg.source)
@@ -212,8 +221,23 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
     )
 
 
+def _check_sarl(cfg: TrainConfig, env: Any) -> None:
+    """``policy: sarl`` needs neighbour slots, unscaled (the zero rows mark empty slots)."""
+    neighbour_slots(env, where=cfg.source)
+    if cfg.normalize.get("observations"):
+        raise Sim2RealValueError(
+            f"{cfg.source}: policy 'sarl' reads empty neighbour slots as zero rows, which "
+            "normalize 'observations' shifts; set normalize.observations: false"
+        )
+
+
 def _train_rllib(cfg: TrainConfig) -> TrainResult:
     """``algorithm: rllib-ppo``: RLlib's PPO on the same env construction (sim2real.training._rllib)."""
+    if cfg.policy == SARL_POLICY:
+        raise Sim2RealValueError(
+            f"{cfg.source}: policy 'sarl' is a stable-baselines3 features extractor; use "
+            f"algorithm DQN or PPO with it, not {RLLIB_PPO}"
+        )
     require_rllib()
     from sim2real.training import _rllib  # Ray RLlib, checked above
 
