@@ -1,15 +1,44 @@
-"""What every plant's session shares: the command arrays checked and the odometry clock."""
+"""What every plant shares: its parameters' sign check, the command arrays checked and the
+odometry clock."""
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 
-__all__ = ["check_commands", "odometry_clock"]
+__all__ = ["check_commands", "negative_field", "odometry_clock"]
+
+
+def negative_field(params: Any, *, text: tuple[str, ...] = ()) -> tuple[str, Any] | None:
+    """The first field of the dataclass ``params`` that is not a number >= 0 (a tuple's every
+    element is checked; NaN fails, inf passes) as ``(name, value)``, or None; the fields named
+    in ``text`` hold text and are passed over.
+
+    Examples
+    --------
+    >>> from dataclasses import dataclass
+    >>> @dataclass
+    ... class P:
+    ...     mass_kg: float
+    ...     friction_n: tuple[float, float]
+    >>> negative_field(P(mass_kg=1.0, friction_n=(0.5, -0.1)))
+    ('friction_n', (0.5, -0.1))
+    """
+    for f in dataclasses.fields(params):
+        value = getattr(params, f.name)
+        values = value if isinstance(value, tuple) else (value,)
+        if f.name not in text and not all(
+            isinstance(x, int | float) and x >= 0 and not math.isnan(x) for x in values
+        ):
+            return f.name, value
+    return None
 
 
 def check_commands(

@@ -50,7 +50,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numba
 import numpy as np
@@ -62,14 +62,18 @@ from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import integrate_pose, write_trace
 from sim2real.logs.trace import Trace, TraceMeta
-from sim2real.plants._clock import check_commands, odometry_clock
+from sim2real.plants._clock import check_commands, negative_field, odometry_clock
 from sysid.synthetic import step_commands
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack  # typing.Unpack from Python 3.11
 
 __all__ = [
     "PROFILES",
     "T0_NS",
     "PlantParams",
     "PlantRun",
+    "SessionOptions",
     "SessionVariation",
     "command_profile",
     "draw_session",
@@ -193,17 +197,12 @@ class PlantParams:
     physics_dt_s: float = 0.0005
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            values = value if isinstance(value, tuple) else (value,)
-            for x in values:
-                if isinstance(x, str):
-                    continue
-                if math.isnan(x) or x < 0:
-                    raise Sim2RealValueError(
-                        f"PlantParams.{f.name} must be a non-negative number, got {value!r}; "
-                        "give a value >= 0 (inf where the docstring allows 'no limit')"
-                    )
+        bad = negative_field(self, text=("robot", "w_source"))
+        if bad is not None:
+            raise Sim2RealValueError(
+                f"PlantParams.{bad[0]} must be a non-negative number, got {bad[1]!r}; "
+                "give a value >= 0 (inf where the docstring allows 'no limit')"
+            )
         if self.w_source not in ("imu", "wheels"):
             raise Sim2RealValueError(
                 f"PlantParams.w_source must be 'imu' or 'wheels', got {self.w_source!r}"
@@ -821,6 +820,16 @@ def run_to_trace(run: PlantRun, *, t0_ns: int = T0_NS, name: str = "") -> Trace:
 # --- fleets --------------------------------------------------------------------------------
 
 
+class SessionOptions(TypedDict, total=False):
+    """The optional keywords of :func:`make_sessions`, which :func:`make_fleet` and
+    :func:`write_fleet` pass on to it."""
+
+    duration_s: float
+    profile: str
+    variation: SessionVariation | None
+    cmd_rate_hz: float
+
+
 def make_sessions(
     robot: str | PlantParams,
     n_sessions: int,
@@ -857,16 +866,9 @@ def make_sessions(
 
 
 def make_fleet(
-    robot: str | PlantParams,
-    n_sessions: int,
-    *,
-    seed: int,
-    duration_s: float = 90.0,
-    profile: str = "mixed",
-    variation: SessionVariation | None = None,
-    cmd_rate_hz: float = 10.0,
+    robot: str | PlantParams, n_sessions: int, *, seed: int, **options: Unpack[SessionOptions]
 ) -> list[Trace]:
-    """The logs (:class:`~sim2real.logs.Trace`) of :func:`make_sessions`.
+    """The logs (:class:`~sim2real.logs.Trace`) of :func:`make_sessions` (same arguments).
 
     Examples
     --------
@@ -874,15 +876,7 @@ def make_fleet(
     >>> round(1e9 / float(np.median(np.diff(tr.meas_t_ns))))  # the spec's 50 Hz odometry
     50
     """
-    runs = make_sessions(
-        robot,
-        n_sessions,
-        seed=seed,
-        duration_s=duration_s,
-        profile=profile,
-        variation=variation,
-        cmd_rate_hz=cmd_rate_hz,
-    )
+    runs = make_sessions(robot, n_sessions, seed=seed, **options)
     return [run_to_trace(run, name=f"session_{i}") for i, run in enumerate(runs)]
 
 
@@ -892,12 +886,11 @@ def write_fleet(
     n_sessions: int,
     *,
     seed: int,
-    duration_s: float = 90.0,
-    profile: str = "mixed",
-    variation: SessionVariation | None = None,
     prefix: str = "session",
+    **options: Unpack[SessionOptions],
 ) -> list[Path]:
-    """Write :func:`make_fleet`'s sessions as ROS 2 MCAP files ``OUT/<prefix>_<i>.mcap``.
+    """Write :func:`make_fleet`'s sessions as ROS 2 MCAP files ``OUT/<prefix>_<i>.mcap``
+    (``robot``, ``n_sessions`` and the ``options`` as :func:`make_sessions` takes them).
 
     Each file holds ``/cmd_vel`` (``geometry_msgs/msg/Twist``) and ``/odom``
     (``nav_msgs/msg/Odometry``) in CDR (:func:`sim2real.logs.write_trace`).
@@ -905,7 +898,5 @@ def write_fleet(
     out = Path(out_dir)
     if not out.is_dir():
         raise Sim2RealValueError(f"out_dir '{out}' is not an existing folder; create it first")
-    traces = make_fleet(
-        robot, n_sessions, seed=seed, duration_s=duration_s, profile=profile, variation=variation
-    )
+    traces = make_fleet(robot, n_sessions, seed=seed, **options)
     return [write_trace(out / f"{prefix}_{i}.mcap", tr) for i, tr in enumerate(traces)]

@@ -63,7 +63,7 @@ from robots.units import nanoseconds
 from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace, TraceMeta
-from sim2real.plants._clock import check_commands, odometry_clock
+from sim2real.plants._clock import check_commands, negative_field, odometry_clock
 from sim2real.plants.diff_drive import command_profile
 
 __all__ = [
@@ -151,12 +151,11 @@ class SkidPlantParams:
     physics_dt_s: float = 0.00025
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if not (isinstance(value, int | float) and value >= 0 and not math.isnan(value)):
-                raise Sim2RealValueError(
-                    f"SkidPlantParams.{f.name} must be a number >= 0, got {value!r}"
-                )
+        bad = negative_field(self)
+        if bad is not None:
+            raise Sim2RealValueError(
+                f"SkidPlantParams.{bad[0]} must be a number >= 0, got {bad[1]!r}"
+            )
 
     def replace(self, **changes: Any) -> SkidPlantParams:
         """A copy with ``changes`` applied (validated again)."""
