@@ -47,6 +47,7 @@ __all__ = [
     "ChannelRecord",
     "Columns",
     "Container",
+    "LogRecords",
     "SchemaRecord",
     "Segment",
     "Sink",
@@ -159,13 +160,20 @@ def _part_size(part: dict[str, np.ndarray]) -> int:
 
 
 @dataclass
-class Container:
-    """What a scan of an MCAP file found."""
+class LogRecords:
+    """What every reading of a log holds: the header's profile and library, the schemas and
+    the channels by id."""
 
     profile: str = ""
     library: str = ""
     schemas: dict[int, SchemaRecord] = field(default_factory=dict)
     channels: dict[int, ChannelRecord] = field(default_factory=dict)
+
+
+@dataclass
+class Container(LogRecords):
+    """What a scan of an MCAP file found."""
+
     segments: list[Segment] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     #: True when the file carries a data-section CRC or a CRC on every chunk it has.
@@ -842,13 +850,15 @@ def _read_exact(fh: BinaryIO, n: int) -> bytes:
     return data
 
 
-def _crc_range(fh: BinaryIO, start: int, size: int) -> int:
+def _crc_range(fh: BinaryIO, start: int, size: int) -> int | None:
+    """CRC-32 of ``size`` bytes of the file from ``start``, read in blocks; None when the file
+    ends before them (no CRC matches it)."""
     fh.seek(start)
     crc = 0
     while size > 0:
         block = fh.read(min(size, _BLOCK))
         if not block:
-            break
+            return None
         crc = zlib.crc32(block, crc)
         size -= len(block)
     return crc

@@ -35,10 +35,10 @@ import numpy as np
 
 from sim2real.logs._mcap import (
     MAGIC,
-    ChannelRecord,
-    SchemaRecord,
+    LogRecords,
     _channel,
     _Corrupt,
+    _crc_range,
     _Cursor,
     _schema,
 )
@@ -51,17 +51,12 @@ _MESSAGE_INDEX, _CHUNK_INDEX, _STATISTICS, _DATA_END = 0x07, 0x08, 0x0B, 0x0F
 _OP_LEN = struct.Struct("<BQ")
 #: Chunk record body before ``uncompressed_crc``: start/end time and uncompressed size.
 _CHUNK_CRC_AT = 9 + 24
-_BLOCK = 1 << 20
 
 
 @dataclass
-class SummaryView:
+class SummaryView(LogRecords):
     """Channels, schemas and per-channel log times of an MCAP file, from its summary."""
 
-    profile: str = ""
-    library: str = ""
-    schemas: dict[int, SchemaRecord] = field(default_factory=dict)
-    channels: dict[int, ChannelRecord] = field(default_factory=dict)
     #: Sorted log times (ns) of each channel's messages.
     log_times: dict[int, np.ndarray] = field(default_factory=dict)
     #: True when the file carries a data-section CRC or a CRC on every chunk.
@@ -122,7 +117,7 @@ def _read(fh: BinaryIO, size: int) -> SummaryView | None:
     if not _index_times(fh, chunks, out, stats):
         return None
     if data_crc != 0:
-        if _crc_of(fh, 0, start - 13) != data_crc:
+        if _crc_range(fh, 0, start - 13) != data_crc:
             return None  # the scan says which check failed
         out.checksums = True
     else:
@@ -266,19 +261,6 @@ def _index_times(fh: BinaryIO, chunks: list[_ChunkIndex], out: SummaryView, stat
     return True
 
 
-def _crc_of(fh: BinaryIO, start: int, size: int) -> int:
-    """CRC-32 of ``size`` bytes of the file from ``start``, read in blocks."""
-    fh.seek(start)
-    crc = 0
-    while size > 0:
-        block = fh.read(min(size, _BLOCK))
-        if not block:
-            raise _Corrupt("the file ends before a checked range")
-        crc = zlib.crc32(block, crc)
-        size -= len(block)
-    return crc
-
-
 def _check_chunks(fh: BinaryIO, chunks: list[_ChunkIndex], out: SummaryView) -> bool | None:
     """Whether every chunk has a CRC; the CRCs of uncompressed chunks are checked (their
     records are file bytes), those of compressed ones counted in ``out.unchecked_chunks``.
@@ -297,6 +279,6 @@ def _check_chunks(fh: BinaryIO, chunks: list[_ChunkIndex], out: SummaryView) -> 
             out.unchecked_chunks += 1
             continue
         size = struct.unpack("<Q", fh.read(8))[0]
-        if _crc_of(fh, chunk.start + _CHUNK_CRC_AT + 16, size) != crc:
+        if _crc_range(fh, chunk.start + _CHUNK_CRC_AT + 16, size) != crc:
             return None
     return all_crcs
