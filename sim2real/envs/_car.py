@@ -38,6 +38,7 @@ from typing import Protocol
 
 from robots.params import BaseGeometry, DriveParams
 from robots.reduced import ReducedDrive
+from sim2real.envs._robot import arc_step
 from sim2real.errors import Sim2RealValueError
 
 __all__ = ["CAR", "DEFAULT_CAR_PARAMS", "CarGeometry", "CarModel", "PybulletCar", "ReducedCar"]
@@ -216,14 +217,7 @@ class ReducedCar:
             w = v * math.tan(delta) / length
             w_cap = params.speed_lim_w_radps
             w = min(max(w, -w_cap), w_cap)
-            dth = w * h
-            if abs(dth) < 1e-9:
-                x += v * h * math.cos(yaw + 0.5 * dth)
-                y += v * h * math.sin(yaw + 0.5 * dth)
-            else:
-                x += v / w * (math.sin(yaw + dth) - math.sin(yaw))
-                y -= v / w * (math.cos(yaw + dth) - math.cos(yaw))
-            yaw = math.atan2(math.sin(yaw + dth), math.cos(yaw + dth))
+            x, y, yaw = arc_step(x, y, yaw, v, w, h)
         self._rear = (x, y, yaw)
 
     def get_drive_params(self) -> DriveParams:

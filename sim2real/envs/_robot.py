@@ -92,8 +92,9 @@ def arc_step(
 ) -> tuple[float, float, float]:
     """Pose after ``h`` seconds at constant ``v`` (m/s) and ``w`` (rad/s): the exact arc.
 
-    The vector envs compile this same function (``sim2real.envs._vecnav``), so one source
-    integrates every reduced robot's pose.
+    The vector envs compile this same function (``sim2real.envs._vecnav``) and the car steps
+    its rear axle with it (``sim2real.envs._car``), so one source integrates every reduced
+    robot's pose.
     """
     dth = w * h
     if abs(dth) < 1e-9:
