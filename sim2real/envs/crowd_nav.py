@@ -71,6 +71,7 @@ Examples
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -498,6 +499,15 @@ class CrowdNavEnv(NavEnvBase):
         lim = _HALF_ROOM_M - 0.3
         bounds = (-lim, lim, -lim, lim)
         keep = np.asarray(start).reshape(1, 2)
+        # where pedestrians spawn: in the free space of the scene, 0.6 m off the robot's start
+        spawn = functools.partial(
+            spawn_positions,
+            rng,
+            radius_m=_PED_R_M[1],
+            scene=self._scene,
+            keep_out=keep,
+            keep_out_radius_m=0.6,
+        )
         start_time = np.zeros(n)
         goals = None
         if scenario == "occluded" and n and len(panels) == 2:
@@ -507,40 +517,11 @@ class CrowdNavEnv(NavEnvBase):
             y_bot_r = panels[1, 1] + 0.5 * panels[1, 2]
             reg_a = (x_l + 0.3, x_r - 0.3, max(y_top_l, 0.0) + 0.3, lim)
             reg_b = (x_r + 0.3, _GOAL_X_M - 0.6, -lim, min(y_bot_r, 0.0) - 0.3)
-            pos = np.vstack(
-                [
-                    spawn_positions(
-                        rng,
-                        n_a,
-                        bounds=reg_a,
-                        radius_m=_PED_R_M[1],
-                        scene=self._scene,
-                        keep_out=keep,
-                        keep_out_radius_m=0.6,
-                    ),
-                    spawn_positions(
-                        rng,
-                        n - n_a,
-                        bounds=reg_b,
-                        radius_m=_PED_R_M[1],
-                        scene=self._scene,
-                        keep_out=keep,
-                        keep_out_radius_m=0.6,
-                    ),
-                ]
-            )
+            pos = np.vstack([spawn(n_a, bounds=reg_a), spawn(n - n_a, bounds=reg_b)])
             goals = np.column_stack([pos[:, 0], -pos[:, 1]])  # cross the robot's path
             start_time = rng.uniform(0.0, 8.0, n)
         else:
-            pos = spawn_positions(
-                rng,
-                n,
-                bounds=bounds,
-                radius_m=_PED_R_M[1],
-                scene=self._scene,
-                keep_out=keep,
-                keep_out_radius_m=0.6,
-            )
+            pos = spawn(n, bounds=bounds)
         pref = rng.uniform(1.0, 1.5, n)
         if scenario == "dynamic":
             pref = np.where(rng.random(n) < 0.2, 0.0, pref)
