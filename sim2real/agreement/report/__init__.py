@@ -259,6 +259,11 @@ def _summary_table(data: ReportInput) -> Table:
     )
 
 
+def _per_axis(fraction_v: float, fraction_w: float) -> str:
+    """A headline card's per-axis figures, e.g. ``"v 93.1 % · w 88.0 %"``."""
+    return f"v {_pct(fraction_v)} · w {_pct(fraction_w)}"
+
+
 def _cards(data: ReportInput) -> list[HeadlineCard]:
     cards = []
     for run in data.runs:
@@ -267,8 +272,7 @@ def _cards(data: ReportInput) -> list[HeadlineCard]:
             HeadlineCard(
                 label=f"agreement — {run.label}",
                 fraction=a.agreement,
-                detail=f"v {_pct(a.agreement_v)} · w {_pct(a.agreement_w)} · "
-                f"{a.n_active} active samples",
+                detail=f"{_per_axis(a.agreement_v, a.agreement_w)} · {a.n_active} active samples",
             )
         )
     if len(data.runs) >= 2:
@@ -289,7 +293,7 @@ def _cards(data: ReportInput) -> list[HeadlineCard]:
                 label=f"coverage of the {100 * e.band_level:g} % band (N={e.n})",
                 fraction=e.coverage,
                 # the band's verdict and next step are the page's verdict, said once above
-                detail=f"v {_pct(e.coverage_v)} · w {_pct(e.coverage_w)} · median width "
+                detail=f"{_per_axis(e.coverage_v, e.coverage_w)} · median width "
                 f"{e.band_width_v_mps:.2g} m/s, {e.band_width_w_radps:.2g} rad/s",
             )
         )
