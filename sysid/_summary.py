@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +24,7 @@ from sysid.result import ParameterEstimate
 
 __all__ = [
     "Z95",
+    "FitSummary",
     "distribution",
     "estimate_noise",
     "field_estimates",
@@ -33,6 +35,15 @@ __all__ = [
 
 #: Two-sided 95 % quantile of the standard normal distribution.
 Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True, kw_only=True)
+class FitSummary(FittedCoords):
+    """What a result reports about the fitted coordinates (one log or a population): those of
+    the one log's posterior, or the population's mean and its ``between``-session covariance
+    (None for one log)."""
+
+    between: FloatArray | None
 
 
 def _estimate(
@@ -188,19 +199,13 @@ def identifiable_estimates(
 
 
 def distribution(
-    robot: str,
-    mapper: Mapper,
-    fitted: FittedCoords,
-    noise: ObservationNoise,
-    *,
-    between: FloatArray | None = None,
-    sessions: int = 1,
+    robot: str, mapper: Mapper, summary: FitSummary, noise: ObservationNoise, *, sessions: int = 1
 ) -> DriveDistribution:
     r"""The ``randomization`` distribution: the predictive of a *new* session.
 
     A new session is :math:`\theta_{new} = \mu + b_{new}`, :math:`b \sim N(0, T)`.
-    Several logs (``between`` = the population's :math:`T`, ``cov`` = the covariance of its
-    mean :math:`\hat\mu`): ``cov`` + :math:`f T`. One log (``between`` None): ``cov`` is the
+    Several logs (``summary.between`` = the population's :math:`T`, ``cov`` = the covariance of its
+    mean :math:`\hat\mu`): ``cov`` + :math:`f T`. One log (``summary.between`` None): ``cov`` is the
     posterior of *that* session, :math:`\theta_1 = \mu + b_1`, so the mean is uncertain by
     :math:`T` more, and :math:`T` is the spec's default between-session spread :math:`S_0`:
     ``cov`` + :math:`(1 + f) S_0`. :math:`f` (:func:`sysid._fleet.new_session_factor`) widens
@@ -210,7 +215,8 @@ def distribution(
     copy their source's row. Everything else (known exactly, "no limit", undetermined
     coordinates) is fixed at its value in ``params``.
     """
-    params, free, z, cov, ties = fitted.params, fitted.free, fitted.z, fitted.cov, fitted.ties
+    params, free, z, cov, ties = summary.params, summary.free, summary.z, summary.cov, summary.ties
+    between = summary.between
     geo = mapper.geometry
     factor = new_session_factor(sessions)
     finite = [j for j, f in enumerate(free) if math.isfinite(float(cov[j, j]))]

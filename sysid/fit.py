@@ -70,10 +70,16 @@ from sysid._excitation import analyse, held_command
 from sysid._fleet import SessionInfo, population
 from sysid._linear import first_order_stats
 from sysid._logs import LogArrays, as_log_arrays, log_name, log_warnings
-from sysid._map import FittedCoords, MapOptions, Posterior, _solve, map_fit
+from sysid._map import MapOptions, Posterior, _solve, map_fit
 from sysid._needs import limit_needs, lower_bounds
 from sysid._problem import Problem
-from sysid._summary import distribution, estimate_noise, field_estimates, identifiable_estimates
+from sysid._summary import (
+    FitSummary,
+    distribution,
+    estimate_noise,
+    field_estimates,
+    identifiable_estimates,
+)
 from sysid._timeout import fit_cmd_timeout
 from sysid.envelope import envelope_of
 from sysid.errors import SysidValueError
@@ -275,14 +281,6 @@ def _prior_base(base: DriveParams, priors: Mapping[str, Prior]) -> DriveParams:
     return base.replace(**{n: p.nominal for n, p in priors.items() if math.isfinite(p.nominal)})
 
 
-@dataclass(frozen=True, kw_only=True)
-class _Summary(FittedCoords):
-    """What a result reports about the fitted coordinates (one log or a population): those of
-    the one log's posterior, or the population's mean and its ``between``-session covariance."""
-
-    between: FloatArray | None
-
-
 def _channel_residuals(post: Posterior) -> tuple[FloatArray, FloatArray]:
     """Measured minus modelled v and w (m/s, rad/s) at the MAP point, all logs."""
     prob = post.problem
@@ -302,8 +300,8 @@ def _convergence_notes(posts: Sequence[Posterior], names: Sequence[str], nfev: i
     ]
 
 
-def _single(post: Posterior) -> _Summary:
-    return _Summary(**post.coords(), between=None)
+def _single(post: Posterior) -> FitSummary:
+    return FitSummary(**post.coords(), between=None)
 
 
 def _fleet(
@@ -311,7 +309,7 @@ def _fleet(
     logs: Sequence[LogArrays],
     mapper: Mapper,
     problem_kw: dict[str, Any],
-) -> _Summary:
+) -> FitSummary:
     """Random-effects population of per-log posteriors (see :mod:`sysid._fleet`)."""
     used = set()
     for p in posts:
@@ -340,7 +338,7 @@ def _fleet(
     u = np.array([mapper.to_coord(params, n) for n in names])
     _, g = prob.schema_coords(u)
     g_inv = np.linalg.pinv(g)
-    return _Summary(
+    return FitSummary(
         params=params,
         free=names,
         ties=ties,
@@ -396,7 +394,7 @@ def _priors_doc(priors: Mapping[str, Prior]) -> dict[str, dict[str, Any]]:
 
 
 def _bootstrap_std(
-    logs: Sequence[LogArrays], summary: _Summary, mapper: Mapper, **kw: Any
+    logs: Sequence[LogArrays], summary: FitSummary, mapper: Mapper, **kw: Any
 ) -> dict[str, float]:
     """Bootstrap standard deviation of every fitted DriveParams value."""
     free = list(summary.free)
@@ -665,7 +663,9 @@ def _fit_sessions(
     return posts
 
 
-def _proven_lower_bounds(s: _Summary, mapper: Mapper, dist: DriveDistribution) -> dict[str, float]:
+def _proven_lower_bounds(
+    s: FitSummary, mapper: Mapper, dist: DriveDistribution
+) -> dict[str, float]:
     """Lower bounds of the limits the fit logs never reached (:mod:`sysid._needs`)."""
     sims = s.problem.simulate(s.params)
     needs = limit_needs(
@@ -680,7 +680,7 @@ def _proven_lower_bounds(s: _Summary, mapper: Mapper, dist: DriveDistribution) -
 
 def _finish(
     *,
-    summary: _Summary,
+    summary: FitSummary,
     posts: Sequence[Posterior],
     mapper: Mapper,
     noise: ObservationNoise,
@@ -699,7 +699,7 @@ def _finish(
     corr = _correlation(s.cov, list(s.weak), list(s.free), notes)
     estimates = field_estimates(mapper, s)
     identifiable = identifiable_estimates(s.problem, s.u, s.cov_u, s.weak)
-    dist = distribution(robot, mapper, s, noise, between=s.between, sessions=len(posts))
+    dist = distribution(robot, mapper, s, noise, sessions=len(posts))
     dist = dataclasses.replace(dist, lower=_proven_lower_bounds(s, mapper, dist))
     boot_std = _replicate(bootstrap, s, posts, mapper, fit_logs, problem_kw, report)
     report("scoring", 0.95)
@@ -739,7 +739,7 @@ def _finish(
 
 def _replicate(
     bootstrap: tuple[int, float, int, str, float],
-    s: _Summary,
+    s: FitSummary,
     posts: Sequence[Posterior],
     mapper: Mapper,
     fit_logs: Sequence[LogArrays],
@@ -768,7 +768,7 @@ def _replicate(
     )
 
 
-def _run_settings(s: _Summary, posts: Sequence[Posterior], started: float) -> dict[str, Any]:
+def _run_settings(s: FitSummary, posts: Sequence[Posterior], started: float) -> dict[str, Any]:
     """The result's settings that the run found (free fields, optimiser, cost, time)."""
     return {
         "free": list(s.free),
