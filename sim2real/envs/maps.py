@@ -259,6 +259,17 @@ def _cell_range(lo: float, hi: float, origin: float, cell: float, n: int) -> tup
     return i0, i1
 
 
+@numba.njit(cache=True, inline="always")
+def _cell_box(
+    x: float, y: float, ex: float, ey: float, ox: float, oy: float, cell: float, n: int
+) -> tuple[int, int, int, int]:
+    """Index ranges [i0, i1) x [j0, j1) of the cells of the bounding box centred at (x, y)
+    with half-extents ``ex``, ``ey`` on a grid of ``n`` x ``n`` cells from (ox, oy)."""
+    i0, i1 = _cell_range(x - ex, x + ex, ox, cell, n)
+    j0, j1 = _cell_range(y - ey, y + ey, oy, cell, n)
+    return i0, i1, j0, j1
+
+
 @numba.njit(cache=True)
 def _paint_obstacles(
     n: int,
@@ -272,8 +283,7 @@ def _paint_obstacles(
     grid = np.zeros((n, n), dtype=np.bool_)
     for k in range(cylinders.shape[0]):
         x, y, r = cylinders[k, 0], cylinders[k, 1], cylinders[k, 2]
-        i0, i1 = _cell_range(x - r, x + r, ox, cell, n)
-        j0, j1 = _cell_range(y - r, y + r, oy, cell, n)
+        i0, i1, j0, j1 = _cell_box(x, y, r, r, ox, oy, cell, n)
         for i in range(i0, i1):
             px = ox + (i + 0.5) * cell
             for j in range(j0, j1):
@@ -286,8 +296,7 @@ def _paint_obstacles(
         ex = 0.5 * (abs(length * c) + abs(width * s))
         ey = 0.5 * (abs(length * s) + abs(width * c))
         hl, hw = 0.5 * length, 0.5 * width
-        i0, i1 = _cell_range(cx - ex, cx + ex, ox, cell, n)
-        j0, j1 = _cell_range(cy - ey, cy + ey, oy, cell, n)
+        i0, i1, j0, j1 = _cell_box(cx, cy, ex, ey, ox, oy, cell, n)
         for i in range(i0, i1):
             px = ox + (i + 0.5) * cell
             for j in range(j0, j1):
