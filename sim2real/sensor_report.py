@@ -2,44 +2,146 @@
 
 One self-contained page (base64 PNGs drawn with matplotlib's Agg backend): the noise std
 against range, real per-beam spreads of the still stretches with the identified model and
-its 95 % band, and the same spreads of the simulated lidar (the identified noise applied to
-the same stretches' ranges, as :class:`randomizers.LidarNoise` draws it) over them; the
-invalid-return rate per beam and per range bin; and the table of estimates.
+its 95 % band, and the same spreads of the simulated lidar over them (the project's ray
+caster in a map of what each still stretch sees, with the identified noise and invalid-return
+rate applied by :class:`randomizers.LidarNoise`); the invalid-return rate per beam and per
+range bin; and the table of estimates.
 
 Examples
 --------
 >>> from sim2real.sensor_report import write_sensor_report
->>> write_sensor_report("report.html", estimate, spread)  # doctest: +SKIP
+>>> write_sensor_report("report.html", estimate, scans, odoms)  # doctest: +SKIP
 """
 
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html
 import io
 import math
+import warnings
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from numpy.typing import NDArray
 
+from randomizers import LidarNoise
 from sim2real._io import atomic_write
-from sysid.sensors import SensorEstimate, StillSpread
+from sim2real.envs.geometry import Scene2D, cast_rays
+from sysid.sensors import (
+    PoseArrays,
+    ScanArrays,
+    SensorEstimate,
+    StillSpread,
+    still_spread,
+    still_stretches,
+)
 
-__all__ = ["simulated_spread", "write_sensor_report"]
+__all__ = ["simulated_scans", "simulated_spread", "write_sensor_report"]
 
 
-def simulated_spread(est: SensorEstimate, spread: StillSpread, seed: int = 0) -> np.ndarray:
-    """Sample standard deviations of the identified noise on the same groups (same ranges
-    and degrees of freedom), m."""
-    rng = np.random.default_rng(seed)
-    r = spread.median_m
-    sigma = est.noise_std_0_m + (est.noise_std_per_m + est.noise_std_per_m2 * r) * r
-    out = np.empty(spread.median_m.size)
-    for i, (s, k) in enumerate(zip(sigma.tolist(), spread.dof.tolist(), strict=True)):
-        out[i] = float(np.std(rng.normal(0.0, s, int(k) + 1), ddof=1))
-    return out
+class _Scan(gym.Env[NDArray[np.float64], np.int64]):
+    """A still lidar whose next scan is set from outside (the ray caster's)."""
+
+    action_space = gym.spaces.Discrete(1)
+
+    def __init__(self, beams: int, range_min_m: float, range_max_m: float) -> None:
+        self.observation_space = gym.spaces.Box(range_min_m, range_max_m, (beams,), np.float64)
+        self.scan = np.full(beams, range_max_m)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float64], dict[str, Any]]:
+        super().reset(seed=seed)
+        return self.scan, {}
+
+    def step(
+        self, action: np.int64
+    ) -> tuple[NDArray[np.float64], float, bool, bool, dict[str, Any]]:
+        return self.scan, 0.0, False, False, {}
+
+
+def _facets(median_m: NDArray[np.float64], angles_rad: NDArray[np.float64]) -> Scene2D:
+    """A map of the surfaces one still scan sees: per beam with a return, a short wall through
+    its median point, along the line to its neighbours' points where they see the same
+    surface (across the beam otherwise), short enough never to reach a neighbour's beam."""
+    px, py = median_m * np.cos(angles_rad), median_m * np.sin(angles_rad)
+    nxt, prv = np.roll(np.arange(median_m.size), -1), np.roll(np.arange(median_m.size), 1)
+    tx, ty = px[nxt] - px[prv], py[nxt] - py[prv]
+    with np.errstate(invalid="ignore"):
+        near = np.hypot(tx, ty) <= 4.0 * median_m * abs(float(angles_rad[1] - angles_rad[0]))
+    tx, ty = np.where(near, tx, -np.sin(angles_rad)), np.where(near, ty, np.cos(angles_rad))
+    norm = np.maximum(np.hypot(tx, ty), 1e-12)
+    half = 0.45 * median_m * abs(float(angles_rad[1] - angles_rad[0]))
+    hx, hy = half * tx / norm, half * ty / norm
+    ok = np.isfinite(median_m)
+    segs = np.column_stack([px - hx, py - hy, px + hx, py + hy])[ok]
+    return Scene2D.build(segments=[(s[0], s[1], s[2], s[3]) for s in segs.tolist()])
+
+
+def simulated_scans(
+    est: SensorEstimate, scans: ScanArrays, odom: PoseArrays, seed: int = 0
+) -> ScanArrays:
+    """The simulated lidar on the still stretches of one recording.
+
+    Per still stretch, the ray caster (:func:`sim2real.envs.geometry.cast_rays`) casts the
+    recording's beams from the lidar into a map of what the stretch's scans see (a short wall
+    through each beam's median return) and :class:`randomizers.LidarNoise` with the identified
+    noise model and invalid-return rate turns each cast into one scan. Scans outside the
+    stretches are all invalid (NaN).
+
+    Examples
+    --------
+    >>> sim = simulated_scans(estimate, scans, odom)  # doctest: +SKIP
+    >>> still_spread(sim, odom)  # the simulated lidar's spreads  # doctest: +SKIP
+    """
+    ranges = np.full(scans.ranges_m.shape, np.nan)
+    beams = scans.ranges_m.shape[1]
+    env = _Scan(beams, scans.range_min_m, scans.range_max_m)
+    noise = LidarNoise(
+        env,
+        std_m=est.noise_std_0_m,
+        std_per_m=est.noise_std_per_m,
+        std_per_m2=est.noise_std_per_m2,
+        dropout=0.0 if math.isnan(est.dropout) else est.dropout,
+        range_min_m=scans.range_min_m,
+        range_max_m=scans.range_max_m,
+    )
+    noise.reset(seed=seed)
+    valid = scans.valid()
+    ang = scans.angles_rad
+    for a, b in still_stretches(scans, odom):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # beams never valid: NaN medians
+            median = np.nanmedian(np.where(valid[a:b], scans.ranges_m[a:b], np.nan), axis=0)
+        seen = valid[a:b].sum(axis=0)
+        median = np.where((seen >= 3) & (seen >= 0.3 * (b - a)), median, np.nan)
+        scene = _facets(median, ang)
+        for k in range(a, b):
+            env.scan = cast_rays(scene, np.zeros(2), ang, scans.range_max_m)
+            ranges[k] = noise.observation(env.scan)
+    return dataclasses.replace(scans, ranges_m=ranges)
+
+
+def simulated_spread(
+    est: SensorEstimate,
+    scans: Sequence[ScanArrays],
+    odoms: Sequence[PoseArrays],
+    seed: int = 0,
+) -> StillSpread:
+    """The spreads of the simulated lidar (:func:`simulated_scans`) on the still stretches of
+    each recording, grouped like the real spreads (:func:`sysid.sensors.still_spread`)."""
+    sims = [
+        simulated_scans(est, s, o, seed + i)
+        for i, (s, o) in enumerate(zip(scans, odoms, strict=True))
+    ]
+    return still_spread(sims, list(odoms))
 
 
 def _png(fig: Figure) -> str:
@@ -48,7 +150,7 @@ def _png(fig: Figure) -> str:
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _noise_figure(est: SensorEstimate, spread: StillSpread, sim: np.ndarray) -> str:
+def _noise_figure(est: SensorEstimate, spread: StillSpread, sim: StillSpread) -> str:
     fig = Figure(figsize=(7.0, 4.2), dpi=110)
     ax = fig.add_subplot()
     ax.scatter(
@@ -60,12 +162,12 @@ def _noise_figure(est: SensorEstimate, spread: StillSpread, sim: np.ndarray) -> 
         label="real, per beam and still stretch",
     )
     ax.scatter(
-        spread.median_m,
-        1e3 * sim,
+        sim.median_m,
+        1e3 * sim.std_m,
         s=6,
         alpha=0.5,
         color="#E69F00",
-        label="simulated lidar, same beams",
+        label="simulated lidar (ray caster, identified noise), same stretches",
     )
     r = np.asarray(est.noise_range_m)
     ax.fill_between(
@@ -131,16 +233,30 @@ def _rows(est: SensorEstimate) -> list[tuple[str, str, str]]:
     ]
 
 
-def write_sensor_report(path: str | Path, est: SensorEstimate, spread: StillSpread) -> None:
-    """Write the one-page HTML check of ``est`` (temp file, then renamed)."""
+def write_sensor_report(
+    path: str | Path,
+    est: SensorEstimate,
+    scans: Sequence[ScanArrays],
+    odoms: Sequence[PoseArrays],
+) -> None:
+    """Write the one-page HTML check of ``est`` on the recordings it came from (temp file,
+    then renamed)."""
+    spread = still_spread(list(scans), list(odoms))
     rows = "".join(
         f"<tr><td>{html.escape(a)}</td><td>{b}</td><td>{c}</td></tr>" for a, b, c in _rows(est)
     )
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in est.unidentified) or "<li>none</li>"
     figs = ""
-    if spread.median_m.size:
-        sim = simulated_spread(est, spread)
-        figs += f'<h2>Range noise</h2><img alt="noise vs range" src="data:image/png;base64,{_noise_figure(est, spread, sim)}">'
+    if spread.median_m.size and not math.isnan(est.noise_std_0_m):
+        sim = simulated_spread(est, scans, odoms)
+        figs += (
+            '<h2>Range noise</h2><img alt="noise vs range" '
+            f'src="data:image/png;base64,{_noise_figure(est, spread, sim)}">'
+            "<p>Blue: the scan-to-scan spread of each beam in each still stretch. Orange: the "
+            "simulated lidar on the same stretches (the ray caster in a map of what each "
+            "stretch sees, with the identified noise and invalid-return rate). Where orange "
+            "does not cover blue, the noise model does not describe the sensor.</p>"
+        )
     if not math.isnan(est.dropout):
         figs += f'<h2>Invalid returns</h2><img alt="invalid returns" src="data:image/png;base64,{_dropout_figure(est)}">'
     sources = html.escape(", ".join(est.sources))

@@ -88,6 +88,7 @@ __all__ = [
     "estimate_sensor",
     "load_sensor",
     "still_spread",
+    "still_stretches",
 ]
 
 Interval = tuple[float, float]
@@ -330,6 +331,22 @@ def _still_mask(scans: ScanArrays, odom: PoseArrays) -> BoolArray:
         still &= np.abs(a[2] - mid[2]) < _STILL_YAW_RAD
     inside = (t - _STILL_MARGIN_S >= odom.t_s[0]) & (t + _STILL_MARGIN_S <= odom.t_s[-1])
     return still & inside
+
+
+def still_stretches(scans: ScanArrays, odom: PoseArrays) -> list[tuple[int, int]]:
+    """The still stretches of one recording as ``(start, stop)`` scan indices: at least five
+    consecutive scans whose odometry pose does not change within half a second.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> scans = ScanArrays(t_s=0.2 * np.arange(20), ranges_m=np.ones((20, 4)), angle_min_rad=0.0,
+    ...                    angle_increment_rad=0.1, range_min_m=0.1, range_max_m=5.0)
+    >>> z = np.zeros(60)
+    >>> still_stretches(scans, PoseArrays(t_s=0.1 * np.arange(60) - 1.0, x_m=z, y_m=z, yaw_rad=z))
+    [(0, 20)]
+    """
+    return _stretches(_still_mask(scans, odom))
 
 
 def _stretches(mask: BoolArray) -> list[tuple[int, int]]:

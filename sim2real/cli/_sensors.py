@@ -8,7 +8,7 @@ import math
 from sim2real.errors import Sim2RealValueError
 from sim2real.sensor_id import identify_sensor, read_sensor_logs
 from sim2real.sensor_report import write_sensor_report
-from sysid.sensors import SensorEstimate, still_spread
+from sysid.sensors import SensorEstimate
 
 __all__ = ["handle_sensors", "summary_lines"]
 
@@ -28,7 +28,7 @@ def handle_sensors(args: argparse.Namespace) -> int:
     print("\n".join(summary_lines(est)))
     print(f"wrote {args.output}")
     if args.report:
-        write_sensor_report(args.report, est, still_spread(*logs))
+        write_sensor_report(args.report, est, *logs)
         print(f"wrote {args.report}")
     return 0
 

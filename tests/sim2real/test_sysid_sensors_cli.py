@@ -168,9 +168,9 @@ def test_cli_identifies_the_synthetic_lidar_in_time(
 ) -> None:
     log = mcap_log
     out = tmp_path / "sensors.yaml"
-    start = time.perf_counter()
+    start = time.process_time()  # CPU time: other processes on a loaded machine do not count
     run = cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out)
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     assert run.code == 0, run.err
     assert elapsed < 5.0  # a 60 s recording of 5 Hz 360-beam scans
     est = load_sensor(out)
@@ -252,8 +252,14 @@ def test_report_draws_the_simulated_lidar_over_the_real_spread(
     page = report.read_text()
     assert page.count("data:image/png;base64,") == 2
     assert "noise std growth, mm per m" in page
-    # on a recording with known noise, the simulated lidar's spreads match the real ones
+    assert "ray caster" in page
+    # on a recording with known noise, the simulated lidar (the ray caster in a map of each
+    # still stretch, with the identified noise) spreads like the real one on the same groups
     est = load_sensor(tmp_path / "s.yaml")
     spread = still_spread(scans, odom)
-    sim = simulated_spread(est, spread)
-    assert np.median(sim) / np.median(spread.std_m) == pytest.approx(1.0, abs=0.05)
+    sim = simulated_spread(est, [scans], [odom])
+    assert sim.median_m.size == pytest.approx(spread.median_m.size, rel=0.05)
+    assert np.median(sim.std_m) / np.median(spread.std_m) == pytest.approx(1.0, abs=0.05)
+    near = sim.median_m < np.median(sim.median_m)
+    real_near = spread.median_m < np.median(spread.median_m)
+    assert np.median(sim.std_m[near]) == pytest.approx(np.median(spread.std_m[real_near]), rel=0.1)
