@@ -223,7 +223,6 @@ class OdometryDelay(ObservationRandomizer):
         self._wrap_selection(
             env,
             sel,
-            wrapper="OdometryDelay",
             scale=scale,
             name=name,
             **_delay_kwargs(spec, delay_s, delay_steps),

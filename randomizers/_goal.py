@@ -105,7 +105,6 @@ class GoalNoise(ObservationRandomizer):
         self._wrap_selection(
             env,
             sel,
-            wrapper="GoalNoise",
             scale=scale,
             name=name,
             std_m=std_m,

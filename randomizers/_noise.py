@@ -112,7 +112,6 @@ class ObservationNoise(ObservationRandomizer):
         self._wrap_selection(
             env,
             sel,
-            wrapper="ObservationNoise",
             scale=scale,
             name=name,
             std=std_value if isinstance(std_value, float) else std_value.tolist(),
@@ -497,7 +496,6 @@ class DepthNoise(ObservationRandomizer):
         self._wrap_selection(
             env,
             sel,
-            wrapper="DepthNoise",
             scale=scale,
             name=name,
             std_m=std_m,
@@ -719,9 +717,7 @@ class LidarNoise(ObservationRandomizer):
         options: dict[str, Any] = {"range_min_m": lo, "range_max_m": hi, "std_per_m": std_per_m}
         options |= {"std_per_m2": std_per_m2, "sysid": sysid, "spread": spread}
         model = {"std_m": std_m, "dropout": dropout}
-        self._wrap_selection(
-            env, sel, wrapper="LidarNoise", scale=scale, name=name, options=options, **model
-        )
+        self._wrap_selection(env, sel, scale=scale, name=name, options=options, **model)
         self.std_m = std_m
         self.std_per_m = std_per_m
         self.std_per_m2 = std_per_m2

@@ -30,7 +30,6 @@ class ObservationRandomizer(
         env: gym.Env[Any, Any],
         sel: Selection,
         *,
-        wrapper: str,
         scale: Any,
         name: Any,
         options: Mapping[str, Any] | None = None,
@@ -38,11 +37,11 @@ class ObservationRandomizer(
         **model: Any,
     ) -> None:
         """:meth:`_wrap` around the observation part ``sel``: check ``scale`` and ``name``
-        (default ``wrapper[key][start:stop]``), record the ``model`` arguments, the selection
+        (default ``Wrapper[key][start:stop]``, after the wrapper that selected ``sel``), record the ``model`` arguments, the selection
         (``key``, ``index``) and the ``options``, draw in ``dtype`` (default the part's) and
         keep ``sel``."""
         scale = check_scale(scale)
-        name = check_name(name, env, wrapper + index_label(sel.key, sel.index))
+        name = check_name(name, env, sel.wrapper + index_label(sel.key, sel.index))
         self._wrap(
             env,
             **model,

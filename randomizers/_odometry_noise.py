@@ -111,7 +111,6 @@ class VelocityObservationNoise(ObservationRandomizer):
         self._wrap_selection(
             env,
             sel,
-            wrapper=wrapper,
             scale=scale,
             name=name,
             options={"clip": bool(clip)},

@@ -75,6 +75,8 @@ class Selection:
         Bounds of the selected part (after ``index``), in the space's dtype.
     bounded : bool
         True when any bound is finite (clipping may change values).
+    wrapper : str
+        The wrapper that selected it (its messages and default name start with it).
     """
 
     key: str | None
@@ -83,6 +85,7 @@ class Selection:
     low: np.ndarray
     high: np.ndarray
     bounded: bool
+    wrapper: str
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -157,6 +160,7 @@ def select(
         low=np.ascontiguousarray(low),
         high=np.ascontiguousarray(high),
         bounded=bounded,
+        wrapper=wrapper,
     )
 
 
