@@ -9,6 +9,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from robots.arrays import FloatArray
+from robots.measurement import MeasurementModel
 from sysid.errors import SysidValueError
 
 __all__ = [
@@ -49,7 +50,9 @@ class VelocityLog(Protocol):
 class LogArrays:
     """A checked, plain-array velocity log (satisfies :class:`VelocityLog`).
 
-    ``name`` and ``sha256`` identify the source file in result files (may be empty/None).
+    ``name`` and ``sha256`` identify the source file in result files (may be empty/None);
+    ``measurement`` is how the measured velocities are made from the robot's
+    (:mod:`robots.measurement`; None: as they are).
 
     Examples
     --------
@@ -68,6 +71,7 @@ class LogArrays:
     meas_w: FloatArray
     name: str = ""
     sha256: str | None = None
+    measurement: MeasurementModel | None = None
 
 
 def log_name(log: object, index: int) -> str:
@@ -134,7 +138,13 @@ def as_log_arrays(log: object, index: int = 0) -> LogArrays:
             raise SysidValueError(
                 f"{name}: '{prefix}_t_s' is not sorted in time; sort the samples first"
             )
-    return LogArrays(**arrays, name=name, sha256=log_sha256(log))
+    model = getattr(log, "measurement", None)
+    if model is not None and model.fresh.size != arrays["meas_t_s"].size:
+        raise SysidValueError(
+            f"{name}: its measurement model has {model.fresh.size} samples but the log has "
+            f"{arrays['meas_t_s'].size}; slice the model with the log"
+        )
+    return LogArrays(**arrays, name=name, sha256=log_sha256(log), measurement=model)
 
 
 def crop_log(log: object, start_s: float, end_s: float, *, lead_s: float = 2.0) -> LogArrays:
@@ -178,4 +188,5 @@ def crop_log(log: object, start_s: float, end_s: float, *, lead_s: float = 2.0) 
         meas_w=full.meas_w[m],
         name=f"{full.name}[{start_s:g}:{end_s:g}]",
         sha256=full.sha256,
+        measurement=None if full.measurement is None else full.measurement.sliced(m),
     )

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,15 +33,45 @@ def initial_state(log: LogArrays) -> tuple[float, float]:
     return float(np.median(log.meas_v[:3])), float(np.median(log.meas_w[:3]))
 
 
-def _window_queries(t_s: FloatArray, window_s: float) -> tuple[FloatArray, NDArray[np.intp] | None]:
-    """Sorted query times [t - W, t - W/2, t] and the map back (None when W == 0)."""
+@dataclass(frozen=True)
+class _Reads:
+    """How the model is read on one log: query times, and the maps from the model's v and w
+    at those times to the measured ones (None: the query times are the measurement times)."""
+
+    t_query: FloatArray
+    v: Callable[[FloatArray], FloatArray] | None = None
+    w: Callable[[FloatArray], FloatArray] | None = None
+
+    def apply(self, rv: FloatArray, rw: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The measured (v, w) of the model's (v, w) at the query times."""
+        return (rv if self.v is None else self.v(rv)), (rw if self.w is None else self.w(rw))
+
+
+def _reads(log: LogArrays, window_s: float) -> _Reads:
+    """The log's measurement operator (:mod:`robots.measurement`) when it has one; else v as
+    the mean over the preceding ``window_s`` (Simpson's rule on [t - W, t - W/2, t]; 0 = the
+    instantaneous velocity) and w instantaneous."""
+    t_s = log.meas_t_s
+    if log.measurement is not None:
+        op = log.measurement.operator(t_s)
+        return _Reads(op.t_query, op.apply, op.apply)
     if window_s <= 0:
-        return t_s, None
-    merged = np.concatenate([t_s - window_s, t_s - 0.5 * window_s, t_s])
-    order = np.argsort(merged, kind="stable")
-    inverse = np.empty_like(order)
-    inverse[order] = np.arange(order.size)
-    return merged[order], inverse
+        return _Reads(t_s)
+    tq, inv = np.unique(
+        np.concatenate([t_s - window_s, t_s - 0.5 * window_s, t_s]), return_inverse=True
+    )
+    n = t_s.size
+    lo, mid, hi = inv[:n], inv[n : 2 * n], inv[2 * n :]
+
+    def v_mean(rv: FloatArray) -> FloatArray:
+        out: FloatArray = (rv[..., lo] + 4.0 * rv[..., mid] + rv[..., hi]) / 6.0
+        return out
+
+    def w_at(rw: FloatArray) -> FloatArray:
+        out: FloatArray = rw[..., hi]
+        return out
+
+    return _Reads(tq, v_mean, w_at)
 
 
 class Problem:
@@ -95,7 +126,7 @@ class Problem:
         self.dt_s = dt_s
         self.python = python
         self.v_window_s = v_window_s
-        self._queries = [_window_queries(g.meas_t_s, v_window_s) for g in self.logs]
+        self._queries = [_reads(g, v_window_s) for g in self.logs]
         self.on_eval = on_eval
         self.n_evals = 0
         self.n_steps = 0  # model integration steps run (for the benchmark's accounting)
@@ -231,21 +262,14 @@ class Problem:
         delays = [(p.delay_s, k) for p, k in zip(params, steps.tolist(), strict=True)]
         shifts = np.array([d - k * self.dt_s for d, k in delays])
         out = []
-        for i, (_, inverse) in enumerate(self._queries):
-            rv, rw = self._simulate_log(i, params, steps, shifts)
-            n = self.logs[i].meas_t_s.size
-            if inverse is None:
-                out.append((rv, rw))
-                continue
-            v = rv[:, inverse]
-            v_mean = (v[:, :n] + 4.0 * v[:, n : 2 * n] + v[:, 2 * n :]) / 6.0
-            out.append((v_mean, rw[:, inverse[2 * n :]]))
+        for i, reads in enumerate(self._queries):
+            out.append(reads.apply(*self._simulate_log(i, params, steps, shifts)))
         return out
 
     def _grid(self, i: int) -> tuple[float, int]:
         """Log ``i``'s grid start (one step before its first query time: the grid does not
         move with the sub-step delay) and the steps that reach its last query."""
-        t_query = self._queries[i][0]
+        t_query = self._queries[i].t_query
         t0 = float(t_query[0]) - self.dt_s
         return t0, max(1, math.ceil((float(t_query[-1]) - t0) / self.dt_s))
 
@@ -254,7 +278,7 @@ class Problem:
     ) -> tuple[FloatArray, FloatArray]:
         """v and w of log ``i`` at its query times for each parameter set."""
         t0, n = self._grid(i)
-        t_query = self._queries[i][0]
+        t_query = self._queries[i].t_query
         v0, w0 = self._starts[i]
         geo = self.mapper.geometry
         cmds = [

@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 
 from robots.arrays import FloatArray
+from robots.measurement import MeasurementModel
 from robots.params import (
     SCHEMA,
     BaseGeometry,
@@ -513,7 +514,9 @@ def fit_drive(
     odom_v_window_s : float
         Measurement model of v: the odometry's v is the mean over this preceding window, s
         (wheel-encoder tick differences over one odometry period, e.g. 1/30 s on a
-        TurtleBot3); 0 (default) compares the instantaneous model v.
+        TurtleBot3); 0 (default) compares the instantaneous model v. A log with its own
+        measurement operator (``log.measurement``, :mod:`robots.measurement`: a pose
+        derivative, a zero-order hold) is read through that instead, in v and w.
     max_nfev : int
         Cap on residual evaluations of the optimiser (hitting it is a warning).
     python : bool
@@ -554,6 +557,7 @@ def fit_drive(
     notes[:0] = [
         f"{log_name(g, i)}: {w}" for i, g in enumerate([*logs, *validate]) for w in log_warnings(g)
     ]
+    notes += [f"{name}: {model.sentence()}" for name, model in _operated(fit_logs)]
     base = mapper.base
     informative = {n for n, p in mapper.priors.items() if p.informative}
     report("checking excitation", 0.0)
@@ -603,6 +607,7 @@ def fit_drive(
             "weights": list(weights),
             "dt_s": dt_s,
             "odom_v_window_s": odom_v_window_s,
+            "measurement": {name: model.describe() for name, model in _operated(fit_logs)},
             "max_nfev": max_nfev,
             "bootstrap": {"replicates": bootstrap, "segment_s": segment_s, "seed": seed},
         },
@@ -611,6 +616,16 @@ def fit_drive(
         started=started,
         report=report,
     )
+
+
+def _operated(logs: Sequence[LogArrays]) -> list[tuple[str, MeasurementModel]]:
+    """(file, operator) of the logs with a measurement operator (:mod:`robots.measurement`),
+    the first piece of each file."""
+    seen: dict[str, MeasurementModel] = {}
+    for g in logs:
+        if g.measurement is not None:
+            seen.setdefault(g.name.split(" (segment")[0].split("[")[0], g.measurement)
+    return list(seen.items())
 
 
 def _start(

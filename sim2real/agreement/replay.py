@@ -129,6 +129,9 @@ class ReplayResult:
         Wall-clock time the replay took, s.
     odom_v_window_s : float
         Odometry window of ``v``, s (0 = instantaneous; see :func:`replay`).
+    measurement : str
+        The log's measurement operator applied to ``v`` and ``w`` (``"pose"``, ``"hold"``;
+        "" for none; see :mod:`robots.measurement`).
     """
 
     t_s: FloatArray
@@ -141,6 +144,7 @@ class ReplayResult:
     physics_hz: float
     elapsed_s: float
     odom_v_window_s: float = 0.0
+    measurement: str = ""
 
     @property
     def duration_s(self) -> float:
@@ -215,7 +219,9 @@ def replay(
         Odometry sensor model of v (see "Odometry v window" in the module docstring): report
         the simulated v as the mean over the preceding window of this length, s, in [0, 1];
         e.g. ``1 / spec.odometry.rate_hz`` for encoder odometry. 0 (default) reports the
-        instantaneous base velocity.
+        instantaneous base velocity. A trace with a measurement operator
+        (``trace.measurement``: a pose derivative, a zero-order hold) is read through that
+        operator instead, in v and w (:mod:`robots.measurement`), as ``sysid fit`` reads it.
 
     Returns
     -------
@@ -242,15 +248,23 @@ def replay(
     rate = float(physics_hz)
     if engine == "reduced":
         rate = 1.0 / DEFAULT_DT_S
+    model = getattr(trace, "measurement", None)
+    op = None if model is None else model.operator(meas_t)
     # with a window, also read the simulation at every integration step so the window mean
     # of its piecewise-linear output is exact (the run itself does not change)
-    t_out = _fine_times(meas_t, 1.0 / rate) if odom_v_window_s > 0 else meas_t
+    t_out = meas_t
+    if op is not None:
+        t_out = op.t_query
+    elif odom_v_window_s > 0:
+        t_out = _fine_times(meas_t, 1.0 / rate)
     initial = (float(meas_v[0]), float(meas_w[0]))
     if engine == "reduced":
         v, w = _replay_reduced(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial)
     else:
         v, w = _replay_pybullet(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial, physics_hz)
-    if odom_v_window_s > 0:
+    if op is not None:  # the log's own measurement operator, in v and w
+        v, w = op.apply(v), op.apply(w)
+    elif odom_v_window_s > 0:
         # before the first measurement the base is taken to run at the measured start state
         # (window_mean holds the first value), as the start command assumes
         v = window_mean(t_out, v, meas_t, odom_v_window_s)
@@ -265,7 +279,8 @@ def replay(
         params=p,
         physics_hz=rate,
         elapsed_s=time.perf_counter() - start,
-        odom_v_window_s=float(odom_v_window_s),
+        odom_v_window_s=0.0 if op is not None else float(odom_v_window_s),
+        measurement="" if model is None else model.kind,
     )
 
 
@@ -335,7 +350,8 @@ def _replay_segments(
         params=params,
         physics_hz=parts[0].physics_hz,
         elapsed_s=time.perf_counter() - start,
-        odom_v_window_s=float(odom_v_window_s),
+        odom_v_window_s=parts[0].odom_v_window_s,
+        measurement=parts[0].measurement,
     )
 
 

@@ -36,14 +36,24 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from robots.measurement import fresh_readings
 from robots.units import NS_PER_S, seconds
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs._timeline import scratch_median
 
-__all__ = ["ODOM_VELOCITY_MODES", "SPIKY_RATIO", "pose_derivative", "velocities_from_pose"]
+__all__ = [
+    "ODOM_VELOCITY_MODES",
+    "SPIKY_RATIO",
+    "WINDOW_KEY",
+    "pose_changes",
+    "pose_derivative",
+    "velocities_from_pose",
+]
 
 #: ``odom_velocity=`` choices of :func:`sim2real.logs.read_trace`.
 ODOM_VELOCITY_MODES = ("auto", "twist", "pose")
+#: Key of the pose derivative's window (s) in the columns of :func:`velocities_from_pose`.
+WINDOW_KEY = "pose_window_s"
 #: Median twist-vs-pose deviation (relative to the median pose speed) that counts as spiky.
 SPIKY_RATIO = 0.10
 _MOVING_V, _MOVING_W = 0.05, 0.2
@@ -162,8 +172,7 @@ def _update_derivative(
     """Pose velocities fitted on the pose updates only (first message of each pose), read at
     every message time, and the window used (see the module docstring)."""
     x, y, yaw = pose
-    new = np.ones(t_ns.size, dtype=bool)
-    new[1:] = (np.diff(x) != 0) | (np.diff(y) != 0) | (np.diff(yaw) != 0)
+    new = pose_changes(pose)
     idx = np.flatnonzero(new)
     if idx.size < 5 or idx.size == t_ns.size:  # no repeats (or too few updates): every sample
         window = _window_s(t_ns)
@@ -171,16 +180,21 @@ def _update_derivative(
         return v, w, window
     # a pose held for longer than two update periods is the robot standing still: those
     # repeats are measurements (of no motion) and stay in
-    t_update = t_ns[idx]
-    period = float(scratch_median(np.diff(t_update)))
-    since = t_ns - t_update[np.searchsorted(t_update, t_ns, "right") - 1]
-    keep = np.flatnonzero(new | (since > 2.0 * period))
+    keep = np.flatnonzero(fresh_readings(t_ns, new)[0])
     tk = t_ns[keep]
-    window = _window_s(t_update)
+    window = _window_s(t_ns[idx])
     vk, wk = _derivative(tk, t_ns[0], NS_PER_S, (x[keep], y[keep], yaw[keep]), window, BLOCK)
     t = seconds(t_ns - t_ns[0])
     tks = seconds(tk - t_ns[0])
     return np.interp(t, tks, vk), np.interp(t, tks, wk), window
+
+
+def pose_changes(pose: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """Per sample: the pose differs from the previous sample's (the first always does)."""
+    x, y, yaw = pose
+    new = np.ones(x.size, dtype=bool)
+    new[1:] = (np.diff(x) != 0) | (np.diff(y) != 0) | (np.diff(yaw) != 0)
+    return new
 
 
 def _share(v: np.ndarray, lim_v: float, w: np.ndarray, lim_w: float) -> float:
@@ -247,7 +261,11 @@ def velocities_from_pose(
     *,
     mode: str = "auto",
 ) -> dict[str, np.ndarray]:
-    """Replace ``cols["v"]``/``cols["w"]`` by pose velocities when ``mode`` asks or detects it."""
+    """Replace ``cols["v"]``/``cols["w"]`` by pose velocities when ``mode`` asks or detects it.
+
+    The columns returned then also hold :data:`WINDOW_KEY`: the derivative's window, s (a
+    0-d array), which the measurement operator of the trace needs.
+    """
     if mode not in ODOM_VELOCITY_MODES:
         raise Sim2RealValueError(
             f"odom_velocity must be one of {list(ODOM_VELOCITY_MODES)}, got {mode!r}; use "
@@ -284,4 +302,4 @@ def velocities_from_pose(
             f"measured velocities of topic '{topic}' are taken from the pose (local-linear "
             f"derivative over {window:.2f} s windows), as asked"
         )
-    return {**cols, "v": v, "w": w}
+    return {**cols, "v": v, "w": w, WINDOW_KEY: np.array(window)}

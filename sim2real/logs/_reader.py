@@ -19,7 +19,7 @@ from sim2real.logs._channels import Chan, channel_table, choose_topic
 from sim2real.logs._decode import decode_channel, infer_json_type
 from sim2real.logs._digest import FileDigest
 from sim2real.logs._mcap import Container, Segment
-from sim2real.logs._pose_velocity import velocities_from_pose
+from sim2real.logs._pose_velocity import WINDOW_KEY, velocities_from_pose
 from sim2real.logs._schemas import JOINT_STATE, ODOMETRY
 from sim2real.logs._timeline import (
     GAP_FACTOR,
@@ -189,6 +189,7 @@ def read_trace(
     cmd_t, cmd_cols = _drop_far_commands(cmd_t, cmd_cols, meas_t, cmd.topic, warnings)
     _note_gaps(meas_t, meas.topic, warnings)
     meas_cols = velocities_from_pose(meas_t, meas_cols, meas.topic, warnings, mode=odom_velocity)
+    pose_window = meas_cols.pop(WINDOW_KEY, None)
     meta = TraceMeta(
         path=name,
         sha256=digest,
@@ -206,6 +207,7 @@ def read_trace(
         encoding=meas.encoding,
         warnings=tuple(warnings),
         time_note=time_note,
+        pose_window_s=0.0 if pose_window is None else float(pose_window),
     )
     # the arrays are handed over, not copied: nothing else refers to them
     return adopt_trace(

@@ -22,9 +22,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from robots.measurement import MeasurementModel, hold_model, pose_model
 from robots.units import nanoseconds, seconds
 from sim2real.errors import LogValueError, Sim2RealValueError
 from sim2real.logs._digest import LazyText, lazy_value
+from sim2real.logs._pose_velocity import pose_changes
 from sim2real.logs._timeline import command_windows, segment_bounds
 
 __all__ = ["ABSURD_FACTOR", "MIN_MEAS_SAMPLES", "Trace", "TraceMeta"]
@@ -66,6 +68,9 @@ class TraceMeta:
         Message encoding of the measurement channel (``"cdr"`` or ``"json"``).
     warnings : tuple of str
         Repairs made while reading (dropped NaN samples, re-sorted or duplicate stamps, ...).
+    pose_window_s : float
+        When the measured velocities were derived from the odometry pose: the centred window of
+        the derivative, s (0 when they are the odometry's own); see :attr:`Trace.measurement`.
     """
 
     path: str = ""
@@ -85,6 +90,7 @@ class TraceMeta:
     warnings: tuple[str, ...] = field(default_factory=tuple)
     time_note: str = ""
     segment: str = ""
+    pose_window_s: float = 0.0
 
 
 def _meta_replace(meta: TraceMeta, **changes: object) -> TraceMeta:
@@ -221,6 +227,20 @@ class Trace:
     def has_pose(self) -> bool:
         """True when the measurement source carried a pose."""
         return self.pose_x is not None
+
+    @property
+    def measurement(self) -> MeasurementModel | None:
+        """How the measured velocities are made from the robot's (:mod:`robots.measurement`).
+
+        ``"pose"`` when they were derived from the pose (:attr:`TraceMeta.pose_window_s`);
+        ``"hold"`` when the readings repeat like a slow zero-order hold
+        (:func:`robots.measurement.hold_model`); None when they are read as they are. A fit and
+        a replay apply it to the simulated velocity.
+        """
+        if self.meta.pose_window_s > 0 and self.pose_x is not None:
+            pose = (self.pose_x, self.pose_y, self.pose_yaw)
+            return pose_model(self.meas_t_s, pose_changes(pose), self.meta.pose_window_s)  # type: ignore[arg-type]
+        return hold_model(self.meas_t_s, self.meas_v, self.meas_w)
 
     # ------------------------------------------------------------------------ segments
     def segments(self) -> tuple[Trace, ...]:
