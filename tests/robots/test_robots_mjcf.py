@@ -1,0 +1,86 @@
+"""robots.mjcf: the one mapping of drive parameters onto the MJCF model, and its text."""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+
+import pytest
+
+from robots.errors import ParamsFileError
+from robots.mjcf import check_drive_kind, mjcf_mapping, mjcf_text
+from robots.params import DriveParams
+from robots.spec import list_robots, load_spec
+
+
+@pytest.mark.parametrize("name", list_robots())
+def test_every_drive_field_has_one_place(name: str) -> None:
+    spec = load_spec(name)
+    entries = mjcf_mapping(spec, spec.drive)
+    sources = {s.strip() for e in entries for s in e.source.split(",")}
+    # every DriveParams field is carried by the MJCF or by MujocoDrive
+    missing = set(DriveParams.names()) - sources - {"coulomb_*", "viscous_*"}
+    assert missing == set()
+    assert len({e.name for e in entries}) == len(entries)
+
+
+def test_text_carries_the_identified_values() -> None:
+    spec = load_spec("turtlebot2")
+    params = spec.drive.replace(
+        added_mass_kg=1.5,
+        added_yaw_inertia_kgm2=0.02,
+        motor_gain_nms_per_rad=0.123,
+        wheel_torque_max_nm=0.75,
+        wheel_speed_max_radps=9.5,
+        viscous_v_ns_per_m=0.7,
+        coulomb_v_fwd_n=0.4,
+        coulomb_w_nm=0.05,
+        viscous_w_nms_per_rad=0.03,
+    )
+    root = ET.fromstring(mjcf_text(spec, params))
+    base = root.find(".//body[@name='base_link']/inertial")
+    assert base is not None
+    by_name = {e.name: e.value for e in mjcf_mapping(spec, params)}
+    assert float(base.get("mass", "nan")) == pytest.approx(by_name["base_mass"], rel=1e-8)
+    assert by_name["base_mass"] == pytest.approx(spec.base_mass_kg + 1.5 + 0.0, abs=0.5)
+    izz = float(base.get("diaginertia", "").split()[2])
+    assert izz == pytest.approx(by_name["base_yaw_inertia"], rel=1e-8)
+    speed = root.findall(".//velocity")
+    assert [float(a.get("kv", "nan")) for a in speed] == [0.123, 0.123]
+    assert {a.get("ctrlrange") for a in speed} == {"-9.5 9.5"}
+    joints = root.findall(".//joint[@type='hinge']")
+    assert {j.get("actuatorfrcrange") for j in joints} == {"-0.75 0.75"}
+    fwd = root.find(".//tendon/fixed[@name='forward']")
+    yaw = root.find(".//tendon/fixed[@name='yaw']")
+    assert fwd is not None and yaw is not None
+    assert (fwd.get("damping"), fwd.get("frictionloss")) == ("0.7", "0.4")
+    assert (yaw.get("damping"), yaw.get("frictionloss")) == ("0.03", "0.05")
+    r, sep = spec.wheels.radius_m, spec.wheels.separation_m
+    assert [float(j.get("coef", "nan")) for j in fwd] == pytest.approx([r / 2, r / 2])
+    assert [float(j.get("coef", "nan")) for j in yaw] == pytest.approx([-r / sep, r / sep])
+
+
+def test_every_value_is_commented_with_its_field() -> None:
+    spec = load_spec("turtlebot3_burger")
+    text = mjcf_text(spec, spec.drive)
+    comments = " ".join(re.findall(r"<!--(.*?)-->", text, flags=re.S))
+    for entry in mjcf_mapping(spec, spec.drive):
+        for source in entry.source.split(","):
+            if "*" not in source:
+                assert source.strip() in comments, entry.name
+
+
+def test_no_limit_is_an_unlimited_range() -> None:
+    spec = load_spec("turtlebot3_burger")
+    params = spec.drive.replace(wheel_torque_max_nm=math.inf, wheel_speed_max_radps=math.inf)
+    root = ET.fromstring(mjcf_text(spec, params))
+    assert {a.get("ctrlrange") for a in root.findall(".//velocity")} == {"0 0"}
+    assert {j.get("actuatorfrcrange") for j in root.findall(".//joint[@type='hinge']")} == {"0 0"}
+
+
+def test_skid_params_on_a_diff_spec_refused() -> None:
+    spec = load_spec("turtlebot2")
+    with pytest.raises(ParamsFileError, match=r"track_factor 1\.7 \(a skid steer\).*turtlebot2"):
+        check_drive_kind(spec, spec.drive.replace(track_factor=1.7))
+    check_drive_kind(spec, spec.drive)  # its own drive is fine
