@@ -31,14 +31,15 @@ $(STAMP_RUN): pyproject.toml | $(BIN)/python
 	$(call warm,$(BIN))
 	touch $@
 
+# the [mujoco] extra with [dev]: its tests (`-m mujoco`) run in `make test`
 $(STAMP_DEV): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install -q -e '.[dev]'
+	$(BIN)/python -m pip install -q -e '.[dev,mujoco]'
 	$(call warm,$(BIN))
 	touch $@ $(STAMP_RUN)
 
 $(STAMP_TRAIN): pyproject.toml $(STAMP_DEV)
 	$(BIN)/python -m pip install -q '$(TORCH)'
-	$(BIN)/python -m pip install -q -e '.[dev,train,cluster]'
+	$(BIN)/python -m pip install -q -e '.[dev,mujoco,train,cluster]'
 	touch $@
 
 $(STAMP_DOCS): pyproject.toml $(STAMP_RUN)

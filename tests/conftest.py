@@ -62,7 +62,9 @@ def neato_log(realdata_dir: Path) -> Path:
 
 
 #: Markers of tests that need an optional extra, and the modules that extra installs.
-_EXTRAS = {"train": ("torch", "stable_baselines3"), "cluster": ("ray",)}
+_EXTRAS = {"train": ("torch", "stable_baselines3"), "cluster": ("ray",), "mujoco": ("mujoco",)}
+#: Where each extra's tests run.
+_RUN_BY = {"train": "run `make test-train`", "cluster": "run `make test-train`"}
 
 
 def _foreign_ray_gcs() -> list[int]:
@@ -91,17 +93,18 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Skip tests of an optional extra (`train`, `cluster`) when it is not installed.
+    """Skip tests of an optional extra (`train`, `cluster`, `mujoco`) when it is not installed.
 
-    `make test` runs without the extras; `make test-train` installs them and runs these tests.
+    `make test` installs [mujoco] and runs without the others; `make test-train` installs
+    them and runs their tests.
     """
     for marker, modules in _EXTRAS.items():
         missing = [m for m in modules if importlib.util.find_spec(m) is None]
         if not missing:
             continue
         skip = pytest.mark.skip(
-            reason=f"needs the [{marker}] extra "
-            f"({', '.join(missing)} missing): run `make test-train`"
+            reason=f"needs the [{marker}] extra ({', '.join(missing)} missing): "
+            + _RUN_BY.get(marker, f"pip install -e '.[{marker}]'")
         )
         for item in items:
             if item.get_closest_marker(marker) is not None:

@@ -1,7 +1,8 @@
 r"""Replay a real log in simulation: the logged commands, at their logged times, drive a model.
 
 The commanded velocities of a log are fed, at their real times, into the pybullet robot
-(``engine="pybullet"``, the default) or the reduced drive model (``engine="reduced"``), with
+(``engine="pybullet"``, the default), the reduced drive model (``engine="reduced"``) or the
+exported MuJoCo robot (``engine="mujoco"``, the ``[mujoco]`` extra), with
 the spec's default drive parameters or a sysid result, and the simulated base velocity is
 recorded at every real measurement time.
 
@@ -21,6 +22,9 @@ starts in motion does not begin with a spurious stop.
   command history, so commands sent before :math:`t_0` act through the delay; the base
   velocity is interpolated linearly at each measurement time.
 - ``reduced``: :func:`robots.reduced.simulate` over the whole command history, the same way.
+- ``mujoco``: :meth:`sim2real.mujoco.MujocoRobot.replay`, the same way on the MuJoCo model's
+  240 Hz grid; the robot is compiled once per spec, and each parameter set (an ensemble
+  member) is written into its ``MjModel`` in place.
 
 Segments
 --------
@@ -43,7 +47,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -65,7 +69,7 @@ __all__ = [
 
 
 #: Simulation engines :func:`replay` accepts.
-ENGINES = ("pybullet", "reduced")
+ENGINES = ("pybullet", "reduced", "mujoco")
 
 #: Default physics rate of the pybullet engine, Hz.
 DEFAULT_PHYSICS_HZ = 240.0
@@ -211,8 +215,8 @@ def replay(
         Robot name (``sim2real robots list``) or a loaded spec.
     params : DriveParams, optional
         Drive parameters; the spec defaults when omitted.
-    engine : {"pybullet", "reduced"}
-        The pybullet rigid-body robot or the reduced drive model.
+    engine : {"pybullet", "reduced", "mujoco"}
+        The pybullet rigid-body robot, the reduced drive model or the exported MuJoCo robot.
     physics_hz : float
         Physics rate of the pybullet engine, Hz.
     odom_v_window_s : float
@@ -246,7 +250,7 @@ def replay(
     )
     start = time.perf_counter()
     rate = float(physics_hz)
-    if engine == "reduced":
+    if engine in ("reduced", "mujoco"):
         rate = 1.0 / DEFAULT_DT_S
     model = getattr(trace, "measurement", None)
     op = None if model is None else model.operator(meas_t)
@@ -260,6 +264,8 @@ def replay(
     initial = (float(meas_v[0]), float(meas_w[0]))
     if engine == "reduced":
         v, w = _replay_reduced(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial)
+    elif engine == "mujoco":
+        v, w = _replay_mujoco(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial)
     else:
         v, w = _replay_pybullet(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial, physics_hz)
     if op is not None:  # the log's own measurement operator, in v and w
@@ -385,6 +391,34 @@ def _with_start_command(
         np.concatenate(([t_pre], cmd_t)),
         np.concatenate(([v0], cmd_v)),
         np.concatenate(([w0], cmd_w)),
+    )
+
+
+#: The compiled MuJoCo robot of the last spec replayed: an ensemble's members (the same spec,
+#: other parameters) edit its ``MjModel`` in place instead of compiling a model each.
+_MUJOCO_ROBOT: list[Any] = []
+
+
+def _replay_mujoco(
+    spec: RobotSpecLike,
+    params: DriveParams,
+    cmd_t: FloatArray,
+    cmd_v: FloatArray,
+    cmd_w: FloatArray,
+    t_out: FloatArray,
+    initial: tuple[float, float],
+) -> tuple[FloatArray, FloatArray]:
+    """(v, w) at ``t_out`` of the exported MuJoCo robot (:class:`sim2real.mujoco.MujocoRobot`)."""
+    from sim2real.mujoco import MujocoRobot  # the optional mujoco, only when asked for
+
+    if _MUJOCO_ROBOT and _MUJOCO_ROBOT[0].spec is spec:
+        robot = _MUJOCO_ROBOT[0]
+        robot.set_params(params)
+    else:
+        robot = MujocoRobot(spec, params)  # type: ignore[arg-type]
+        _MUJOCO_ROBOT[:] = [robot]
+    return robot.replay(
+        cmd_t_s=cmd_t, cmd_v=cmd_v, cmd_w=cmd_w, t_out_s=t_out, v0=initial[0], w0=initial[1]
     )
 
 

@@ -90,7 +90,7 @@ class StudyConfig:
         Robot (spec) name.
     params_path : str or Path, optional
         A sysid result; without it only the spec defaults are replayed.
-    engine : {"pybullet", "reduced"}
+    engine : {"pybullet", "reduced", "mujoco"}
         Simulator of every replay.
     tol_v, tol_w : float
         Agreement tolerances, m/s and rad/s.

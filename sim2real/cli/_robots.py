@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
 import tempfile
 from pathlib import Path
@@ -11,12 +12,44 @@ import yaml
 
 from robots.check import check_spec
 from robots.errors import SpecError
+from robots.mjcf import mjcf_mapping, mjcf_text
+from robots.params import load_drive_params
 from robots.spec import RobotSpec, list_robots, load_spec
 from robots.template import spec_text
 from sim2real._io import atomic_write
 from sim2real.errors import Sim2RealValueError
+from sim2real.mujoco import INSTALL_HINT, check_drive
 
-__all__ = ["handle_check", "handle_list", "handle_new", "handle_show"]
+__all__ = ["handle_check", "handle_export", "handle_list", "handle_new", "handle_show"]
+
+
+def handle_export(args: argparse.Namespace) -> int:
+    """``robots export ROBOT -o robot.xml``: the MJCF model with the identified drive."""
+    spec = load_spec(args.robot)
+    params = (
+        spec.drive
+        if args.params is None
+        else load_drive_params(args.params, robot=spec.name, base=spec.drive)
+    )
+    out = Path(args.out)
+    if out.suffix != ".xml":
+        raise Sim2RealValueError(f"-o {out}: an MJCF model must end in .xml; e.g. -o robot.xml")
+    text = mjcf_text(spec, params)
+    checked = ""
+    if importlib.util.find_spec("mujoco") is not None:
+        report = check_drive(spec, params, xml=text)
+        checked = f", loaded in MuJoCo and drive-checked ({report})"
+    with atomic_write(out, "w", what="MJCF model") as fh:
+        fh.write(text)
+    entries = mjcf_mapping(spec, params)
+    in_mjcf = sum(e.mjcf is not None for e in entries)
+    print(
+        f"wrote {out}: robot '{spec.name}', {in_mjcf} drive values in the MJCF, "
+        f"{len(entries) - in_mjcf} for sim2real.mujoco.MujocoDrive{checked}"
+    )
+    if not checked:
+        print(f"note: not loaded in MuJoCo (not installed); {INSTALL_HINT} to check it")
+    return 0
 
 
 def handle_new(args: argparse.Namespace) -> int:

@@ -82,7 +82,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--robot", required=True, help="robot name (see 'sim2real robots list')")
     p.add_argument("--params", metavar="PARAMS.yaml", help="sysid result (default: spec values)")
     p.add_argument(
-        "--engine", choices=("pybullet", "reduced"), default="pybullet", help="simulator"
+        "--engine",
+        choices=("pybullet", "reduced", "mujoco"),
+        default="pybullet",
+        help="simulator (mujoco: the exported MJCF robot; needs the [mujoco] extra)",
     )
     p.add_argument("--tol-v", type=float, default=0.02, help="tolerance on v, m/s")
     p.add_argument("--tol-w", type=float, default=0.1, help="tolerance on w, rad/s")

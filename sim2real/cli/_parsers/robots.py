@@ -14,6 +14,12 @@ _GROUP_EXAMPLES = """\
   sim2real robots show turtlebot2 --yaml > tb2.yaml # as a spec file (edit, then load it by path)
   sim2real robots new neato --wheel-separation 0.248 --max-speed 0.3 -o neato.yaml
   sim2real robots check neato.yaml                  # geometry + 1 s pybullet drive test
+  sim2real robots export turtlebot2 --params params.yaml -o tb2.xml   # MJCF for MuJoCo
+"""
+_EXPORT_EXAMPLES = """\
+  sim2real robots export turtlebot3_burger -o burger.xml          # the spec's drive
+  sim2real robots export turtlebot3_burger --params params.yaml -o burger.xml
+  sim2real robots export husky.yaml --params husky_params.yaml -o husky.xml
 """
 _NEW_EXAMPLES = """\
   sim2real robots new neato --wheel-separation 0.248 --max-speed 0.3 -o neato.yaml
@@ -73,6 +79,31 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     show.set_defaults(handler="robots:handle_show")
     _register_new(group_sub)
     _register_check(group_sub)
+    _register_export(group_sub)
+
+
+def _register_export(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    export = add_command(
+        group_sub,
+        "export",
+        help="write the robot with its identified drive as a MuJoCo MJCF model",
+        description=(
+            "Write an MJCF model of the base (bodies, wheels, casters, inertias with the "
+            "identified added mass and yaw inertia; wheel speed actuators with the speed "
+            "loop's gain, speed cap and torque cap; the axis friction as tendon damping and "
+            "frictionloss), every value commented with the params field it comes from. What "
+            "MJCF cannot express (delay, acceleration limits, command timeout, ...) is "
+            "sim2real.mujoco.MujocoDrive (docs/mujoco.md). With mujoco installed (the [mujoco] "
+            "extra) the model is loaded and drive-checked before it is written."
+        ),
+        examples=_EXPORT_EXAMPLES,
+    )
+    export.add_argument("robot", metavar="ROBOT", help="a robot name or spec .yaml file")
+    export.add_argument(
+        "--params", metavar="PARAMS.yaml", help="sysid result (default: the spec's drive)"
+    )
+    export.add_argument("-o", "--out", required=True, metavar="ROBOT.xml", help="output MJCF")
+    export.set_defaults(handler="robots:handle_export")
 
 
 def _register_new(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

@@ -281,9 +281,10 @@ def _register_calibrate(group_sub: argparse._SubParsersAction) -> None:  # type:
     p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
     p.add_argument(
         "--engine",
-        choices=("reduced", "pybullet"),
+        choices=("reduced", "pybullet", "mujoco"),
         default="reduced",
-        help="simulator (default reduced: the calibration replays the log hundreds of times)",
+        help="simulator (default reduced: the calibration replays the log hundreds of times; "
+        "mujoco needs the [mujoco] extra)",
     )
     p.add_argument(
         "--odom-v-window",
