@@ -77,14 +77,17 @@ MAX_TYRE_FRICTION = 5.0
 class MjcfValue:
     """One value of the exported model and the drive parameter (or spec fact) it carries.
 
+    :func:`mjcf_mapping` returns one for every value; ``docs/mujoco.md`` prints them as a
+    table, and ``sim2real.mujoco.MujocoRobot.set_params`` writes the ``model`` ones into a
+    compiled model.
+
     Attributes
     ----------
-    name : str
-        Identifier of the entry.
+    name, source : str
+        Identifier of the entry; the :class:`~robots.params.DriveParams` field (or spec key)
+        it comes from.
     value : float
         The value written (SI units; ``inf`` = no such limit).
-    source : str
-        The :class:`~robots.params.DriveParams` field (or spec key) it comes from.
     mjcf : str or None
         Where it sits in the MJCF (element and attribute); None when MJCF cannot express it
         and ``sim2real.mujoco.MujocoDrive`` applies it.
@@ -130,6 +133,29 @@ def check_drive_kind(spec: RobotSpec, params: DriveParams, *, where: str = "the 
         )
 
 
+#: The values the MJCF carries, one a row: name | source | where in the MJCF | ``MjModel``
+#: field (kind, names, array, column) | how the value follows from the source.
+_IN_MJCF = """
+base_mass | added_mass_kg | body base_link / inertial mass | body base_link body_mass 0 | the spec's lumped base mass (base, casters, point masses) + added_mass_kg
+base_yaw_inertia | added_yaw_inertia_kgm2 | body base_link / inertial diaginertia[2] | body base_link body_inertia 2 | the spec's lumped base izz + added_yaw_inertia_kgm2
+speed_loop_gain | motor_gain_nms_per_rad | actuator velocity wheel_*_speed / kv | actuator wheel_left_speed,wheel_right_speed actuator_gainprm 0 | torque K (ctrl - wheel speed); biasprm[2] = -K
+wheel_speed_cap | wheel_speed_max_radps | actuator velocity wheel_*_speed / ctrlrange | actuator wheel_left_speed,wheel_right_speed actuator_ctrlrange 1 | the speed target's range +-cap (MujocoDrive scales both targets together)
+wheel_torque_cap | wheel_torque_max_nm | joint wheel_*_joint / actuatorfrcrange | joint wheel_left_joint,wheel_right_joint jnt_actfrcrange 1 | +-cap on the sum of the wheel's two actuators
+motor_inertia | wheels.spin_inertia_kgm2 | joint wheel_*_joint / armature | joint wheel_left_joint,wheel_right_joint dof_armature 0 | 0: the spec's wheel spin inertia (motor included) is the wheel body's iyy
+forward_viscous | viscous_v_ns_per_m | tendon fixed forward / damping | tendon forward tendon_damping 0 | tendon = (r/2)(q_left + q_right): its rate is v
+forward_coulomb | coulomb_v_fwd_n | tendon fixed forward / frictionloss | tendon forward tendon_frictionloss 0 | MujocoDrive sets coulomb_v_bwd_n while the base moves backward
+yaw_viscous | viscous_w_nms_per_rad | tendon fixed yaw / damping | tendon yaw tendon_damping 0 | tendon = (r/L)(q_right - q_left): its rate is the yaw rate
+yaw_coulomb | coulomb_w_nm | tendon fixed yaw / frictionloss | tendon yaw tendon_frictionloss 0 | dry friction of the yaw rate
+tyre_friction | wheel_torque_max_nm, coulomb_*, viscous_*, added_mass_kg | geom wheel_*_tyre / friction[0] | geom wheel_left_tyre,wheel_right_tyre geom_friction 0 | enough grip for every force the drive asks (the pybullet robot's rule), at most MAX_TYRE_FRICTION
+"""
+
+
+def _model_field(text: str) -> tuple[str, tuple[str, ...], str, int]:
+    """``'kind name,name array column'`` -> (kind, names, array, column)."""
+    kind, names, array, column = text.split()
+    return kind, tuple(names.split(",")), array, int(column)
+
+
 def mjcf_mapping(spec: RobotSpec, params: DriveParams) -> tuple[MjcfValue, ...]:
     """Every drive parameter's place in the MuJoCo model (the one mapping; see the module).
 
@@ -154,100 +180,35 @@ def mjcf_mapping(spec: RobotSpec, params: DriveParams) -> tuple[MjcfValue, ...]:
     """
     from robots._pybullet_robot import tyre_friction  # the tyre rule the pybullet robot uses
 
-    d, r, sep = params, spec.wheels.radius_m, spec.wheels.separation_m
-    ixx, iyy, izz = lumped_base_inertia(spec)
-    del ixx, iyy
-    return (
+    d = params
+    values = {
+        "base_mass": lumped_base_mass_kg(spec) + d.added_mass_kg,
+        "base_yaw_inertia": lumped_base_inertia(spec)[2] + d.added_yaw_inertia_kgm2,
+        "speed_loop_gain": d.motor_gain_nms_per_rad,
+        "wheel_speed_cap": d.wheel_speed_max_radps,
+        "wheel_torque_cap": d.wheel_torque_max_nm,
+        "motor_inertia": 0.0,
+        "forward_viscous": d.viscous_v_ns_per_m,
+        "forward_coulomb": d.coulomb_v_fwd_n,
+        "yaw_viscous": d.viscous_w_nms_per_rad,
+        "yaw_coulomb": d.coulomb_w_nm,
+        "tyre_friction": min(tyre_friction(spec, d), MAX_TYRE_FRICTION),
+    }
+    rows = [[c.strip() for c in row.split("|")] for row in _IN_MJCF.strip().splitlines()]
+    in_mjcf = tuple(
         MjcfValue(
-            name="base_mass",
-            value=lumped_base_mass_kg(spec) + d.added_mass_kg,
-            source="added_mass_kg",
-            mjcf="body base_link / inertial mass",
-            model=("body", ("base_link",), "body_mass", 0),
-            note="the spec's lumped base mass (base, casters, point masses) + added_mass_kg",
-        ),
-        MjcfValue(
-            name="base_yaw_inertia",
-            value=izz + d.added_yaw_inertia_kgm2,
-            source="added_yaw_inertia_kgm2",
-            mjcf="body base_link / inertial diaginertia[2]",
-            model=("body", ("base_link",), "body_inertia", 2),
-            note="the spec's lumped base izz + added_yaw_inertia_kgm2",
-        ),
-        MjcfValue(
-            name="speed_loop_gain",
-            value=d.motor_gain_nms_per_rad,
-            source="motor_gain_nms_per_rad",
-            mjcf="actuator velocity wheel_*_speed / kv",
-            model=("actuator", _SPEED, "actuator_gainprm", 0),
-            note="torque K (ctrl - wheel speed); biasprm[2] = -K",
-        ),
-        MjcfValue(
-            name="wheel_speed_cap",
-            value=d.wheel_speed_max_radps,
-            source="wheel_speed_max_radps",
-            mjcf="actuator velocity wheel_*_speed / ctrlrange",
-            model=("actuator", _SPEED, "actuator_ctrlrange", 1),
-            note="the speed target's range +-cap (MujocoDrive scales both targets together)",
-        ),
-        MjcfValue(
-            name="wheel_torque_cap",
-            value=d.wheel_torque_max_nm,
-            source="wheel_torque_max_nm",
-            mjcf="joint wheel_*_joint / actuatorfrcrange",
-            model=("joint", _JOINTS, "jnt_actfrcrange", 1),
-            note="+-cap on the sum of the wheel's two actuators",
-        ),
-        MjcfValue(
-            name="motor_inertia",
-            value=0.0,
-            source="wheels.spin_inertia_kgm2",
-            mjcf="joint wheel_*_joint / armature",
-            model=("joint", _JOINTS, "dof_armature", 0),
-            note="0: the spec's wheel spin inertia (motor included) is the wheel body's iyy",
-        ),
-        MjcfValue(
-            name="forward_viscous",
-            value=d.viscous_v_ns_per_m,
-            source="viscous_v_ns_per_m",
-            mjcf="tendon fixed forward / damping",
-            model=("tendon", ("forward",), "tendon_damping", 0),
-            note=f"tendon = (r/2)(q_left + q_right), r = {r:g} m: its rate is v",
-        ),
-        MjcfValue(
-            name="forward_coulomb",
-            value=d.coulomb_v_fwd_n,
-            source="coulomb_v_fwd_n",
-            mjcf="tendon fixed forward / frictionloss",
-            model=("tendon", ("forward",), "tendon_frictionloss", 0),
-            note="MujocoDrive sets coulomb_v_bwd_n while the base moves backward",
-        ),
-        MjcfValue(
-            name="yaw_viscous",
-            value=d.viscous_w_nms_per_rad,
-            source="viscous_w_nms_per_rad",
-            mjcf="tendon fixed yaw / damping",
-            model=("tendon", ("yaw",), "tendon_damping", 0),
-            note=f"tendon = (r/L)(q_right - q_left), L = {sep:g} m: its rate is the yaw rate",
-        ),
-        MjcfValue(
-            name="yaw_coulomb",
-            value=d.coulomb_w_nm,
-            source="coulomb_w_nm",
-            mjcf="tendon fixed yaw / frictionloss",
-            model=("tendon", ("yaw",), "tendon_frictionloss", 0),
-            note="dry friction of the yaw rate",
-        ),
-        MjcfValue(
-            name="tyre_friction",
-            value=min(tyre_friction(spec, d), MAX_TYRE_FRICTION),
-            source="wheel_torque_max_nm, coulomb_*, viscous_*, added_mass_kg",
-            mjcf="geom wheel_*_tyre / friction[0]",
-            model=("geom", ("wheel_left_tyre", "wheel_right_tyre"), "geom_friction", 0),
-            note="enough grip for every force the drive asks (the pybullet robot's rule), "
-            f"at most {MAX_TYRE_FRICTION:g}",
-        ),
-        *_drive_only(d),
+            name=n,
+            value=float(values[n]),
+            source=s,
+            mjcf=m,
+            model=_model_field(f),
+            note=t.replace("MAX_TYRE_FRICTION", f"{MAX_TYRE_FRICTION:g}"),
+        )
+        for n, s, m, f, t in rows
+    )
+    return in_mjcf + tuple(
+        MjcfValue(name=n, value=float(getattr(d, n)), source=n, mjcf=None, model=None, note=t)
+        for n, t in _DRIVE_ONLY
     )
 
 
@@ -270,14 +231,6 @@ _DRIVE_ONLY = (
     ("wheel_no_load_speed_radps", "MujocoDrive: the torque-speed line's other end"),
     ("coulomb_v_bwd_n", "MujocoDrive: tendon forward frictionloss moving backward"),
 )
-
-
-def _drive_only(d: DriveParams) -> tuple[MjcfValue, ...]:
-    """The entries of :data:`_DRIVE_ONLY` with the values of ``d``."""
-    return tuple(
-        MjcfValue(name=n, value=float(getattr(d, n)), source=n, mjcf=None, model=None, note=t)
-        for n, t in _DRIVE_ONLY
-    )
 
 
 def _f(x: float) -> str:

@@ -23,8 +23,8 @@ Examples
 >>> import numpy as np
 >>> from robots.spec import load_spec
 >>> robot = MujocoRobot(load_spec("turtlebot3_burger"))  # doctest: +SKIP
->>> v, w = robot.replay(cmd_t_s=np.array([0.0]), cmd_v=np.array([0.2]),
-...                     cmd_w=np.array([0.0]), t_out_s=np.array([0.0, 0.4]))  # doctest: +SKIP
+>>> cmd = (np.array([0.0]), np.array([0.2]), np.array([0.0]))  # stamps, v, w
+>>> v, w = robot.replay(cmd, np.array([0.0, 0.4]))  # doctest: +SKIP
 >>> round(float(v[-1]), 2)  # doctest: +SKIP
 0.19
 """
@@ -51,6 +51,8 @@ from sim2real.errors import Sim2RealValueError
 __all__ = ["INSTALL_HINT", "MujocoDrive", "MujocoRobot", "check_drive", "import_mujoco"]
 
 FloatArray = NDArray[np.float64]
+#: Logged commands: (stamps s, v m/s, w rad/s).
+Commands = tuple[FloatArray, FloatArray, FloatArray]
 
 #: How to install the optional MuJoCo dependency.
 INSTALL_HINT = "pip install 'sim2real[mujoco]'"
@@ -321,16 +323,10 @@ class MujocoRobot:
         )
 
     def replay(
-        self,
-        *,
-        cmd_t_s: FloatArray,
-        cmd_v: FloatArray,
-        cmd_w: FloatArray,
-        t_out_s: FloatArray,
-        v0: float = 0.0,
-        w0: float = 0.0,
+        self, cmd: Commands, t_out_s: FloatArray, start: tuple[float, float] = (0.0, 0.0)
     ) -> tuple[FloatArray, FloatArray]:
-        """Drive a logged command sequence from rest at (``v0``, ``w0``); (v, w) at ``t_out_s``.
+        """Drive logged commands ``cmd`` = (times s, v m/s, w rad/s) from the base moving at
+        ``start`` = (v, w); returns (v, w) at ``t_out_s``.
 
         As :func:`robots.reduced.simulate`: the run starts at ``t_out_s[0]``, each physics step
         gets the delayed zero-order-hold command averaged over it (with the timeout), and the
@@ -338,6 +334,8 @@ class MujocoRobot:
         change run in one ``mj_step`` call unless the drive needs the measured state
         (:attr:`MujocoDrive.feedback`).
         """
+        cmd_t_s, cmd_v, cmd_w = cmd
+        v0, w0 = start
         mj, m, d, drive = self._mj, self.model, self.data, self.drive
         dt, p = drive.dt_s, drive.params
         t_out = np.asarray(t_out_s, dtype=np.float64)
@@ -355,11 +353,11 @@ class MujocoRobot:
         record[0] = True  # the start state is the first row
         targets = _wheel_targets(u_v, u_w, v0, w0, dt, drive._packed)
         # a run of steps starts where the targets change (beyond rounding) or a sample is due
-        start = np.ones(n + 1, dtype=bool)
+        begins = np.ones(n + 1, dtype=bool)
         if not drive.feedback:
-            start[1:n] = np.any(np.abs(np.diff(targets, axis=0)) > 1e-12, axis=1)
-        start |= record
-        bounds = np.flatnonzero(start).tolist()
+            begins[1:n] = np.any(np.abs(np.diff(targets, axis=0)) > 1e-12, axis=1)
+        begins |= record
+        bounds = np.flatnonzero(begins).tolist()
         tl = targets.tolist()
         rows: list[tuple[float, float]] = [self.velocity()]
         for a, b in itertools.pairwise(bounds):
@@ -414,7 +412,7 @@ def check_drive(spec: RobotSpec, params: DriveParams, *, xml: str | None = None)
         cmd = np.where(cmd_t < 1.45, 0.5 * top, 0.0)
         zero = np.zeros_like(cmd)
         cmd_v, cmd_w = (cmd, zero) if axis == "forward" else (zero, cmd)
-        v, w = robot.replay(cmd_t_s=cmd_t, cmd_v=cmd_v, cmd_w=cmd_w, t_out_s=t_out)
+        v, w = robot.replay((cmd_t, cmd_v, cmd_w), t_out)
         model = simulate(
             params,
             spec.geometry,

@@ -56,6 +56,7 @@ from robots.reduced import DEFAULT_DT_S, simulate
 from robots.spec import load_spec
 from sim2real._arrays import FloatArray, IntArray
 from sim2real.errors import Sim2RealValueError
+from sim2real.mujoco import Commands, MujocoRobot
 from sysid.odometry import window_mean
 
 __all__ = [
@@ -265,7 +266,7 @@ def replay(
     if engine == "reduced":
         v, w = _replay_reduced(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial)
     elif engine == "mujoco":
-        v, w = _replay_mujoco(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial)
+        v, w = _replay_mujoco(spec, p, (cmd_t, cmd_v, cmd_w), t_out, initial)
     else:
         v, w = _replay_pybullet(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial, physics_hz)
     if op is not None:  # the log's own measurement operator, in v and w
@@ -400,26 +401,16 @@ _MUJOCO_ROBOT: list[Any] = []
 
 
 def _replay_mujoco(
-    spec: RobotSpecLike,
-    params: DriveParams,
-    cmd_t: FloatArray,
-    cmd_v: FloatArray,
-    cmd_w: FloatArray,
-    t_out: FloatArray,
-    initial: tuple[float, float],
+    spec: Any, params: DriveParams, cmd: Commands, t_out: FloatArray, start: tuple[float, float]
 ) -> tuple[FloatArray, FloatArray]:
     """(v, w) at ``t_out`` of the exported MuJoCo robot (:class:`sim2real.mujoco.MujocoRobot`)."""
-    from sim2real.mujoco import MujocoRobot  # the optional mujoco, only when asked for
-
     if _MUJOCO_ROBOT and _MUJOCO_ROBOT[0].spec is spec:
         robot = _MUJOCO_ROBOT[0]
         robot.set_params(params)
     else:
-        robot = MujocoRobot(spec, params)  # type: ignore[arg-type]
+        robot = MujocoRobot(spec, params)
         _MUJOCO_ROBOT[:] = [robot]
-    return robot.replay(
-        cmd_t_s=cmd_t, cmd_v=cmd_v, cmd_w=cmd_w, t_out_s=t_out, v0=initial[0], w0=initial[1]
-    )
+    return robot.replay(cmd, t_out, start)
 
 
 def _replay_pybullet(

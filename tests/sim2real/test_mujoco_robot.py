@@ -78,10 +78,10 @@ def test_export_loads_and_drives(
     cmd = np.where(t < 1.0, 1.0, 0.0)
     zero = np.zeros_like(t)
     t_out = np.array([0.0, 1.0, 3.0])
-    v, _ = bot.replay(cmd_t_s=t, cmd_v=0.5 * spec.max_v_mps * cmd, cmd_w=zero, t_out_s=t_out)
+    v, _ = bot.replay((t, 0.5 * spec.max_v_mps * cmd, zero), t_out)
     assert v[1] > 0.25 * spec.max_v_mps and abs(v[2]) < 0.01 * spec.max_v_mps
     assert bot.data.qpos[0] > 0.1 * spec.max_v_mps and abs(bot.data.qpos[1]) < 1e-3
-    _, w = bot.replay(cmd_t_s=t, cmd_v=zero, cmd_w=0.5 * spec.max_w_radps * cmd, t_out_s=t_out)
+    _, w = bot.replay((t, zero, 0.5 * spec.max_w_radps * cmd), t_out)
     assert w[1] > 0.25 * spec.max_w_radps and abs(w[2]) < 0.01 * spec.max_w_radps
 
 
@@ -101,7 +101,7 @@ def test_drive_matches_the_drive_model(robot: str, changes: dict[str, float]) ->
     params = spec.drive.replace(**changes)
     t, v, w = _commands(1, 40.0, spec.max_v_mps, spec.max_w_radps)
     t_out = np.arange(0.0, 40.0, 0.05)
-    mv, mw = MujocoRobot(spec, params).replay(cmd_t_s=t, cmd_v=v, cmd_w=w, t_out_s=t_out)
+    mv, mw = MujocoRobot(spec, params).replay((t, v, w), t_out)
     ref = simulate(params, spec.geometry, cmd_t_s=t, cmd_v=v, cmd_w=w, t_out_s=t_out)
     # within the agreement tolerances (0.02 m/s, 0.1 rad/s) nearly everywhere: the two part
     # only in the few steps after a hard reversal (the tyres' contact is not rigid)
@@ -118,7 +118,7 @@ def test_skid_steer_turns_on_its_effective_track(new_robots: dict[str, Path]) ->
     t = np.arange(0.0, 4.0, 0.1)
     t_out = np.array([0.0, 3.0])
     args = {"cmd_t_s": t, "cmd_v": np.full(t.size, 0.3), "cmd_w": np.full(t.size, 0.8)}
-    mv, mw = MujocoRobot(spec, params).replay(t_out_s=t_out, **args)
+    mv, mw = MujocoRobot(spec, params).replay(tuple(args.values()), t_out)
     ref = simulate(params, spec.geometry, t_out_s=t_out, **args)
     # w = 0.8 * 1.2 / 2 = 0.48 rad/s less friction: the treads' slip, not the geometric track
     assert mw[1] == pytest.approx(ref.w[1], rel=0.03) and mw[1] < 0.55
@@ -134,19 +134,19 @@ def test_ensemble_member_is_a_field_edit() -> None:
         viscous_v_ns_per_m=0.5, coulomb_w_nm=0.02, wheel_torque_max_nm=0.12,
     )  # fmt: skip
     t, v, w = _commands(2, 10.0, spec.max_v_mps, spec.max_w_radps)
-    args = {"cmd_t_s": t, "cmd_v": v, "cmd_w": w, "t_out_s": np.arange(0.0, 10.0, 0.05)}
+    args = ((t, v, w), np.arange(0.0, 10.0, 0.05))
     robot = MujocoRobot(spec)
     model = robot.model
-    light = robot.replay(**args)
+    light = robot.replay(*args)
     robot.set_params(heavy)
     assert robot.model is model  # no recompile
     assert model.body("base_link").mass[0] == pytest.approx(robot.spec.base_mass_kg + 0.8, abs=0.2)
-    edited = robot.replay(**args)
-    fresh = MujocoRobot(spec, heavy).replay(**args)
+    edited = robot.replay(*args)
+    fresh = MujocoRobot(spec, heavy).replay(*args)
     np.testing.assert_allclose(edited, fresh, atol=1e-9)
     assert np.max(np.abs(edited[0] - light[0])) > 0.02  # the edit changed the run
     robot.set_params(spec.drive)
-    np.testing.assert_allclose(robot.replay(**args), light, atol=1e-9)
+    np.testing.assert_allclose(robot.replay(*args), light, atol=1e-9)
 
 
 def test_export_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -210,12 +210,12 @@ def test_ten_minute_replay_costs_little_beyond_the_physics() -> None:
     spec = load_spec("turtlebot3_burger")
     t, v, w = _commands(3, 600.0, spec.max_v_mps, spec.max_w_radps)
     robot = MujocoRobot(spec)
-    args = {"cmd_t_s": t, "cmd_v": v, "cmd_w": w, "t_out_s": np.arange(0.0, 600.0, 1 / 30)}
-    robot.replay(**{k: a[:20] for k, a in args.items()})  # compile the kernels first
+    t_out = np.arange(0.0, 600.0, 1 / 30)
+    robot.replay((t[:20], v[:20], w[:20]), t_out[:20])  # compile the kernels first
     replay_s = physics_s = np.inf
     for _ in range(3):  # the best of three: a shared machine
         start = time.perf_counter()
-        robot.replay(**args)
+        robot.replay((t, v, w), t_out)
         replay_s = min(replay_s, time.perf_counter() - start)
         start = time.perf_counter()
         mujoco.mj_step(robot.model, robot.data, 144_000)  # the same 600 s at 240 Hz

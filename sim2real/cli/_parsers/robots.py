@@ -82,22 +82,21 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     _register_export(group_sub)
 
 
+_EXPORT_DESCRIPTION = (
+    "Write an MJCF model of the base (bodies, wheels, casters, inertias with the identified "
+    "added mass and yaw inertia; wheel speed actuators with the speed loop's gain, speed cap "
+    "and torque cap; the axis friction as tendon damping and frictionloss), every value "
+    "commented with the params field it comes from. What MJCF cannot express (delay, "
+    "acceleration limits, command timeout, ...) is sim2real.mujoco.MujocoDrive "
+    "(docs/mujoco.md). With mujoco installed (the [mujoco] extra) the model is loaded and "
+    "drive-checked before it is written."
+)
+
+
 def _register_export(group_sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    export = add_command(
-        group_sub,
-        "export",
-        help="write the robot with its identified drive as a MuJoCo MJCF model",
-        description=(
-            "Write an MJCF model of the base (bodies, wheels, casters, inertias with the "
-            "identified added mass and yaw inertia; wheel speed actuators with the speed "
-            "loop's gain, speed cap and torque cap; the axis friction as tendon damping and "
-            "frictionloss), every value commented with the params field it comes from. What "
-            "MJCF cannot express (delay, acceleration limits, command timeout, ...) is "
-            "sim2real.mujoco.MujocoDrive (docs/mujoco.md). With mujoco installed (the [mujoco] "
-            "extra) the model is loaded and drive-checked before it is written."
-        ),
-        examples=_EXPORT_EXAMPLES,
-    )
+    help_ = "write the robot with its identified drive as a MuJoCo MJCF model"
+    kw = {"help": help_, "description": _EXPORT_DESCRIPTION, "examples": _EXPORT_EXAMPLES}
+    export = add_command(group_sub, "export", **kw)
     export.add_argument("robot", metavar="ROBOT", help="a robot name or spec .yaml file")
     export.add_argument(
         "--params", metavar="PARAMS.yaml", help="sysid result (default: the spec's drive)"
