@@ -214,22 +214,18 @@ def mjcf_mapping(spec: RobotSpec, params: DriveParams) -> tuple[MjcfValue, ...]:
 
 #: What MujocoDrive applies, field by field (MJCF cannot express it).
 _DRIVE_ONLY = (
-    (
-        "delay_s",
-        "MujocoDrive (the controller that turns (v, w) into data.ctrl): commands "
-        "act this long after their stamp",
-    ),
-    ("cmd_timeout_s", "MujocoDrive: the targets fall to 0 this long after a command"),
-    ("speed_lim_v_mps", "MujocoDrive: clamps the commanded v"),
-    ("speed_lim_w_radps", "MujocoDrive: clamps the commanded w"),
-    ("accel_lim_v_mps2", "MujocoDrive: rate-limits the reference v"),
-    ("accel_lim_w_radps2", "MujocoDrive: rate-limits the reference w"),
-    ("driver_track_factor", "MujocoDrive: the wheel targets of a (v, w) command"),
-    ("speed_loop_ki_per_s", "MujocoDrive: K ki (integrated error) on wheel_*_loop"),
-    ("track_factor", "MujocoDrive: the loops' wheel speeds on the effective track"),
-    ("wheel_stall_torque_nm", "MujocoDrive: sets actfrcrange on the torque-speed line"),
-    ("wheel_no_load_speed_radps", "MujocoDrive: the torque-speed line's other end"),
-    ("coulomb_v_bwd_n", "MujocoDrive: tendon forward frictionloss moving backward"),
+    ("delay_s", "commands act this long after their stamp"),
+    ("cmd_timeout_s", "the targets fall to 0 this long after a command"),
+    ("speed_lim_v_mps", "clamps the commanded v"),
+    ("speed_lim_w_radps", "clamps the commanded w"),
+    ("accel_lim_v_mps2", "rate-limits the reference v"),
+    ("accel_lim_w_radps2", "rate-limits the reference w"),
+    ("driver_track_factor", "the wheel targets of a (v, w) command"),
+    ("speed_loop_ki_per_s", "K ki (integrated speed error) on the wheel_*_loop actuators"),
+    ("track_factor", "the loops' wheel speeds on the effective track (wheel_*_loop)"),
+    ("wheel_stall_torque_nm", "the wheel joints' actfrcrange on the torque-speed line"),
+    ("wheel_no_load_speed_radps", "the torque-speed line's other end"),
+    ("coulomb_v_bwd_n", "the forward tendon's frictionloss while the base moves backward"),
 )
 
 

@@ -19,6 +19,7 @@ DEFERRED = {
     ("robots._pybullet", "pybullet"),  # the banner-free import itself
     ("robots._jit", "numba"),  # kernels compile on first use
     ("robots.check", "robots._pybullet_robot"),  # `robots check --no-drive` needs no pybullet
+    ("robots.mjcf", "robots._pybullet_robot"),  # its tyre rule; `agree` imports robots.mjcf
     ("sysid._fleet", "scipy.special"),  # sysid.spread_degrees_of_freedom without scipy
 }
 

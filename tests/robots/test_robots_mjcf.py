@@ -84,3 +84,20 @@ def test_skid_params_on_a_diff_spec_refused() -> None:
     with pytest.raises(ParamsFileError, match=r"track_factor 1\.7 \(a skid steer\).*turtlebot2"):
         check_drive_kind(spec, spec.drive.replace(track_factor=1.7))
     check_drive_kind(spec, spec.drive)  # its own drive is fine
+
+
+def test_docs_table_is_the_mapping() -> None:
+    """docs/mujoco.md prints mjcf_mapping's rows (field, place, note) for turtlebot3_burger."""
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "mujoco.md").read_text()
+    spec = load_spec("turtlebot3_burger")
+    rows = [line for line in doc.splitlines() if line.startswith("| `")]
+    entries = mjcf_mapping(spec, spec.drive)
+    assert len(rows) == len(entries)
+    for row, entry in zip(rows, entries, strict=True):
+        source, place, field, note = (c.strip() for c in row.strip("|").split("|"))
+        assert source.replace("`", "") == entry.source
+        assert place == (entry.mjcf or "`MujocoDrive`")
+        assert field == ("" if entry.model is None else f"`{entry.model[2]}`")
+        assert note == entry.note

@@ -810,6 +810,7 @@ COMMANDS = [
     ["robots", "show"],
     ["robots", "new"],
     ["robots", "check"],
+    ["robots", "export"],
     ["sysid"],
     ["sysid", "fit"],
     ["sysid", "show"],

@@ -220,4 +220,4 @@ def test_ten_minute_replay_costs_little_beyond_the_physics() -> None:
         start = time.perf_counter()
         mujoco.mj_step(robot.model, robot.data, 144_000)  # the same 600 s at 240 Hz
         physics_s = min(physics_s, time.perf_counter() - start)
-    assert replay_s <= 1.5 * physics_s
+    assert replay_s <= 2.0 * physics_s  # a step a call would take ~4x
