@@ -9,15 +9,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
 from robots.params import DriveParams
 from robots.randomization import DriveDistribution
 from robots.spec import load_spec
+from sim2real.envs._base import WorldEnv
 from sim2real.envs._robot import (
     RobotBackend,
-    check_env_arguments,
     footprint_radius_m,
     make_backend,
 )
@@ -85,10 +84,8 @@ class StepInfo:
         self.w = w
 
 
-class NavEnvBase(gym.Env):  # type: ignore[type-arg]
+class NavEnvBase(WorldEnv):
     """Base of :class:`~sim2real.envs.RandomMapEnv` and :class:`~sim2real.envs.CrowdNavEnv`."""
-
-    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
 
     def __init__(
         self,
@@ -104,13 +101,7 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
         drive_spread: float = 1.0,
         plant_sessions: Any = None,
     ) -> None:
-        super().__init__()
-        check_env_arguments(
-            dynamics=dynamics,
-            control_dt=control_dt,
-            max_episode_steps=max_episode_steps,
-            drive_params=drive_params,
-        )
+        super().__init__(dynamics, control_dt, max_episode_steps, drive_params)
         self.robot_spec = _load_spec(robot)
         self._drive_distribution = _check_distribution(
             drive_distribution, drive_spread, self.robot_spec.name
@@ -122,10 +113,6 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
                 "not use; pass plant_sessions= for the plant's sessions, or use "
                 "dynamics='reduced'"
             )
-        self.dynamics = dynamics
-        #: Control period, s (the randomizers read ``env.unwrapped.control_dt``).
-        self.control_dt = float(control_dt)
-        self.max_episode_steps = int(max_episode_steps)
         self.goal_tolerance_m = float(goal_tolerance_m)
         self.robot_radius_m = footprint_radius_m(self.robot_spec)
         self._world = PybulletWorld() if (needs_world or dynamics == "pybullet") else None
@@ -267,9 +254,3 @@ class NavEnvBase(gym.Env):  # type: ignore[type-arg]
 
     def _outcome_name(self, outcome: str) -> str:
         return outcome
-
-    def close(self) -> None:
-        if self._world is not None:
-            self._world.close()
-            self._world = None
-        super().close()

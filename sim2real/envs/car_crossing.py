@@ -71,13 +71,12 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
 from robots.params import DriveParams
+from sim2real.envs._base import WorldEnv
 from sim2real.envs._car import CAR, DEFAULT_CAR_PARAMS, CarModel, PybulletCar, ReducedCar
-from sim2real.envs._robot import check_env_arguments
 from sim2real.envs._world import PybulletWorld
 from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, rectangle_segments
 from sim2real.envs.metrics import MetricsTracker
@@ -167,7 +166,7 @@ def _segment_hits_box(a: FloatArray, b: FloatArray, box: FloatArray) -> bool:
     return True
 
 
-class CarCrossingEnv(gym.Env):  # type: ignore[type-arg]
+class CarCrossingEnv(WorldEnv):
     """Pass a static obstacle and an occluded crossing pedestrian with a small car (Trararak et al.).
 
     Parameters
@@ -185,8 +184,6 @@ class CarCrossingEnv(gym.Env):  # type: ignore[type-arg]
         The car's drive chain (default :data:`sim2real.envs._car.DEFAULT_CAR_PARAMS`).
     """
 
-    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
-
     def __init__(
         self,
         *,
@@ -196,23 +193,17 @@ class CarCrossingEnv(gym.Env):  # type: ignore[type-arg]
         reward: CarCrossingReward | None = None,
         drive_params: DriveParams | None = None,
     ) -> None:
-        super().__init__()
-        check_env_arguments(
-            dynamics=dynamics,
-            control_dt=control_dt,
-            max_episode_steps=max_episode_steps,
-            drive_params=drive_params,
+        super().__init__(
+            dynamics,
+            control_dt,
+            max_episode_steps,
+            drive_params,
             pybullet_body="rigid-body car",
             choices=("reduced", "pybullet"),
         )
-        self.dynamics = dynamics
-        #: Control period, s (the randomizers read ``env.unwrapped.control_dt``).
-        self.control_dt = float(control_dt)
-        self.max_episode_steps = max_episode_steps
         self.reward_config = reward if reward is not None else CarCrossingReward()
         self.geometry = CAR
         params = drive_params if drive_params is not None else DEFAULT_CAR_PARAMS
-        self._world: Any = None
         self.car: CarModel
         if dynamics == "pybullet":
             self._world = PybulletWorld()
@@ -464,9 +455,3 @@ class CarCrossingEnv(gym.Env):  # type: ignore[type-arg]
             metrics["collision_with"] = collision
             info["metrics"] = metrics
         return info
-
-    def close(self) -> None:
-        if self._world is not None:
-            self._world.close()
-            self._world = None
-        super().close()
