@@ -202,41 +202,31 @@ def _noisy_depth_fix(
             out[i] = min(max(d + std * z[j], near), far)
 
 
+#: A PCG64 stream of 32-bit halves: state (``hi``, ``lo``), the current 64-bit ``word`` and
+#: whether its high half is still unused.
+_Halves = tuple[np.uint64, np.uint64, np.uint64, bool]
+#: One step of the state, ``(a_hi, a_lo, c_hi, c_lo)``: its multiplier and increment.
+_Step = tuple[np.uint64, np.uint64, np.uint64, np.uint64]
+
+
 @numba.njit(inline="always")
-def _next_half(
-    hi: np.uint64,
-    lo: np.uint64,
-    word: np.uint64,
-    high_left: bool,
-    a_hi: np.uint64,
-    a_lo: np.uint64,
-    c_hi: np.uint64,
-    c_lo: np.uint64,
-) -> tuple[np.uint32, np.uint64, np.uint64, np.uint64, bool]:  # pragma: no cover - compiled
+def _next_half(stream: _Halves, step: _Step) -> tuple[np.uint32, _Halves]:  # pragma: no cover
     """The next 32-bit half of a PCG64 stream, low half first (as ``view(np.uint32)`` orders
-    them on a little-endian machine), and the stream after it: state (``hi``, ``lo``), the
-    current ``word`` and whether its high half is still unused. Scalars only: no array
+    them on a little-endian machine), and the stream after it. Scalars only: no array
     reference counting in the slow path's inner loop.
     """
+    hi, lo, word, high_left = stream
     if high_left:
-        return np.uint32(word >> np.uint64(32)), hi, lo, word, False
-    hi, lo = muladd(hi, lo, a_hi, a_lo, c_hi, c_lo)
+        return np.uint32(word >> np.uint64(32)), (hi, lo, word, False)
+    hi, lo = muladd(hi, lo, step[0], step[1], step[2], step[3])
     word = output(hi, lo)
-    return np.uint32(word & np.uint64(0xFFFFFFFF)), hi, lo, word, True
+    return np.uint32(word & np.uint64(0xFFFFFFFF)), (hi, lo, word, True)
 
 
 @numba.njit(cache=True, nogil=True)
 def _finish_sample(
-    u: np.int64,
-    hi: np.uint64,
-    lo: np.uint64,
-    word: np.uint64,
-    high_left: bool,
-    a_hi: np.uint64,
-    a_lo: np.uint64,
-    c_hi: np.uint64,
-    c_lo: np.uint64,
-) -> tuple[float, np.uint64, np.uint64, np.uint64, bool, int]:  # pragma: no cover - compiled
+    u: np.int64, stream: _Halves, step: _Step
+) -> tuple[float, _Halves, int]:  # pragma: no cover - compiled
     """:func:`randomizers._gauss._slow_pass` for one rejected word ``u``, the further words
     taken from the stream of :func:`_next_half` instead of an array (the same tests in the same
     order); returns the sample, the stream after it and how many halves it took."""
@@ -249,28 +239,24 @@ def _finish_sample(
             break
         if layer == 0:  # the tail beyond r (see _slow_pass)
             while True:
-                h, hi, lo, word, high_left = _next_half(
-                    hi, lo, word, high_left, a_hi, a_lo, c_hi, c_lo
-                )
+                h, stream = _next_half(stream, step)
                 a = -math.log((float(h) + 0.5) * _INV_2_32) / _R
-                h, hi, lo, word, high_left = _next_half(
-                    hi, lo, word, high_left, a_hi, a_lo, c_hi, c_lo
-                )
+                h, stream = _next_half(stream, step)
                 b = -math.log((float(h) + 0.5) * _INV_2_32)
                 used += 2
                 if b + b > a * a:
                     break
             x = _R + a
             break
-        h, hi, lo, word, high_left = _next_half(hi, lo, word, high_left, a_hi, a_lo, c_hi, c_lo)
+        h, stream = _next_half(stream, step)
         v = (float(h) + 0.5) * _INV_2_32
         used += 1
         if _FX[layer] + v * (_FX[layer + 1] - _FX[layer]) < math.exp(-0.5 * x * x):
             break
-        h, hi, lo, word, high_left = _next_half(hi, lo, word, high_left, a_hi, a_lo, c_hi, c_lo)
+        h, stream = _next_half(stream, step)
         u = np.int64(h)  # rejected: start again with a fresh word
         used += 1
-    return (-x if (u >> 8) & 1 else x), hi, lo, word, high_left, used
+    return (-x if (u >> 8) & 1 else x), stream, used
 
 
 @numba.njit(cache=True, nogil=True)
@@ -318,7 +304,7 @@ def _noisy_depth_pcg64(
     # the words after the frame's: where the rejected samples are finished, block by block
     stream = state.copy()
     advance(stream, jumps, (n + 1) // 2)
-    s_hi, s_lo, s_word, s_high_left, s_used = stream[0], stream[1], np.uint64(0), False, 0
+    halves, s_used = (stream[0], stream[1], np.uint64(0), False), 0
     k = 0
     for start in range(0, n, z.size):
         block_k = k
@@ -360,9 +346,7 @@ def _noisy_depth_pcg64(
                 k += 1
         _noisy_depth_add(img[start:stop], zb, out[start:stop], std_f, near_f, far_f)
         for j in range(block_k, k):  # finish the block's rejected samples while it is in cache
-            x, s_hi, s_lo, s_word, s_high_left, used = _finish_sample(
-                np.int64(first[j]), s_hi, s_lo, s_word, s_high_left, a1h, a1l, c1h, c1l
-            )
+            x, halves, used = _finish_sample(np.int64(first[j]), halves, (a1h, a1l, c1h, c1l))
             s_used += used
             i = rejected[j]
             d = img[i]
