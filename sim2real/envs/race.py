@@ -21,7 +21,9 @@ ORCA (its Table 1: 3-5 agents, unicycle robot, 0.25 s training step). Here:
 Observation (63 float32 values per robot)
     36 lidar ranges (m, every 10 degrees from straight ahead, LDS-01 limits 0.12-3.5 m);
     odometry x, y (m, in the track frame) and yaw (rad); measured v (m/s) and w (rad/s);
-    distance (m) and bearing (rad) to the centre of the goal line; then for the 5 nearest
+    distance (m) and bearing (rad) to the centre of the goal line (with ``local_goal_m`` to
+    SARL*'s dynamic local goal instead, Li et al. 2019: the farthest centre-line waypoint
+    ahead within that radius, the goal line's centre once it is in reach); then for the 5 nearest
     other movers (opponents and other robots) their position and velocity relative to the
     robot, in its frame (x, y m; vx, vy m/s), nearest first, zero-padded.
 Action
@@ -453,7 +455,7 @@ class RaceCore:
         scene = self.scene.with_circles(movers_xy, movers_r)
         ranges = cast_rays(scene, origin, self.beam_angles_rad + yaw, self.range_max_m)
         ranges = np.where(ranges < self.range_min_m, self.range_max_m, ranges)
-        g = self.track.goal_xy - np.array([x, y])
+        g = self._target(np.array([x, y])) - np.array([x, y])
         goal_d = float(np.hypot(*g))
         bearing = math.atan2(g[1], g[0]) - yaw
         bearing = math.atan2(math.sin(bearing), math.cos(bearing))
@@ -464,6 +466,19 @@ class RaceCore:
         return np.concatenate([ranges, [x, y, yaw, v, w, goal_d, bearing], nb.reshape(-1)]).astype(
             np.float32
         )
+
+    #: SARL*'s local-goal radius, m (None: the goal line's centre is the target)
+    local_goal_m: float | None = None
+
+    def _target(self, xy: FloatArray) -> FloatArray:
+        """Where the observation's goal distance and bearing point (see the module docstring)."""
+        if self.local_goal_m is None:
+            return self.track.goal_xy
+        line = self.track.centreline
+        k = int(np.argmin(np.sum((line - xy) ** 2, axis=1)))
+        inside = np.flatnonzero(np.hypot(*(line[k:] - xy).T) <= self.local_goal_m)
+        j = k + (int(inside[-1]) if inside.size else 1)
+        return self.track.goal_xy if j >= len(line) - 1 else line[j]
 
     def _others(self, k: int) -> tuple[FloatArray, FloatArray, FloatArray]:
         live = ~self.opp_done
@@ -569,6 +584,9 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
         reset from the env's ``np_random`` after the start grid (default: the robot's plant
         with the default payload, floor, battery and latency variation); a ``PlantParams`` is
         one fixed session.
+    local_goal_m : float, optional
+        Observe SARL*'s dynamic local goal within this radius (m) instead of the goal line's
+        centre (see the module docstring).
 
     Notes
     -----
@@ -590,9 +608,20 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
         drive_params: DriveParams | None = None,
         robot: str = "turtlebot3_burger",
         plant_sessions: PlantSessions | PlantParams | None = None,
+        local_goal_m: float | None = None,
     ) -> None:
         super().__init__()
         _check_options(track, num_opponents, 1)
+        if local_goal_m is not None and not (
+            isinstance(local_goal_m, int | float)
+            and not isinstance(local_goal_m, bool)
+            and math.isfinite(local_goal_m)
+            and local_goal_m > 0
+        ):
+            raise Sim2RealValueError(
+                f"local_goal_m must be a distance in metres > 0 or None, got {local_goal_m!r}; "
+                "e.g. 1.0"
+            )
         max_episode_steps = _episode_steps(
             track, dynamics, control_dt, max_episode_steps, drive_params
         )
@@ -616,6 +645,7 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
         self._act_box = self.core.action_space()
         self.observation_space = self._obs_box
         self.action_space = self._act_box
+        self.core.local_goal_m = None if local_goal_m is None else float(local_goal_m)
         #: (slots, values per slot) of the neighbours at the end of the observation
         self.neighbour_slots: tuple[int, int] | None = (N_NEIGHBOURS, 4)
         self._done = False
