@@ -31,7 +31,7 @@ MAY_IMPORT = {
     "sim2real.fitting": LIBRARY | {"sim2real.logs"},
     "sim2real.planning": LIBRARY | {"sim2real.logs"},
     "sim2real.sensor_id": LIBRARY | {"sim2real.logs"},
-    "sim2real.sensor_report": LIBRARY,
+    "sim2real.sensor_report": LIBRARY | {"sim2real.envs"},  # the sim lidar is the envs' ray caster
     "sim2real.mujoco": {"robots", "sim2real.errors"},
     "sim2real.agreement": LIBRARY | {"sim2real.logs", "sim2real.mujoco"},
     "sim2real.cluster": LIBRARY | {"sim2real.logs", "sim2real.agreement"},
