@@ -29,7 +29,15 @@ import numpy as np
 
 from randomizers.errors import RandomizerTypeError
 
-__all__ = ["ZIGGURAT_LAYERS", "NormalPool", "fill_standard_normal", "raw_words", "ziggurat_tables"]
+__all__ = [
+    "ZIGGURAT_LAYERS",
+    "NormalPool",
+    "fill_standard_normal",
+    "raw_words",
+    "rectangle",
+    "under_wedge",
+    "ziggurat_tables",
+]
 
 #: Number of ziggurat layers (8 bits of each word select one).
 ZIGGURAT_LAYERS = 256
@@ -104,6 +112,25 @@ def _fast_pass(
     return k
 
 
+@numba.njit(inline="always")
+def rectangle(
+    u: np.int64, width: np.ndarray, accept: np.ndarray
+) -> tuple[np.int64, float, bool]:  # pragma: no cover - compiled
+    """The ziggurat's first test of word ``u``: its layer (low 8 bits), its sample (magnitude
+    ``u >> 9`` times the layer's width) and whether that lies inside the layer's rectangle
+    (accepted at once)."""
+    layer = u & 255
+    mag = u >> 9
+    return layer, float(mag) * width[layer], mag < accept[layer]
+
+
+@numba.njit(inline="always")
+def under_wedge(fx: np.ndarray, layer: np.int64, v: float, x: float) -> bool:  # pragma: no cover
+    """The wedge test of sample ``x`` of ``layer`` (outside its rectangle) with a uniform ``v``
+    in (0, 1): whether the point lies under the density."""
+    return fx[layer] + v * (fx[layer + 1] - fx[layer]) < math.exp(-0.5 * x * x)
+
+
 @numba.njit(cache=True, nogil=True)
 def _slow_pass(
     words: np.ndarray,
@@ -127,10 +154,8 @@ def _slow_pass(
         i = rejected[j]
         u = np.int64(words[i])
         while True:
-            layer = u & 255
-            mag = u >> 9
-            x = float(mag) * width[layer]
-            if mag < accept[layer]:
+            layer, x, inside = rectangle(u, width, accept)
+            if inside:
                 break
             if layer == 0:
                 # Tail beyond r (Marsaglia 1964): repeat exponential proposals until the square
@@ -150,7 +175,7 @@ def _slow_pass(
                     return j
                 v = (float(extra[p]) + 0.5) * _INV_2_32
                 p += 1
-                if fx[layer] + v * (fx[layer + 1] - fx[layer]) < math.exp(-0.5 * x * x):
+                if under_wedge(fx, layer, v, x):
                     break
             if p + 1 > m:
                 return j

@@ -31,6 +31,8 @@ from randomizers._gauss import (
     _WIDTH,
     _slow_pass,
     raw_words,
+    rectangle,
+    under_wedge,
 )
 from randomizers._lidar_sysid import load_sensor_noise
 from randomizers._observation import ObservationRandomizer
@@ -232,10 +234,8 @@ def _finish_sample(
     order); returns the sample, the stream after it and how many halves it took."""
     used = 0
     while True:
-        layer = u & 255
-        mag = u >> 9
-        x = float(mag) * _WIDTH[layer]
-        if mag < _ACCEPT_I64[layer]:
+        layer, x, inside = rectangle(u, _WIDTH, _ACCEPT_I64)
+        if inside:
             break
         if layer == 0:  # the tail beyond r (see _slow_pass)
             while True:
@@ -251,7 +251,7 @@ def _finish_sample(
         h, stream = _next_half(stream, step)
         v = (float(h) + 0.5) * _INV_2_32
         used += 1
-        if _FX[layer] + v * (_FX[layer + 1] - _FX[layer]) < math.exp(-0.5 * x * x):
+        if under_wedge(_FX, layer, v, x):
             break
         h, stream = _next_half(stream, step)
         u = np.int64(h)  # rejected: start again with a fresh word
