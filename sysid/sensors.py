@@ -14,6 +14,13 @@ Range noise
     sensor's error grows with the square of range) is fitted by maximum likelihood (Fisher
     scoring), after dropping the groups beyond the 99.9 % chi-square quantile of the median
     variance of their range bin (mixed returns at edges).
+Range noise while moving
+    Consecutive scans that are not both still are matched and each return of the later one is
+    compared with the earlier one's range at the same bearing (:mod:`sysid._scannoise`); the
+    squared residuals over their variance factor, summed per fine range bin, are fitted with
+    the same model. With still stretches this is a check (``moving_noise_std_m``); without
+    any it gives the noise model (``noise_source="moving"``), its band widened in quadrature
+    by 3 % for the approximations of comparing two moving scans.
 Invalid returns
     A return is invalid when it is NaN, infinite, ``<= 0``, below ``range_min_m`` or at or
     beyond ``range_max_m``. In still stretches a beam "has a surface" when at least 3 and 30 %
@@ -32,8 +39,8 @@ Uncertainty
     beam move together) and blocks of 10 consecutive scan pairs (timing, yaw).
 
 What a recording does not excite is named in :attr:`SensorEstimate.unidentified` and the
-matching fields are NaN: no still stretch (noise, dropout), no change of yaw rate (offset),
-no translation (mounting yaw).
+matching fields are NaN: no still stretch (dropout; the noise too unless moving scans give
+it), no change of yaw rate (offset), no translation (mounting yaw).
 
 Examples
 --------
@@ -71,12 +78,14 @@ from scipy.stats import chi2
 from robots.arrays import BoolArray, FloatArray
 from robots.files import atomic_write
 from sysid._scanmatch import (
+    Pose,
     compose,
     invert,
     match_scans,
     scan_points,
     translation_conditioning,
 )
+from sysid._scannoise import PairResiduals, pair_residuals
 from sysid.errors import ExcitationError, ResultFileError, SysidValueError
 
 __all__ = [
@@ -112,6 +121,11 @@ _MIN_CONDITIONING = 0.1
 _N_BINS = 6
 _SIGMA_FLOOR_M = 1e-4
 _NAN_PAIR = (math.nan, math.nan)
+_MIN_RESIDUALS = 200
+_GATE_BINS = 20
+_GATE_SIGMAS = 5.0
+_FIT_BINS = 30
+_MOVING_SYS = 0.03
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -202,6 +216,15 @@ class SensorEstimate:
         One sentence per quantity the recordings could not identify (its fields are NaN).
     sources : tuple of str
         Names of the recordings.
+    noise_source : str
+        Where the noise model comes from: ``"still"`` stretches, ``"moving"`` scan pairs (no
+        still stretch) or ``"none"``.
+    moving_noise_std_m, moving_noise_std_lo_m, moving_noise_std_hi_m : tuple of float
+        The noise model fitted to the matched moving scan pairs alone, at ``noise_range_m``,
+        with its interval (m): a check on the still stretches' model; empty when too few
+        returns compared.
+    moving_residuals : int
+        Returns of moving scan pairs compared with the other scan of their pair.
     """
 
     beams: int
@@ -235,6 +258,11 @@ class SensorEstimate:
     matched_pairs: int
     unidentified: tuple[str, ...]
     sources: tuple[str, ...] = ()
+    noise_source: str = "still"
+    moving_noise_std_m: tuple[float, ...] = ()
+    moving_noise_std_lo_m: tuple[float, ...] = ()
+    moving_noise_std_hi_m: tuple[float, ...] = ()
+    moving_residuals: int = 0
 
     def noise_std_at(self, range_m: float) -> float:
         """The identified noise standard deviation at ``range_m``, m."""
@@ -284,12 +312,14 @@ def load_sensor(path: str | Path) -> SensorEstimate:
         )
     kwargs: dict[str, object] = {}
     for f in dataclasses.fields(SensorEstimate):
-        if f.name not in data:
+        if f.name not in data and f.default is dataclasses.MISSING:
             raise ResultFileError(f"sensor file '{p}' lacks the key '{f.name}'; write it again")
+        if f.name not in data:
+            continue
         value = data[f.name]
         if isinstance(value, list):
             value = tuple(v if isinstance(v, str) else _num(v) for v in value)
-        elif f.name in ("beams", "still_scans", "matched_pairs"):
+        elif f.name in ("beams", "still_scans", "matched_pairs", "moving_residuals"):
             value = int(value)
         elif not isinstance(value, str):
             value = _num(value)
@@ -417,11 +447,13 @@ def _groups(scans_list: Sequence[ScanArrays], stills: Sequence[BoolArray]) -> _G
 # ----------------------------------------------------------------------------- noise model
 
 
-def _fit_noise(r: FloatArray, s2: FloatArray, k: FloatArray, w: FloatArray) -> FloatArray:
+def _fit_noise(
+    r: FloatArray, s2: FloatArray, k: FloatArray, w: FloatArray, start: FloatArray | None = None
+) -> FloatArray:
     """ML fit of ``sigma(r) = a + b r + c r^2`` (``a, b, c >= 0``) to sample variances ``s2``
     with dof ``k`` (weights ``w``: bootstrap counts): projected Fisher scoring with step
     halving from a constant, a proportional and a quadratic start, the best of them (a bounded
-    fit's likelihood can have several optima on its bounds)."""
+    fit's likelihood can have several optima on its bounds), or from ``start`` alone."""
     kw = k * w
     x = np.column_stack([np.ones_like(r), r, r * r])
 
@@ -429,6 +461,8 @@ def _fit_noise(r: FloatArray, s2: FloatArray, k: FloatArray, w: FloatArray) -> F
         sig2 = np.maximum(x @ th, _SIGMA_FLOOR_M) ** 2
         return float(np.sum(kw * (np.log(sig2) + s2 / sig2)))
 
+    if start is not None:
+        return _score_fit(start, x, s2, kw, nll)
     used = kw > 0
     starts = [np.array([math.sqrt(max(float(np.average(s2, weights=kw)), 1e-12)), 0.0, 0.0])]
     for power in (1, 2):
@@ -600,6 +634,61 @@ def _still_estimates(g: _Groups, beams: int, n_boot: int, rng: np.random.Generat
         )
 
 
+@dataclass(frozen=True)
+class _MovingResult:
+    theta: FloatArray
+    theta_boot: FloatArray
+    centres: FloatArray
+    count: int
+
+
+def _gate(rho: FloatArray, z: FloatArray) -> BoolArray:
+    """Residuals (over their factor's square root) within ``_GATE_SIGMAS`` robust standard
+    deviations of zero, judged per range bin: a return that hit another surface is left out."""
+    edges = np.quantile(rho, np.linspace(0.0, 1.0, _GATE_BINS + 1))
+    which = np.clip(np.searchsorted(edges, rho, side="right") - 1, 0, _GATE_BINS - 1)
+    scale = np.array(
+        [
+            float(np.median(np.abs(z[which == b]))) if (which == b).any() else 0.0
+            for b in range(_GATE_BINS)
+        ]
+    )
+    return np.abs(z) <= _GATE_SIGMAS * 1.4826 * scale[which]
+
+
+def _moving_noise(pairs: _Pairs, n_boot: int, rng: np.random.Generator) -> _MovingResult | None:
+    """The noise model from the range residuals of the matched moving scan pairs: squared
+    residuals over their factor, summed per pair and fine range bin (each bin one observation
+    of sigma(r)^2 with as many degrees of freedom as residuals), fitted by maximum likelihood;
+    the interval from blocks of ``_BLOCK`` consecutive pairs."""
+    sizes = np.array([res[0].size for res in pairs.residuals], dtype=np.intp)
+    if int(sizes.sum()) < _MIN_RESIDUALS:
+        return None
+    rho = np.concatenate([res[0] for res in pairs.residuals])
+    z = np.concatenate([res[1] / np.sqrt(res[2]) for res in pairs.residuals])
+    pair = np.repeat(np.arange(sizes.size), sizes)
+    keep = _gate(rho, z)
+    rho, z2, pair = rho[keep], z[keep] ** 2, pair[keep]
+    edges = np.quantile(rho, np.linspace(0.0, 1.0, _FIT_BINS + 1))
+    which = np.clip(np.searchsorted(edges, rho, side="right") - 1, 0, _FIT_BINS - 1)
+    cell = pair * _FIT_BINS + which
+    shape = (sizes.size, _FIT_BINS)
+    n_cell = np.bincount(cell, minlength=shape[0] * shape[1]).reshape(shape).astype(np.float64)
+    z_cell = np.bincount(cell, z2, shape[0] * shape[1]).reshape(shape)
+    r_cell = np.bincount(cell, rho, shape[0] * shape[1]).reshape(shape)
+
+    def fit(counts: FloatArray, start: FloatArray | None = None) -> FloatArray:
+        n = counts @ n_cell
+        ok = n > 0
+        r, s2 = (counts @ r_cell)[ok] / n[ok], (counts @ z_cell)[ok] / n[ok]
+        return _fit_noise(r, s2, n[ok], np.ones(int(ok.sum())), start)
+
+    theta = fit(np.ones(sizes.size))
+    boot = np.stack([fit(_blocks(sizes.size, rng), theta) for _ in range(n_boot)])
+    bins = np.quantile(rho, np.linspace(0.0, 1.0, _N_BINS + 1))
+    return _MovingResult(theta, boot, 0.5 * (bins[1:] + bins[:-1]), int(rho.size))
+
+
 # ----------------------------------------------------------------------------- timing and yaw
 
 
@@ -614,32 +703,64 @@ class _Pairs:
     dy: FloatArray
     dth: FloatArray
     conditioning: FloatArray
+    residuals: list[PairResiduals]  # of the consecutive moving pairs, in time order
+
+
+@dataclass(frozen=True)
+class _Track:
+    """One recording's scans as points, with the odometry's lidar-frame guess between two."""
+
+    t: FloatArray
+    inside: BoolArray
+    pose: tuple[FloatArray, FloatArray, FloatArray]
+    pts: list[FloatArray]
+    mount: Pose
+
+    def match(self, i: int, j: int) -> Pose | None:
+        """Scan ``j``'s lidar frame in scan ``i``'s (None: too far apart or no overlap)."""
+        t, (x, y, yaw) = self.t, self.pose
+        if not (self.inside[i] and self.inside[j]) or t[j] - t[i] > _MAX_PAIR_GAP_S:
+            return None
+        base = compose(invert((x[i], y[i], yaw[i])), (x[j], y[j], yaw[j]))
+        guess = compose(compose(invert(self.mount), base), self.mount)
+        return match_scans(self.pts[j], self.pts[i], guess)
 
 
 def _match_pairs(
-    scans_list: Sequence[ScanArrays], odoms: Sequence[PoseArrays], mount_xy: tuple[float, float]
+    scans_list: Sequence[ScanArrays],
+    odoms: Sequence[PoseArrays],
+    stills: Sequence[BoolArray],
+    mount_xy: tuple[float, float],
 ) -> _Pairs:
+    """Scans ``_STRIDE`` apart matched, odometry as the guess; and consecutive scans that are
+    not both still matched for their range residuals (a short baseline keeps each return's
+    ray close to the other scan's beams)."""
     rows: list[tuple[float, ...]] = []
-    mount = (mount_xy[0], mount_xy[1], 0.0)
-    for ri, (scans, odom) in enumerate(zip(scans_list, odoms, strict=True)):
+    residuals: list[PairResiduals] = []
+    for ri, (scans, odom, still) in enumerate(zip(scans_list, odoms, stills, strict=True)):
         valid = scans.valid()
-        ang = scans.angles_rad
-        t = scans.t_s
-        x, y, yaw = odom.at(t)
-        inside = (t >= odom.t_s[0]) & (t <= odom.t_s[-1])
-        pts = [scan_points(scans.ranges_m[i], ang, valid[i]) for i in range(t.size)]
+        ang, t, r = scans.angles_rad, scans.t_s, scans.ranges_m
+        track = _Track(
+            t=t,
+            inside=(t >= odom.t_s[0]) & (t <= odom.t_s[-1]),
+            pose=odom.at(t),
+            pts=[scan_points(r[i], ang, valid[i]) for i in range(t.size)],
+            mount=(mount_xy[0], mount_xy[1], 0.0),
+        )
         for i in range(t.size - _STRIDE):
             j = i + _STRIDE
-            if not (inside[i] and inside[j]) or t[j] - t[i] > _MAX_PAIR_GAP_S:
-                continue
-            base = compose(invert((x[i], y[i], yaw[i])), (x[j], y[j], yaw[j]))
-            guess = compose(compose(invert(mount), base), mount)
-            pose = match_scans(pts[j], pts[i], guess)
+            pose = track.match(i, j)
             if pose is not None:
-                cond = translation_conditioning(pts[j], pts[i], pose)
+                cond = translation_conditioning(track.pts[j], track.pts[i], pose)
                 rows.append((t[i], t[j], ri, *pose, cond))
+        for i in range(t.size - 1):
+            pose = None if still[i] and still[i + 1] else track.match(i, i + 1)
+            if pose is not None:
+                residuals.append(pair_residuals(r[i], valid[i], r[i + 1], valid[i + 1], ang, pose))
     a = np.array(rows, dtype=np.float64).reshape(-1, 7)
-    return _Pairs(a[:, 0], a[:, 1], a[:, 2].astype(np.intp), a[:, 3], a[:, 4], a[:, 5], a[:, 6])
+    return _Pairs(
+        a[:, 0], a[:, 1], a[:, 2].astype(np.intp), a[:, 3], a[:, 4], a[:, 5], a[:, 6], residuals
+    )
 
 
 def _odom_increments(
@@ -826,7 +947,7 @@ def estimate_sensor(
     beams = first.ranges_m.shape[1]
     stills = [_still_mask(s, o) for s, o in zip(scans_list, odoms, strict=True)]
     groups = _groups(scans_list, stills)
-    pairs = _match_pairs(scans_list, odoms, mount_xy_m)
+    pairs = _match_pairs(scans_list, odoms, stills, mount_xy_m)
     moving_pairs = int(
         np.sum(~np.isclose(pairs.dth, 0.0, atol=0.01) | (np.hypot(pairs.dx, pairs.dy) > 0.01))
     )
@@ -838,6 +959,7 @@ def estimate_sensor(
         )
     still = _still_estimates(groups, beams, n_boot, rng) if groups.noise_ok.sum() >= 10 else None
     timing = _timing(pairs, odoms, mount_xy_m, n_boot, rng) if pairs.t0.size >= 20 else None
+    moving = _moving_noise(pairs, n_boot, rng)
     dt = np.concatenate([np.diff(s.t_s) for s in scans_list])
     return SensorEstimate(
         beams=beams,
@@ -846,22 +968,31 @@ def estimate_sensor(
         range_min_m=float(first.range_min_m),
         range_max_m=float(first.range_max_m),
         scan_rate_hz=float(1.0 / np.median(dt)) if dt.size else math.nan,
-        **_still_fields(still, beams),
+        **_noise_fields(still, moving),
+        **_dropout_fields(still, beams),
         **_timing_fields(timing),
         still_scans=int(sum(int(s.sum()) for s in stills)),
         matched_pairs=int(pairs.t0.size),
-        unidentified=_notes(still, timing),
+        unidentified=_notes(still, moving, timing),
         sources=tuple(names),
     )
 
 
-def _notes(still: _StillResult | None, timing: _Timing | None) -> tuple[str, ...]:
+def _notes(
+    still: _StillResult | None, moving: _MovingResult | None, timing: _Timing | None
+) -> tuple[str, ...]:
     """One sentence per quantity the recordings do not identify."""
     notes: list[str] = []
-    if still is None:
+    if still is None and moving is None:
         notes.append(
-            "noise and dropout: no still stretch of 5 scans or more, so the range noise, "
-            "invalid-return rate and spurious returns are not identified"
+            "noise and dropout: no still stretch of 5 scans or more and too few matched moving "
+            f"scan pairs ({_MIN_RESIDUALS} compared returns), so the range noise, invalid-return "
+            "rate and spurious returns are not identified"
+        )
+    elif still is None:
+        notes.append(
+            "dropout: no still stretch of 5 scans or more, so the invalid-return rate and "
+            "spurious returns are not identified (the range noise comes from the moving scans)"
         )
     if timing is None or not timing.turning:
         notes.append(
@@ -878,10 +1009,26 @@ def _notes(still: _StillResult | None, timing: _Timing | None) -> tuple[str, ...
     return tuple(notes)
 
 
-def _still_fields(still: _StillResult | None, beams: int) -> dict[str, Any]:
-    """The noise, dropout and spurious-return fields (NaN when nothing was still)."""
+def _model_fields(
+    theta: FloatArray, theta_boot: FloatArray, centres: FloatArray, systematic: float
+) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
+    """The noise model at ``centres`` with its 95 % band, m: the bootstrap's percentiles,
+    widened in quadrature by ``systematic`` times the model (a relative error the resampling
+    does not see)."""
+    x = np.column_stack([np.ones_like(centres), centres, centres * centres])
+    std = x @ theta
+    lo, hi = np.percentile(theta_boot @ x.T, [2.5, 97.5], axis=0)
+    sys_m = systematic * std
+    lo = std - np.hypot(std - lo, sys_m)
+    hi = std + np.hypot(hi - std, sys_m)
+    return _floats(std), _floats(lo), _floats(hi)
+
+
+def _noise_fields(still: _StillResult | None, moving: _MovingResult | None) -> dict[str, Any]:
+    """The noise model fields: from the still stretches, else from the moving scan pairs
+    (NaN when neither); the moving pairs' model at the same ranges as a check."""
     nan_t = (math.nan,) * _N_BINS
-    if still is None:
+    if still is None and moving is None:
         return {
             "noise_std_0_m": math.nan,
             "noise_std_0_ci": _NAN_PAIR,
@@ -893,27 +1040,50 @@ def _still_fields(still: _StillResult | None, beams: int) -> dict[str, Any]:
             "noise_std_m": nan_t,
             "noise_std_lo_m": nan_t,
             "noise_std_hi_m": nan_t,
+            "noise_source": "none",
+        }
+    theta, boot, centres, source = (
+        (still.theta, still.theta_boot, still.centres, "still")
+        if still is not None
+        else (moving.theta, moving.theta_boot, moving.centres, "moving")  # type: ignore[union-attr]
+    )
+    std, lo, hi = _model_fields(theta, boot, centres, 0.0 if still is not None else _MOVING_SYS)
+    out: dict[str, Any] = {
+        "noise_std_0_m": float(theta[0]),
+        "noise_std_0_ci": _ci(boot[:, 0]),
+        "noise_std_per_m": float(theta[1]),
+        "noise_std_per_m_ci": _ci(boot[:, 1]),
+        "noise_std_per_m2": float(theta[2]),
+        "noise_std_per_m2_ci": _ci(boot[:, 2]),
+        "noise_range_m": _floats(centres),
+        "noise_std_m": std,
+        "noise_std_lo_m": lo,
+        "noise_std_hi_m": hi,
+        "noise_source": source,
+    }
+    if moving is not None:
+        m_std, m_lo, m_hi = _model_fields(moving.theta, moving.theta_boot, centres, _MOVING_SYS)
+        out |= {
+            "moving_noise_std_m": m_std,
+            "moving_noise_std_lo_m": m_lo,
+            "moving_noise_std_hi_m": m_hi,
+            "moving_residuals": moving.count,
+        }
+    return out
+
+
+def _dropout_fields(still: _StillResult | None, beams: int) -> dict[str, Any]:
+    """The dropout and spurious-return fields (NaN when nothing was still)."""
+    if still is None:
+        return {
             "dropout": math.nan,
             "dropout_ci": _NAN_PAIR,
-            "dropout_by_range": nan_t,
+            "dropout_by_range": (math.nan,) * _N_BINS,
             "dropout_by_beam": (math.nan,) * beams,
             "spurious_short": math.nan,
             "spurious_short_ci": _NAN_PAIR,
         }
-    c = still.centres
-    x = np.column_stack([np.ones_like(c), c, c * c])
-    lo, hi = np.percentile(still.theta_boot @ x.T, [2.5, 97.5], axis=0)
     return {
-        "noise_std_0_m": float(still.theta[0]),
-        "noise_std_0_ci": _ci(still.theta_boot[:, 0]),
-        "noise_std_per_m": float(still.theta[1]),
-        "noise_std_per_m_ci": _ci(still.theta_boot[:, 1]),
-        "noise_std_per_m2": float(still.theta[2]),
-        "noise_std_per_m2_ci": _ci(still.theta_boot[:, 2]),
-        "noise_range_m": _floats(still.centres),
-        "noise_std_m": _floats(x @ still.theta),
-        "noise_std_lo_m": _floats(lo),
-        "noise_std_hi_m": _floats(hi),
         "dropout": still.dropout,
         "dropout_ci": _ci(still.dropout_boot),
         "dropout_by_range": _floats(still.dropout_by_range),

@@ -33,6 +33,13 @@ def handle_sensors(args: argparse.Namespace) -> int:
     return 0
 
 
+_SOURCES = {
+    "still": "still stretches",
+    "moving": "matched moving scans",
+    "none": "not identified",
+}
+
+
 def _ci(lo: float, hi: float, scale: float = 1.0, fmt: str = ".3g") -> str:
     if math.isnan(lo):
         return "-"
@@ -46,22 +53,34 @@ def summary_lines(est: SensorEstimate) -> list[str]:
         f"{math.degrees(est.angle_increment_rad):.3f} deg, {est.range_min_m:g}-"
         f"{est.range_max_m:g} m, {est.scan_rate_hz:.2f} Hz; {est.still_scans} still scans, "
         f"{est.matched_pairs} matched scan pairs",
-        f"range noise std = {est.noise_std_0_m * 1e3:.2f} mm "
+        f"range noise std ({_SOURCES.get(est.noise_source, est.noise_source)}) = "
+        f"{est.noise_std_0_m * 1e3:.2f} mm "
         f"{_ci(*est.noise_std_0_ci, 1e3)} + {est.noise_std_per_m * 1e3:.2f} mm/m "
         f"{_ci(*est.noise_std_per_m_ci, 1e3)} x range + {est.noise_std_per_m2 * 1e3:.2f} mm/m2 "
         f"{_ci(*est.noise_std_per_m2_ci, 1e3)} x range^2",
     ]
-    for r, s, lo, hi, d in zip(
+    moving = est.moving_noise_std_m or (math.nan,) * len(est.noise_range_m)
+    m_lo = est.moving_noise_std_lo_m or moving
+    m_hi = est.moving_noise_std_hi_m or moving
+    for r, s, lo, hi, d, m, mlo, mhi in zip(
         est.noise_range_m,
         est.noise_std_m,
         est.noise_std_lo_m,
         est.noise_std_hi_m,
         est.dropout_by_range,
+        moving,
+        m_lo,
+        m_hi,
         strict=True,
     ):
         if not math.isnan(r):
+            check = (
+                ""
+                if math.isnan(m) or est.noise_source != "still"
+                else f", moving scans {m * 1e3:.2f} mm {_ci(mlo, mhi, 1e3)}"
+            )
             lines.append(
-                f"  at {r:.2f} m: std {s * 1e3:.2f} mm {_ci(lo, hi, 1e3)}, invalid {d:.1%}"
+                f"  at {r:.2f} m: std {s * 1e3:.2f} mm {_ci(lo, hi, 1e3)}{check}, invalid {d:.1%}"
             )
     lines += [
         f"invalid returns (beams on a surface): {est.dropout:.2%} "

@@ -179,6 +179,8 @@ def test_cli_identifies_the_synthetic_lidar_in_time(
     assert est.mounting_yaw_rad == pytest.approx(truth.yaw_rad, abs=math.radians(0.5))
     assert est.noise_std_at(3.0) == pytest.approx(truth.std_at(3.0), rel=0.15)
     assert "scan time offset" in run.out and "wrote" in run.out
+    assert "range noise std (still stretches)" in run.out
+    assert "moving scans" in run.out  # the moving scans' noise beside each range bin's
 
 
 def test_log_without_scans_lists_its_topics(

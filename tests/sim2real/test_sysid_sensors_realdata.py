@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from sim2real.cli import main
-from sim2real.sensor_id import identify_sensor
+from sim2real.sensor_id import identify_sensor, read_sensor_logs
+from sysid.sensors import still_stretches
 
 pytestmark = [pytest.mark.realdata]
 
@@ -22,24 +25,15 @@ def _overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
     return max(a[0], b[0]) <= min(a[1], b[1])
 
 
-def test_two_recordings_of_one_unit_agree(realdata_dir: Path, tmp_path: Path) -> None:
-    spec = tmp_path / "neato.yaml"
-    assert (
-        main(
-            [
-                "robots",
-                "new",
-                "neato",
-                "--wheel-separation",
-                "0.248",
-                "--max-speed",
-                "0.3",
-                "-o",
-                str(spec),
-            ]
-        )
-        == 0
-    )
+@pytest.fixture(scope="module")
+def spec(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("neato") / "neato.yaml"
+    argv = ["robots", "new", "neato", "--wheel-separation", "0.248", "--max-speed", "0.3"]
+    assert main([*argv, "-o", str(path)]) == 0
+    return path
+
+
+def test_two_recordings_of_one_unit_agree(realdata_dir: Path, spec: Path) -> None:
     a, b = (identify_sensor([realdata_dir / name], robot=spec) for name in LOGS)
     for est in (a, b):
         assert est.beams == 361 and est.range_max_m == pytest.approx(5.0)
@@ -69,3 +63,31 @@ def test_two_recordings_of_one_unit_agree(realdata_dir: Path, tmp_path: Path) ->
         a.mounting_yaw_ci[1] - a.mounting_yaw_ci[0] + b.mounting_yaw_ci[1] - b.mounting_yaw_ci[0]
     )
     assert abs(gap) <= half  # the two intervals overlap
+
+
+def test_moving_scans_check_the_still_noise(realdata_dir: Path, spec: Path) -> None:
+    for name in LOGS:
+        scans, odoms = read_sensor_logs([realdata_dir / name])
+        full = identify_sensor([name], robot=spec, logs=(scans, odoms), n_boot=100)
+        assert full.noise_source == "still" and full.moving_residuals > 4000
+        # motion only adds to the spread (the XV-11 turns at 5 Hz and its scans are not
+        # deskewed): the moving scans' noise is 1-1.5 times the still noise from 1 m out
+        for r, still, moving in zip(
+            full.noise_range_m, full.noise_std_m, full.moving_noise_std_m, strict=True
+        ):
+            if r >= 1.0:
+                assert still <= moving <= 1.5 * still, (name, r, still, moving)
+        # the same recording with its still scans cut out: the noise from moving scans alone
+        s = scans[0]
+        keep = np.ones(s.t_s.size, dtype=bool)
+        for a, b in still_stretches(s, odoms[0]):
+            keep[a:b] = False
+        cut = dataclasses.replace(s, t_s=s.t_s[keep], ranges_m=s.ranges_m[keep])
+        est = identify_sensor([name], robot=spec, logs=([cut], odoms), n_boot=100)
+        assert est.still_scans == 0 and est.noise_source == "moving"
+        for r, std, lo, hi in zip(
+            est.noise_range_m, est.noise_std_m, est.noise_std_lo_m, est.noise_std_hi_m, strict=True
+        ):
+            assert lo < std < hi
+            if r >= 1.0:
+                assert full.noise_std_at(r) <= std <= 1.5 * full.noise_std_at(r), (name, r, std)

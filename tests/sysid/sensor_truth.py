@@ -61,8 +61,11 @@ def draw_truth(rng: np.random.Generator) -> Truth:
     )
 
 
-def _trajectory(rng: np.random.Generator, duration_s: float, dt: float) -> np.ndarray:
-    """True (t, x, y, yaw, v, w) at ``dt``: still, drive, still, drive, still."""
+def _trajectory(
+    rng: np.random.Generator, duration_s: float, dt: float, stops: bool = True
+) -> np.ndarray:
+    """True (t, x, y, yaw, v, w) at ``dt``: still, drive, still, drive, still (without
+    ``stops``: driving all along)."""
     n = round(duration_s / dt)
     t = np.arange(n) * dt
     out = np.zeros((n, 6))
@@ -70,6 +73,8 @@ def _trajectory(rng: np.random.Generator, duration_s: float, dt: float) -> np.nd
     x = y = yaw = v = w = 0.0
     yaw = rng.uniform(-math.pi, math.pi)
     still = (t < 8.0) | ((t > 26.0) & (t < 34.0)) | (t > 52.0)
+    if not stops:
+        still[:] = False
     cmd_v = cmd_w = 0.0
     next_cmd = 0.0
     for i in range(n):
@@ -95,12 +100,13 @@ def _trajectory(rng: np.random.Generator, duration_s: float, dt: float) -> np.nd
 
 
 def synthetic_recording(
-    truth: Truth, seed: int, *, duration_s: float = 60.0
+    truth: Truth, seed: int, *, duration_s: float = 60.0, stops: bool = True
 ) -> tuple[ScanArrays, PoseArrays]:
-    """One recording: 5 Hz 360-beam scans and 20 Hz odometry."""
+    """One recording: 5 Hz 360-beam scans and 20 Hz odometry (``stops=False``: the base
+    never stands still)."""
     rng = np.random.default_rng(seed)
     dt = 0.005
-    traj = _trajectory(rng, duration_s, dt)
+    traj = _trajectory(rng, duration_s, dt, stops)
     scene = room()
     # odometry: integrate measured speeds (scale errors, noise proportional to motion)
     kv, kw = 1.0 + rng.normal(0, 0.01), 1.0 + rng.normal(0, 0.02)

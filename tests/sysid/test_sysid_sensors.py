@@ -53,6 +53,50 @@ def test_intervals_cover_the_truth_over_20_draws() -> None:
         assert covered >= 17, (name, covered)  # >= 85 % of 20
 
 
+def _moving_only(seed: int) -> dict[str, tuple[float, bool]]:
+    """A recording whose base never stands still: per range bin (near, middle, far) the
+    relative error of the noise std and whether its 95 % interval holds the truth."""
+    truth = draw_truth(np.random.default_rng(seed))
+    scans, odom = synthetic_recording(truth, seed, stops=False)
+    est = estimate_sensor(scans, odom, mount_xy_m=MOUNT_XY_M, seed=seed)
+    assert est.still_scans == 0 and est.noise_source == "moving"
+    assert math.isnan(est.dropout) and est.moving_residuals > 10_000
+    out = {}
+    for name, i in (("near", 0), ("mid", len(est.noise_range_m) // 2), ("far", -1)):
+        true_std = truth.std_at(est.noise_range_m[i])
+        out[name] = (
+            est.noise_std_m[i] / true_std - 1.0,
+            est.noise_std_lo_m[i] <= true_std <= est.noise_std_hi_m[i],
+        )
+    return out
+
+
+def test_moving_scans_give_the_noise_without_a_still_stretch() -> None:
+    errors = _moving_only(3)
+    assert all(abs(err) <= 0.15 for err, _ in errors.values()), errors
+    assert errors["mid"][1], errors
+
+
+@pytest.mark.slow
+def test_moving_scans_intervals_cover_the_truth_over_20_draws() -> None:
+    draws = [_moving_only(100 + i) for i in range(20)]
+    for name in draws[0]:
+        assert all(abs(d[name][0]) <= 0.15 for d in draws), name
+        assert sum(d[name][1] for d in draws) >= 17, name  # >= 85 % of 20
+
+
+def test_moving_scans_check_the_still_stretches() -> None:
+    truth = draw_truth(np.random.default_rng(7))
+    scans, odom = synthetic_recording(truth, 7)
+    est = estimate_sensor(scans, odom, mount_xy_m=MOUNT_XY_M, n_boot=50)
+    assert est.noise_source == "still"
+    for still, moving, r in zip(
+        est.noise_std_m, est.moving_noise_std_m, est.noise_range_m, strict=True
+    ):
+        assert moving == pytest.approx(truth.std_at(r), rel=0.08)
+        assert moving == pytest.approx(still, rel=0.08)
+
+
 def test_estimate_round_trips_through_yaml(tmp_path: Path) -> None:
     truth = draw_truth(np.random.default_rng(3))
     scans, odom = synthetic_recording(truth, 3, duration_s=20.0)
@@ -64,6 +108,13 @@ def test_estimate_round_trips_through_yaml(tmp_path: Path) -> None:
     assert back.dropout_ci == pytest.approx(est.dropout_ci)
     assert len(back.dropout_by_beam) == 360
     assert back.unidentified == est.unidentified
+    assert back.moving_noise_std_m == pytest.approx(est.moving_noise_std_m)
+    assert back.moving_residuals == est.moving_residuals > 0
+    # a file written before the moving-scan check loads, without it
+    text = (tmp_path / "sensors.yaml").read_text().split("\nnoise_source:")[0] + "\n"
+    (tmp_path / "old.yaml").write_text(text)
+    old = load_sensor(tmp_path / "old.yaml")
+    assert old.moving_noise_std_m == () and old.noise_std_0_m == back.noise_std_0_m
 
 
 def test_load_rejects_other_files(tmp_path: Path) -> None:
