@@ -225,7 +225,7 @@ class OrcaRacer:
         return np.array([min(speed, vmax), w], dtype=np.float32)
 
 
-def race(model: str, races: int) -> None:
+def race(model: str, races: int, racers: Sequence[str] = ("sarl", "dwa", "orca")) -> None:
     """SARL* vs DWA vs ORCA racers on the same seeded races."""
     policy, env, kwargs = _policy_env(model)
     raw = gym.make("sim2real/Race-v0", **kwargs)
@@ -235,11 +235,12 @@ def race(model: str, races: int) -> None:
         "| path length m | jerk v m/s^3 | jerk w rad/s^3 |"
     )
     print("|---|---|---|---|---|---|---|---|")
-    for name, e, ctrl in (
-        ("SARL* (DQN)", env, policy.controller()),
-        ("A* + DWA", raw, RaceBaseline.for_env(raw)),
-        ("A* + ORCA", raw, OrcaRacer(raw)),
-    ):
+    entries = {
+        "sarl": ("SARL* (DQN)", env, policy.controller()),
+        "dwa": ("A* + DWA", raw, RaceBaseline.for_env(raw)),
+        "orca": ("A* + ORCA", raw, OrcaRacer(raw)),
+    }
+    for name, e, ctrl in (entries[r] for r in racers):
         rows = _episodes(e, ctrl, races)
         print(
             f"| {name} | {_rate(rows, 'success')} | {_rate(rows, 'collision')} | "
@@ -263,13 +264,14 @@ def main() -> None:
     p = sub.add_parser("race")
     p.add_argument("model")
     p.add_argument("--races", type=int, default=50)
+    p.add_argument("--racers", default="sarl,dwa,orca", help="comma-separated: sarl, dwa, orca")
     args = parser.parse_args()
     if args.experiment == "randommap":
         random_map(args.models, args.episodes)
     elif args.experiment == "crowdnav":
         crowd_nav(args.models, args.episodes, args.stack)
     else:
-        race(args.model, args.races)
+        race(args.model, args.races, args.racers.split(","))
 
 
 if __name__ == "__main__":
