@@ -19,6 +19,14 @@ of standard deviation :math:`\sigma_v`, :math:`\sigma_w` (quantisation :math:`q`
 and the noise-only 90 % band is :math:`2 \cdot 1.645\,\sigma = 3.29\,\sigma` wide: no
 predictive band that contains the real odometry can be narrower.
 
+The noise is the checked log's own when the log can tell it (:func:`log_noise`): the noise a
+fit estimated on one unit and one velocity source need not describe another unit's odometry,
+or a pose-derived velocity. Where a non-zero command has been held for over
+:data:`STEADY_AFTER_S` (past the delay and the rise), the robot runs steady and what the
+measurement does about its level (the median of that stretch) is noise: its robust sd (MAD)
+per axis, the same statistic the fit uses on its residuals. A log with fewer than
+:data:`MIN_STEADY_SAMPLES` such samples keeps the fit's noise, and the note says so.
+
 Examples
 --------
 >>> from robots.randomization import ObservationNoise
@@ -47,17 +55,24 @@ __all__ = [
     "LATENCY_COARSE_STEP_S",
     "LATENCY_FINE_STEP_S",
     "LATENCY_MAX_S",
+    "MIN_STEADY_SAMPLES",
     "REFERENCE_KEYS",
+    "STEADY_AFTER_S",
+    "LogNoise",
     "NoiseCeiling",
     "SessionLatency",
+    "log_noise",
     "noise_ceiling",
+    "noise_note",
     "session_latency",
 ]
 
 #: JSON keys of ``sim2real agree --json`` with a params file (after the band's keys):
 #: ``best_delay_s`` (this log's own best command latency, s), ``fitted_delay_s``,
 #: ``agreement_at_best_delay`` (0..1), ``noise_ceiling`` (0..1; with the file's noise model),
-#: ``noise_band_width_v_mps``, ``noise_band_width_w_radps`` (the noise-only band).
+#: ``noise_band_width_v_mps``, ``noise_band_width_w_radps`` (the noise-only band),
+#: ``noise_std_v_mps``, ``noise_std_w_radps`` (the noise they assume: this log's own when it can
+#: tell, else the fit's; the JSON's ``notes`` say which).
 REFERENCE_KEYS = (
     "best_delay_s",
     "fitted_delay_s",
@@ -65,7 +80,16 @@ REFERENCE_KEYS = (
     "noise_ceiling",
     "noise_band_width_v_mps",
     "noise_band_width_w_radps",
+    "noise_std_v_mps",
+    "noise_std_w_radps",
 )
+#: A non-zero command held this long has settled: past the command delay and the rise of the
+#: bases of the development set (delays 0.1-0.3 s, rise times under 0.5 s), s.
+STEADY_AFTER_S = 1.0
+#: Fewer steady samples than this do not measure a log's own noise.
+MIN_STEADY_SAMPLES = 30
+#: A steady stretch needs this many samples for its level (median) to stand.
+_MIN_STRETCH = 5
 #: The search range of a session's command latency, s (ROS command latencies: 0-0.6 s).
 LATENCY_MAX_S = 0.6
 #: Coarse and fine grid steps of the search, s.
@@ -105,6 +129,10 @@ class NoiseCeiling:
         The same per axis.
     band_width_v_mps, band_width_w_radps : float
         Width of the central 90 % band of the noise alone, m/s and rad/s.
+    std_v_mps, std_w_radps : float
+        The noise sd assumed (quantisation included), m/s and rad/s.
+    note : str
+        One sentence: whose noise it is (:func:`noise_note`); "" when not said.
     """
 
     agreement: float
@@ -112,6 +140,32 @@ class NoiseCeiling:
     agreement_w: float
     band_width_v_mps: float
     band_width_w_radps: float
+    std_v_mps: float = 0.0
+    std_w_radps: float = 0.0
+    note: str = ""
+
+
+@dataclass(frozen=True, kw_only=True)
+class LogNoise:
+    """A log's own odometry noise, measured where it runs steady (:func:`log_noise`).
+
+    Attributes
+    ----------
+    std_v_mps, std_w_radps : float
+        Robust sd of the measured v and w about their steady level, m/s and rad/s (NaN when
+        the log has too few steady samples).
+    n_samples : int
+        The steady samples it was measured on.
+    """
+
+    std_v_mps: float
+    std_w_radps: float
+    n_samples: int
+
+    @property
+    def measured(self) -> bool:
+        """True when the log has :data:`MIN_STEADY_SAMPLES` steady samples or more."""
+        return self.n_samples >= MIN_STEADY_SAMPLES
 
 
 def _within_prob(tol: float, sd: float) -> float:
@@ -146,6 +200,69 @@ def noise_ceiling(
         agreement_w=a_w,
         band_width_v_mps=2.0 * z * sd_v,
         band_width_w_radps=2.0 * z * sd_w,
+        std_v_mps=sd_v,
+        std_w_radps=sd_w,
+    )
+
+
+def _steady(trace: TraceLike) -> tuple[np.ndarray, np.ndarray]:
+    """The stretch index of each measurement (one per held command) and the mask of the
+    samples under a non-zero command held for over :data:`STEADY_AFTER_S`."""
+    t = np.asarray(trace.meas_t_s, dtype=np.float64)
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    change = np.ones(t.size, dtype=bool)
+    change[1:] = (np.diff(cmd_v) != 0) | (np.diff(cmd_w) != 0)
+    stretch = np.cumsum(change) - 1
+    held_s = t - t[change][stretch]
+    return stretch, (held_s > STEADY_AFTER_S) & ((cmd_v != 0) | (cmd_w != 0))
+
+
+def log_noise(trace: TraceLike) -> LogNoise:
+    """The log's own odometry noise (module docstring); NaN sds when it has fewer than
+    :data:`MIN_STEADY_SAMPLES` steady samples (``measured`` is False).
+
+    Examples
+    --------
+    >>> own = log_noise(trace)  # doctest: +SKIP
+    >>> own.std_v_mps, own.n_samples  # doctest: +SKIP
+    (0.0061, 412)
+    """
+    stretch, steady = _steady(trace)
+    ids = stretch[steady]
+    counts = np.unique(ids, return_counts=True)[1]
+    long_enough = np.repeat(counts >= _MIN_STRETCH, counts)
+    ids = ids[long_enough]
+    if ids.size < MIN_STEADY_SAMPLES:
+        return LogNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=int(ids.size))
+    stds = []
+    for y in (trace.meas_v, trace.meas_w):
+        ys = np.asarray(y, dtype=np.float64)[steady][long_enough]
+        dev = np.concatenate([ys[ids == k] - np.median(ys[ids == k]) for k in np.unique(ids)])
+        stds.append(float(1.4826 * np.median(np.abs(dev - np.median(dev)))))
+    return LogNoise(std_v_mps=stds[0], std_w_radps=stds[1], n_samples=int(ids.size))
+
+
+def noise_note(own: LogNoise, fit: ObservationNoise | None) -> str:
+    """One sentence: whose odometry noise the noise ceiling and the noise-only band assume
+    ("" when there is none to assume)."""
+    if own.measured:
+        said = (
+            f"the noise ceiling and the noise-only band use this log's own odometry noise, v "
+            f"{own.std_v_mps:.3g} m/s and w {own.std_w_radps:.3g} rad/s (robust sd about the "
+            f"level of {own.n_samples} samples under commands held over {STEADY_AFTER_S:g} s)"
+        )
+        if fit is None:
+            return said
+        return (
+            f"{said}; the fit estimated v {fit.std_v_mps:.3g} m/s and w {fit.std_w_radps:.3g} rad/s"
+        )
+    if fit is None:
+        return ""
+    return (
+        f"this log has {own.n_samples} samples under commands held over {STEADY_AFTER_S:g} s "
+        f"({MIN_STEADY_SAMPLES} needed to measure its own odometry noise), so the noise ceiling "
+        f"and the noise-only band use the fit's: v {fit.std_v_mps:.3g} m/s and w "
+        f"{fit.std_w_radps:.3g} rad/s"
     )
 
 

@@ -47,7 +47,9 @@ from sim2real.agreement.figures import (
 from sim2real.agreement.latency import (
     NoiseCeiling,
     SessionLatency,
+    log_noise,
     noise_ceiling,
+    noise_note,
     session_latency,
 )
 from sim2real.agreement.replay import replay
@@ -352,8 +354,10 @@ def run_study(
     check_figures(figures, config.log)
     figures, undefined = defined_figures(figures)
     notes = ((screened,) if screened else ()) + undefined
-    if notes:
-        figures["notes"] = list(notes)
+    # whose noise the ceiling assumes: the terminal and the report say it in the verdict
+    said = (ceiling.note,) if ceiling is not None and ceiling.note else ()
+    if notes + said:
+        figures["notes"] = list(notes + said)
     verdict = _verdict(config, spec, trace, runs, ensemble, params, params_file, (latency, ceiling))
     report = None
     if config.report_path is not None:
@@ -425,8 +429,11 @@ def _reference_figures(
     params_file: ParamsFile | None,
     window_s: float,
 ) -> tuple[SessionLatency | None, NoiseCeiling | None]:
-    """The session's own best latency and the noise ceiling of the params file (None
-    without a params file; no ceiling when the file has no randomisation block)."""
+    """The session's own best latency and the noise ceiling (None without a params file).
+
+    The ceiling assumes this log's own odometry noise when it has enough steady samples, else
+    the fit's (none without a randomisation block); its note says which
+    (:func:`sim2real.agreement.latency.noise_note`)."""
     if params is None or params_file is None:
         return None, None
     latency = session_latency(
@@ -439,14 +446,22 @@ def _reference_figures(
         tol_w=config.tol_w,
         params_file=config.params_shown or str(config.params_path),
     )
-    if "randomization" not in params_file.document:  # no noise model: no ceiling
-        return latency, None
-    noise = fitted_noise(
-        DriveDistribution.from_params_file(params_file, robot=spec.name).noise,
-        params_file.document.get("calibration"),
+    fit = None
+    if "randomization" in params_file.document:
+        fit = fitted_noise(
+            DriveDistribution.from_params_file(params_file, robot=spec.name).noise,
+            params_file.document.get("calibration"),
+        )
+    own = log_noise(trace)
+    noise = (
+        ObservationNoise(std_v_mps=own.std_v_mps, std_w_radps=own.std_w_radps)
+        if own.measured
+        else fit
     )
+    if noise is None:  # no noise model and too few steady samples: no ceiling
+        return latency, None
     ceiling = noise_ceiling(noise, tol_v=config.tol_v, tol_w=config.tol_w, level=config.band_level)
-    return latency, ceiling
+    return latency, replace(ceiling, note=noise_note(own, fit))
 
 
 def fitted_noise(noise: ObservationNoise, calibration: Any) -> ObservationNoise:
@@ -480,6 +495,8 @@ def reference_figures(
         out["noise_ceiling"] = ceiling.agreement
         out["noise_band_width_v_mps"] = ceiling.band_width_v_mps
         out["noise_band_width_w_radps"] = ceiling.band_width_w_radps
+        out["noise_std_v_mps"] = ceiling.std_v_mps
+        out["noise_std_w_radps"] = ceiling.std_w_radps
     return out
 
 
@@ -521,6 +538,7 @@ def session_figures(
         noise_ceiling=None if ceiling is None else ceiling.agreement,
         noise_band_width_v_mps=None if ceiling is None else ceiling.band_width_v_mps,
         noise_band_width_w_radps=None if ceiling is None else ceiling.band_width_w_radps,
+        noise_note=None if ceiling is None or not ceiling.note else ceiling.note,
         top_v_mps=float(spec.max_v_mps),
         top_w_radps=float(spec.max_w_radps),
         speed_shortfall=shortfall,

@@ -116,6 +116,9 @@ class SessionFigures:
     extrapolation : object or None
         The checked log against the fit's envelope (:class:`sysid.envelope.EnvelopeCheck`):
         ``known``, ``share_outside`` and ``sentence``.
+    noise_note : str or None
+        Whose odometry noise the noise ceiling and band assume (this log's own or the fit's),
+        one sentence (:func:`sim2real.agreement.latency.noise_note`).
     """
 
     best_delay_s: float | None = None
@@ -128,6 +131,7 @@ class SessionFigures:
     top_w_radps: float | None = None
     speed_shortfall: tuple[str, float, float] | None = None
     extrapolation: Any = None
+    noise_note: str | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -365,22 +369,27 @@ def _ceiling_reason(s: SessionFigures, reached: float) -> str | None:
 
     ``reached`` is the best agreement a replay reached on this log (fitted, or at this log's
     own best latency). A replay cannot beat a ceiling that its noise model states truly; when
-    it does by more than :data:`CEILING_BEATEN`, the noise the fit estimated overstates this
-    log's odometry noise (another unit, another velocity source), and the verdict says so
-    instead of judging the fit against it."""
+    it does by more than :data:`CEILING_BEATEN`, the noise assumed overstates this log's
+    odometry noise, and the verdict says so instead of judging the fit against it. Each
+    reason ends with whose noise it is (``s.noise_note``)."""
     ceiling = s.noise_ceiling
     if ceiling is None or not _finite(ceiling) or ceiling >= GOOD_AGREEMENT:
-        return None
+        return s.noise_note or None  # whose noise the band's floor assumes, still said
     if _finite(reached) and reached > ceiling + CEILING_BEATEN:
         return (
             f"the fit reaches {_pct(reached)}, above the {_pct(ceiling)} that the odometry "
-            "noise it estimated would allow (noise ceiling): that estimate overstates this "
-            "log's noise, so the ceiling is not used to judge it"
+            "noise assumed would allow (noise ceiling): that estimate overstates this "
+            "log's noise, so the ceiling is not used to judge it" + _said(s.noise_note)
         )
     return (
         f"the measurement noise caps the agreement a perfect model could reach at "
-        f"{_pct(ceiling)} (noise ceiling): judge the fit against that"
+        f"{_pct(ceiling)} (noise ceiling): judge the fit against that" + _said(s.noise_note)
     )
+
+
+def _said(note: str | None) -> str:
+    """``note`` appended to a reason ("" without one)."""
+    return f"; {note}" if note else ""
 
 
 def _fit_step(robot: str, log: str) -> str:

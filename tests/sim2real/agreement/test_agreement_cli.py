@@ -38,7 +38,7 @@ def test_json_has_exactly_the_keys_and_the_library_numbers(
     out = tmp_path / "agree.json"
     assert _agree(log, "--params", params, "--json", out) == 0
     figures = json.loads(out.read_text())
-    assert tuple(figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS)
+    assert tuple(figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS, "notes")
     trace = read_trace(log)
     expected = measure_agreement(
         trace,
@@ -47,6 +47,10 @@ def test_json_has_exactly_the_keys_and_the_library_numbers(
     )
     assert figures["agreement"] == pytest.approx(expected.agreement)
     assert figures["agreement"] > 0.97  # the right parameters: noise well inside tolerance
+    # the ceiling assumes the log's own noise (write_log adds 0.003 m/s and 0.02 rad/s)
+    assert figures["noise_std_v_mps"] == pytest.approx(0.003, rel=0.15)
+    assert figures["noise_std_w_radps"] == pytest.approx(0.02, rel=0.15)
+    assert "this log's own odometry noise" in figures["notes"][-1]
     assert figures["n_active"] == expected.n_active and figures["n_samples"] == 900
     assert figures["log_sha256"] == trace.meta.sha256 and len(figures["log_sha256"]) == 64
     assert figures["params_file"] == str(params) and figures["robot"] == ROBOT
@@ -184,7 +188,7 @@ def test_ensemble_adds_coverage_to_json(log: Path, params: Path, tmp_path: Path)
     out = tmp_path / "e.json"
     assert _agree(log, "--params", params, "--ensemble", "6", "--seed", "3", "--json", out) == 0
     figures = json.loads(out.read_text())
-    assert tuple(figures) == (*AGREEMENT_KEYS, *BAND_KEYS, *REFERENCE_KEYS)
+    assert tuple(figures) == (*AGREEMENT_KEYS, *BAND_KEYS, *REFERENCE_KEYS, "notes")
     assert None not in figures.values()
     assert 0.0 <= figures["coverage"] <= min(figures["coverage_v"], figures["coverage_w"]) <= 1
     assert figures["band_level"] == 0.9 and figures["ensemble_n"] == 6

@@ -78,7 +78,7 @@ def test_agree_json_and_terminal_carry_the_reference_figures(
     argv = ["agree", str(log), "--robot", ROBOT, "--engine", "reduced", "--params", str(params)]
     assert main([*argv, "--json", str(out)]) == 0
     figures = json.loads(out.read_text())
-    assert tuple(figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS)
+    assert tuple(figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS, "notes")
     assert figures["fitted_delay_s"] == 0.0
     assert figures["best_delay_s"] == pytest.approx(HIDDEN["delay_s"], abs=0.011)
     assert figures["agreement_at_best_delay"] > figures["agreement"]

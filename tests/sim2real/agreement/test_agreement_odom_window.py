@@ -194,7 +194,7 @@ def test_cli_auto_window_is_one_odometry_period(tmp_path: Path) -> None:
     )
     assert "odometry v window" in report.read_text() and "0.03333 s" in report.read_text()
     figures = json.loads(out.read_text())
-    assert tuple(figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS)
+    assert tuple(figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS, "notes")
     trace = read_trace(log)
 
     def fit_v(window_s: float) -> float:

@@ -33,7 +33,7 @@ def test_run_study_returns_the_figures_the_cli_writes(
     assert [r.label for r in result.runs] == ["spec defaults", "sysid params"]
     assert result.main is result.runs[-1].agreement
     assert result.written == (out,)
-    assert tuple(result.figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS)
+    assert tuple(result.figures) == (*AGREEMENT_KEYS, *REFERENCE_KEYS, "notes")
     assert json.loads(out.read_text()) == result.figures
     cli_out = tmp_path / "cli.json"
     argv = ["agree", str(log), "--robot", ROBOT, "--engine", "reduced"]

@@ -1,0 +1,83 @@
+"""The noise ceiling and the noise-only band assume the checked log's own odometry noise."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _agreement_fixtures import HIDDEN, ROBOT, write_log, write_params
+
+from robots.randomization import ObservationNoise
+from sim2real.agreement.latency import (
+    MIN_STEADY_SAMPLES,
+    log_noise,
+    noise_ceiling,
+    noise_note,
+)
+from sim2real.cli import main
+from sim2real.logs import Trace, read_trace
+
+
+@pytest.mark.parametrize(("noise_v", "noise_w"), [(0.003, 0.02), (0.012, 0.06), (0.0, 0.0)])
+def test_log_noise_recovers_the_white_noise_of_a_log(
+    tmp_path: Path, noise_v: float, noise_w: float
+) -> None:
+    """Golden: steps held 2 s, 30 Hz odometry with known Gaussian noise; within 15 %."""
+    own = log_noise(read_trace(write_log(tmp_path / "l.mcap", noise_v=noise_v, noise_w=noise_w)))
+    assert own.measured and own.n_samples > 300
+    assert own.std_v_mps == pytest.approx(noise_v, rel=0.15, abs=1e-6)
+    assert own.std_w_radps == pytest.approx(noise_w, rel=0.15, abs=1e-6)
+
+
+def test_a_log_of_ever_changing_commands_keeps_the_fits_noise() -> None:
+    t = np.arange(0, 20_000_000_000, 50_000_000)  # 20 s at 20 Hz
+    cmd = 0.1 + 0.05 * np.sin(np.arange(t.size))  # a controller: a new command every message
+    trace = Trace(cmd_t_ns=t, cmd_v=cmd, cmd_w=0 * cmd, meas_t_ns=t, meas_v=cmd, meas_w=0 * cmd)
+    own = log_noise(trace)
+    assert not own.measured and own.n_samples < MIN_STEADY_SAMPLES
+    assert math.isnan(own.std_v_mps)
+    fit = ObservationNoise(std_v_mps=0.01, std_w_radps=0.05)
+    note = noise_note(own, fit)
+    assert "30 needed" in note and "use the fit's: v 0.01 m/s and w 0.05 rad/s" in note
+    assert noise_note(own, None) == ""
+
+
+def test_agree_judges_by_the_checked_logs_noise_not_the_fits(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A noisier unit than the fit's (4x in v, 3x in w): the ceiling and the noise-only band
+    are that log's, the note says both, and the terminal's verdict says it too."""
+    log = write_log(tmp_path / "noisy.mcap", noise_v=0.012, noise_w=0.06)
+    params = write_params(tmp_path / "params.yaml", HIDDEN)  # its noise: 0.003 m/s, 0.02 rad/s
+    out = tmp_path / "agree.json"
+    args = ["agree", str(log), "--robot", ROBOT, "--params", str(params), "--engine", "reduced"]
+    assert main([*args, "--json", str(out)]) == 0
+    figures = json.loads(out.read_text())
+    own = log_noise(read_trace(log))
+    expected = noise_ceiling(
+        ObservationNoise(std_v_mps=own.std_v_mps, std_w_radps=own.std_w_radps),
+        tol_v=0.02,
+        tol_w=0.1,
+    )
+    assert figures["noise_std_v_mps"] == pytest.approx(0.012, rel=0.15)
+    assert figures["noise_ceiling"] == pytest.approx(expected.agreement)
+    assert figures["noise_band_width_w_radps"] == pytest.approx(expected.band_width_w_radps)
+    assert figures["noise_band_width_v_mps"] > 3 * 3.29 * 0.003  # not the fit's 0.003 m/s
+    note = figures["notes"][-1]
+    assert note.startswith("the noise ceiling and the noise-only band use this log's own")
+    assert "the fit estimated v 0.003 m/s and w 0.02 rad/s" in note
+    assert note in capsys.readouterr().out  # the verdict's reasons in the terminal
+
+
+@pytest.mark.realdata
+def test_real_neato_logs_measure_their_own_noise_or_say_why_not(realdata_dir: Path) -> None:
+    """A 2018 Neato square (pose-derived velocity, commands held on each side) measures its
+    own noise; a log whose commands never stay for over a second cannot."""
+    square = log_noise(read_trace(realdata_dir / "neato_yycho0108_drive_square_demo.mcap"))
+    assert square.measured and square.n_samples >= 150
+    assert 0.0 < square.std_v_mps < 0.005 and 0.0 < square.std_w_radps < 0.02
+    bag = read_trace(realdata_dir / "neato_ksoltan_bag-file-name_2018-09-15-10-16-08.mcap")
+    assert not log_noise(bag).measured
