@@ -21,6 +21,7 @@ from robots.errors import RobotsValueError
 from robots.measurement import MeasurementModel, hold_model, pose_model
 from robots.spec import load_spec
 from sim2real.agreement.replay import replay
+from sim2real.cli import main as cli_main
 from sim2real.fitting import fit_logs
 from sim2real.logs import read_trace, write_trace
 from sim2real.logs._pose_velocity import _update_derivative, pose_changes
@@ -203,3 +204,36 @@ def test_replay_reads_the_simulation_through_the_logs_operator(tmp_path: Path) -
     last = np.maximum.accumulate(np.where(fresh, np.arange(fresh.size), 0))
     assert np.allclose(a.v, b.v[last], atol=1e-9)
     assert not np.allclose(a.v, b.v)
+
+
+@pytest.mark.realdata
+def test_real_logs_carry_the_operator_of_their_velocity_source(realdata_dir: Path) -> None:
+    """Neato (pose-derived, 7 Hz): a pose operator of 0.75 s windows; Husky (20 Hz rows of
+    wheel speeds updated every 0.15 s): a hold; TurtleBot3 (encoder twist): none."""
+    neato = read_trace(realdata_dir / "neato_olin2018_teleop.mcap", time_source="auto")
+    model = neato.measurement
+    assert model is not None and model.kind == "pose"
+    assert model.window_s == pytest.approx(0.749, abs=0.01)
+    assert model.update_period_s == pytest.approx(0.150, abs=0.005)
+    husky = read_trace(realdata_dir / "husky_lifted_a" / "trace.csv", time_source="auto")
+    held = husky.measurement
+    assert held is not None and held.kind == "hold"
+    assert held.update_period_s == pytest.approx(0.152, abs=0.005)
+    tb3 = read_trace(realdata_dir / "tb3wp_drexel_goal.mcap", time_source="auto")
+    assert tb3.measurement is None
+
+
+@pytest.mark.realdata
+@pytest.mark.slow
+def test_the_neato_teleop_fit_keeps_its_delay(realdata_dir: Path, tmp_path: Path) -> None:
+    """The centred pose window drove the fitted delay of this log to 0 (5e-14 s); read
+    through the operator it is the log's lag (the README's rough cross-correlation: 0.3 s)."""
+    spec_path = tmp_path / "neato.yaml"
+    args = ["robots", "new", "neato", "--wheel-separation", "0.248", "--max-speed", "0.3"]
+    assert cli_main([*args, "-o", str(spec_path)]) == 0
+    fit = fit_logs([realdata_dir / "neato_olin2018_teleop.mcap"], robot=str(spec_path))
+    assert fit.result.params.delay_s == pytest.approx(0.21, abs=0.05)
+    assert (
+        fit.result.settings["measurement"][str(realdata_dir / "neato_olin2018_teleop.mcap")]["kind"]
+        == "pose"
+    )
