@@ -15,7 +15,8 @@ absent). Per base, as a new user would work (the public CLI: ``robots new``, ``s
   wheels stopped).
 
 A checked half is written as a log (``write_trace``, CSV for CSV) for ``agree`` to read.
-Per checked recording and engine (``--engine reduced|pybullet|both``), one row:
+Per checked recording and engine (``--engine reduced|pybullet|mujoco|both|reduced+mujoco``),
+one row:
 
 - ``spec``: point agreement of the spec defaults; ``fit``: of the fitted (calibrated) point;
 - ``own lat.``: the fitted point at the session's own best command latency (and that
@@ -281,14 +282,21 @@ def run_base(base: Base, engines: list[str], quick: bool, tally: dict[str, list[
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--engine", choices=("reduced", "pybullet", "both"), default="both")
+    parser.add_argument(
+        "--engine",
+        choices=("reduced", "pybullet", "mujoco", "both", "reduced+mujoco"),
+        default="both",
+        help="both: reduced and pybullet; mujoco needs the [mujoco] extra",
+    )
     parser.add_argument("--quick", action="store_true", help="fewer Neato checks, reduced only")
     parser.add_argument("--base", choices=[b.name for b in BASES], action="append")
     args = parser.parse_args()
     if not REALDATA.is_dir():
         print(f"skipped: {REALDATA} is absent")
         return
-    engines = ["reduced", "pybullet"] if args.engine == "both" else [args.engine]
+    engines = {"both": ["reduced", "pybullet"], "reduced+mujoco": ["reduced", "mujoco"]}.get(
+        args.engine, [args.engine]
+    )
     if args.quick and args.engine == "both":
         engines = ["reduced"]
     tally: dict[str, list[int]] = {}

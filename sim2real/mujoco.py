@@ -313,6 +313,10 @@ class MujocoRobot:
         mj.mj_forward(m, d)
         self.drive.reset(v, w)
 
+    def step(self) -> None:
+        """One physics step (``mj_step``) with the controls set (:meth:`MujocoDrive.apply`)."""
+        self._mj.mj_step(self.model, self.data)
+
     def velocity(self) -> tuple[float, float]:
         """True (v [m/s] along the heading, w [rad/s] about the vertical) of the base."""
         d, b = self.data, self._base_body

@@ -35,7 +35,7 @@ MAY_IMPORT = {
     "sim2real.mujoco": {"robots", "sim2real.errors"},
     "sim2real.agreement": LIBRARY | {"sim2real.logs", "sim2real.mujoco"},
     "sim2real.cluster": LIBRARY | {"sim2real.logs", "sim2real.agreement"},
-    "sim2real.envs": LIBRARY | {"sim2real.plants"},
+    "sim2real.envs": LIBRARY | {"sim2real.plants", "sim2real.mujoco"},
     "sim2real.training": LIBRARY | {"sim2real.envs", "sim2real.cluster"},
 }
 

@@ -9,6 +9,9 @@
   obstacle while an occluded pedestrian crosses the adjacent lane (Trararak et al.).
 - ``sim2real/Race-v0`` (:class:`RaceEnv`) and :func:`race_parallel_env` (PettingZoo): TurtleBot
   3 Burgers race ORCA opponents on walled tracks (Pozo Ruiz 2024).
+- ``sim2real/MujocoNav-v0`` (:mod:`sim2real.envs.mujoco_nav`, the [mujoco] extra): the
+  exported MuJoCo robot drives to a goal; a ``DynamicsRandomizer`` draws each episode's robot
+  into its ``MjModel``.
 
 They take ``dynamics="reduced"`` (the identified drive model in numba, pose integrated
 kinematically, exact 2-D world) or ``dynamics="pybullet"`` (the rigid-body robot of
@@ -17,7 +20,7 @@ camera-pose protocol of ``docs/ARCHITECTURE.md``. RandomMap-v0, CrowdNav-v0 and 
 take ``dynamics="plant"``: a foreign base (:mod:`sim2real.plants.closed_loop`), one session
 per episode from ``plant_sessions=``, to evaluate a policy on, never to train on.
 
-May import :mod:`robots` and :mod:`sim2real.plants`.
+May import :mod:`robots`, :mod:`sim2real.plants` and :mod:`sim2real.mujoco`.
 
 Examples
 --------
@@ -78,6 +81,7 @@ ENV_IDS = (
     "sim2real/RandomMap-v0",
     "sim2real/CarCrossing-v0",
     "sim2real/Race-v0",
+    "sim2real/MujocoNav-v0",
 )
 
 # The envs end episodes themselves (metrics need the outcome), so no TimeLimit wrapper.
@@ -95,6 +99,8 @@ if "sim2real/RandomMap-v0" not in gym.registry:
     )
 if "sim2real/Race-v0" not in gym.registry:
     gym.register(id="sim2real/Race-v0", entry_point="sim2real.envs.race:RaceEnv")
+if "sim2real/MujocoNav-v0" not in gym.registry:  # the [mujoco] extra
+    gym.register(id="sim2real/MujocoNav-v0", entry_point="sim2real.envs.mujoco_nav:MujocoNavEnv")
 if "sim2real/CarCrossing-v0" not in gym.registry:
     gym.register(
         id="sim2real/CarCrossing-v0", entry_point="sim2real.envs.car_crossing:CarCrossingEnv"
