@@ -21,8 +21,9 @@ one row:
 - ``spec``: point agreement of the spec defaults; ``fit``: of the fitted (calibrated) point;
 - ``own lat.``: the fitted point at the session's own best command latency (and that
   latency), :func:`sim2real.agreement.latency.session_latency`;
-- ``ceiling``: the agreement a perfect model would reach under the params' odometry noise,
-  :func:`sim2real.agreement.latency.noise_ceiling`;
+- ``ceiling``: the agreement a perfect model would reach under the checked log's own odometry
+  noise (:func:`sim2real.agreement.latency.log_noise`; the params' where the log has too few
+  steady samples), :func:`sim2real.agreement.latency.noise_ceiling`;
 - ``cov v / w``: coverage of the 90 % band (30 robots); ``width v / w``: its median width,
   beside the noise-only 90 % band (3.29 noise sd).
 
