@@ -100,8 +100,16 @@ class NavEnvBase(WorldEnv):
         drive_distribution: DriveDistribution | None = None,
         drive_spread: float = 1.0,
         plant_sessions: Any = None,
+        goal_speed_mps: float = math.inf,
     ) -> None:
         super().__init__(dynamics, control_dt, max_episode_steps, drive_params)
+        if isinstance(goal_speed_mps, bool) or not (
+            isinstance(goal_speed_mps, int | float) and goal_speed_mps > 0
+        ):
+            raise Sim2RealValueError(
+                f"goal_speed_mps must be a number of m/s > 0 (inf: passing through the goal "
+                f"counts), got {goal_speed_mps!r}"
+            )
         self.robot_spec = _load_spec(robot)
         self._drive_distribution = _check_distribution(
             drive_distribution, drive_spread, self.robot_spec.name
@@ -114,6 +122,8 @@ class NavEnvBase(WorldEnv):
                 "dynamics='reduced'"
             )
         self.goal_tolerance_m = float(goal_tolerance_m)
+        #: Success needs the measured speed at or below this inside the tolerance, m/s.
+        self.goal_speed_mps = float(goal_speed_mps)
         self.robot_radius_m = footprint_radius_m(self.robot_spec)
         self._world = PybulletWorld() if (needs_world or dynamics == "pybullet") else None
         params = drive_params if drive_params is not None else self.robot_spec.drive
@@ -227,7 +237,7 @@ class NavEnvBase(WorldEnv):
         outcome: str | None = None
         if clearance <= 0.0:
             outcome = "collision"
-        elif d_goal < self.goal_tolerance_m:
+        elif d_goal < self.goal_tolerance_m and abs(v) <= self.goal_speed_mps:
             outcome = "success"
         elif self._tracker.steps >= self.max_episode_steps:
             outcome = "timeout"

@@ -8,7 +8,9 @@ Observation (40 float32 values, Yang et al. Sec. III-B)
     straight ahead; readings outside the limits read 3.5), goal distance (m) and bearing (rad,
     counter-clockwise from the heading), measured v (m/s) and w (rad/s).
 Action
-    (v, w) with v in [0, 0.21] m/s and w in [-1, 1] rad/s (Yang et al. Sec. III-B).
+    (v, w) with v in [0, 0.21] m/s and w in [-1, 1] rad/s (Yang et al. Sec. III-B);
+    ``action_limits="robot"``: v in [0, max_v] and w in [-max_w, max_w] of the robot spec
+    (0.7 m/s and 3.14 rad/s for the TurtleBot 2).
 Reward (Yang et al. eqs. 2-5; the constants are ours, in :class:`RandomMapReward`)
     .. math::
 
@@ -59,6 +61,8 @@ __all__ = ["RandomMapEnv", "RandomMapReward"]
 
 _N_BEAMS = 36
 _GOAL_DIST_MAX_M = 30.0
+#: Action limits: Yang et al.'s (Sec. III-B) or the robot spec's.
+_ACTION_LIMITS = ("paper", "robot")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -108,6 +112,12 @@ class RandomMapEnv(NavEnvBase):
         fixed session.
     robot : str
         Robot spec name.
+    action_limits : str
+        ``"paper"`` (v <= 0.21 m/s and w within 1 rad/s, Yang et al.) or ``"robot"`` (the robot
+        spec's top speed and yaw rate).
+    goal_speed_mps : float
+        Success needs the measured speed at or below this within the goal tolerance, m/s
+        (default inf: passing through the goal counts; e.g. 0.05: stop inside it).
 
     Notes
     -----
@@ -128,7 +138,15 @@ class RandomMapEnv(NavEnvBase):
         drive_spread: float = 1.0,
         plant_sessions: PlantSessions | PlantParams | None = None,
         robot: str = "turtlebot3_burger",
+        action_limits: str = "paper",
+        goal_speed_mps: float = math.inf,
     ) -> None:
+        if action_limits not in _ACTION_LIMITS:
+            raise Sim2RealValueError(
+                f"action_limits must be one of {', '.join(_ACTION_LIMITS)}, got "
+                f"{action_limits!r}; use 'paper' (v <= 0.21 m/s, |w| <= 1 rad/s, Yang et al.) "
+                "or 'robot' (the robot spec's top speed and yaw rate)"
+            )
         self.map_config = map_config if map_config is not None else get_preset(preset)
         self.preset = str(preset).upper() if map_config is None else "custom"
         super().__init__(
@@ -142,6 +160,7 @@ class RandomMapEnv(NavEnvBase):
             drive_distribution=drive_distribution,
             drive_spread=drive_spread,
             plant_sessions=plant_sessions,
+            goal_speed_mps=goal_speed_mps,
         )
         self.reward_config = reward if reward is not None else RandomMapReward()
         lid = self.robot_spec.lidar
@@ -156,9 +175,10 @@ class RandomMapEnv(NavEnvBase):
             [np.full(_N_BEAMS, self.range_max_m), [_GOAL_DIST_MAX_M, math.pi, vmax, wmax]]
         ).astype(np.float32)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        v_cap, w_cap = (0.21, 1.0) if action_limits == "paper" else (vmax, wmax)
         self.action_space = spaces.Box(
-            np.array([0.0, -1.0], dtype=np.float32),
-            np.array([0.21, 1.0], dtype=np.float32),
+            np.array([0.0, -w_cap], dtype=np.float32),
+            np.array([v_cap, w_cap], dtype=np.float32),
             dtype=np.float32,
         )
         self.layout: MapLayout | None = None

@@ -124,6 +124,12 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
                 f"dynamics={first.dynamics!r}; use dynamics='reduced' or 'plant', or "
                 "vectorization_mode='sync' for pybullet"
             )
+        if math.isfinite(first.goal_speed_mps):
+            raise Sim2RealValueError(
+                f"the native vector env ends an episode at the goal by distance alone, got "
+                f"goal_speed_mps={first.goal_speed_mps!r}; leave goal_speed_mps out, or use "
+                "vectorization_mode='sync' (or vec_env='dummy') to require a stop at the goal"
+            )
         #: ``dynamics="plant"``: each sub-env's plant steps its robot (one call per sub-env).
         self._plant = first.dynamics == "plant"
         self.num_envs = len(self.envs)

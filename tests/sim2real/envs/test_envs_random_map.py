@@ -30,6 +30,45 @@ def test_check_env_passes_and_spaces_match_the_paper() -> None:
     env.close()
 
 
+def test_robot_action_limits_follow_the_spec_and_reach_its_top_speed() -> None:
+    env = RandomMapEnv(
+        map_config=MapConfig(n_min=0, n_max=0, r_wall=0.0, d_target_m=6.0),
+        robot="turtlebot2",
+        action_limits="robot",
+    )
+    check_env(env, skip_render_check=True)
+    np.testing.assert_allclose(env.action_space.low, [0.0, -3.14], rtol=1e-6)
+    np.testing.assert_allclose(env.action_space.high, [0.7, 3.14], rtol=1e-6)
+    env.reset(seed=0)
+    for _ in range(20):
+        env.step(np.array([0.7, 0.0]))
+    v, _ = env._backend.velocity
+    assert v > 0.6  # the paper's limits would hold the TurtleBot 2 at 0.21 m/s
+    with pytest.raises(Sim2RealValueError, match="action_limits must be one of paper, robot"):
+        RandomMapEnv(action_limits="fast")
+
+
+def test_a_goal_speed_makes_success_a_stop_inside_the_tolerance() -> None:
+    def drive(goal_speed_mps: float) -> tuple[str, int]:
+        env = RandomMapEnv(
+            map_config=MapConfig(n_min=0, n_max=0, r_wall=0.0, d_target_m=1.0),
+            goal_speed_mps=goal_speed_mps,
+            max_episode_steps=200,
+        )
+        obs, _ = env.reset(seed=0)
+        for step in range(200):
+            d, bearing = float(obs[36]), float(obs[37])
+            v = 0.21 if abs(bearing) < 0.3 and d > 0.1 else 0.0
+            obs, _, term, trunc, info = env.step(np.array([v, np.clip(2 * bearing, -1, 1)]))
+            if term or trunc:
+                return info["outcome"], step
+        raise AssertionError("the episode did not end")
+
+    (passing, n_pass), (stopping, n_stop) = drive(math.inf), drive(0.02)
+    assert passing == stopping == "success"
+    assert n_stop > n_pass  # inside the 0.3 m tolerance at speed is not yet a stop
+
+
 def test_observation_layout() -> None:
     env = RandomMapEnv(preset="TEST1")
     obs, info = env.reset(seed=4)

@@ -172,6 +172,8 @@ def test_autoreset_follows_next_step_mode() -> None:
         ({"num_envs": 0}, "num_envs must be an integer >= 1, got 0"),
         ({"num_envs": 2, "dynamics": "pybullet"}, "reduced drive model or the plant"),
         ({"num_envs": 2, "preset": "HARD"}, "unknown map preset 'HARD'"),
+        ({"num_envs": 2, "goal_speed_mps": 0.05}, "goal by distance alone, got goal_speed"),
+        ({"num_envs": 1, "goal_speed_mps": -1.0}, "goal_speed_mps must be a number of m/s > 0"),
     ],
 )
 def test_bad_constructor_arguments_name_the_argument(kwargs: dict[str, Any], match: str) -> None:
