@@ -221,3 +221,20 @@ def test_ten_minute_replay_costs_little_beyond_the_physics() -> None:
         mujoco.mj_step(robot.model, robot.data, 144_000)  # the same 600 s at 240 Hz
         physics_s = min(physics_s, time.perf_counter() - start)
     assert replay_s <= 2.0 * physics_s  # a step a call would take ~4x
+
+
+def test_yaw_coulomb_holds_a_small_turn_command_while_driving() -> None:
+    """The axis frictions' dry-friction constraints hold like the drive model's Coulomb terms:
+    a turn command whose loop torque stays below coulomb_w_nm does not turn the base."""
+    from sim2real.mujoco import MujocoRobot
+
+    spec = load_spec("turtlebot3_burger")
+    t = np.arange(0.0, 3.0, 0.1)
+    cmd = (t, np.full(t.size, 0.15), np.full(t.size, 0.03))
+    t_out = np.array([0.0, 1.5, 2.5])
+    ref = simulate(
+        spec.drive, spec.geometry, cmd_t_s=cmd[0], cmd_v=cmd[1], cmd_w=cmd[2], t_out_s=t_out
+    )
+    _, w = MujocoRobot(spec).replay(cmd, t_out)
+    assert ref.w[1:] == pytest.approx([0.0, 0.0], abs=1e-9)
+    assert np.max(np.abs(w[1:])) <= 0.003
