@@ -14,7 +14,8 @@ Each entry's other keys are the wrapper's keyword arguments. A ``DynamicsRandomi
 a ``sysid`` key (the path of a ``sim2real sysid fit`` result, relative to the config file) is
 built with :meth:`DynamicsRandomizer.from_sysid` (its ``scale``, ``fields``, ``robot`` and
 ``name`` keys pass through); a ``LidarNoise`` entry with a ``sysid`` key (a ``sim2real sysid
-sensors`` result) likewise with :meth:`LidarNoise.from_sysid`, and an ``OdometryDelay``
+sensors`` result) likewise with :meth:`LidarNoise.from_sysid` (a ``DepthNoise`` entry with
+:meth:`DepthNoise.from_sysid`, from the result's ``depth`` section), and an ``OdometryDelay``
 entry with one with :meth:`OdometryDelay.from_sysid` (the scan's identified latency). :func:`to_config` writes every
 argument (including the current ``scale`` and ``name``), so ``from_config(env, to_config(w))``
 rebuilds the same stack with the same random streams.
@@ -143,7 +144,7 @@ def from_config(
         kwargs = {k: v for k, v in entry.items() if k != "type"}
         try:
             from_file = cls is DynamicsRandomizer or kwargs.get("sysid") is not None
-            from_sysid = (DynamicsRandomizer, LidarNoise, OdometryDelay)
+            from_sysid = (DynamicsRandomizer, LidarNoise, DepthNoise, OdometryDelay)
             if "sysid" in kwargs and cls in from_sysid and from_file:
                 wrapped = _from_sysid(cls, wrapped, kwargs, folder)
             else:

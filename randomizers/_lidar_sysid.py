@@ -10,17 +10,24 @@ are clipped to ``>= 0`` (the rate to ``[0, 1]``).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import yaml
 
 from randomizers.errors import RandomizerConfigError
 
-__all__ = ["SENSORS_FORMAT", "SensorNoiseDistribution", "load_sensor_noise", "scan_latency_s"]
+__all__ = [
+    "SENSORS_FORMAT",
+    "FromSensors",
+    "SensorNoiseDistribution",
+    "load_sensor_noise",
+    "scan_latency_s",
+]
 
 #: The ``format`` key of a ``sim2real sysid sensors`` result.
 SENSORS_FORMAT = "sim2real.sysid.sensors/1"
@@ -109,10 +116,20 @@ def _read(p: Path) -> dict[str, Any]:
     return data
 
 
-def load_sensor_noise(path: str | Path) -> SensorNoiseDistribution:
-    """Read the noise distribution of a ``sim2real sysid sensors`` result file."""
+def load_sensor_noise(path: str | Path, section: str | None = None) -> SensorNoiseDistribution:
+    """Read the noise distribution of a ``sim2real sysid sensors`` result file: the lidar's,
+    or with ``section="depth"`` the depth camera's (depth limits 0 and infinity)."""
     p = Path(path)
     data = _read(p)
+    if section is not None:
+        part = data.get(section)
+        if not isinstance(part, dict):
+            raise RandomizerConfigError(
+                f"sensor file '{p}' has no '{section}' section (its recordings had no depth "
+                "image topic with still frames); identify with a depth topic recorded "
+                "(--depth-topic) or give DepthNoise std_m by hand"
+            )
+        data = {"range_min_m": 0.0, "range_max_m": math.inf, **part}
     return SensorNoiseDistribution(
         std_m=_field(data, "noise_std_0_m", p),
         std_per_m=_field(data, "noise_std_per_m", p),
@@ -121,3 +138,52 @@ def load_sensor_noise(path: str | Path) -> SensorNoiseDistribution:
         range_min_m=float(data["range_min_m"]),
         range_max_m=float(data["range_max_m"]),
     )
+
+
+class FromSensors:
+    """``from_sysid`` and the per-episode draw of a noise randomizer built from a ``sim2real
+    sysid sensors`` result (the lidar's noise, or with ``_SECTION = "depth"`` the camera's)."""
+
+    _SECTION: ClassVar[str | None] = None
+    _dist: SensorNoiseDistribution | None
+    _spread: float
+    rng: np.random.Generator
+    std_m: float
+    std_per_m: float
+    std_per_m2: float
+    dropout: float
+
+    @classmethod
+    def from_sysid(
+        cls,
+        path: str | Path,
+        *,
+        env: Any = None,
+        spread: float = 1.0,
+        **kwargs: Any,
+    ) -> Any:
+        """Noise drawn per episode from a ``sim2real sysid sensors`` result.
+
+        Each episode draws ``std_m``, ``std_per_m``, ``std_per_m2`` and ``dropout`` from
+        normals centred on the identified values with the standard deviations of their 95 %
+        intervals times ``spread`` (1 = as identified), clipped to >= 0; the curriculum
+        ``scale`` then multiplies the noise and dropout as usual. Other keyword arguments
+        (``key``, ``index``, the sensor's limits, ``scale``, ``name``) pass through. Without
+        ``env`` it returns a picklable ``env -> wrapper`` callable.
+
+        Examples
+        --------
+        >>> from randomizers import LidarNoise
+        >>> make = LidarNoise.from_sysid("sensors.yaml", spread=2.0)  # doctest: +SKIP
+        >>> env = make(base_env)  # doctest: +SKIP
+        """
+        load_sensor_noise(path, section=cls._SECTION)  # fail here, not in a worker
+        make: Any = cls  # a randomizer class: (env, sysid=..., spread=..., **kwargs)
+        factory: Any = functools.partial(make, sysid=str(path), spread=spread, **kwargs)
+        return factory if env is None else factory(env)
+
+    def sample_episode(self) -> None:
+        """Draw this episode's noise from the identified distribution (with ``sysid``)."""
+        if self._dist is not None:
+            draw = self._dist.sample(self.rng, self._spread)
+            self.std_m, self.std_per_m, self.std_per_m2, self.dropout = draw

@@ -9,11 +9,9 @@ dropped lidar beams).
 
 from __future__ import annotations
 
-import functools
 import math
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -34,7 +32,7 @@ from randomizers._gauss import (
     rectangle,
     under_wedge,
 )
-from randomizers._lidar_sysid import load_sensor_noise
+from randomizers._lidar_sysid import FromSensors, load_sensor_noise
 from randomizers._observation import ObservationRandomizer
 from randomizers._pcg64 import (
     JUMPS,
@@ -407,7 +405,7 @@ def _noisy_ranges(
     return dropped
 
 
-class DepthNoise(ObservationRandomizer):
+class DepthNoise(FromSensors, ObservationRandomizer):
     r"""Gaussian range noise on a depth image, N(0, 0.2 m) by default (Liang et al. 2020).
 
     Liang et al. (2020) add :math:`\mathcal N(0, 0.2)` to the depth images; we read 0.2 as the standard
@@ -432,9 +430,21 @@ class DepthNoise(ObservationRandomizer):
     index : int, slice or [start, stop], optional
         Range of the last axis (rarely needed for images).
     scale : float
-        Curriculum scale c in [0, 1] multiplying σ.
+        Curriculum scale c in [0, 1] multiplying σ and p.
     name : str, optional
         Unique name in the stack; default ``DepthNoise[<key>]``.
+    std_per_m, std_per_m2 : float
+        Growth σ1 (m per m) and σ2 (1/m) of the noise std with depth and its square (>= 0;
+        default 0): σ(d) = σ0 + σ1 d + σ2 d² with σ0 = ``std_m`` (a structured-light or
+        stereo camera's error grows with the square of depth).
+    dropout : float
+        Probability p in [0, 1] that a valid pixel returns nothing, per pixel and step: it
+        then reads ``far_m`` (default 0).
+    sysid : str, optional
+        A ``sim2real sysid sensors`` result with a ``depth`` section: each episode draws σ0,
+        σ1, σ2 and p from it (see :meth:`from_sysid`).
+    spread : float
+        Multiplier on the identified standard deviations (1 = as identified).
 
     Examples
     --------
@@ -455,6 +465,8 @@ class DepthNoise(ObservationRandomizer):
     True
     """
 
+    _SECTION = "depth"
+
     def __init__(
         self,
         env: gym.Env[Any, Any],
@@ -466,8 +478,19 @@ class DepthNoise(ObservationRandomizer):
         index: Any = None,
         scale: float = 1.0,
         name: str | None = None,
+        std_per_m: float = 0.0,
+        std_per_m2: float = 0.0,
+        dropout: float = 0.0,
+        sysid: str | None = None,
+        spread: float = 1.0,
     ) -> None:
         sel = select(env.observation_space, key=key, index=index, wrapper="DepthNoise")
+        spread = check_spread(spread)
+        dist = None if sysid is None else load_sensor_noise(sysid, section="depth")
+        if dist is not None:  # the identified means until the first episode draws its own
+            std_m, std_per_m, std_per_m2 = dist.std_m[0], dist.std_per_m[0], dist.std_per_m2[0]
+            dropout = dist.dropout[0]
+        std_per_m, std_per_m2, dropout = _growth(std_per_m, std_per_m2, dropout, "DepthNoise")
         std_m = check_nonnegative(std_m, argument="std_m", unit="m")
         near_m = check_nonnegative(near_m, argument="near_m", unit="m")
         far_m = check_number(far_m, argument="far_m")
@@ -477,18 +500,28 @@ class DepthNoise(ObservationRandomizer):
                 "pass the camera's clip range"
             )
         _check_std_scale(std_m, near_m, far_m, sel.dtype, "DepthNoise", "std_m")
+        model = {"std_per_m": std_per_m, "std_per_m2": std_per_m2, "dropout": dropout}
+        options: dict[str, Any] = {k: v for k, v in model.items() if v}
+        if sysid is not None:
+            options |= {"sysid": sysid, "spread": spread}
         self._wrap_selection(
             env,
             sel,
             scale=scale,
             name=name,
+            options=options,
             std_m=std_m,
             near_m=near_m,
             far_m=far_m,
         )
         self.std_m = std_m
+        self.std_per_m = std_per_m
+        self.std_per_m2 = std_per_m2
+        self.dropout = dropout
         self.near_m = near_m
         self.far_m = far_m
+        self._dist = dist
+        self._spread = spread
         self._scratch = np.empty(0)  # finished samples of the rejected pixels, in order
         self._rejected = np.empty(0, dtype=np.int64)
         self._first = np.empty(0, dtype=np.uint32)  # the rejected pixels' words
@@ -501,6 +534,8 @@ class DepthNoise(ObservationRandomizer):
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with noise on the depth image (a new object)."""
         std = self.scale * self.std_m
+        if self.std_per_m > 0.0 or self.std_per_m2 > 0.0 or self.dropout > 0.0:
+            return self._sel.put(observation, self._noisy_model(self._sel.get(observation)))
         if std == 0.0:
             return observation
         part = np.ascontiguousarray(self._sel.get(observation))
@@ -509,6 +544,20 @@ class DepthNoise(ObservationRandomizer):
         out = np.empty(part.shape, dtype=self._sel.dtype)
         self._noisy(part.reshape(-1), out.reshape(-1), std)
         return self._sel.put(observation, out)
+
+    def _noisy_model(self, part: np.ndarray) -> np.ndarray:
+        """Valid pixels ``d`` become ``clip(d + c sigma(d) z, near, far)``, or ``far`` with
+        probability ``c p``; invalid ones are kept (numpy draws, not the compiled path)."""
+        d = np.asarray(part, dtype=np.float64)
+        c = self.scale
+        sigma = c * (self.std_m + (self.std_per_m + self.std_per_m2 * d) * d)
+        z = self.rng.standard_normal(d.shape)
+        drop = self.rng.random(d.shape) < c * self.dropout
+        with np.errstate(invalid="ignore"):
+            valid = (d > 0.0) & (d < self.far_m)
+            noisy = np.clip(d + sigma * z, self.near_m, self.far_m)
+        out = np.where(valid, np.where(drop, self.far_m, noisy), d)
+        return out.astype(self._sel.dtype)
 
     def _noisy(self, img: np.ndarray, out: np.ndarray, std: float) -> None:
         """``out = clip(img + std z, near, far)`` on valid pixels, ``z`` i.i.d. N(0, 1).
@@ -601,7 +650,7 @@ class DepthNoise(ObservationRandomizer):
         return {"std_m": self.scale * self.std_m, "scale": self.scale}
 
 
-class LidarNoise(ObservationRandomizer):
+class LidarNoise(FromSensors, ObservationRandomizer):
     r"""Gaussian range noise plus random beam dropout on a lidar scan.
 
     Each valid beam :math:`r` (finite and ``< range_max_m``) becomes
@@ -682,14 +731,7 @@ class LidarNoise(ObservationRandomizer):
             std_m, std_per_m, dropout = dist.std_m[0], dist.std_per_m[0], dist.dropout[0]
             std_per_m2 = dist.std_per_m2[0]
         std_m = check_nonnegative(std_m, argument="std_m", unit="m")
-        std_per_m = check_nonnegative(std_per_m, argument="std_per_m", unit="m/m")
-        std_per_m2 = check_nonnegative(std_per_m2, argument="std_per_m2", unit="1/m")
-        dropout = check_nonnegative(dropout, argument="dropout")
-        if dropout > 1.0:
-            raise RandomizerValueError(
-                f"LidarNoise: argument 'dropout' is a probability and must be in [0, 1], got "
-                f"{dropout!r}"
-            )
+        std_per_m, std_per_m2, dropout = _growth(std_per_m, std_per_m2, dropout, "LidarNoise")
         lo = _bound(range_min_m, float(np.min(sel.low)), "range_min_m")
         hi = _bound(range_max_m, float(np.max(sel.high)), "range_max_m")
         if lo < 0 or not hi > lo:
@@ -711,39 +753,6 @@ class LidarNoise(ObservationRandomizer):
         self._dropped = 0
         self._dist = dist
         self._spread = spread
-
-    @classmethod
-    def from_sysid(
-        cls,
-        path: str | Path,
-        *,
-        env: gym.Env[Any, Any] | None = None,
-        spread: float = 1.0,
-        **kwargs: Any,
-    ) -> Any:
-        """Noise drawn per episode from a ``sim2real sysid sensors`` result.
-
-        Each episode draws ``std_m``, ``std_per_m``, ``std_per_m2`` and ``dropout`` from normals centred on
-        the identified values with the standard deviations of their 95 % intervals times
-        ``spread`` (1 = as identified), clipped to >= 0; the curriculum ``scale`` then
-        multiplies the noise and dropout as usual. Other keyword arguments (``key``,
-        ``index``, ``range_min_m``, ``range_max_m``, ``scale``, ``name``) pass through.
-        Without ``env`` it returns a picklable ``env -> wrapper`` callable.
-
-        Examples
-        --------
-        >>> make = LidarNoise.from_sysid("sensors.yaml", spread=2.0)  # doctest: +SKIP
-        >>> env = make(base_env)  # doctest: +SKIP
-        """
-        load_sensor_noise(path)  # fail here, not in a worker
-        factory: Any = functools.partial(cls, sysid=str(path), spread=spread, **kwargs)
-        return factory if env is None else factory(env)
-
-    def sample_episode(self) -> None:
-        """Draw this episode's noise from the identified distribution (with ``sysid``)."""
-        if self._dist is not None:
-            draw = self._dist.sample(self.rng, self._spread)
-            self.std_m, self.std_per_m, self.std_per_m2, self.dropout = draw
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with a noisy scan (a new object)."""
@@ -782,6 +791,20 @@ class LidarNoise(ObservationRandomizer):
             "dropped": self._dropped,
             "scale": self.scale,
         }
+
+
+def _growth(
+    std_per_m: float, std_per_m2: float, dropout: float, wrapper: str
+) -> tuple[float, float, float]:
+    """The noise growth with range and its square (>= 0) and the dropout probability."""
+    std_per_m = check_nonnegative(std_per_m, argument="std_per_m", unit="m/m")
+    std_per_m2 = check_nonnegative(std_per_m2, argument="std_per_m2", unit="1/m")
+    dropout = check_nonnegative(dropout, argument="dropout")
+    if dropout > 1.0:
+        raise RandomizerValueError(
+            f"{wrapper}: argument 'dropout' is a probability and must be in [0, 1], got {dropout!r}"
+        )
+    return std_per_m, std_per_m2, dropout
 
 
 def _bound(value: float | None, from_space: float, argument: str) -> float:

@@ -2,7 +2,9 @@
 
 :func:`identify_sensor` reads each log's LaserScan topic and odometry poses
 (:func:`sim2real.logs.read_scans`), puts both on seconds since the log's first scan, takes the
-lidar's mount position from the robot spec and calls :func:`sysid.sensors.estimate_sensor`.
+lidar's mount position from the robot spec and calls :func:`sysid.sensors.estimate_sensor`;
+where a log has a depth image topic (:func:`sim2real.logs.read_depth`), the camera's noise
+from its still frames (:func:`sysid.sensors.estimate_depth`) is the result's ``depth``.
 
 Examples
 --------
@@ -13,15 +15,23 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 
 from robots.spec import load_spec
 from robots.units import seconds
-from sim2real.logs import LaserScans, read_scans
-from sysid.sensors import PoseArrays, ScanArrays, SensorEstimate, estimate_sensor
+from sim2real.logs import DepthImages, LaserScans, read_depth, read_scans
+from sysid.sensors import (
+    DepthEstimate,
+    PoseArrays,
+    ScanArrays,
+    SensorEstimate,
+    estimate_depth,
+    estimate_sensor,
+)
 
-__all__ = ["identify_sensor", "read_sensor_logs", "scan_arrays"]
+__all__ = ["identify_depth", "identify_sensor", "read_sensor_logs", "scan_arrays"]
 
 
 def scan_arrays(scans: LaserScans) -> tuple[ScanArrays, PoseArrays]:
@@ -63,6 +73,7 @@ def identify_sensor(
     robot: str | Path,
     scan_topic: str | None = None,
     odom_topic: str | None = None,
+    depth_topic: str | None = None,
     n_boot: int = 200,
     seed: int = 0,
     logs: tuple[list[ScanArrays], list[PoseArrays]] | None = None,
@@ -77,6 +88,9 @@ def identify_sensor(
         Robot spec name or file (its lidar mount position is used).
     scan_topic, odom_topic : str, optional
         Topics to read (default: ``/scan`` / ``/odom`` or the only one of the type).
+    depth_topic : str, optional
+        The depth Image topic (default: the only one with a depth encoding, if any); the
+        first log with depth images gives :attr:`SensorEstimate.depth`.
     n_boot, seed : int
         Bootstrap resamples and their seed.
     logs : tuple, optional
@@ -94,4 +108,34 @@ def identify_sensor(
         else read_sensor_logs(paths, scan_topic=scan_topic, odom_topic=odom_topic)
     )
     names = [str(p) for p in paths]
-    return estimate_sensor(scans, odoms, mount_xy_m=mount, names=names, n_boot=n_boot, seed=seed)
+    est = estimate_sensor(scans, odoms, mount_xy_m=mount, names=names, n_boot=n_boot, seed=seed)
+    for path in paths:
+        depth = read_depth(path, depth_topic=depth_topic)
+        if depth is not None:
+            found = identify_depth(path, depth, odom_topic=odom_topic, n_boot=n_boot, seed=seed)
+            if found is None:
+                note = (
+                    f"depth: the depth images of '{depth.topic}' in '{path}' have no still "
+                    "stretch of 5 frames, so the depth camera's noise is not identified"
+                )
+                return dataclasses.replace(est, unidentified=(*est.unidentified, note))
+            return dataclasses.replace(est, depth=found)
+    return est
+
+
+def identify_depth(
+    path: str | Path,
+    depth: DepthImages,
+    *,
+    odom_topic: str | None = None,
+    n_boot: int = 200,
+    seed: int = 0,
+) -> DepthEstimate | None:
+    """Identify the depth camera of one log from its depth images and odometry (None
+    without a still stretch)."""
+    scans = read_scans(path, odom_topic=odom_topic)
+    t0 = int(scans.stamp_ns[0])
+    _, odom = scan_arrays(scans)
+    source = (depth.topic, depth.encoding, depth.size_px)
+    t_s = seconds(depth.stamp_ns - t0)
+    return estimate_depth(t_s, depth.depth_m, odom, source=source, n_boot=n_boot, seed=seed)

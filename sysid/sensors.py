@@ -90,10 +90,12 @@ from sysid.errors import ExcitationError, ResultFileError, SysidValueError
 
 __all__ = [
     "FORMAT",
+    "DepthEstimate",
     "PoseArrays",
     "ScanArrays",
     "SensorEstimate",
     "StillSpread",
+    "estimate_depth",
     "estimate_sensor",
     "load_sensor",
     "still_spread",
@@ -126,6 +128,7 @@ _GATE_BINS = 20
 _GATE_SIGMAS = 5.0
 _FIT_BINS = 30
 _MOVING_SYS = 0.03
+_DEPTH_MIXED_BINS = 30
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -184,22 +187,53 @@ class PoseArrays:
 
 
 @dataclass(frozen=True, kw_only=True)
-class SensorEstimate:
+class NoiseModel:
+    """A range sensor's noise model and invalid-return rate; every ``*_ci`` is a 95 % interval.
+
+    Attributes
+    ----------
+    noise_std_0_m, noise_std_per_m, noise_std_per_m2 : float
+        The noise model :math:`\\sigma(r) = \\sigma_0 + \\sigma_1 r + \\sigma_2 r^2` (m, m/m
+        and 1/m) against range (a lidar) or depth (a camera) ``r``.
+    noise_range_m, noise_std_m, noise_std_lo_m, noise_std_hi_m : tuple of float
+        The model at the centres of six range bins of the data, with its interval (m).
+    dropout, dropout_ci : float, interval
+        Fraction of invalid returns of beams (pixels) that see a surface.
+    dropout_by_range : tuple of float
+        The same per range bin (``noise_range_m``), NaN where no beam fell.
+    """
+
+    noise_std_0_m: float
+    noise_std_0_ci: tuple[float, float]
+    noise_std_per_m: float
+    noise_std_per_m_ci: tuple[float, float]
+    noise_std_per_m2: float
+    noise_std_per_m2_ci: tuple[float, float]
+    noise_range_m: tuple[float, ...]
+    noise_std_m: tuple[float, ...]
+    noise_std_lo_m: tuple[float, ...]
+    noise_std_hi_m: tuple[float, ...]
+    dropout: float
+    dropout_ci: Interval
+    dropout_by_range: tuple[float, ...]
+
+    def noise_std_at(self, range_m: float) -> float:
+        """The identified noise standard deviation at ``range_m``, m."""
+        return (
+            self.noise_std_0_m + (self.noise_std_per_m + self.noise_std_per_m2 * range_m) * range_m
+        )
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorEstimate(NoiseModel):
     """A lidar identified from recordings; every ``*_ci`` is a 95 % interval.
 
     Attributes
     ----------
     beams, angle_min_rad, angle_increment_rad, range_min_m, range_max_m, scan_rate_hz
         The sensor's layout as recorded (rad, m, Hz).
-    noise_std_0_m, noise_std_per_m, noise_std_per_m2 : float
-        The noise model :math:`\\sigma(r) = \\sigma_0 + \\sigma_1 r + \\sigma_2 r^2` (m, m/m
-        and 1/m).
-    noise_range_m, noise_std_m, noise_std_lo_m, noise_std_hi_m : tuple of float
-        The model at the centres of the range bins of the data, with its interval (m).
-    dropout, dropout_ci : float, interval
-        Fraction of invalid returns of beams that see a surface.
-    dropout_by_range : tuple of float
-        The same per range bin (``noise_range_m``), NaN where no beam fell.
+    noise_std_0_m ... dropout_by_range
+        The noise model and invalid-return rate (:class:`NoiseModel`).
     dropout_by_beam : tuple of float
         The same per beam, NaN where a beam never saw a surface while still.
     spurious_short, spurious_short_ci : float, interval
@@ -225,6 +259,8 @@ class SensorEstimate:
         returns compared.
     moving_residuals : int
         Returns of moving scan pairs compared with the other scan of their pair.
+    depth : DepthEstimate or None
+        The depth camera of the same recordings, where a depth image topic was identified.
     """
 
     beams: int
@@ -233,19 +269,6 @@ class SensorEstimate:
     range_min_m: float
     range_max_m: float
     scan_rate_hz: float
-    noise_std_0_m: float
-    noise_std_0_ci: Interval
-    noise_std_per_m: float
-    noise_std_per_m_ci: Interval
-    noise_std_per_m2: float
-    noise_std_per_m2_ci: Interval
-    noise_range_m: tuple[float, ...]
-    noise_std_m: tuple[float, ...]
-    noise_std_lo_m: tuple[float, ...]
-    noise_std_hi_m: tuple[float, ...]
-    dropout: float
-    dropout_ci: Interval
-    dropout_by_range: tuple[float, ...]
     dropout_by_beam: tuple[float, ...]
     spurious_short: float
     spurious_short_ci: Interval
@@ -263,29 +286,133 @@ class SensorEstimate:
     moving_noise_std_lo_m: tuple[float, ...] = ()
     moving_noise_std_hi_m: tuple[float, ...] = ()
     moving_residuals: int = 0
-
-    def noise_std_at(self, range_m: float) -> float:
-        """The identified noise standard deviation at ``range_m``, m."""
-        return (
-            self.noise_std_0_m + (self.noise_std_per_m + self.noise_std_per_m2 * range_m) * range_m
-        )
+    depth: DepthEstimate | None = None
 
     def to_dict(self) -> dict[str, object]:
         """Plain YAML-ready values, with the ``format`` key."""
-        out: dict[str, object] = {"format": FORMAT}
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if isinstance(value, tuple):
-                value = [v if isinstance(v, str) else _plain(v) for v in value]
-            elif isinstance(value, float):
-                value = _plain(value)
-            out[f.name] = value
-        return out
+        return {"format": FORMAT, **_plain_fields(self)}
 
     def save(self, path: str | Path) -> None:
         """Write the estimate as YAML (temp file, then renamed)."""
         with atomic_write(path, "w", encoding="utf-8") as fh:
             yaml.safe_dump(self.to_dict(), fh, sort_keys=False)
+
+
+@dataclass(frozen=True, kw_only=True)
+class DepthEstimate(NoiseModel):
+    """A depth camera's noise identified from its still frames; ``*_ci`` are 95 % intervals.
+
+    Attributes
+    ----------
+    noise_std_0_m ... dropout_by_range
+        The noise model against depth and the fraction of invalid pixels (NaN, inf or 0)
+        among pixels that see a surface (:class:`NoiseModel`).
+    topic, encoding : str
+        The image topic and its encoding (``16UC1`` mm or ``32FC1`` m).
+    size_px : tuple of int
+        Image width and height, pixels.
+    pixels, still_frames : int
+        Pixels used (a regular grid) and frames in still stretches.
+    """
+
+    topic: str
+    encoding: str
+    size_px: tuple[int, int]
+    pixels: int
+    still_frames: int
+
+
+def estimate_depth(
+    t_s: FloatArray,
+    depth_m: FloatArray,
+    odom: PoseArrays,
+    *,
+    source: tuple[str, str, tuple[int, int]] = ("", "", (0, 0)),
+    n_boot: int = 200,
+    seed: int = 0,
+) -> DepthEstimate | None:
+    """Identify a depth camera's noise against depth and its invalid-pixel rate from the
+    frames of still stretches, as the lidar's (each pixel a beam); None without a still
+    stretch of five frames.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (n,)
+        Frame stamps on the odometry's clock, s.
+    depth_m : ndarray, shape (n, pixels)
+        Depth per frame and pixel, m (NaN, inf or 0: no return).
+    odom : PoseArrays
+        The odometry of the same recording.
+    source : tuple
+        Where the frames came from (kept in the result): topic, encoding and the image's
+        width and height in pixels.
+    n_boot, seed : int
+        Bootstrap resamples (pixels) and their seed.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> truth = np.linspace(0.5, 4.0, 400)
+    >>> frames = truth + rng.normal(0.0, 1.0, (30, 400)) * (0.002 * truth**2)
+    >>> z = np.zeros(100)
+    >>> est = estimate_depth(0.2 * np.arange(30), frames, PoseArrays(
+    ...     t_s=0.1 * np.arange(100) - 2.0, x_m=z, y_m=z, yaw_rad=z), n_boot=30)
+    >>> bool(abs(est.noise_std_at(3.0) / 0.018 - 1.0) < 0.15)
+    True
+    """
+    frames = ScanArrays(
+        t_s=np.asarray(t_s, dtype=np.float64),
+        ranges_m=np.asarray(depth_m, dtype=np.float64),
+        angle_min_rad=0.0,
+        angle_increment_rad=1.0,
+        range_min_m=0.0,
+        range_max_m=math.inf,
+    )
+    still = _still_mask(frames, odom)
+    groups = _groups([frames], [still])
+    if groups.noise_ok.sum() < 10:
+        return None
+    pixels = frames.ranges_m.shape[1]
+    rng = np.random.default_rng(seed)
+    result = _still_estimates(groups, pixels, n_boot, rng, _DEPTH_MIXED_BINS)
+    std, lo, hi = _model_fields(result.theta, result.theta_boot, result.centres, 0.0)
+    boot = result.theta_boot
+    return DepthEstimate(
+        topic=source[0],
+        encoding=source[1],
+        size_px=source[2],
+        pixels=pixels,
+        noise_std_0_m=float(result.theta[0]),
+        noise_std_0_ci=_ci(boot[:, 0]),
+        noise_std_per_m=float(result.theta[1]),
+        noise_std_per_m_ci=_ci(boot[:, 1]),
+        noise_std_per_m2=float(result.theta[2]),
+        noise_std_per_m2_ci=_ci(boot[:, 2]),
+        noise_range_m=_floats(result.centres),
+        noise_std_m=std,
+        noise_std_lo_m=lo,
+        noise_std_hi_m=hi,
+        dropout=result.dropout,
+        dropout_ci=_ci(result.dropout_boot),
+        dropout_by_range=_floats(result.dropout_by_range),
+        still_frames=int(still.sum()),
+    )
+
+
+def _plain_fields(obj: object) -> dict[str, object]:
+    """A dataclass's fields as plain YAML values (NaN as None, tuples as lists)."""
+    out: dict[str, object] = {}
+    for f in dataclasses.fields(obj):  # type: ignore[arg-type]
+        value = getattr(obj, f.name)
+        if isinstance(value, tuple):
+            value = [v if isinstance(v, str) else _plain(v) for v in value]
+        elif isinstance(value, float):
+            value = _plain(value)
+        elif dataclasses.is_dataclass(value):
+            value = _plain_fields(value)
+        out[f.name] = value
+    return out
 
 
 def _plain(v: float) -> float | None:
@@ -310,21 +437,30 @@ def load_sensor(path: str | Path) -> SensorEstimate:
         raise ResultFileError(
             f"sensor file '{p}' is not a '{FORMAT}' file; write one with `sim2real sysid sensors`"
         )
+    return _from_mapping(SensorEstimate, data, p)  # type: ignore[return-value]
+
+
+def _from_mapping(cls: type, data: dict[str, Any], p: Path) -> object:
+    """A result dataclass from its plain YAML values (fields with defaults may be missing)."""
     kwargs: dict[str, object] = {}
-    for f in dataclasses.fields(SensorEstimate):
+    for f in dataclasses.fields(cls):
         if f.name not in data and f.default is dataclasses.MISSING:
             raise ResultFileError(f"sensor file '{p}' lacks the key '{f.name}'; write it again")
         if f.name not in data:
             continue
         value = data[f.name]
-        if isinstance(value, list):
+        if f.name == "depth":
+            value = None if value is None else _from_mapping(DepthEstimate, value, p)
+        elif f.name == "size_px":
+            value = (int(value[0]), int(value[1]))
+        elif isinstance(value, list):
             value = tuple(v if isinstance(v, str) else _num(v) for v in value)
-        elif f.name in ("beams", "still_scans", "matched_pairs", "moving_residuals"):
+        elif f.type == "int":
             value = int(value)
         elif not isinstance(value, str):
             value = _num(value)
         kwargs[f.name] = value
-    return SensorEstimate(**kwargs)  # type: ignore[arg-type]
+    return cls(**kwargs)
 
 
 def _num(v: object) -> float:
@@ -520,13 +656,13 @@ def _ci(samples: FloatArray) -> Interval:
     return (float(lo), float(hi))
 
 
-def _not_mixed(r: FloatArray, s2: FloatArray, k: FloatArray) -> BoolArray:
+def _not_mixed(r: FloatArray, s2: FloatArray, k: FloatArray, bins: int = _N_BINS) -> BoolArray:
     """Groups whose variance is within the 99.9 % chi-square quantile of the median variance
     of their range bin (a beam on an edge mixes two surfaces), judged without a model."""
-    edges = np.quantile(r, np.linspace(0.0, 1.0, _N_BINS + 1))
-    which = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, _N_BINS - 1)
+    edges = np.quantile(r, np.linspace(0.0, 1.0, bins + 1))
+    which = np.clip(np.searchsorted(edges, r, side="right") - 1, 0, bins - 1)
     keep = np.ones(r.size, dtype=bool)
-    for b in range(_N_BINS):
+    for b in range(bins):
         sel = which == b
         if not sel.any():
             continue
@@ -598,10 +734,12 @@ class _StillResult:
     short_boot: FloatArray
 
 
-def _still_estimates(g: _Groups, beams: int, n_boot: int, rng: np.random.Generator) -> _StillResult:
+def _still_estimates(
+    g: _Groups, beams: int, n_boot: int, rng: np.random.Generator, mixed_bins: int = _N_BINS
+) -> _StillResult:
     ok = g.noise_ok
     r, s2, k = g.median_m[ok], g.var_m2[ok], g.dof[ok]
-    inl = _not_mixed(r, s2, k)
+    inl = _not_mixed(r, s2, k, mixed_bins)
     r, s2, k, nb = r[inl], s2[inl], k[inl], g.beam[ok][inl]
     theta = _fit_noise(r, s2, k, np.ones_like(r))
     edges = np.quantile(g.median_m, np.linspace(0.0, 1.0, _N_BINS + 1))

@@ -21,9 +21,9 @@ def handle_sensors(args: argparse.Namespace) -> int:
             "pass --bootstrap 200"
         )
     logs = read_sensor_logs(args.logs, scan_topic=args.scan_topic, odom_topic=args.odom_topic)
-    est = identify_sensor(
-        args.logs, robot=args.robot, n_boot=args.bootstrap, seed=args.seed, logs=logs
-    )
+    topics = {"odom_topic": args.odom_topic, "depth_topic": args.depth_topic}
+    boot = {"n_boot": args.bootstrap, "seed": args.seed}
+    est = identify_sensor(args.logs, robot=args.robot, logs=logs, **topics, **boot)
     est.save(args.output)
     print("\n".join(summary_lines(est)))
     print(f"wrote {args.output}")
@@ -92,5 +92,16 @@ def summary_lines(est: SensorEstimate) -> list[str]:
         f"mounting yaw: {math.degrees(est.mounting_yaw_rad):.2f} deg "
         f"{_ci(*est.mounting_yaw_ci, 180 / math.pi, '.2f')}",
     ]
+    if est.depth is not None:
+        d = est.depth
+        lines.append(
+            f"depth camera {d.topic} ({d.size_px[0]} x {d.size_px[1]} {d.encoding}, "
+            f"{d.pixels} pixels, "
+            f"{d.still_frames} still frames): noise std = {d.noise_std_0_m * 1e3:.2f} mm "
+            f"{_ci(*d.noise_std_0_ci, 1e3)} + {d.noise_std_per_m * 1e3:.2f} mm/m "
+            f"{_ci(*d.noise_std_per_m_ci, 1e3)} x depth + {d.noise_std_per_m2 * 1e3:.2f} mm/m2 "
+            f"{_ci(*d.noise_std_per_m2_ci, 1e3)} x depth^2; invalid pixels {d.dropout:.2%} "
+            f"{_ci(*d.dropout_ci, 100, '.2f')} %"
+        )
     lines += [f"not identified: {note}" for note in est.unidentified]
     return lines

@@ -93,6 +93,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from sim2real.logs._bagwrite import BAG_FORMATS, write_rosbag
     from sim2real.logs._csv import CSV_COLUMNS, write_csv_trace
+    from sim2real.logs._depth import DepthImages, read_depth
     from sim2real.logs._info import LogInfo, TopicInfo, inspect_log
     from sim2real.logs._reader import read_trace
     from sim2real.logs._scans import LASER_SCAN, LaserScans, read_scans
@@ -116,6 +117,8 @@ _LAZY = {
     "write_rosbag": "_bagwrite",
     "CSV_COLUMNS": "_csv",
     "write_csv_trace": "_csv",
+    "DepthImages": "_depth",
+    "read_depth": "_depth",
     "LogInfo": "_info",
     "TopicInfo": "_info",
     "inspect_log": "_info",
@@ -164,6 +167,7 @@ __all__ = [
     "SCHEMA_TEXT",
     "TWIST",
     "TWIST_STAMPED",
+    "DepthImages",
     "LaserScans",
     "LogInfo",
     "TopicInfo",
@@ -173,6 +177,7 @@ __all__ = [
     "find_unattended",
     "inspect_log",
     "integrate_pose",
+    "read_depth",
     "read_for_robot",
     "read_scans",
     "read_trace",

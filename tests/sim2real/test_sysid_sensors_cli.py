@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -19,18 +20,15 @@ from tests.sysid.sensor_truth import MOUNT_XY_M, draw_truth, synthetic_recording
 T0_NS = 1_700_000_000_000_000_000
 
 
-def _write(
-    path: Path,
+def _messages(
+    store: Any,
     scans: ScanArrays,
     odom: PoseArrays,
     *,
     ros1: bool,
     beams_at: dict[int, int] | None = None,
-) -> Path:
-    """The recording as a ROS 1 bag or a ROS 2 MCAP (a rosbag2 folder's .mcap file)."""
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+) -> list[tuple[int, str, str, object]]:
+    """The scans and odometry as (log time ns, topic, type, message), unsorted."""
     T = store.types
     stamp = T["builtin_interfaces/msg/Time"]
     header = T["std_msgs/msg/Header"]
@@ -88,6 +86,22 @@ def _write(
         (int(odom_t[i]), "/odom", "nav_msgs/msg/Odometry", odometry(i))
         for i in range(odom.t_s.size)
     ]
+    return msgs
+
+
+def _write(
+    path: Path,
+    scans: ScanArrays,
+    odom: PoseArrays,
+    *,
+    ros1: bool,
+    beams_at: dict[int, int] | None = None,
+) -> Path:
+    """The recording as a ROS 1 bag or a ROS 2 MCAP (a rosbag2 folder's .mcap file)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    msgs = _messages(store, scans, odom, ros1=ros1, beams_at=beams_at)
     msgs.sort(key=lambda m: m[0])
     if ros1:
         from rosbags.rosbag1 import Writer as Ros1Writer
@@ -99,15 +113,20 @@ def _write(
                     conns[topic] = wr.add_connection(topic, ty, typestore=store)
                 wr.write(conns[topic], t_ns, store.serialize_ros1(msg, ty))
         return path
+    return write_mcap(path, store, msgs)
+
+
+def write_mcap(path: Path, store: Any, msgs: list[tuple[int, str, str, object]]) -> Path:
+    """Messages (log time ns, topic, type, message) as a ROS 2 MCAP file (rosbag2 folder)."""
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Ros2Writer
 
     with Ros2Writer(path, version=8, storage_plugin=StoragePlugin.MCAP) as wr:
-        conns2: dict[str, object] = {}
-        for t_ns, topic, ty, msg in msgs:
-            if topic not in conns2:
-                conns2[topic] = wr.add_connection(topic, ty, typestore=store)
-            wr.write(conns2[topic], t_ns, store.serialize_cdr(msg, ty))  # type: ignore[arg-type]
+        conns: dict[str, object] = {}
+        for t_ns, topic, ty, msg in sorted(msgs, key=lambda m: m[0]):
+            if topic not in conns:
+                conns[topic] = wr.add_connection(topic, ty, typestore=store)
+            wr.write(conns[topic], t_ns, store.serialize_cdr(msg, ty))
     return next(path.glob("*.mcap"))
 
 
@@ -127,7 +146,11 @@ def mcap_log(
 @pytest.fixture(scope="module")
 def spec_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A robot spec whose lidar sits where the synthetic recordings mount it."""
-    path = tmp_path_factory.mktemp("spec") / "base.yaml"
+    return mounted_spec(tmp_path_factory.mktemp("spec") / "base.yaml")
+
+
+def mounted_spec(path: Path) -> Path:
+    """Write a robot spec whose lidar sits where the synthetic recordings mount it."""
     assert (
         main(
             [

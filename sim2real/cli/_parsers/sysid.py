@@ -44,6 +44,7 @@ _SENSORS_EXAMPLES = """\
   sim2real sysid sensors a.mcap b.mcap --robot neato.yaml -o sensors.yaml   # one sensor, 2 logs
   sim2real sysid sensors run.bag --robot my_base.yaml -o s.yaml --scan-topic /base_scan
   sim2real sysid sensors run.mcap --robot my_base.yaml -o s.yaml --report sensors.html
+  sim2real sysid sensors run.mcap --robot my_base.yaml -o s.yaml --depth-topic /camera/depth
 """
 _SENSORS_DESCRIPTION = (
     "Identify a 2-D lidar from recordings of its LaserScan topic and odometry: range noise "
@@ -53,7 +54,9 @@ _SENSORS_DESCRIPTION = (
     "scans matched while driving through a static room), each with a 95 %% interval, and "
     "what the recordings could not identify. A good recording: stand still 10 s facing a "
     "wall at several distances, then drive slowly through a static room with turns. Writes "
-    "a YAML file with the sensor's range limits, beam count and angles."
+    "a YAML file with the sensor's range limits, beam count and angles; without a still "
+    "stretch the range noise comes from the matched moving scans. A depth image topic "
+    "(16UC1 or 32FC1) adds the camera's noise vs depth and invalid-pixel rate."
 )
 _SHOW_EXAMPLES = """\
   sim2real sysid show params.yaml
@@ -105,6 +108,11 @@ def _register_sensors(group_sub: argparse._SubParsersAction) -> None:  # type: i
     p.add_argument("-o", "--output", required=True, help="the sensors.yaml file to write")
     p.add_argument("--scan-topic", help="LaserScan topic (default: /scan or the only one)")
     p.add_argument("--odom-topic", help="Odometry topic (default: /odom or the only one)")
+    p.add_argument(
+        "--depth-topic",
+        help="depth Image topic, 16UC1 mm or 32FC1 m (default: the only one, if any): its "
+        "noise vs depth and invalid-pixel rate from the still frames",
+    )
     p.add_argument("--bootstrap", type=int, default=200, help="bootstrap resamples (default 200)")
     p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
     p.add_argument(
