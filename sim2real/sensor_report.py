@@ -179,6 +179,20 @@ def _noise_figure(est: SensorEstimate, spread: StillSpread, sim: StillSpread) ->
         label="identified std, 95 % band",
     )
     ax.plot(r, 1e3 * np.asarray(est.noise_std_m), color="#009E73")
+    if est.moving_noise_std_m and est.noise_source == "still":
+        ax.errorbar(
+            r,
+            1e3 * np.asarray(est.moving_noise_std_m),
+            yerr=1e3
+            * np.abs(
+                np.array([est.moving_noise_std_lo_m, est.moving_noise_std_hi_m])
+                - est.moving_noise_std_m
+            ),
+            fmt="s",
+            ms=4,
+            color="#CC79A7",
+            label="moving scans alone, 95 % interval",
+        )
     ax.set_xlabel("range, m")
     ax.set_ylabel("scan-to-scan std, mm")
     ax.legend(loc="upper left", fontsize=8)
@@ -233,6 +247,32 @@ def _rows(est: SensorEstimate) -> list[tuple[str, str, str]]:
     ]
 
 
+def _depth_rows(est: SensorEstimate) -> list[tuple[str, str, str]]:
+    """The depth camera's noise at its depth bins and invalid pixels (none without one)."""
+    d = est.depth
+    if d is None:
+        return []
+    rows = [
+        (
+            f"depth camera {d.topic}: std at {r:.2f} m, mm",
+            f"{s * 1e3:.4g}",
+            f"[{lo * 1e3:.4g}, {hi * 1e3:.4g}]",
+        )
+        for r, s, lo, hi in zip(
+            d.noise_range_m, d.noise_std_m, d.noise_std_lo_m, d.noise_std_hi_m, strict=True
+        )
+    ]
+    lo, hi = d.dropout_ci
+    return [
+        *rows,
+        (
+            "depth camera: invalid pixels, %",
+            f"{d.dropout * 100:.4g}",
+            f"[{lo * 100:.4g}, {hi * 100:.4g}]",
+        ),
+    ]
+
+
 def write_sensor_report(
     path: str | Path,
     est: SensorEstimate,
@@ -243,19 +283,22 @@ def write_sensor_report(
     then renamed)."""
     spread = still_spread(list(scans), list(odoms))
     rows = "".join(
-        f"<tr><td>{html.escape(a)}</td><td>{b}</td><td>{c}</td></tr>" for a, b, c in _rows(est)
+        f"<tr><td>{html.escape(a)}</td><td>{b}</td><td>{c}</td></tr>"
+        for a, b, c in [*_rows(est), *_depth_rows(est)]
     )
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in est.unidentified) or "<li>none</li>"
     figs = ""
-    if spread.median_m.size and not math.isnan(est.noise_std_0_m):
-        sim = simulated_spread(est, scans, odoms)
+    if not math.isnan(est.noise_std_0_m):
+        sim = simulated_spread(est, scans, odoms) if spread.median_m.size else spread
         figs += (
             '<h2>Range noise</h2><img alt="noise vs range" '
             f'src="data:image/png;base64,{_noise_figure(est, spread, sim)}">'
             "<p>Blue: the scan-to-scan spread of each beam in each still stretch. Orange: the "
             "simulated lidar on the same stretches (the ray caster in a map of what each "
             "stretch sees, with the identified noise and invalid-return rate). Where orange "
-            "does not cover blue, the noise model does not describe the sensor.</p>"
+            "does not cover blue, the noise model does not describe the sensor. Pink: the "
+            f"noise of the matched moving scans alone (the model comes from the "
+            f"{'moving scans' if est.noise_source == 'moving' else 'still stretches'}).</p>"
         )
     if not math.isnan(est.dropout):
         figs += f'<h2>Invalid returns</h2><img alt="invalid returns" src="data:image/png;base64,{_dropout_figure(est)}">'

@@ -288,3 +288,20 @@ def test_report_draws_the_simulated_lidar_over_the_real_spread(
     near = sim.median_m < np.median(sim.median_m)
     real_near = spread.median_m < np.median(spread.median_m)
     assert np.median(sim.std_m[near]) == pytest.approx(np.median(spread.std_m[real_near]), rel=0.1)
+
+
+def test_report_of_a_recording_that_never_stands_still(
+    tmp_path: Path, spec_file: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scans, odom = synthetic_recording(draw_truth(np.random.default_rng(12)), 12, stops=False)
+    log = _write(tmp_path / "r2", scans, odom, ros1=False)
+    report = tmp_path / "sensors.html"
+    out = tmp_path / "s.yaml"
+    run = cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out, "--report", report)
+    assert run.code == 0, run.err
+    assert "range noise std (matched moving scans)" in run.out
+    assert "not identified: dropout: no still stretch" in run.out
+    page = report.read_text()
+    assert page.count("data:image/png;base64,") == 1  # the noise; no invalid-return figure
+    assert "the model comes from the moving scans" in page
+    assert load_sensor(out).noise_source == "moving"

@@ -113,9 +113,11 @@ def test_depth_noise_identified_from_a_depth_topic(
     assert images is not None and images.encoding == encoding
     assert images.depth_m.shape == (recording[0].t_s.size, WIDTH * HEIGHT)
     out = tmp_path / "sensors.yaml"
-    run = cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out)
+    report = tmp_path / "sensors.html"
+    run = cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out, "--report", report)
     assert run.code == 0, run.err
     assert "depth camera /camera/depth/image_raw (64 x 48" in run.out
+    assert "depth camera: invalid pixels, %" in report.read_text()
     depth = load_sensor(out).depth
     assert depth is not None and depth.still_frames >= 80
     for r, std in zip(depth.noise_range_m, depth.noise_std_m, strict=True):
