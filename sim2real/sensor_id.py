@@ -94,7 +94,8 @@ def identify_sensor(
     n_boot, seed : int
         Bootstrap resamples and their seed.
     logs : tuple, optional
-        The logs already read by :func:`read_sensor_logs` (``paths`` then only names them).
+        The logs already read by :func:`read_sensor_logs` (``paths`` then name them and are
+        read for depth images only).
 
     Returns
     -------

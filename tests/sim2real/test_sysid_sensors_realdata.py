@@ -68,7 +68,7 @@ def test_two_recordings_of_one_unit_agree(realdata_dir: Path, spec: Path) -> Non
 def test_moving_scans_check_the_still_noise(realdata_dir: Path, spec: Path) -> None:
     for name in LOGS:
         scans, odoms = read_sensor_logs([realdata_dir / name])
-        full = identify_sensor([name], robot=spec, logs=(scans, odoms), n_boot=100)
+        full = identify_sensor([realdata_dir / name], robot=spec, logs=(scans, odoms), n_boot=100)
         assert full.noise_source == "still" and full.moving_residuals > 4000
         # motion only adds to the spread (the XV-11 turns at 5 Hz and its scans are not
         # deskewed): the moving scans' noise is 1-1.5 times the still noise from 1 m out
@@ -83,7 +83,7 @@ def test_moving_scans_check_the_still_noise(realdata_dir: Path, spec: Path) -> N
         for a, b in still_stretches(s, odoms[0]):
             keep[a:b] = False
         cut = dataclasses.replace(s, t_s=s.t_s[keep], ranges_m=s.ranges_m[keep])
-        est = identify_sensor([name], robot=spec, logs=([cut], odoms), n_boot=100)
+        est = identify_sensor([realdata_dir / name], robot=spec, logs=([cut], odoms), n_boot=100)
         assert est.still_scans == 0 and est.noise_source == "moving"
         for r, std, lo, hi in zip(
             est.noise_range_m, est.noise_std_m, est.noise_std_lo_m, est.noise_std_hi_m, strict=True
