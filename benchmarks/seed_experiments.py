@@ -172,10 +172,12 @@ class OrcaRacer:
 
     The robot takes the ORCA velocity towards the carrot at top speed against the observed
     movers (half the avoidance each; the opponents run ORCA too) and drives it as a unicycle:
-    v = |u| cos(e), w = 2 e / s clipped, e the heading error of u.
+    v = |u| cos(e), w = 2 e / s clipped, e the heading error of u. Every radius carries
+    ``margin_m`` more, since the unicycle lags the holonomic ORCA velocity.
     """
 
-    def __init__(self, env: Any) -> None:
+    def __init__(self, env: Any, *, margin_m: float = 0.05) -> None:
+        self.margin_m = margin_m
         self.plan = RaceBaseline.for_env(env)
         self.base = env.unwrapped
         self.high = np.asarray(env.action_space.high, dtype=np.float64)
@@ -203,7 +205,7 @@ class OrcaRacer:
         pref = np.zeros((n, 2))
         pref[0] = to / max(float(np.hypot(*to)), 1e-9) * vmax
         pref[1:] = vel[1:]
-        radius = np.full(n, self.base.robot_radius_m)
+        radius = np.full(n, self.base.robot_radius_m + self.margin_m)
         active = np.zeros(n, dtype=bool)
         active[0] = True
         u = orca_velocities(
