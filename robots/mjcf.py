@@ -60,8 +60,11 @@ __all__ = [
     "check_drive_kind",
     "mjcf_mapping",
     "mjcf_text",
+    "wheel_torque_cap_nm",
     "write_mjcf",
 ]
+
+_G = 9.81  # m/s^2
 
 #: Physics step of the exported model, s (the reduced model's integration step).
 MJCF_TIMESTEP_S = DEFAULT_DT_S
@@ -145,7 +148,7 @@ base_mass | added_mass_kg | body base_link / inertial mass | body base_link body
 base_yaw_inertia | added_yaw_inertia_kgm2 | body base_link / inertial diaginertia[2] | body base_link body_inertia 2 | the spec's lumped base izz + added_yaw_inertia_kgm2
 speed_loop_gain | motor_gain_nms_per_rad | actuator velocity wheel_*_speed / kv | actuator wheel_left_speed,wheel_right_speed actuator_gainprm 0 | torque K (ctrl - wheel speed); biasprm[2] = -K
 wheel_speed_cap | wheel_speed_max_radps | actuator velocity wheel_*_speed / ctrlrange | actuator wheel_left_speed,wheel_right_speed actuator_ctrlrange 1 | the speed target's range +-cap (MujocoDrive scales both targets together)
-wheel_torque_cap | wheel_torque_max_nm | joint wheel_*_joint / actuatorfrcrange | joint wheel_left_joint,wheel_right_joint jnt_actfrcrange 1 | +-cap on the sum of the wheel's two actuators
+wheel_torque_cap | wheel_torque_max_nm | joint wheel_*_joint / actuatorfrcrange | joint wheel_left_joint,wheel_right_joint jnt_actfrcrange 1 | +-cap on the sum of the wheel's two actuators, at most what a tyre carries at MAX_TYRE_FRICTION
 motor_inertia | wheels.spin_inertia_kgm2 | joint wheel_*_joint / armature | joint wheel_left_joint,wheel_right_joint dof_armature 0 | 0: the spec's wheel spin inertia (motor included) is the wheel body's iyy
 forward_viscous | viscous_v_ns_per_m | tendon fixed forward / damping | tendon forward tendon_damping 0 | tendon = (r/2)(q_left + q_right): its rate is v
 forward_coulomb | coulomb_v_fwd_n | tendon fixed forward / frictionloss | tendon forward tendon_frictionloss 0 | MujocoDrive sets coulomb_v_bwd_n while the base moves backward
@@ -159,6 +162,26 @@ def _model_field(text: str) -> tuple[str, tuple[str, ...], str, int]:
     """``'kind name,name array column'`` -> (kind, names, array, column)."""
     kind, names, array, column = text.split()
     return kind, tuple(names.split(",")), array, int(column)
+
+
+def wheel_torque_cap_nm(spec: RobotSpec, params: DriveParams) -> float:
+    """The wheels' torque cap in MuJoCo: ``wheel_torque_max_nm``, at most the traction of a
+    tyre at :data:`MAX_TYRE_FRICTION` under half the weight, N m.
+
+    A fit on the ridge where mass, gain and torque scale together can leave the cap far
+    beyond any grip (a Warthog fit: 15600 N m on 27 kg); a tyre slips there, and the PI loop's
+    integrator, never clipped, winds the slipping wheel up until the simulation diverges.
+
+    Examples
+    --------
+    >>> from robots.spec import load_spec
+    >>> spec = load_spec("turtlebot3_burger")
+    >>> wheel_torque_cap_nm(spec, spec.drive)  # its cap, well within the grip
+    0.081
+    """
+    weight = params.total_mass_kg(spec.geometry) * _G
+    grip = MAX_TYRE_FRICTION * 0.5 * weight * spec.wheels.radius_m
+    return min(params.wheel_torque_max_nm, grip)
 
 
 def mjcf_mapping(spec: RobotSpec, params: DriveParams) -> tuple[MjcfValue, ...]:
@@ -191,7 +214,7 @@ def mjcf_mapping(spec: RobotSpec, params: DriveParams) -> tuple[MjcfValue, ...]:
         "base_yaw_inertia": lumped_base_inertia(spec)[2] + d.added_yaw_inertia_kgm2,
         "speed_loop_gain": d.motor_gain_nms_per_rad,
         "wheel_speed_cap": d.wheel_speed_max_radps,
-        "wheel_torque_cap": d.wheel_torque_max_nm,
+        "wheel_torque_cap": wheel_torque_cap_nm(spec, d),
         "motor_inertia": 0.0,
         "forward_viscous": d.viscous_v_ns_per_m,
         "forward_coulomb": d.coulomb_v_fwd_n,

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 
 from robots._jit import njit
 from robots._kernel import ZERO_TARGET_RADPS, pack_params, shape_command, torque_limits
-from robots.mjcf import WHEELS, check_drive_kind, mjcf_mapping, mjcf_text
+from robots.mjcf import WHEELS, check_drive_kind, mjcf_mapping, mjcf_text, wheel_torque_cap_nm
 from robots.params import DriveParams
 from robots.reduced import delayed_step_average, simulate
 from robots.spec import RobotSpec, lumped_base_inertia
@@ -158,6 +158,7 @@ class MujocoDrive:
         check_drive_kind(self.spec, params)
         self.params = params
         self._packed = pack_params(params, self.spec.geometry)
+        self._torque_cap = wheel_torque_cap_nm(self.spec, params)
         d = params
         line = math.isfinite(d.wheel_stall_torque_nm) and math.isfinite(d.wheel_no_load_speed_radps)
         self._line = line
@@ -230,9 +231,9 @@ class MujocoDrive:
         half_e = 0.5 * sep * d.track_factor
         for i, (ref, side) in enumerate(((wl_ref, -1.0), (wr_ref, 1.0))):
             omega = float(qvel[self._wheel_dof[i]])
-            lo, hi = -d.wheel_torque_max_nm, d.wheel_torque_max_nm
+            lo, hi = -self._torque_cap, self._torque_cap
             if self._line:
-                lo, hi = torque_limits(omega, d.wheel_torque_max_nm, p[19], p[20])
+                lo, hi = torque_limits(omega, self._torque_cap, p[19], p[20])
                 model.jnt_actfrcrange[self._joint_ids[i]] = (lo, hi)
                 model.jnt_actfrclimited[self._joint_ids[i]] = 1
             if not self._loop:

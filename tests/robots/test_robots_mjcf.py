@@ -9,7 +9,13 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from robots.errors import ParamsFileError
-from robots.mjcf import check_drive_kind, mjcf_mapping, mjcf_text
+from robots.mjcf import (
+    MAX_TYRE_FRICTION,
+    check_drive_kind,
+    mjcf_mapping,
+    mjcf_text,
+    wheel_torque_cap_nm,
+)
 from robots.params import DriveParams
 from robots.spec import list_robots, load_spec
 
@@ -71,12 +77,16 @@ def test_every_value_is_commented_with_its_field() -> None:
                 assert source.strip() in comments, entry.name
 
 
-def test_no_limit_is_an_unlimited_range() -> None:
+def test_no_limit_is_an_unlimited_range_and_the_torque_is_the_grip() -> None:
     spec = load_spec("turtlebot3_burger")
     params = spec.drive.replace(wheel_torque_max_nm=math.inf, wheel_speed_max_radps=math.inf)
     root = ET.fromstring(mjcf_text(spec, params))
     assert {a.get("ctrlrange") for a in root.findall(".//velocity")} == {"0 0"}
-    assert {j.get("actuatorfrcrange") for j in root.findall(".//joint[@type='hinge']")} == {"0 0"}
+    # no torque cap: what a tyre carries at MAX_TYRE_FRICTION under half the weight
+    grip = MAX_TYRE_FRICTION * 0.5 * spec.geometry.mass_kg * 9.81 * spec.wheels.radius_m
+    assert wheel_torque_cap_nm(spec, params) == pytest.approx(grip)
+    ranges = {j.get("actuatorfrcrange") for j in root.findall(".//joint[@type='hinge']")}
+    assert ranges == {f"{-grip:.9g} {grip:.9g}"}
 
 
 def test_skid_params_on_a_diff_spec_refused() -> None:
