@@ -56,16 +56,22 @@ def _frames(odom: PoseArrays, t_s: np.ndarray, seed: int) -> np.ndarray:
 
 
 def _write(
-    path: Path, scans: ScanArrays, odom: PoseArrays, frames: np.ndarray, encoding: str
+    path: Path,
+    scans: ScanArrays,
+    odom: PoseArrays,
+    frames: np.ndarray,
+    encoding: str,
+    halve_at: int = -1,
 ) -> Path:
-    """Scans, odometry and depth images as a ROS 2 MCAP file (rosbag2 folder)."""
+    """Scans, odometry and depth images as a ROS 2 MCAP file (rosbag2 folder); the image
+    ``halve_at`` has half the rows."""
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS2_HUMBLE)
     T = store.types
     msgs = _messages(store, scans, odom, ros1=False)
     for k, t in enumerate(scans.t_s):
-        img = frames[k]
+        img = frames[k][: HEIGHT // 2] if k == halve_at else frames[k]
         if encoding == "16UC1":
             data = np.nan_to_num(np.rint(img * 1000.0), nan=0.0).astype("<u2")
         else:
@@ -74,7 +80,7 @@ def _write(
         stamp = T["builtin_interfaces/msg/Time"](sec=t_ns // 10**9, nanosec=t_ns % 10**9)
         msg = T["sensor_msgs/msg/Image"](
             header=T["std_msgs/msg/Header"](stamp=stamp, frame_id="camera_depth"),
-            height=HEIGHT,
+            height=img.shape[0],
             width=WIDTH,
             encoding=encoding,
             is_bigendian=0,
@@ -201,3 +207,16 @@ def test_a_sensor_file_without_depth_is_one_sentence(
     )
     assert_bad_input(run, "no sensor_msgs/msg/Image topic '/camera/depth'", "/scan")
     assert math.isfinite(load_sensor(out).noise_std_0_m)
+
+
+def test_images_that_change_size_are_one_sentence(
+    tmp_path: Path,
+    recording: tuple[ScanArrays, PoseArrays, np.ndarray],
+    spec_file: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    log = _write(tmp_path / "r2", *recording, "16UC1", halve_at=9)
+    out = tmp_path / "s.yaml"
+    run = cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out)
+    assert_bad_input(run, "changes its images", "64 x 48 16UC1, message 9 is 64 x 24")
+    assert not out.exists()
