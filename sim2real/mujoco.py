@@ -196,17 +196,37 @@ class MujocoDrive:
         )
         return wl, wr
 
+    def _delayed(self, t0_s: float, n: int) -> tuple[FloatArray, FloatArray]:
+        """The delayed commands of ``n`` steps from ``t0_s`` (zero before the first)."""
+        if not self._hist_t:
+            return np.zeros(n), np.zeros(n)
+        t = np.array(self._hist_t)
+        grid = t0_s + self.dt_s * np.arange(n, dtype=np.float64)
+        kw = {"delay_s": self.params.delay_s, "timeout_s": self.params.cmd_timeout_s}
+        return (
+            delayed_step_average(t, np.array(self._hist_v), grid, self.dt_s, **kw),
+            delayed_step_average(t, np.array(self._hist_w), grid, self.dt_s, **kw),
+        )
+
     def apply(self, model: Any, data: Any) -> None:
         """Set ``data.ctrl`` (and the drive's model fields) for the step from ``data.time``."""
-        if self._hist_t:
-            t = np.array(self._hist_t)
-            grid = np.array([float(data.time)])
-            kw = {"delay_s": self.params.delay_s, "timeout_s": self.params.cmd_timeout_s}
-            u_v = float(delayed_step_average(t, np.array(self._hist_v), grid, self.dt_s, **kw)[0])
-            u_w = float(delayed_step_average(t, np.array(self._hist_w), grid, self.dt_s, **kw)[0])
-        else:
-            u_v = u_w = 0.0
-        self.control(model, data, *self.targets(u_v, u_w))
+        u_v, u_w = self._delayed(float(data.time), 1)
+        self.control(model, data, *self.targets(float(u_v[0]), float(u_w[0])))
+
+    def advance(self, model: Any, data: Any, steps: int) -> None:
+        """``steps`` physics steps (:meth:`apply`, then ``mj_step``, each), the delayed
+        commands of all of them computed at once.
+
+        Examples
+        --------
+        >>> drive.command(data.time, 0.2, 0.0)  # doctest: +SKIP
+        >>> drive.advance(model, data, 24)  # 0.1 s at 240 Hz  # doctest: +SKIP
+        """
+        mj = import_mujoco()
+        u_v, u_w = self._delayed(float(data.time), steps)
+        for a, b in zip(u_v.tolist(), u_w.tolist(), strict=True):
+            self.control(model, data, *self.targets(a, b))
+            mj.mj_step(model, data)
 
     def control(self, model: Any, data: Any, wl_ref: float, wr_ref: float) -> None:
         """Set the actuators for wheel targets (``wl_ref``, ``wr_ref``) rad/s, one step."""
@@ -313,10 +333,6 @@ class MujocoRobot:
         d.qvel[dofs[0]], d.qvel[dofs[1]] = (v - w * half) / r, (v + w * half) / r
         mj.mj_forward(m, d)
         self.drive.reset(v, w)
-
-    def step(self) -> None:
-        """One physics step (``mj_step``) with the controls set (:meth:`MujocoDrive.apply`)."""
-        self._mj.mj_step(self.model, self.data)
 
     def velocity(self) -> tuple[float, float]:
         """True (v [m/s] along the heading, w [rad/s] about the vertical) of the base."""

@@ -160,9 +160,7 @@ class MujocoNavEnv(gym.Env[FloatArray, FloatArray]):
             float(sim.data.time), float(a[0]) * spec.max_v_mps, float(a[1]) * spec.max_w_radps
         )
         before = self._distance
-        for _ in range(self._substeps):
-            sim.drive.apply(sim.model, sim.data)
-            sim.step()
+        sim.drive.advance(sim.model, sim.data, self._substeps)
         obs = self._observe()
         v, w = sim.velocity()
         self._tracker.record(x=float(sim.data.qpos[0]), y=float(sim.data.qpos[1]), v=v, w=w)

@@ -238,3 +238,29 @@ def test_yaw_coulomb_holds_a_small_turn_command_while_driving() -> None:
     _, w = MujocoRobot(spec).replay(cmd, t_out)
     assert ref.w[1:] == pytest.approx([0.0, 0.0], abs=1e-9)
     assert np.max(np.abs(w[1:])) <= 0.003
+
+
+def test_advance_is_apply_and_step_per_step() -> None:
+    """MujocoDrive.advance(n) computes the delayed commands of n steps at once: the same run as
+    apply + mj_step n times (turtlebot2: delay, acceleration limits, feedback terms)."""
+    import mujoco
+
+    from sim2real.mujoco import MujocoRobot
+
+    spec = load_spec("turtlebot2")
+    runs = []
+    for batched in (False, True):
+        robot = MujocoRobot(spec, spec.drive.replace(speed_loop_ki_per_s=4.0))
+        robot.reset()
+        m, d, drive = robot.model, robot.data, robot.drive
+        for k, (v, w) in enumerate([(0.3, 0.0), (0.3, 1.0), (0.0, -1.0), (0.0, 0.0)]):
+            drive.command(0.5 * k, v, w)
+            if batched:
+                drive.advance(m, d, 120)
+            else:
+                for _ in range(120):
+                    drive.apply(m, d)
+                    mujoco.mj_step(m, d)
+        runs.append(np.concatenate([d.qpos, d.qvel]))
+    np.testing.assert_allclose(runs[1], runs[0], atol=1e-12)
+    assert runs[0][0] > 0.1  # it drove forward (x, m)
