@@ -13,6 +13,8 @@ import yaml
 
 from robots.reduced import simulate
 from robots.spec import list_robots, load_spec
+from sim2real.agreement.figures import measure_agreement
+from sim2real.agreement.replay import replay
 from sim2real.cli import main
 
 pytestmark = pytest.mark.mujoco
@@ -264,3 +266,23 @@ def test_advance_is_apply_and_step_per_step() -> None:
         runs.append(np.concatenate([d.qpos, d.qvel]))
     np.testing.assert_allclose(runs[1], runs[0], atol=1e-12)
     assert runs[0][0] > 0.1  # it drove forward (x, m)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", ["turtlebot3_burger", "turtlebot2"])
+def test_plant_fleet_agreement_within_two_points(robot: str) -> None:
+    """A fleet of the foreign plant (sim2real.plants): fit one session, check the others with
+    the same params in both engines."""
+    from sim2real.plants.diff_drive import make_fleet
+    from sysid import fit_drive
+
+    spec = load_spec(robot)
+    fleet = make_fleet(robot, 4, seed=5, duration_s=40.0)
+    fit = fit_drive(fleet[:1], geometry=spec.geometry, base_params=spec.drive, robot=spec.name)
+    for trace in fleet[1:]:
+        reduced, mujoco = (
+            measure_agreement(trace, replay(trace, robot=spec, params=fit.params, engine=e))
+            for e in ("reduced", "mujoco")
+        )
+        assert reduced.n_active > 300
+        assert abs(mujoco.agreement - reduced.agreement) <= 0.02
