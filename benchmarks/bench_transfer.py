@@ -18,7 +18,9 @@ The task: the Burger at top speed to a goal 2 m away through 0-4 cylinders with 
 1.3 times the straight line at top speed, stopping within 0.15 m. Printed: per condition and
 world the successes per seed and pooled with Wilson 95 % intervals, time to goal, the budget
 and the wall time. ``--smoke`` runs the same loop at a tiny budget; its table (``results.md``)
-is the same for the same arguments.
+is the same for the same arguments. ``--gap TASK`` only trains the spec-defaults policy of a
+task and evaluates it in its sim and on plant session distributions (``gap_TASK.md``): the
+check that the spec policy loses on the plant before the experiment is worth running.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from sim2real.cli import main as cli_main
 from sim2real.logs import write_trace
 from sim2real.planning import write_plan
 from sim2real.plants.closed_loop import PlantSessions
+from sim2real.plants.diff_drive import SessionVariation
 from sim2real.plants.recording import record_plan
 from sim2real.training.config import config_from_dict
 from sim2real.training.environment import build_env
@@ -68,6 +71,30 @@ BUDGETS = {
     "smoke": {"sessions": 3, "session_s": 30.0, "timesteps": 1024, "seeds": [0]},
 }
 CONDITIONS = ("spec", "fitted", "calibrated DR", "blind DR")
+#: ``--gap``: tasks on which the spec-defaults policy is probed, as env kwargs. ``kobuki``: a
+#: TurtleBot 2 at its 0.7 m/s top speed to a goal 3 m away through 2-6 cylinders in 12 s
+#: (2.8 times the straight line at top speed).
+GAP_TASKS: dict[str, dict[str, Any]] = {
+    "burger": {"map_config": COURSE, "max_episode_steps": MAX_STEPS},
+    "kobuki": {
+        "map_config": {
+            **COURSE,
+            "d_target_m": 3.0,
+            "n_min": 2,
+            "n_max": 6,
+            "goal_tolerance_m": 0.25,
+        },
+        "max_episode_steps": 120,
+        "robot": "turtlebot2",
+        "action_limits": "robot",
+    },
+}
+#: ``--gap``: plant session distributions (the default one, then one factor pushed further).
+GAP_SESSIONS = {
+    "plant": SessionVariation(),
+    "plant, latency 0.2-0.3 s": SessionVariation(latency_s=(0.2, 0.3)),
+    "plant, payload 1-2x": SessionVariation(payload_fraction=(1.0, 2.0)),
+}
 PLANT_SEED0 = 800_000
 SIM_SEED0 = 900_000
 
@@ -178,6 +205,31 @@ def table(rows: dict[str, dict[str, list[Any]]], header: str) -> str:
     return "\n".join(lines)
 
 
+def gap_probe(out: Path, task: str, timesteps: int, episodes: int) -> str:
+    """The spec-defaults policy of ``task`` (seed 0) in its sim and on plant sessions."""
+    kwargs = GAP_TASKS[task]
+    model = train_run(out / f"gap_{task}", kwargs, None, 0, timesteps)
+    robot = kwargs.get("robot", ROBOT)
+    worlds: dict[str, dict[str, Any]] = {"sim": kwargs}
+    for name, variation in GAP_SESSIONS.items():
+        sessions = PlantSessions.of(robot, variation=variation)
+        worlds[name] = {**kwargs, "dynamics": "plant", "plant_sessions": sessions}
+    rows: dict[str, dict[str, list[Any]]] = {}
+    for world, kw in worlds.items():  # the same maps (seeds) in every world
+        s = evaluate(model, kw, None, episodes, PLANT_SEED0)
+        rows[f"spec@{world}"] = {
+            "success": [round(s.success_rate * s.episodes)],
+            "collision": [round(s.collision_rate * s.episodes)],
+            "n": [s.episodes],
+            "time": [s.means["time_to_goal_s"]],
+        }
+    header = (
+        f"gap probe, task {task} ({kwargs}): PPO spec defaults, {timesteps} env steps, seed 0; "
+        f"{episodes} episodes per world, seeds {PLANT_SEED0}.. (the same maps in every world)"
+    )
+    return table(rows, header)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     ap.add_argument("--smoke", action="store_true", help="the whole loop at a tiny budget")
@@ -191,6 +243,12 @@ def main(argv: list[str] | None = None) -> int:
         default=list(CONDITIONS),
         help="conditions to train and evaluate (default all four)",
     )
+    ap.add_argument(
+        "--gap",
+        choices=sorted(GAP_TASKS),
+        help="only probe the gap: the spec-defaults policy of this task in its sim and on "
+        "plant session distributions",
+    )
     ap.add_argument("--out", type=Path, default=Path("bench-transfer"))
     args = ap.parse_args(argv)
     budget = dict(BUDGETS["smoke" if args.smoke else "full"])
@@ -199,6 +257,12 @@ def main(argv: list[str] | None = None) -> int:
     episodes = args.episodes or (4 if args.smoke else 34)
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
+    if args.gap:
+        text = gap_probe(args.out, args.gap, budget["timesteps"], episodes)
+        print(text)
+        print(f"wall time {time.perf_counter() - t0:.0f} s")
+        (args.out / f"gap_{args.gap}.md").write_text(text + "\n")
+        return 0
     logs = record_sessions(args.out, budget["sessions"], budget["session_s"])
     fitted, calibrated = identify(args.out, logs)
     blind = blind_params(args.out, fitted)

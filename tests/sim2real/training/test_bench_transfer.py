@@ -32,3 +32,18 @@ def test_smoke_runs_the_loop_and_repeats_its_table(tmp_path: Path) -> None:
     assert (tmp_path / "a" / "excite.mcap").is_file()
     assert (tmp_path / "a" / "calibrated.yaml").is_file()
     assert _smoke(tmp_path / "b") == first
+
+
+@pytest.mark.slow
+def test_gap_probe_evaluates_the_spec_policy_in_its_sim_and_on_each_session_distribution(
+    tmp_path: Path,
+) -> None:
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "bench_transfer.py"), "--smoke"]
+    cmd += ["--gap", "kobuki", "--episodes", "2", "--out", str(tmp_path)]
+    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr[-3000:]
+    table = (tmp_path / "gap_kobuki.md").read_text(encoding="utf-8")
+    for world in ("sim", "plant", "plant, latency 0.2-0.3 s", "plant, payload 1-2x"):
+        assert f"| spec | {world} | " in table
+    assert "'robot': 'turtlebot2'" in table and "1024 env steps" in table
+    assert not (tmp_path / "results.md").exists()  # the probe trains no other condition
