@@ -88,6 +88,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.params import DriveParams
+from robots.units import seconds
 from sim2real._arrays import FloatArray
 from sim2real.agreement.replay import ReplayResult, TraceLike, replay, resolve_robot
 from sim2real.errors import Sim2RealValueError
@@ -128,6 +129,7 @@ __all__ = [
     "predictive_band",
     "predictive_samples",
     "run_ensemble",
+    "since_command_step_s",
 ]
 
 
@@ -892,3 +894,28 @@ def band_verdict(
 
 def _pct(x: float) -> str:
     return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"
+
+
+def since_command_step_s(trace: Any, *, tol_v: float, tol_w: float) -> FloatArray:
+    """Seconds from the last command step to each measurement (inf before the first command).
+
+    A step is a change of the command by more than ``tol_v`` in v or ``tol_w`` in w: the
+    agreement's tolerances, so a controller's small corrections are not steps.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> tr = SimpleNamespace(cmd_t_ns=np.array([0, 10**9]), cmd_v=np.array([0.0, 0.2]),
+    ...                      cmd_w=np.zeros(2), meas_t_ns=np.array([5 * 10**8, 15 * 10**8]))
+    >>> since_command_step_s(tr, tol_v=0.02, tol_w=0.1).tolist()
+    [0.5, 0.5]
+    """
+    cmd_t = seconds(np.asarray(trace.cmd_t_ns))
+    cv, cw = np.asarray(trace.cmd_v, dtype=np.float64), np.asarray(trace.cmd_w, dtype=np.float64)
+    changed = np.ones(cmd_t.size, dtype=bool)
+    changed[1:] = (np.abs(np.diff(cv)) > tol_v) | (np.abs(np.diff(cw)) > tol_w)
+    change_t = cmd_t[changed]
+    meas_t = seconds(np.asarray(trace.meas_t_ns))
+    i = np.searchsorted(change_t, meas_t, side="right") - 1
+    out: FloatArray = np.where(i >= 0, meas_t - change_t[np.maximum(i, 0)], np.inf)
+    return out

@@ -43,6 +43,7 @@ from sim2real.agreement.figures import (
     lag_phrase,
     measure_agreement,
     run_ensemble,
+    since_command_step_s,
 )
 from sim2real.agreement.latency import (
     NoiseCeiling,
@@ -54,7 +55,13 @@ from sim2real.agreement.latency import (
 )
 from sim2real.agreement.replay import replay
 from sim2real.agreement.report import ReportInput, ReportRun, param_rows, write_report
-from sim2real.agreement.verdict import AgreementVerdict, SessionFigures, decide, speed_shortfall
+from sim2real.agreement.verdict import (
+    AgreementVerdict,
+    SessionFigures,
+    band_miss_reason,
+    decide,
+    speed_shortfall,
+)
 from sim2real.errors import LogValueError, Sim2RealValueError
 from sim2real.logs import read_for_robot, write_velocity_log
 from sim2real.logs._bags import open_log_source
@@ -507,10 +514,11 @@ def session_figures(
     params: Any,
     params_file: ParamsFile | None = None,
     reference: tuple[SessionLatency | None, NoiseCeiling | None] = (None, None),
+    ensemble: EnsembleResult | None = None,
 ) -> SessionFigures:
     """The checked session's figures the verdict weighs (top speeds, fitted delay, shortfall,
     the log against the envelope the fit saw when ``params_file`` is given, this log's own
-    best latency and the noise ceiling)."""
+    best latency and the noise ceiling, why the ``ensemble``'s band misses)."""
     main = runs[-1]
     cmd_v, cmd_w = trace.cmd_at_meas()
     a = main.agreement
@@ -542,6 +550,14 @@ def session_figures(
         top_v_mps=float(spec.max_v_mps),
         top_w_radps=float(spec.max_w_radps),
         speed_shortfall=shortfall,
+        band_misses=None
+        if ensemble is None
+        else band_miss_reason(
+            ensemble,
+            trace.meas_v,
+            trace.meas_w,
+            since_command_step_s(trace, tol_v=a.tol_v, tol_w=a.tol_w),
+        ),
     )
 
 
@@ -571,7 +587,7 @@ def _verdict(
         fitted=runs[-1].agreement if params is not None else None,
         robot=str(config.robot),
         ensemble=ensemble,
-        session=session_figures(trace, spec, runs, params, params_file, reference),
+        session=session_figures(trace, spec, runs, params, params_file, reference, ensemble),
     )
 
 

@@ -58,6 +58,7 @@ __all__ = [
     "WORSE_MARGIN",
     "AgreementVerdict",
     "SessionFigures",
+    "band_miss_reason",
     "decide",
     "speed_shortfall",
     "verdict_text",
@@ -82,6 +83,14 @@ WIDE_SHARE = 0.2
 #: A calibrated band is only as narrow as the measurement noise allows: up to this many times
 #: the noise-only band counts as narrow enough.
 NOISE_BAND_SLACK = 1.25
+
+
+#: Misses of a band within this long after a command step count as at the step, s.
+STEP_WINDOW_S = 1.0
+#: A band that misses mostly near command steps (at least this share) misses timing.
+TIMING_SHARE = 0.6
+#: A band that misses mostly on one side (at least this share) misses a bias.
+BIAS_SHARE = 0.8
 
 
 class _Agreement(Protocol):
@@ -119,6 +128,8 @@ class SessionFigures:
     noise_note : str or None
         Whose odometry noise the noise ceiling and band assume (this log's own or the fit's),
         one sentence (:func:`sim2real.agreement.latency.noise_note`).
+    band_misses : str or None
+        Why the band covers too little, where it does (:func:`band_miss_reason`).
     """
 
     best_delay_s: float | None = None
@@ -132,6 +143,7 @@ class SessionFigures:
     speed_shortfall: tuple[str, float, float] | None = None
     extrapolation: Any = None
     noise_note: str | None = None
+    band_misses: str | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -301,6 +313,66 @@ def _likely_cause(fitted: _Agreement, s: SessionFigures) -> str:
             "log's timing did not identify it)"
         )
     return "the fit log does not excite what this log does (other speeds, turns or a session)"
+
+
+def band_miss_reason(ensemble: Any, real_v: Any, real_w: Any, since_step_s: Any) -> str | None:
+    """One sentence on why the band covers too little, where it does (else None).
+
+    For each axis under :func:`sim2real.agreement.figures.calibrated_range`, the misses
+    (active real samples outside the band) are read: mostly within :data:`STEP_WINDOW_S` of a
+    command step (:data:`TIMING_SHARE`), this session's timing or transients differ; mostly on
+    one side (:data:`BIAS_SHARE`), a bias (the robot runs faster or slower than every member:
+    another unit, load or floor); else a steady scatter wider than the band. ``since_step_s``
+    is :func:`sim2real.agreement.figures.since_command_step_s` at the measurements.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> ens = SimpleNamespace(band_level=0.9, coverage_v=0.5, coverage_w=0.9,
+    ...     lo_v=np.zeros(4), hi_v=np.full(4, 0.1), lo_w=np.zeros(4), hi_w=np.ones(4),
+    ...     active=np.ones(4, bool))
+    >>> why = band_miss_reason(ens, np.array([0.05, 0.05, 0.3, 0.3]), np.zeros(4), np.full(4, 5))
+    >>> why.split(" (")[0]
+    'the band covers too little v because of a bias: the robot runs faster than every simulated member'
+    """
+    low = calibrated_range(ensemble.band_level)[0]
+    parts = []
+    for axis, real, lo, hi, cov, unit in (
+        ("v", real_v, ensemble.lo_v, ensemble.hi_v, ensemble.coverage_v, "m/s"),
+        ("w", real_w, ensemble.lo_w, ensemble.hi_w, ensemble.coverage_w, "rad/s"),
+    ):
+        act = np.asarray(ensemble.active, dtype=bool)
+        arrays = [np.asarray(x, dtype=float) for x in (real, lo, hi, since_step_s)]
+        if not (_finite(cov) and cov < low) or any(a.shape != act.shape for a in arrays):
+            continue
+        r, lo_, hi_, since = (a[act] for a in arrays)
+        below, above = r < lo_, r > hi_
+        n_miss = int((below | above).sum())
+        if n_miss == 0:
+            continue
+        near = float(((below | above) & (since <= STEP_WINDOW_S)).sum()) / n_miss
+        side = "above" if above.sum() > below.sum() else "below"
+        one_side = float(max(above.sum(), below.sum())) / n_miss
+        gap = float(np.median(np.where(above, r - hi_, lo_ - r)[below | above]))
+        where = (
+            f"{100 * n_miss / r.size:.0f} % of its active samples fall outside, "
+            f"{100 * one_side:.0f} % of them {side} it (median {gap:.3g} {unit} out) and "
+            f"{100 * near:.0f} % within {STEP_WINDOW_S:g} s of a command step"
+        )
+        if near >= TIMING_SHARE:
+            why = "timing: this session's latency or transients differ from the spread's"
+        elif one_side >= BIAS_SHARE:
+            pace = "faster" if side == "above" else "slower"
+            why = (
+                f"a bias: the robot runs {pace} than every simulated member (another unit, "
+                "load or floor than the fit's)"
+            )
+        else:
+            why = "steady scatter wider than the band (this log's odometry is noisier)"
+        parts.append(f"{axis} because of {why} ({where})")
+    if not parts:
+        return None
+    return "the band covers too little " + "; and too little ".join(parts)
 
 
 def _band_words(ensemble: Any) -> str:
@@ -551,6 +623,8 @@ def _fitted_verdict(
     band_reasons = [] if ensemble is None else [_band_sentence(ensemble)]
     if ensemble is not None and (wide := _wide_reason(ensemble, s)) is not None:
         band_reasons.append(wide)
+    if ensemble is not None and s.band_misses:
+        band_reasons.append(s.band_misses)
     problem = _problem(defaults, fitted, ensemble, s)
     if problem is not None:
         kind, headline, step = problem

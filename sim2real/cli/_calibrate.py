@@ -57,6 +57,7 @@ def _print_calibration(args: argparse.Namespace, result: CalibrationResult) -> N
         f"{result.fit_sessions} log(s) + prior: {result.validation_sessions} calibration "
         "log(s))"
     )
+    print(f"  session spread factor   x{result.session_factor:.3g} (times the spec's)")
     print(
         f"  odometry noise v        {result.noise_std_v_mps:.4g} m/s "
         f"{factor(result.noise_factor_v)}"
@@ -76,5 +77,6 @@ def _print_calibration(args: argparse.Namespace, result: CalibrationResult) -> N
     ):
         print(
             f"  {level} band, {axis}: covers {100 * before:.1f} % of the calibration samples with "
-            f"the identified noise, {100 * after:.1f} % with it x{scale:.3g}"
+            f"the identified noise and the pooled spread, {100 * after:.1f} % calibrated (noise "
+            f"x{scale:.3g})"
         )

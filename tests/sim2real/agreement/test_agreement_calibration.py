@@ -69,10 +69,12 @@ def test_a_too_narrow_distribution_is_widened_and_then_covers_an_unseen_log(
     )
     assert res.dynamics_factor > 2.0
     assert before.coverage_v < 0.5 and before.coverage_w < 0.6
-    # one scalar widens both axes until v's off-centre delay is covered, so w over-covers a
-    # little: measured 0.95-0.996 over ensemble seeds 3-8 (n 20-80, calibration seeds 0-2);
-    # v 0.79-0.98 (0.82-0.94 at n 40) -- a known limit of one dynamics factor, reported
-    assert 0.8 <= after.coverage_v <= 0.99 and 0.8 <= after.coverage_w <= 0.998
+    # the session spread is widened until v's off-centre delay is covered on the calibration
+    # log, and that one scalar covers all of w (measured v 0.904, w 1.0 at seed 3); the noise
+    # is the steady samples' (0.0029 m/s, 0.020 rad/s: the truth), not widened to cover timing
+    assert 0.8 <= after.coverage_v <= 0.99 and 0.8 <= after.coverage_w <= 1.0
+    assert res.noise_std_v_mps == pytest.approx(0.003, rel=0.1)
+    assert res.noise_std_w_radps == pytest.approx(0.02, rel=0.1)
     assert res.log_likelihood > res.log_likelihood_before + 1.0
 
 
@@ -97,8 +99,11 @@ def test_calibrate_cli_writes_the_calibrated_block(
     assert cal["ensemble_n"] == 8 and cal["engine"] == "reduced"
     assert cal["log_likelihood_per_sample"] > cal["log_likelihood_per_sample_before"]
     assert cal["match_level"] == 0.9
-    for axis in "vw":  # the band of the written noise covers 90-95 % of the validation samples
-        assert 0.895 <= cal[f"validation_coverage_{axis}"] <= 0.955
+    # the calibrated band covers 90 % of the validation samples or more: the noise is matched
+    # on the steady samples, the session spread widened until both axes reach 90 % (one scalar
+    # for both: measured v 96.9 %, w 90.0 %)
+    for axis in "vw":
+        assert 0.895 <= cal[f"validation_coverage_{axis}"] <= 0.99
     assert "band, v: covers" in text and "band, w: covers" in text
     # a 20 s log (18 s active): the CLI says the spread was judged on little data (a note)
     short = [ln for ln in text.splitlines() if "s of active samples" in ln]

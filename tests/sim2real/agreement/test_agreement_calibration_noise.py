@@ -53,6 +53,7 @@ def test_a_log_the_spread_explains_does_not_drive_the_noise_to_zero(
     argv = ["sysid", "calibrate", str(params), str(cal), "--robot", str(spec), "-o", str(out)]
     assert main(argv) == 0
     block = yaml.safe_load(out.read_text())["calibration"]
-    # measured: x1.0 (the file's 0.0157 rad/s); the likelihood alone gives 1e-5 rad/s
-    assert 0.5 <= block["noise_factor_w"] <= 2.0
+    # w: the file's 0.0164 rad/s narrowed x0.23 to bring the coverage to 95 % (the likelihood
+    # alone gives 1e-5 rad/s, the search floor)
+    assert 0.15 <= block["noise_factor_w"] <= 2.0
     assert 0.9 <= block["validation_coverage_w"] <= 0.955

@@ -7,10 +7,11 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from sim2real.agreement.report._verdict import GOOD_AGREEMENT, lag_phrase, make_verdict
-from sim2real.agreement.verdict import MIN_ACTIVE, SessionFigures, decide
+from sim2real.agreement.verdict import MIN_ACTIVE, SessionFigures, band_miss_reason, decide
 
 
 @dataclass
@@ -245,3 +246,37 @@ def test_terminal_and_report_print_the_same_verdict(
     if with_params:  # the band's card: its coverage per axis and its median widths
         card = re.search(r"coverage of the 90 % band \(N=4\).*?</div></div>", page, re.S)
         assert card and re.search(r"median width [\d.e-]+ m/s, [\d.e-]+ rad/s", card.group(0))
+
+
+def _band(cov_v: float, n: int = 100):  # type: ignore[no-untyped-def]
+    from types import SimpleNamespace
+
+    return SimpleNamespace(
+        band_level=0.9, coverage_v=cov_v, coverage_w=0.9, lo_v=np.zeros(n),
+        hi_v=np.full(n, 0.1), lo_w=np.zeros(n), hi_w=np.ones(n), active=np.ones(n, bool),
+    )  # fmt: skip
+
+
+def test_band_miss_reason_tells_timing_bias_and_scatter_apart() -> None:
+    inside, w = np.full(100, 0.05), np.full(100, 0.5)
+    since = np.tile(np.linspace(0.0, 3.0, 20), 5)  # 35 of 100 samples within 1 s of a step
+    # misses only near steps, on both sides: timing
+    real = inside.copy()
+    near = np.flatnonzero(since <= 1.0)
+    real[near[::2]], real[near[1::2]] = 0.3, -0.2
+    why = band_miss_reason(_band(0.65), real, w, since)
+    assert why is not None and why.startswith("the band covers too little v because of timing")
+    assert "35 % of its active samples fall outside" in why and "100 % within 1 s" in why
+    # misses away from steps, all above: a bias (the robot faster than every member)
+    real = inside.copy()
+    far = np.flatnonzero(since > 1.0)[:30]
+    real[far] = 0.2
+    why = band_miss_reason(_band(0.7), real, w, since)
+    assert why is not None and "a bias: the robot runs faster" in why and "0 % within" in why
+    assert "median 0.1 m/s out" in why
+    # away from steps, on both sides: a steady scatter
+    real[far[::2]] = -0.1
+    why = band_miss_reason(_band(0.7), real, w, since)
+    assert why is not None and "steady scatter wider than the band" in why
+    # a calibrated band needs no reason
+    assert band_miss_reason(_band(0.85), real, w, since) is None
