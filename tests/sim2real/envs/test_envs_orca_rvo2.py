@@ -2,7 +2,9 @@
 
 One step from the same state: every agent of a random scene runs ORCA (share 1/2), no walls.
 RVO2 computes in single precision, so the inputs are float32 numbers and "float precision"
-means 1e-4 m/s on velocities of about 1 m/s. RVO2's 3-D linear program (the infeasible case)
+means 1e-4 m/s on velocities of about 1 m/s; with overlaps 1e-2 m/s, or, where the
+least-violation program has several optima (mirror-image scenes), an answer that violates
+RVO2's own ORCA lines no more than RVO2's does. RVO2's 3-D linear program (the infeasible case)
 intersects nearly antiparallel ORCA lines in float32 and can then return a velocity outside its
 own speed disc: there the paper's constraint |v| <= v_max decides, and ours keeps it.
 """
@@ -25,6 +27,21 @@ _DT_S = 0.25
 def _rvo2(
     pos: np.ndarray, vel: np.ndarray, rad: np.ndarray, pref: np.ndarray, vmax: np.ndarray
 ) -> np.ndarray:
+    return _rvo2_sim(pos, vel, rad, pref, vmax)[1]
+
+
+def _worst_violation(sim: object, i: int, v: np.ndarray) -> float:
+    """Largest violation (m/s) of RVO2's ORCA lines of agent ``i`` at velocity ``v``."""
+    worst = 0.0
+    for k in range(sim.get_agent_num_orca_lines(i)):  # type: ignore[attr-defined]
+        (dx, dy), (px, py) = sim.get_agent_orca_line(i, k)  # type: ignore[attr-defined]
+        worst = max(worst, dx * (py - v[1]) - dy * (px - v[0]))
+    return worst
+
+
+def _rvo2_sim(
+    pos: np.ndarray, vel: np.ndarray, rad: np.ndarray, pref: np.ndarray, vmax: np.ndarray
+) -> tuple[object, np.ndarray]:
     sim = pyrvo.RVOSimulator()
     sim.set_time_step(_DT_S)
     for i in range(pos.shape[0]):
@@ -40,7 +57,7 @@ def _rvo2(
         )
         sim.set_agent_pref_velocity(i, tuple(pref[i]))
     sim.do_step()
-    return np.array([sim.get_agent_velocity(i).to_tuple() for i in range(pos.shape[0])])
+    return sim, np.array([sim.get_agent_velocity(i).to_tuple() for i in range(pos.shape[0])])
 
 
 def _f32(lo: float, hi: float) -> st.SearchStrategy[float]:
@@ -78,12 +95,17 @@ def test_one_step_agrees_with_rvo2(scene: tuple[np.ndarray, ...]) -> None:
     dist_m = _distances(pos)
     assume(dist_m.min() > 1e-3)  # coincident centres: no direction to push apart (RVO2: 0/0)
     ours = orca_velocities(pos, vel, rad, pref, vmax, _DT_S, config=_CONFIG)
-    theirs = _rvo2(pos, vel, rad, pref, vmax)
+    sim, theirs = _rvo2_sim(pos, vel, rad, pref, vmax)
     assert np.all(np.linalg.norm(ours, axis=1) <= vmax * (1 + 1e-9))
     if np.any(np.linalg.norm(theirs, axis=1) > vmax * (1 + 1e-5)):
         return  # RVO2's float32 program left its speed disc (see the module docstring)
-    tolerance = 1e-2 if (dist_m < rad[:, None] + rad[None]).any() else 1e-4
-    np.testing.assert_allclose(ours, theirs, rtol=0, atol=tolerance)
+    if not (dist_m < rad[:, None] + rad[None]).any():
+        np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-4)
+        return
+    for i in np.flatnonzero(np.abs(ours - theirs).max(axis=1) > 1e-2):
+        # a tie of the least-violation program (e.g. pushed apart by two mirror-image
+        # neighbours): ours must violate RVO2's own lines no more than RVO2's answer does
+        assert _worst_violation(sim, i, ours[i]) <= _worst_violation(sim, i, theirs[i]) + 1e-3
 
 
 def test_rvo2_float32_leaves_the_speed_disc_where_ours_keeps_it() -> None:
