@@ -369,7 +369,7 @@ def band_miss_reason(ensemble: Any, real_v: Any, real_w: Any, since_step_s: Any)
             )
         else:
             why = "steady scatter wider than the band (this log's odometry is noisier)"
-        parts.append(f"{axis} because of {why} ({where})")
+        parts.append(f"{axis} because of {why}: {where}")
     if not parts:
         return None
     return "the band covers too little " + "; and too little ".join(parts)
