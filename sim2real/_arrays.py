@@ -1,4 +1,4 @@
-"""Type aliases of the numpy arrays that sim2real's modules pass around.
+"""The numpy array types sim2real's signatures name, from their one home :mod:`robots.arrays`.
 
 Examples
 --------
@@ -9,14 +9,6 @@ Examples
 
 from __future__ import annotations
 
-import numpy as np
-from numpy.typing import NDArray
+from robots.arrays import BoolArray, FloatArray, IntArray
 
 __all__ = ["BoolArray", "FloatArray", "IntArray"]
-
-#: An array of float64 (SI units; the name of the variable holding it says which).
-FloatArray = NDArray[np.float64]
-#: An array of int64 (e.g. nanosecond time stamps, indices).
-IntArray = NDArray[np.int64]
-#: A mask.
-BoolArray = NDArray[np.bool_]

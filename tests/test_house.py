@@ -23,7 +23,7 @@ MAY_IMPORT = {
     "sim2real": set(),
     "sim2real.__main__": {"sim2real.cli"},
     "sim2real.errors": set(),
-    "sim2real._arrays": set(),
+    "sim2real._arrays": {"robots"},
     "sim2real._io": {"robots", "sim2real.errors"},
     "sim2real.logs": {"robots", "sim2real._io", "sim2real._arrays", "sim2real.errors"},
     "sim2real.plants": {"robots", "sysid", "sim2real._arrays", "sim2real.errors", "sim2real.logs"},
