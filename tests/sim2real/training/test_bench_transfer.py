@@ -10,6 +10,9 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
+# `make test-train` selects by marker: the smoke loop needs the [train] extra
+pytestmark = pytest.mark.train
+
 ROOT = Path(__file__).resolve().parents[3]
 
 
