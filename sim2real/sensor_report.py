@@ -153,22 +153,11 @@ def _png(fig: Figure) -> str:
 def _noise_figure(est: SensorEstimate, spread: StillSpread, sim: StillSpread) -> str:
     fig = Figure(figsize=(7.0, 4.2), dpi=110)
     ax = fig.add_subplot()
-    ax.scatter(
-        spread.median_m,
-        1e3 * spread.std_m,
-        s=6,
-        alpha=0.5,
-        color="#0072B2",
-        label="real, per beam and still stretch",
-    )
-    ax.scatter(
-        sim.median_m,
-        1e3 * sim.std_m,
-        s=6,
-        alpha=0.5,
-        color="#E69F00",
-        label="simulated lidar (ray caster, identified noise), same stretches",
-    )
+    for points, color, label in (
+        (spread, "#0072B2", "real, per beam and still stretch"),
+        (sim, "#E69F00", "simulated lidar (ray caster, identified noise), same stretches"),
+    ):
+        ax.scatter(points.median_m, 1e3 * points.std_m, s=6, alpha=0.5, color=color, label=label)
     r = np.asarray(est.noise_range_m)
     ax.fill_between(
         r,

@@ -12,6 +12,7 @@ import pytest
 import yaml
 
 from randomizers import DepthNoise, from_config
+from randomizers.errors import RandomizerConfigError
 from sim2real.envs.depth import DepthScene, render_depth, rpy_matrix
 from sim2real.logs import read_depth
 from sysid.sensors import PoseArrays, ScanArrays, load_sensor
@@ -191,7 +192,7 @@ def test_a_sensor_file_without_depth_is_one_sentence(
     out = tmp_path / "s.yaml"
     assert cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out).code == 0
     assert load_sensor(out).depth is None
-    with pytest.raises(Exception, match="has no 'depth' section"):
+    with pytest.raises(RandomizerConfigError, match="has no 'depth' section"):
         DepthNoise.from_sysid(out, env=_Cam(), near_m=0.05, far_m=8.0)
     run = cli(
         capsys,
