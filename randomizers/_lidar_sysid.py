@@ -182,6 +182,18 @@ class FromSensors:
         factory: Any = functools.partial(make, sysid=str(path), spread=spread, **kwargs)
         return factory if env is None else factory(env)
 
+    def _keep_model(
+        self,
+        model: tuple[float, float, float, float],
+        dist: SensorNoiseDistribution | None,
+        spread: float,
+    ) -> None:
+        """Keep the noise model ``(std_m, std_per_m, std_per_m2, dropout)`` in force and the
+        identified distribution each episode draws it from (None: the model stays)."""
+        self.std_m, self.std_per_m, self.std_per_m2, self.dropout = model
+        self._dist = dist
+        self._spread = spread
+
     def sample_episode(self) -> None:
         """Draw this episode's noise from the identified distribution (with ``sysid``)."""
         if self._dist is not None:

@@ -32,7 +32,7 @@ from randomizers._gauss import (
     rectangle,
     under_wedge,
 )
-from randomizers._lidar_sysid import FromSensors, load_sensor_noise
+from randomizers._lidar_sysid import FromSensors, SensorNoiseDistribution, load_sensor_noise
 from randomizers._observation import ObservationRandomizer
 from randomizers._pcg64 import (
     JUMPS,
@@ -485,13 +485,9 @@ class DepthNoise(FromSensors, ObservationRandomizer):
         spread: float = 1.0,
     ) -> None:
         sel = select(env.observation_space, key=key, index=index, wrapper="DepthNoise")
-        spread = check_spread(spread)
-        dist = None if sysid is None else load_sensor_noise(sysid, section="depth")
-        if dist is not None:  # the identified means until the first episode draws its own
-            std_m, std_per_m, std_per_m2 = dist.std_m[0], dist.std_per_m[0], dist.std_per_m2[0]
-            dropout = dist.dropout[0]
-        std_per_m, std_per_m2, dropout = _growth(std_per_m, std_per_m2, dropout, "DepthNoise")
-        std_m = check_nonnegative(std_m, argument="std_m", unit="m")
+        dist, spread, (std_m, std_per_m, std_per_m2, dropout) = _sensor_model(
+            "DepthNoise", (std_m, std_per_m, std_per_m2, dropout), sysid, spread, section="depth"
+        )
         near_m = check_nonnegative(near_m, argument="near_m", unit="m")
         far_m = check_number(far_m, argument="far_m")
         if not far_m > near_m:
@@ -514,14 +510,9 @@ class DepthNoise(FromSensors, ObservationRandomizer):
             near_m=near_m,
             far_m=far_m,
         )
-        self.std_m = std_m
-        self.std_per_m = std_per_m
-        self.std_per_m2 = std_per_m2
-        self.dropout = dropout
+        self._keep_model((std_m, std_per_m, std_per_m2, dropout), dist, spread)
         self.near_m = near_m
         self.far_m = far_m
-        self._dist = dist
-        self._spread = spread
         self._scratch = np.empty(0)  # finished samples of the rejected pixels, in order
         self._rejected = np.empty(0, dtype=np.int64)
         self._first = np.empty(0, dtype=np.uint32)  # the rejected pixels' words
@@ -725,13 +716,9 @@ class LidarNoise(FromSensors, ObservationRandomizer):
         spread: float = 1.0,
     ) -> None:
         sel = select(env.observation_space, key=key, index=index, wrapper="LidarNoise")
-        spread = check_spread(spread)
-        dist = None if sysid is None else load_sensor_noise(sysid)
-        if dist is not None:  # the identified means until the first episode draws its own
-            std_m, std_per_m, dropout = dist.std_m[0], dist.std_per_m[0], dist.dropout[0]
-            std_per_m2 = dist.std_per_m2[0]
-        std_m = check_nonnegative(std_m, argument="std_m", unit="m")
-        std_per_m, std_per_m2, dropout = _growth(std_per_m, std_per_m2, dropout, "LidarNoise")
+        dist, spread, (std_m, std_per_m, std_per_m2, dropout) = _sensor_model(
+            "LidarNoise", (std_m, std_per_m, std_per_m2, dropout), sysid, spread
+        )
         lo = _bound(range_min_m, float(np.min(sel.low)), "range_min_m")
         hi = _bound(range_max_m, float(np.max(sel.high)), "range_max_m")
         if lo < 0 or not hi > lo:
@@ -744,15 +731,10 @@ class LidarNoise(FromSensors, ObservationRandomizer):
         options |= {"std_per_m2": std_per_m2, "sysid": sysid, "spread": spread}
         model = {"std_m": std_m, "dropout": dropout}
         self._wrap_selection(env, sel, scale=scale, name=name, options=options, **model)
-        self.std_m = std_m
-        self.std_per_m = std_per_m
-        self.std_per_m2 = std_per_m2
-        self.dropout = dropout
+        self._keep_model((std_m, std_per_m, std_per_m2, dropout), dist, spread)
         self.range_min_m = lo
         self.range_max_m = hi
         self._dropped = 0
-        self._dist = dist
-        self._spread = spread
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with a noisy scan (a new object)."""
@@ -793,10 +775,23 @@ class LidarNoise(FromSensors, ObservationRandomizer):
         }
 
 
-def _growth(
-    std_per_m: float, std_per_m2: float, dropout: float, wrapper: str
-) -> tuple[float, float, float]:
-    """The noise growth with range and its square (>= 0) and the dropout probability."""
+def _sensor_model(
+    wrapper: str,
+    given: tuple[float, float, float, float],
+    sysid: str | None,
+    spread: float,
+    *,
+    section: str | None = None,
+) -> tuple[SensorNoiseDistribution | None, float, tuple[float, float, float, float]]:
+    """The identified distribution (with ``sysid``; its ``section``), the checked ``spread``
+    and the checked noise model ``(std_m, std_per_m, std_per_m2, dropout)``: the identified
+    means until the first episode draws its own, else the ``given`` values."""
+    spread = check_spread(spread)
+    dist = None if sysid is None else load_sensor_noise(sysid, section=section)
+    if dist is not None:
+        given = dist.std_m[0], dist.std_per_m[0], dist.std_per_m2[0], dist.dropout[0]
+    std_m, std_per_m, std_per_m2, dropout = given
+    std_m = check_nonnegative(std_m, argument="std_m", unit="m")
     std_per_m = check_nonnegative(std_per_m, argument="std_per_m", unit="m/m")
     std_per_m2 = check_nonnegative(std_per_m2, argument="std_per_m2", unit="1/m")
     dropout = check_nonnegative(dropout, argument="dropout")
@@ -804,7 +799,7 @@ def _growth(
         raise RandomizerValueError(
             f"{wrapper}: argument 'dropout' is a probability and must be in [0, 1], got {dropout!r}"
         )
-    return std_per_m, std_per_m2, dropout
+    return dist, spread, (std_m, std_per_m, std_per_m2, dropout)
 
 
 def _bound(value: float | None, from_space: float, argument: str) -> float:
