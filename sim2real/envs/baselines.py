@@ -34,13 +34,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from sim2real.envs.geometry import FloatArray
 
-__all__ = ["DWAConfig", "DWAController", "EvalSummary", "evaluate"]
+__all__ = ["Controller", "DWAConfig", "DWAController", "EvalSummary", "evaluate"]
 
 _MAX_POINTS = 80
 
@@ -258,9 +258,19 @@ _MEAN_KEYS = (
 )
 
 
+class Controller(Protocol):
+    """What :func:`evaluate` drives: :class:`DWAController`, a trained policy's controller."""
+
+    def reset(self) -> None:
+        """Start an episode."""
+
+    def act(self, obs: Any) -> Any:
+        """The action for observation ``obs``."""
+
+
 def evaluate(
     env: Any,
-    controller: DWAController,
+    controller: Controller,
     *,
     episodes: int,
     seed: int = 0,

@@ -306,19 +306,8 @@ def _same_space(a: Any, b: Any) -> bool:
     return bool(a == b)
 
 
-def evaluate_controller(
-    env: Any,
-    controller: Any,
-    *,
-    episodes: int,
-    seed: int = 0,
-    options: dict[str, Any] | None = None,
-    on_episode: Any = None,
-) -> Any:
-    """:func:`sim2real.envs.evaluate` for any object with ``reset()`` and ``act(obs)``."""
-    return evaluate(
-        env, controller, episodes=episodes, seed=seed, options=options, on_episode=on_episode
-    )
+#: :func:`sim2real.envs.evaluate`, which drives any object with ``reset()`` and ``act(obs)``.
+evaluate_controller = evaluate
 
 
 @dataclass(frozen=True, kw_only=True)
