@@ -1,5 +1,5 @@
-"""What every plant shares: its parameters' sign check, the command arrays checked and the
-odometry clock."""
+"""What every plant shares: its parameters' sign check, the command arrays checked, the
+firmware's control tick and the odometry clock."""
 
 from __future__ import annotations
 
@@ -8,12 +8,13 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import numba
 import numpy as np
 
 from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 
-__all__ = ["check_commands", "negative_field", "odometry_clock"]
+__all__ = ["check_commands", "firmware_tick", "negative_field", "odometry_clock"]
 
 
 def negative_field(params: Any, *, text: tuple[str, ...] = ()) -> tuple[str, Any] | None:
@@ -81,3 +82,46 @@ def odometry_clock(
     phase = rng.uniform(0.0, period)
     n_ticks = int((duration_s - phase) / period) + 1
     return period, (phase + period * np.arange(n_ticks)).astype(np.float64)
+
+
+@numba.njit(cache=True)
+def firmware_tick(
+    t: float,
+    j: int,
+    ref_v: float,
+    ref_w: float,
+    arr_t: FloatArray,
+    arr_v: FloatArray,
+    arr_w: FloatArray,
+    limits: FloatArray,
+    ctrl_dt: float,
+    half_track_m: float,
+    wheel_radius_m: float,
+) -> tuple[int, float, float, float, float]:  # pragma: no cover - compiled
+    """One control tick of a base's firmware at time ``t``, as ``(j, ref_v, ref_w, left,
+    right)``.
+
+    ``j`` is the last command arrived by ``t`` (``arr_t`` sorted; -1: none yet). Its velocity,
+    clipped to the speed caps, is the target until ``timeout`` after its arrival (then 0); the
+    references ``ref_v``, ``ref_w`` move towards it within the acceleration limits; the wheel
+    speed targets (rad/s) of a track ``2 half_track_m`` are scaled down together to the wheel
+    speed cap. ``limits`` holds (max v m/s, max w rad/s, accel v m/s^2, accel w rad/s^2,
+    wheel speed cap rad/s, timeout s).
+    """
+    vmax, wmax, acc_v, acc_w = limits[0], limits[1], limits[2], limits[3]
+    cap, timeout = limits[4], limits[5]
+    while j + 1 < arr_t.size and arr_t[j + 1] <= t:
+        j += 1
+    tv, tw = 0.0, 0.0
+    if j >= 0 and t - arr_t[j] <= timeout:
+        tv = min(max(arr_v[j], -vmax), vmax)
+        tw = min(max(arr_w[j], -wmax), wmax)
+    ref_v += min(max(tv - ref_v, -acc_v * ctrl_dt), acc_v * ctrl_dt)
+    ref_w += min(max(tw - ref_w, -acc_w * ctrl_dt), acc_w * ctrl_dt)
+    left = (ref_v - half_track_m * ref_w) / wheel_radius_m
+    right = (ref_v + half_track_m * ref_w) / wheel_radius_m
+    big = max(abs(left), abs(right))
+    if big > cap:
+        left *= cap / big
+        right *= cap / big
+    return j, ref_v, ref_w, left, right

@@ -62,7 +62,12 @@ from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import integrate_pose, write_trace
 from sim2real.logs.trace import Trace, TraceMeta
-from sim2real.plants._clock import check_commands, negative_field, odometry_clock
+from sim2real.plants._clock import (
+    check_commands,
+    firmware_tick,
+    negative_field,
+    odometry_clock,
+)
 from sysid.synthetic import step_commands
 
 if TYPE_CHECKING:
@@ -569,7 +574,7 @@ def _kernel(
     physics step at or after the last, so a run can go on with later commands and times.
     """
     m, inertia, r, sep = p[0], p[1], p[2], p[3]
-    vmax, wmax, acc_v, acc_w, wcap, timeout = p[4], p[5], p[6], p[7], p[8], p[9]
+    limits = p[4:10]  # max v, max w, accel v, accel w, wheel speed cap, timeout
     kp, ki, stall, noload, vnom, vbatt, sag, scrub, fade = (
         p[10],
         p[11],
@@ -598,7 +603,6 @@ def _kernel(
     j = int(state[10])  # last arrived command
     t, next_ctrl = state[11], state[12]
     prev = state[13:17].copy()
-    n_cmd = arr_t.size
     k_out = 0
     n_out = out_t.size
     while k_out < n_out and out_t[k_out] <= t:  # passed in the last step of an earlier call
@@ -607,20 +611,9 @@ def _kernel(
     while k_out < n_out:
         if t >= next_ctrl - 1e-12:
             next_ctrl += ctrl_dt
-            while j + 1 < n_cmd and arr_t[j + 1] <= t:
-                j += 1
-            tv, tw = 0.0, 0.0
-            if j >= 0 and t - arr_t[j] <= timeout:
-                tv = min(max(arr_v[j], -vmax), vmax)
-                tw = min(max(arr_w[j], -wmax), wmax)
-            ref_v += min(max(tv - ref_v, -acc_v * ctrl_dt), acc_v * ctrl_dt)
-            ref_w += min(max(tw - ref_w, -acc_w * ctrl_dt), acc_w * ctrl_dt)
-            tgt_l = (ref_v - half * ref_w) / r
-            tgt_r = (ref_v + half * ref_w) / r
-            big = max(abs(tgt_l), abs(tgt_r))
-            if big > wcap:
-                tgt_l *= wcap / big
-                tgt_r *= wcap / big
+            j, ref_v, ref_w, tgt_l, tgt_r = firmware_tick(
+                t, j, ref_v, ref_w, arr_t, arr_v, arr_w, limits, ctrl_dt, half, r
+            )
             volts = max(vbatt - sag * (abs(torque[0]) + abs(torque[1])), 0.0)
             for i in range(2):
                 speed = (v - half * w) / r if i == 0 else (v + half * w) / r

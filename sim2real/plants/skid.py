@@ -63,7 +63,12 @@ from robots.units import nanoseconds
 from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace, TraceMeta
-from sim2real.plants._clock import check_commands, negative_field, odometry_clock
+from sim2real.plants._clock import (
+    check_commands,
+    firmware_tick,
+    negative_field,
+    odometry_clock,
+)
 from sim2real.plants.diff_drive import command_profile
 
 __all__ = [
@@ -308,7 +313,7 @@ def _simulate(
     """Integrate; writes (v, lateral v, w, left wheel speed, right wheel speed) at ``out_t``."""
     m, inertia, r, track, base, jside = p[0], p[1], p[2], p[3], p[4], p[5]
     mu, ex, ey, crr, mult = p[6], p[7], p[8], p[9], p[10]
-    vmax, wmax, acc_v, acc_w, cap, timeout = p[11], p[12], p[13], p[14], p[15], p[16]
+    limits = p[11:17]  # max v, max w, accel v, accel w, wheel speed cap, timeout
     kp, ki, stall, noload = p[17], p[18], p[19], p[20]
     half_b, half_a = 0.5 * track, 0.5 * base
     limit = mu * m * _G / 4.0
@@ -326,20 +331,9 @@ def _simulate(
     while k_out < n_out:
         if t >= next_ctrl - 1e-12:
             next_ctrl += ctrl_dt
-            while j + 1 < arr_t.size and arr_t[j + 1] <= t:
-                j += 1
-            tv, tw = 0.0, 0.0
-            if j >= 0 and t - arr_t[j] <= timeout:
-                tv = min(max(arr_v[j], -vmax), vmax)
-                tw = min(max(arr_w[j], -wmax), wmax)
-            ref_v += min(max(tv - ref_v, -acc_v * ctrl_dt), acc_v * ctrl_dt)
-            ref_w += min(max(tw - ref_w, -acc_w * ctrl_dt), acc_w * ctrl_dt)
-            tgt_l = (ref_v - mult * half_b * ref_w) / r
-            tgt_r = (ref_v + mult * half_b * ref_w) / r
-            big = max(abs(tgt_l), abs(tgt_r))
-            if big > cap:
-                tgt_l *= cap / big
-                tgt_r *= cap / big
+            j, ref_v, ref_w, tgt_l, tgt_r = firmware_tick(
+                t, j, ref_v, ref_w, arr_t, arr_v, arr_w, limits, ctrl_dt, mult * half_b, r
+            )
             for i in range(2):
                 tgt = tgt_l if i == 0 else tgt_r
                 if tgt == 0.0:  # a stop clears the integrator (no creep at rest)
