@@ -29,6 +29,7 @@ __all__ = [
     "machine",
     "paired_ratios",
     "record",
+    "timed_run",
 ]
 
 REPO = Path(__file__).resolve().parents[1]
@@ -133,6 +134,18 @@ def paired_ratios(num: Stats, den: Stats) -> tuple[float, float, float]:
     return min(ratios), statistics.median(ratios), max(ratios)
 
 
+def timed_run(argv: Sequence[str], env: Mapping[str, str] | None = None) -> tuple[float, float]:
+    """Wall-clock and CPU seconds (the child's user + system time) of one run of the command
+    ``argv`` from the repository root; a non-zero exit raises."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    run_env = None if env is None else dict(env)
+    subprocess.run(argv, check=True, capture_output=True, env=run_env, cwd=REPO)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+
+
 def command_times(
     commands: Mapping[str, Sequence[str]], repeats: int
 ) -> dict[str, tuple[float, Stats]]:
@@ -153,12 +166,7 @@ def command_times(
     base_env.pop("PYTHONDONTWRITEBYTECODE", None)
 
     def run(argv: Sequence[str], env: Mapping[str, str]) -> tuple[float, float]:
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        t0 = time.perf_counter()
-        subprocess.run(argv, check=True, capture_output=True, env=dict(env), cwd=REPO)
-        wall = time.perf_counter() - t0
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+        wall, cpu = timed_run(argv, env)
         CPU_S.setdefault(" ".join(argv), []).append(cpu)
         return wall, cpu
 

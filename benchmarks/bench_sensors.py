@@ -20,16 +20,14 @@ import argparse
 import contextlib
 import io
 import math
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
-from _timing import QUICK, record
+from _timing import QUICK, record, timed_run
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -109,13 +107,7 @@ def whole_command() -> tuple[float, float]:
             )
         )
         cmd = [sys.executable, "-m", "sim2real", "sysid", "sensors", str(log), "--robot", str(spec)]
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        start = time.perf_counter()
-        subprocess.run([*cmd, "-o", str(Path(tmp) / "s.yaml")], check=True, capture_output=True)
-        wall = time.perf_counter() - start
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
-    return wall, cpu
+        return timed_run([*cmd, "-o", str(Path(tmp) / "s.yaml")])
 
 
 def main() -> None:
