@@ -280,6 +280,32 @@ def sense(
         clearance[i] = gap - radius
 
 
+@numba.njit(cache=True, inline="always")
+def _count_step(
+    i: int,
+    state: FloatArray,
+    steps: IntArray,
+    vw_hist: FloatArray,
+    clearance_m: float,
+    goal_dist_m: float,
+    goal_tol: float,
+    max_steps: int,
+) -> int:  # pragma: no cover - compiled
+    """Count env ``i``'s step, record its (v, w) for the episode metrics and return its
+    outcome: 1 collision (no clearance left), 2 success (within ``goal_tol`` of the goal),
+    3 timeout (``max_steps`` reached), else 0 (running)."""
+    steps[i] += 1
+    vw_hist[i, steps[i], 0] = state[i, 0]
+    vw_hist[i, steps[i], 1] = state[i, 1]
+    if clearance_m <= 0.0:
+        return 1
+    if goal_dist_m < goal_tol:
+        return 2
+    if steps[i] >= max_steps:
+        return 3
+    return 0
+
+
 @numba.njit(cache=True)
 def finish_random_map(
     active: np.ndarray,
@@ -314,10 +340,9 @@ def finish_random_map(
         outcome[i] = 0
         if not active[i]:
             continue
-        steps[i] += 1
-        vw_hist[i, steps[i], 0] = state[i, 0]
-        vw_hist[i, steps[i], 1] = state[i, 1]
         d = goal_polar[i, 0]
+        c = clearance[i]
+        outcome[i] = _count_step(i, state, steps, vw_hist, c, d, goal_tol, max_steps)
         free = 0.0
         for k in range(nb):
             r = ranges[i, k]
@@ -327,13 +352,6 @@ def finish_random_map(
         tail = (min(d, goal_dist_max), goal_polar[i, 1], state[i, 0], state[i, 1])
         for k in range(4):
             obs[i, nb + k] = np.float32(min(max(tail[k], obs_low[nb + k]), obs_high[nb + k]))
-        c = clearance[i]
-        if c <= 0.0:
-            outcome[i] = 1
-        elif d < goal_tol:
-            outcome[i] = 2
-        elif steps[i] >= max_steps:
-            outcome[i] = 3
         r_goal = consts[0] if outcome[i] == 2 else consts[1] * (prev_goal[i] - d)
         r_crash = 0.0
         for b in range(3):
@@ -378,24 +396,15 @@ def finish_crowd_nav(
         outcome[i] = 0
         if not active[i]:
             continue
-        steps[i] += 1
         v, w = state[i, 0], state[i, 1]
-        vw_hist[i, steps[i], 0] = v
-        vw_hist[i, steps[i], 1] = w
+        d, c = goal_polar[i, 0], clearance[i]
+        outcome[i] = _count_step(i, state, steps, vw_hist, c, d, goal_tol, max_steps)
         for k in range(ranges.shape[1]):
             lidar[i, k] = np.float32(ranges[i, k])
-        d = goal_polar[i, 0]
         goal_obs[i, 0] = np.float32(min(d, 20.0))
         goal_obs[i, 1] = np.float32(goal_polar[i, 1])
         vel_obs[i, 0] = np.float32(min(max(v, vel_low[0]), vel_high[0]))
         vel_obs[i, 1] = np.float32(min(max(w, vel_low[1]), vel_high[1]))
-        c = clearance[i]
-        if c <= 0.0:
-            outcome[i] = 1
-        elif d < goal_tol:
-            outcome[i] = 2
-        elif steps[i] >= max_steps:
-            outcome[i] = 3
         r = consts[2] * (prev_goal[i] - d) - consts[7]
         if outcome[i] == 2:
             r += consts[0]
