@@ -78,7 +78,13 @@ from robots.params import DriveParams
 from sim2real.envs._base import WorldEnv
 from sim2real.envs._car import CAR, DEFAULT_CAR_PARAMS, CarModel, PybulletCar, ReducedCar
 from sim2real.envs._world import PybulletWorld
-from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, rectangle_segments
+from sim2real.envs.geometry import (
+    FloatArray,
+    Scene2D,
+    cast_rays,
+    rectangle_corners,
+    rectangle_segments,
+)
 from sim2real.envs.metrics import MetricsTracker
 from sim2real.errors import Sim2RealValueError
 
@@ -117,13 +123,6 @@ class CarCrossingReward:
     pedestrian: float = 8.0
     off_road_ref: float = 2.733
     off_road_cap: float = 2.0
-
-
-def _rect_corners(cx: float, cy: float, yaw: float, length: float, width: float) -> FloatArray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    hl, hw = 0.5 * length, 0.5 * width
-    local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
-    return np.asarray(local @ np.array([[c, s], [-s, c]]) + np.array([cx, cy]))
 
 
 def _rects_overlap(a: FloatArray, b: FloatArray) -> bool:
@@ -358,9 +357,9 @@ class CarCrossingEnv(WorldEnv):
     def _collision(self) -> str | None:
         x, y, yaw = self.car.pose
         g = self.geometry
-        car = _rect_corners(x, y, yaw, g.footprint_length_m, g.footprint_width_m)
+        car = rectangle_corners(x, y, g.footprint_length_m, g.footprint_width_m, yaw)
         ox, oy = float(self.obstacle_xy[0]), float(self.obstacle_xy[1])
-        obst = _rect_corners(ox, oy, 0.0, OBSTACLE_SIZE_M[0], OBSTACLE_SIZE_M[1])
+        obst = rectangle_corners(ox, oy, OBSTACLE_SIZE_M[0], OBSTACLE_SIZE_M[1], 0.0)
         if _rects_overlap(car, obst):
             return "obstacle"
         gap = _disc_rect_distance(
@@ -373,7 +372,7 @@ class CarCrossingEnv(WorldEnv):
     def _off_road(self) -> bool:
         x, y, yaw = self.car.pose
         g = self.geometry
-        car = _rect_corners(x, y, yaw, g.footprint_length_m, g.footprint_width_m)
+        car = rectangle_corners(x, y, g.footprint_length_m, g.footprint_width_m, yaw)
         return bool(np.max(np.abs(car[:, 1])) > ROAD_HALF_WIDTH_M)
 
     # ------------------------------------------------------------------ step

@@ -41,6 +41,7 @@ __all__ = [
     "nearest_relative_states",
     "point_segment_distance",
     "ray_distance",
+    "rectangle_corners",
     "rectangle_segments",
     "segment_distance",
 ]
@@ -102,14 +103,28 @@ class Scene2D:
         )
 
 
+def rectangle_corners(
+    cx: float, cy: float, length_m: float, width_m: float, yaw_rad: float
+) -> FloatArray:
+    """The corners of a rectangle centred at (cx, cy), ``length_m`` along its heading
+    ``yaw_rad``, shape (4, 2), m: front left, rear left, rear right, front right.
+
+    Examples
+    --------
+    >>> rectangle_corners(1.0, 0.0, 2.0, 1.0, 0.0).tolist()
+    [[2.0, 0.5], [0.0, 0.5], [0.0, -0.5], [2.0, -0.5]]
+    """
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    hl, hw = 0.5 * length_m, 0.5 * width_m
+    local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
+    return np.asarray(local @ np.array([[c, s], [-s, c]]) + np.array([cx, cy]))
+
+
 def rectangle_segments(
     cx: float, cy: float, length_m: float, width_m: float, yaw_rad: float
 ) -> FloatArray:
     """The four sides ``(ax, ay, bx, by)`` of a rectangle centred at (cx, cy), shape (4, 4)."""
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-    hl, hw = 0.5 * length_m, 0.5 * width_m
-    local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
-    corners = local @ np.array([[c, s], [-s, c]]) + np.array([cx, cy])
+    corners = rectangle_corners(cx, cy, length_m, width_m, yaw_rad)
     return np.hstack([corners, corners[[1, 2, 3, 0]]])
 
 
