@@ -74,7 +74,10 @@ def wilson_interval(successes: int, n: int, *, z: float = 1.959964) -> tuple[flo
     denom = 1.0 + z * z / n
     centre = (p + z * z / (2 * n)) / denom
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    # at 0 and n one bound is exactly 0 or 1 (centre -+ half cancel); rounding must not move it
+    lo = 0.0 if successes <= 0 else max(0.0, centre - half)
+    hi = 1.0 if successes >= n else min(1.0, centre + half)
+    return (lo, hi)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -229,6 +229,9 @@ def test_wilson_interval_known_values() -> None:
     lo, hi = wilson_interval(8, 10)
     assert (round(lo, 3), round(hi, 3)) == (0.49, 0.943)
     assert wilson_interval(10, 10)[1] == pytest.approx(1.0)
+    # all or none: the interval holds its rate exactly (float rounding put 1 outside at n=4)
+    for n in range(1, 201):
+        assert wilson_interval(n, n)[1] == 1.0 and wilson_interval(0, n)[0] == 0.0
     lo, hi = wilson_interval(0, 5)
     assert lo == 0.0 and 0.4 < hi < 0.45
 
