@@ -8,16 +8,16 @@ import math
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 from rich.console import Console
 from rich.table import Table
 
 from sim2real._io import atomic_write, check_output_path
-from sim2real.cli._policy import ci_text, prepare, robustness
+from sim2real.cli._policy import ci_text, policy_settings, prepare, robustness
 from sim2real.cli._progress import progress_bar
 from sim2real.envs import PAPER_RHO_OBS, PRESETS, SCENARIOS
 from sim2real.envs.baselines import evaluate
 from sim2real.errors import Sim2RealValueError
+from sim2real.training.environment import build_env
 from sim2real.training.evaluation import outcome_intervals
 
 __all__ = ["handle_eval", "handle_list", "handle_robustness"]
@@ -90,37 +90,51 @@ def handle_list(args: argparse.Namespace) -> int:
 
 def _make_env(args: argparse.Namespace) -> tuple[Any, dict[str, Any] | None]:
     """The env of ``envs eval`` / ``envs robustness`` and its reset options; a flag of
-    another env is refused in one sentence."""
+    another env is refused in one sentence. With ``--policy`` the env has the settings the
+    policy was trained with (:func:`~sim2real.cli._policy.policy_settings`)."""
     env_id = _env_id(args.env)
     if args.episodes < 1:
         raise Sim2RealValueError(
             f"--episodes must be >= 1, got {args.episodes}; e.g. --episodes 10"
         )
+    _refuse_other_flags(args, env_id)
+    kwargs = policy_settings(args, env_id)
+    kwargs["dynamics"] = args.dynamics
+    if env_id.endswith("RandomMap-v0") and args.preset is not None:
+        kwargs["preset"] = args.preset
     if env_id.endswith("Race-v0"):
-        return _race_env(args, env_id), None
-    _refuse_race_flags(args)
-    if env_id.endswith("CarCrossing-v0"):
-        if args.preset is not None or args.scenario is not None or args.complexity is not None:
-            raise Sim2RealValueError(
-                "--preset, --scenario and --complexity do not apply to CarCrossing-v0 (its "
-                "scenario is drawn from the seed); drop them"
-            )
-        return gym.make(env_id, dynamics=args.dynamics), None
-    if env_id.endswith("RandomMap-v0"):
-        if args.scenario is not None or args.complexity is not None:
-            raise Sim2RealValueError(
-                "--scenario and --complexity apply to CrowdNav-v0 only; use --preset for "
-                "RandomMap-v0"
-            )
-        return gym.make(env_id, dynamics=args.dynamics, preset=args.preset or "TRAIN"), None
-    if args.preset is not None:
-        raise Sim2RealValueError(
-            "--preset applies to RandomMap-v0 only; use --scenario and --complexity for CrowdNav-v0"
-        )
+        race = _race_flags(args)
+        kwargs.setdefault("track", race["--track"] or "circuit")
+        if race["--opponents"] is not None:
+            kwargs["num_opponents"] = race["--opponents"]
     options = {
         k: getattr(args, k) for k in ("scenario", "complexity") if getattr(args, k) is not None
     }
-    return gym.make(env_id, dynamics=args.dynamics), options or None
+    where = f"policy '{args.policy}'" if args.policy else "envs"
+    return build_env(env_id, kwargs, where=where), options or None
+
+
+#: Flags an env does not take, and the sentence refusing them: env suffix -> (flags, text).
+_NOT_TAKEN = {
+    "Race-v0": (
+        ("preset", "scenario", "complexity"),
+        "--preset, --scenario and --complexity do not apply to Race-v0; use --track, "
+        "--opponents and --planner",
+    ),
+    "CarCrossing-v0": (
+        ("preset", "scenario", "complexity"),
+        "--preset, --scenario and --complexity do not apply to CarCrossing-v0 (its scenario is "
+        "drawn from the seed); drop them",
+    ),
+    "RandomMap-v0": (
+        ("scenario", "complexity"),
+        "--scenario and --complexity apply to CrowdNav-v0 only; use --preset for RandomMap-v0",
+    ),
+    "CrowdNav-v0": (
+        ("preset",),
+        "--preset applies to RandomMap-v0 only; use --scenario and --complexity for CrowdNav-v0",
+    ),
+}
 
 
 def _race_flags(args: argparse.Namespace) -> dict[str, Any]:
@@ -128,18 +142,13 @@ def _race_flags(args: argparse.Namespace) -> dict[str, Any]:
     return {flag: getattr(args, flag[2:], None) for flag in ("--track", "--opponents", "--planner")}
 
 
-def _race_env(args: argparse.Namespace, env_id: str) -> Any:
-    """Race-v0 on ``--track`` (circuit) with ``--opponents``."""
-    if args.preset is not None or args.scenario is not None or args.complexity is not None:
-        raise Sim2RealValueError(
-            "--preset, --scenario and --complexity do not apply to Race-v0; use --track, "
-            "--opponents and --planner"
-        )
-    race = _race_flags(args)
-    kw: dict[str, Any] = {"track": race["--track"] or "circuit"}
-    if race["--opponents"] is not None:
-        kw["num_opponents"] = race["--opponents"]
-    return gym.make(env_id, dynamics=args.dynamics, **kw)
+def _refuse_other_flags(args: argparse.Namespace, env_id: str) -> None:
+    """Refuse the flags of another env than ``env_id`` (one sentence)."""
+    if not env_id.endswith("Race-v0"):
+        _refuse_race_flags(args)
+    for suffix, (flags, text) in _NOT_TAKEN.items():
+        if env_id.endswith(suffix) and any(getattr(args, f) is not None for f in flags):
+            raise Sim2RealValueError(text)
 
 
 def _refuse_race_flags(args: argparse.Namespace) -> None:

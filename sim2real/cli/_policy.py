@@ -21,16 +21,86 @@ from sim2real.envs.car_baseline import CarCrossingBaseline
 from sim2real.envs.race_baseline import PLANNERS, RaceBaseline
 from sim2real.errors import Sim2RealValueError
 from sim2real.training.environment import set_params_file
-from sim2real.training.evaluation import check_spaces, load_policy
+from sim2real.training.evaluation import check_spaces, load_policy, read_policy_metadata
 from sim2real.training.evaluation import robustness as robustness_rows
 
-__all__ = ["ci_text", "prepare", "robustness"]
+__all__ = ["ci_text", "policy_settings", "prepare", "robustness"]
+
+#: Env kwargs an `envs` flag sets, as (flag, args attribute, kwarg).
+_FLAG_KWARGS = (
+    ("--dynamics", "dynamics", "dynamics"),
+    ("--preset", "preset", "preset"),
+    ("--scenario", "scenario", "scenario"),
+    ("--complexity", "complexity", "complexity"),
+    ("--track", "track", "track"),
+    ("--opponents", "opponents", "num_opponents"),
+)
 
 
 def ci_text(ci: tuple[float, float], digits: int) -> str:
     """``[lo, hi]`` of an interval, ``n/a`` when undefined."""
     lo, hi = ci
     return "n/a" if math.isnan(lo) or math.isnan(hi) else f"[{lo:.{digits}f}, {hi:.{digits}f}]"
+
+
+def policy_settings(args: argparse.Namespace, env_id: str) -> dict[str, Any]:
+    """The env kwargs saved with ``--policy`` (empty without one) that the env is built with.
+
+    A policy evaluates with the settings it was trained with (control period, episode length,
+    robot, course, ...). A flag given on the command line replaces its saved setting, with a
+    printed note; the saved settings applied are printed too. ``args.dynamics`` is resolved:
+    the flag, else the policy's, else ``reduced``. A policy of another env, or a saved params
+    file that does not exist, is refused in one sentence.
+    """
+    saved: dict[str, Any] = {}
+    if args.policy is not None:
+        meta = read_policy_metadata(args.policy)
+        trained_on = meta.get("env_id")
+        if trained_on is not None and trained_on != env_id:
+            raise Sim2RealValueError(
+                f"policy '{args.policy}' was trained on {trained_on}, not {env_id}; evaluate "
+                f"it on {str(trained_on).removeprefix('sim2real/')}"
+            )
+        saved = dict(meta.get("env_kwargs") or {})
+    if args.dynamics is None:
+        args.dynamics = str(saved.get("dynamics", "reduced"))
+    notes = []
+    for flag, attr, key in _FLAG_KWARGS:
+        given = getattr(args, attr, None)
+        if given is None:
+            continue
+        trained = saved.pop(key, None)
+        if key == "preset" and "map_config" in saved:
+            trained = f"map_config {saved.pop('map_config')}"
+        if trained is not None and str(given).lower() != str(trained).lower():
+            notes.append(f"{flag} {given} replaces the policy's training setting {trained}")
+    notes.extend(_params_notes(args, saved))
+    applied = ", ".join(f"{k} {v}" for k, v in saved.items())
+    for note in ([f"env settings of the policy: {applied}"] if applied else []) + notes:
+        print(f"note: {note}")
+    return saved
+
+
+def _params_notes(args: argparse.Namespace, saved: dict[str, Any]) -> list[str]:
+    """Notes on the policy's saved params file, dropped from ``saved`` when not applied."""
+    params = saved.get("params")
+    if params is None:
+        return []
+    if args.dynamics == "plant":
+        del saved["params"]
+        return [
+            f"the policy's params file {params} is not applied: --dynamics plant has its own "
+            "physics"
+        ]
+    if args.params is not None:
+        del saved["params"]
+        return [f"--params {args.params} replaces the policy's params file {params}"]
+    if not Path(params).is_file():
+        raise Sim2RealValueError(
+            f"policy '{args.policy}' was trained with params file '{params}', which does not "
+            "exist here; pass --params with that sysid result"
+        )
+    return []
 
 
 def _controller(env: Any, args: argparse.Namespace) -> tuple[Any, Any, str]:

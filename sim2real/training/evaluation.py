@@ -51,6 +51,7 @@ __all__ = [
     "evaluate_controller",
     "load_policy",
     "outcome_intervals",
+    "read_policy_metadata",
     "robustness",
     "wilson_interval",
 ]
@@ -234,6 +235,25 @@ def _read_metadata(path: Path) -> dict[str, Any]:
     return dict(doc) if isinstance(doc, Mapping) else {}
 
 
+def read_policy_metadata(path: str | Path) -> dict[str, Any]:
+    """The ``sim2real.yaml`` entry of a policy (env id and kwargs, algorithm, ...), without
+    loading the model; empty for an SB3 zip not written by ``sim2real train``.
+
+    Examples
+    --------
+    >>> read_policy_metadata("runs/randommap_ppo/model.zip")["env_kwargs"]  # doctest: +SKIP
+    {'preset': 'TRAIN', 'control_dt': 0.25}
+    """
+    p = Path(path)
+    if p.is_dir() and (p / "sim2real.yaml").is_file():  # an rllib-ppo policy folder
+        return dict(yaml.safe_load((p / "sim2real.yaml").read_text(encoding="utf-8")) or {})
+    if not p.is_file():
+        raise Sim2RealFileNotFoundError(
+            f"policy '{p}' does not exist; give the model.zip that `sim2real train` wrote"
+        )
+    return _read_metadata(p)
+
+
 def load_policy(path: str | Path, *, algorithm: str | None = None) -> LoadedPolicy:
     """Load ``model.zip`` written by ``sim2real train`` (or any SB3 zip with ``algorithm``).
 
@@ -244,8 +264,8 @@ def load_policy(path: str | Path, *, algorithm: str | None = None) -> LoadedPoli
     'PPO'
     """
     p = Path(path)
-    if p.is_dir() and (p / "sim2real.yaml").is_file():  # an rllib-ppo policy folder
-        meta = dict(yaml.safe_load((p / "sim2real.yaml").read_text(encoding="utf-8")) or {})
+    meta = read_policy_metadata(p)
+    if p.is_dir():  # an rllib-ppo policy folder
         if meta.get("algorithm") != RLLIB_PPO:
             raise Sim2RealValueError(
                 f"policy folder '{p}' names algorithm {meta.get('algorithm')!r}; a folder policy "
@@ -256,12 +276,7 @@ def load_policy(path: str | Path, *, algorithm: str | None = None) -> LoadedPoli
 
         model = _rllib.load_rllib_policy(p)
         return LoadedPolicy(model=model, algorithm=RLLIB_PPO, metadata=meta, path=p)
-    if not p.is_file():
-        raise Sim2RealFileNotFoundError(
-            f"policy '{p}' does not exist; give the model.zip that `sim2real train` wrote"
-        )
     require_train_extra("evaluating a policy (--policy)")
-    meta = _read_metadata(p)
     algo = algorithm or meta.get("algorithm")
     sb3_algos = list(ALGORITHMS)
     match = [a for a in sb3_algos if str(algo).upper() == a]

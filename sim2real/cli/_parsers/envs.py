@@ -104,11 +104,11 @@ def _add_env_arguments(p: argparse.ArgumentParser, *, episodes_help: str) -> Non
     p.add_argument("--complexity", type=float, help="CrowdNav-v0 complexity factor in [0, 1]")
     p.add_argument(
         "--dynamics",
-        default="reduced",
         help=(
-            "robot back-end: reduced (fast), pybullet, or plant (a foreign base to evaluate "
-            "on: one plant session per episode, payload, floor, battery and latency drawn "
-            "from the episode's seed; RandomMap-v0, CrowdNav-v0, Race-v0)"
+            "robot back-end: reduced (fast; the default), pybullet, or plant (a foreign base to "
+            "evaluate on: one plant session per episode, payload, floor, battery and latency "
+            "drawn from the episode's seed; RandomMap-v0, CrowdNav-v0, Race-v0); a --policy's "
+            "own by default"
         ),
     )
 
@@ -118,7 +118,9 @@ def _add_policy_arguments(p: argparse.ArgumentParser, *, randomize_required: boo
     p.add_argument(
         "--policy",
         metavar="MODEL.zip",
-        help="evaluate this trained policy (`sim2real train` output) instead of the DWA baseline",
+        help="evaluate this trained policy (`sim2real train` output) instead of the DWA "
+        "baseline, on the env settings it was trained with (a flag given replaces its setting, "
+        "with a note)",
     )
     p.add_argument(
         "--algorithm",

@@ -94,10 +94,13 @@ def test_eval_policy_and_mismatched_env(tmp_path: Path, capsys: pytest.CaptureFi
     doc = json.loads(report.read_text())
     assert doc["controller"] == "PPO policy model.zip" and len(doc["episodes"]) == 2
     assert "PPO policy model.zip on" in capsys.readouterr().out
-    # a policy trained on RandomMap's Box(40) observation cannot drive CrowdNav
+    # a policy trained on RandomMap cannot drive CrowdNav
     assert main(["envs", "eval", "CrowdNav-v0", "--policy", model, "--episodes", "1"]) == 2
     err = capsys.readouterr().err
-    assert "expects observations Box(40,) but env sim2real/CrowdNav-v0 gives Dict(" in err
+    assert (
+        f"policy '{model}' was trained on sim2real/RandomMap-v0, not sim2real/CrowdNav-v0; "
+        "evaluate it on RandomMap-v0" in err
+    )
     assert err.count("\n") == 1
     # not a model at all
     bogus = tmp_path / "bogus.zip"
@@ -137,7 +140,7 @@ def test_normalized_policy_logs_episodes_and_evaluates_scaled(
     argv = ["envs", "eval", "RandomMap-v0", "--policy", str(out / "model.zip")]
     assert main([*argv, "--episodes", "2", "--seed", "7", "--json", str(report)]) == 0
     by_cli = json.loads(report.read_text())["episodes"]
-    env = policy.wrap(build_env("sim2real/RandomMap-v0", {}))
+    env = policy.wrap(build_env("sim2real/RandomMap-v0", policy.metadata["env_kwargs"]))
     by_hand = evaluate_controller(env, policy.controller(), episodes=2, seed=7).per_episode
     assert [e["success"] for e in by_cli] == [e["success"] for e in by_hand]
     assert [e["return"] for e in by_cli] == pytest.approx([e["return"] for e in by_hand])
@@ -211,3 +214,66 @@ def test_robustness_with_a_policy(tmp_path: Path, capsys: pytest.CaptureFixture[
         lo, hi = r["success_ci95"]
         assert 0.0 <= lo <= r["success_rate"] <= hi <= 1.0
         assert r["success_rate"] + r["collision_rate"] + r["timeout_rate"] == pytest.approx(1.0)
+
+
+def test_eval_uses_the_settings_saved_with_the_policy(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A policy trained at a 0.25 s control period with 12-step episodes evaluates so."""
+    kwargs = {"preset": "TEST1", "max_episode_steps": 12, "control_dt": 0.25}
+    env = {"id": "RandomMap-v0", "kwargs": kwargs}
+    cfg = _config(tmp_path, checkpoint_every=0, timesteps=64, randomizers=None, env=env)
+    assert main(["train", str(cfg)]) == 0
+    model = str(tmp_path / "run" / "model.zip")
+    capsys.readouterr()
+    report = tmp_path / "eval.json"
+    argv = ["envs", "eval", "RandomMap-v0", "--policy", model, "--episodes", "3"]
+    assert main([*argv, "--json", str(report)]) == 0
+    out = capsys.readouterr().out
+    applied = "note: env settings of the policy: control_dt 0.25, max_episode_steps 12"
+    assert f"{applied}, preset TEST1\n" in out and "replaces" not in out
+    episodes = json.loads(report.read_text())["episodes"]
+    for e in episodes:  # 0.25 s steps, 12 of them for a trap
+        assert e["episode_time_s"] == pytest.approx(0.25 * e["steps"]) and e["steps"] <= 12
+        assert e["outcome"] != "trap" or e["steps"] == 12
+    # a flag replaces its saved setting, with a note; the others stay the policy's
+    assert main([*argv, "--preset", "TEST2", "--dynamics", "plant", "--json", str(report)]) == 0
+    out = capsys.readouterr().out
+    assert "note: --preset TEST2 replaces the policy's training setting TEST1" in out
+    assert f"{applied}\n" in out
+    test2 = json.loads(report.read_text())
+    assert test2["dynamics"] == "plant" and all(e["steps"] <= 12 for e in test2["episodes"])
+    assert main([*argv, "--dynamics", "plant", "--json", str(report)]) == 0
+    test1 = json.loads(report.read_text())  # the same seeds on the policy's own TEST1 maps
+    assert "replaces" not in capsys.readouterr().out
+    assert [e["path_length_m"] for e in test1["episodes"]] != [
+        e["path_length_m"] for e in test2["episodes"]
+    ]
+
+
+def test_eval_refuses_a_missing_params_file_of_the_policy(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    fit = tmp_path / "fit.yaml"
+    fit.write_text(
+        yaml.safe_dump(
+            {
+                "format": "sim2real.sysid/1",
+                "robot": "turtlebot3_burger",
+                "parameters": {"delay_s": {"value": 0.1, "std": 0.0, "status": "fitted"}},
+            }
+        )
+    )
+    env = {"id": "RandomMap-v0", "kwargs": {"preset": "TEST1", "params": str(fit)}}
+    cfg = _config(tmp_path, checkpoint_every=0, timesteps=64, randomizers=None, env=env)
+    assert main(["train", str(cfg)]) == 0
+    model = str(tmp_path / "run" / "model.zip")
+    fit.unlink()
+    capsys.readouterr()
+    argv = ["envs", "eval", "RandomMap-v0", "--policy", model, "--episodes", "1"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"was trained with params file '{fit}', which does not exist here" in err
+    # on the plant the drive parameters do not apply: evaluated, with a note
+    assert main([*argv, "--dynamics", "plant"]) == 0
+    assert "is not applied: --dynamics plant has its own physics" in capsys.readouterr().out
