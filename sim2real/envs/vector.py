@@ -91,6 +91,14 @@ def _check_num_envs(num_envs: Any) -> int:
     return int(num_envs)
 
 
+def _with_room(a: np.ndarray, slots: int) -> np.ndarray:
+    """The per-sub-env array ``a`` (sub-envs, slots, ...) with ``slots`` slots on its second
+    axis: its contents first, zeros after."""
+    grown = np.zeros((a.shape[0], slots, *a.shape[2:]), dtype=a.dtype)
+    grown[:, : a.shape[1]] = a
+    return grown
+
+
 def _info_dtype(value: Any) -> Any:
     """The array dtype gymnasium's vector infos use for ``value`` (``VectorEnv._add_info``)."""
     if type(value) in (int, float, bool) or isinstance(value, np.number):
@@ -222,9 +230,7 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self._timeout[i] = drive.params.cmd_timeout_s
         rows = history_rows(float(self._delay.max()), self._h)
         if rows > self._hist.shape[1]:
-            grown = np.zeros((self.num_envs, rows, 3))
-            grown[:, : self._hist.shape[1]] = self._hist
-            self._hist = grown
+            self._hist = _with_room(self._hist, rows)
 
     def _drive(self, i: int) -> ReducedDrive:
         backend = self.envs[i]._backend
@@ -237,16 +243,10 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         nc, ns = scene.circles_r.shape[0], scene.seg_a.shape[0]
         if nc > self._cr.shape[1]:
             cap = max(nc, 2 * self._cr.shape[1])
-            cxy, cr = np.zeros((self.num_envs, cap, 2)), np.zeros((self.num_envs, cap))
-            cxy[:, : self._cr.shape[1]] = self._cxy
-            cr[:, : self._cr.shape[1]] = self._cr
-            self._cxy, self._cr = cxy, cr
+            self._cxy, self._cr = _with_room(self._cxy, cap), _with_room(self._cr, cap)
         if ns > self._sa.shape[1]:
             cap = max(ns, 2 * self._sa.shape[1])
-            sa, sb = np.zeros((self.num_envs, cap, 2)), np.zeros((self.num_envs, cap, 2))
-            sa[:, : self._sa.shape[1]] = self._sa
-            sb[:, : self._sb.shape[1]] = self._sb
-            self._sa, self._sb = sa, sb
+            self._sa, self._sb = _with_room(self._sa, cap), _with_room(self._sb, cap)
         self._cxy[i, :nc] = scene.circles_xy
         self._cr[i, :nc] = scene.circles_r
         self._nc[i] = nc
@@ -287,9 +287,7 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self._state[i] = drive._state
         n = drive._n
         if n > self._hist.shape[1]:
-            grown = np.zeros((self.num_envs, n, 3))
-            grown[:, : self._hist.shape[1]] = self._hist
-            self._hist = grown
+            self._hist = _with_room(self._hist, n)
         self._hist[i, :n] = drive._hist[:n]
         self._n_hist[i] = n
         self._time[i] = drive.time_s
@@ -701,10 +699,7 @@ class CrowdNavVectorEnv(NavVectorEnv):
         """Room for ``cap`` pedestrians per sub-env (the eq. (1) crowds' views follow)."""
         n = self.num_envs
         for _, field in self._PED_FIELDS:
-            old = getattr(self, field)
-            grown = np.zeros((n, cap, *old.shape[2:]))
-            grown[:, : old.shape[1]] = old
-            setattr(self, field, grown)
+            setattr(self, field, _with_room(getattr(self, field), cap))
         self._walking = np.zeros((n, cap), dtype=np.bool_)
         self._reached = np.zeros((n, cap), dtype=np.bool_)
         for i in np.flatnonzero(self._eq1 & self._was_reset):
@@ -724,13 +719,9 @@ class CrowdNavVectorEnv(NavVectorEnv):
         assert isinstance(env, CrowdNavEnv)
         cyl, boxes = env._depth_scene.cylinders, _packed_boxes(env._depth_static.boxes)
         if cyl.shape[0] > self._dcyl.shape[1]:
-            grown = np.zeros((self.num_envs, max(cyl.shape[0], 2 * self._dcyl.shape[1]), 4))
-            grown[:, : self._dcyl.shape[1]] = self._dcyl
-            self._dcyl = grown
+            self._dcyl = _with_room(self._dcyl, max(cyl.shape[0], 2 * self._dcyl.shape[1]))
         if boxes.shape[0] > self._dbox.shape[1]:
-            grown = np.zeros((self.num_envs, max(boxes.shape[0], 2 * self._dbox.shape[1]), 8))
-            grown[:, : self._dbox.shape[1]] = self._dbox
-            self._dbox = grown
+            self._dbox = _with_room(self._dbox, max(boxes.shape[0], 2 * self._dbox.shape[1]))
         self._dcyl[i, : cyl.shape[0]] = cyl
         self._n_dcyl[i] = cyl.shape[0]
         self._n_dstatic[i] = env._depth_static.cylinders.shape[0]
