@@ -78,6 +78,13 @@ stds, the likelihood before and after and the validation coverage before and aft
 ``calibration:`` block. Calibrate on logs of sessions the fit did not see; several sessions
 estimate the between-session spread better than one.
 
+Engines
+-------
+The likelihood search replays hundreds of ensembles; an engine that follows a faster one's
+replays (MuJoCo follows the reduced model it is exported from) leaves the search to the
+faster one (:data:`SEARCH_ENGINE`) and replays its own ensembles only for what the band is
+made of: the identified noise, the coverage matching and the widening.
+
 Examples
 --------
 >>> from sim2real.agreement.calibration import calibrate, write_calibrated
@@ -174,6 +181,11 @@ CHI2_1_MEDIAN = 0.454936423119572
 STEADY_AFTER_STEP_S = 1.0
 #: Fewer steady samples than this on an axis: the noise is calibrated on all the samples.
 MIN_STEADY = 20
+#: The engine whose replays search the spread's likelihood (hundreds of ensembles) for a
+#: slower engine that follows it (``agree --engine mujoco`` is within 0.02 of the reduced
+#: model's agreement); the noise, the band's coverage and the widening (about ten ensembles)
+#: are the slower engine's own.
+SEARCH_ENGINE = {"mujoco": "reduced"}
 #: Bisection steps of the coverage matching: the log scale between 1 and a bound of
 #: :data:`NOISE_SCALE_RANGE` (a factor 10) to 2**-24 of its width, a scale to ~1e-7 relative.
 MATCH_STEPS = 24
@@ -690,8 +702,11 @@ def calibrate_traces(
         The distribution to calibrate.
     n, seed : int
         Ensemble size (>= 4) and seed (common random numbers for every factor).
-    engine : {"reduced", "pybullet"}
-        Simulator ("reduced": tens of ensembles are replayed).
+    engine : {"reduced", "pybullet", "mujoco"}
+        Simulator ("reduced": tens of ensembles are replayed). For ``"mujoco"`` the
+        likelihood search replays the reduced model (:data:`SEARCH_ENGINE`) and the noise,
+        the coverage matching and the widening replay MuJoCo (about ten ensembles); a note
+        says so.
     odom_v_window_s : float
         Odometry window of the simulated v, s (as in the fit).
     tol_v, tol_w : float
@@ -711,7 +726,7 @@ def calibrate_traces(
         distribution=distribution,
         n=n,
         seed=seed,
-        engine=engine,
+        engine=SEARCH_ENGINE.get(engine, engine),
         odom_v_window_s=odom_v_window_s,
     )
     noise = distribution.noise
@@ -723,6 +738,14 @@ def calibrate_traces(
     factor, session_factor = pooled_factors(
         lik_factor, lik_session, fit_sessions=fit_sessions, validation_sessions=len(traces)
     )
+    searched: tuple[str, ...] = ()
+    if search.engine != engine:  # the band itself is the engine's own
+        search.use_engine(engine, steady)
+        searched = (
+            f"the spread's likelihood search ran on the {search.searched_on} model, whose "
+            f"replays follow the {engine} robot's; the noise, the band's coverage and its "
+            f"widening are the {engine} robot's",
+        )
     mvb, mwb, ll, _, _ = search.at(factor, session_factor)
     axes = search.matched_noise((mvb, mwb), steady)
     before = search.coverage(mvb, mwb, (axes[0].identified_std, axes[1].identified_std))
@@ -767,7 +790,9 @@ def calibrate_traces(
         ),
         steady_v=axes[0].steady,
         steady_w=axes[1].steady,
-        notes=tuple(a.note for a in axes if a.note) + ((widen_note,) if widen_note else ()),
+        notes=tuple(a.note for a in axes if a.note)
+        + ((widen_note,) if widen_note else ())
+        + searched,
     )
 
 
@@ -870,6 +895,17 @@ class _FactorSearch:
         #: (identified, robust) noise std of v and w (:meth:`fix_noise`)
         self.identified: list[tuple[float, float]] = []
         self.best_members: list[Any] = []  # [loglik, members v, members w] of the best point
+        self.searched_on = engine
+        self._memo: dict[tuple[float, float], tuple[FloatArray, FloatArray]] = {}
+
+    def use_engine(self, engine: str, steady: BoolArray) -> None:
+        """Replay with ``engine`` from now on: the likelihood cache is cleared and the noise
+        identified again on its replays (:meth:`fix_noise`)."""
+        self.engine = engine
+        self.cache.clear()
+        self.best_members.clear()
+        self._memo.clear()
+        self.fix_noise(steady)
 
     def mixed(self, factor: float, session_factor: float) -> Any:
         """The distribution with covariance ``factor^2 fitted + session_factor^2 session``."""
@@ -885,6 +921,8 @@ class _FactorSearch:
 
     def members(self, factor: float, session_factor: float) -> tuple[FloatArray, FloatArray]:
         """The ensembles' (v, w) at the active samples of every log, side by side."""
+        if (factor, session_factor) == (1.0, 0.0) and (1.0, 0.0) in self._memo:
+            return self._memo[(1.0, 0.0)]  # the file's own spread: the noise and "before"
         vs, ws = [], []
         dist = self.mixed(factor, session_factor)
         for lg in self.logs:
@@ -899,7 +937,10 @@ class _FactorSearch:
             )
             vs.append(mv[:, lg.active])
             ws.append(mw[:, lg.active])
-        return np.concatenate(vs, axis=1), np.concatenate(ws, axis=1)
+        out = np.concatenate(vs, axis=1), np.concatenate(ws, axis=1)
+        if (factor, session_factor) == (1.0, 0.0):
+            self._memo[(1.0, 0.0)] = out
+        return out
 
     def _noise_fit(self, mv: FloatArray, mw: FloatArray) -> tuple[float, float, float]:
         """(loglik, std v, std w) with the noise stds :attr:`fixed_noise`, or where there are
@@ -1053,12 +1094,14 @@ class _FactorSearch:
     ) -> tuple[FloatArray, FloatArray, float, float, float]:
         """(members v, members w, loglik, std v, std w) at the calibrated factors: the
         likelihood optimum's when they are its (after :meth:`likelihood_optimum`)."""
-        best = self._best()
-        _, mv, mw = self.best_members
-        ll, std_v, std_w = self.cache[best]
-        if (factor, session_factor) != (math.exp(best[0]), best[1]):
-            mv, mw = self.members(factor, session_factor)
-            ll, std_v, std_w = self._noise_fit(mv, mw)
+        if self.cache:
+            best = self._best()
+            if (factor, session_factor) == (math.exp(best[0]), best[1]):
+                _, mv, mw = self.best_members
+                ll, std_v, std_w = self.cache[best]
+                return mv, mw, ll, std_v, std_w
+        mv, mw = self.members(factor, session_factor)
+        ll, std_v, std_w = self._noise_fit(mv, mw)
         return mv, mw, ll, std_v, std_w
 
     def log_likelihood_before(self) -> float:
