@@ -268,15 +268,12 @@ def _latency_reason(fitted: _Agreement, s: SessionFigures) -> str | None:
             )
             return (
                 f"this session's own best command latency is {best:.3f} s where the "
-                f"fit has {fitted_delay:.3f} s{at}: the latency of this session differs"
+                f"fit has {fitted_delay:.3f} s{at}"
             )
         return None
     lag = _lag(fitted)
     if math.isfinite(lag) and abs(lag) > LAG_LIMIT_S:
-        return (
-            f"{lag_phrase(lag)} (cross-correlation of v and w): the latency of this session "
-            "differs from the fitted delay"
-        )
+        return f"{lag_phrase(lag)} (cross-correlation of v and w)"
     return None
 
 
@@ -289,11 +286,26 @@ def _extrapolation_reason(s: SessionFigures) -> str | None:
     return None
 
 
-def _likely_cause(fitted: _Agreement, s: SessionFigures) -> str:
-    """The likely cause of a fit that does worse than the spec defaults, one clause."""
+def _likely_cause(defaults: _Agreement, fitted: _Agreement, s: SessionFigures) -> str:
+    """The likely cause of a fit that does worse than the spec defaults, one clause.
+
+    This session's own latency is the cause when the fit at that latency comes within
+    :data:`WORSE_MARGIN` of the defaults (or when that agreement is unknown); when it stays
+    further under, the latency explains only part of the gap, which is said after the cause
+    found among the others.
+    """
     latency = _latency_reason(fitted, s)
-    if latency is not None:
-        return latency
+    at_best = s.agreement_at_best_delay
+    if latency is None:
+        return _other_cause(s)
+    if at_best is None or not _finite(at_best) or at_best >= defaults.agreement - WORSE_MARGIN:
+        return f"{latency}: the latency of this session differs"
+    part = "this session's own latency explains only part of the gap"
+    return f"{_other_cause(s)}; {part}: {latency}"
+
+
+def _other_cause(s: SessionFigures) -> str:
+    """The likely cause of a fit worse than the defaults, latency aside, one clause."""
     ext = s.extrapolation
     if ext is not None and getattr(ext, "known", False) and ext.share_outside >= 0.1:
         return (
@@ -583,7 +595,7 @@ def _problem(
     """``(kind, headline, next step template)`` of the first finding before the band's."""
     after, before = _pct(fitted.agreement), _pct(defaults.agreement)
     if fitted.agreement < defaults.agreement - WORSE_MARGIN:
-        cause = _likely_cause(fitted, s)
+        cause = _likely_cause(defaults, fitted, s)
         return (
             "fit_worse",
             f"The fit does worse than the spec defaults on this log: {after} against {before}; "

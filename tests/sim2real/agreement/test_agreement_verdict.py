@@ -130,6 +130,23 @@ def test_a_fit_worse_than_the_defaults_is_the_headline_with_its_cause() -> None:
     )
     assert "own best command latency is 0.110 s where the fit has 0.000 s" in latency.headline
     assert "(agreement there 70.0 %)" in latency.headline
+    assert latency.headline.count("the latency of this session differs") == 1
+    # a latency that lifts the fit only to 40.1 % of the defaults' 79.6 % is not the cause
+    part = _decide(
+        0.369,
+        before=0.796,
+        session=SessionFigures(
+            fitted_delay_s=0.214, best_delay_s=0.03, agreement_at_best_delay=0.401,
+            speed_shortfall=("v", 0.30, 0.27),
+        ),
+    )  # fmt: skip
+    cause = part.headline.split("likely cause: ", 1)[1]
+    assert cause.startswith("the fitted model tops out at 0.27 m/s in v")
+    assert "own latency explains only part of the gap" in cause
+    assert "0.030 s where the fit has 0.214 s (agreement there 40.1 %)" in cause
+    late = _decide(0.7, session=SessionFigures(fitted_delay_s=0.214, best_delay_s=0.28))
+    assert late.kind == "latency"
+    assert late.headline.count("latency") == 2  # "The latency ...: ... best command latency"
     # within the margin it is not "worse"
     assert _decide(0.49, _Ens(0.88), before=0.5).kind == "poor_fit"
 
