@@ -24,8 +24,10 @@ from sim2real.logs._schemas import JOINT_STATE, ODOMETRY
 from sim2real.logs._timeline import (
     GAP_FACTOR,
     GAP_MIN_S,
+    MIN_SEGMENT_SAMPLES,
     drop_far_commands,
     drop_outliers,
+    gap_threshold_ns,
     scratch_median,
     segment_bounds,
 )
@@ -413,6 +415,7 @@ def _clean(
         warnings.append(f"dropped {bad} of {n} samples of topic '{topic}' with NaN/inf values")
         t = t[finite]
         cols = {k: v[finite] for k, v in cols.items()}
+    t = _unwind_clock_resets(t, topic, warnings)
     steps = np.diff(t)
     if (steps < 0).any():
         warnings.append(
@@ -433,6 +436,48 @@ def _clean(
         t = t[keep]
         cols = {k: v[keep] for k, v in cols.items()}
     return t, cols
+
+
+#: A clock that steps back is unwound by a whole number of these, ns (the same for every topic
+#: stamped by that clock, so commands and odometry stay aligned).
+_RESET_QUANTUM_NS = 86_400 * 10**9
+
+
+def _unwind_clock_resets(t: np.ndarray, topic: str, warnings: list[str]) -> np.ndarray:
+    """Times in file order with each step of the clock back (a reset) unwound into a pause.
+
+    A step back longer than the gap threshold (:func:`gap_threshold_ns`) with the
+    :data:`MIN_SEGMENT_SAMPLES` samples after it all below the as many before it is a clock
+    that was set back (an NTP step, a restarted driver); sorting would interleave the
+    stretches before and after it. Every later sample is moved forward by the next whole day
+    above the step, so the stretches follow each other after a pause and are used as separate
+    segments. A single stamp far ahead or behind (a flipped byte) is left to the sort and the
+    outlier rules.
+    """
+    if t.size < 2 * MIN_SEGMENT_SAMPLES:
+        return t
+    limit = gap_threshold_ns(np.sort(t))
+    backs = np.flatnonzero(np.diff(t) < -limit)
+    if backs.size == 0:
+        return t
+    out = t.astype(np.int64, copy=True)
+    unwound = []
+    for k in backs:
+        before = out[max(0, k + 1 - MIN_SEGMENT_SAMPLES) : k + 1]
+        after = out[k + 1 : k + 1 + MIN_SEGMENT_SAMPLES]
+        if min(before.size, after.size) < MIN_SEGMENT_SAMPLES or after.max() >= before.min():
+            continue
+        jump = int(out[k] - out[k + 1])
+        out[k + 1 :] += _RESET_QUANTUM_NS * (jump // _RESET_QUANTUM_NS + 1)
+        unwound.append(seconds(jump))
+    if unwound:
+        warnings.append(
+            f"the clock of topic '{topic}' steps back {len(unwound)} time(s) (by "
+            f"{', '.join(f'{j:.3g} s' for j in unwound)}), so the stretches on either side are "
+            "used as separate segments instead of being interleaved (the times after each step "
+            "are moved a whole day forward)"
+        )
+    return out
 
 
 def _rate(t: np.ndarray) -> float:
