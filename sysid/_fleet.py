@@ -253,6 +253,8 @@ def population(
             v = inv @ t
             b = inv @ (t @ (s.eta - s.info @ mu))
             acc += np.outer(b, b) + v
+        if not np.isfinite(acc).all():  # a session informed beyond float range: keep the last T
+            break
         t_new = _at_most_prior(psd((acc + prior_sessions * s0) / (n + prior_sessions)), prior_prec)
         done = np.allclose(t_new, t, rtol=1e-6, atol=1e-14)
         t = t_new

@@ -29,7 +29,7 @@ from hostile_logs import (
     truth,
     write_faulty,
 )
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from robots.params import SCHEMA
@@ -414,6 +414,7 @@ def test_any_mix_of_faults_is_exit_0_or_2_with_finite_figures(capsys, fuzz_dir, 
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(faults=st.lists(_FAULTS, min_size=1, max_size=2))
+@example(faults=[Fault("gap", at=0.8264971788068529, size=1.0)])  # a 2 s segment overflowed EM
 def test_any_mix_of_faults_fits_or_exits_2(capsys, fuzz_dir, faults) -> None:
     log = write_faulty(fuzz_dir / "fuzz_fit.mcap", faults, _BASE)
     _fit(capsys, log, fuzz_dir)
