@@ -89,7 +89,7 @@ from numpy.typing import NDArray
 
 from robots.params import DriveParams
 from robots.units import seconds
-from sim2real._arrays import FloatArray
+from sim2real._arrays import BoolArray, FloatArray
 from sim2real.agreement.replay import ReplayResult, TraceLike, replay, resolve_robot
 from sim2real.errors import Sim2RealValueError
 from sysid.metrics import (
@@ -316,8 +316,8 @@ def agreement_from_arrays(
         fit_percent_w=fit_w,
         rmse_v=rmse_v,
         rmse_w=rmse_w,
-        lag_s_v=xcorr_lag_s(t, rv, sv),
-        lag_s_w=xcorr_lag_s(t, rw, sw),
+        lag_s_v=_lag_of_varied(t, rv, sv, active, tol_v),
+        lag_s_w=_lag_of_varied(t, rw, sw, active, tol_w),
         n_samples=int(t.size),
         n_active=n_active,
         tol_v=float(tol_v),
@@ -328,6 +328,20 @@ def agreement_from_arrays(
         log_sha256=log_sha256,
         odom_v_window_s=float(odom_v_window_s),
     )
+
+
+def _lag_of_varied(
+    t: FloatArray, real: FloatArray, sim: FloatArray, active: BoolArray, tol: float
+) -> float:
+    """Lag of ``sim`` behind ``real`` (s); NaN when either varies by less than ``tol`` over
+    the active samples (the v of a spin in place, the w of a steady spin): a cross-correlation
+    of odometry noise has a peak, but not at any latency."""
+    if active.any():
+        r, s = real[active], sim[active]
+        spread = float(np.percentile(r, 97.5) - np.percentile(r, 2.5))
+        if float(np.ptp(s)) < tol or spread < tol:
+            return math.nan
+    return xcorr_lag_s(t, real, sim)
 
 
 def _trace_file(trace: TraceLike) -> tuple[str | None, str | None]:
