@@ -17,9 +17,12 @@ The headline is the first of these that holds:
 4. **latency of this session differs**: the fitted replay lags or leads the real robot by
    more than :data:`LAG_LIMIT_S`, or the session's own best latency is that far from the
    fitted delay;
-5. **the fit is short of** :data:`GOOD_AGREEMENT` (or of the noise ceiling less
+5. **the fit extrapolates**: the log drives outside the envelope the fit saw (speeds, turns
+   while driving, accelerations) for at least :data:`EXTRAPOLATES_SHARE` of its active
+   samples, so its figures and its band judge the model where no fitting log informed it;
+6. **the fit is short of** :data:`GOOD_AGREEMENT` (or of the noise ceiling less
    :data:`CEILING_SLACK`, when the measurement noise allows no more);
-6. **the band**: none run, too narrow, too wide or calibrated
+7. **the band**: none run, too narrow, too wide or calibrated
    (:func:`sim2real.agreement.figures.band_verdict`).
 
 Every other finding that holds (commands outside the fitted envelope, a band calibrated by
@@ -50,6 +53,7 @@ from sim2real.agreement.figures import band_verdict, calibrated_range, lag_phras
 
 __all__ = [
     "CEILING_SLACK",
+    "EXTRAPOLATES_SHARE",
     "GOOD_AGREEMENT",
     "LAG_LIMIT_S",
     "MIN_ACTIVE",
@@ -78,6 +82,8 @@ MIN_ACTIVE = 50
 WORSE_MARGIN = 0.02
 #: Commands outside the fitted envelope for at least this share of the time are a reason.
 OUTSIDE_SHARE = 0.01
+#: ... and for at least this share, the headline (the figures judge an extrapolation).
+EXTRAPOLATES_SHARE = 0.1
 #: A calibrated band wider than this share of the top speed (yaw rate) is "wide".
 WIDE_SHARE = 0.2
 #: A calibrated band is only as narrow as the measurement noise allows: up to this many times
@@ -154,8 +160,8 @@ class AgreementVerdict:
     ----------
     kind : str
         What the headline is about: ``"too_little_data"``, ``"no_fit"``, ``"fit_worse"``,
-        ``"latency"``, ``"poor_fit"``, ``"no_band"``, ``"band_narrow"``, ``"band_wide"``,
-        ``"band_mixed"``, ``"band_unknown"`` or ``"calibrated"``.
+        ``"latency"``, ``"extrapolates"``, ``"poor_fit"``, ``"no_band"``, ``"band_narrow"``,
+        ``"band_wide"``, ``"band_mixed"``, ``"band_unknown"`` or ``"calibrated"``.
     headline : str
         One sentence: the verdict.
     reasons : tuple of str
@@ -307,7 +313,7 @@ def _likely_cause(defaults: _Agreement, fitted: _Agreement, s: SessionFigures) -
 def _other_cause(s: SessionFigures) -> str:
     """The likely cause of a fit worse than the defaults, latency aside, one clause."""
     ext = s.extrapolation
-    if ext is not None and getattr(ext, "known", False) and ext.share_outside >= 0.1:
+    if ext is not None and getattr(ext, "known", False) and ext.share_outside >= EXTRAPOLATES_SHARE:
         return (
             f"this log drives outside what the fit log saw for {_pct(ext.share_outside)} of "
             "its active time"
@@ -579,6 +585,10 @@ _LATENCY_STEP = (
     "randomise the command delay (delay_s) across sessions, or refit on a log with sharp "
     "command steps recorded like this one (same driver, same clock)."
 )
+_EXTRAPOLATES_STEP = (
+    "refit on logs that also drive like this one (sysid fit a.mcap b.mcap ... with its "
+    "speeds, turns and accelerations), then compare again before training with {params}."
+)
 _POOR_STEP = (
     "see in the rolling agreement where it fails, and refit on a longer log with varied "
     "driving (steps, turns, reversals, the speeds you use)."
@@ -605,6 +615,15 @@ def _problem(
     latency = _latency_reason(fitted, s)
     if latency is not None:
         return "latency", f"The latency of this session differs: {latency}.", _LATENCY_STEP
+    ext = s.extrapolation
+    if getattr(ext, "known", False) and ext.share_outside >= EXTRAPOLATES_SHARE:
+        return (
+            "extrapolates",
+            f"The fit extrapolates on this log: it drives outside the envelope the fit saw for "
+            f"{_pct(ext.share_outside)} of its active samples, so its figures (fit {after}, "
+            f"spec defaults {before}) judge the model where no log informed it.",
+            _EXTRAPOLATES_STEP,
+        )
     good = _good_agreement(s)
     if not fitted.agreement >= good:
         return (

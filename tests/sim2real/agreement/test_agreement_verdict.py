@@ -151,6 +151,23 @@ def test_a_fit_worse_than_the_defaults_is_the_headline_with_its_cause() -> None:
     assert _decide(0.49, _Ens(0.88), before=0.5).kind == "poor_fit"
 
 
+def test_a_calibrated_band_on_a_log_the_fit_never_saw_is_not_trained_with() -> None:
+    """A fit on a spin in place checked on driving (half its samples outside the envelope):
+    the headline says it extrapolates, the next step is no invitation to train."""
+    from types import SimpleNamespace
+
+    ext = SimpleNamespace(known=True, share_outside=0.496, sentence="this log leaves it")
+    far = _decide(0.978, _Ens(0.88), session=SessionFigures(extrapolation=ext))
+    assert far.kind == "extrapolates" and not far.ok
+    assert "outside the envelope the fit saw for 49.6 % of its active samples" in far.headline
+    assert "this log leaves it" in far.reasons
+    assert any(r.startswith("The 90 % band is calibrated") for r in far.reasons)
+    assert "train with" not in far.next_step and "refit on logs" in far.next_step
+    near = SimpleNamespace(known=True, share_outside=0.05, sentence="this log leaves it")
+    ok_band = _decide(0.978, _Ens(0.88), session=SessionFigures(extrapolation=near))
+    assert ok_band.kind == "calibrated" and "this log leaves it" in ok_band.reasons
+
+
 def test_a_band_calibrated_by_being_wide_is_said() -> None:
     top = SessionFigures(top_v_mps=0.3, top_w_radps=2.0)
     wide = _decide(0.95, _Ens(0.9, band_width_v_mps=0.16), session=top)

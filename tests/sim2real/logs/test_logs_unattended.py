@@ -220,3 +220,27 @@ def test_a_robot_that_follows_its_commands_has_no_unattended_sample(
     real += rng.normal(0.0, noise, t.size)
     found = find_unattended(_trace(real, cmd, hz=rate_hz))
     assert not found.flagged.any(), found.ranges_s
+
+
+def test_fit_and_calibrate_leave_them_out_with_the_same_note(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`sysid fit` and `sysid calibrate` (on another session) leave the hand-driven stretch
+    out, with agree's note."""
+    t = np.arange(600) / 10.0
+    cmd = np.where(((t >= 5) & (t < 15)) | ((t >= 35) & (t < 45)), 0.3, 0.0)
+    real = np.zeros(t.size)
+    real[((t >= 5.4) & (t < 15.5)) | ((t >= 35.4) & (t < 45.5))] = 0.3
+    real[(t >= 22) & (t < 27)] = 0.25  # a joystick
+    log = _write(tmp_path / "joy.mcap", real, cmd)
+    other = _write(tmp_path / "joy2.mcap", np.where(cmd > 0, 0.97 * real, real), cmd)
+    params, calibrated = tmp_path / "p.yaml", tmp_path / "c.yaml"
+    robot = ["--robot", "turtlebot2"]
+    assert main(["sysid", "fit", str(log), *robot, "-o", str(params)]) == 0
+    fit_out = " ".join(capsys.readouterr().out.split())  # the terminal wraps long notes
+    argv = ["sysid", "calibrate", str(params), str(other), *robot, "-o", str(calibrated)]
+    assert main([*argv, "--ensemble", "4"]) == 0
+    cal_out = " ".join(capsys.readouterr().out.split())
+    assert fit_out.count("left out 50 samples") == 1 and "at 22.0-26.9 s;" in fit_out
+    assert "left out 50 samples" in cal_out and "22.0-26.9 s" in cal_out
+    assert "--keep-all keeps them" in cal_out
