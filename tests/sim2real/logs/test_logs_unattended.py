@@ -153,14 +153,20 @@ def _agree(*args: str | Path) -> int:
     return main(["agree", *map(str, args), "--robot", "turtlebot2", "--engine", "reduced"])
 
 
-def test_agree_leaves_them_out_with_one_note_and_keep_all_keeps_them(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def _joystick() -> tuple[np.ndarray, np.ndarray]:
+    """``(real, cmd)`` v of 60 s at 10 Hz: two commanded drives, a joystick at 22-27 s."""
     t = np.arange(600) / 10.0
     cmd = np.where(((t >= 5) & (t < 15)) | ((t >= 35) & (t < 45)), 0.3, 0.0)
     real = np.zeros(t.size)
     real[((t >= 5.4) & (t < 15.5)) | ((t >= 35.4) & (t < 45.5))] = 0.3
     real[(t >= 22) & (t < 27)] = 0.25  # a joystick
+    return real, cmd
+
+
+def test_agree_leaves_them_out_with_one_note_and_keep_all_keeps_them(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    real, cmd = _joystick()
     log = _write(tmp_path / "joy.mcap", real, cmd)
     out, report = tmp_path / "a.json", tmp_path / "r.html"
     assert _agree(log, "--json", out, "--report", report) == 0
@@ -227,11 +233,7 @@ def test_fit_and_calibrate_leave_them_out_with_the_same_note(
 ) -> None:
     """`sysid fit` and `sysid calibrate` (on another session) leave the hand-driven stretch
     out, with agree's note."""
-    t = np.arange(600) / 10.0
-    cmd = np.where(((t >= 5) & (t < 15)) | ((t >= 35) & (t < 45)), 0.3, 0.0)
-    real = np.zeros(t.size)
-    real[((t >= 5.4) & (t < 15.5)) | ((t >= 35.4) & (t < 45.5))] = 0.3
-    real[(t >= 22) & (t < 27)] = 0.25  # a joystick
+    real, cmd = _joystick()
     log = _write(tmp_path / "joy.mcap", real, cmd)
     other = _write(tmp_path / "joy2.mcap", np.where(cmd > 0, 0.97 * real, real), cmd)
     params, calibrated = tmp_path / "p.yaml", tmp_path / "c.yaml"
