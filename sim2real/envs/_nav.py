@@ -21,16 +21,11 @@ from sim2real.envs._robot import (
     make_backend,
 )
 from sim2real.envs._world import PybulletWorld
-from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, disc_clearance
+from sim2real.envs.geometry import FloatArray, Scene2D, cast_rays, disc_clearance, wrap_angle
 from sim2real.envs.metrics import EpisodeMetrics, MetricsTracker
 from sim2real.errors import Sim2RealValueError
 
-__all__ = ["NavEnvBase", "StepInfo", "wrap_angle"]
-
-
-def wrap_angle(a: float) -> float:
-    """Angle wrapped to (-pi, pi], rad."""
-    return math.atan2(math.sin(a), math.cos(a))
+__all__ = ["NavEnvBase", "StepInfo"]
 
 
 def _load_spec(robot: str) -> Any:

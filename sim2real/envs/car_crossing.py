@@ -82,6 +82,7 @@ from sim2real.envs.geometry import (
     FloatArray,
     Scene2D,
     cast_rays,
+    distance_bearing,
     rectangle_corners,
     rectangle_segments,
 )
@@ -314,10 +315,7 @@ class CarCrossingEnv(WorldEnv):
     def _detected(self, target: FloatArray, *, through_obstacle: bool) -> bool:
         x, y, yaw = self.car.pose
         eye = np.array([x, y])
-        d = target - eye
-        dist = float(np.hypot(*d))
-        bearing = math.atan2(d[1], d[0]) - yaw
-        bearing = math.atan2(math.sin(bearing), math.cos(bearing))
+        dist, bearing = distance_bearing(eye, yaw, target)
         if dist > DETECT_RANGE_M or abs(bearing) > CAMERA_HALF_FOV_RAD:
             return False
         return through_obstacle or not _segment_hits_box(eye, target, self._obstacle_box())

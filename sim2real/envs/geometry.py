@@ -38,12 +38,14 @@ __all__ = [
     "cast_rays_multi",
     "cast_rays_numpy",
     "disc_clearance",
+    "distance_bearing",
     "nearest_relative_states",
     "point_segment_distance",
     "ray_distance",
     "rectangle_corners",
     "rectangle_segments",
     "segment_distance",
+    "wrap_angle",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -101,6 +103,25 @@ class Scene2D:
             seg_a=self.seg_a,
             seg_b=self.seg_b,
         )
+
+
+def wrap_angle(a: float) -> float:
+    """Angle wrapped to (-pi, pi], rad."""
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def distance_bearing(xy: FloatArray, yaw: float, target: FloatArray) -> tuple[float, float]:
+    """Distance (m) and bearing (rad, from the heading, counter-clockwise, in (-pi, pi]) of
+    ``target`` seen from a base at ``xy`` heading ``yaw``.
+
+    Examples
+    --------
+    >>> d, b = distance_bearing(np.array([0.0, 0.0]), 0.0, np.array([0.0, 2.0]))
+    >>> round(d, 3), round(b, 4)
+    (2.0, 1.5708)
+    """
+    d = target - xy
+    return float(np.hypot(*d)), wrap_angle(math.atan2(d[1], d[0]) - yaw)
 
 
 def rectangle_corners(

@@ -74,6 +74,7 @@ from sim2real.envs.geometry import (
     Scene2D,
     cast_rays,
     disc_clearance,
+    distance_bearing,
     nearest_relative_states,
 )
 from sim2real.envs.metrics import MetricsTracker
@@ -455,13 +456,11 @@ class RaceCore:
         scene = self.scene.with_circles(movers_xy, movers_r)
         ranges = cast_rays(scene, origin, self.beam_angles_rad + yaw, self.range_max_m)
         ranges = np.where(ranges < self.range_min_m, self.range_max_m, ranges)
-        g = self._target(np.array([x, y])) - np.array([x, y])
-        goal_d = float(np.hypot(*g))
-        bearing = math.atan2(g[1], g[0]) - yaw
-        bearing = math.atan2(math.sin(bearing), math.cos(bearing))
+        xy = np.array([x, y])
+        goal_d, bearing = distance_bearing(xy, yaw, self._target(xy))
         v, w = b.velocity
         nb = nearest_relative_states(
-            np.array([x, y]), yaw, np.array([v * c, v * s]), movers_xy, movers_v, N_NEIGHBOURS
+            xy, yaw, np.array([v * c, v * s]), movers_xy, movers_v, N_NEIGHBOURS
         )
         return np.concatenate([ranges, [x, y, yaw, v, w, goal_d, bearing], nb.reshape(-1)]).astype(
             np.float32

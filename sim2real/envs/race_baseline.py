@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from sim2real.envs.baselines import DWAConfig, DWAController
-from sim2real.envs.geometry import FloatArray
+from sim2real.envs.geometry import FloatArray, distance_bearing
 from sim2real.envs.race import N_BEAMS
 from sim2real.envs.tracks import OccupancyGrid, Track, occupancy_grid
 from sim2real.errors import Sim2RealValueError
@@ -195,8 +195,5 @@ class RaceBaseline:
         seg = np.linalg.norm(np.diff(path[self._idx :], axis=0), axis=1)
         ahead = int(np.searchsorted(np.cumsum(seg), self.lookahead_m))
         carrot = path[min(self._idx + ahead, len(path) - 1)]
-        d = carrot - xy
-        dist = float(np.hypot(*d))
-        bearing = math.atan2(d[1], d[0]) - yaw
-        bearing = math.atan2(math.sin(bearing), math.cos(bearing))
+        dist, bearing = distance_bearing(xy, yaw, carrot)
         return self.dwa.act(np.concatenate([ranges, [dist, bearing, v, w]]))

@@ -36,7 +36,7 @@ from functools import cache, lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-from sim2real.envs.geometry import FloatArray, Scene2D, point_segment_distance
+from sim2real.envs.geometry import FloatArray, Scene2D, point_segment_distance, wrap_angle
 from sim2real.errors import Sim2RealValueError
 
 __all__ = ["TRACKS", "OccupancyGrid", "Track", "get_track", "occupancy_grid"]
@@ -280,8 +280,8 @@ def _circuit() -> Track:
     plaza = []
     for k in range(len(angles) - 1):
         mid = 0.5 * (angles[k] + angles[k + 1])
-        off_s = abs(math.atan2(math.sin(mid + 0.5 * math.pi), math.cos(mid + 0.5 * math.pi)))
-        off_n = abs(math.atan2(math.sin(mid - 0.5 * math.pi), math.cos(mid - 0.5 * math.pi)))
+        off_s = abs(wrap_angle(mid + 0.5 * math.pi))
+        off_n = abs(wrap_angle(mid - 0.5 * math.pi))
         if min(off_s, off_n) > gap + 0.5 * _ARC_STEP_RAD:
             plaza.append([*arc_pts[k], *arc_pts[k + 1]])
     walls = np.vstack(
