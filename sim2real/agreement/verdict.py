@@ -283,6 +283,23 @@ def _latency_reason(fitted: _Agreement, s: SessionFigures) -> str | None:
     return None
 
 
+def _latency_share(fitted: _Agreement, s: SessionFigures) -> str | None:
+    """How much of the fit's shortfall this session's own latency accounts for, one sentence
+    (None when it is not measured, or when the latency differs: the headline says it then)."""
+    best, delay, at = s.best_delay_s, s.fitted_delay_s, s.agreement_at_best_delay
+    if best is None or delay is None or at is None or _latency_reason(fitted, s):
+        return None
+    if not all(math.isfinite(x) for x in (best, delay, at)):
+        return None
+    gained = max(0.0, at - fitted.agreement)
+    return (
+        f"at this session's own best command latency, {best:.3f} s (the fit has {delay:.3f} "
+        f"s), the fit reaches {_pct(at)} against {_pct(fitted.agreement)}: latency accounts "
+        f"for {100 * gained:.1f} points and the dynamics for the other "
+        f"{100 * max(0.0, 1.0 - fitted.agreement - gained):.1f} points short of 100 %"
+    )
+
+
 def _extrapolation_reason(s: SessionFigures) -> str | None:
     ext = s.extrapolation
     if ext is None:
@@ -548,7 +565,8 @@ def decide(
         if fitted is not None and s.agreement_at_best_delay is not None
         else -math.inf,
     )
-    for reason in (_extrapolation_reason(s), _ceiling_reason(s, reached)):
+    latency = _latency_share(fitted, s) if fitted is not None else None
+    for reason in (_extrapolation_reason(s), latency, _ceiling_reason(s, reached)):
         if reason is not None:
             reasons.append(reason)
     if main.n_active < MIN_ACTIVE:

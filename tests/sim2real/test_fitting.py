@@ -128,3 +128,25 @@ def test_sysid_fit_says_when_the_spec_top_speed_is_far_too_low(
     said = " ".join((printed.out + printed.err).split())
     assert "the logs measure v up to 3." in said and "the spec's top speed 0.5 m/s" in said
     assert "--max-speed" in said
+
+
+@pytest.mark.slow
+@pytest.mark.realdata
+def test_cli_and_library_give_the_same_fit_on_a_real_robot_of_a_spec_file(
+    realdata_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A new user's path: a `robots new` spec file, a real Neato log whose odometry twist is
+    spiky (velocities from the pose, read through the measurement operator). The README's
+    call and `sysid fit` write the same file, number for number."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["robots", "new", "neato", "--wheel-separation", "0.248", "--max-speed", "0.3"]
+    assert main(argv) == 0
+    log = realdata_dir / "neato_yycho0108_drive_square_demo.mcap"
+    assert main(["sysid", "fit", str(log), "--robot", "neato.yaml", "-o", "cli.yaml"]) == 0
+    fit = fit_logs([log], robot="neato.yaml")
+    from_cli = yaml.safe_load(Path("cli.yaml").read_text(encoding="utf-8"))
+    from_library = yaml.safe_load(fit.result.to_yaml())
+    for doc in (from_cli, from_library):
+        doc["settings"].pop("seconds")
+    assert from_cli == from_library
+    assert from_cli["settings"]["measurement"]  # the pose-derived velocities' operator

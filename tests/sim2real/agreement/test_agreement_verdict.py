@@ -151,6 +151,20 @@ def test_a_fit_worse_than_the_defaults_is_the_headline_with_its_cause() -> None:
     assert _decide(0.49, _Ens(0.88), before=0.5).kind == "poor_fit"
 
 
+def test_the_share_of_latency_is_said_in_one_sentence() -> None:
+    """The session's own latency close to the fitted one: a reason says how much of the
+    shortfall it accounts for (a latency that differs is the headline's instead)."""
+    close = SessionFigures(fitted_delay_s=0.086, best_delay_s=0.066, agreement_at_best_delay=0.396)
+    v = _decide(0.391, session=close)
+    said = [r for r in v.reasons if r.startswith("at this session's own best command latency")]
+    assert len(said) == 1
+    assert "0.066 s (the fit has 0.086 s), the fit reaches 39.6 % against 39.1 %" in said[0]
+    assert "latency accounts for 0.5 points and the dynamics for the other 60.4 points" in said[0]
+    far = SessionFigures(fitted_delay_s=0.214, best_delay_s=0.28, agreement_at_best_delay=0.74)
+    v = _decide(0.7, session=far)
+    assert v.kind == "latency" and not any("accounts for" in r for r in v.reasons)
+
+
 def test_a_calibrated_band_on_a_log_the_fit_never_saw_is_not_trained_with() -> None:
     """A fit on a spin in place checked on driving (half its samples outside the envelope):
     the headline says it extrapolates, the next step is no invitation to train."""
