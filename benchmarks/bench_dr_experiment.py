@@ -246,10 +246,7 @@ def main(argv: list[str] | None = None) -> int:
             for where, params, nstd in (("sim", sim, None), ("real", real, real_noise)):
                 kwargs = {**base, "params": str(params.resolve())}
                 s = evaluate_on(out / "model.zip", kwargs, nstd, args.episodes)
-                row = rows.setdefault(f"{name}@{where}", {"success": [], "collision": [], "n": []})
-                row["success"].append(round(s.success_rate * s.episodes))
-                row["collision"].append(round(s.collision_rate * s.episodes))
-                row["n"].append(s.episodes)
+                add_outcomes(rows.setdefault(f"{name}@{where}", {}), s)
                 print(
                     f"  {name} seed {seed} on {where}: success {s.success_rate:.2f} "
                     f"collision {s.collision_rate:.2f}",
@@ -274,6 +271,17 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "results.md").write_text(table + "\n")
     (args.out / "results.yaml").write_text(yaml.safe_dump(rows, sort_keys=False))
     return 0
+
+
+def add_outcomes(row: dict[str, list[Any]], summary: Any) -> None:
+    """Append one evaluation's successes, collisions and episodes (an ``EvalSummary``) to the
+    runs of ``row`` that :func:`pooled_cells` pools."""
+    for key, value in (
+        ("success", round(summary.success_rate * summary.episodes)),
+        ("collision", round(summary.collision_rate * summary.episodes)),
+        ("n", summary.episodes),
+    ):
+        row.setdefault(key, []).append(value)
 
 
 #: The header of :func:`pooled_cells`' three cells.

@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from bench_dr_experiment import HYPERPARAMETERS, ODOM, POOLED_HEADER, pooled_cells
+from bench_dr_experiment import HYPERPARAMETERS, ODOM, POOLED_HEADER, add_outcomes, pooled_cells
 
 from robots.randomization import DriveDistribution
 from robots.spec import load_spec
@@ -217,12 +217,9 @@ def gap_probe(out: Path, task: str, timesteps: int, episodes: int) -> str:
     rows: dict[str, dict[str, list[Any]]] = {}
     for world, kw in worlds.items():  # the same maps (seeds) in every world
         s = evaluate(model, kw, None, episodes, PLANT_SEED0)
-        rows[f"spec@{world}"] = {
-            "success": [round(s.success_rate * s.episodes)],
-            "collision": [round(s.collision_rate * s.episodes)],
-            "n": [s.episodes],
-            "time": [s.means["time_to_goal_s"]],
-        }
+        row = rows.setdefault(f"spec@{world}", {})
+        add_outcomes(row, s)
+        row["time"] = [s.means["time_to_goal_s"]]
     header = (
         f"gap probe, task {task} ({kwargs}): PPO spec defaults, {timesteps} env steps, seed 0; "
         f"{episodes} episodes per world, seeds {PLANT_SEED0}.. (the same maps in every world)"
@@ -279,13 +276,9 @@ def main(argv: list[str] | None = None) -> int:
                 ("plant", plant_kwargs, None, PLANT_SEED0),
             ):
                 s = evaluate(model, kw, st, episodes, seed0)
-                row = rows.setdefault(
-                    f"{name}@{world}", {"success": [], "collision": [], "n": [], "time": []}
-                )
-                row["success"].append(round(s.success_rate * s.episodes))
-                row["collision"].append(round(s.collision_rate * s.episodes))
-                row["n"].append(s.episodes)
-                row["time"].append(s.means["time_to_goal_s"])
+                row = rows.setdefault(f"{name}@{world}", {})
+                add_outcomes(row, s)
+                row.setdefault("time", []).append(s.means["time_to_goal_s"])
                 print(f"{name} seed {seed} {world}: success {s.success_rate:.2f}", flush=True)
     header = (
         f"PPO, {budget['timesteps']} env steps per run, seeds {budget['seeds']}; "
