@@ -82,6 +82,7 @@ from sysid._summary import (
     identifiable_estimates,
 )
 from sysid._timeout import fit_cmd_timeout
+from sysid.definitions import LOSSES
 from sysid.envelope import envelope_of
 from sysid.errors import SysidValueError
 from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
@@ -101,9 +102,8 @@ def _tool_version() -> str:
 
 
 def _check_args(loss: str, scale: str | tuple[float, float], weights: tuple[float, float]) -> None:
-    allowed = ("linear", "soft_l1", "huber", "cauchy", "arctan")
-    if loss not in allowed:
-        raise SysidValueError(f"loss must be one of {list(allowed)}, got {loss!r}")
+    if loss not in LOSSES:
+        raise SysidValueError(f"loss must be one of {list(LOSSES)}, got {loss!r}")
     if isinstance(scale, str):
         if scale not in ("tol", "std"):
             raise SysidValueError(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from sim2real.cli._common import add_command, add_group, add_read_arguments
-from sysid.definitions import FIT_PERCENT_DEFINITION
+from sysid.definitions import FIT_PERCENT_DEFINITION, LOSSES
 
 __all__ = ["register"]
 
@@ -207,7 +207,7 @@ def _add_fit_options(fit: argparse.ArgumentParser) -> None:
     fit.add_argument(
         "--loss",
         default="soft_l1",
-        choices=("linear", "soft_l1", "huber", "cauchy", "arctan"),
+        choices=LOSSES,
         help="robust loss (default: soft_l1)",
     )
     fit.add_argument(
