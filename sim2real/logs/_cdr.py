@@ -24,6 +24,7 @@ import numpy as np
 from robots.units import NS_PER_S
 
 __all__ = [
+    "POSE_KEYS",
     "CdrLayoutError",
     "decode_odometry",
     "decode_twist",
@@ -39,6 +40,8 @@ __all__ = [
     "stamp_ns",
 ]
 
+#: The pose columns of a decoded Odometry message: position x, y and the orientation quaternion.
+POSE_KEYS = ("x", "y", "qx", "qy", "qz", "qw")
 _LE_HEADER = b"\x00\x01\x00\x00"
 _TWIST_BYTES = 48  # 2 x Vector3 of 3 float64
 _POSE_COV_BYTES = 7 * 8 + 36 * 8  # Pose (Point + Quaternion) + float64[36]
@@ -211,7 +214,7 @@ def decode_odometry(u8: np.ndarray, off: np.ndarray, ln: np.ndarray) -> dict[str
     row = rows(u8, at, _POSE_ROW)
     twist = rows(u8, at + _POSE_COV_BYTES, _TWIST_ROW)
     out = {"stamp_ns": stamp, "v": _f64(twist["v"]), "w": _f64(twist["w"])}
-    for key in ("x", "y", "qx", "qy", "qz", "qw"):
+    for key in POSE_KEYS:
         out[key] = _f64(row[key])
     return out
 

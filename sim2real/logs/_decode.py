@@ -28,8 +28,6 @@ from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, TWIST, TWIST_STAMPED
 
 __all__ = ["decode_channel", "infer_json_type"]
 
-_POSE_KEYS = ("x", "y", "qx", "qy", "qz", "qw")
-
 
 def decode_channel(
     container: Container,
@@ -195,7 +193,7 @@ def _fields(
                 "v": _floats(msgs, "twist", "twist", "linear", "x"),
                 "w": _floats(msgs, "twist", "twist", "angular", "z"),
             }
-            for key, leaf in zip(_POSE_KEYS, ("x", "y", "x", "y", "z", "w"), strict=True):
+            for key, leaf in zip(_cdr.POSE_KEYS, ("x", "y", "x", "y", "z", "w"), strict=True):
                 part = "position" if key in ("x", "y") else "orientation"
                 out[key] = _floats(msgs, "pose", "pose", part, leaf)
             return out
