@@ -124,6 +124,7 @@ __all__ = [
     "check_ensemble_size",
     "check_tolerances",
     "ensemble_members",
+    "ensemble_of_members",
     "lag_phrase",
     "measure_agreement",
     "predictive_band",
@@ -741,7 +742,6 @@ def run_ensemble(
     level = check_band_level(band_level)
     _check_ensemble_args(n, spread, noise_draws)
     spec = resolve_robot(robot)
-    noise_draws = band_noise_draws(n, level, noise_draws)
     drawn, mv, mw = ensemble_members(
         trace,
         robot=spec,
@@ -753,10 +753,60 @@ def run_ensemble(
         odom_v_window_s=odom_v_window_s,
         progress=progress,
     )
+    return ensemble_of_members(
+        trace,
+        (mv, mw),
+        noise=distribution.noise,
+        seed=seed,
+        params=tuple(drawn),
+        sampled=tuple(distribution.names),
+        spread=spread,
+        tol_v=tol_v,
+        tol_w=tol_w,
+        band_level=level,
+        noise_draws=noise_draws,
+    )
+
+
+def ensemble_of_members(
+    trace: TraceLike,
+    members: tuple[FloatArray, FloatArray],
+    *,
+    noise: Any,
+    seed: int,
+    params: tuple[DriveParams, ...] = (),
+    sampled: tuple[str, ...] = (),
+    spread: float = 1.0,
+    tol_v: float = DEFAULT_TOL_V,
+    tol_w: float = DEFAULT_TOL_W,
+    band_level: float = DEFAULT_BAND_LEVEL,
+    noise_draws: int = NOISE_DRAWS,
+) -> EnsembleResult:
+    """The predictive band of replays already made, and its coverage of ``trace``.
+
+    ``members`` = (v, w), each of shape (n, samples): the replays of ``n`` robots at the
+    measurement times of ``trace`` (e.g. :func:`ensemble_members`, or draws of another
+    toolbox's confidence region replayed with :func:`sim2real.agreement.replay.replay`).
+    ``noise`` (a :class:`robots.randomization.ObservationNoise`) and ``seed`` add the
+    odometry noise as :func:`run_ensemble` does; ``params`` and ``sampled`` are recorded.
+
+    Examples
+    --------
+    >>> ens = ensemble_of_members(trace, (mv, mw), noise=ObservationNoise(0.01, 0.05), seed=0)
+    ... # doctest: +SKIP
+    >>> ens.coverage_v  # doctest: +SKIP
+    0.9
+    """
+    check_tolerances(tol_v, tol_w)
+    level = check_band_level(band_level)
+    mv, mw = (np.atleast_2d(np.asarray(m, dtype=np.float64)) for m in members)
+    n = mv.shape[0]
+    _check_ensemble_args(n, spread, noise_draws)
+    noise_draws = band_noise_draws(n, level, noise_draws)
     sv, sw = predictive_samples(
         mv,
         mw,
-        distribution.noise,
+        noise,
         _stream(seed, NOISE_STREAM),
         noise_draws=noise_draws,
         spread=spread,
@@ -786,8 +836,8 @@ def run_ensemble(
         band_width_v_mps=_median_width(lo_v, hi_v, active),
         band_width_w_radps=_median_width(lo_w, hi_w, active),
         coverage_by_level=curve,
-        params=tuple(drawn),
-        sampled=tuple(distribution.names),
+        params=params,
+        sampled=sampled,
         members_v=mv,
         members_w=mw,
         active=active,

@@ -61,6 +61,7 @@ from sysid.odometry import window_mean
 
 __all__ = [
     "ENGINES",
+    "ReplayEngine",
     "ReplayResult",
     "RobotSpecLike",
     "TraceLike",
@@ -99,6 +100,23 @@ class TraceLike(Protocol):
 
 
 @runtime_checkable
+class ReplayEngine(Protocol):
+    """A simulator :func:`replay` drives besides its named engines (e.g. a model fitted by
+    another toolbox): logged commands in, base velocity at the requested times out.
+
+    :meth:`replay` has the contract of :meth:`sim2real.mujoco.MujocoRobot.replay`: commands
+    ``cmd`` = (stamps s, v m/s, w rad/s), the run starting at ``t_out_s[0]`` with the base
+    moving at ``start`` = (v, w); returns (v, w) at ``t_out_s``.
+    """
+
+    @property
+    def name(self) -> str: ...
+    def replay(
+        self, cmd: Commands, t_out_s: FloatArray, start: tuple[float, float]
+    ) -> tuple[FloatArray, FloatArray]: ...
+
+
+@runtime_checkable
 class RobotSpecLike(Protocol):
     """What replay needs from a robot spec (:class:`robots.RobotSpec` has it)."""
 
@@ -123,7 +141,7 @@ class ReplayResult:
     v, w : ndarray
         Simulated forward velocity (m/s) and yaw rate (rad/s) at ``t_s``.
     engine : str
-        ``"pybullet"`` or ``"reduced"``.
+        ``"pybullet"``, ``"reduced"``, ``"mujoco"`` or a :class:`ReplayEngine`'s name.
     robot : str
         Robot (spec) name.
     params : DriveParams
@@ -202,7 +220,7 @@ def replay(
     *,
     robot: str | RobotSpecLike,
     params: DriveParams | None = None,
-    engine: str = "pybullet",
+    engine: str | ReplayEngine = "pybullet",
     physics_hz: float = DEFAULT_PHYSICS_HZ,
     odom_v_window_s: float = 0.0,
 ) -> ReplayResult:
@@ -216,8 +234,10 @@ def replay(
         Robot name (``sim2real robots list``) or a loaded spec.
     params : DriveParams, optional
         Drive parameters; the spec defaults when omitted.
-    engine : {"pybullet", "reduced", "mujoco"}
-        The pybullet rigid-body robot, the reduced drive model or the exported MuJoCo robot.
+    engine : {"pybullet", "reduced", "mujoco"} or ReplayEngine
+        The pybullet rigid-body robot, the reduced drive model, the exported MuJoCo robot, or
+        another simulator (:class:`ReplayEngine`; ``params`` then gives only the command delay
+        and timeout that the start command and the log's screening use).
     physics_hz : float
         Physics rate of the pybullet engine, Hz.
     odom_v_window_s : float
@@ -251,7 +271,7 @@ def replay(
     )
     start = time.perf_counter()
     rate = float(physics_hz)
-    if engine in ("reduced", "mujoco"):
+    if not isinstance(engine, str) or engine in ("reduced", "mujoco"):
         rate = 1.0 / DEFAULT_DT_S
     model = getattr(trace, "measurement", None)
     op = None if model is None else model.operator(meas_t)
@@ -263,7 +283,9 @@ def replay(
     elif odom_v_window_s > 0:
         t_out = _fine_times(meas_t, 1.0 / rate)
     initial = (float(meas_v[0]), float(meas_w[0]))
-    if engine == "reduced":
+    if not isinstance(engine, str):
+        v, w = engine.replay((cmd_t, cmd_v, cmd_w), t_out, initial)
+    elif engine == "reduced":
         v, w = _replay_reduced(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial)
     elif engine == "mujoco":
         v, w = _replay_mujoco(spec, p, (cmd_t, cmd_v, cmd_w), t_out, initial)
@@ -281,7 +303,7 @@ def replay(
         t_ns=np.asarray(trace.meas_t_ns, dtype=np.int64),
         v=np.asarray(v, dtype=np.float64),
         w=np.asarray(w, dtype=np.float64),
-        engine=engine,
+        engine=engine if isinstance(engine, str) else engine.name,
         robot=spec.name,
         params=p,
         physics_hz=rate,
@@ -291,8 +313,11 @@ def replay(
     )
 
 
-def _check_replay_args(engine: str, physics_hz: float, odom_v_window_s: float) -> None:
-    if engine not in ENGINES:
+def _check_replay_args(
+    engine: str | ReplayEngine, physics_hz: float, odom_v_window_s: float
+) -> None:
+    known = engine in ENGINES if isinstance(engine, str) else isinstance(engine, ReplayEngine)
+    if not known:
         raise Sim2RealValueError(
             f"engine must be one of {list(ENGINES)}, got {engine!r}; e.g. --engine reduced"
         )
@@ -330,7 +355,7 @@ def _replay_segments(
     segments: tuple[TraceLike, ...],
     spec: RobotSpecLike,
     params: DriveParams,
-    engine: str,
+    engine: str | ReplayEngine,
     physics_hz: float,
     odom_v_window_s: float,
 ) -> ReplayResult:
@@ -352,7 +377,7 @@ def _replay_segments(
         t_ns=np.asarray(trace.meas_t_ns, dtype=np.int64),
         v=np.concatenate([r.v for r in parts]),
         w=np.concatenate([r.w for r in parts]),
-        engine=engine,
+        engine=parts[0].engine,
         robot=spec.name,
         params=params,
         physics_hz=parts[0].physics_hz,

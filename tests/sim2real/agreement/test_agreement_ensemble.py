@@ -234,3 +234,20 @@ def test_observation_noise_randomizer_draws_with_the_band_rule(tmp_path: Path) -
 
     v, w = env.noise.apply(stream_generator(7, again.name), np.zeros(1), np.zeros(1))
     np.testing.assert_allclose(first, np.array([v[0], w[0]], np.float32), rtol=1e-6)
+
+
+def test_a_band_of_given_members_is_the_ensembles_band(trace) -> None:  # type: ignore[no-untyped-def]
+    from sim2real.agreement.figures import ensemble_of_members
+
+    dist = _dist(noise_v=0.003, noise_w=0.02)
+    ens = run_ensemble(trace, robot=ROBOT, distribution=dist, n=8, seed=4, engine="reduced")
+    again = ensemble_of_members(
+        trace, (ens.members_v, ens.members_w), noise=dist.noise, seed=4, params=ens.params
+    )
+    assert (again.coverage_v, again.coverage_w) == (ens.coverage_v, ens.coverage_w)
+    np.testing.assert_array_equal(again.lo_v, ens.lo_v)
+    assert again.n == 8 and again.params == ens.params and again.sampled == ()
+    point = ensemble_of_members(
+        trace, (ens.members_v[:2] * 0.0, ens.members_w[:2] * 0.0), noise=ObservationNoise(), seed=0
+    )
+    assert point.coverage_v < ens.coverage_v  # a band of standing robots misses the drive

@@ -138,3 +138,33 @@ def test_the_base_stops_after_the_command_timeout(tmp_path: Path, engine: str) -
     t = sim.t_s
     assert sim.v[(t > 0.8) & (t < 1.4)].min() > 0.12  # still driving until the timeout
     np.testing.assert_allclose(sim.v[t > 2.5], 0.0, atol=0.005)  # stopped
+
+
+class _Reduced:
+    """Another simulator for replay(): the reduced model with its own parameters."""
+
+    name = "other"
+
+    def __init__(self, params: object) -> None:
+        self.params = params
+        self.calls = 0
+
+    def replay(self, cmd, t_out_s, start):  # type: ignore[no-untyped-def]
+        self.calls += 1
+        out = simulate(
+            self.params, spec().geometry, cmd_t_s=cmd[0], cmd_v=cmd[1], cmd_w=cmd[2],
+            t_out_s=t_out_s, v0=start[0], w0=start[1],
+        )  # fmt: skip
+        return np.asarray(out.v), np.asarray(out.w)
+
+
+def test_another_simulator_is_replayed_like_the_named_engines(trace: Trace) -> None:
+    p = hidden_params()
+    other = _Reduced(p)
+    sim = replay(trace, robot=ROBOT, params=p, engine=other)
+    ref = replay(trace, robot=ROBOT, params=p, engine="reduced")
+    assert other.calls == 1 and sim.engine == "other"
+    np.testing.assert_array_equal(sim.v, ref.v)
+    np.testing.assert_array_equal(sim.w, ref.w)
+    with pytest.raises(Sim2RealValueError, match="engine"):
+        replay(trace, robot=ROBOT, engine=object())  # type: ignore[arg-type]
