@@ -53,6 +53,7 @@ __all__ = [
     "generic_priors",
     "load_drive_params",
     "load_params_document",
+    "params_file_for",
     "read_params_file",
 ]
 
@@ -1047,6 +1048,25 @@ def read_params_file(path: str | Path) -> ParamsFile:
     return ParamsFile(path=p, robot=robot, values=values, stds=stds, document=doc)
 
 
+def params_file_for(path: str | Path | ParamsFile, robot: str) -> ParamsFile:
+    """The params file at ``path`` (or the :class:`ParamsFile` already read) when it was
+    identified for ``robot``; raises :class:`~robots.errors.ParamsFileError` (naming the
+    ``--robot`` that loads its own robot) when it was identified for another.
+
+    Examples
+    --------
+    >>> params_file_for("params.yaml", "turtlebot3_burger").robot  # doctest: +SKIP
+    'turtlebot3_burger'
+    """
+    pf = path if isinstance(path, ParamsFile) else read_params_file(path)
+    if pf.robot != robot:
+        raise ParamsFileError(
+            f"params file '{pf.path}' was identified for robot '{pf.robot}', not '{robot}'; "
+            f"pass {pf.robot_option()} or fit a params file for {robot}"
+        )
+    return pf
+
+
 def load_drive_params(
     path: str | Path | ParamsFile, *, robot: str, base: DriveParams
 ) -> DriveParams:
@@ -1060,12 +1080,7 @@ def load_drive_params(
     >>> load_drive_params("params.yaml", robot="turtlebot3_burger", base=DriveParams())
     ... # doctest: +SKIP
     """
-    pf = path if isinstance(path, ParamsFile) else read_params_file(path)
-    if pf.robot != robot:
-        raise ParamsFileError(
-            f"params file '{pf.path}' was identified for robot '{pf.robot}', not '{robot}'; "
-            f"pass {pf.robot_option()} or fit a params file for {robot}"
-        )
+    pf = params_file_for(path, robot)
     try:
         return base.replace(**pf.values)
     except RobotsValueError as exc:

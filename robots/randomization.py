@@ -63,7 +63,7 @@ from robots.params import (
     ParamsFile,
     Prior,
     coords_to_values,
-    read_params_file,
+    params_file_for,
 )
 
 __all__ = [
@@ -439,12 +439,7 @@ class DriveDistribution:
         ... # doctest: +SKIP
         >>> dist.sample(np.random.default_rng(0), 10)  # doctest: +SKIP
         """
-        pf = path if isinstance(path, ParamsFile) else read_params_file(path)
-        if pf.robot != robot:
-            raise ParamsFileError(
-                f"params file '{pf.path}' was identified for robot '{pf.robot}', not '{robot}'; "
-                f"pass {pf.robot_option()} or fit a params file for {robot}"
-            )
+        pf = params_file_for(path, robot)
         if "randomization" not in pf.document:
             raise ParamsFileError(
                 f"params file '{pf.path}' has no 'randomization' block; refit it with "
