@@ -305,7 +305,8 @@ def agreement_from_arrays(
     both, ag_v, ag_w = agreement_fraction(sv - rv, sw - rw, active, tol_v=tol_v, tol_w=tol_w)
     n_active = int(active.sum())
     if n_active:
-        fit_v, fit_w = fit_percent(rv[active], sv[active]), fit_percent(rw[active], sw[active])
+        fit_v = _fit_of_varied(rv[active], sv[active], tol_v)
+        fit_w = _fit_of_varied(rw[active], sw[active], tol_w)
         rmse_v, rmse_w = rmse(rv[active], sv[active]), rmse(rw[active], sw[active])
     else:
         fit_v = fit_w = rmse_v = rmse_w = math.nan
@@ -331,17 +332,27 @@ def agreement_from_arrays(
     )
 
 
+def _varies(real: FloatArray, sim: FloatArray, tol: float) -> tuple[bool, bool]:
+    """Whether the real (its central 95 %, so a spike does not count) and the simulated
+    velocity vary by ``tol`` or more."""
+    spread = float(np.percentile(real, 97.5) - np.percentile(real, 2.5)) if real.size else 0.0
+    return spread >= tol, bool(sim.size) and float(np.ptp(sim)) >= tol
+
+
+def _fit_of_varied(real: FloatArray, sim: FloatArray, tol: float) -> float:
+    """FIT % of an axis; NaN when neither the real nor the simulated velocity varies by
+    ``tol`` (the v of a spin in place: a score of odometry noise against its own mean)."""
+    return fit_percent(real, sim) if any(_varies(real, sim, tol)) else math.nan
+
+
 def _lag_of_varied(
     t: FloatArray, real: FloatArray, sim: FloatArray, active: BoolArray, tol: float
 ) -> float:
     """Lag of ``sim`` behind ``real`` (s); NaN when either varies by less than ``tol`` over
     the active samples (the v of a spin in place, the w of a steady spin): a cross-correlation
     of odometry noise has a peak, but not at any latency."""
-    if active.any():
-        r, s = real[active], sim[active]
-        spread = float(np.percentile(r, 97.5) - np.percentile(r, 2.5))
-        if float(np.ptp(s)) < tol or spread < tol:
-            return math.nan
+    if active.any() and not all(_varies(real[active], sim[active], tol)):
+        return math.nan
     return xcorr_lag_s(t, real, sim)
 
 

@@ -624,7 +624,8 @@ _MAY_BE_NULL = frozenset({"params_file", "log_file", "log_sha256"})
 _WHY = {
     "agreement": "no sample is active (no command is held and the robot never moves)",
     "rmse": "no sample is active (no command is held and the robot never moves)",
-    "fit_percent": "the measured {axis} is constant over the active samples",
+    "fit_percent": "the measured {axis} is constant over the active samples (and the "
+    "simulated too, within the tolerance)",
     "lag_s": "the measured or simulated {axis} is constant (it varies by less than the tolerance)",
     "coverage": "no sample is active on {axis} or the band could not be built",
     "band_width": "no sample is active or the band could not be built",

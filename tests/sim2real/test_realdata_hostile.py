@@ -187,7 +187,9 @@ def test_a_real_fleet_goes_on_past_two_spins_in_place_and_a_corrupt_log(
     for k in range(2):
         spin = rows[f"spin{k}.mcap"]
         assert "lag_s_v" not in spin  # a cross-correlation of odometry noise, not a latency
-        assert any("figure 'lag_s_v' is left out" in n for n in spin["notes"])
+        assert "fit_percent_v" not in spin  # a score of odometry noise against its mean
+        for key in ("lag_s_v", "fit_percent_v"):
+            assert any(f"figure '{key}' is left out" in n for n in spin["notes"])
         assert 0.0 <= spin["agreement"] <= 1.0 and spin["agreement_v"] == 1.0
     assert None not in [v for f in doc["logs"] for k, v in f.items() if k != "params_file"]
     table = [ln for ln in stdout.splitlines() if ln.split(" ")[0].endswith(".mcap")]
