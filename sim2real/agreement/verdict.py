@@ -10,19 +10,20 @@ The headline is the first of these that holds:
 
 1. **too little data**: fewer than :data:`MIN_ACTIVE` active samples;
 2. **no fit**: only the spec defaults were replayed (next: fit the drive model);
-3. **fit worse than the spec defaults**: the fitted agreement is more than
+3. **the log is one the fit used**: its figures measure the fit, not a new session;
+4. **fit worse than the spec defaults**: the fitted agreement is more than
    :data:`WORSE_MARGIN` under the defaults', with its likely cause (this session's latency,
    commands outside the fitted envelope, a top speed under what the robot holds, a delay
    driven to zero);
-4. **latency of this session differs**: the fitted replay lags or leads the real robot by
+5. **latency of this session differs**: the fitted replay lags or leads the real robot by
    more than :data:`LAG_LIMIT_S`, or the session's own best latency is that far from the
    fitted delay;
-5. **the fit extrapolates**: the log drives outside the envelope the fit saw (speeds, turns
+6. **the fit extrapolates**: the log drives outside the envelope the fit saw (speeds, turns
    while driving, accelerations) for at least :data:`EXTRAPOLATES_SHARE` of its active
    samples, so its figures and its band judge the model where no fitting log informed it;
-6. **the fit is short of** :data:`GOOD_AGREEMENT` (or of the noise ceiling less
+7. **the fit is short of** :data:`GOOD_AGREEMENT` (or of the noise ceiling less
    :data:`CEILING_SLACK`, when the measurement noise allows no more);
-7. **the band**: none run, too narrow, too wide or calibrated
+8. **the band**: none run, too narrow, too wide or calibrated
    (:func:`sim2real.agreement.figures.band_verdict`).
 
 Every other finding that holds (commands outside the fitted envelope, a band calibrated by
@@ -136,6 +137,8 @@ class SessionFigures:
         one sentence (:func:`sim2real.agreement.latency.noise_note`).
     band_misses : str or None
         Why the band covers too little, where it does (:func:`band_miss_reason`).
+    fit_log : bool
+        True when the checked log is one the params file was fitted on.
     """
 
     best_delay_s: float | None = None
@@ -150,6 +153,7 @@ class SessionFigures:
     extrapolation: Any = None
     noise_note: str | None = None
     band_misses: str | None = None
+    fit_log: bool = False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -159,7 +163,8 @@ class AgreementVerdict:
     Attributes
     ----------
     kind : str
-        What the headline is about: ``"too_little_data"``, ``"no_fit"``, ``"fit_worse"``,
+        What the headline is about: ``"too_little_data"``, ``"no_fit"``, ``"fit_log"``,
+        ``"fit_worse"``,
         ``"latency"``, ``"extrapolates"``, ``"poor_fit"``, ``"no_band"``, ``"band_narrow"``,
         ``"band_wide"``, ``"band_mixed"``, ``"band_unknown"`` or ``"calibrated"``.
     headline : str
@@ -603,6 +608,10 @@ _LATENCY_STEP = (
     "randomise the command delay (delay_s) across sessions, or refit on a log with sharp "
     "command steps recorded like this one (same driver, same clock)."
 )
+_FIT_LOG_STEP = (
+    "compare on a recording the fit never used: 'sim2real agree OTHER.mcap --robot {robot} "
+    "--params {params} --ensemble 30'."
+)
 _EXTRAPOLATES_STEP = (
     "refit on logs that also drive like this one (sysid fit a.mcap b.mcap ... with its "
     "speeds, turns and accelerations), then compare again before training with {params}."
@@ -622,6 +631,14 @@ def _problem(
 ) -> tuple[str, str, str] | None:
     """``(kind, headline, next step template)`` of the first finding before the band's."""
     after, before = _pct(fitted.agreement), _pct(defaults.agreement)
+    if s.fit_log:
+        return (
+            "fit_log",
+            f"This log is one the params file was fitted on: its figures (fit {after}, spec "
+            f"defaults {before}) say how well the model fits it, not how it holds on a "
+            "session it never saw.",
+            _FIT_LOG_STEP,
+        )
     if fitted.agreement < defaults.agreement - WORSE_MARGIN:
         cause = _likely_cause(defaults, fitted, s)
         return (

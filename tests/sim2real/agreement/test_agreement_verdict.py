@@ -328,3 +328,29 @@ def test_band_miss_reason_tells_timing_bias_and_scatter_apart() -> None:
     assert why is not None and "steady scatter wider than the band" in why
     # a calibrated band needs no reason
     assert band_miss_reason(_band(0.85), real, w, since) is None
+
+
+def test_checking_the_fit_on_its_own_log_is_said_first(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`agree` on a log the params file was fitted on: the headline says its figures measure
+    the fit, and the next step names another recording (not training)."""
+    from _agreement_fixtures import ROBOT, write_log
+
+    from sim2real.cli import main
+
+    fit_log = write_log(tmp_path / "fit.mcap", duration_s=15.0)
+    other = write_log(tmp_path / "other.mcap", duration_s=15.0, seed=4)
+    params = tmp_path / "p.yaml"
+    assert main(["sysid", "fit", str(fit_log), "--robot", ROBOT, "-o", str(params)]) == 0
+    capsys.readouterr()
+    argv = ["--robot", ROBOT, "--engine", "reduced", "--params", str(params)]
+    assert main(["agree", str(fit_log), *argv]) == 0
+    out = capsys.readouterr().out
+    assert "verdict: This log is one the params file was fitted on: its figures (fit " in out
+    assert "next step: compare on a recording the fit never used" in out
+    assert main(["agree", str(other), *argv]) == 0
+    assert "fitted on" not in capsys.readouterr().out
+    v = _decide(0.95, _Ens(0.88), session=SessionFigures(fit_log=True))
+    assert v.kind == "fit_log" and not v.ok and "train" not in v.next_step
+    assert any(r.startswith("The 90 % band is calibrated") for r in v.reasons)
