@@ -328,8 +328,9 @@ def _likely_cause(defaults: _Agreement, fitted: _Agreement, s: SessionFigures) -
         return _other_cause(s)
     if at_best is None or not _finite(at_best) or at_best >= defaults.agreement - WORSE_MARGIN:
         return f"{latency}: the latency of this session differs"
-    part = "this session's own latency explains only part of the gap"
-    return f"{_other_cause(s)}; {part}: {latency}"
+    some = at_best > fitted.agreement + 0.005  # half a point: more than rounding
+    part = "explains only part of the gap" if some else "does not explain the gap"
+    return f"{_other_cause(s)}; this session's own latency {part}: {latency}"
 
 
 def _other_cause(s: SessionFigures) -> str:

@@ -11,11 +11,13 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from sim2real.cli import main
+from sim2real.logs import read_trace, write_velocity_log
 
 pytestmark = pytest.mark.realdata
 
@@ -195,3 +197,36 @@ def test_a_real_fleet_goes_on_past_two_spins_in_place_and_a_corrupt_log(
     table = [ln for ln in stdout.splitlines() if ln.split(" ")[0].endswith(".mcap")]
     assert len(table) == 10 and sum("%" in row for row in table) == 9
     assert sum("left out:" in row for row in table) == 1
+
+
+@pytest.mark.parametrize("rate_hz", [5.0, 100.0])
+def test_odometry_resampled_to_5_or_100_hz_gives_the_same_agreement(
+    drexel_log: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    clean: dict[str, Any],
+    rate_hz: float,
+) -> None:
+    """The TurtleBot3's 23 Hz odometry (pose and twist) resampled to 5 Hz (nearest samples)
+    or 100 Hz (linear interpolation): the agreement stays within 2 points of the log's own."""
+    tr = read_trace(drexel_log)
+    t = tr.meas_t_ns
+    grid = np.arange(t[0], t[-1], int(NS / rate_hz))
+    if rate_hz < 20:  # the nearest recorded sample at each tick
+        idx = np.unique(np.clip(np.searchsorted(t, grid), 0, t.size - 1))
+        meas = {k: getattr(tr, k)[idx] for k in ("meas_v", "meas_w", "pose_x", "pose_y")}
+        meas["pose_yaw"], meas_t = tr.pose_yaw[idx], t[idx]
+    else:
+        f = {k: getattr(tr, k) for k in ("meas_v", "meas_w", "pose_x", "pose_y")}
+        meas = {k: np.interp(grid, t, x) for k, x in f.items()}
+        meas["pose_yaw"], meas_t = np.interp(grid, t, np.unwrap(tr.pose_yaw)), grid
+    log = write_velocity_log(
+        tmp_path / f"odom_{rate_hz:g}hz.mcap",
+        cmd_t_ns=tr.cmd_t_ns, cmd_v=tr.cmd_v, cmd_w=tr.cmd_w, meas_t_ns=meas_t,
+        meas_v=meas["meas_v"], meas_w=meas["meas_w"], pose_x=meas["pose_x"],
+        pose_y=meas["pose_y"], pose_yaw=meas["pose_yaw"],
+    )  # fmt: skip
+    code, figures, _ = _agree(log, tmp_path / "a.json", capsys)
+    assert code == 0
+    assert figures["n_samples"] == pytest.approx(tr.meas_t_ns.size * rate_hz / 23.0, rel=0.15)
+    assert figures["agreement"] == pytest.approx(clean["agreement"], abs=0.02)

@@ -83,3 +83,28 @@ def test_sysid_fit_writes_the_envelope(tmp_path: Path) -> None:
     assert set(block) == {"v_mps", "w_radps", "vw", "dv_mps2", "dw_radps2"}
     assert 0.1 < block["v_mps"] < 0.3 and block["vw"] > 0
     assert SysidResult.load(out).envelope == Envelope.from_dict(block)
+
+
+def test_the_sentence_names_every_quantity_with_its_share_and_parameters() -> None:
+    """Gentle straight driving fitted; a checked log that goes 4x as fast half-way while
+    turning at 1.5 rad/s: |v|, |w|, |v w| and both accelerations are outside, each with its
+    largest value, the fit's, the share of the samples and the parameters left uncertain."""
+    fit = envelope_of([_log(0.1, 0.0)])
+    t = np.arange(0.0, 20.0, 0.05)
+    v = np.where(t < 2.0, 0.0, np.where(t < 11.0, 0.1, 0.4))
+    w = np.where(t < 11.0, 0.0, 1.5)
+    log = LogArrays(cmd_t_s=t, cmd_v=v, cmd_w=w, meas_t_s=t, meas_v=v, meas_w=w)
+    check = check_envelope(fit, log)
+    by = {e.quantity: e for e in check.excesses}
+    assert set(by) == {"v_mps", "w_radps", "vw", "dv_mps2", "dw_radps2"}
+    assert by["v_mps"].share == pytest.approx(0.5, abs=0.01)  # 9 s of 18 s active
+    assert by["w_radps"].share == pytest.approx(0.5, abs=0.01)
+    assert by["vw"].checked == pytest.approx(0.6)
+    assert 0 < by["dw_radps2"].share < 0.03  # the step only, over the 0.2 s window
+    for label in ("|v| up to 0.4 m/s where the fit saw 0.1 (", "|w| up to 1.5 rad/s",
+                  "|v w| (turning while driving) up to 0.6", "|dv/dt| up to", "|dw/dt| up to"):  # fmt: skip
+        assert label in check.sentence
+    assert check.sentence.count("% of the samples)") == 5
+    assert check.sentence.startswith("this log leaves the envelope the fit saw for 50.")
+    for p in ("speed_lim_w_radps", "accel_lim_v_mps2", "accel_lim_w_radps2", "track_factor"):
+        assert p in check.uncertain and p in check.sentence

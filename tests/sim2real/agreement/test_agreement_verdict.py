@@ -144,6 +144,8 @@ def test_a_fit_worse_than_the_defaults_is_the_headline_with_its_cause() -> None:
     assert cause.startswith("the fitted model tops out at 0.27 m/s in v")
     assert "own latency explains only part of the gap" in cause
     assert "0.030 s where the fit has 0.214 s (agreement there 40.1 %)" in cause
+    none = SessionFigures(fitted_delay_s=0.164, best_delay_s=0.05, agreement_at_best_delay=0.479)
+    assert "own latency does not explain the gap" in _decide(0.479, session=none).headline
     late = _decide(0.7, session=SessionFigures(fitted_delay_s=0.214, best_delay_s=0.28))
     assert late.kind == "latency"
     assert late.headline.count("latency") == 2  # "The latency ...: ... best command latency"
