@@ -65,6 +65,8 @@ __all__ = [
     "SessionFigures",
     "band_miss_reason",
     "decide",
+    "mean_lag_s",
+    "percent",
     "speed_shortfall",
     "verdict_text",
 ]
@@ -227,11 +229,19 @@ def verdict_text(verdict: AgreementVerdict) -> str:
     return "\n".join(verdict.lines())
 
 
-def _pct(x: float | None) -> str:
+def percent(x: float | None) -> str:
+    """A share as the verdict prints it: one decimal, or ``n/a`` when it is not known.
+
+    Examples
+    --------
+    >>> percent(0.9551), percent(None)
+    ('95.5 %', 'n/a')
+    """
     return f"{100 * x:.1f} %" if x is not None and math.isfinite(x) else "n/a"
 
 
-def _lag(a: _Agreement) -> float:
+def mean_lag_s(a: _Agreement) -> float:
+    """The mean of an agreement's finite lags on v and w, s (NaN when neither is known)."""
     lags = [x for x in (a.lag_s_v, a.lag_s_w) if math.isfinite(x)]
     return sum(lags) / len(lags) if lags else math.nan
 
@@ -273,7 +283,7 @@ def _latency_reason(fitted: _Agreement, s: SessionFigures) -> str | None:
         gap = best - fitted_delay
         if abs(gap) > LAG_LIMIT_S:
             at = (
-                f" (agreement there {_pct(s.agreement_at_best_delay)})"
+                f" (agreement there {percent(s.agreement_at_best_delay)})"
                 if _finite(s.agreement_at_best_delay)
                 else ""
             )
@@ -282,7 +292,7 @@ def _latency_reason(fitted: _Agreement, s: SessionFigures) -> str | None:
                 f"fit has {fitted_delay:.3f} s{at}"
             )
         return None
-    lag = _lag(fitted)
+    lag = mean_lag_s(fitted)
     if math.isfinite(lag) and abs(lag) > LAG_LIMIT_S:
         return f"{lag_phrase(lag)} (cross-correlation of v and w)"
     return None
@@ -299,7 +309,7 @@ def _latency_share(fitted: _Agreement, s: SessionFigures) -> str | None:
     gained = max(0.0, at - fitted.agreement)
     return (
         f"at this session's own best command latency, {best:.3f} s (the fit has {delay:.3f} "
-        f"s), the fit reaches {_pct(at)} against {_pct(fitted.agreement)}: latency accounts "
+        f"s), the fit reaches {percent(at)} against {percent(fitted.agreement)}: latency accounts "
         f"for {100 * gained:.1f} points and the dynamics for the other "
         f"{100 * max(0.0, 1.0 - fitted.agreement - gained):.1f} points short of 100 %"
     )
@@ -338,7 +348,7 @@ def _other_cause(s: SessionFigures) -> str:
     ext = s.extrapolation
     if ext is not None and getattr(ext, "known", False) and ext.share_outside >= EXTRAPOLATES_SHARE:
         return (
-            f"this log drives outside what the fit log saw for {_pct(ext.share_outside)} of "
+            f"this log drives outside what the fit log saw for {percent(ext.share_outside)} of "
             "its active time"
         )
     if s.speed_shortfall is not None:
@@ -490,13 +500,13 @@ def _ceiling_reason(s: SessionFigures, reached: float) -> str | None:
         return s.noise_note or None  # whose noise the band's floor assumes, still said
     if _finite(reached) and reached > ceiling + CEILING_BEATEN:
         return (
-            f"the fit reaches {_pct(reached)}, above the {_pct(ceiling)} that the odometry "
+            f"the fit reaches {percent(reached)}, above the {percent(ceiling)} that the odometry "
             "noise assumed would allow (noise ceiling): that estimate overstates this "
             "log's noise, so the ceiling is not used to judge it" + _said(s.noise_note)
         )
     return (
         f"the measurement noise caps the agreement a perfect model could reach at "
-        f"{_pct(ceiling)} (noise ceiling): judge the fit against that" + _said(s.noise_note)
+        f"{percent(ceiling)} (noise ceiling): judge the fit against that" + _said(s.noise_note)
     )
 
 
@@ -589,7 +599,7 @@ def decide(
     if fitted is None:
         return AgreementVerdict(
             kind="no_fit",
-            headline=f"The spec defaults reach {_pct(defaults.agreement)} (no fit): nothing "
+            headline=f"The spec defaults reach {percent(defaults.agreement)} (no fit): nothing "
             "was fitted to this robot yet.",
             reasons=tuple(reasons),
             next_step=_fit_step(robot, log) + ".",
@@ -631,7 +641,7 @@ def _problem(
     defaults: _Agreement, fitted: _Agreement, ensemble: Any, s: SessionFigures
 ) -> tuple[str, str, str] | None:
     """``(kind, headline, next step template)`` of the first finding before the band's."""
-    after, before = _pct(fitted.agreement), _pct(defaults.agreement)
+    after, before = percent(fitted.agreement), percent(defaults.agreement)
     if s.fit_log:
         return (
             "fit_log",
@@ -656,7 +666,7 @@ def _problem(
         return (
             "extrapolates",
             f"The fit extrapolates on this log: it drives outside the envelope the fit saw for "
-            f"{_pct(ext.share_outside)} of its active samples, so its figures (fit {after}, "
+            f"{percent(ext.share_outside)} of its active samples, so its figures (fit {after}, "
             f"spec defaults {before}) judge the model where no log informed it.",
             _EXTRAPOLATES_STEP,
         )
@@ -664,7 +674,7 @@ def _problem(
     if not fitted.agreement >= good:
         return (
             "poor_fit",
-            f"The fit reaches {after} (spec defaults {before}), short of {_pct(good)}"
+            f"The fit reaches {after} (spec defaults {before}), short of {percent(good)}"
             + (" (the noise ceiling less 5 points)." if good < GOOD_AGREEMENT else "."),
             _POOR_STEP,
         )

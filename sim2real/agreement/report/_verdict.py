@@ -15,18 +15,16 @@ from typing import Any
 
 from sim2real.agreement.figures import lag_phrase  # the one wording of a lag (also the CLI table)
 from sim2real.agreement.report._html import Stat, Verdict
-from sim2real.agreement.verdict import GOOD_AGREEMENT, LAG_LIMIT_S, AgreementVerdict, decide
+from sim2real.agreement.verdict import (
+    GOOD_AGREEMENT,
+    LAG_LIMIT_S,
+    AgreementVerdict,
+    decide,
+    mean_lag_s,
+    percent,
+)
 
 __all__ = ["GOOD_AGREEMENT", "LAG_LIMIT_S", "lag_phrase", "make_verdict"]
-
-
-def _lag(agreement: Any) -> float:
-    lags = [x for x in (agreement.lag_s_v, agreement.lag_s_w) if math.isfinite(x)]
-    return sum(lags) / len(lags) if lags else math.nan
-
-
-def _pct(x: float) -> str:
-    return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"
 
 
 def _agreement_stat(runs: Sequence[Any]) -> Stat:
@@ -36,10 +34,10 @@ def _agreement_stat(runs: Sequence[Any]) -> Stat:
         f"{a.tol_v:g} m/s and {a.tol_w:g} rad/s of the real one"
     )
     if len(runs) >= 2:
-        sentence += f" ({runs[0].label}: {_pct(runs[0].agreement.agreement)})"
+        sentence += f" ({runs[0].label}: {percent(runs[0].agreement.agreement)})"
     return Stat(
         label=f"agreement, {runs[-1].label}",
-        value=_pct(a.agreement),
+        value=percent(a.agreement),
         fraction=a.agreement,
         sentence=sentence + ".",
     )
@@ -68,14 +66,14 @@ def _coverage_stat(ensemble: Any | None) -> Stat:
     grade = min(cov / level, 1.0) if math.isfinite(cov) else math.nan
     return Stat(
         label=f"coverage of the {100 * level:g} % band",
-        value=_pct(cov),
+        value=percent(cov),
         fraction=grade,
         sentence=sentence,
     )
 
 
 def _lag_stat(runs: Sequence[Any]) -> Stat:
-    lag = _lag(runs[-1].agreement)
+    lag = mean_lag_s(runs[-1].agreement)
     if math.isfinite(lag) and abs(lag) >= 0.005:
         when = "after" if lag > 0 else "before"
         sentence = (
