@@ -38,7 +38,7 @@ from randomizers._goal import GoalNoise
 from randomizers._noise import DepthNoise, LidarNoise, ObservationNoise
 from randomizers._odometry_noise import VelocityObservationNoise
 from randomizers.errors import RandomizerConfigError, RandomizerError
-from robots.files import output_problem, write_text_atomic
+from robots.files import output_problem, plain_data, write_text_atomic
 
 __all__ = ["CONFIG_FORMAT", "RANDOMIZERS", "from_config", "save_config", "to_config"]
 
@@ -188,7 +188,7 @@ def to_config(env: Any) -> dict[str, Any]:
     """
     entries = []
     for randomizer in reversed(list(iter_randomizers(env))):
-        entries.append({"type": type(randomizer).__name__, **_plain(randomizer._saved_kwargs)})
+        entries.append({"type": type(randomizer).__name__, **plain_data(randomizer._saved_kwargs)})
     return {"format": CONFIG_FORMAT, "randomizers": entries}
 
 
@@ -198,14 +198,3 @@ def save_config(env: Any, path: str | Path) -> Path:
     if problem is not None:
         raise RandomizerConfigError(problem)
     return write_text_atomic(path, yaml.safe_dump(to_config(env), sort_keys=False))
-
-
-def _plain(value: Any) -> Any:
-    """Recursively turn tuples into lists and numpy scalars into Python numbers."""
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    if hasattr(value, "item") and callable(value.item):
-        return value.item()
-    return value

@@ -1,4 +1,5 @@
-"""Atomic file writes: write to a temporary file beside the target, then rename over it.
+"""Atomic file writes: write to a temporary file beside the target, then rename over it; and
+the plain data a YAML file is written from (:func:`plain_data`).
 
 The one atomic write of the project (:mod:`sim2real`, :mod:`sysid`, :mod:`randomizers` and
 :mod:`robots` write files through it). A reader of the target sees the old file or the new one,
@@ -25,15 +26,16 @@ import contextlib
 import os
 import re
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 __all__ = [
     "atomic_write",
     "clean_orphans",
     "file_mode",
     "output_problem",
+    "plain_data",
     "process_alive",
     "write_text_atomic",
 ]
@@ -153,3 +155,25 @@ def write_text_atomic(path: str | Path, text: str, *, encoding: str = "utf-8") -
     with atomic_write(path, "w", encoding=encoding) as fh:
         fh.write(text)
     return Path(path)
+
+
+def plain_data(value: Any) -> Any:
+    """``value`` as the plain Python data ``yaml.safe_dump`` writes: mappings as dicts with
+    string keys, tuples and lists as lists, numpy scalars and arrays as Python numbers and
+    lists, paths as strings; anything else as it is.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> plain_data({"a": (np.float64(0.5), np.arange(2)), 3: Path("x.yaml")})
+    {'a': [0.5, [0, 1]], '3': 'x.yaml'}
+    """
+    if isinstance(value, Mapping):
+        return {str(k): plain_data(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [plain_data(v) for v in value]
+    if isinstance(value, Path):
+        return str(value)
+    if hasattr(value, "tolist"):  # a numpy scalar or array
+        return plain_data(value.tolist())
+    return value

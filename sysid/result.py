@@ -22,7 +22,7 @@ from typing import Any
 import yaml
 
 from robots.errors import ParamsFileError
-from robots.files import output_problem, write_text_atomic
+from robots.files import output_problem, plain_data, write_text_atomic
 from robots.params import PARAMS_FILE_FORMAT, DriveParams, load_params_document
 from robots.randomization import DriveDistribution
 from sysid.envelope import Envelope
@@ -250,17 +250,17 @@ class SysidResult:
                 "names": list(self.correlation_names),
                 "matrix": [[round(_num(c), 4) for c in row] for row in self.correlation],
             },
-            "linear": _plain(self.linear),
+            "linear": plain_data(self.linear),
             "scores": {
-                "fit": [_plain(asdict(s)) for s in self.scores_fit],
-                "validation": [_plain(asdict(s)) for s in self.scores_validation],
+                "fit": [plain_data(asdict(s)) for s in self.scores_fit],
+                "validation": [plain_data(asdict(s)) for s in self.scores_validation],
             },
             "data": [asdict(d) for d in self.data],
             "warnings": list(self.warnings),
-            "settings": _plain(self.settings),
-            "bootstrap_std": _plain(self.bootstrap_std),
-            "priors": _plain(self.priors),
-            "sessions": _plain(list(self.sessions)),
+            "settings": plain_data(self.settings),
+            "bootstrap_std": plain_data(self.bootstrap_std),
+            "priors": plain_data(self.priors),
+            "sessions": plain_data(list(self.sessions)),
             "randomization": None if self.randomization is None else self.randomization.to_dict(),
             "envelope": None if self.envelope is None else self.envelope.to_dict(),
         }
@@ -358,18 +358,3 @@ def _opt(x: Any) -> float | None:
 def _num(x: float | None) -> float:
     """A float YAML can hold (numpy scalars to float; inf/nan kept)."""
     return math.nan if x is None else float(x)
-
-
-def _plain(obj: Any) -> Any:
-    """Convert numpy scalars/arrays and tuples into plain YAML-safe Python objects."""
-    if isinstance(obj, Mapping):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_plain(v) for v in obj]
-    if hasattr(obj, "tolist"):
-        return _plain(obj.tolist())
-    if isinstance(obj, bool | int | str) or obj is None:
-        return obj
-    if isinstance(obj, float):
-        return obj
-    return float(obj)

@@ -40,10 +40,10 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 import yaml
 
 import randomizers as dr
+from robots.files import plain_data
 from sim2real._io import atomic_write
 from sim2real.errors import Sim2RealValueError
 from sim2real.training.config import (
@@ -134,19 +134,7 @@ def write_episodes(path: Path, rows: Sequence[tuple[int, str, float, int]]) -> P
 
 def _write_yaml(path: Path, doc: Any, what: str) -> None:
     with atomic_write(path, "w", what=what) as fh:
-        yaml.safe_dump(_plain(doc), fh, sort_keys=False)
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    if isinstance(value, Path):
-        return str(value)
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
+        yaml.safe_dump(plain_data(doc), fh, sort_keys=False)
 
 
 def model_metadata(cfg: TrainConfig, env: Any) -> dict[str, Any]:
@@ -169,7 +157,7 @@ def save_model(model: Any, path: Path, metadata: Mapping[str, Any]) -> Path:
     buf = io.BytesIO()
     model.save(buf)
     with zipfile.ZipFile(buf, "a") as zf:
-        zf.writestr(METADATA_ENTRY, yaml.safe_dump(_plain(metadata), sort_keys=False))
+        zf.writestr(METADATA_ENTRY, yaml.safe_dump(plain_data(metadata), sort_keys=False))
     with atomic_write(path, "wb", what="model file") as fh:
         fh.write(buf.getvalue())
     return path
