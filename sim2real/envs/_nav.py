@@ -17,6 +17,7 @@ from robots.spec import load_spec
 from sim2real.envs._base import WorldEnv
 from sim2real.envs._robot import (
     RobotBackend,
+    checked_action,
     footprint_radius_m,
     make_backend,
 )
@@ -213,15 +214,9 @@ class NavEnvBase(WorldEnv):
         return self._observation(), info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != (2,) or not np.all(np.isfinite(a)):
-            raise Sim2RealValueError(
-                f"action must be 2 finite numbers (v [m/s], w [rad/s]), got {action!r}"
-            )
+        a = checked_action(action, self.action_space)
         if self._done:
             raise Sim2RealValueError("step() called after the episode ended; call reset() first")
-        space = self.action_space
-        a = np.clip(a, space.low, space.high)  # type: ignore[attr-defined]
         v, w = self._backend.step(float(a[0]), float(a[1]), self.control_dt)
         self._advance(self.control_dt)
         x, y, _ = self._backend.pose

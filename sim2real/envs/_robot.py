@@ -27,12 +27,24 @@ __all__ = [
     "PlantBackend",
     "RobotBackend",
     "check_env_arguments",
+    "checked_action",
     "footprint_radius_m",
     "make_backend",
 ]
 
 #: The dynamics back-ends an env accepts.
 DYNAMICS = ("reduced", "pybullet", "plant")
+
+
+def checked_action(action: Any, space: Any) -> np.ndarray:
+    """An env's action (v m/s, w rad/s) as two floats clipped to its Box ``space``; refused in
+    one sentence unless it is two finite numbers."""
+    a = np.asarray(action, dtype=np.float64).reshape(-1)
+    if a.shape != (2,) or not np.all(np.isfinite(a)):
+        raise Sim2RealValueError(
+            f"action must be 2 finite numbers (v [m/s], w [rad/s]), got {action!r}"
+        )
+    return np.asarray(np.clip(a, space.low, space.high))
 
 
 def check_env_arguments(

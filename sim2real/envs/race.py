@@ -65,6 +65,7 @@ from robots.spec import load_spec
 from sim2real.envs._robot import (
     RobotBackend,
     check_env_arguments,
+    checked_action,
     footprint_radius_m,
     make_backend,
 )
@@ -550,13 +551,6 @@ class RaceCore:
             self.world = None
 
 
-def _check_action(a: Any, space: spaces.Box) -> FloatArray:
-    arr = np.asarray(a, dtype=np.float64).reshape(-1)
-    if arr.shape != (2,) or not np.all(np.isfinite(arr)):
-        raise Sim2RealValueError(f"action must be 2 finite numbers (v [m/s], w [rad/s]), got {a!r}")
-    return np.asarray(np.clip(arr, space.low, space.high))
-
-
 class RaceEnv(gym.Env):  # type: ignore[type-arg]
     """One TurtleBot 3 Burger racing ORCA opponents on a walled track (Pozo Ruiz 2024).
 
@@ -683,7 +677,7 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
     def step(self, action: Any) -> tuple[FloatArray, float, bool, bool, dict[str, Any]]:
         if self._done:
             raise Sim2RealValueError("step() called after the episode ended; call reset() first")
-        a = _check_action(action, self._act_box)
+        a = checked_action(action, self._act_box)
         ((reward, outcome),) = self.core.step([a])
         obs = self.core.clip_obs(self.core.observation(0), self._obs_box)
         info: dict[str, Any] = {"outcome": outcome, "track": self.core.track_name}
@@ -760,7 +754,7 @@ class RaceParallelEnv(ParallelEnv):  # type: ignore[misc]
             )
         acts: list[FloatArray | None] = []
         for name in self.possible_agents:
-            acts.append(_check_action(actions[name], self._act_space) if name in actions else None)
+            acts.append(checked_action(actions[name], self._act_space) if name in actions else None)
         results = self.core.step(acts)
         obs: dict[str, FloatArray] = {}
         rew: dict[str, float] = {}

@@ -170,3 +170,13 @@ def test_pybullet_race_runs() -> None:
             break
     assert env.core.backends[0].pose[0] > 0.5
     env.close()
+
+
+def test_a_bad_action_is_one_sentence_and_a_large_one_is_clipped() -> None:
+    env = RaceEnv(track="curve", num_opponents=0)
+    env.reset(seed=0)
+    for bad in ([np.nan, 0.0], [0.1, 0.0, 0.0]):
+        with pytest.raises(Sim2RealValueError, match=r"^action must be 2 finite numbers \(v"):
+            env.step(np.array(bad))
+    env.step(np.array([100.0, -100.0]))  # beyond the limits: clipped, not refused
+    env.close()
