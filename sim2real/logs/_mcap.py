@@ -35,7 +35,7 @@ import struct
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -293,19 +293,62 @@ def _channel(buf: Buf, pos: int, end: int) -> ChannelRecord:
     return ChannelRecord(id=cid, schema_id=sid, topic=topic, message_encoding=enc)
 
 
+def _codec(compression: str) -> Any:
+    """The module of a chunk compression, imported on first use (compressed chunks only)."""
+    if compression == "zstd":
+        import zstandard
+
+        return zstandard
+    if compression == "lz4":
+        import lz4.frame  # type: ignore[import-untyped]
+
+        return lz4.frame
+    raise _Corrupt(f"it uses compression '{compression}', which is not zstd, lz4 or none")
+
+
 def _decompress(compression: str, data: Buf, size: int) -> bytes:
+    codec = _codec(compression)
     try:
         if compression == "zstd":
-            import zstandard
-
-            return bytes(zstandard.ZstdDecompressor().decompress(data, max_output_size=size))
-        if compression == "lz4":
-            import lz4.frame  # type: ignore[import-untyped]
-
-            return bytes(lz4.frame.decompress(data))
+            return bytes(codec.ZstdDecompressor().decompress(data, max_output_size=size))
+        return bytes(codec.decompress(data))
     except Exception as exc:  # the codecs raise their own error types on corrupt input
         raise _Corrupt(f"its {compression} data does not decompress ({exc})") from exc
-    raise _Corrupt(f"it uses compression '{compression}', which is not zstd, lz4 or none")
+
+
+def _decompress_prefix(compression: str, data: Buf) -> bytes:
+    """What the start of a cut compressed stream decompresses to (b"" when nothing does)."""
+    try:
+        codec = _codec(compression)
+        if compression == "zstd":
+            return bytes(codec.ZstdDecompressor().decompressobj().decompress(bytes(data)))
+        return bytes(codec.LZ4FrameDecompressor().decompress(bytes(data)))
+    except Exception:  # an unknown compression, or the codec's own error: the cut part is lost
+        return b""
+
+
+def _cut_chunk_records(buf: Buf) -> tuple[Buf, int, int] | None:
+    """The complete records at the start of a Chunk record cut by the end of the file
+    (``buf`` is its body up to the cut) as ``(records_buf, lo, hi)``; None when none is."""
+    c = _Cursor(buf, 0, len(buf))
+    try:
+        c.take(16)  # message start/end time
+        c.u64(), c.u32()  # records size and CRC: neither holds for a cut chunk
+        compression = c.string()
+        c.u64()
+    except _Corrupt:
+        return None
+    lo, end, data = c.pos, len(buf), buf
+    if compression:
+        data = _decompress_prefix(compression, memoryview(buf)[lo:])
+        lo, end = 0, len(data)
+    hi = lo
+    while hi + 9 <= end:
+        length = _OP_LEN.unpack_from(data, hi)[1]
+        if hi + 9 + length > end:
+            break
+        hi += 9 + length
+    return (data, lo, hi) if hi > lo else None
 
 
 def _chunk_records(buf: Buf, pos: int, end: int) -> tuple[Buf, int, int, bool]:
@@ -604,6 +647,7 @@ class _Stream:
         self.data_crc = 0
         self.stats_count: int | None = None
         self.kept: list[Segment] = []
+        self.cut_bytes = 0  # records read from a chunk the end of the file cut
 
     def run(self, head: bytes) -> None:
         fh, n = self.fh, self.size
@@ -619,6 +663,8 @@ class _Stream:
             op, length = _OP_LEN.unpack(rec_head)
             end = pos + 9 + length
             if end > n:
+                if op == _CHUNK and self.data_end is None:
+                    self._cut_chunk(pos, _read_exact(fh, n - pos - 9))
                 self._truncated(pos)
                 break
             in_data = self.data_end is None
@@ -800,6 +846,19 @@ class _Stream:
                 "re-export or re-record it"
             )
 
+    def _cut_chunk(self, pos: int, body: bytes) -> None:
+        """Keep the complete records of the chunk at ``pos`` that the end of the file cut
+        (``body`` is what the file holds of it): a recording stopped mid-write keeps all it
+        wrote, not only the chunks it finished."""
+        cut = _cut_chunk_records(body)
+        if cut is None:
+            return
+        data, lo, hi = cut
+        self._flush_chunks()
+        self._flush_loose()
+        self.pending.append(_Pending(pos, data, lo, hi))
+        self.cut_bytes = hi - lo
+
     def _truncated(self, pos: int) -> None:
         name, n = self.name, self.size
         if self.data_end is not None:
@@ -808,9 +867,14 @@ class _Stream:
                 "every message was read, only the index is missing"
             )
             return
+        kept = (
+            f" and the first {self.cut_bytes} bytes of records of the chunk cut there"
+            if self.cut_bytes
+            else ""
+        )
         self.out.warnings.append(
             f"log file '{name}' is truncated at byte {n} (the recording stopped mid-write); "
-            f"read the complete records before byte {pos} and dropped the rest"
+            f"read the complete records before byte {pos}{kept} and dropped the rest"
         )
 
 

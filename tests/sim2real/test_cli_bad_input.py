@@ -176,7 +176,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Files:
     good = write_log(root / "good.mcap")
     truncated = root / "truncated.mcap"
     data = good.read_bytes()
-    truncated.write_bytes(data[: len(data) // 2])
+    truncated.write_bytes(data[:64])  # cut in the first chunk's header: no message remains
     flipped, mid = bytearray(data), len(data) // 2  # invert 4 bytes of the CRC'd data section
     flipped[mid : mid + 4] = bytes(b ^ 0xFF for b in data[mid : mid + 4])
     corrupt = root / "corrupt.mcap"
@@ -294,6 +294,25 @@ def test_truncated_log_message_says_where_it_was_cut(
     size = files.truncated.stat().st_size
     line = assert_bad_input(cli(capsys, "logs", "info", files.truncated), files.truncated)
     assert f"truncated at byte {size}" in line
+
+
+def test_a_log_cut_inside_its_chunk_keeps_the_complete_messages(
+    files: Files, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Cut at half its bytes, inside its one compressed chunk: the messages before the cut are
+    read (a warning says where it was cut), the figures come from them."""
+    data = files.good.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])
+    run = cli(capsys, *agree(cut, "--json", tmp_path / "a.json"))
+    assert run.code == 0 and "Traceback" not in run.err
+    assert f"is truncated at byte {len(data) // 2}" in run.err
+    assert "bytes of records of the chunk cut there" in run.err
+    whole = cli(capsys, *agree(files.good, "--json", tmp_path / "b.json"))
+    assert whole.code == 0
+    n_cut = json.loads((tmp_path / "a.json").read_text())["n_samples"]
+    n_whole = json.loads((tmp_path / "b.json").read_text())["n_samples"]
+    assert 0.2 * n_whole < n_cut < n_whole
 
 
 def test_logs_info_on_an_odometry_only_log_warns_that_reading_it_will_fail(
