@@ -7,14 +7,16 @@ from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from robots.arrays import FloatArray
 from robots.params import BaseGeometry, DriveParams
 from sysid._coords import COORDS, NOT_FITTABLE
 from sysid._logs import LogArrays, as_log_arrays
 from sysid.errors import ExcitationError, SysidValueError
+from sysid.metrics import DEFAULT_TOL_V, DEFAULT_TOL_W, active_mask
 
-__all__ = ["Excitation", "analyse", "held_command", "why_not_fittable"]
+__all__ = ["Excitation", "active_samples", "analyse", "held_command", "why_not_fittable"]
 
 
 #: Minimum total measured span and number of measurement samples for a fit.
@@ -55,6 +57,16 @@ def held_command(cmd_t_s: FloatArray, cmd: FloatArray, t_s: FloatArray) -> Float
     idx = np.searchsorted(cmd_t_s, t_s, side="right") - 1
     out = np.where(idx >= 0, cmd[np.clip(idx, 0, None)], 0.0)
     return np.asarray(out, dtype=np.float64)
+
+
+def active_samples(
+    log: LogArrays, *, tol_v: float = DEFAULT_TOL_V, tol_w: float = DEFAULT_TOL_W
+) -> NDArray[np.bool_]:
+    """The measurement samples of ``log`` where the robot is commanded to move (the command
+    held at each sample) or moves: :func:`sysid.metrics.active_mask`."""
+    cv = held_command(log.cmd_t_s, log.cmd_v, log.meas_t_s)
+    cw = held_command(log.cmd_t_s, log.cmd_w, log.meas_t_s)
+    return active_mask(cv, cw, log.meas_v, log.meas_w, tol_v=tol_v, tol_w=tol_w)
 
 
 def _cmd_with_rest(log: LogArrays, cmd: FloatArray) -> FloatArray:

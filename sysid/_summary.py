@@ -13,9 +13,8 @@ from numpy.typing import NDArray
 from robots.arrays import FloatArray
 from robots.params import SCHEMA, DriveParams
 from robots.randomization import DriveDistribution, ObservationNoise, cap_spread
-from sysid import metrics
 from sysid._coords import Mapper
-from sysid._excitation import held_command
+from sysid._excitation import active_samples
 from sysid._fleet import new_session_factor
 from sysid._logs import LogArrays
 from sysid._map import FittedCoords
@@ -292,15 +291,7 @@ def quantum(values: FloatArray) -> float:
 def _active(logs: Sequence[LogArrays]) -> NDArray[np.bool_]:
     """Samples of all logs where the robot is commanded to move or moves (the samples the
     band's coverage is measured on: :func:`sysid.metrics.active_mask`)."""
-    parts = [
-        metrics.active_mask(
-            held_command(g.cmd_t_s, g.cmd_v, g.meas_t_s),
-            held_command(g.cmd_t_s, g.cmd_w, g.meas_t_s),
-            g.meas_v,
-            g.meas_w,
-        )
-        for g in logs
-    ]
+    parts = [active_samples(g) for g in logs]
     return np.concatenate(parts) if parts else np.zeros(0, dtype=bool)
 
 

@@ -46,9 +46,9 @@ from typing import Any
 import numpy as np
 
 from robots.arrays import FloatArray
-from sysid._excitation import held_command
+from sysid._excitation import active_samples
 from sysid._logs import as_log_arrays
-from sysid.metrics import DEFAULT_TOL_V, DEFAULT_TOL_W, active_mask
+from sysid.metrics import DEFAULT_TOL_V, DEFAULT_TOL_W
 
 __all__ = [
     "ACCEL_WINDOW_S",
@@ -208,9 +208,7 @@ def _running_median(x: FloatArray) -> FloatArray:
 def _motion(log: Any, tol_v: float, tol_w: float) -> tuple[dict[str, FloatArray], FloatArray]:
     """Each quantity's magnitude at the active samples of ``log``, and their times."""
     g = as_log_arrays(log)
-    cv = held_command(g.cmd_t_s, g.cmd_v, g.meas_t_s)
-    cw = held_command(g.cmd_t_s, g.cmd_w, g.meas_t_s)
-    active = active_mask(cv, cw, g.meas_v, g.meas_w, tol_v=tol_v, tol_w=tol_w)
+    active = active_samples(g, tol_v=tol_v, tol_w=tol_w)
     t, v, w = g.meas_t_s, _running_median(g.meas_v), _running_median(g.meas_w)
     earlier = np.clip(t - ACCEL_WINDOW_S, t[0], None)
     span = np.maximum(t - earlier, 1e-9)

@@ -67,7 +67,7 @@ from robots.reduced import DEFAULT_DT_S
 from sysid import metrics
 from sysid._bootstrap import segment_bootstrap
 from sysid._coords import Mapper
-from sysid._excitation import analyse, held_command
+from sysid._excitation import active_samples, analyse
 from sysid._fleet import SessionInfo, population
 from sysid._linear import first_order_stats
 from sysid._logs import LogArrays, as_log_arrays, log_name, log_warnings
@@ -160,9 +160,7 @@ def score_logs(
     )
     out = []
     for log, sim in zip(prob.logs, prob.simulate(params), strict=True):
-        cv = held_command(log.cmd_t_s, log.cmd_v, log.meas_t_s)
-        cw = held_command(log.cmd_t_s, log.cmd_w, log.meas_t_s)
-        act = metrics.active_mask(cv, cw, log.meas_v, log.meas_w, tol_v=tol_v, tol_w=tol_w)
+        act = active_samples(log, tol_v=tol_v, tol_w=tol_w)
         both, av, aw = metrics.agreement_fraction(
             sim.v - log.meas_v, sim.w - log.meas_w, act, tol_v=tol_v, tol_w=tol_w
         )
