@@ -76,6 +76,7 @@ __all__ = [
     "defined_figures",
     "envelope_check",
     "fitted_noise",
+    "odom_v_window_seconds",
     "parse_odom_v_window",
     "provenance_rows",
     "reference_figures",
@@ -272,6 +273,17 @@ def parse_odom_v_window(value: float | str, rate_hz: float, *, v_source: str = "
     """
     if isinstance(value, str) and value.strip() == "auto":
         return 1.0 / rate_hz if v_source == "wheels" else 0.0
+    return odom_v_window_seconds(value)
+
+
+def odom_v_window_seconds(value: float | str) -> float:
+    """A number of seconds ``--odom-v-window`` gives, checked to lie in [0, 1].
+
+    Examples
+    --------
+    >>> odom_v_window_seconds("0.05")
+    0.05
+    """
     try:
         seconds = float(value)
     except (TypeError, ValueError):

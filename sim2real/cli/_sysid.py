@@ -8,6 +8,7 @@ import math
 from rich.markup import escape
 
 from sim2real._io import atomic_write, check_not_an_input, check_output_path
+from sim2real.agreement.study import odom_v_window_seconds
 from sim2real.cli._common import read_options
 from sim2real.cli._progress import progress_bar
 from sim2real.cli._result import print_result, stdout_console
@@ -36,18 +37,6 @@ def _window(text: str | None, option: str) -> tuple[float, float] | None:
     return start, end
 
 
-def _v_window(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and 0.0 <= value <= 1.0):
-        raise Sim2RealValueError(
-            f"--odom-v-window must be 'auto' or seconds in [0, 1], got {text!r}; e.g. 0.0333"
-        )
-    return value
-
-
 def _free(text: str) -> str | list[str]:
     names = [n.strip() for n in text.split(",") if n.strip()]
     if not names:
@@ -66,7 +55,7 @@ def handle_fit(args: argparse.Namespace) -> int:
     window = _window(args.window, "--window")
     validate_window = _window(args.validate_window, "--validate-window")
     free = _free(args.free)
-    v_window = None if args.odom_v_window == "auto" else _v_window(args.odom_v_window)
+    v_window = None if args.odom_v_window == "auto" else odom_v_window_seconds(args.odom_v_window)
     console = stdout_console()
     with progress_bar("[bold]sysid[/] {description}", 1.0) as update:
         fit = fit_logs(
