@@ -37,7 +37,14 @@ from sim2real.logs._schemas import (
 )
 from sim2real.logs._summary import stated_counts
 
-__all__ = ["DRIVE_TYPES", "STANDARD_PACKAGES", "LogSource", "open_log_source", "source_kind"]
+__all__ = [
+    "DRIVE_TYPES",
+    "STANDARD_PACKAGES",
+    "LogSource",
+    "existing_log",
+    "open_log_source",
+    "source_kind",
+]
 
 _ROS1_MAGIC = b"#ROSBAG V"
 
@@ -96,6 +103,16 @@ def source_kind(path: Path) -> str:
             f"the folder '{path.parent}' instead"
         )
     return "mcap"
+
+
+def existing_log(path: str | Path) -> Path:
+    """The path of a log (file or folder), refused in one sentence when nothing is there."""
+    p = Path(path)
+    if not p.exists():
+        raise Sim2RealFileNotFoundError(
+            f"log file '{p}' does not exist; check the path (e.g. `ls {p.parent}`)"
+        )
+    return p
 
 
 def open_log_source(path: Path) -> LogSource:

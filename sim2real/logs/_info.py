@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from robots.units import seconds
-from sim2real.errors import MissingTopicError, Sim2RealFileNotFoundError
-from sim2real.logs._bags import source_kind
+from sim2real.errors import MissingTopicError
+from sim2real.logs._bags import existing_log, source_kind
 from sim2real.logs._channels import Chan, choose_topic
 from sim2real.logs._digest import FileDigest, LazyText
 from sim2real.logs._reader import load_log
@@ -365,11 +365,7 @@ def inspect_log(
     >>> info.topic("/odom").count  # doctest: +SKIP
     893
     """
-    p = Path(path)
-    if not p.exists():
-        raise Sim2RealFileNotFoundError(
-            f"log file '{p}' does not exist; check the path (e.g. `ls {p.parent}`)"
-        )
+    p = existing_log(path)
     log = _from_summary(p) or _from_scan(p)
     chosen: dict[str, str | None] = {}
     notes: dict[str, str] = {}

@@ -11,10 +11,9 @@ from robots.units import seconds
 from sim2real.errors import (
     LogFormatError,
     LogValueError,
-    Sim2RealFileNotFoundError,
     Sim2RealValueError,
 )
-from sim2real.logs._bags import open_log_source, source_kind
+from sim2real.logs._bags import existing_log, open_log_source, source_kind
 from sim2real.logs._channels import Chan, channel_table, choose_topic
 from sim2real.logs._decode import decode_channel, infer_json_type
 from sim2real.logs._digest import FileDigest
@@ -72,11 +71,7 @@ def load_log(
     ``keep_types`` keeps the raw payloads of more message types (e.g. LaserScan). Bad
     files give one clear error.
     """
-    p = Path(path)
-    if not p.exists():
-        raise Sim2RealFileNotFoundError(
-            f"log file '{p}' does not exist; check the path (e.g. `ls {p.parent}`)"
-        )
+    p = existing_log(path)
     source = open_log_source(p)  # the factory picks the reader (MCAP, ROS 1 bag, rosbag2)
     if source.kind == "csv":
         raise LogFormatError(
