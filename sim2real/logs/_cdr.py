@@ -36,6 +36,7 @@ __all__ = [
     "gather",
     "is_little_endian",
     "items",
+    "message_header",
     "rows",
     "stamp_ns",
 ]
@@ -350,3 +351,18 @@ def encode_joint_state(
 def _u32(value: int, rel: int) -> tuple[bytes, int]:
     pad = (-rel) % 4
     return b"\x00" * pad + struct.pack("<I", value), rel + pad + 4
+
+
+def message_header(buf: bytes, *, ros1: bool) -> tuple[int, int]:
+    """The stamp (ns) of one message's ``std_msgs/Header`` and the offset of the field after
+    it: ROS 1 packs the header (a ``seq`` before the stamp); little-endian ROS 2 CDR has a
+    4-byte encapsulation header first and aligns the next 4-byte field. A big-endian CDR
+    message raises ``ValueError``."""
+    if ros1:
+        _seq, sec, nsec, n = struct.unpack_from("<IIII", buf, 0)
+        return sec * NS_PER_S + nsec, 16 + n
+    if buf[1] != 1:
+        raise ValueError("not little-endian CDR")
+    sec, nsec, n = struct.unpack_from("<iII", buf, 4)
+    pos = 16 + n
+    return sec * NS_PER_S + nsec, pos + (-(pos - 4)) % 4

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from robots.units import NS_PER_S
 from sim2real.errors import LogFormatError, LogValueError, MissingTopicError
+from sim2real.logs._cdr import message_header
 from sim2real.logs._channels import Chan, _listing
 from sim2real.logs._mcap import Segment
 from sim2real.logs._reader import load_log
@@ -57,15 +57,8 @@ class DepthImages:
 
 def _image(buf: bytes, ros1: bool) -> tuple[int, int, int, str, int, int, int]:
     """Stamp (ns), height, width, encoding, big-endian flag, step and data offset."""
-    if ros1:
-        _seq, sec, nsec, n = struct.unpack_from("<IIII", buf, 0)
-        pos, base = 16 + n, 0
-    else:
-        if buf[1] != 1:
-            raise ValueError("not little-endian CDR")
-        sec, nsec, n = struct.unpack_from("<iII", buf, 4)
-        pos, base = 16 + n, 4
-    pos += (-(pos - base)) % 4 if not ros1 else 0
+    stamp, pos = message_header(buf, ros1=ros1)
+    base = 0 if ros1 else 4  # where CDR alignment counts from
     height, width, n = struct.unpack_from("<III", buf, pos)
     encoding = buf[pos + 12 : pos + 12 + n].rstrip(b"\0").decode("ascii")
     pos += 12 + n
@@ -75,7 +68,7 @@ def _image(buf: bytes, ros1: bool) -> tuple[int, int, int, str, int, int, int]:
     step, count = struct.unpack_from("<II", buf, pos)
     if count < step * height:
         raise ValueError(f"{count} data bytes for {height} rows of {step}")
-    return sec * NS_PER_S + nsec, height, width, encoding, big, step, pos + 8
+    return stamp, height, width, encoding, big, step, pos + 8
 
 
 def _payloads(parts: Sequence[object]) -> list[tuple[bytes, int]]:

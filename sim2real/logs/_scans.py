@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from robots.units import NS_PER_S
 from sim2real.errors import LogFormatError, LogValueError, MissingTopicError
+from sim2real.logs._cdr import message_header
 from sim2real.logs._channels import Chan, _listing
 from sim2real.logs._decode import decode_channel
 from sim2real.logs._mcap import Segment
@@ -89,29 +89,13 @@ def _pick(chans: list[Chan], type_name: str, explicit: str | None, name: str, fl
     return found[0]
 
 
-def _cdr_scan(buf: bytes) -> tuple[int, tuple[float, ...], NDArray[np.float32]]:
-    """Stamp (ns), the seven floats and the ranges of one little-endian CDR LaserScan."""
-    if buf[1] != 1:
-        raise ValueError("not little-endian CDR")
-    sec, nsec, n = struct.unpack_from("<iII", buf, 4)
-    pos = 4 + 12 + n
-    pos += (-(pos - 4)) % 4
+def _scan(buf: bytes, ros1: bool) -> tuple[int, tuple[float, ...], NDArray[np.float32]]:
+    """Stamp (ns), the seven floats and the ranges of one LaserScan (ROS 1 or CDR)."""
+    stamp, pos = message_header(buf, ros1=ros1)
     floats = _FLOATS.unpack_from(buf, pos)
     pos += 28
     (count,) = struct.unpack_from("<I", buf, pos)
-    ranges = np.frombuffer(buf, "<f4", count, pos + 4)
-    return sec * NS_PER_S + nsec, floats, ranges
-
-
-def _ros1_scan(buf: bytes) -> tuple[int, tuple[float, ...], NDArray[np.float32]]:
-    """Stamp (ns), the seven floats and the ranges of one ROS 1 LaserScan."""
-    _seq, sec, nsec, n = struct.unpack_from("<IIII", buf, 0)
-    pos = 16 + n
-    floats = _FLOATS.unpack_from(buf, pos)
-    pos += 28
-    (count,) = struct.unpack_from("<I", buf, pos)
-    ranges = np.frombuffer(buf, "<f4", count, pos + 4)
-    return sec * NS_PER_S + nsec, floats, ranges
+    return stamp, floats, np.frombuffer(buf, "<f4", count, pos + 4)
 
 
 def _decode_scans(
@@ -119,7 +103,7 @@ def _decode_scans(
 ) -> tuple[
     NDArray[np.int64], NDArray[np.int64], list[tuple[float, ...]], list[NDArray[np.float32]]
 ]:
-    decode = _ros1_scan if chan.encoding == "ros1" else _cdr_scan
+    ros1 = chan.encoding == "ros1"
     if chan.encoding not in ("cdr", "ros1"):
         raise LogFormatError(
             f"topic '{chan.topic}' of log file '{name}' is encoded as '{chan.encoding}'; "
@@ -131,7 +115,7 @@ def _decode_scans(
             zip(seg.payload_off.tolist(), seg.payload_len.tolist(), strict=True)
         ):
             try:
-                stamp, floats, ranges = decode(bytes(seg.buf[o : o + n]))
+                stamp, floats, ranges = _scan(bytes(seg.buf[o : o + n]), ros1)
             except (struct.error, ValueError, IndexError) as exc:
                 raise LogFormatError(
                     f"a message of topic '{chan.topic}' in log file '{name}' cannot be decoded "
