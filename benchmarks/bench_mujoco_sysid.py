@@ -13,9 +13,11 @@ the agreement tolerances, the 90 % band of 30 robots).
   ``robots export`` writes) with two odometry sensors added (``tendonvel`` of the ``forward``
   and ``yaw`` tendons: the wheels' v and yaw rate). Controls: the wheel speed targets of the
   logged commands as the exported model's controller computes them with the spec's defaults
-  and no delay (``MujocoDrive``: clamp, rate limits, wheel-speed cap), on the ``wheel_*_speed``
-  velocity actuators. Parameters (start: the spec's defaults, the start ``sysid fit`` has):
-  the actuators' gain ``kv`` [x/20, 20x], the joints' ``actuatorfrcrange`` [x/20, 20x] and
+  and no delay (``MujocoDrive``: clamp, rate limits, both wheels scaled to a cap that is a
+  parameter, through its ``custom_rollout`` hook), on the ``wheel_*_speed`` velocity actuators
+  (segments standing still are left out: its normalised residual is 0/0 there). Parameters
+  (start: the spec's defaults, as for ``sysid fit``): that wheel-speed cap (and ``ctrlrange``),
+  ``kv``, joint ``actuatorfrcrange`` (each [x/20, 20x]) and
   ``armature``, ``damping`` and ``frictionloss`` of the two tendons (from 0 to a force of
   the robot's weight, or its weight across the track), and a signal delay on both sensors
   with its ``SignalTransform.delay`` modifier [0, 0.5] s. ``sysid.optimize`` (its default
@@ -100,7 +102,10 @@ class PeerModel:
         self.params = self._parameters()
         self.model = self.mjspec.compile()
         self.data = mujoco.MjData(self.model)
-        self._packed = pack_params(spec.drive, spec.geometry)
+        # the targets before the actuators' ctrlrange (a fitted parameter) clamps each wheel
+        self._packed = pack_params(
+            spec.drive.replace(wheel_speed_max_radps=math.inf), spec.geometry
+        )
 
     def _parameters(self) -> Any:
         sysid, spec, d = self.sysid, self.spec, self.spec.drive
@@ -131,9 +136,12 @@ class PeerModel:
 
             return apply
 
-        kv, cap = d.motor_gain_nms_per_rad, d.wheel_torque_max_nm
+        kv, cap, top = d.motor_gain_nms_per_rad, d.wheel_torque_max_nm, d.wheel_speed_max_radps
+        top = top if math.isfinite(top) else spec.max_v_mps / spec.wheels.radius_m
         rows = (
             ("kv", kv, kv / 20, kv * 20, per_wheel("actuator", set_kv)),
+            ("speed_cap", top, top / 20, top * 20,
+             per_wheel("actuator", lambda a, c: setattr(a, "ctrlrange", [-c, c]))),
             ("torque_cap", cap, cap / 20, cap * 20,
              per_wheel("joint", lambda j, c: setattr(j, "actfrcrange", [-c, c]))),
             ("armature", 0.0, 0.0, 100.0 * spec.wheels.spin_inertia_kgm2,
@@ -192,6 +200,8 @@ class PeerModel:
         sysid = self.sysid
         states, controls, measured = [], [], []
         for seg in (s for t in traces for s in t.segments()):
+            if not (np.any(seg.meas_v) or np.any(seg.meas_w)):
+                continue  # standing still: the normalised residual is 0/0 there
             t = np.asarray(seg.meas_t_s, dtype=np.float64)
             start = (float(seg.meas_v[0]), float(seg.meas_w[0]))
             cmd = (seg.cmd_t_s, seg.cmd_v, seg.cmd_w)
@@ -203,6 +213,26 @@ class PeerModel:
         names = [f"segment {i}" for i in range(len(states))]
         return sysid.ModelSequences("robot", self.mjspec, names, states, controls, measured)
 
+    def capped(self, ctrl: Any, params: Any) -> Any:
+        """``ctrl`` with both wheel targets scaled together to the fitted ``speed_cap`` (the
+        controller's wheel-speed cap, a parameter here)."""
+        cap = float(params["speed_cap"].value[0])
+        peak = np.max(np.abs(ctrl[:, :2]), axis=1)
+        out = np.array(ctrl, dtype=np.float64)
+        out[:, :2] *= np.minimum(1.0, cap / np.maximum(peak, 1e-12))[:, None]
+        return out
+
+    def rollout(self, **kw: Any) -> Any:
+        """mujoco.sysid's ``custom_rollout``: its own rollout of the controls capped by each
+        candidate's ``speed_cap`` (the control depends on a parameter)."""
+        controls, params = kw.pop("control_signal"), kw.pop("param_dicts")
+        per = len(controls) // len(params)  # the segments of each candidate, in order
+        capped = [
+            self.sysid.TimeSeries(c.times, self.capped(c.data, params[i // per]), c.signal_mapping)
+            for i, c in enumerate(controls)
+        ]
+        return self.sysid.sysid_rollout(control_signal=capped, **kw)
+
     def replay(self, cmd: Any, t_out_s: Any, start: tuple[float, float]) -> tuple[Any, Any]:
         """Odometry sensors at ``t_out_s``, delayed by the fitted delay (``ReplayEngine``)."""
         from mujoco import rollout
@@ -210,6 +240,7 @@ class PeerModel:
         t_out = np.asarray(t_out_s, dtype=np.float64)
         t0 = float(t_out[0])
         state, ctrl, grid = self._run(cmd, t0, float(t_out[-1]), start)
+        ctrl = self.capped(ctrl, self.params)
         _, sensors = rollout.rollout(self.model, self.data, state, ctrl[:-1])
         sensors = np.squeeze(sensors, axis=0)
         at = grid  # the start state, then the state after each step
@@ -240,7 +271,9 @@ def peer_fit(spec: Any, traces: list[Any], max_iters: int) -> PeerFit:
     transform = sysid.SignalTransform()
     transform.delay("odom_*", peer.params["delay_s"])
     residual_fn = sysid.build_residual_fn(
-        models_sequences=[peer.sequences(traces)], modify_residual=transform.apply
+        models_sequences=[peer.sequences(traces)],
+        modify_residual=transform.apply,
+        custom_rollout=peer.rollout,
     )
     with contextlib.redirect_stdout(io.StringIO()):  # its optimizer prints every iteration
         best, result = sysid.optimize(
