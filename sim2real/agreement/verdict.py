@@ -57,6 +57,7 @@ __all__ = [
     "EXTRAPOLATES_SHARE",
     "GOOD_AGREEMENT",
     "LAG_LIMIT_S",
+    "LATENCY_GAIN",
     "MIN_ACTIVE",
     "OUTSIDE_SHARE",
     "WIDE_SHARE",
@@ -71,6 +72,8 @@ __all__ = [
     "verdict_text",
 ]
 
+#: A session's own latency that lifts the agreement by no more than this is no finding.
+LATENCY_GAIN = 0.005
 #: Agreement from which the model is good enough to train with ("over 80 %", Liang et al. 2020).
 GOOD_AGREEMENT = 0.8
 #: A lag (or a latency difference) beyond this is a timing error worth fixing first, s.
@@ -281,6 +284,9 @@ def _latency_reason(fitted: _Agreement, s: SessionFigures) -> str | None:
     best, fitted_delay = s.best_delay_s, s.fitted_delay_s
     if best is not None and fitted_delay is not None and _finite(best) and _finite(fitted_delay):
         gap = best - fitted_delay
+        at = s.agreement_at_best_delay
+        if at is not None and _finite(at) and at <= fitted.agreement + LATENCY_GAIN:
+            return None  # the delay changes nothing here (no command step to time)
         if abs(gap) > LAG_LIMIT_S:
             at = (
                 f" (agreement there {percent(s.agreement_at_best_delay)})"
@@ -338,9 +344,8 @@ def _likely_cause(defaults: _Agreement, fitted: _Agreement, s: SessionFigures) -
         return _other_cause(s)
     if at_best is None or not _finite(at_best) or at_best >= defaults.agreement - WORSE_MARGIN:
         return f"{latency}: the latency of this session differs"
-    some = at_best > fitted.agreement + 0.005  # half a point: more than rounding
-    part = "explains only part of the gap" if some else "does not explain the gap"
-    return f"{_other_cause(s)}; this session's own latency {part}: {latency}"
+    part = "this session's own latency explains only part of the gap"
+    return f"{_other_cause(s)}; {part}: {latency}"
 
 
 def _other_cause(s: SessionFigures) -> str:

@@ -145,9 +145,15 @@ def test_a_fit_worse_than_the_defaults_is_the_headline_with_its_cause() -> None:
     assert "own latency explains only part of the gap" in cause
     assert "0.030 s where the fit has 0.214 s (agreement there 40.1 %)" in cause
     none = SessionFigures(fitted_delay_s=0.164, best_delay_s=0.05, agreement_at_best_delay=0.479)
-    assert "own latency does not explain the gap" in _decide(0.479, session=none).headline
+    unmoved = _decide(0.479, session=none)  # the latency changes nothing: not a cause
+    assert "latency" not in unmoved.headline
+    assert any("latency accounts for 0.0 points" in r for r in unmoved.reasons)
     late = _decide(0.7, session=SessionFigures(fitted_delay_s=0.214, best_delay_s=0.28))
     assert late.kind == "latency"
+    # a steady spin recorded from its middle: any delay gives 100 %, so no latency finding
+    steady = SessionFigures(fitted_delay_s=0.214, best_delay_s=0.03, agreement_at_best_delay=1.0)
+    flat = _decide(1.0, session=steady)
+    assert flat.kind == "no_band" and "accounts for 0.0 points" in " ".join(flat.reasons)
     assert late.headline.count("latency") == 2  # "The latency ...: ... best command latency"
     # within the margin it is not "worse"
     assert _decide(0.49, _Ens(0.88), before=0.5).kind == "poor_fit"
