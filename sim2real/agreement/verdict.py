@@ -284,8 +284,8 @@ def _latency_reason(fitted: _Agreement, s: SessionFigures) -> str | None:
     best, fitted_delay = s.best_delay_s, s.fitted_delay_s
     if best is not None and fitted_delay is not None and _finite(best) and _finite(fitted_delay):
         gap = best - fitted_delay
-        at = s.agreement_at_best_delay
-        if at is not None and _finite(at) and at <= fitted.agreement + LATENCY_GAIN:
+        at_best = s.agreement_at_best_delay
+        if at_best is not None and _finite(at_best) and at_best <= fitted.agreement + LATENCY_GAIN:
             return None  # the delay changes nothing here (no command step to time)
         if abs(gap) > LAG_LIMIT_S:
             at = (
