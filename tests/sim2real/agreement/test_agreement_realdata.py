@@ -49,3 +49,35 @@ def test_neato_teleop_log_runs_through_agree(neato_log: Path, tmp_path: Path) ->
     assert figures["n_active"] > 300 and figures["n_samples"] == 537
     assert 0.0 <= figures["agreement"] < 0.5
     assert all(isinstance(figures[k], float) for k in ("rmse_v", "rmse_w", "lag_s_v"))
+
+
+def test_a_fit_of_an_in_place_turn_checked_on_driving_says_so_in_both_places(
+    drexel_log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The TurtleBot3 fitted on its first 16 s (an in-place turn), checked on the whole
+    go-to-goal log with a band: the headline says the fit used this log, the extrapolation
+    reason names |v| and |dv/dt| (0.2 m/s driving where the fit saw none) with their shares
+    and the parameters left uncertain, and every line of the terminal's verdict is on the
+    report's page, verbatim."""
+    import html
+
+    from sim2real.cli import main
+
+    params = tmp_path / "spin.yaml"
+    robot = ["--robot", "turtlebot3_waffle_pi"]
+    fit = ["sysid", "fit", str(drexel_log), *robot, "-o", str(params), "--window", "0:16"]
+    assert main(fit) == 0
+    capsys.readouterr()
+    report = tmp_path / "r.html"
+    argv = ["agree", str(drexel_log), *robot, "--params", str(params), "--engine", "reduced"]
+    assert main([*argv, "--ensemble", "6", "--report", str(report)]) == 0
+    out = capsys.readouterr().out
+    lines = [ln for ln in out.splitlines() if ln.startswith(("verdict: ", "  - ", "next step: "))]
+    assert lines[0].startswith("verdict: This log is one the params file was fitted on")
+    page = " ".join(html.unescape(report.read_text(encoding="utf-8")).split())
+    for line in lines:
+        sentence = line[4:] if line.startswith("  - ") else line.split(": ", 1)[1]
+        assert " ".join(sentence.split()) in page
+    ext = next(ln for ln in lines if "leaves the envelope the fit saw" in ln)
+    assert "|v| up to 0.2" in ext and "|dv/dt| up to" in ext and "% of the samples)" in ext
+    assert "speed_lim_v_mps" in ext and "accel_lim_v_mps2" in ext
