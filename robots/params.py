@@ -962,22 +962,23 @@ class ParamsFile:
     stds: dict[str, float]
     document: dict[str, Any] = dataclasses.field(default_factory=dict)
 
-    def fitted_on(self, sha256: str | None) -> bool:
-        """Whether the log of this SHA-256 is one the file was fitted on (a ``data`` entry
-        whose role is ``fit``; a validation log is not).
+    def fitted_on(self, sha256: str | None) -> str | None:
+        """The name the file gives the log of this SHA-256 when it was fitted on it (a
+        ``data`` entry whose role is ``fit``, ``[start:end]`` after it for a fitted part);
+        None when it was not (a validation log is not).
 
         Examples
         --------
-        >>> doc = {"data": [{"file": "a.mcap", "sha256": "ab12", "role": "fit"}]}
+        >>> doc = {"data": [{"file": "runs/a.mcap[0:16]", "sha256": "ab12", "role": "fit"}]}
         >>> pf = ParamsFile(path=Path("p.yaml"), robot="r", values={}, stds={}, document=doc)
         >>> pf.fitted_on("ab12"), pf.fitted_on("cd34")
-        (True, False)
+        ('a.mcap[0:16]', None)
         """
         entries = self.document.get("data")
-        return bool(sha256) and any(
-            isinstance(e, dict) and e.get("sha256") == sha256 and e.get("role", "fit") == "fit"
-            for e in (entries if isinstance(entries, list) else [])
-        )
+        for e in entries if isinstance(entries, list) and sha256 else []:
+            if isinstance(e, dict) and e.get("sha256") == sha256 and e.get("role", "fit") == "fit":
+                return Path(str(e.get("file", "this log"))).name
+        return None
 
     def robot_option(self) -> str:
         """The ``--robot`` option that loads this file's robot, as a user can paste it.

@@ -562,7 +562,7 @@ def session_figures(
         top_v_mps=float(spec.max_v_mps),
         top_w_radps=float(spec.max_w_radps),
         speed_shortfall=shortfall,
-        fit_log=params_file is not None and params_file.fitted_on(trace.meta.sha256),
+        fit_log=None if params_file is None else params_file.fitted_on(trace.meta.sha256),
         band_misses=None
         if ensemble is None
         else band_miss_reason(

@@ -142,8 +142,9 @@ class SessionFigures:
         one sentence (:func:`sim2real.agreement.latency.noise_note`).
     band_misses : str or None
         Why the band covers too little, where it does (:func:`band_miss_reason`).
-    fit_log : bool
-        True when the checked log is one the params file was fitted on.
+    fit_log : str or None
+        The checked log as the params file names it when the file was fitted on it
+        (``a.mcap[0:16]`` for a fitted part).
     """
 
     best_delay_s: float | None = None
@@ -158,7 +159,7 @@ class SessionFigures:
     extrapolation: Any = None
     noise_note: str | None = None
     band_misses: str | None = None
-    fit_log: bool = False
+    fit_log: str | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -650,9 +651,9 @@ def _problem(
     if s.fit_log:
         return (
             "fit_log",
-            f"This log is one the params file was fitted on: its figures (fit {after}, spec "
-            f"defaults {before}) say how well the model fits it, not how it holds on a "
-            "session it never saw.",
+            f"This log is one the params file was fitted on (as {s.fit_log}): its figures "
+            f"(fit {after}, spec defaults {before}) say how well the model fits it, not how "
+            "it holds on a session it never saw.",
             _FIT_LOG_STEP,
         )
     if fitted.agreement < defaults.agreement - WORSE_MARGIN:

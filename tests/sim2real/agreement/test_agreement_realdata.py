@@ -73,7 +73,9 @@ def test_a_fit_of_an_in_place_turn_checked_on_driving_says_so_in_both_places(
     assert main([*argv, "--ensemble", "6", "--report", str(report)]) == 0
     out = capsys.readouterr().out
     lines = [ln for ln in out.splitlines() if ln.startswith(("verdict: ", "  - ", "next step: "))]
-    assert lines[0].startswith("verdict: This log is one the params file was fitted on")
+    assert lines[0].startswith(
+        "verdict: This log is one the params file was fitted on (as tb3wp_drexel_goal.mcap[0:16])"
+    )
     page = " ".join(html.unescape(report.read_text(encoding="utf-8")).split())
     for line in lines:
         sentence = line[4:] if line.startswith("  - ") else line.split(": ", 1)[1]

@@ -355,10 +355,10 @@ def test_checking_the_fit_on_its_own_log_is_said_first(
     argv = ["--robot", ROBOT, "--engine", "reduced", "--params", str(params)]
     assert main(["agree", str(fit_log), *argv]) == 0
     out = capsys.readouterr().out
-    assert "verdict: This log is one the params file was fitted on: its figures (fit " in out
+    assert "verdict: This log is one the params file was fitted on (as fit.mcap): its " in out
     assert "next step: compare on a recording the fit never used" in out
     assert main(["agree", str(other), *argv]) == 0
     assert "fitted on" not in capsys.readouterr().out
-    v = _decide(0.95, _Ens(0.88), session=SessionFigures(fit_log=True))
+    v = _decide(0.95, _Ens(0.88), session=SessionFigures(fit_log="a.mcap"))
     assert v.kind == "fit_log" and not v.ok and "train" not in v.next_step
     assert any(r.startswith("The 90 % band is calibrated") for r in v.reasons)
