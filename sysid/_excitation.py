@@ -28,6 +28,12 @@ MIN_RANGE_V, MIN_RANGE_W = 0.02, 0.1
 STEP_V, STEP_W = 0.1, 0.5
 #: Motion thresholds on the measurement (m/s, rad/s).
 MOVE_V, MOVE_W = 0.01, 0.05
+#: A clamp on the yaw rate shows where the commands ask for more than this factor times the
+#: fastest measured yaw rate while the forward speed keeps at least :data:`_CLAMP_TRACK` of
+#: its command (median over at least :data:`_CLAMP_SAMPLES` such samples, each one at least
+#: :data:`_CLAMP_HOLD_S` after the command last changed with the yaw rate within
+#: :data:`_CLAMP_TRACK` of its peak: settled at the clamp, no transient counts).
+_CLAMP_OVER, _CLAMP_TRACK, _CLAMP_SAMPLES, _CLAMP_HOLD_S = 1.25, 0.8, 10, 1.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -217,7 +223,48 @@ def _auto_free(
         # velocity data fix mass/gain ratios: the gain is fitted too, the priors split them
         free.append("motor_gain_nms_per_rad")
     _free_speed_cap(logs, geometry, base, free, ties, notes)
+    if "added_yaw_inertia_kgm2" in free:
+        _free_yaw_clamp(logs, base, free, notes)
     return free, ties, notes
+
+
+def _held_for(log: LogArrays) -> FloatArray:
+    """Seconds since the command last changed, at each measurement time."""
+    changed = np.flatnonzero((np.diff(log.cmd_v) != 0) | (np.diff(log.cmd_w) != 0)) + 1
+    starts = np.concatenate(([log.cmd_t_s[0]], log.cmd_t_s[changed]))
+    idx = np.searchsorted(starts, log.meas_t_s, side="right") - 1
+    since: FloatArray = log.meas_t_s - starts[np.clip(idx, 0, None)]
+    return np.where(idx >= 0, since, 0.0)
+
+
+def _free_yaw_clamp(
+    logs: Sequence[LogArrays], base: DriveParams, free: list[str], notes: list[str]
+) -> None:
+    """A clamp on the commanded yaw rate (``speed_lim_w_radps``, no spec value), when the logs
+    show one: where the commands ask for a faster turn than the robot ever made, the forward
+    speed still follows its command. A wheel-speed cap scales both wheels together and slows v
+    and w alike; a driver's clamp on w alone leaves v."""
+    if math.isfinite(base.speed_lim_w_radps):
+        return
+    peak = max(float(np.percentile(np.abs(g.meas_w), 98)) for g in logs)
+    ratios, asked = [], 0.0
+    for g in logs:
+        cv = held_command(g.cmd_t_s, g.cmd_v, g.meas_t_s)
+        cw = held_command(g.cmd_t_s, g.cmd_w, g.meas_t_s)
+        over = (np.abs(cw) > _CLAMP_OVER * max(peak, MOVE_W)) & (np.abs(cv) > MOVE_V)
+        # settled at the clamp: the command held for a while, the robot turning at its peak
+        over &= (_held_for(g) >= _CLAMP_HOLD_S) & (np.abs(g.meas_w) >= _CLAMP_TRACK * peak)
+        ratios.append(g.meas_v[over] / cv[over])
+        asked = max(asked, float(np.max(np.abs(cw), initial=0.0)))
+    share = np.concatenate(ratios)
+    if share.size < _CLAMP_SAMPLES or float(np.median(share)) < _CLAMP_TRACK:
+        return
+    free.append("speed_lim_w_radps")
+    notes.append(
+        f"the yaw rate stops near {peak:.3g} rad/s while the commands ask up to {asked:.3g} "
+        f"rad/s and the forward speed keeps {float(np.median(share)):.0%} of its command "
+        "there: a clamp on the commanded yaw rate (speed_lim_w_radps) is fitted"
+    )
 
 
 def _free_forward(

@@ -348,7 +348,7 @@ def initial_coords(
     acc: dict[str, float] = {}
     for axis in axes:
         data[axis], acc[axis] = _axis_start(windows, axis, base, free, release_accel_limits)
-    start = _speed_cap_start(logs, geometry, base, free)
+    start = _yaw_clamp_start(logs, _speed_cap_start(logs, geometry, base, free), free)
     prob = Problem(windows, mapper, (), {}, scale_v=0.02, scale_w=0.1, dt_s=0.01)
     fallback = start.replace(delay_s=base.delay_s)
     at = functools.partial(_params_at, data=data, acc=acc, base=start, mapper=mapper, free=free)
@@ -418,6 +418,17 @@ def _speed_cap_start(
     half = 0.5 * geometry.wheel_separation_m
     peak_w = max(float(np.percentile(np.abs(g.meas_v) + np.abs(g.meas_w) * half, 99)) for g in logs)
     return base.replace(wheel_speed_max_radps=max(1.15 * peak_w / geometry.wheel_radius_m, 0.5))
+
+
+def _yaw_clamp_start(
+    logs: Sequence[LogArrays], base: DriveParams, free: Sequence[str]
+) -> DriveParams:
+    """``base`` with a free yaw-rate clamp of no spec value started at the logs' fastest
+    measured yaw rate (5-sample median, so no spike sets it)."""
+    if "speed_lim_w_radps" not in free or math.isfinite(base.speed_lim_w_radps):
+        return base
+    peak = max(float(np.max(np.abs(median_filter(g.meas_w, size=5, mode="nearest")))) for g in logs)
+    return base.replace(speed_lim_w_radps=max(peak, 0.05))
 
 
 def _delay_scan(
