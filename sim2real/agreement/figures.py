@@ -332,11 +332,21 @@ def agreement_from_arrays(
     )
 
 
-def _varies(real: FloatArray, sim: FloatArray, tol: float) -> tuple[bool, bool]:
-    """Whether the real (its central 95 %, so a spike does not count) and the simulated
-    velocity vary by ``tol`` or more."""
-    spread = float(np.percentile(real, 97.5) - np.percentile(real, 2.5)) if real.size else 0.0
-    return spread >= tol, bool(sim.size) and float(np.ptp(sim)) >= tol
+def _varies(
+    real: FloatArray, sim: FloatArray, tol: float, *, above_noise: bool = False
+) -> tuple[bool, bool]:
+    """Whether the real and the simulated velocity vary by ``tol`` or more; the real one by
+    its central 95 % (a spike does not count) and, with ``above_noise``, by more than 4x
+    its sample noise (the median absolute change between samples, robust to steps), so a
+    steady, noisy signal does not count as varied."""
+    sim_varies = bool(sim.size) and float(np.ptp(sim)) >= tol
+    if real.size < 3:
+        return False, sim_varies
+    floor = tol
+    if above_noise:
+        floor = max(tol, 4.0 * 1.4826 * float(np.median(np.abs(np.diff(real)))) / math.sqrt(2))
+    spread = float(np.percentile(real, 97.5) - np.percentile(real, 2.5))
+    return spread >= floor, sim_varies
 
 
 def _fit_of_varied(real: FloatArray, sim: FloatArray, tol: float) -> float:
@@ -351,7 +361,7 @@ def _lag_of_varied(
     """Lag of ``sim`` behind ``real`` (s); NaN when either varies by less than ``tol`` over
     the active samples (the v of a spin in place, the w of a steady spin): a cross-correlation
     of odometry noise has a peak, but not at any latency."""
-    if active.any() and not all(_varies(real[active], sim[active], tol)):
+    if active.any() and not all(_varies(real[active], sim[active], tol, above_noise=True)):
         return math.nan
     return xcorr_lag_s(t, real, sim)
 

@@ -205,6 +205,7 @@ def test_a_real_fleet_goes_on_past_two_spins_in_place_and_a_corrupt_log(
         spin = rows[f"spin{k}.mcap"]
         assert "lag_s_v" not in spin  # a cross-correlation of odometry noise, not a latency
         assert "fit_percent_v" not in spin  # a score of odometry noise against its mean
+        assert "lag_s_w" not in spin  # a steady spin: its w is noise about -1 rad/s
         for key in ("lag_s_v", "fit_percent_v"):
             assert any(f"figure '{key}' is left out" in n for n in spin["notes"])
         assert 0.0 <= spin["agreement"] <= 1.0 and spin["agreement_v"] == 1.0
