@@ -32,6 +32,12 @@ Targets (issue 28): ``fit >= spec`` on every row; ``own lat.`` >= 80 % or within
 20 % of the top speed / yaw rate or <= 1.25x the noise-only band. A closing line counts the
 rows that hold each.
 
+``--explain`` adds, per base, a table of where each row's band gets its width and its misses
+(:func:`sim2real.agreement.sources.band_sources`, reduced engine): the three largest sources
+of each axis's variance (noise, command latency, a parameter) with their share and the width
+each would make alone; the share of the misses within 1 s of a command step and above the
+band; and the coverage with every member at the session's own best latency.
+
 ``--quick`` checks three Neato recordings (one of the fitted unit, one other 2018 unit, one
 2017 unit) and one engine (reduced); ``--base NAME`` runs one base.
 """
@@ -41,6 +47,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -235,7 +242,53 @@ def holds(base: Base, r: dict, robot: str) -> dict[str, bool]:
     }
 
 
-def run_base(base: Base, engines: list[str], quick: bool, tally: dict[str, list[int]]) -> None:
+def explain(log: Path, robot: str, params: Path) -> str:
+    """One table row: where the band's width and its misses come from."""
+    from robots.randomization import DriveDistribution
+    from robots.spec import load_spec
+    from sim2real.agreement.sources import band_sources
+    from sim2real.agreement.study import parse_odom_v_window
+    from sim2real.logs import read_for_robot
+
+    spec = load_spec(robot)
+    dist = DriveDistribution.from_params_file(params, robot=spec.name)
+    window_s = parse_odom_v_window("auto", spec.odometry.rate_hz, v_source=spec.odometry.v_source)
+    trace, _ = read_for_robot(log, spec)
+    why = band_sources(trace, robot=spec, distribution=dist, n=ENSEMBLE_N, odom_v_window_s=window_s)
+
+    def axis(a: str) -> str:
+        return ", ".join(
+            f"{UNIT.sub('', name) if name != 'delay_s' else 'latency'} {100 * share:.0f} %"
+            f" ({width:.3f})"
+            for name, share, width in why.largest(a)
+        )
+
+    def miss(a: str) -> str:
+        near, above = getattr(why, f"near_step_{a}"), getattr(why, f"above_{a}")
+        cov = getattr(why, f"coverage_{a}")
+        return (
+            "-"
+            if near != near
+            else f"{100 * (1 - cov):.0f} %: {100 * near:.0f} / {100 * above:.0f}"
+        )
+
+    return (
+        f" | {axis('v')} | {axis('w')} | {miss('v')} | {miss('w')} | {why.own_delay_s:.2f}:"
+        f" {100 * why.coverage_own_latency_v:.1f} / {100 * why.coverage_own_latency_w:.1f} |"
+    )
+
+
+UNIT = re.compile(r"_(kg|kgm2|nm|n|nms_per_rad|ns_per_m|radps|per_s|mps2|radps2)$")
+EXPLAIN_HEAD = (
+    "| checked | v: largest sources, share (width alone) | w: largest sources |"
+    " v misses: near step / above (%) | w misses | own latency (s): cov v / w |\n"
+    "|---|---|---|---|---|---|"
+)
+
+
+def run_base(
+    base: Base, engines: list[str], quick: bool, tally: dict[str, list[int]], why: bool = False
+) -> None:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         robot = spec_file(base, tmp)
@@ -255,8 +308,13 @@ def run_base(base: Base, engines: list[str], quick: bool, tally: dict[str, list[
         print("| checked | engine | spec | fit | own lat. (s) | ceiling | cov v / w |"
               " width v / w (noise-only) | holds |")  # fmt: skip
         print("|---|---|---|---|---|---|---|---|---|")
+        explained = []
         for ref in base.quick_checks if quick and base.quick_checks else base.checks:
             log = log_path(ref, tmp)
+            if why:
+                explained.append(
+                    f"| {ref.removeprefix('neato_')[:34]}{explain(log, robot, params)}"
+                )
             for engine in engines:
                 try:
                     r = check(base, log, robot, params, engine, tmp)
@@ -279,6 +337,10 @@ def run_base(base: Base, engines: list[str], quick: bool, tally: dict[str, list[
                     f" | {' '.join(k for k, v in ok.items() if not v) or 'all'} |",
                     flush=True,
                 )
+        if explained:
+            print(f"\nwhere the bands of {base.name} get their width and their misses (reduced)")
+            print(EXPLAIN_HEAD)
+            print("\n".join(explained), flush=True)
 
 
 def main() -> None:
@@ -291,6 +353,9 @@ def main() -> None:
     )
     parser.add_argument("--quick", action="store_true", help="fewer Neato checks, reduced only")
     parser.add_argument("--base", choices=[b.name for b in BASES], action="append")
+    parser.add_argument(
+        "--explain", action="store_true", help="where each band's width and misses come from"
+    )
     args = parser.parse_args()
     if not REALDATA.is_dir():
         print(f"skipped: {REALDATA} is absent")
@@ -304,7 +369,7 @@ def main() -> None:
     t0 = time.perf_counter()
     for base in BASES:
         if args.base is None or base.name in args.base:
-            run_base(base, engines, args.quick, tally)
+            run_base(base, engines, args.quick, tally, args.explain)
     overall = {k: an for k, an in tally.items() if ":" not in k}
     print(f"\ntargets held (rows): {', '.join(f'{k} {a}/{n}' for k, (a, n) in overall.items())};"
           f" {time.perf_counter() - t0:.0f} s")  # fmt: skip

@@ -6,6 +6,8 @@ Modules, in the order a run uses them:
   with a log's commands at their logged times;
 - :mod:`~sim2real.agreement.figures` measures the agreement of a replay with the real
   velocities, the ensemble band and its coverage;
+- :mod:`~sim2real.agreement.sources` measures where a band's width and its misses come from
+  (the noise, the command latency, each parameter's spread);
 - :mod:`~sim2real.agreement.calibration` fits the spread of a params file's randomisation to a
   log the fit did not use;
 - :mod:`~sim2real.agreement.verdict` decides, once, what an agreement run means and what to do

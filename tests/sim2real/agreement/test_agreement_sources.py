@@ -1,0 +1,50 @@
+"""Where a band's width and misses come from: noise, latency, each parameter."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+from _agreement_fixtures import ROBOT, hidden_params, write_log
+
+from sim2real.agreement.sources import band_sources, marginal
+from sim2real.logs import read_trace
+from tests.randomization_block import distribution_around
+
+
+@pytest.fixture(scope="module")
+def plant_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_log(tmp_path_factory.mktemp("sources") / "a.mcap", duration_s=24.0, seed=4)
+
+
+def test_noise_alone_makes_a_band_of_noise(plant_log: Path) -> None:
+    dist = distribution_around(hidden_params(), ROBOT, rel=0.0, noise_v=0.01, noise_w=0.05)
+    why = band_sources(read_trace(plant_log), robot=ROBOT, distribution=dist, n=8)
+    assert why.names[0] == "noise" and why.share_v[0] == 1.0 and why.share_w[0] == 1.0
+    assert why.width_v_mps[0] == pytest.approx(3.29 * 0.01, rel=1e-3)
+    assert why.width_w_radps[0] == pytest.approx(3.29 * 0.05, rel=1e-3)
+    assert why.largest("v", 1)[0][0] == "noise"
+
+
+def test_a_wide_latency_spread_makes_the_width_and_the_own_latency_the_misses(
+    plant_log: Path,
+) -> None:
+    base = distribution_around(hidden_params(), ROBOT, rel=0.05)
+    j = base.names.index("delay_s")
+    cov = base.covariance_array
+    cov[j, j] = 0.05**2  # 50 ms between sessions, every other spread 5 % of its prior's
+    wide = dataclasses.replace(base, covariance=tuple(map(tuple, cov.tolist())))
+    why = band_sources(read_trace(plant_log), robot=ROBOT, distribution=wide, n=12)
+    assert all(abs(sum(s) - 1.0) < 1e-9 for s in (why.share_v, why.share_w))
+    assert why.largest("w", 1)[0][0] == "delay_s"
+    # mean latency 0.25 s where the plant's is 0.15: misses at the steps, which the band at
+    # the session's own latency (found within 0.03 s) covers more of
+    mean = list(base.mean)
+    mean[j] = 0.25
+    late = dataclasses.replace(base, mean=tuple(mean))
+    why = band_sources(read_trace(plant_log), robot=ROBOT, distribution=late, n=12)
+    assert why.own_delay_s == pytest.approx(0.15, abs=0.03)
+    assert why.coverage_w < 0.85 and why.near_step_w > 0.6  # measured 0.83 and 0.70
+    assert why.coverage_own_latency_w > why.coverage_w + 0.05  # measured 0.91
+    assert marginal(late, "delay_s").std()["added_mass_kg"] == 0.0
