@@ -64,10 +64,24 @@ range each axis's noise std is scaled by the factor :math:`c` at which the cover
 range's nearer end (split-conformal calibration of the band's scale, Angelopoulos & Bates
 2021, "A gentle introduction to conformal prediction", sec. 1, with a margin because another
 session differs from the validation ones), found by bisection in :data:`NOISE_SCALE_RANGE`
-(common random numbers: coverage nearly always rises with :math:`c`), never below the
-samples' own robust std (where they identify the noise, a band that over-covers does so by its
-spread). Where the end of that range moves the coverage by less than its binomial standard
-error, the noise has no effect on the band: the identified std is kept and a note says so.
+(common random numbers: coverage nearly always rises with :math:`c`), never below what the
+logs show of their noise: the samples' robust std beyond the spread, and the logs' own scatter
+about the level of their steady stretches (:func:`sim2real.agreement.latency.log_noise`, no
+model involved); a log without such stretches cannot tell its noise from the spread, and its
+noise is not narrowed. Where the end of that range moves the coverage by less than its
+binomial standard error, the noise has no effect on the band: the identified std is kept and a
+note says so. Command steps are read on the command clipped to the robot's limits (a log that
+commands 2 then 3 m/s to a base capped at 0.3 m/s makes no step).
+
+A band that, with that noise, still covers more than the top of :func:`match_range` of all the
+samples is too wide by its dynamics spread. The spread is then narrowed where it makes the
+over-covered axis wide: the varying parameters are split into those that move v more than w,
+those that move w more (each one's share of its axis's member variance, drawn alone:
+:func:`sim2real.agreement.sources.source_variances`) and the command latency, which moves both
+at every step; each group's sds are scaled by the factor, found by bisection down to
+:data:`NARROW_MIN`, at which its axis (both for the latency) reaches the top of the range while
+the other axis stays at or above it (the same split-conformal scaling, applied to the spread
+that makes the width rather than to one factor shared by both axes).
 Then, where the band covers less than the level of *all* the samples on either axis (the
 misses near command steps), the session factor b is raised by bisection up to
 :data:`SESSION_MAX` until both axes reach it: a session unlike the fit's (latency, load,
@@ -122,7 +136,9 @@ from sim2real.agreement.figures import (
     predictive_band,
     since_command_step_s,
 )
+from sim2real.agreement.latency import log_noise
 from sim2real.agreement.replay import resolve_robot
+from sim2real.agreement.sources import source_variances
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import read_for_robot
 from sysid import spread_degrees_of_freedom
@@ -146,9 +162,10 @@ __all__ = [
 
 #: Name of the method in the output file's ``calibration`` block.
 CALIBRATION_METHOD = (
-    "gaussian-predictive-likelihood/4 (DROPO-style, Tiboni et al. 2023), pooled with the fit's "
+    "gaussian-predictive-likelihood/5 (DROPO-style, Tiboni et al. 2023), pooled with the fit's "
     "spread by sessions, noise from the steady samples (robust scale) matched to the band's "
-    "coverage of them, session spread widened to cover the rest (split conformal)"
+    "coverage of them no lower than the logs' own scatter, an over-covering axis's parameter "
+    "spread narrowed and the session spread widened to cover the rest (split conformal)"
 )
 #: Search range of the dynamics factor.
 FACTOR_RANGE = (0.05, 10.0)
@@ -170,6 +187,9 @@ NOISE_SCALE_RANGE = (0.1, 10.0)
 #: Bisection steps of the widening of the session factor (:meth:`_FactorSearch.widened`):
 #: to 1/64 of its span.
 WIDEN_STEPS = 6
+#: Smallest multiplier of the narrowing of an axis's parameters' spread
+#: (:meth:`_FactorSearch.narrowed`).
+NARROW_MIN = 0.1
 #: Median of a chi-square variable with one degree of freedom: the median of the squared
 #: standardised residual when the residuals are the predictive Gaussian's
 #: (:func:`robust_noise_std`).
@@ -253,6 +273,9 @@ class CalibrationResult:
         Share of the validation samples the noise was calibrated on: those at least
         :data:`STEADY_AFTER_STEP_S` after a command step (all when fewer than
         :data:`MIN_STEADY`).
+    narrowing : tuple of (str, float)
+        (parameter, multiplier of its sd) of each parameter whose spread the over-covered
+        band narrowed (module docstring); empty when none was.
     """
 
     dynamics_factor: float
@@ -286,6 +309,7 @@ class CalibrationResult:
     notes: tuple[str, ...] = ()
     steady_v: float = 1.0
     steady_w: float = 1.0
+    narrowing: tuple[tuple[str, float], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The ``calibration`` block of the output file (plain YAML types)."""
@@ -317,6 +341,7 @@ class CalibrationResult:
             "validation_coverage_w": num(self.coverage_w),
             "validation_steady_share_v": float(self.steady_v),
             "validation_steady_share_w": float(self.steady_w),
+            "spread_narrowing": {name: float(m) for name, m in self.narrowing},
             "n_active": int(self.n_active),
             "ensemble_n": int(self.n),
             "seed": int(self.seed),
@@ -636,13 +661,15 @@ class _AxisNoise:
         quantum: float,
         seed: int,
         steady: BoolArray,
+        own_std: float = math.nan,
     ) -> _AxisNoise:
         used = _steady_or_all(steady)
         real, members = real[used], members[:, used]
         std, robust = identified
-        # narrowed no further than the samples' own robust std: where they identify the noise,
-        # a band that over-covers does so by its spread, not its noise
-        floor = robust / std if std > 0 else 0.0
+        # narrowed no further than what the logs show of their noise: the samples' robust std
+        # beyond the spread and the logs' own scatter about their steady levels; logs without
+        # steady stretches cannot tell their noise from the spread, so it is not narrowed
+        floor = max(robust, own_std if math.isfinite(own_std) else std) / std if std > 0 else 0.0
         span = (min(max(floor, NOISE_SCALE_RANGE[0]), 1.0), NOISE_SCALE_RANGE[1])
         scale, before, after = match_noise_scale(
             real, members, std, quantum, seed=seed, scale_range=span
@@ -720,9 +747,10 @@ def calibrate_traces(
     CalibrationResult
     """
     _check_calibration_args(traces, n, tol_v, tol_w, fit_sessions)
+    spec = resolve_robot(robot)
     search = _FactorSearch(
-        _validation_logs(traces, tol_v, tol_w),
-        spec=resolve_robot(robot),
+        _validation_logs(traces, spec, tol_v, tol_w),
+        spec=spec,
         distribution=distribution,
         n=n,
         seed=seed,
@@ -749,7 +777,10 @@ def calibrate_traces(
     mvb, mwb, ll, _, _ = search.at(factor, session_factor)
     axes = search.matched_noise((mvb, mwb), steady)
     before = search.coverage(mvb, mwb, (axes[0].identified_std, axes[1].identified_std))
+    ll_before = search.log_likelihood_before()  # the file's own spread: before any narrowing
+    (mvb, mwb), narrow_note = search.narrowed(factor, session_factor, (axes[0].std, axes[1].std))
     widened, after, widen_note = search.widened(factor, session_factor, (mvb, mwb), axes)
+    widen_note = "; ".join(n for n in (narrow_note, widen_note) if n)
     if min(after) < MATCH_LEVEL:  # no spread covers the misses: the noise, as the last resort
         axes, after, last = _noise_last_resort(search, (mvb, mwb), axes, after)
         widen_note = f"{widen_note}; {last}"
@@ -771,7 +802,7 @@ def calibrate_traces(
         noise_factor_v=std_v / noise.std_v_mps if noise.std_v_mps > 0 else math.nan,
         noise_factor_w=std_w / noise.std_w_radps if noise.std_w_radps > 0 else math.nan,
         log_likelihood=ll,
-        log_likelihood_before=search.log_likelihood_before(),
+        log_likelihood_before=ll_before,
         noise_scale_v=axes[0].scale,
         noise_scale_w=axes[1].scale,
         coverage_v_likelihood=before[0],
@@ -790,6 +821,11 @@ def calibrate_traces(
         ),
         steady_v=axes[0].steady,
         steady_w=axes[1].steady,
+        narrowing=tuple(
+            (name, float(m))
+            for name, m in zip(distribution.names, search.narrowing, strict=True)
+            if m != 1.0
+        ),
         notes=tuple(a.note for a in axes if a.note)
         + ((widen_note,) if widen_note else ())
         + searched,
@@ -842,15 +878,31 @@ def _check_calibration_args(
         )
 
 
-def _validation_logs(traces: Sequence[Any], tol_v: float, tol_w: float) -> list[_Log]:
-    """Each log's active samples; refused when all of them hold fewer than 20."""
+def _own_noise(traces: Sequence[Any]) -> tuple[float, float]:
+    """The logs' own odometry noise (v, w) about their steady levels
+    (:func:`sim2real.agreement.latency.log_noise`), pooled by their steady samples; NaN when
+    no log has enough of them."""
+    own = [n for n in (log_noise(t) for t in traces) if n.measured]
+    if not own:
+        return math.nan, math.nan
+    weights = np.array([n.n_samples for n in own], dtype=np.float64)
+    return (
+        float(np.sqrt(np.average([n.std_v_mps**2 for n in own], weights=weights))),
+        float(np.sqrt(np.average([n.std_w_radps**2 for n in own], weights=weights))),
+    )
+
+
+def _validation_logs(traces: Sequence[Any], spec: Any, tol_v: float, tol_w: float) -> list[_Log]:
+    """Each log's active samples and the time since the last step of the command clipped to
+    ``spec``'s limits; refused when all of them hold fewer than 20."""
     logs = []
     for trace in traces:
         rv = np.asarray(trace.meas_v, dtype=np.float64)
         rw = np.asarray(trace.meas_w, dtype=np.float64)
         cv, cw = trace.cmd_at_meas()
         active = active_mask(cv, cw, rv, rw, tol_v=tol_v, tol_w=tol_w)
-        since = since_command_step_s(trace, tol_v=tol_v, tol_w=tol_w)[active]
+        limits = (spec.max_v_mps, spec.max_w_radps)
+        since = since_command_step_s(trace, tol_v=tol_v, tol_w=tol_w, limits=limits)[active]
         logs.append(
             _Log(trace=trace, active=active, v=rv[active], w=rw[active], since_step_s=since)
         )
@@ -897,6 +949,10 @@ class _FactorSearch:
         self.best_members: list[Any] = []  # [loglik, members v, members w] of the best point
         self.searched_on = engine
         self._memo: dict[tuple[float, float], tuple[FloatArray, FloatArray]] = {}
+        self.own_noise = _own_noise([lg.trace for lg in logs])
+        #: multiplier on each parameter's sd after the mixing (:meth:`narrowed`)
+        self.narrowing = np.ones(len(distribution.names))
+        self.narrowing_base = self.narrowing
 
     def use_engine(self, engine: str, steady: BoolArray) -> None:
         """Replay with ``engine`` from now on: the likelihood cache is cleared and the noise
@@ -911,7 +967,8 @@ class _FactorSearch:
         """The distribution with covariance ``factor^2 fitted + session_factor^2 session``."""
         # a field the logs do not inform cannot be widened without bound (correlations kept)
         cov = cap_spread(
-            factor**2 * self.fitted + session_factor**2 * self.session,
+            (factor**2 * self.fitted + session_factor**2 * self.session)
+            * np.outer(self.narrowing, self.narrowing),
             self.distribution.names,
             self.distribution.geometry,
         )
@@ -921,10 +978,18 @@ class _FactorSearch:
 
     def members(self, factor: float, session_factor: float) -> tuple[FloatArray, FloatArray]:
         """The ensembles' (v, w) at the active samples of every log, side by side."""
-        if (factor, session_factor) == (1.0, 0.0) and (1.0, 0.0) in self._memo:
+        plain = (factor, session_factor) == (1.0, 0.0) and bool(np.all(self.narrowing == 1.0))
+        if plain and (1.0, 0.0) in self._memo:
             return self._memo[(1.0, 0.0)]  # the file's own spread: the noise and "before"
+        out = self.members_of(self.mixed(factor, session_factor))
+        if plain:
+            self._memo[(1.0, 0.0)] = out
+        return out
+
+    def members_of(self, dist: Any, engine: str | None = None) -> tuple[FloatArray, FloatArray]:
+        """The ensembles of ``dist``: (v, w) at the active samples of every log, side by side
+        (replayed with ``engine``, by default the search's current one)."""
         vs, ws = [], []
-        dist = self.mixed(factor, session_factor)
         for lg in self.logs:
             _, mv, mw = ensemble_members(
                 lg.trace,
@@ -932,15 +997,12 @@ class _FactorSearch:
                 distribution=dist,
                 n=self.n,
                 seed=self.seed,
-                engine=self.engine,
+                engine=engine or self.engine,
                 odom_v_window_s=self.odom_v_window_s,
             )
             vs.append(mv[:, lg.active])
             ws.append(mw[:, lg.active])
-        out = np.concatenate(vs, axis=1), np.concatenate(ws, axis=1)
-        if (factor, session_factor) == (1.0, 0.0):
-            self._memo[(1.0, 0.0)] = out
-        return out
+        return np.concatenate(vs, axis=1), np.concatenate(ws, axis=1)
 
     def _noise_fit(self, mv: FloatArray, mw: FloatArray) -> tuple[float, float, float]:
         """(loglik, std v, std w) with the noise stds :attr:`fixed_noise`, or where there are
@@ -988,9 +1050,82 @@ class _FactorSearch:
                 quantum=q,
                 seed=self.seed + k,
                 steady=steady,
+                own_std=self.own_noise[k],
             )
             for k, ((axis, real, _, q), m) in enumerate(zip(self.axes(), members, strict=True))
         ]
+
+    def axis_groups(
+        self, factor: float, session_factor: float
+    ) -> tuple[BoolArray, BoolArray, BoolArray]:
+        """The varying parameters whose spread moves v more than w, those that move w more,
+        and the command latency (it moves both, at every command step): each parameter's share
+        of its axis's member variance on the validation samples, with that parameter alone
+        drawn from its marginal (common random numbers), replayed with the engine of the
+        likelihood search (the reduced model where the band's engine is slower)."""
+        dist = self.mixed(factor, session_factor)
+        shares = source_variances(dist, lambda d: self.members_of(d, self.searched_on))
+        shares /= np.maximum(shares.sum(axis=0), 1e-300)
+        latency = np.array([n == "delay_s" for n in dist.names])
+        moves = (shares.max(axis=1) > 0.0) & ~latency
+        return (
+            moves & (shares[:, 0] >= shares[:, 1]),
+            moves & (shares[:, 0] < shares[:, 1]),
+            latency & (shares.max(axis=1) > 0.0),
+        )
+
+    def narrowed(
+        self, factor: float, session_factor: float, stds: tuple[float, float]
+    ) -> tuple[tuple[FloatArray, FloatArray], str]:
+        """Narrow the spread of each axis's own parameters (:meth:`axis_groups`) while the
+        band, with the matched noise stds, still covers the top of :func:`match_range` of
+        every validation sample on that axis (and the other axis no less than that top or
+        than it did): a band that over-covers one axis with the noise at what the logs show
+        is too wide there by the spread of the parameters that move that axis (split-conformal
+        scaling of that spread, down to :data:`NARROW_MIN`). Sets :attr:`narrowing`; returns
+        the members at the result and a note ("" when nothing was narrowed)."""
+        high = match_range(MATCH_LEVEL)[1]
+        members = self.members(factor, session_factor)
+        start = self.coverage(*members, stds)
+        if max(start) <= high:
+            return members, ""
+        said = []
+        for k, group in enumerate(self.axis_groups(factor, session_factor)):
+            at = self.coverage(*members, stds)
+            own = [k] if k < 2 else [0, 1]  # the latency's: both axes
+            if min(at[i] for i in own) <= high or not group.any():
+                continue
+            keep = [min(high, c) for c in at]
+
+            def ok(scale: float, group: BoolArray = group, keep: list[float] = keep) -> bool:
+                self.narrowing = np.where(group, scale, self.narrowing_base)
+                cov = self.coverage(*self.members(factor, session_factor), stds)
+                return cov[0] >= keep[0] and cov[1] >= keep[1]
+
+            self.narrowing_base = self.narrowing.copy()
+            lo, hi = math.log(NARROW_MIN), 0.0
+            if ok(NARROW_MIN):
+                hi = lo
+            for _ in range(WIDEN_STEPS if lo < hi else 0):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (lo, mid) if ok(math.exp(mid)) else (mid, hi)
+            self.narrowing = np.where(group, math.exp(hi), self.narrowing_base)
+            if hi < 0.0:
+                names = ", ".join(
+                    n for n, g in zip(self.distribution.names, group, strict=True) if g
+                )
+                what = ("move v", "move w", "delay every command")[k]
+                said.append(f"x{math.exp(hi):.3g} on the parameters that {what} ({names})")
+            members = self.members(factor, session_factor)
+        if not said:
+            return members, ""
+        end = self.coverage(*members, stds)
+        return members, (
+            f"with the odometry noise at what the logs show, the pooled spread covers "
+            f"{100 * start[0]:.1f} % (v) and {100 * start[1]:.1f} % (w) of the calibration "
+            f"samples: too wide by its dynamics spread, so the spread is narrowed "
+            f"{' and '.join(said)} ({100 * end[0]:.1f} % and {100 * end[1]:.1f} %)"
+        )
 
     def coverage(
         self, mv: FloatArray, mw: FloatArray, stds: tuple[float, float]

@@ -981,11 +981,20 @@ def _pct(x: float) -> str:
     return f"{100 * x:.1f} %" if math.isfinite(x) else "n/a"
 
 
-def since_command_step_s(trace: Any, *, tol_v: float, tol_w: float) -> FloatArray:
+def since_command_step_s(
+    trace: Any,
+    *,
+    tol_v: float,
+    tol_w: float,
+    limits: tuple[float, float] = (math.inf, math.inf),
+) -> FloatArray:
     """Seconds from the last command step to each measurement (inf before the first command).
 
     A step is a change of the command by more than ``tol_v`` in v or ``tol_w`` in w: the
-    agreement's tolerances, so a controller's small corrections are not steps.
+    agreement's tolerances, so a controller's small corrections are not steps. The command is
+    first clipped to the robot's ``limits`` (top speed m/s, top yaw rate rad/s): a log that commands
+    2 then 3 m/s to a base capped at 0.3 m/s makes no step (the robot runs at its cap through
+    both).
 
     Examples
     --------
@@ -994,9 +1003,13 @@ def since_command_step_s(trace: Any, *, tol_v: float, tol_w: float) -> FloatArra
     ...                      cmd_w=np.zeros(2), meas_t_ns=np.array([5 * 10**8, 15 * 10**8]))
     >>> since_command_step_s(tr, tol_v=0.02, tol_w=0.1).tolist()
     [0.5, 0.5]
+    >>> over = SimpleNamespace(**{**vars(tr), "cmd_v": np.array([2.0, 3.0])})  # a 0.3 m/s cap
+    >>> since_command_step_s(over, tol_v=0.02, tol_w=0.1, limits=(0.3, 2.0)).tolist()
+    [0.5, 1.5]
     """
     cmd_t = seconds(np.asarray(trace.cmd_t_ns))
-    cv, cw = np.asarray(trace.cmd_v, dtype=np.float64), np.asarray(trace.cmd_w, dtype=np.float64)
+    cv = np.clip(np.asarray(trace.cmd_v, dtype=np.float64), -limits[0], limits[0])
+    cw = np.clip(np.asarray(trace.cmd_w, dtype=np.float64), -limits[1], limits[1])
     changed = np.ones(cmd_t.size, dtype=bool)
     changed[1:] = (np.abs(np.diff(cv)) > tol_v) | (np.abs(np.diff(cw)) > tol_w)
     change_t = cmd_t[changed]

@@ -534,6 +534,7 @@ def session_figures(
     main = runs[-1]
     cmd_v, cmd_w = trace.cmd_at_meas()
     a = main.agreement
+    limits = (float(spec.max_v_mps), float(spec.max_w_radps))  # steps of the command as clipped
     extrapolation = None
     if params_file is not None:
         extrapolation = envelope_check(params_file, trace, tol_v=a.tol_v, tol_w=a.tol_w)
@@ -569,7 +570,7 @@ def session_figures(
             ensemble,
             trace.meas_v,
             trace.meas_w,
-            since_command_step_s(trace, tol_v=a.tol_v, tol_w=a.tol_w),
+            since_command_step_s(trace, tol_v=a.tol_v, tol_w=a.tol_w, limits=limits),
         ),
     )
 

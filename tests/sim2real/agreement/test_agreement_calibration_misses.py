@@ -80,19 +80,30 @@ def test_a_noise_std_with_no_effect_on_the_coverage_keeps_its_estimate() -> None
     assert kept.coverage == 1.0
     assert "has no effect on the 90 % band's coverage" in kept.note
     assert "identified std is kept" in kept.note
-    # noise alone makes the band: x1 over-covers and the matching narrows it to 95 %
+    # noise alone makes the band: x1 over-covers and the matching narrows it to 95 %, as far
+    # as the log's own scatter about its steady levels (0.1) allows
+    noisy = 0.1 * rng.standard_normal(2000)
     narrow = _AxisNoise.matched(
-        "v", 0.1 * rng.standard_normal(2000), np.zeros((40, 2000)), identified=(0.3, 1e-5),
-        quantum=0.0, seed=0, steady=steady,
+        "v", noisy, np.zeros((40, 2000)), identified=(0.3, 1e-5), quantum=0.0, seed=0,
+        steady=steady, own_std=0.1,
     )  # fmt: skip
     assert narrow.scale < 0.5 and narrow.coverage == pytest.approx(0.95, abs=0.005)
     assert narrow.note == ""
-    # but no further than the samples' own robust std (0.2 here: x0.67 of 0.3)
-    floor = _AxisNoise.matched(
-        "v", 0.1 * rng.standard_normal(2000), np.zeros((40, 2000)), identified=(0.3, 0.2),
-        quantum=0.0, seed=0, steady=steady,
+    # but no further than the samples' own robust std (0.2 here: x0.67 of 0.3) or the log's
+    # own scatter, whichever is larger
+    for identified, own in (((0.3, 0.2), 0.1), ((0.3, 1e-5), 0.2)):
+        floor = _AxisNoise.matched(
+            "v", 0.1 * rng.standard_normal(2000), np.zeros((40, 2000)), identified=identified,
+            quantum=0.0, seed=0,
+            steady=steady, own_std=own,
+        )  # fmt: skip
+        assert floor.scale == pytest.approx(2.0 / 3.0) and floor.coverage > 0.95
+    # a log without steady stretches cannot tell its noise from the spread: not narrowed
+    kept = _AxisNoise.matched(
+        "v", noisy, np.zeros((40, 2000)), identified=(0.3, 1e-5), quantum=0.0, seed=0,
+        steady=steady,
     )  # fmt: skip
-    assert floor.scale == pytest.approx(2.0 / 3.0) and floor.coverage > 0.95
+    assert (kept.scale, kept.std) == (1.0, 0.3) and kept.coverage == 1.0
 
 
 def test_robust_scale_golden_and_unmoved_by_a_minority_of_misses() -> None:

@@ -1,13 +1,16 @@
-"""Where a band's width and misses come from: noise, latency, each parameter."""
+"""Where a band's width and misses come from: noise, latency, each parameter; and steps of
+the command as clipped to the robot's limits."""
 
 from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pytest
-from _agreement_fixtures import ROBOT, hidden_params, write_log
+from _agreement_fixtures import ROBOT, hidden_params, spec, write_log
 
+from sim2real.agreement.calibration import _validation_logs
 from sim2real.agreement.sources import band_sources, marginal
 from sim2real.logs import read_trace
 from tests.randomization_block import distribution_around
@@ -48,3 +51,19 @@ def test_a_wide_latency_spread_makes_the_width_and_the_own_latency_the_misses(
     assert why.coverage_w < 0.85 and why.near_step_w > 0.6  # measured 0.83 and 0.70
     assert why.coverage_own_latency_w > why.coverage_w + 0.05  # measured 0.91
     assert marginal(late, "delay_s").std()["added_mass_kg"] == 0.0
+
+
+def test_steps_are_read_on_the_command_clipped_to_the_robots_limits(plant_log: Path) -> None:
+    # the same log commanding 10-15x the burger's top speed, a new value every 0.1 s: the
+    # raw command steps at every message, the clipped one only where w or v's sign changes
+    trace = read_trace(plant_log)
+    rng = np.random.default_rng(0)
+    over = dataclasses.replace(
+        trace, cmd_v=np.sign(trace.cmd_v) * rng.uniform(2.2, 3.3, trace.cmd_v.size)
+    )
+    (log,) = _validation_logs([over], spec(), 0.02, 0.1)
+    steady = float(np.mean(log.since_step_s >= 1.0))
+    assert steady > 0.3  # 2 s holds: about half the samples are 1 s past a step
+    unclipped = dataclasses.replace(spec(), max_v_mps=np.inf)
+    (raw,) = _validation_logs([over], unclipped, 0.02, 0.1)
+    assert float(np.mean(raw.since_step_s >= 1.0)) == 0.0
