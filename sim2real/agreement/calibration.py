@@ -849,7 +849,10 @@ def _noise_last_resort(
             real, members[k], out[k].std, quantum, seed=search.seed + k
         )
         out[k] = dataclasses.replace(out[k], std=out[k].std * scale, scale=out[k].scale * scale)
-        said.append(f"x{scale:.3g} on {axis} ({100 * cov[k]:.1f} %)")
+        said.append(
+            f"on {axis} to x{out[k].scale:.3g} the identified std ({out[k].std:.4g}, "
+            f"{100 * cov[k]:.1f} %)"
+        )
     return (
         out,
         (cov[0], cov[1]),

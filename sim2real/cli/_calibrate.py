@@ -48,7 +48,7 @@ def _print_calibration(args: argparse.Namespace, result: CalibrationResult) -> N
     """The calibrated factors, noise stds, likelihood and coverage, one line each."""
 
     def factor(x: float) -> str:
-        return f"x{x:.3g}" if math.isfinite(x) else "(file had none)"
+        return f"x{x:.3g} the file's" if math.isfinite(x) else "(file had none)"
 
     print(f"calibrated {args.params} on {', '.join(args.logs)} ({result.n_active} active samples)")
     print(
@@ -78,5 +78,5 @@ def _print_calibration(args: argparse.Namespace, result: CalibrationResult) -> N
         print(
             f"  {level} band, {axis}: covers {100 * before:.1f} % of the calibration samples with "
             f"the identified noise and the pooled spread, {100 * after:.1f} % calibrated (noise "
-            f"x{scale:.3g})"
+            f"x{scale:.3g} the identified std)"
         )
