@@ -6,6 +6,7 @@ Needs the ``[train]`` extra. One sub-command per experiment (docs/experiments.md
     python benchmarks/seed_experiments.py crowdnav runs/crowdnav_card/model.zip \\
         runs/crowdnav_nominal/model.zip --episodes 50
     python benchmarks/seed_experiments.py race runs/race_sarl/model.zip --races 50
+    python benchmarks/seed_experiments.py curve runs/carcrossing_*_s0/episodes.csv --block 20000
 
 - ``randommap``: every model on TEST1-TEST4 (Yang et al.'s Table II metrics: success, crash
   and trap = timeout rates), pooled over the models (seeds) with Wilson 95 % intervals and the
@@ -17,12 +18,15 @@ Needs the ``[train]`` extra. One sub-command per experiment (docs/experiments.md
 - ``race``: the SARL* policy against the global-plan + DWA racer and an ORCA racer (the same
   plan, ORCA velocities among the observed movers, turned into (v, w)) over the same seeded
   races against ORCA opponents: navigation time, collisions, path length and jerk (Pozo Ruiz
-  2024).
+  2024);
+- ``curve``: the learning curve of training runs from their ``episodes.csv``: per block of
+  env steps the training episodes' outcome rates and mean return.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import math
 import os
 import statistics
@@ -253,6 +257,27 @@ def race(model: str, races: int, racers: Sequence[str] = ("sarl", "dwa", "orca")
         )
 
 
+def curve(files: Sequence[str], block: int) -> None:
+    """Per block of ``block`` env steps: success, collision and timeout rates, mean return."""
+    print("| run | steps | episodes | success | collision | timeout | mean return |")
+    print("|---|---|---|---|---|---|---|")
+    for path in files:
+        with open(path, encoding="utf-8", newline="") as f:
+            rows = list(csv.DictReader(f))
+        blocks: dict[int, list[dict[str, str]]] = {}
+        for row in rows:
+            blocks.setdefault((int(row["step"]) - 1) // block, []).append(row)
+        for b, part in sorted(blocks.items()):
+            n = len(part)
+            share = {o: sum(r["outcome"] == o for r in part) / n for o in ("success", "timeout")}
+            crash = sum("collision" in r["outcome"] for r in part) / n
+            ret = statistics.fmean(float(r["return"]) for r in part)
+            print(
+                f"| {path} | {b * block}-{(b + 1) * block} | {n} | {share['success']:.2f} | "
+                f"{crash:.2f} | {share['timeout']:.2f} | {ret:.2f} |"
+            )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="experiment", required=True)
@@ -267,11 +292,16 @@ def main() -> None:
     p.add_argument("model")
     p.add_argument("--races", type=int, default=50)
     p.add_argument("--racers", default="sarl,dwa,orca", help="comma-separated: sarl, dwa, orca")
+    p = sub.add_parser("curve")
+    p.add_argument("files", nargs="+")
+    p.add_argument("--block", type=int, default=20_000)
     args = parser.parse_args()
     if args.experiment == "randommap":
         random_map(args.models, args.episodes)
     elif args.experiment == "crowdnav":
         crowd_nav(args.models, args.episodes, args.stack)
+    elif args.experiment == "curve":
+        curve(args.files, args.block)
     else:
         race(args.model, args.races, args.racers.split(","))
 

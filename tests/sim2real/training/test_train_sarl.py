@@ -136,3 +136,13 @@ def test_bad_sarl_configs_one_sentence_exit_2(
 def test_docstring_example() -> None:
     result = doctest.testmod(sim2real.training._sarl)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_race_smoke_uses_the_full_configs_action_grid() -> None:
+    full, smoke = (
+        yaml.safe_load((ROOT / "examples" / name).read_text("utf-8"))
+        for name in ("race_sarl.yaml", "race_sarl_smoke.yaml")
+    )
+    assert smoke["discrete_actions"] == full["discrete_actions"]
+    assert smoke["hyperparameters"]["n_steps"] == full["hyperparameters"]["n_steps"]
+    assert 0.2 in full["discrete_actions"]["w_radps"]  # gentle turns at top speed
