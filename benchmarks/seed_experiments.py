@@ -238,9 +238,9 @@ def race(model: str, races: int, racers: Sequence[str] = ("sarl", "dwa", "orca")
     print(f"Race-v0 {kwargs}, {races} races each, seeds {EVAL_SEED}..{EVAL_SEED + races - 1}")
     print(
         "| racer | success | collision (mover) | wall collision | navigation time s "
-        "| path length m | jerk v m/s^3 | jerk w rad/s^3 |"
+        "| min / median / max s | path length m | jerk v m/s^3 | jerk w rad/s^3 |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     entries = {
         "sarl": ("SARL* (DQN)", env, policy.controller()),
         "dwa": ("A* + DWA", raw, RaceBaseline.for_env(raw)),
@@ -251,6 +251,7 @@ def race(model: str, races: int, racers: Sequence[str] = ("sarl", "dwa", "orca")
         print(
             f"| {name} | {_rate(rows, 'success')} | {_rate(rows, 'collision')} | "
             f"{_rate(rows, 'wall_collision')} | {_mean(rows, 'time_to_goal_s'):.1f} | "
+            f"{_spread([float(r['time_to_goal_s']) for r in rows])} | "
             f"{_mean(rows, 'path_length_m'):.2f} | {_mean(rows, 'mean_abs_jerk_v_mps3'):.3f} | "
             f"{_mean(rows, 'mean_abs_jerk_w_radps3'):.2f} |",
             flush=True,

@@ -33,7 +33,8 @@ Reward (the terms of the thesis' R1; the constants are ours, in :class:`RaceRewa
     other movers :math:`-0.2\max(0, 1 - c/0.2\,\mathrm m)`; progress along the centre line
     :math:`+2\,\Delta s` per metre; goal +10; collision with a mover -10; keep moving
     :math:`+0.01\,v/v_{max}`; wall collision -10; near a wall :math:`-0.2\max(0, 1 -
-    c_w/0.15\,\mathrm m)`; stopped (v < 0.02 m/s) -0.02; timeout -5.
+    c_w/0.15\,\mathrm m)`; stopped (v < 0.02 m/s) -0.02; timeout -5. ``reward`` takes a
+    :class:`RaceReward` or a mapping of some of its fields (a YAML config's ``env.kwargs``).
 Outcome (``info["outcome"]``)
     ``"success"`` (crossed the goal line), ``"collision"`` (touched an opponent or another
     robot), ``"wall_collision"``, ``"timeout"``; ``info["metrics"]`` adds ``wall_collision``
@@ -52,7 +53,8 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
 from typing import Any
 
 import gymnasium as gym
@@ -92,6 +94,7 @@ __all__ = [
     "RaceParallelEnv",
     "RaceReward",
     "race_parallel_env",
+    "race_reward",
 ]
 
 #: Episode outcomes of a racing robot.
@@ -122,6 +125,33 @@ class RaceReward:
     stop: float = 0.02
     stop_below_mps: float = 0.02
     timeout: float = 5.0
+
+
+def race_reward(value: RaceReward | Mapping[str, Any] | None) -> RaceReward:
+    """``value`` as :class:`RaceReward`: as it is, the defaults for None, or a mapping's fields.
+
+    Examples
+    --------
+    >>> race_reward({"stop": 0.1}).stop, race_reward(None).stop
+    (0.1, 0.02)
+    """
+    if value is None:
+        return RaceReward()
+    if isinstance(value, RaceReward):
+        return value
+    names = [f.name for f in fields(RaceReward)]
+    if not isinstance(value, Mapping) or set(value) - set(names):
+        extra = sorted(set(value) - set(names)) if isinstance(value, Mapping) else value
+        raise Sim2RealValueError(
+            f"reward must be a RaceReward or a mapping of its fields ({', '.join(names)}), "
+            f"got {extra!r}; e.g. reward: {{stop: 0.1}}"
+        )
+    for key, number in value.items():
+        if isinstance(number, bool) or not isinstance(number, int | float):
+            raise Sim2RealValueError(
+                f"reward.{key} must be a number, got {number!r}; e.g. reward: {{{key}: 0.1}}"
+            )
+    return RaceReward(**{key: float(number) for key, number in value.items()})
 
 
 def _check_options(track: Any, num_opponents: Any, n_robots: Any) -> tuple[str, int, int]:
@@ -566,8 +596,8 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
         Control period, s.
     max_episode_steps : int, optional
         Steps before a timeout (default: 3 x the track length at top speed).
-    reward : RaceReward, optional
-        Reward constants.
+    reward : RaceReward or mapping, optional
+        Reward constants (a mapping sets some of :class:`RaceReward`'s fields).
     drive_params : DriveParams, optional
         Drive parameters (default: the spec's).
     robot : str
@@ -597,7 +627,7 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
         dynamics: str = "reduced",
         control_dt: float = 0.1,
         max_episode_steps: int | None = None,
-        reward: RaceReward | None = None,
+        reward: RaceReward | Mapping[str, Any] | None = None,
         drive_params: DriveParams | None = None,
         robot: str = "turtlebot3_burger",
         plant_sessions: PlantSessions | PlantParams | None = None,
@@ -625,7 +655,7 @@ class RaceEnv(gym.Env):  # type: ignore[type-arg]
             dynamics=dynamics,
             control_dt=control_dt,
             max_episode_steps=max_episode_steps,
-            reward=reward if reward is not None else RaceReward(),
+            reward=race_reward(reward),
             drive_params=drive_params,
             robot=robot,
             plant_sessions=plant_sessions,
@@ -842,7 +872,7 @@ def race_parallel_env(
         dynamics=dynamics,
         control_dt=control_dt,
         max_episode_steps=max_episode_steps,
-        reward=reward if reward is not None else RaceReward(),
+        reward=race_reward(reward),
         drive_params=drive_params,
         robot="turtlebot3_burger",
         plant_sessions=plant_sessions,

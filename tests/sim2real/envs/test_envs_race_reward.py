@@ -1,0 +1,45 @@
+"""Race-v0's ``reward`` argument: RaceReward constants from a config mapping."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sim2real.envs  # noqa: F401  (registers the ids)
+from sim2real.envs.race import RaceReward, race_reward
+from sim2real.errors import Sim2RealValueError
+
+
+def _standing_rewards(**kwargs: object) -> list[float]:
+    env = gym.make("sim2real/Race-v0", track="open", num_opponents=0, control_dt=0.25, **kwargs)
+    env.reset(seed=0)
+    return [float(env.step(np.zeros(2))[1]) for _ in range(3)]
+
+
+def test_a_mapping_sets_the_named_constants_and_keeps_the_others() -> None:
+    reward = race_reward({"stop": 0.1, "keep_moving": 0.05})
+    assert (reward.stop, reward.keep_moving) == (0.1, 0.05)
+    assert reward.goal == RaceReward().goal and race_reward(None) == RaceReward()
+    assert race_reward(reward) is reward
+
+
+def test_the_stop_penalty_is_paid_every_step_standing_still() -> None:
+    default, strict = _standing_rewards(), _standing_rewards(reward={"stop": 0.1})
+    np.testing.assert_allclose(default, -0.02, atol=1e-9)  # open track: no wall or mover near
+    np.testing.assert_allclose(strict, -0.1, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("bad", "words"),
+    [
+        ({"stopp": 0.1}, "mapping of its fields"),
+        ([0.1], "mapping of its fields"),
+        ({"stop": "high"}, "reward.stop must be a number"),
+        ({"stop": True}, "reward.stop must be a number"),
+    ],
+)
+def test_bad_reward_is_one_sentence(bad: object, words: str) -> None:
+    with pytest.raises(Sim2RealValueError, match=words) as err:
+        gym.make("sim2real/Race-v0", track="open", reward=bad)
+    assert "\n" not in str(err.value)
