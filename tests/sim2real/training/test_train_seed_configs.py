@@ -26,6 +26,7 @@ SMOKE: dict[str, tuple[str, int, dict[str, Any]]] = {
     "randommap_sac": ("SAC", 300, {"learning_starts": 100, "batch_size": 32}),
     "carcrossing_dqn": ("DQN", 400, {"learning_starts": 100}),
     "carcrossing_ppo": ("PPO", 256, {"n_steps": 128, "batch_size": 64, "n_epochs": 1}),
+    "carcrossing_ppo_entropy": ("PPO", 256, {"n_steps": 128, "batch_size": 64, "n_epochs": 1}),
     "crowdnav_card": ("PPO", 128, {"n_steps": 64, "batch_size": 32, "n_epochs": 1}),
     "crowdnav_nominal": ("PPO", 128, {"n_steps": 64, "batch_size": 32, "n_epochs": 1}),
     "race_sarl": ("DQN", 400, {"learning_starts": 100, "buffer_size": 2000}),
