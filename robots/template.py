@@ -279,13 +279,33 @@ def _body_lines(robot: NewRobot, d: _Derived) -> list[str]:
         f"  mass_kg: {_g(d.m_wheel)}  # prior: 3 % of the total mass",
         f"  spin_inertia_kgm2: {_g(d.spin)}  # prior: solid disc, m r^2 / 2",
         f"  cross_inertia_kgm2: {_g(d.cross)}  # prior: solid disc, m (3 r^2 + w^2) / 12",
-        "casters:  # prior: frictionless skids front and back, so the base cannot tip",
-        f"  - {{x_m: {_g(d.caster_x)}, y_m: 0.0, radius_m: {_g(d.caster_r)}, mass_kg: 0.0}}",
-        f"  - {{x_m: {_g(-d.caster_x)}, y_m: 0.0, radius_m: {_g(d.caster_r)}, mass_kg: 0.0}}",
+        *_caster_lines(robot, d),
         "point_masses: []",
         "limits:",
         f"  max_v_mps: {_g(v)}  # {_src(robot, 'max_speed_mps', '0.5 m/s')}",
         f"  max_w_radps: {_g(w)}  # {_src(robot, 'max_turn_rate_radps', '2 v_max / b')}",
+    ]
+
+
+def _caster_lines(robot: NewRobot, d: _Derived) -> list[str]:
+    if robot.drive != "skid":
+        return [
+            "casters:  # prior: frictionless skids front and back, so the base cannot tip",
+            f"  - {{x_m: {_g(d.caster_x)}, y_m: 0.0, radius_m: {_g(d.caster_r)}, mass_kg: 0.0}}",
+            f"  - {{x_m: {_g(-d.caster_x)}, y_m: 0.0, radius_m: {_g(d.caster_r)}, mass_kg: 0.0}}",
+        ]
+    # A skid steer's other wheels stand at the corners of its footprint: skids there keep the
+    # base level through a hard turn-and-reverse, where two skids on the centre line let it
+    # roll onto one and lift a drive wheel off the ground.
+    c = d.caster_x / math.sqrt(2.0)
+    return [
+        "casters:  # prior: frictionless skids at the four corners of the footprint, where the"
+        " other wheels stand, so the base cannot tip or roll",
+        *(
+            f"  - {{x_m: {_g(sx * c)}, y_m: {_g(sy * c)}, radius_m: {_g(d.caster_r)}, mass_kg: 0.0}}"
+            for sx in (1.0, -1.0)
+            for sy in (1.0, -1.0)
+        ),
     ]
 
 

@@ -87,3 +87,28 @@ def test_new_bad_input(
 def test_unknown_robot_did_you_mean(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = _run(capsys, "robots", "check", "turtlebot2_")
     assert code == 2 and "did you mean 'turtlebot2'" in err
+
+
+@pytest.mark.parametrize(("drive", "corners"), [("diff", 0), ("skid", 4)])
+def test_skids_of_a_skid_steer_stand_at_the_footprint_corners(
+    drive: str, corners: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from robots.spec import load_spec
+
+    out = tmp_path / "base.yaml"
+    argv = ["--wheel-separation", 1.08, "--wheel-radius", 0.3, "--drive", drive]
+    code, text, _ = _run(capsys, "robots", "new", "base", *argv, "-o", out)
+    assert code == 0 and "checks passed (6)" in text
+    spec = load_spec(out)
+    radius = yaml.safe_load(out.read_text())["base"]["body"]["radius_m"]
+    xy = [(c.xyz_m[0], c.xyz_m[1]) for c in spec.casters]
+    # a skid steer's other wheels stand at the corners: off the centre line on both sides,
+    # so a hard turn-and-reverse cannot roll the base onto one skid; a diff drive keeps its
+    # casters front and back on the centre line
+    off_line = [p for p in xy if abs(p[1]) > 0.25 * radius]
+    assert len(off_line) == corners and len(xy) == (4 if drive == "skid" else 2)
+    assert all(abs(x) > 0.25 * radius and x * x + y * y < radius * radius for x, y in off_line)
+    if drive == "skid":
+        assert {(x > 0, y > 0) for x, y in xy} == {
+            (a, b) for a in (True, False) for b in (True, False)
+        }
