@@ -88,10 +88,37 @@ GAP_TASKS: dict[str, dict[str, Any]] = {
         "robot": "turtlebot2",
         "action_limits": "robot",
     },
+    "kobuki_fast": {
+        "map_config": {
+            **COURSE,
+            "d_target_m": 3.0,
+            "n_min": 1,
+            "n_max": 4,
+            "goal_tolerance_m": 0.25,
+        },
+        "max_episode_steps": 80,
+        "robot": "turtlebot2",
+        "action_limits": "robot",
+    },
+}
+#: ``--gap``: PPO settings of a task other than the experiment's (longer rollouts, a smaller
+#: step and a longer horizon than the smoke-tuned ones, which stop moving at the Kobuki's top
+#: speed).
+GAP_PPO: dict[str, dict[str, Any]] = {
+    "kobuki_fast": {
+        "learning_rate": 3e-4,
+        "n_steps": 512,
+        "batch_size": 256,
+        "n_epochs": 10,
+        "gamma": 0.99,
+        "gae_lambda": 0.95,
+        "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -0.5},
+    },
 }
 #: ``--gap``: plant session distributions (the default one, then one factor pushed further).
 GAP_SESSIONS = {
     "plant": SessionVariation(),
+    "plant, latency 0.15-0.25 s": SessionVariation(latency_s=(0.15, 0.25)),
     "plant, latency 0.2-0.3 s": SessionVariation(latency_s=(0.2, 0.3)),
     "plant, payload 1-2x": SessionVariation(payload_fraction=(1.0, 2.0)),
 }
@@ -159,7 +186,9 @@ def conditions(fitted: Path, calibrated: Path, blind: Path) -> dict[str, tuple[d
     }
 
 
-def train_run(out: Path, kwargs: dict, stack: Any, seed: int, timesteps: int) -> Path:
+def train_run(
+    out: Path, kwargs: dict, stack: Any, seed: int, timesteps: int, ppo: dict | None = None
+) -> Path:
     """Train one model into ``out`` (skipped when it exists); its model.zip."""
     if not (out / "model.zip").is_file():
         cfg = config_from_dict(
@@ -167,7 +196,7 @@ def train_run(out: Path, kwargs: dict, stack: Any, seed: int, timesteps: int) ->
                 "env": {"id": ENV_ID, "kwargs": kwargs},
                 "randomizers": stack,
                 "algorithm": "PPO",
-                "hyperparameters": HYPERPARAMETERS["PPO"],
+                "hyperparameters": ppo or HYPERPARAMETERS["PPO"],
                 "timesteps": timesteps,
                 "n_envs": 4,
                 "vec_env": "dummy",
@@ -208,7 +237,7 @@ def table(rows: dict[str, dict[str, list[Any]]], header: str) -> str:
 def gap_probe(out: Path, task: str, timesteps: int, episodes: int) -> str:
     """The spec-defaults policy of ``task`` (seed 0) in its sim and on plant sessions."""
     kwargs = GAP_TASKS[task]
-    model = train_run(out / f"gap_{task}", kwargs, None, 0, timesteps)
+    model = train_run(out / f"gap_{task}", kwargs, None, 0, timesteps, GAP_PPO.get(task))
     robot = kwargs.get("robot", ROBOT)
     worlds: dict[str, dict[str, Any]] = {"sim": kwargs}
     for name, variation in GAP_SESSIONS.items():
@@ -224,7 +253,64 @@ def gap_probe(out: Path, task: str, timesteps: int, episodes: int) -> str:
         f"gap probe, task {task} ({kwargs}): PPO spec defaults, {timesteps} env steps, seed 0; "
         f"{episodes} episodes per world, seeds {PLANT_SEED0}.. (the same maps in every world)"
     )
-    return table(rows, header)
+    curve = learning_curve(out / f"gap_{task}" / "episodes.csv", max(timesteps // 10, 1))
+    response = step_response(worlds, sessions=max(2, min(episodes, 20)))
+    return (
+        f"{table(rows, header)}\n\ntraining success (stochastic actions) per env steps: "
+        f"{curve}\n\nopen-loop response, mean (range) over sessions:\n\n{response}"
+    )
+
+
+def step_response(worlds: dict[str, dict[str, Any]], sessions: int) -> str:
+    """Open-loop response of each world's robot (mean and range over ``sessions`` episodes).
+
+    From rest on an empty map: the distance driven in the first second at the top-speed
+    command, the distance rolled after a stop command from 3 s at top speed, and the heading
+    turned in the first second of half the yaw-rate cap at top speed. Integrated from the
+    observation's measured v and w (entries 38 and 39).
+    """
+    lines = [
+        "| world | driven in 1 s m | stopping distance m | turned in 1 s rad |",
+        "|---|---|---|---|",
+    ]
+    for world, kw in worlds.items():
+        empty = {**kw["map_config"], "n_min": 0, "n_max": 0}
+        env = build_env(ENV_ID, {**kw, "map_config": empty, "max_episode_steps": 200})
+        v_max, w_max = (float(x) for x in env.action_space.high)
+        dt = float(env.unwrapped.control_dt)
+        rows = []
+        for i in range(sessions):
+            drive = [(v_max, 0.0)] * 30 + [(0.0, 0.0)] * 20
+            v = _integrate(env, PLANT_SEED0 + i, drive, 38, dt)
+            turn = [(v_max, 0.0)] * 10 + [(v_max, w_max / 2)] * 10
+            w = _integrate(env, PLANT_SEED0 + i, turn, 39, dt)
+            rows.append((v[9], v[-1] - v[29], w[-1] - w[9]))
+        env.close()
+        cells = [
+            f"{sum(c) / len(c):.2f} ({min(c):.2f}-{max(c):.2f})" for c in zip(*rows, strict=True)
+        ]
+        lines.append(f"| {world} | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
+def _integrate(env: Any, seed: int, commands: list[tuple[float, float]], k: int, dt: float) -> list:
+    """Running integral of observation entry ``k`` over ``commands`` (one per step)."""
+    env.reset(seed=seed)
+    total, out = 0.0, []
+    for cmd in commands:
+        obs = env.step(cmd)[0]
+        total += float(obs[k]) * dt
+        out.append(total)
+    return out
+
+
+def learning_curve(episodes_csv: Path, every: int) -> str:
+    """Training success per ``every`` env steps, from ``sim2real train``'s episodes.csv."""
+    bins: dict[int, list[bool]] = {}
+    for line in episodes_csv.read_text().splitlines()[1:]:
+        step, outcome = line.split(",")[:2]
+        bins.setdefault(int(step) // every, []).append(outcome == "success")
+    return ", ".join(f"{(k + 1) * every:,}: {sum(v) / len(v):.2f}" for k, v in sorted(bins.items()))
 
 
 def main(argv: list[str] | None = None) -> int:

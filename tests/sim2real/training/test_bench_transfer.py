@@ -46,7 +46,23 @@ def test_gap_probe_evaluates_the_spec_policy_in_its_sim_and_on_each_session_dist
     run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stderr[-3000:]
     table = (tmp_path / "gap_kobuki.md").read_text(encoding="utf-8")
-    for world in ("sim", "plant", "plant, latency 0.2-0.3 s", "plant, payload 1-2x"):
+    worlds = ("sim", "plant", "plant, latency 0.15-0.25 s", "plant, latency 0.2-0.3 s")
+    for world in (*worlds, "plant, payload 1-2x"):
         assert f"| spec | {world} | " in table
     assert "'robot': 'turtlebot2'" in table and "1024 env steps" in table
+    assert "training success (stochastic actions) per env steps: " in table
+    # the open-loop response: the spec's model is one robot; the plant's sessions vary, and a
+    # longer latency rolls further after the stop command
+    response = {
+        line.split(" | ")[0][2:]: line.split(" | ")[1:]
+        for line in table.split("open-loop response")[1].splitlines()
+        if line.startswith("| ") and not line.startswith("| world")
+    }
+    assert set(response) == {*worlds, "plant, payload 1-2x"}
+    assert all("-" in cell for cell in response["plant"])
+    sim_stop = float(response["sim"][1].split(" (")[0])
+    lo, hi = response["sim"][1].split(" (")[1].rstrip(")").split("-")
+    assert float(lo) == float(hi) == sim_stop
+    stop = {w: float(response[w][1].split(" (")[0]) for w in worlds[1:]}
+    assert stop["plant"] < stop["plant, latency 0.15-0.25 s"] < stop["plant, latency 0.2-0.3 s"]
     assert not (tmp_path / "results.md").exists()  # the probe trains no other condition
