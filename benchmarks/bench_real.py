@@ -14,9 +14,7 @@ absent). Per base, as a new user would work (the public CLI: ``robots new``, ``s
   check 28-40 s (the rest of the driving: after 40 s the driver holds a command with the
   wheels stopped).
 
-A checked half is written as a log (``write_trace``, CSV for CSV) for ``agree`` to read.
-Per checked recording and engine (``--engine reduced|pybullet|mujoco|both|reduced+mujoco``),
-one row:
+A checked half is written as a log for ``agree``. Per checked recording and engine, one row:
 
 - ``spec``: point agreement of the spec defaults; ``fit``: of the fitted (calibrated) point;
 - ``own lat.``: the fitted point at the session's own best command latency (and that
@@ -30,9 +28,7 @@ one row:
 Targets (issue 28): ``fit >= spec`` on every row; ``own lat.`` >= 80 % or within 5 points of
 ``ceiling`` on differential-drive bases; coverage 80-99 % in v and w with a median width <=
 20 % of the top speed / yaw rate or <= 1.25x the noise-only band. A closing line counts the
-rows that hold each.
-
-``--explain`` adds, per base, a table of where each row's band gets its width and its misses
+rows that hold each. ``--explain`` adds, per base, a table of where each row's band gets its width and its misses
 (:func:`sim2real.agreement.sources.band_sources`, reduced engine): the three largest sources
 of each axis's variance (noise, command latency, a parameter) with their share and the width
 each would make alone; the share of the misses within 1 s of a command step and above the
