@@ -71,9 +71,11 @@ lint: $(STAMP_DEV)
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 
-## make test: lint, then the whole test suite
+## make test: lint, then the whole test suite, one worker per core up to four (pytest-xdist;
+## `make test PYTEST_WORKERS=0` runs it in one process)
+PYTEST_WORKERS ?= auto
 test: lint
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4
 
 ## make docs: the documentation site into site/ (MkDocs + Material + mkdocstrings, the [docs]
 ## extra): the user guide in docs/, the CLI reference from the argument parsers and the API
