@@ -12,9 +12,10 @@ The headline is the first of these that holds:
 2. **no fit**: only the spec defaults were replayed (next: fit the drive model);
 3. **the log is one the fit used**: its figures measure the fit, not a new session;
 4. **fit worse than the spec defaults**: the fitted agreement is more than
-   :data:`WORSE_MARGIN` under the defaults', with its likely cause (this session's latency,
-   commands outside the fitted envelope, a top speed under what the robot holds, a delay
-   driven to zero);
+   :data:`WORSE_MARGIN` under the defaults' (or under them at all when the robot holds less
+   than the fitted model at its top speed), with its likely cause (this session's latency, a
+   unit slower than the fit's, commands outside the fitted envelope, a top speed under what
+   the robot holds, a delay driven to zero);
 5. **latency of this session differs**: the fitted replay lags or leads the real robot by
    more than :data:`LAG_LIMIT_S`, or the session's own best latency is that far from the
    fitted delay;
@@ -95,6 +96,10 @@ WIDE_SHARE = 0.2
 #: A calibrated band is only as narrow as the measurement noise allows: up to this many times
 #: the noise-only band counts as narrow enough.
 NOISE_BAND_SLACK = 1.25
+#: The simulation runs at its top where it reaches this share of its top speed (yaw rate).
+HELD_TOP_SHARE = 0.95
+#: A held top speed is read on at least this many samples at the top.
+HELD_TOP_MIN = 10
 
 
 #: Misses of a band within this long after a command step count as at the step, s.
@@ -133,7 +138,8 @@ class SessionFigures:
     top_v_mps, top_w_radps : float or None
         The robot's top speed and yaw rate (the spec's), to judge the band's width.
     speed_shortfall : tuple of str or None
-        ``(axis, real, sim)`` when the fitted model tops out under what the robot holds.
+        ``(axis, real, sim)`` when the fitted model's top speed differs from what the robot
+        holds (:func:`speed_shortfall`; ``real < sim``: the robot is the slower).
     extrapolation : object or None
         The checked log against the fit's envelope (:class:`sysid.envelope.EnvelopeCheck`):
         ``known``, ``share_outside`` and ``sentence``.
@@ -257,10 +263,15 @@ def _finite(x: float | None) -> bool:
 def speed_shortfall(
     real_v: Any, real_w: Any, sim_v: Any, sim_w: Any, active: Any, *, tol_v: float, tol_w: float
 ) -> tuple[str, float, float] | None:
-    """``(axis, real, sim)`` when the simulation's top speed stays under the robot's.
+    """``(axis, real, sim)`` when the simulation's top speed differs from the robot's.
 
-    The top is the 95th percentile of |velocity| over the active samples (a spike does not
-    make a top speed); the shortfall counts when it exceeds the tolerance of that axis.
+    Two checks per axis, in order: the simulation tops out under the robot (the 95th
+    percentile of |velocity| over the active samples, so that a spike makes no top speed);
+    then the robot holds less than the simulation at the simulation's top (the medians of
+    |velocity| over the active samples where the simulation runs at
+    :data:`HELD_TOP_SHARE` of its top or more, at least :data:`HELD_TOP_MIN` of them: a unit,
+    battery or load slower than the fit's). Either counts when it exceeds the tolerance of
+    that axis; ``real < sim`` in the result tells the second.
 
     Examples
     --------
@@ -268,15 +279,28 @@ def speed_shortfall(
     >>> speed_shortfall(np.full(50, 0.3), np.zeros(50), np.full(50, 0.27), np.zeros(50),
     ...                 np.ones(50, bool), tol_v=0.02, tol_w=0.1)
     ('v', 0.3, 0.27)
+    >>> speed_shortfall(np.full(50, 0.276), np.zeros(50), np.full(50, 0.302), np.zeros(50),
+    ...                 np.ones(50, bool), tol_v=0.02, tol_w=0.1)
+    ('v', 0.276, 0.302)
     """
     act = np.asarray(active, dtype=bool)
     if not act.any():
         return None
-    for axis, real, sim, tol in (("v", real_v, sim_v, tol_v), ("w", real_w, sim_w, tol_w)):
+    axes = (("v", real_v, sim_v, tol_v), ("w", real_w, sim_w, tol_w))
+    for axis, real, sim, tol in axes:
         top_real = float(np.percentile(np.abs(np.asarray(real, dtype=float)[act]), 95))
         top_sim = float(np.percentile(np.abs(np.asarray(sim, dtype=float)[act]), 95))
         if top_real - top_sim > tol:
             return axis, round(top_real, 4), round(top_sim, 4)
+    for axis, real, sim, tol in axes:
+        r = np.abs(np.asarray(real, dtype=float)[act])
+        s = np.abs(np.asarray(sim, dtype=float)[act])
+        at_top = s >= HELD_TOP_SHARE * float(np.percentile(s, 99))
+        if at_top.sum() < HELD_TOP_MIN:
+            continue
+        held_real, held_sim = float(np.median(r[at_top])), float(np.median(s[at_top]))
+        if held_sim - held_real > tol:
+            return axis, round(held_real, 4), round(held_sim, 4)
     return None
 
 
@@ -350,14 +374,20 @@ def _likely_cause(defaults: _Agreement, fitted: _Agreement, s: SessionFigures) -
 
 
 def _other_cause(s: SessionFigures) -> str:
-    """The likely cause of a fit worse than the defaults, latency aside, one clause."""
+    """The likely cause of a fit worse than the defaults, latency aside, one clause: a robot
+    that holds less than the fitted model at its top speed first (a property of this unit no
+    fit log of another could show), then commands outside the fitted envelope, a fitted top
+    speed under the robot's, a delay driven to zero."""
+    slower = _slower_unit(s)
+    if slower is not None:
+        return slower
     ext = s.extrapolation
     if ext is not None and getattr(ext, "known", False) and ext.share_outside >= EXTRAPOLATES_SHARE:
         return (
             f"this log drives outside what the fit log saw for {percent(ext.share_outside)} of "
             "its active time"
         )
-    if s.speed_shortfall is not None:
+    if s.speed_shortfall is not None and s.speed_shortfall[1] > s.speed_shortfall[2]:
         axis, real, sim = s.speed_shortfall
         unit = "m/s" if axis == "v" else "rad/s"
         return (
@@ -370,6 +400,19 @@ def _other_cause(s: SessionFigures) -> str:
             "log's timing did not identify it)"
         )
     return "the fit log does not excite what this log does (other speeds, turns or a session)"
+
+
+def _slower_unit(s: SessionFigures) -> str | None:
+    """One clause when the robot holds less than the fitted model at its top (else None)."""
+    if s.speed_shortfall is None or s.speed_shortfall[1] >= s.speed_shortfall[2]:
+        return None
+    axis, real, sim = s.speed_shortfall
+    unit, top = ("m/s", "top speed") if axis == "v" else ("rad/s", "top yaw rate")
+    return (
+        f"this robot holds {real:.3g} {unit} in {axis} where the fitted model holds {sim:.3g} "
+        f"{unit} at its {top}: this unit is slower than the fit log's (another unit's "
+        f"{top}, or its battery, load or floor)"
+    )
 
 
 def band_miss_reason(ensemble: Any, real_v: Any, real_w: Any, since_step_s: Any) -> str | None:
@@ -656,7 +699,8 @@ def _problem(
             "it holds on a session it never saw.",
             _FIT_LOG_STEP,
         )
-    if fitted.agreement < defaults.agreement - WORSE_MARGIN:
+    worse = fitted.agreement < defaults.agreement - WORSE_MARGIN
+    if worse or (fitted.agreement < defaults.agreement and _slower_unit(s) is not None):
         cause = _likely_cause(defaults, fitted, s)
         return (
             "fit_worse",

@@ -9,9 +9,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from sim2real.agreement.report._verdict import GOOD_AGREEMENT, lag_phrase, make_verdict
-from sim2real.agreement.verdict import MIN_ACTIVE, SessionFigures, band_miss_reason, decide
+from sim2real.agreement.verdict import (
+    MIN_ACTIVE,
+    SessionFigures,
+    band_miss_reason,
+    decide,
+    speed_shortfall,
+)
 
 
 @dataclass
@@ -157,6 +165,51 @@ def test_a_fit_worse_than_the_defaults_is_the_headline_with_its_cause() -> None:
     assert late.headline.count("latency") == 2  # "The latency ...: ... best command latency"
     # within the margin it is not "worse"
     assert _decide(0.49, _Ens(0.88), before=0.5).kind == "poor_fit"
+
+
+def test_a_unit_slower_than_the_fits_is_the_headline_even_within_the_margin() -> None:
+    """Under the defaults by less than the margin, a robot that holds less than the fitted
+    model at its top speed is still the headline's cause, ahead of an extrapolation; a robot
+    faster than the fit is not a slower unit, and within the margin it is no headline."""
+    from types import SimpleNamespace
+
+    ext = SimpleNamespace(known=True, share_outside=0.139, sentence="this log leaves it")
+    slower = SessionFigures(speed_shortfall=("v", 0.276, 0.302), extrapolation=ext)
+    v = _decide(0.468, before=0.481, session=slower)
+    assert v.kind == "fit_worse" and "46.8 % against 48.1 %" in v.headline
+    cause = v.headline.split("likely cause: ", 1)[1]
+    assert cause.startswith(
+        "this robot holds 0.276 m/s in v where the fitted model holds 0.302 m/s at its top "
+        "speed: this unit is slower than the fit log's (another unit's top speed"
+    )
+    assert "this log leaves it" in v.reasons
+    spin = SessionFigures(speed_shortfall=("w", 0.9, 1.01))
+    assert "1.01 rad/s at its top yaw rate" in _decide(0.468, before=0.481, session=spin).headline
+    faster = SessionFigures(speed_shortfall=("v", 0.30, 0.27), extrapolation=ext)
+    assert _decide(0.468, before=0.481, session=faster).kind == "extrapolates"
+    assert _decide(0.49, before=0.48, session=slower).kind == "extrapolates"  # not under
+
+
+@given(
+    held=st.floats(0.1, 0.5),
+    slower_by=st.floats(-0.1, 0.1),
+    n_top=st.integers(0, 40),
+)
+def test_the_held_top_speed_is_read_where_the_simulation_runs_at_its_top(
+    held: float, slower_by: float, n_top: int
+) -> None:
+    """Samples at the simulation's top (>= 95 % of it) compare the held speeds; samples under
+    it never count; fewer than ten at the top say nothing."""
+    sim = np.r_[np.full(n_top, held), np.linspace(0.0, 0.5 * held, 40)]
+    real = np.r_[np.full(n_top, held - slower_by), np.linspace(0.0, 0.5 * held, 40)]
+    out = speed_shortfall(real, np.zeros_like(real), sim, np.zeros_like(sim),
+                          np.ones(real.size, bool), tol_v=0.02, tol_w=0.1)  # fmt: skip
+    if n_top >= 10 and slower_by > 0.02 + 1e-9:
+        assert out == ("v", round(held - slower_by, 4), round(held, 4))
+    elif n_top >= 10 and -slower_by > 0.02 + 1e-9:
+        assert out is not None and out[1] > out[2]  # the robot is the faster: the first check
+    elif abs(slower_by) < 0.02 - 1e-9 or n_top < 10:
+        assert out is None or out[1] > out[2]
 
 
 def test_the_share_of_latency_is_said_in_one_sentence() -> None:
