@@ -753,6 +753,9 @@ def _fitted_verdict(
     if ensemble is not None and s.band_misses:
         band_reasons.append(s.band_misses)
     problem = _problem(defaults, fitted, ensemble, s)
+    slower = _slower_unit(s)
+    if slower is not None and (problem is None or slower not in problem[1]):
+        reasons = [*reasons, slower]  # said once: here unless the headline names it
     if problem is not None:
         kind, headline, step = problem
         return AgreementVerdict(

@@ -187,7 +187,10 @@ def test_a_unit_slower_than_the_fits_is_the_headline_even_within_the_margin() ->
     assert "1.01 rad/s at its top yaw rate" in _decide(0.468, before=0.481, session=spin).headline
     faster = SessionFigures(speed_shortfall=("v", 0.30, 0.27), extrapolation=ext)
     assert _decide(0.468, before=0.481, session=faster).kind == "extrapolates"
-    assert _decide(0.49, before=0.48, session=slower).kind == "extrapolates"  # not under
+    above = _decide(0.49, before=0.48, session=slower)  # not under the defaults
+    assert above.kind == "extrapolates"
+    assert sum("this unit is slower than the fit log's" in r for r in above.reasons) == 1
+    assert not any("this unit is slower" in r for r in v.reasons)  # the headline says it
 
 
 @given(
