@@ -84,3 +84,19 @@ def test_a_slower_unit_is_the_headline_when_the_fit_does_worse_than_the_defaults
     assert held is not None, headline
     assert 0.26 < float(held[1]) < 0.29 < float(held[2]) < 0.32
     assert "this unit is slower than the fit log's (another unit's top speed" in headline
+
+
+def test_a_slower_unit_is_a_reason_when_the_fit_beats_the_defaults(
+    calibrated: tuple[Path, Path], realdata_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The olin unit holds ~0.27 m/s on its straights (the fitted unit ~0.30); the fit beats the
+    defaults there, so the slower unit is a reason, not the headline."""
+    robot, params = calibrated
+    main(["agree", str(realdata_dir / "neato_olin2018_teleop.mcap"), "--robot", str(robot),
+          "--params", str(params), "--engine", "reduced"])  # fmt: skip
+    out = capsys.readouterr().out.splitlines()
+    assert not any("this unit is slower" in x for x in out if x.startswith("verdict"))
+    said = [x for x in out if x.startswith("  - this robot holds")]
+    assert len(said) == 1 and "this unit is slower than the fit log's" in said[0]
+    held = re.search(r"holds ([\d.]+) m/s in v where the fitted model holds ([\d.]+)", said[0])
+    assert held is not None and 0.25 < float(held[1]) < 0.28 < float(held[2]) < 0.31
