@@ -81,7 +81,11 @@ those that move w more (each one's share of its axis's member variance, drawn al
 at every step; each group's sds are scaled by the factor, found by bisection down to
 :data:`NARROW_MIN`, at which its axis (both for the latency) reaches the top of the range while
 the other axis stays at or above it (the same split-conformal scaling, applied to the spread
-that makes the width rather than to one factor shared by both axes).
+that makes the width rather than to one factor shared by both axes). That scale, judged on the
+validation sessions, is pooled with the file's spread by sessions as the factors are
+(:func:`pooled_narrowing`): a fleet's between-session spread, estimated on several fitted
+sessions, is narrowed by one or two alike validation sessions only as far as they weigh against
+it (the band must hold the next session, not the one it was calibrated on).
 Then, where the band covers less than the level of *all* the samples on either axis (the
 misses near command steps), the session factor b is raised by bisection up to
 :data:`SESSION_MAX` until both axes reach it: a session unlike the fit's (latency, load,
@@ -153,6 +157,7 @@ __all__ = [
     "match_range",
     "noise_information_share",
     "pooled_factors",
+    "pooled_narrowing",
     "predictive_log_likelihood",
     "robust_noise_std",
     "shrunk_noise_std",
@@ -165,7 +170,8 @@ CALIBRATION_METHOD = (
     "gaussian-predictive-likelihood/5 (DROPO-style, Tiboni et al. 2023), pooled with the fit's "
     "spread by sessions, noise from the steady samples (robust scale) matched to the band's "
     "coverage of them no lower than the logs' own scatter, an over-covering axis's parameter "
-    "spread narrowed and the session spread widened to cover the rest (split conformal)"
+    "spread narrowed (pooled with the fit's by sessions) and the session spread widened to "
+    "cover the rest (split conformal)"
 )
 #: Search range of the dynamics factor.
 FACTOR_RANGE = (0.05, 10.0)
@@ -778,7 +784,12 @@ def calibrate_traces(
     axes = search.matched_noise((mvb, mwb), steady)
     before = search.coverage(mvb, mwb, (axes[0].identified_std, axes[1].identified_std))
     ll_before = search.log_likelihood_before()  # the file's own spread: before any narrowing
-    (mvb, mwb), narrow_note = search.narrowed(factor, session_factor, (axes[0].std, axes[1].std))
+    (mvb, mwb), narrow_note = search.narrowed(
+        factor,
+        session_factor,
+        (axes[0].std, axes[1].std),
+        sessions=(fit_sessions, len(traces)),
+    )
     widened, after, widen_note = search.widened(factor, session_factor, (mvb, mwb), axes)
     widen_note = "; ".join(n for n in (narrow_note, widen_note) if n)
     if min(after) < MATCH_LEVEL:  # no spread covers the misses: the noise, as the last resort
@@ -1078,15 +1089,20 @@ class _FactorSearch:
         )
 
     def narrowed(
-        self, factor: float, session_factor: float, stds: tuple[float, float]
+        self,
+        factor: float,
+        session_factor: float,
+        stds: tuple[float, float],
+        sessions: tuple[int, int] = (1, 1),
     ) -> tuple[tuple[FloatArray, FloatArray], str]:
         """Narrow the spread of each axis's own parameters (:meth:`axis_groups`) while the
         band, with the matched noise stds, still covers the top of :func:`match_range` of
         every validation sample on that axis (and the other axis no less than that top or
         than it did): a band that over-covers one axis with the noise at what the logs show
         is too wide there by the spread of the parameters that move that axis (split-conformal
-        scaling of that spread, down to :data:`NARROW_MIN`). Sets :attr:`narrowing`; returns
-        the members at the result and a note ("" when nothing was narrowed)."""
+        scaling of that spread, down to :data:`NARROW_MIN`), pooled with the file's spread by
+        ``sessions`` (fitted, validation: :func:`pooled_narrowing`). Sets :attr:`narrowing`;
+        returns the members at the result and a note ("" when nothing was narrowed)."""
         high = match_range(MATCH_LEVEL)[1]
         members = self.members(factor, session_factor)
         start = self.coverage(*members, stds)
@@ -1112,13 +1128,16 @@ class _FactorSearch:
             for _ in range(WIDEN_STEPS if lo < hi else 0):
                 mid = 0.5 * (lo + hi)
                 lo, hi = (lo, mid) if ok(math.exp(mid)) else (mid, hi)
-            self.narrowing = np.where(group, math.exp(hi), self.narrowing_base)
-            if hi < 0.0:
+            scale = pooled_narrowing(
+                math.exp(hi), fit_sessions=sessions[0], validation_sessions=sessions[1]
+            )
+            self.narrowing = np.where(group, scale, self.narrowing_base)
+            if scale < 1.0:
                 names = ", ".join(
                     n for n, g in zip(self.distribution.names, group, strict=True) if g
                 )
                 what = ("move v", "move w", "delay every command")[k]
-                said.append(f"x{math.exp(hi):.3g} on the parameters that {what} ({names})")
+                said.append(f"x{scale:.3g} on the parameters that {what} ({names})")
             members = self.members(factor, session_factor)
         if not said:
             return members, ""
@@ -1287,6 +1306,36 @@ def pooled_factors(
         math.sqrt((nu + m * factor**2) / (nu + m)),
         math.sqrt(m * session_factor**2 / (nu + m)),
     )
+
+
+def pooled_narrowing(scale: float, *, fit_sessions: int, validation_sessions: int) -> float:
+    r"""The narrowing of a parameter group's spread, pooled with the file's spread by sessions.
+
+    The coverage matching finds the multiplier :math:`s` on a group's sds at which the band
+    covers the validation samples as it should (:meth:`_FactorSearch.narrowed`). Like the
+    dynamics factor (:func:`pooled_factors`), that scale is judged on the validation
+    *sessions*, :math:`m` draws of the between-session spread, whatever their length; what it
+    narrows was estimated on :math:`\nu_d = n - 1` fitted sessions beyond the one spent on
+    the mean (the spec prior's pseudo-sessions are a default, which the validation logs are
+    there to overrule: a spread fitted on one log is all prior and estimation uncertainty).
+    The two variance scales are pooled by those degrees of freedom:
+
+    .. math:: s_c^2 = \frac{\nu_d + m s^2}{\nu_d + m}
+
+    so a fleet's between-session spread, estimated on several sessions, is narrowed by one
+    or two alike validation sessions only as far as they weigh against it; a one-log fit's
+    spread takes the validation scale.
+
+    Examples
+    --------
+    >>> round(pooled_narrowing(0.1, fit_sessions=3, validation_sessions=2), 3)
+    0.711
+    >>> round(pooled_narrowing(0.1, fit_sessions=1, validation_sessions=1), 3)
+    0.1
+    """
+    nu = float(fit_sessions) - 1.0
+    m = float(validation_sessions)
+    return math.sqrt((nu + m * scale**2) / (nu + m))
 
 
 def session_covariance(distribution: Any, robot: Any) -> FloatArray:

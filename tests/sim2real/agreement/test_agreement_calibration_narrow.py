@@ -3,6 +3,7 @@ narrowed by the spread of the parameters that move the over-covered axis, not by
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -57,3 +58,20 @@ def test_a_spread_the_log_needs_is_not_narrowed(sessions: tuple[Path, Path]) -> 
     tight = distribution_around(hidden_params(), ROBOT, rel=0.02)
     res = calibrate_traces([read_trace(sessions[0])], robot=ROBOT, distribution=tight, n=16)
     assert not any("the spread is narrowed" in n for n in res.notes)
+
+
+def test_a_fleets_spread_is_narrowed_only_as_far_as_the_validation_sessions_weigh(
+    sessions: tuple[Path, Path],
+) -> None:
+    # the same over-covering spread, said to be fitted on 5 sessions: one alike validation
+    # session weighs 1 against their 4 degrees of freedom, so no sd goes below sqrt(4 / 5)
+    wide = distribution_around(hidden_params(), ROBOT, rel=0.3)
+    res = calibrate_traces(
+        [read_trace(sessions[0])], robot=ROBOT, distribution=wide, n=16, fit_sessions=5
+    )
+    floor = math.sqrt(4.0 / 5.0)
+    assert res.narrowing, "the band over-covers: some group is narrowed"
+    for name, scale in res.narrowing:
+        assert floor - 1e-9 <= scale < 1.0, name
+    unpooled = math.sqrt(max((5.0 * min(s for _, s in res.narrowing) ** 2 - 4.0), 0.0))
+    assert unpooled < 0.5  # what one session alone asked for: a much narrower spread
