@@ -664,6 +664,11 @@ _WORSE_STEP = (
     "several sessions at once (sysid fit a.mcap b.mcap ...); until then the spec defaults "
     "simulate this robot better than {params}."
 )
+_SLOWER_UNIT_STEP = (
+    "fit on a log of this unit, or on logs of several units at once (sysid fit a.mcap b.mcap "
+    "...) so that the spread spans their top speeds; until then the spec defaults simulate "
+    "this robot better than {params}."
+)
 _LATENCY_STEP = (
     "randomise the command delay (delay_s) across sessions, or refit on a log with sharp "
     "command steps recorded like this one (same driver, same clock)."
@@ -706,7 +711,7 @@ def _problem(
             "fit_worse",
             f"The fit does worse than the spec defaults on this log: {after} against {before}; "
             f"likely cause: {cause}.",
-            _WORSE_STEP,
+            _SLOWER_UNIT_STEP if cause == _slower_unit(s) else _WORSE_STEP,
         )
     latency = _latency_reason(fitted, s)
     if latency is not None:

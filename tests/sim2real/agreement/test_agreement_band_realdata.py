@@ -76,7 +76,11 @@ def test_a_slower_unit_is_the_headline_when_the_fit_does_worse_than_the_defaults
     out = tmp_path / "agree.json"
     main(["agree", str(realdata_dir / "neato_yycho0108_test_drive.mcap"), "--robot", str(robot),
           "--params", str(params), "--ensemble", "30", "--seed", "0", "--json", str(out)])  # fmt: skip
-    headline = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("verdict"))
+    lines = capsys.readouterr().out.splitlines()
+    headline = next(x for x in lines if x.startswith("verdict"))
+    assert next(x for x in lines if x.startswith("next step")).startswith(
+        "next step: fit on a log of this unit, or on logs of several units at once"
+    )
     assert json.loads(out.read_text())["agreement"] < 0.48  # the spec defaults reach 48.1 %
     assert "The fit does worse than the spec defaults" in headline
     held = re.search(r"this robot holds ([\d.]+) m/s in v where the fitted model holds ([\d.]+)",

@@ -183,6 +183,7 @@ def test_a_unit_slower_than_the_fits_is_the_headline_even_within_the_margin() ->
         "speed: this unit is slower than the fit log's (another unit's top speed"
     )
     assert "this log leaves it" in v.reasons
+    assert v.next_step.startswith("fit on a log of this unit, or on logs of several units")
     spin = SessionFigures(speed_shortfall=("w", 0.9, 1.01))
     assert "1.01 rad/s at its top yaw rate" in _decide(0.468, before=0.481, session=spin).headline
     faster = SessionFigures(speed_shortfall=("v", 0.30, 0.27), extrapolation=ext)
