@@ -67,7 +67,7 @@ from robots.reduced import DEFAULT_DT_S
 from sysid import metrics
 from sysid._bootstrap import segment_bootstrap
 from sysid._coords import Mapper
-from sysid._excitation import active_samples, analyse
+from sysid._excitation import active_samples, analyse, held_command
 from sysid._fleet import SessionInfo, population
 from sysid._linear import first_order_stats
 from sysid._logs import LogArrays, as_log_arrays, log_name, log_warnings
@@ -86,6 +86,7 @@ from sysid.definitions import LOSSES
 from sysid.envelope import envelope_of
 from sysid.errors import SysidValueError
 from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
+from sysid.steady import pooled_steady_noise, steady_noise
 
 __all__ = ["Progress", "fit_drive", "score_logs"]
 
@@ -606,6 +607,7 @@ def fit_drive(
             "dt_s": dt_s,
             "odom_v_window_s": odom_v_window_s,
             "measurement": {name: model.describe() for name, model in _operated(fit_logs)},
+            **_measurement_noise(fit_logs),
             "max_nfev": max_nfev,
             "bootstrap": {"replicates": bootstrap, "segment_s": segment_s, "seed": seed},
         },
@@ -638,6 +640,33 @@ def _start(
     base = _prior_base(base_params, pri)
     base, timeout_notes = fit_cmd_timeout(fit_logs, base)  # held or timed-out commands
     return Mapper(geometry, base, pri), timeout_notes
+
+
+def _measurement_noise(fit_logs: Sequence[LogArrays]) -> dict[str, Any]:
+    """``settings.measurement_noise``: the fitted logs' own odometry noise where they run
+    steady (:func:`sysid.steady.steady_noise`, no model), the measurement's share of the
+    noise the residuals show; nothing when no log runs steady long enough to tell it."""
+    own = pooled_steady_noise(
+        [
+            steady_noise(
+                log.meas_t_s,
+                held_command(log.cmd_t_s, log.cmd_v, log.meas_t_s),
+                held_command(log.cmd_t_s, log.cmd_w, log.meas_t_s),
+                log.meas_v,
+                log.meas_w,
+            )
+            for log in fit_logs
+        ]
+    )
+    if not own.measured:
+        return {}
+    return {
+        "measurement_noise": {
+            "std_v_mps": own.std_v_mps,
+            "std_w_radps": own.std_w_radps,
+            "samples": own.n_samples,
+        }
+    }
 
 
 def _noise(posts: Sequence[Posterior], fit_logs: Sequence[LogArrays]) -> ObservationNoise:

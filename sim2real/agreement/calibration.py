@@ -147,6 +147,7 @@ from sim2real.errors import Sim2RealValueError
 from sim2real.logs import read_for_robot
 from sysid import spread_degrees_of_freedom
 from sysid.metrics import active_mask
+from sysid.steady import pooled_steady_noise
 
 __all__ = [
     "CALIBRATION_METHOD",
@@ -894,16 +895,10 @@ def _check_calibration_args(
 
 def _own_noise(traces: Sequence[Any]) -> tuple[float, float]:
     """The logs' own odometry noise (v, w) about their steady levels
-    (:func:`sim2real.agreement.latency.log_noise`), pooled by their steady samples; NaN when
-    no log has enough of them."""
-    own = [n for n in (log_noise(t) for t in traces) if n.measured]
-    if not own:
-        return math.nan, math.nan
-    weights = np.array([n.n_samples for n in own], dtype=np.float64)
-    return (
-        float(np.sqrt(np.average([n.std_v_mps**2 for n in own], weights=weights))),
-        float(np.sqrt(np.average([n.std_w_radps**2 for n in own], weights=weights))),
-    )
+    (:func:`sim2real.agreement.latency.log_noise`), pooled by their steady samples
+    (:func:`sysid.steady.pooled_steady_noise`); NaN when no log has enough of them."""
+    own = pooled_steady_noise([log_noise(t) for t in traces])
+    return own.std_v_mps, own.std_w_radps
 
 
 def _validation_logs(traces: Sequence[Any], spec: Any, tol_v: float, tol_w: float) -> list[_Log]:

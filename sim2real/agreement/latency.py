@@ -25,7 +25,10 @@ or a pose-derived velocity. Where a non-zero command has been held for over
 :data:`STEADY_AFTER_S` (past the delay and the rise), the robot runs steady and what the
 measurement does about its level (the median of that stretch) is noise: its robust sd (MAD)
 per axis, the same statistic the fit uses on its residuals. A log with fewer than
-:data:`MIN_STEADY_SAMPLES` such samples keeps the fit's noise, and the note says so.
+:data:`MIN_STEADY_SAMPLES` such samples keeps the fit's noise, and the note says so. The band of
+``agree --ensemble`` keeps the model's share of the file's noise and takes the log's own
+measurement noise in place of the fit logs' (:func:`band_noise`): one noise model per odometry
+source.
 
 Examples
 --------
@@ -38,7 +41,8 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 from statistics import NormalDist
 from typing import TYPE_CHECKING, Any
 
@@ -46,6 +50,8 @@ import numpy as np
 
 from sim2real.agreement.figures import AgreementReport, measure_agreement
 from sim2real.agreement.replay import RobotSpecLike, TraceLike, replay
+from sysid.steady import MIN_STEADY_SAMPLES, STEADY_AFTER_S, steady_noise
+from sysid.steady import SteadyNoise as LogNoise
 
 if TYPE_CHECKING:
     from robots.params import DriveParams
@@ -61,6 +67,7 @@ __all__ = [
     "LogNoise",
     "NoiseCeiling",
     "SessionLatency",
+    "band_noise",
     "log_noise",
     "noise_ceiling",
     "noise_note",
@@ -83,13 +90,6 @@ REFERENCE_KEYS = (
     "noise_std_v_mps",
     "noise_std_w_radps",
 )
-#: A non-zero command held this long has settled: past the command delay and the rise of the
-#: bases of the development set (delays 0.1-0.3 s, rise times under 0.5 s), s.
-STEADY_AFTER_S = 1.0
-#: Fewer steady samples than this do not measure a log's own noise.
-MIN_STEADY_SAMPLES = 30
-#: A steady stretch needs this many samples for its level (median) to stand.
-_MIN_STRETCH = 5
 #: The search range of a session's command latency, s (ROS command latencies: 0-0.6 s).
 LATENCY_MAX_S = 0.6
 #: Coarse and fine grid steps of the search, s.
@@ -145,29 +145,6 @@ class NoiseCeiling:
     note: str = ""
 
 
-@dataclass(frozen=True, kw_only=True)
-class LogNoise:
-    """A log's own odometry noise, measured where it runs steady (:func:`log_noise`).
-
-    Attributes
-    ----------
-    std_v_mps, std_w_radps : float
-        Robust sd of the measured v and w about their steady level, m/s and rad/s (NaN when
-        the log has too few steady samples).
-    n_samples : int
-        The steady samples it was measured on.
-    """
-
-    std_v_mps: float
-    std_w_radps: float
-    n_samples: int
-
-    @property
-    def measured(self) -> bool:
-        """True when the log has :data:`MIN_STEADY_SAMPLES` steady samples or more."""
-        return self.n_samples >= MIN_STEADY_SAMPLES
-
-
 def _within_prob(tol: float, sd: float) -> float:
     return 1.0 if sd <= 0.0 else math.erf(tol / (math.sqrt(2.0) * sd))
 
@@ -205,21 +182,10 @@ def noise_ceiling(
     )
 
 
-def _steady(trace: TraceLike) -> tuple[np.ndarray, np.ndarray]:
-    """The stretch index of each measurement (one per held command) and the mask of the
-    samples under a non-zero command held for over :data:`STEADY_AFTER_S`."""
-    t = np.asarray(trace.meas_t_s, dtype=np.float64)
-    cmd_v, cmd_w = trace.cmd_at_meas()
-    change = np.ones(t.size, dtype=bool)
-    change[1:] = (np.diff(cmd_v) != 0) | (np.diff(cmd_w) != 0)
-    stretch = np.cumsum(change) - 1
-    held_s = t - t[change][stretch]
-    return stretch, (held_s > STEADY_AFTER_S) & ((cmd_v != 0) | (cmd_w != 0))
-
-
 def log_noise(trace: TraceLike) -> LogNoise:
-    """The log's own odometry noise (module docstring); NaN sds when it has fewer than
-    :data:`MIN_STEADY_SAMPLES` steady samples (``measured`` is False).
+    """The log's own odometry noise (module docstring, :func:`sysid.steady.steady_noise`);
+    NaN sds when it has fewer than :data:`MIN_STEADY_SAMPLES` steady samples (``measured`` is
+    False).
 
     Examples
     --------
@@ -227,19 +193,55 @@ def log_noise(trace: TraceLike) -> LogNoise:
     >>> own.std_v_mps, own.n_samples  # doctest: +SKIP
     (0.0061, 412)
     """
-    stretch, steady = _steady(trace)
-    ids = stretch[steady]
-    counts = np.unique(ids, return_counts=True)[1]
-    long_enough = np.repeat(counts >= _MIN_STRETCH, counts)
-    ids = ids[long_enough]
-    if ids.size < MIN_STEADY_SAMPLES:
-        return LogNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=int(ids.size))
-    stds = []
-    for y in (trace.meas_v, trace.meas_w):
-        ys = np.asarray(y, dtype=np.float64)[steady][long_enough]
-        dev = np.concatenate([ys[ids == k] - np.median(ys[ids == k]) for k in np.unique(ids)])
-        stds.append(float(1.4826 * np.median(np.abs(dev - np.median(dev)))))
-    return LogNoise(std_v_mps=stds[0], std_w_radps=stds[1], n_samples=int(ids.size))
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    return steady_noise(trace.meas_t_s, cmd_v, cmd_w, trace.meas_v, trace.meas_w)
+
+
+def band_noise(
+    noise: ObservationNoise, settings: Any, own: LogNoise
+) -> tuple[ObservationNoise, str]:
+    r"""The odometry noise of the band on a checked log: a noise model per odometry source.
+
+    A params file's noise std :math:`\sigma` covers what its residuals showed: the model's
+    misses that look like noise (:math:`\delta`) and the measurement noise of the logs it was
+    fitted on (:math:`\sigma_f`, ``settings.measurement_noise``: their own scatter where they
+    run steady, no model). Another recording of the robot through another odometry source (a
+    pose-derived velocity at 7 Hz, a 20 Hz twist, another unit's encoders) keeps the model's
+    share and brings its own measurement noise :math:`\sigma_o` (:func:`log_noise`):
+
+    .. math:: \sigma_{band}^2 = \max(\sigma^2 - \sigma_f^2, 0) + \sigma_o^2
+
+    per axis. Where the file does not record :math:`\sigma_f` or the checked log cannot tell
+    :math:`\sigma_o`, the file's noise; the note is then "".
+
+    Examples
+    --------
+    >>> from robots.randomization import ObservationNoise
+    >>> file = ObservationNoise(std_v_mps=0.016, std_w_radps=0.016)
+    >>> fitted = {"measurement_noise": {"std_v_mps": 0.012, "std_w_radps": 0.015}}
+    >>> own = LogNoise(std_v_mps=0.0006, std_w_radps=0.03, n_samples=200)
+    >>> noise, _ = band_noise(file, fitted, own)
+    >>> round(noise.std_v_mps, 4), round(noise.std_w_radps, 4)
+    (0.0106, 0.0305)
+    """
+    block = settings.get("measurement_noise") if isinstance(settings, Mapping) else None
+    if not own.measured or not isinstance(block, Mapping):
+        return noise, ""
+    stds = {}
+    for field, own_std in (("std_v_mps", own.std_v_mps), ("std_w_radps", own.std_w_radps)):
+        fitted = block.get(field)
+        if not isinstance(fitted, int | float) or not math.isfinite(fitted) or fitted < 0:
+            return noise, ""
+        model = max(getattr(noise, field) ** 2 - float(fitted) ** 2, 0.0)
+        stds[field] = math.sqrt(model + own_std**2)
+    out = replace(noise, **stds)
+    return out, (
+        f"the band's odometry noise is this log's own measurement noise (v {own.std_v_mps:.3g} "
+        f"m/s, w {own.std_w_radps:.3g} rad/s) beside the model's share of the file's noise: v "
+        f"{noise.std_v_mps:.3g} -> {out.std_v_mps:.3g} m/s, w {noise.std_w_radps:.3g} -> "
+        f"{out.std_w_radps:.3g} rad/s (the fit logs' own was v {float(block['std_v_mps']):.3g}, w "
+        f"{float(block['std_w_radps']):.3g})"
+    )
 
 
 def noise_note(own: LogNoise, fit: ObservationNoise | None) -> str:

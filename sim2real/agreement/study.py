@@ -48,6 +48,7 @@ from sim2real.agreement.figures import (
 from sim2real.agreement.latency import (
     NoiseCeiling,
     SessionLatency,
+    band_noise,
     log_noise,
     noise_ceiling,
     noise_note,
@@ -366,13 +367,13 @@ def run_study(
         keep_all=config.keep_all,
     )
     runs = _replays(config, trace, spec, params, window_s)
-    ensemble = _ensemble(config, trace, spec, params_file, window_s, progress)
+    ensemble, band_note = _ensemble(config, trace, spec, params_file, window_s, progress)
     latency, ceiling = _reference_figures(config, trace, spec, params, params_file, window_s)
     figures = study_figures(runs[-1].agreement, ensemble)
     figures.update(reference_figures(latency, ceiling))
     check_figures(figures, config.log)
     figures, undefined = defined_figures(figures)
-    notes = ((screened,) if screened else ()) + undefined
+    notes = tuple(n for n in (screened, band_note) if n) + undefined
     # whose noise the ceiling assumes: the terminal and the report say it in the verdict
     said = (ceiling.note,) if ceiling is not None and ceiling.note else ()
     if notes + said:
@@ -612,14 +613,19 @@ def _ensemble(
     params_file: ParamsFile | None,
     window_s: float,
     progress: Callable[[int, int], None] | None = None,
-) -> EnsembleResult | None:
+) -> tuple[EnsembleResult | None, str]:
+    """The band on the checked log, its odometry noise the log's own source's
+    (:func:`sim2real.agreement.latency.band_noise`), and the note that says so ("" if not)."""
     if config.ensemble_n is None or params_file is None:
-        return None
+        return None, ""
     distribution = DriveDistribution.from_params_file(params_file, robot=spec.name)
-    return run_ensemble(
+    noise, note = band_noise(
+        distribution.noise, params_file.document.get("settings"), log_noise(trace)
+    )
+    ensemble = run_ensemble(
         trace,
         robot=spec,
-        distribution=distribution,
+        distribution=replace(distribution, noise=noise),
         n=config.ensemble_n,
         seed=config.seed,
         spread=config.spread,
@@ -630,6 +636,7 @@ def _ensemble(
         band_level=config.band_level,
         progress=progress,
     )
+    return ensemble, note
 
 
 #: JSON keys documented as possibly null (provenance: no params file, a trace built in memory).

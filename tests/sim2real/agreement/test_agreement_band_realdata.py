@@ -51,6 +51,10 @@ def test_the_calibration_keeps_the_noise_and_narrows_the_v_spread(
     [
         "neato_ksoltan_bag-file-name_2018-09-15-10-16-08.mcap",  # main: w 76.4 %, v 0.078 m/s
         "neato_paulruvolo-pr2_drive_square_bag_2017-01-29-18-30-40.mcap",  # main: w 79.6 %
+        # the band's noise is the log's own source's: olin's 7 Hz w (0.032 rad/s, twice the
+        # fit log's) and pr2's 2017 twist v (0.0005 m/s, 1/25 of the fit log's)
+        "neato_olin2018_teleop.mcap",  # file's noise: w 65.8 %
+        "neato_paulruvolo-pr2_finite_state_bag_2017-02-06-00-10-00.mcap",  # file's: v 100 %
     ],
 )
 def test_the_band_covers_another_session_narrowly(
@@ -104,3 +108,11 @@ def test_a_slower_unit_is_a_reason_when_the_fit_beats_the_defaults(
     assert len(said) == 1 and "this unit is slower than the fit log's" in said[0]
     held = re.search(r"holds ([\d.]+) m/s in v where the fitted model holds ([\d.]+)", said[0])
     assert held is not None and 0.25 < float(held[1]) < 0.28 < float(held[2]) < 0.31
+
+
+def test_the_fit_records_its_logs_own_measurement_noise(calibrated: tuple[Path, Path]) -> None:
+    # the ksoltan test drive runs steady for 87 samples: 7 Hz pose-derived odometry
+    noise = yaml.safe_load(calibrated[1].read_text())["settings"]["measurement_noise"]
+    assert noise["samples"] >= 30
+    assert noise["std_v_mps"] == pytest.approx(0.0123, rel=0.05)
+    assert noise["std_w_radps"] == pytest.approx(0.0146, rel=0.05)

@@ -9,10 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _agreement_fixtures import HIDDEN, ROBOT, write_log, write_params
+from hypothesis import given
+from hypothesis import settings as settings_
+from hypothesis import strategies as st
 
 from robots.randomization import ObservationNoise
 from sim2real.agreement.latency import (
     MIN_STEADY_SAMPLES,
+    LogNoise,
+    band_noise,
     log_noise,
     noise_ceiling,
     noise_note,
@@ -81,3 +86,36 @@ def test_real_neato_logs_measure_their_own_noise_or_say_why_not(realdata_dir: Pa
     assert 0.0 < square.std_v_mps < 0.005 and 0.0 < square.std_w_radps < 0.02
     bag = read_trace(realdata_dir / "neato_ksoltan_bag-file-name_2018-09-15-10-16-08.mcap")
     assert not log_noise(bag).measured
+
+
+_FILE = ObservationNoise(std_v_mps=0.016, std_w_radps=0.02)
+_FITTED = {"measurement_noise": {"std_v_mps": 0.012, "std_w_radps": 0.015, "samples": 87}}
+
+
+@pytest.mark.parametrize(
+    ("settings", "own"),
+    [
+        ({}, LogNoise(std_v_mps=0.001, std_w_radps=0.03, n_samples=200)),  # no fit-log noise
+        (_FITTED, LogNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=5)),  # unmeasured
+        (None, LogNoise(std_v_mps=0.001, std_w_radps=0.03, n_samples=200)),
+    ],
+)
+def test_the_band_keeps_the_files_noise_when_a_source_cannot_be_told(
+    settings: object, own: LogNoise
+) -> None:
+    assert band_noise(_FILE, settings, own) == (_FILE, "")
+
+
+@settings_(max_examples=200, deadline=None)
+@given(own_v=st.floats(0.0, 0.05), own_w=st.floats(0.0, 0.2))
+def test_the_band_noise_is_the_models_share_plus_the_logs_own(own_v: float, own_w: float) -> None:
+    own = LogNoise(std_v_mps=own_v, std_w_radps=own_w, n_samples=100)
+    noise, note = band_noise(_FILE, _FITTED, own)
+    assert "this log's own measurement noise" in note
+    model_v, model_w = math.sqrt(0.016**2 - 0.012**2), math.sqrt(0.02**2 - 0.015**2)
+    assert noise.std_v_mps == pytest.approx(math.hypot(model_v, own_v), rel=1e-9)
+    assert noise.std_w_radps == pytest.approx(math.hypot(model_w, own_w), rel=1e-9)
+    # never below the log's own noise nor the model's share; the fit logs' own source: the file's
+    assert noise.std_v_mps >= max(own_v, model_v) - 1e-12
+    same = LogNoise(std_v_mps=0.012, std_w_radps=0.015, n_samples=100)
+    assert band_noise(_FILE, _FITTED, same)[0].std_v_mps == pytest.approx(0.016)

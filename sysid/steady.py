@@ -1,0 +1,129 @@
+"""A log's own odometry noise, measured where the robot runs steady, with no model.
+
+Where a non-zero command has been held for over :data:`STEADY_AFTER_S` (past the delay and the
+rise), the robot runs steady and what the measurement does about its level (the median of that
+stretch) is the measurement's noise: its robust sd (MAD) per axis, the statistic the fit uses
+on its residuals. It describes the odometry source (encoders and their rate, a pose-derived or
+a twist velocity, a gyro), not the drive model: the same base logged through another source
+shows another noise. A log with fewer than :data:`MIN_STEADY_SAMPLES` such samples cannot tell
+its noise.
+
+Examples
+--------
+>>> import numpy as np
+>>> t = np.arange(0.0, 20.0, 0.1)
+>>> rng = np.random.default_rng(0)
+>>> own = steady_noise(t, np.full(t.size, 0.2), np.zeros(t.size),
+...                    0.2 + rng.normal(0.0, 0.01, t.size), rng.normal(0.0, 0.05, t.size))
+>>> own.measured, round(own.std_v_mps, 2), round(own.std_w_radps, 2)
+(True, 0.01, 0.05)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = [
+    "MIN_STEADY_SAMPLES",
+    "STEADY_AFTER_S",
+    "SteadyNoise",
+    "pooled_steady_noise",
+    "steady_noise",
+]
+
+
+@dataclass(frozen=True, kw_only=True)
+class SteadyNoise:
+    """A log's own odometry noise, measured where it runs steady (:func:`steady_noise`):
+    ``std_v_mps`` and ``std_w_radps``, the robust sd of the measured v (m/s) and w (rad/s)
+    about their steady level (NaN when the log has too few steady samples), over
+    ``n_samples`` steady samples."""
+
+    std_v_mps: float
+    std_w_radps: float
+    n_samples: int
+
+    @property
+    def measured(self) -> bool:
+        """True when the log has :data:`MIN_STEADY_SAMPLES` steady samples or more."""
+        return self.n_samples >= MIN_STEADY_SAMPLES
+
+
+#: A non-zero command held this long has settled: past the command delay and the rise of the
+#: bases of the development set (delays 0.1-0.3 s, rise times under 0.5 s), s.
+STEADY_AFTER_S = 1.0
+#: Fewer steady samples than this do not measure a log's own noise.
+MIN_STEADY_SAMPLES = 30
+#: A steady stretch needs this many samples for its level (median) to stand.
+MIN_STRETCH = 5
+
+
+def _steady(t: np.ndarray, cmd_v: np.ndarray, cmd_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The stretch index of each measurement (one per held command) and the mask of the
+    samples under a non-zero command held for over :data:`STEADY_AFTER_S`."""
+    change = np.ones(t.size, dtype=bool)
+    change[1:] = (np.diff(cmd_v) != 0) | (np.diff(cmd_w) != 0)
+    stretch = np.cumsum(change) - 1
+    held_s = t - t[change][stretch]
+    return stretch, (held_s > STEADY_AFTER_S) & ((cmd_v != 0) | (cmd_w != 0))
+
+
+def steady_noise(
+    meas_t_s: ArrayLike, cmd_v: ArrayLike, cmd_w: ArrayLike, meas_v: ArrayLike, meas_w: ArrayLike
+) -> SteadyNoise:
+    """The odometry noise of one log (module docstring).
+
+    Parameters
+    ----------
+    meas_t_s, cmd_v, cmd_w, meas_v, meas_w : array_like
+        Per measurement: its time (s, increasing), the command held then (m/s, rad/s) and
+        the measured v (m/s) and w (rad/s).
+
+    Returns
+    -------
+    SteadyNoise
+        NaN sds when the log has fewer than :data:`MIN_STEADY_SAMPLES` steady samples.
+    """
+    t = np.asarray(meas_t_s, dtype=np.float64)
+    stretch, steady = _steady(
+        t, np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
+    )
+    ids = stretch[steady]
+    counts = np.unique(ids, return_counts=True)[1]
+    long_enough = np.repeat(counts >= MIN_STRETCH, counts)
+    ids = ids[long_enough]
+    if ids.size < MIN_STEADY_SAMPLES:
+        return SteadyNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=int(ids.size))
+    stds = []
+    for y in (meas_v, meas_w):
+        ys = np.asarray(y, dtype=np.float64)[steady][long_enough]
+        dev = np.concatenate([ys[ids == k] - np.median(ys[ids == k]) for k in np.unique(ids)])
+        stds.append(float(1.4826 * np.median(np.abs(dev - np.median(dev)))))
+    return SteadyNoise(std_v_mps=stds[0], std_w_radps=stds[1], n_samples=int(ids.size))
+
+
+def pooled_steady_noise(noises: Sequence[SteadyNoise]) -> SteadyNoise:
+    """The noise of several logs of one source: the variances of the measured ones pooled by
+    their steady samples (NaN, 0 samples, when none is measured).
+
+    Examples
+    --------
+    >>> a = SteadyNoise(std_v_mps=0.01, std_w_radps=0.02, n_samples=100)
+    >>> b = SteadyNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=3)
+    >>> pooled_steady_noise([a, b]) == a
+    True
+    """
+    own = [n for n in noises if n.measured]
+    if not own:
+        return SteadyNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=0)
+    weights = np.array([n.n_samples for n in own], dtype=np.float64)
+    return SteadyNoise(
+        std_v_mps=float(np.sqrt(np.average([n.std_v_mps**2 for n in own], weights=weights))),
+        std_w_radps=float(np.sqrt(np.average([n.std_w_radps**2 for n in own], weights=weights))),
+        n_samples=int(weights.sum()),
+    )
