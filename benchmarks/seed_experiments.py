@@ -258,6 +258,14 @@ def race(model: str, races: int, racers: Sequence[str] = ("sarl", "dwa", "orca")
         )
 
 
+# episodes.csv outcomes by kind: RandomMap-v0 says "crash" and "trap" (Yang et al.'s words)
+_OUTCOMES = {
+    "success": ("success",),
+    "collision": ("collision", "crash"),
+    "timeout": ("timeout", "trap"),
+}
+
+
 def curve(files: Sequence[str], block: int) -> None:
     """Per block of ``block`` env steps: success, collision and timeout rates, mean return."""
     print("| run | steps | episodes | success | collision | timeout | mean return |")
@@ -270,12 +278,14 @@ def curve(files: Sequence[str], block: int) -> None:
             blocks.setdefault((int(row["step"]) - 1) // block, []).append(row)
         for b, part in sorted(blocks.items()):
             n = len(part)
-            share = {o: sum(r["outcome"] == o for r in part) / n for o in ("success", "timeout")}
-            crash = sum("collision" in r["outcome"] for r in part) / n
+            share = {
+                kind: sum(r["outcome"] in names for r in part) / n
+                for kind, names in _OUTCOMES.items()
+            }
             ret = statistics.fmean(float(r["return"]) for r in part)
             print(
                 f"| {path} | {b * block}-{(b + 1) * block} | {n} | {share['success']:.2f} | "
-                f"{crash:.2f} | {share['timeout']:.2f} | {ret:.2f} |"
+                f"{share['collision']:.2f} | {share['timeout']:.2f} | {ret:.2f} |"
             )
 
 
