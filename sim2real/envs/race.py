@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -64,6 +64,7 @@ from pettingzoo import ParallelEnv
 
 from robots.params import DriveParams
 from robots.spec import load_spec
+from sim2real.envs._reward import reward_constants
 from sim2real.envs._robot import (
     RobotBackend,
     check_env_arguments,
@@ -135,23 +136,7 @@ def race_reward(value: RaceReward | Mapping[str, Any] | None) -> RaceReward:
     >>> race_reward({"stop": 0.1}).stop, race_reward(None).stop
     (0.1, 0.02)
     """
-    if value is None:
-        return RaceReward()
-    if isinstance(value, RaceReward):
-        return value
-    names = [f.name for f in fields(RaceReward)]
-    if not isinstance(value, Mapping) or set(value) - set(names):
-        extra = sorted(set(value) - set(names)) if isinstance(value, Mapping) else value
-        raise Sim2RealValueError(
-            f"reward must be a RaceReward or a mapping of its fields ({', '.join(names)}), "
-            f"got {extra!r}; e.g. reward: {{stop: 0.1}}"
-        )
-    for key, number in value.items():
-        if isinstance(number, bool) or not isinstance(number, int | float):
-            raise Sim2RealValueError(
-                f"reward.{key} must be a number, got {number!r}; e.g. reward: {{{key}: 0.1}}"
-            )
-    return RaceReward(**{key: float(number) for key, number in value.items()})
+    return reward_constants(RaceReward, value, "stop")
 
 
 def _check_options(track: Any, num_opponents: Any, n_robots: Any) -> tuple[str, int, int]:

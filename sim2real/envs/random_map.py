@@ -23,7 +23,10 @@ Reward (Yang et al. eqs. 2-5; the constants are ours, in :class:`RandomMapReward
       (0, 0.05] m (2), (0.05, 0.15] m (0.5);
     - :math:`r_{free} = -w_{free}\sum_i (1 - d_i / d_{max})^4` over the 36 ranges
       (:math:`w_{free}` = 0.1: the paper's weight is 1, which with 36 beams dominates the sum);
-    - :math:`r_{step} = -T` per step (T = 0.05), so the accumulated penalty grows with time.
+    - :math:`r_{step} = -T` per step (T = 0.05), so the accumulated penalty grows with time;
+    - :math:`r_{stop} = -k_{stop}\,|v|\,\max(0, 1 - d_{goal}/R_{stop})` per step (:math:`k_{stop}`
+      = 0 by default, :math:`R_{stop}` = 1 m): with ``goal_speed_mps`` set it pays for braking
+      on the way into the goal, more the closer.
 Outcome (``info["outcome"]`` at the end)
     ``"success"``, ``"crash"`` (contact) or ``"trap"`` (``max_episode_steps`` reached). The
     generic metrics are in ``info["metrics"]``; ``info["rho_obs"]`` is the map's obstacle
@@ -42,6 +45,7 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -51,6 +55,7 @@ from gymnasium import spaces
 from robots.params import DriveParams
 from robots.randomization import DriveDistribution
 from sim2real.envs._nav import NavEnvBase, StepInfo
+from sim2real.envs._reward import reward_constants
 from sim2real.envs.geometry import FloatArray
 from sim2real.envs.maps import MapConfig, MapLayout, generate_map, get_preset
 from sim2real.errors import Sim2RealValueError
@@ -75,6 +80,8 @@ class RandomMapReward:
     crash_penalties: tuple[float, float, float] = (100.0, 2.0, 0.5)
     free_weight: float = 0.1
     step_penalty: float = 0.05
+    goal_speed_per_mps: float = 0.0
+    goal_speed_radius_m: float = 1.0
 
 
 class RandomMapEnv(NavEnvBase):
@@ -94,8 +101,8 @@ class RandomMapEnv(NavEnvBase):
     max_episode_steps : int
         Steps before the episode ends as a trap (default 1000 = 100 s: 2.6 times the straight
         8 m at 0.21 m/s).
-    reward : RandomMapReward
-        Reward constants.
+    reward : RandomMapReward or mapping, optional
+        Reward constants (a mapping sets some of :class:`RandomMapReward`'s fields).
     drive_params : DriveParams, optional
         Drive parameters (default: the robot spec's).
     drive_distribution : robots.randomization.DriveDistribution, optional
@@ -132,7 +139,7 @@ class RandomMapEnv(NavEnvBase):
         dynamics: str = "reduced",
         control_dt: float = 0.1,
         max_episode_steps: int = 1000,
-        reward: RandomMapReward | None = None,
+        reward: RandomMapReward | Mapping[str, Any] | None = None,
         drive_params: DriveParams | None = None,
         drive_distribution: DriveDistribution | None = None,
         drive_spread: float = 1.0,
@@ -162,7 +169,7 @@ class RandomMapEnv(NavEnvBase):
             plant_sessions=plant_sessions,
             goal_speed_mps=goal_speed_mps,
         )
-        self.reward_config = reward if reward is not None else RandomMapReward()
+        self.reward_config = reward_constants(RandomMapReward, reward, "goal_speed_per_mps")
         lid = self.robot_spec.lidar
         self.range_min_m, self.range_max_m = float(lid.range_min_m), float(lid.range_max_m)
         # 36 equidistant beams over the full circle, from the lidar's first angle
@@ -230,7 +237,9 @@ class RandomMapEnv(NavEnvBase):
                 break
         # the ranges of the observation just computed for this step
         r_free = -cfg.free_weight * float(np.sum((1.0 - self._ranges / self.range_max_m) ** 4))
-        return r_goal + r_crash + r_free - cfg.step_penalty
+        ramp = max(0.0, 1.0 - s.goal_dist_m / cfg.goal_speed_radius_m)
+        r_stop = -cfg.goal_speed_per_mps * abs(s.v) * ramp
+        return r_goal + r_crash + r_free + r_stop - cfg.step_penalty
 
     def _extra_info(self) -> dict[str, Any]:
         rho = math.nan if self.layout is None else self.layout.rho_obs

@@ -69,6 +69,38 @@ def test_a_goal_speed_makes_success_a_stop_inside_the_tolerance() -> None:
     assert n_stop > n_pass  # inside the 0.3 m tolerance at speed is not yet a stop
 
 
+def test_the_goal_speed_term_charges_speed_near_the_goal_more_the_closer() -> None:
+    radius_m, k = 0.8, 5.0
+
+    def rewards(reward: object) -> list[tuple[float, float, float]]:
+        env = RandomMapEnv(
+            map_config=MapConfig(n_min=0, n_max=0, r_wall=0.0, d_target_m=1.5),
+            goal_speed_mps=0.01,
+            reward=reward,  # type: ignore[arg-type]
+        )
+        obs, _ = env.reset(seed=0)
+        out = []
+        for _ in range(60):  # at 0.21 m/s towards the goal, through it and around
+            bearing = float(obs[37])
+            obs, r, term, trunc, _ = env.step(np.array([0.21, np.clip(2 * bearing, -1, 1)]))
+            d, _ = env._goal_polar()
+            out.append((d, float(obs[38]), r))
+            assert not (term or trunc)  # never slow enough to count as a stop
+        return out
+
+    base = rewards(None)
+    shaped = rewards({"goal_speed_per_mps": k, "goal_speed_radius_m": radius_m})
+    far = [(b[2], s[2]) for b, s in zip(base, shaped, strict=True) if b[0] >= radius_m]
+    near = [(b, s) for b, s in zip(base, shaped, strict=True) if b[0] < radius_m / 2]
+    assert far and near
+    np.testing.assert_allclose(*zip(*far, strict=True), atol=1e-12)
+    for b, s in near:  # the measured speed in the observation is the one charged
+        assert b[2] - s[2] == pytest.approx(k * abs(b[1]) * (1 - b[0] / radius_m), rel=1e-5)
+        assert b[2] - s[2] > k * 0.1 * 0.5
+    with pytest.raises(Sim2RealValueError, match="RandomMapReward or a mapping of its fields"):
+        RandomMapEnv(reward={"goal_speed": 1.0})  # type: ignore[arg-type]
+
+
 def test_observation_layout() -> None:
     env = RandomMapEnv(preset="TEST1")
     obs, info = env.reset(seed=4)
