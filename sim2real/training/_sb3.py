@@ -14,12 +14,18 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 import stable_baselines3 as sb3
 import torch
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 from stable_baselines3.common.monitor import Monitor
+from stable_baselines3.common.noise import (
+    ActionNoise,
+    NormalActionNoise,
+    OrnsteinUhlenbeckActionNoise,
+)
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
 from sim2real.errors import Sim2RealValueError
@@ -27,20 +33,32 @@ from sim2real.training._sarl import SarlExtractor
 from sim2real.training.config import SARL_POLICY, TrainConfig
 from sim2real.training.environment import build_env, neighbour_slots
 
-__all__ = ["EpisodeLog", "RichProgress", "learn", "load_model"]
+__all__ = ["EpisodeLog", "EpisodeRow", "RichProgress", "action_noise", "learn", "load_model"]
+
+#: One training episode: env step at its end, outcome, return, length.
+EpisodeRow = tuple[int, str, float, int]
 
 
-def learn(cfg: TrainConfig, probe: Any, *, progress: bool = False) -> tuple[Any, list[Any], float]:
+def learn(
+    cfg: TrainConfig,
+    probe: Any,
+    *,
+    progress: bool = False,
+    on_episodes: Callable[[list[EpisodeRow]], Any] | None = None,
+    every_s: float = 5.0,
+) -> tuple[Any, list[EpisodeRow], float]:
     """Train ``cfg.algorithm`` on ``cfg.n_envs`` envs; returns (model, episode rows, train s).
 
     ``probe`` is one env as the policy sees it (action grid and scaling applied): it chooses the
-    policy network. The episode rows are those of :func:`sim2real.training.train.write_episodes`.
+    policy network. The episode rows are those of :func:`sim2real.training.train.write_episodes`;
+    ``on_episodes`` receives all rows so far when training starts, then at most every
+    ``every_s`` seconds of wall time after an episode ends, and when training ends.
     """
     torch.set_num_threads(1)  # small MLPs: more threads only add overhead on 2 cores
     vec = _vec_env(cfg)
     try:
         model = _model(cfg, vec, probe)
-        episode_log = EpisodeLog()
+        episode_log = EpisodeLog(on_episodes, every_s=every_s)
         callbacks: list[Any] = [episode_log]
         if cfg.checkpoint_every > 0:
             callbacks.append(
@@ -112,6 +130,8 @@ def _vec_env(cfg: TrainConfig) -> Any:
 def _model(cfg: TrainConfig, vec: Any, probe: Any) -> Any:
     cls = getattr(sb3, cfg.algorithm)
     hyper = dict(cfg.hyperparameters)
+    if cfg.action_noise is not None:
+        hyper["action_noise"] = action_noise(cfg.action_noise, probe.action_space)
     if cfg.policy == SARL_POLICY:
         k, f = neighbour_slots(probe, where=cfg.source)
         extractor = {"neighbours": k, "neighbour_features": f}
@@ -135,6 +155,22 @@ def _model(cfg: TrainConfig, vec: Any, probe: Any) -> Any:
             f"{cfg.source}: key 'hyperparameters' {cfg.hyperparameters} is not accepted by "
             f"{cfg.algorithm} ({exc}); use that class's constructor keyword arguments"
         ) from None
+
+
+def action_noise(spec: Mapping[str, Any], space: gym.spaces.Box) -> ActionNoise:
+    """SB3's action noise for ``spec`` (``{type, sigma}``, see the config) on ``space``.
+
+    Examples
+    --------
+    >>> space = gym.spaces.Box(-1.0, 1.0, shape=(2,))
+    >>> action_noise({"type": "normal", "sigma": 0.1}, space)
+    NormalActionNoise(mu=[0. 0.], sigma=[0.1 0.1])
+    """
+    n = int(np.prod(space.shape))
+    mean, sigma = np.zeros(n), np.full(n, float(spec["sigma"]))
+    if spec["type"] == "ornstein-uhlenbeck":
+        return OrnsteinUhlenbeckActionNoise(mean=mean, sigma=sigma)
+    return NormalActionNoise(mean=mean, sigma=sigma)
 
 
 class RichProgress(BaseCallback):  # type: ignore[misc]
@@ -165,12 +201,34 @@ class RichProgress(BaseCallback):  # type: ignore[misc]
 
 
 class EpisodeLog(BaseCallback):  # type: ignore[misc]
-    """An SB3 callback keeping (env step, outcome, return, length) of every training episode."""
+    """An SB3 callback keeping (env step, outcome, return, length) of every training episode.
 
-    rows: list[tuple[int, str, float, int]]
+    ``on_episodes`` (if given) receives all rows so far at the start, at most every ``every_s``
+    seconds after an episode ends, and at the end of training: the learning curve on disk
+    while training goes.
+    """
+
+    rows: list[EpisodeRow]
+
+    def __init__(
+        self, on_episodes: Callable[[list[EpisodeRow]], Any] | None = None, *, every_s: float = 5.0
+    ) -> None:
+        super().__init__()
+        self.on_episodes = on_episodes
+        self.every_s = every_s
+        self._last_s = 0.0
 
     def _on_training_start(self) -> None:
         self.rows = []
+        self._flush()
+
+    def _on_training_end(self) -> None:
+        self._flush()
+
+    def _flush(self) -> None:
+        if self.on_episodes is not None:
+            self.on_episodes(list(self.rows))
+        self._last_s = time.perf_counter()
 
     def _on_step(self) -> bool:
         for info, done in zip(self.locals["infos"], self.locals["dones"], strict=True):
@@ -180,4 +238,6 @@ class EpisodeLog(BaseCallback):  # type: ignore[misc]
                 self.rows.append(
                     (int(self.num_timesteps), outcome, float(episode["r"]), int(episode["l"]))
                 )
+                if time.perf_counter() - self._last_s >= self.every_s:
+                    self._flush()
         return True

@@ -23,6 +23,12 @@ Relative paths are relative to the config file::
     evaluation: {episodes: 10, seed: 10000, kwargs: {preset: TEST1}, randomize: false}
     discrete_actions: {v_mps: [0.0, 0.1, 0.21], w_radps: [-1.0, 0.0, 1.0]}  # for DQN
     normalize: {observations: true, actions: true, rewards: true}   # all false by default
+    action_noise: {type: normal, sigma: 0.1}   # TD3/SAC exploration noise (see below)
+
+``action_noise``: Gaussian (``normal``) or Ornstein-Uhlenbeck (``ornstein-uhlenbeck``) noise
+of standard deviation ``sigma`` added to every action TD3 or SAC takes while training (SB3's
+``action_noise``; in the policy's action units, so [-1, 1] with ``normalize: {actions: true}``).
+Without it SB3's TD3 explores only in its ``learning_starts`` random steps.
 
 ``algorithm: rllib-ppo`` trains with Ray RLlib's PPO (:mod:`sim2real.training._rllib`); its
 ``rllib`` key names the Ray cluster and the env runners::
@@ -61,6 +67,7 @@ import sim2real.envs
 from sim2real.errors import Sim2RealFileNotFoundError, Sim2RealValueError
 
 __all__ = [
+    "ACTION_NOISES",
     "ALGORITHMS",
     "CONFIG_FORMAT",
     "POLICIES",
@@ -104,9 +111,14 @@ _KEYS = (
     "evaluation",
     "discrete_actions",
     "normalize",
+    "action_noise",
     "rllib",
 )
 _NORMALIZE = ("observations", "actions", "rewards")
+#: Values of ``action_noise.type``.
+ACTION_NOISES = ("normal", "ornstein-uhlenbeck")
+#: Algorithms that take ``action_noise`` (SB3's off-policy continuous ones).
+_NOISY = ("SAC", "TD3")
 #: Keys of the config's ``rllib`` mapping and their defaults.
 RLLIB_KEYS: dict[str, Any] = {
     "address": "auto",
@@ -155,6 +167,8 @@ class TrainConfig:
         ``{v_mps: [...], w_radps: [...]}`` grid for DQN on a Box action space.
     normalize : dict
         ``{observations: bool, actions: bool, rewards: bool}`` (see the module docstring).
+    action_noise : dict or None
+        ``{type: normal | ornstein-uhlenbeck, sigma: float}`` for TD3/SAC, in action units.
     rllib : dict
         ``{address, num_env_runners, num_envs_per_env_runner}`` for ``algorithm: rllib-ppo``.
     source : str
@@ -179,6 +193,7 @@ class TrainConfig:
     eval_randomize: bool = False
     discrete_actions: dict[str, list[float]] | None = None
     normalize: dict[str, bool] = field(default_factory=lambda: dict.fromkeys(_NORMALIZE, False))
+    action_noise: dict[str, Any] | None = None
     rllib: dict[str, Any] = field(default_factory=dict)
     source: str = "config"
 
@@ -205,6 +220,7 @@ class TrainConfig:
             },
             "discrete_actions": self.discrete_actions,
             "normalize": dict(self.normalize),
+            "action_noise": None if self.action_noise is None else dict(self.action_noise),
             **({"rllib": dict(self.rllib)} if self.algorithm == RLLIB_PPO else {}),
         }
 
@@ -403,6 +419,23 @@ def _normalize(value: Any, where: str) -> dict[str, bool]:
     return {**out, **{str(k): bool(v) for k, v in value.items()}}
 
 
+def _action_noise(value: Any, where: str) -> dict[str, Any] | None:
+    """``{type, sigma}`` checked (None = SB3's default, no noise)."""
+    if value is None:
+        return None
+    ok = isinstance(value, Mapping) and set(value) == {"type", "sigma"}
+    sigma: Any = value.get("sigma") if ok else None
+    ok = ok and value["type"] in ACTION_NOISES
+    ok = ok and isinstance(sigma, int | float) and not isinstance(sigma, bool)
+    if not (ok and math.isfinite(sigma) and sigma > 0):
+        raise Sim2RealValueError(
+            f"{where}: key 'action_noise' must be {{type: {' or '.join(ACTION_NOISES)}, "
+            f"sigma: a number > 0}} (the noise's standard deviation in action units), got "
+            f"{value!r}"
+        )
+    return {"type": str(value["type"]), "sigma": float(sigma)}
+
+
 def rllib_options(value: Any, where: str) -> dict[str, Any]:
     """The config's ``rllib`` mapping with defaults filled in, checked."""
     if value is None:
@@ -489,9 +522,15 @@ def config_from_dict(
         eval_randomize=bool(evaluation.get("randomize", False)),
         discrete_actions=_discrete(doc.get("discrete_actions"), where),
         normalize=_normalize(doc.get("normalize"), where),
+        action_noise=_action_noise(doc.get("action_noise"), where),
         rllib=rllib_options(doc.get("rllib"), where),
         source=where,
     )
+    if cfg.action_noise is not None and cfg.algorithm not in _NOISY:
+        raise Sim2RealValueError(
+            f"{where}: key 'action_noise' applies to {' and '.join(_NOISY)} only, not "
+            f"{cfg.algorithm}; remove the key or use one of those algorithms"
+        )
     if cfg.vec_env not in _VEC_ENVS:
         raise Sim2RealValueError(
             f"{where}: key 'vec_env' must be one of {', '.join(_VEC_ENVS)}, got {cfg.vec_env!r}"

@@ -12,7 +12,7 @@ outputs into one folder::
     OUT/tensorboard/        TensorBoard event files (``tensorboard --logdir OUT/tensorboard``)
     OUT/evaluation.yaml     a short seeded evaluation of the final policy
     OUT/episodes.csv        every training episode: env step at its end, outcome, return, length
-                            (the learning curve)
+                            (the learning curve; rewritten every few seconds while training)
 
 The config file and its keys: :mod:`sim2real.training.config`; the env construction:
 :mod:`sim2real.training.environment`. ``algorithm: rllib-ppo`` trains with Ray RLlib's PPO
@@ -36,6 +36,7 @@ import math
 import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -194,9 +195,12 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
     if cfg.randomizers is not None:
         resolved["randomizers"] = dr.to_config(probe)
     _write_yaml(cfg.out / "config.yaml", resolved, "resolved config")
-    model, episodes, train_time_s = _sb3.learn(cfg, probe, progress=progress)
+    episodes_csv = partial(write_episodes, cfg.out / "episodes.csv")
+    model, episodes, train_time_s = _sb3.learn(
+        cfg, probe, progress=progress, on_episodes=episodes_csv
+    )
     model_path = save_model(model, cfg.out / "model.zip", model_metadata(cfg, probe))
-    write_episodes(cfg.out / "episodes.csv", episodes)
+    episodes_csv(episodes)
     probe.close()
     evaluation = final_evaluation(cfg, model)
     _write_yaml(cfg.out / "evaluation.yaml", evaluation, "evaluation file")

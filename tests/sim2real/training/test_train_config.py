@@ -76,6 +76,24 @@ def test_example_configs_load_with_overrides() -> None:
         ({"discrete_actions": {"v_mps": []}}, r"key 'discrete_actions' must be"),
         ({"normalize": {"obs": True}}, r"key 'normalize' must be true, false or a mapping of"),
         ({"normalize": {"rewards": "yes"}}, r"key 'normalize' must be .* got \{'rewards': 'yes'\}"),
+        (
+            {"algorithm": "TD3", "action_noise": {"type": "normal", "sigma": -0.1}},
+            r"key 'action_noise' must be \{type: normal or ornstein-uhlenbeck, sigma: a number "
+            r"> 0\} \(the noise's standard deviation in action units\), got .*-0.1",
+        ),
+        (
+            {"algorithm": "TD3", "action_noise": {"type": "uniform", "sigma": 0.1}},
+            r"key 'action_noise' must be .* got \{'type': 'uniform'",
+        ),
+        ({"algorithm": "SAC", "action_noise": {"sigma": 0.1}}, r"key 'action_noise' must be"),
+        (
+            {"algorithm": "TD3", "action_noise": {"type": "normal", "sigma": float("nan")}},
+            r"key 'action_noise' must be",
+        ),
+        (
+            {"action_noise": {"type": "normal", "sigma": 0.1}},
+            r"key 'action_noise' applies to SAC and TD3 only, not PPO; remove the key",
+        ),
     ],
 )
 def test_bad_config_is_one_sentence(change: dict, match: str) -> None:
@@ -89,6 +107,10 @@ def test_bad_config_is_one_sentence(change: dict, match: str) -> None:
     [
         ({"algorithm": "A3C"}, "key 'algorithm' is 'A3C', which is not supported"),
         ({"env": {"id": "Atlantis-v5"}}, "env id 'Atlantis-v5' is not a sim2real env"),
+        (
+            {"algorithm": "TD3", "action_noise": {"type": "normal", "sigma": 0}},
+            "key 'action_noise' must be {type: normal or ornstein-uhlenbeck, sigma: a number > 0}",
+        ),
     ],
 )
 def test_cli_bad_config_exits_2(
@@ -125,6 +147,18 @@ def test_normalize_rescales_the_spaces_to_unit_bounds() -> None:
     assert env.unwrapped.action_space.high.tolist() == pytest.approx([0.21, 1.0])
     with pytest.raises(Sim2RealValueError, match="normalize 'observations' needs a Box"):
         build_env("sim2real/CrowdNav-v0", {}, normalize={"observations": True})
+
+
+def test_action_noise_is_read_and_written_back() -> None:
+    doc = {
+        "env": "RandomMap-v0",
+        "algorithm": "td3",
+        "action_noise": {"type": "normal", "sigma": 1},
+    }
+    cfg = config_from_dict(doc)
+    assert cfg.action_noise == {"type": "normal", "sigma": 1.0}
+    assert config_from_dict(cfg.to_dict()).action_noise == cfg.action_noise
+    assert config_from_dict({"env": "RandomMap-v0"}).action_noise is None
 
 
 def test_override_values_are_checked() -> None:

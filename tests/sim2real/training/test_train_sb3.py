@@ -277,3 +277,43 @@ def test_eval_refuses_a_missing_params_file_of_the_policy(
     # on the plant the drive parameters do not apply: evaluated, with a note
     assert main([*argv, "--dynamics", "plant"]) == 0
     assert "is not applied: --dynamics plant has its own physics" in capsys.readouterr().out
+
+
+def test_td3_trains_with_the_configured_action_noise(tmp_path: Path) -> None:
+    from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+    from sim2real.training import _sb3
+    from sim2real.training.config import load_config
+    from sim2real.training.environment import build_env
+
+    noise = {"type": "normal", "sigma": 0.3}
+    change = {"algorithm": "TD3", "hyperparameters": {"learning_starts": 50, "batch_size": 16}}
+    cfg = load_config(_config(tmp_path, **change, action_noise=noise, randomizers=None))
+    probe = build_env(cfg.env_id, cfg.env_kwargs)
+    model, _, _ = _sb3.learn(cfg, probe)
+    base = model.action_noise.base_noise  # SB3's VecNoise, one copy per env
+    assert isinstance(base, NormalActionNoise) and base._sigma.tolist() == [0.3, 0.3]  # (v, w)
+    ou = _sb3.action_noise({"type": "ornstein-uhlenbeck", "sigma": 0.2}, probe.action_space)
+    assert isinstance(ou, OrnsteinUhlenbeckActionNoise) and ou._sigma.tolist() == [0.2, 0.2]
+    # the noise is what the robot gets: TD3's (deterministic) actor, sampled five times from one
+    # observation past learning_starts, gives five different training actions
+    noisy = [model._sample_action(0, model.action_noise, 2)[1] for _ in range(5)]
+    assert len({a.tobytes() for a in noisy}) == 5
+
+
+def test_episodes_csv_is_written_while_training_goes(tmp_path: Path) -> None:
+    from sim2real.training import _sb3
+    from sim2real.training.config import load_config
+    from sim2real.training.environment import build_env
+
+    cfg = load_config(_config(tmp_path, timesteps=256, randomizers=None, checkpoint_every=0))
+    seen: list[int] = []
+    probe = build_env(cfg.env_id, cfg.env_kwargs)
+    _, rows, _ = _sb3.learn(cfg, probe, on_episodes=lambda r: seen.append(len(r)), every_s=0.0)
+    assert seen[0] == 0 and seen[-1] == len(rows) >= 256 // 40  # header first, all rows last
+    assert len(seen) >= len(rows)  # every episode, with every_s = 0
+    assert seen == sorted(seen)
+    quiet: list[int] = []
+    probe = build_env(cfg.env_id, cfg.env_kwargs)
+    _sb3.learn(cfg, probe, on_episodes=lambda r: quiet.append(1), every_s=3600.0)
+    assert len(quiet) == 2  # at the start and at the end only

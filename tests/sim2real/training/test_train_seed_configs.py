@@ -43,6 +43,8 @@ def test_random_map_configs_follow_table_iii() -> None:
         assert cfg.env_kwargs["preset"] == "TRAIN" and cfg.eval_kwargs["preset"] == "TEST1"
         assert cfg.hyperparameters["learning_rate"] == 3e-4
         assert cfg.hyperparameters["policy_kwargs"]["net_arch"] == [256, 256]
+    td3 = config_from_dict(_doc("randommap_td3"), folder=EXAMPLES)
+    assert td3.action_noise == {"type": "normal", "sigma": 0.1}  # TD3 explores by it
 
 
 def test_crowdnav_pair_differs_only_in_the_card_stack() -> None:
