@@ -73,7 +73,9 @@ BUDGETS = {
 CONDITIONS = ("spec", "fitted", "calibrated DR", "blind DR")
 #: ``--gap``: tasks on which the spec-defaults policy is probed, as env kwargs. ``kobuki``: a
 #: TurtleBot 2 at its 0.7 m/s top speed to a goal 3 m away through 2-6 cylinders in 12 s
-#: (2.8 times the straight line at top speed).
+#: (2.8 times the straight line at top speed). ``kobuki_stop``: the same base to a stop
+#: (below 0.05 m/s) within 0.15 m of a goal 3 m away in an empty map in 8 s, paid for its speed
+#: within 1 m of the goal (``RandomMapReward.goal_speed_per_mps``).
 GAP_TASKS: dict[str, dict[str, Any]] = {
     "burger": {"map_config": COURSE, "max_episode_steps": MAX_STEPS},
     "kobuki": {
@@ -100,21 +102,33 @@ GAP_TASKS: dict[str, dict[str, Any]] = {
         "robot": "turtlebot2",
         "action_limits": "robot",
     },
-}
-#: ``--gap``: PPO settings of a task other than the experiment's (longer rollouts, a smaller
-#: step and a longer horizon than the smoke-tuned ones, which stop moving at the Kobuki's top
-#: speed).
-GAP_PPO: dict[str, dict[str, Any]] = {
-    "kobuki_fast": {
-        "learning_rate": 3e-4,
-        "n_steps": 512,
-        "batch_size": 256,
-        "n_epochs": 10,
-        "gamma": 0.99,
-        "gae_lambda": 0.95,
-        "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -0.5},
+    "kobuki_stop": {
+        "map_config": {
+            **COURSE,
+            "d_target_m": 3.0,
+            "n_min": 0,
+            "n_max": 0,
+            "goal_tolerance_m": 0.15,
+        },
+        "max_episode_steps": 80,
+        "robot": "turtlebot2",
+        "action_limits": "robot",
+        "goal_speed_mps": 0.05,
+        "reward": {"goal_speed_per_mps": 5.0, "goal_speed_radius_m": 1.0},
     },
 }
+#: ``--gap``: PPO settings of the top-speed tasks (longer rollouts, a smaller step and a longer
+#: horizon than the smoke-tuned ones, which stop moving at the Kobuki's top speed).
+TOP_SPEED_PPO: dict[str, Any] = {
+    "learning_rate": 3e-4,
+    "n_steps": 512,
+    "batch_size": 256,
+    "n_epochs": 10,
+    "gamma": 0.99,
+    "gae_lambda": 0.95,
+    "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -0.5},
+}
+GAP_PPO: dict[str, dict[str, Any]] = {"kobuki_fast": TOP_SPEED_PPO, "kobuki_stop": TOP_SPEED_PPO}
 #: ``--gap``: plant session distributions (the default one, then one factor pushed further).
 GAP_SESSIONS = {
     "plant": SessionVariation(),

@@ -1,0 +1,43 @@
+"""benchmarks/bench_transfer.py --gap tasks: the stop-at-goal task is wired and feasible in time."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim2real.training.environment import build_env
+
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import bench_transfer  # noqa: E402
+
+
+def _brake_at(env: object, brake_m: float, seed: int) -> str:
+    """Face the goal, drive at top speed, command a stop ``brake_m`` before it."""
+    obs, _ = env.reset(seed=seed)  # type: ignore[attr-defined]
+    while True:
+        d, bearing = float(obs[36]), float(obs[37])
+        v = 0.0 if d < brake_m or abs(bearing) > 0.5 else 0.7
+        action = np.array([v, np.clip(1.5 * bearing, -3.14, 3.14)])
+        obs, _, term, trunc, info = env.step(action)  # type: ignore[attr-defined]
+        if term or trunc:
+            return str(info["outcome"])
+
+
+def test_kobuki_stop_needs_a_stop_and_a_braking_controller_makes_it_in_time() -> None:
+    kwargs = bench_transfer.GAP_TASKS["kobuki_stop"]
+    env = build_env(bench_transfer.ENV_ID, kwargs).unwrapped
+    assert env.goal_speed_mps == 0.05 and env.goal_tolerance_m == 0.15
+    assert env.reward_config.goal_speed_per_mps == 5.0
+    assert env.max_episode_steps == 80 and float(env.action_space.high[0]) == pytest.approx(0.7)
+    plant = build_env(bench_transfer.ENV_ID, {**kwargs, "dynamics": "plant"}).unwrapped
+    sim_wins = sum(_brake_at(env, 0.4, s) == "success" for s in range(20))
+    plant_wins = sum(_brake_at(plant, 0.4, s) == "success" for s in range(20))
+    # the spec's model answers its yaw commands 0.2 s late: the starts facing away need most
+    # of the 8 s to turn, so a few time out even with a braking rule that stops in the goal
+    assert 12 <= sim_wins < 20 and plant_wins >= sim_wins
+    assert _brake_at(env, 0.05, 0) == "trap"  # no brake: the goal is passed, not a success
