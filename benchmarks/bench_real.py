@@ -8,8 +8,8 @@ absent). Per base, as a new user would work (the public CLI: ``robots new``, ``s
   unit's test drive, calibrate on its obstacle avoidance (its longest), check on its three
   other recordings and on the recordings of four other units (2018 and 2017).
 - TurtleBot3 Waffle Pi with an arm (shipped spec): fit the first half, check the second.
-- Husky A200, wheels lifted (``robots new --drive skid``, 0.538 m, r 0.15875 m): fit the
-  first half of session a, calibrate on its second half, check session b.
+- Husky A200, wheels lifted (``robots new --drive skid``, 0.538 m, r 0.15875 m; MuJoCo as
+  ``mujoco-lifted``): fit the first half of session a, calibrate on its second half, check b.
 - Warthog (``--drive skid``, 1.08 m, r 0.3 m): fit up to 28 s (the middle of the driving),
   check 28-40 s (the rest of the driving: after 40 s the driver holds a command with the
   wheels stopped).
@@ -72,6 +72,7 @@ class Base:
     diff_drive: bool = True
     top_speeds: tuple[float, ...] = ()  # v, w for the width target; () = the spec's
     fit_args: tuple[str, ...] = field(default=())
+    lifted: bool = False  # recorded on a stand: MuJoCo replays with the base held up
 
 
 NEATO_FIT_UNIT = "neato_ksoltan_"
@@ -117,6 +118,7 @@ BASES = (
         calibrate="husky_lifted_a/trace.csv@155:310",
         checks=("husky_lifted_b/trace.csv",),
         diff_drive=False,
+        lifted=True,
         top_speeds=(1.0, 1.05),  # Clearpath's datasheet; the driver's yaw cap (realdata README)
     ),
     Base(
@@ -315,7 +317,8 @@ def run_base(
                 explained.append(
                     f"| {ref.removeprefix('neato_')[:34]}{explain(log, robot, params)}"
                 )
-            for engine in engines:
+            for named in engines:
+                engine = "mujoco-lifted" if base.lifted and named == "mujoco" else named
                 try:
                     r = check(base, log, robot, params, engine, tmp)
                 except RuntimeError as exc:  # a row says why, the table goes on

@@ -13,7 +13,19 @@ friction as tendon damping and frictionloss); this module drives it:
 - :class:`MujocoRobot` compiles the model once; :meth:`MujocoRobot.set_params` writes another
   parameter set into the compiled ``MjModel`` in place (the entries of
   :func:`robots.mjcf.mjcf_mapping`; no recompile: an ensemble member is a field edit) and
-  :meth:`MujocoRobot.replay` drives a logged command sequence (``agree --engine mujoco``).
+  :meth:`MujocoRobot.replay` drives a logged command sequence (``agree --engine mujoco``);
+- a recording made with the wheels lifted off the ground (a base on a stand) replays on
+  ``MujocoRobot(..., lifted=True)`` (``agree --engine mujoco-lifted``): the base is welded in
+  the air with contacts off, the wheels spin free, and the reported (v, w) are the wheel
+  encoders' body speeds on the effective track, :math:`v = r(\omega_l + \omega_r)/2`,
+  :math:`w = r(\omega_r - \omega_l)/(\chi L)`. This is how the reduced engine reads such a
+  log: it always links the wheels to the base through the effective track and loads them
+  with the base's total mass and yaw inertia (fitted on the log, they absorb what drives the
+  spinning wheels), so the lifted model puts that mass and inertia on the wheels as the
+  armature of the ``forward`` and ``yaw`` tendons (less the wheels' own spin inertia; the two
+  wheels are sibling branches, so MuJoCo's mass matrix keeps only each wheel's own share, and
+  the two part for a few steps after a speed change). On the ground the exported model's
+  tyres would scrub in every turn, which a lifted log never saw.
 
 mujoco is an optional dependency (the ``[mujoco]`` extra): :func:`import_mujoco` says in one
 sentence how to install it.
@@ -57,6 +69,8 @@ Commands = tuple[FloatArray, FloatArray, FloatArray]
 #: How to install the optional MuJoCo dependency.
 INSTALL_HINT = "pip install 'sim2real[mujoco]'"
 _JOINTS = tuple(f"wheel_{s}_joint" for s in WHEELS)
+#: A lifted base: welded to the world where it stands (:class:`MujocoRobot` ``lifted``).
+_WELD_BASE = '  <equality><weld name="lifted" body1="base_link"/></equality>\n'
 
 
 def import_mujoco() -> ModuleType:
@@ -123,6 +137,9 @@ class MujocoDrive:
         The robot.
     params : DriveParams
         The identified drive.
+    lifted : bool
+        The wheels spin in the air (:class:`MujocoRobot` ``lifted``): the loops read the body
+        speeds from the wheels on the effective track, not from the (held) base.
 
     Examples
     --------
@@ -133,8 +150,11 @@ class MujocoDrive:
     ...     mujoco.mj_step(model, data)
     """
 
-    def __init__(self, model: Any, spec: RobotSpec, params: DriveParams) -> None:
+    def __init__(
+        self, model: Any, spec: RobotSpec, params: DriveParams, *, lifted: bool = False
+    ) -> None:
         self.spec = spec
+        self.lifted = lifted
         self.dt_s = float(model.opt.timestep)
         mj = import_mujoco()
         self._wheel_dof = [
@@ -228,6 +248,19 @@ class MujocoDrive:
             self.control(model, data, *self.targets(a, b))
             mj.mj_step(model, data)
 
+    def body_speeds(self, data: Any) -> tuple[float, float]:
+        """(v [m/s] along the heading, w [rad/s]) of the base; lifted: the wheels' encoder
+        speeds on the effective track (see the module docstring)."""
+        qvel = data.qvel
+        if self.lifted:
+            wl, wr = float(qvel[self._wheel_dof[0]]), float(qvel[self._wheel_dof[1]])
+            r = self.spec.wheels.radius_m
+            track = self.spec.wheels.separation_m * self.params.track_factor
+            return 0.5 * r * (wl + wr), r * (wr - wl) / track
+        b = self._base_dof
+        xmat = data.xmat[self._base_body]
+        return float(xmat[0] * qvel[b] + xmat[3] * qvel[b + 1]), float(qvel[b + 5])
+
     def control(self, model: Any, data: Any, wl_ref: float, wr_ref: float) -> None:
         """Set the actuators for wheel targets (``wl_ref``, ``wr_ref``) rad/s, one step."""
         ctrl = data.ctrl
@@ -238,10 +271,7 @@ class MujocoDrive:
         qvel = data.qvel
         p, d = self._packed, self.params
         r, sep = self.spec.wheels.radius_m, self.spec.wheels.separation_m
-        b = self._base_dof
-        xmat = data.xmat[self._base_body]
-        v = xmat[0] * qvel[b] + xmat[3] * qvel[b + 1]
-        w = qvel[b + 5]
+        v, w = self.body_speeds(data)
         if self._asymmetric:
             tendon_v = data.ten_velocity[self._forward]
             push = tendon_v if tendon_v != 0.0 else wl_ref + wr_ref
@@ -282,6 +312,9 @@ class MujocoRobot:
         The drive; the spec's defaults when omitted.
     xml : str, optional
         The model's MJCF text when it is at hand (default: :func:`robots.mjcf.mjcf_text`).
+    lifted : bool
+        Replay a recording made with the wheels off the ground (see the module docstring):
+        the base welded in place, contacts off, (v, w) from the wheel speeds.
 
     Examples
     --------
@@ -293,14 +326,25 @@ class MujocoRobot:
     """
 
     def __init__(
-        self, spec: RobotSpec, params: DriveParams | None = None, *, xml: str | None = None
+        self,
+        spec: RobotSpec,
+        params: DriveParams | None = None,
+        *,
+        xml: str | None = None,
+        lifted: bool = False,
     ) -> None:
         self._mj = import_mujoco()
         self.spec = spec
+        self.lifted = lifted
         p = spec.drive if params is None else params
-        self.model = self._mj.MjModel.from_xml_string(mjcf_text(spec, p) if xml is None else xml)
+        text = mjcf_text(spec, p) if xml is None else xml
+        if lifted:  # held where it stands: the weld's relative pose is the one at qpos0
+            text = text.replace("</mujoco>", _WELD_BASE + "</mujoco>", 1)
+        self.model = self._mj.MjModel.from_xml_string(text)
+        if lifted:
+            self.model.opt.disableflags |= self._mj.mjtDisableBit.mjDSBL_CONTACT
         self.data = self._mj.MjData(self.model)
-        self.drive = MujocoDrive(self.model, spec, p)
+        self.drive = MujocoDrive(self.model, spec, p, lifted=lifted)
         self._base_body = self.model.body("base_link").id
         self.set_params(p)
 
@@ -319,8 +363,25 @@ class MujocoRobot:
         # roll and pitch as robots.mjcf writes them (A + B >= C with the new yaw inertia)
         inertia = self.model.body_inertia[self._base_body]
         inertia[:2] = np.maximum(lumped_base_inertia(self.spec)[:2], 0.5 * inertia[2])
+        if self.lifted:
+            self._load_wheels(params)
         self._mj.mj_setConst(self.model, self.data)
         self.drive.set_params(params)
+
+    def _load_wheels(self, params: DriveParams) -> None:
+        """Lifted: the base's total mass and yaw inertia (as the reduced engine counts them,
+        less the wheels' spin) as the armature of the ``forward`` and ``yaw`` tendons."""
+        g, w, chi = self.spec.geometry, self.spec.wheels, params.track_factor
+        spin = w.spin_inertia_kgm2 / w.radius_m**2  # apparent mass of one wheel's spin, kg
+        mass = params.total_mass_kg(g) - 2.0 * spin
+        # the drive model turns the base by the wheel forces at the geometric half-track L/2
+        # while w = r (w_r - w_l) / (chi L): a wheel-torque difference 2 r^2 I / (chi L^2)
+        # per unit of (w_r - w_l)', which the yaw tendon (rate r (w_r - w_l) / L) gives
+        # with armature I / chi; the wheels' own spin gives J, i.e. I = spin chi L^2 / 2
+        yaw = params.total_yaw_inertia_kgm2(g) - 0.5 * spin * chi * w.separation_m**2
+        armature = self.model.tendon_armature
+        armature[self.model.tendon("forward").id] = max(mass, 0.0)
+        armature[self.model.tendon("yaw").id] = max(yaw, 0.0) / chi
 
     def reset(self, v: float = 0.0, w: float = 0.0) -> None:
         """Put the robot at the origin on the ground moving at (v, w); clear the drive."""
@@ -335,7 +396,10 @@ class MujocoRobot:
         self.drive.reset(v, w)
 
     def velocity(self) -> tuple[float, float]:
-        """True (v [m/s] along the heading, w [rad/s] about the vertical) of the base."""
+        """True (v [m/s] along the heading, w [rad/s] about the vertical) of the base; lifted:
+        the wheels' encoder speeds (:meth:`MujocoDrive.body_speeds`)."""
+        if self.lifted:
+            return self.drive.body_speeds(self.data)
         d, b = self.data, self._base_body
         xmat = d.xmat[b]
         return (

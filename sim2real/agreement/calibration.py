@@ -212,7 +212,7 @@ MIN_STEADY = 20
 #: slower engine that follows it (``agree --engine mujoco`` is within 0.02 of the reduced
 #: model's agreement); the noise, the band's coverage and the widening (about ten ensembles)
 #: are the slower engine's own.
-SEARCH_ENGINE = {"mujoco": "reduced"}
+SEARCH_ENGINE = {"mujoco": "reduced", "mujoco-lifted": "reduced"}
 #: Bisection steps of the coverage matching: the log scale between 1 and a bound of
 #: :data:`NOISE_SCALE_RANGE` (a factor 10) to 2**-24 of its width, a scale to ~1e-7 relative.
 MATCH_STEPS = 24

@@ -25,6 +25,9 @@ starts in motion does not begin with a spurious stop.
 - ``mujoco``: :meth:`sim2real.mujoco.MujocoRobot.replay`, the same way on the MuJoCo model's
   240 Hz grid; the robot is compiled once per spec, and each parameter set (an ensemble
   member) is written into its ``MjModel`` in place.
+- ``mujoco-lifted``: the same MuJoCo robot with its wheels off the ground, for a recording
+  made on a stand (``MujocoRobot(..., lifted=True)``: the base held, (v, w) from the wheels
+  on the effective track, as the reduced engine reads such a log).
 
 Segments
 --------
@@ -71,7 +74,7 @@ __all__ = [
 
 
 #: Simulation engines :func:`replay` accepts.
-ENGINES = ("pybullet", "reduced", "mujoco")
+ENGINES = ("pybullet", "reduced", "mujoco", "mujoco-lifted")
 
 #: Default physics rate of the pybullet engine, Hz.
 DEFAULT_PHYSICS_HZ = 240.0
@@ -141,7 +144,8 @@ class ReplayResult:
     v, w : ndarray
         Simulated forward velocity (m/s) and yaw rate (rad/s) at ``t_s``.
     engine : str
-        ``"pybullet"``, ``"reduced"``, ``"mujoco"`` or a :class:`ReplayEngine`'s name.
+        ``"pybullet"``, ``"reduced"``, ``"mujoco"``, ``"mujoco-lifted"`` or a
+        :class:`ReplayEngine`'s name.
     robot : str
         Robot (spec) name.
     params : DriveParams
@@ -234,8 +238,9 @@ def replay(
         Robot name (``sim2real robots list``) or a loaded spec.
     params : DriveParams, optional
         Drive parameters; the spec defaults when omitted.
-    engine : {"pybullet", "reduced", "mujoco"} or ReplayEngine
-        The pybullet rigid-body robot, the reduced drive model, the exported MuJoCo robot, or
+    engine : {"pybullet", "reduced", "mujoco", "mujoco-lifted"} or ReplayEngine
+        The pybullet rigid-body robot, the reduced drive model, the exported MuJoCo robot
+        (on the ground, or held up for a log recorded with the wheels lifted), or
         another simulator (:class:`ReplayEngine`; ``params`` then gives only the command delay
         and timeout that the start command and the log's screening use).
     physics_hz : float
@@ -271,7 +276,7 @@ def replay(
     )
     start = time.perf_counter()
     rate = float(physics_hz)
-    if not isinstance(engine, str) or engine in ("reduced", "mujoco"):
+    if not isinstance(engine, str) or engine in ("reduced", "mujoco", "mujoco-lifted"):
         rate = 1.0 / DEFAULT_DT_S
     model = getattr(trace, "measurement", None)
     op = None if model is None else model.operator(meas_t)
@@ -287,8 +292,9 @@ def replay(
         v, w = engine.replay((cmd_t, cmd_v, cmd_w), t_out, initial)
     elif engine == "reduced":
         v, w = _replay_reduced(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial)
-    elif engine == "mujoco":
-        v, w = _replay_mujoco(spec, p, (cmd_t, cmd_v, cmd_w), t_out, initial)
+    elif engine in ("mujoco", "mujoco-lifted"):
+        lifted = engine == "mujoco-lifted"
+        v, w = _replay_mujoco(spec, p, (cmd_t, cmd_v, cmd_w), t_out, initial, lifted=lifted)
     else:
         v, w = _replay_pybullet(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial, physics_hz)
     if op is not None:  # the log's own measurement operator, in v and w
@@ -426,14 +432,21 @@ _MUJOCO_ROBOT: list[Any] = []
 
 
 def _replay_mujoco(
-    spec: Any, params: DriveParams, cmd: Commands, t_out: FloatArray, start: tuple[float, float]
+    spec: Any,
+    params: DriveParams,
+    cmd: Commands,
+    t_out: FloatArray,
+    start: tuple[float, float],
+    *,
+    lifted: bool = False,
 ) -> tuple[FloatArray, FloatArray]:
-    """(v, w) at ``t_out`` of the exported MuJoCo robot (:class:`sim2real.mujoco.MujocoRobot`)."""
-    if _MUJOCO_ROBOT and _MUJOCO_ROBOT[0].spec is spec:
+    """(v, w) at ``t_out`` of the exported MuJoCo robot (:class:`sim2real.mujoco.MujocoRobot`;
+    ``lifted``: its wheels off the ground)."""
+    if _MUJOCO_ROBOT and _MUJOCO_ROBOT[0].spec is spec and _MUJOCO_ROBOT[0].lifted == lifted:
         robot = _MUJOCO_ROBOT[0]
         robot.set_params(params)
     else:
-        robot = MujocoRobot(spec, params)
+        robot = MujocoRobot(spec, params, lifted=lifted)
         _MUJOCO_ROBOT[:] = [robot]
     return robot.replay(cmd, t_out, start)
 

@@ -309,3 +309,40 @@ def test_skid_plant_fleet_on_the_ground_agrees_within_two_points(tmp_path: Path)
     )
     assert reduced.n_active > 300 and reduced.agreement > 0.8
     assert abs(mujoco.agreement - reduced.agreement) <= 0.02
+
+
+def test_lifted_replay_matches_the_reduced_engine(new_robots: dict[str, Path]) -> None:
+    """A skid steer on a stand (a drive like the one fitted on the lifted Husky): the wheels'
+    speeds follow the drive model's and the base stays."""
+    from sim2real.mujoco import MujocoRobot
+
+    spec = load_spec(new_robots["husky"])
+    params = spec.drive.replace(
+        track_factor=1.5, driver_track_factor=1.6, speed_loop_ki_per_s=2.9, delay_s=0.12,
+        motor_gain_nms_per_rad=36.0, speed_lim_w_radps=1.0, wheel_torque_max_nm=27.0,
+        added_mass_kg=43.0, viscous_v_ns_per_m=190.0, coulomb_w_nm=2.4,
+        accel_lim_v_mps2=2.6, accel_lim_w_radps2=2.0, wheel_speed_max_radps=6.5,
+    )  # fmt: skip
+    t, v, w = _commands(2, 60.0, spec.max_v_mps, spec.max_w_radps)
+    t_out = np.arange(0.0, 60.0, 0.05)
+    bot = MujocoRobot(spec, params, lifted=True)
+    mv, mw = bot.replay((t, v, w), t_out)
+    ref = simulate(params, spec.geometry, cmd_t_s=t, cmd_v=v, cmd_w=w, t_out_s=t_out)
+    assert np.max(np.abs(ref.w)) > 0.9 and np.max(np.abs(ref.v)) > 0.5  # turns and drives
+    # the two part in the first steps of a speed change (the wheels carry the base's mass
+    # only on their own diagonal of MuJoCo's mass matrix)
+    assert np.mean(np.abs(mv - ref.v) <= 0.02) >= 0.85
+    assert np.mean(np.abs(mw - ref.w) <= 0.1) >= 0.98
+    assert float(np.max(np.abs(bot.data.qpos[:2]))) < 1e-3  # the base is held where it stood
+
+
+def test_lifted_member_edit_keeps_the_wheels_loaded(new_robots: dict[str, Path]) -> None:
+    from sim2real.mujoco import MujocoRobot
+
+    spec = load_spec(new_robots["husky"])
+    bot = MujocoRobot(spec, spec.drive.replace(track_factor=1.5), lifted=True)
+    forward = bot.model.tendon("forward").id
+    light = float(bot.model.tendon_armature[forward])
+    bot.set_params(spec.drive.replace(track_factor=1.5, added_mass_kg=20.0))
+    assert float(bot.model.tendon_armature[forward]) == pytest.approx(light + 20.0)
+    assert float(MujocoRobot(spec).model.tendon_armature[forward]) == 0.0  # on the ground: none

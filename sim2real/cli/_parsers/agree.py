@@ -83,9 +83,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--params", metavar="PARAMS.yaml", help="sysid result (default: spec values)")
     p.add_argument(
         "--engine",
-        choices=("pybullet", "reduced", "mujoco"),
+        choices=("pybullet", "reduced", "mujoco", "mujoco-lifted"),
         default="pybullet",
-        help="simulator (mujoco: the exported MJCF robot; needs the [mujoco] extra)",
+        help="simulator (mujoco: the exported MJCF robot; needs the [mujoco] extra; "
+        "mujoco-lifted: the same with the base held up, for a log recorded with the wheels "
+        "off the ground)",
     )
     p.add_argument("--tol-v", type=float, default=0.02, help="tolerance on v, m/s")
     p.add_argument("--tol-w", type=float, default=0.1, help="tolerance on w, rad/s")

@@ -289,7 +289,7 @@ def _register_calibrate(group_sub: argparse._SubParsersAction) -> None:  # type:
     p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
     p.add_argument(
         "--engine",
-        choices=("reduced", "pybullet", "mujoco"),
+        choices=("reduced", "pybullet", "mujoco", "mujoco-lifted"),
         default="reduced",
         help="simulator (default reduced: the calibration replays the log hundreds of times; "
         "mujoco needs the [mujoco] extra)",
