@@ -1,18 +1,20 @@
-"""Is the Husky's MuJoCo/reduced gap the lifted wheels? Replays on a frictionless floor.
+"""Is the Husky's MuJoCo/reduced gap the lifted wheels? Replays of a lifted log in MuJoCo variants.
 
 The Husky recordings of the real development set (``husky_lifted_a``, ``husky_lifted_b``) were
 made with the wheels off the ground; the measured (v, w) are the wheel encoders' speeds turned
-into body speeds. The exported MuJoCo model stands on the floor, where the skids' ground scrub
+into body speeds. The exported MuJoCo model stands on the floor, where the tyres' ground scrub
 loads the wheel loops. This script fits ``husky_lifted_a`` (0-155 s), then replays
-``husky_lifted_b`` with the same params in three engines and prints the agreement of each with
-the log and the rms difference of each MuJoCo variant from the reduced engine:
+``husky_lifted_b`` with the same params in the reduced engine and in MuJoCo variants, and
+prints the agreement of each with the log and the rms difference of each from the reduced
+engine:
 
 - ``reduced``: the drive model ``sysid fit`` fits;
 - ``mujoco``: the exported model on the floor, body velocity read out (``agree --engine mujoco``);
-- ``mujoco-frictionless``: the same model with the floor's friction set to zero, (v, w) read
-  from the wheel speeds through the geometric radius and either the geometric separation (as
-  the log's encoders are read) or the effective track (``track_factor`` x separation, as the
-  reduced engine relates wheels and body).
+- ``mujoco-lifted``: the base held up, contacts off, the base's mass and inertia on the
+  wheels (``agree --engine mujoco-lifted``);
+- the exported model read through its wheel encoders (the geometric separation, as the log is
+  read), with the tyres' friction lowered to 0.3 (either read-out), and with no friction anywhere (the wheels
+  unloaded, as on a stand).
 
 Run: ``PYTHONPATH=. python benchmarks/bench_mujoco_lifted.py`` (the ``[mujoco]`` extra and
 ``/work/shared/realdata``; about 40 s).
@@ -41,23 +43,29 @@ REPO = Path(__file__).resolve().parents[1]
 SPEC_ARGS = ("--wheel-separation", "0.538", "--wheel-radius", "0.15875", "--drive", "skid")
 
 
-class FrictionlessMujoco:
-    """The exported robot on a floor without friction, (v, w) read from its wheel speeds."""
+class MujocoVariant:
+    """The exported robot with every geom's sliding friction set to ``friction`` (a contact
+    takes the larger of its two geoms'; None: as exported), (v, w) read from the base or,
+    with ``encoders``, from the wheel speeds through the radius and the geometric separation
+    (as the log's encoders are read)."""
 
-    def __init__(self, spec: RobotSpec, params: Any, *, track_factor: float) -> None:
-        self.name = f"mujoco-frictionless (read through track x {track_factor:.2f})"
+    def __init__(
+        self, spec: RobotSpec, params: Any, *, friction: float | None, encoders: bool
+    ) -> None:
+        mu = "as exported" if friction is None else f"{friction:g}"
+        self.name = f"mujoco, friction {mu}, {'encoders' if encoders else 'base'}"
         self.robot = MujocoRobot(spec, params)
-        m = self.robot.model
-        m.geom_friction[m.geom("floor").id] = 0.0
+        if friction is not None:
+            self.robot.model.geom_friction[:, 0] = friction
         r, sep = spec.wheels.radius_m, spec.wheels.separation_m
-        track_m = sep * track_factor
 
         def wheel_velocity() -> tuple[float, float]:
             qvel, dofs = self.robot.data.qvel, self.robot.drive._wheel_dof
             wl, wr = float(qvel[dofs[0]]), float(qvel[dofs[1]])
-            return 0.5 * r * (wl + wr), r * (wr - wl) / track_m
+            return 0.5 * r * (wl + wr), r * (wr - wl) / sep
 
-        self.robot.velocity = wheel_velocity  # type: ignore[method-assign]
+        if encoders:
+            self.robot.velocity = wheel_velocity  # type: ignore[method-assign]
 
     def replay(
         self, cmd: Commands, t_out_s: np.ndarray, start: tuple[float, float]
@@ -82,9 +90,10 @@ def main() -> None:
     sims: dict[str, ReplayResult] = {
         "reduced": replay(trace, robot=spec, params=p, engine="reduced"),
         "mujoco": replay(trace, robot=spec, params=p, engine="mujoco"),
+        "mujoco-lifted": replay(trace, robot=spec, params=p, engine="mujoco-lifted"),
     }
-    for factor in (1.0, float(p.track_factor)):
-        engine = FrictionlessMujoco(spec, p, track_factor=factor)
+    for friction, encoders in ((None, True), (0.3, False), (0.3, True), (0.0, True)):
+        engine = MujocoVariant(spec, p, friction=friction, encoders=encoders)
         sims[engine.name] = replay(trace, robot=spec, params=p, engine=engine)
     t = (trace.meas_t_ns - trace.meas_t_ns[0]) * 1e-9
     turn = (t > 55.0) & (t < 58.0)
