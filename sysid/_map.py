@@ -287,33 +287,10 @@ def noise_scale(prob: Problem, f: FloatArray, n_params: int) -> tuple[float, flo
     :math:`n` would make the intervals far too narrow.
     """
     n = f.size
-    g = _informative_rows(f, n_params)
-    s2 = (1.4826 * _mad(g)) ** 2 * n / max(n - n_params, 1)
+    s2 = (1.4826 * float(np.median(np.abs(f - np.median(f))))) ** 2 * n / max(n - n_params, 1)
     taus = [_autocorr_time(f[rows]) for rows in (prob.rows["v"], prob.rows["w"]) if rows.size]
     c = float(np.clip(np.mean(taus) if taus else 1.0, 1.0, 200.0))
     return max(s2, 1e-12), c
-
-
-def _mad(f: FloatArray) -> float:
-    return float(np.median(np.abs(f - np.median(f))))
-
-
-def _informative_rows(f: FloatArray, n_params: int) -> FloatArray:
-    """The residuals that carry the noise's scale: all of them, or all but the exact zeros when
-    those shrink the scale to less than half the other rows'.
-
-    A residual of exactly zero is a row where the sensor reads exactly what the model predicts,
-    which noise of a continuous distribution never does: a sensor that reports a quantised zero
-    while the robot stands still (encoder speeds at rest), predicted as zero by the model. A few
-    such rows barely move the median absolute deviation; when they are a third of the log or
-    more they shrink it many times (to zero at half the rows), the noise scale falls towards its
-    floor and the priors weigh nothing against the data. Then the scale is taken from the other
-    rows (with fewer than ``n_params + 2`` of them, from all rows).
-    """
-    moving = f[f != 0.0]
-    if moving.size < n_params + 2 or moving.size == f.size or _mad(f) >= 0.5 * _mad(moving):
-        return f
-    return moving
 
 
 def _span(log: LogArrays) -> float:
