@@ -20,15 +20,15 @@ and the noise-only 90 % band is :math:`2 \cdot 1.645\,\sigma = 3.29\,\sigma` wid
 predictive band that contains the real odometry can be narrower.
 
 The noise is the checked log's own when the log can tell it (:func:`log_noise`): the noise a
-fit estimated on one unit and one velocity source need not describe another unit's odometry,
-or a pose-derived velocity. Where a non-zero command has been held for over
-:data:`STEADY_AFTER_S` (past the delay and the rise), the robot runs steady and what the
-measurement does about its level (the median of that stretch) is noise: its robust sd (MAD)
-per axis, the same statistic the fit uses on its residuals. A log with fewer than
-:data:`MIN_STEADY_SAMPLES` such samples keeps the fit's noise, and the note says so. The band of
-``agree --ensemble`` keeps the model's share of the file's noise and takes the log's own
-measurement noise in place of the fit logs' (:func:`band_noise`): one noise model per odometry
-source.
+fit estimated on one unit and one velocity source need not describe another unit's odometry, or
+a pose-derived velocity. Where a non-zero command has been held for over
+:data:`sysid.steady.STEADY_AFTER_S` (past the delay and the rise), the robot runs steady and
+what the measurement does about its level (the median of that stretch) is noise: its robust sd
+(MAD) per axis, the same statistic the fit uses on its residuals. A log with fewer than
+:data:`sysid.steady.MIN_STEADY_SAMPLES` such samples keeps the fit's noise, and the note says
+so. The band of ``agree --ensemble`` keeps the model's share of the file's noise and takes the
+log's own measurement noise in place of the fit logs' (:func:`band_noise`): one noise model per
+odometry source.
 
 Examples
 --------
@@ -50,8 +50,7 @@ import numpy as np
 
 from sim2real.agreement.figures import AgreementReport, measure_agreement
 from sim2real.agreement.replay import RobotSpecLike, TraceLike, replay
-from sysid.steady import MIN_STEADY_SAMPLES, STEADY_AFTER_S, steady_noise
-from sysid.steady import SteadyNoise as LogNoise
+from sysid.steady import MIN_STEADY_SAMPLES, STEADY_AFTER_S, SteadyNoise, steady_noise
 
 if TYPE_CHECKING:
     from robots.params import DriveParams
@@ -61,10 +60,7 @@ __all__ = [
     "LATENCY_COARSE_STEP_S",
     "LATENCY_FINE_STEP_S",
     "LATENCY_MAX_S",
-    "MIN_STEADY_SAMPLES",
     "REFERENCE_KEYS",
-    "STEADY_AFTER_S",
-    "LogNoise",
     "NoiseCeiling",
     "SessionLatency",
     "band_noise",
@@ -182,10 +178,10 @@ def noise_ceiling(
     )
 
 
-def log_noise(trace: TraceLike) -> LogNoise:
+def log_noise(trace: TraceLike) -> SteadyNoise:
     """The log's own odometry noise (module docstring, :func:`sysid.steady.steady_noise`);
-    NaN sds when it has fewer than :data:`MIN_STEADY_SAMPLES` steady samples (``measured`` is
-    False).
+    NaN sds when it has fewer than :data:`sysid.steady.MIN_STEADY_SAMPLES` steady samples
+    (``measured`` is False).
 
     Examples
     --------
@@ -198,7 +194,7 @@ def log_noise(trace: TraceLike) -> LogNoise:
 
 
 def band_noise(
-    noise: ObservationNoise, settings: Any, own: LogNoise
+    noise: ObservationNoise, settings: Any, own: SteadyNoise
 ) -> tuple[ObservationNoise, str]:
     r"""The odometry noise of the band on a checked log: a noise model per odometry source.
 
@@ -219,7 +215,7 @@ def band_noise(
     >>> from robots.randomization import ObservationNoise
     >>> file = ObservationNoise(std_v_mps=0.016, std_w_radps=0.016)
     >>> fitted = {"measurement_noise": {"std_v_mps": 0.012, "std_w_radps": 0.015}}
-    >>> own = LogNoise(std_v_mps=0.0006, std_w_radps=0.03, n_samples=200)
+    >>> own = SteadyNoise(std_v_mps=0.0006, std_w_radps=0.03, n_samples=200)
     >>> noise, _ = band_noise(file, fitted, own)
     >>> round(noise.std_v_mps, 4), round(noise.std_w_radps, 4)
     (0.0106, 0.0305)
@@ -244,7 +240,7 @@ def band_noise(
     )
 
 
-def noise_note(own: LogNoise, fit: ObservationNoise | None) -> str:
+def noise_note(own: SteadyNoise, fit: ObservationNoise | None) -> str:
     """One sentence: whose odometry noise the noise ceiling and the noise-only band assume
     ("" when there is none to assume)."""
     if own.measured:

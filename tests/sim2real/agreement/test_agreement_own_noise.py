@@ -15,8 +15,6 @@ from hypothesis import strategies as st
 
 from robots.randomization import ObservationNoise
 from sim2real.agreement.latency import (
-    MIN_STEADY_SAMPLES,
-    LogNoise,
     band_noise,
     log_noise,
     noise_ceiling,
@@ -24,6 +22,7 @@ from sim2real.agreement.latency import (
 )
 from sim2real.cli import main
 from sim2real.logs import Trace, read_trace
+from sysid.steady import MIN_STEADY_SAMPLES, SteadyNoise
 
 
 @pytest.mark.parametrize(("noise_v", "noise_w"), [(0.003, 0.02), (0.012, 0.06), (0.0, 0.0)])
@@ -95,13 +94,13 @@ _FITTED = {"measurement_noise": {"std_v_mps": 0.012, "std_w_radps": 0.015, "samp
 @pytest.mark.parametrize(
     ("settings", "own"),
     [
-        ({}, LogNoise(std_v_mps=0.001, std_w_radps=0.03, n_samples=200)),  # no fit-log noise
-        (_FITTED, LogNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=5)),  # unmeasured
-        (None, LogNoise(std_v_mps=0.001, std_w_radps=0.03, n_samples=200)),
+        ({}, SteadyNoise(std_v_mps=0.001, std_w_radps=0.03, n_samples=200)),  # no fit-log noise
+        (_FITTED, SteadyNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=5)),  # unmeasured
+        (None, SteadyNoise(std_v_mps=0.001, std_w_radps=0.03, n_samples=200)),
     ],
 )
 def test_the_band_keeps_the_files_noise_when_a_source_cannot_be_told(
-    settings: object, own: LogNoise
+    settings: object, own: SteadyNoise
 ) -> None:
     assert band_noise(_FILE, settings, own) == (_FILE, "")
 
@@ -109,7 +108,7 @@ def test_the_band_keeps_the_files_noise_when_a_source_cannot_be_told(
 @settings_(max_examples=200, deadline=None)
 @given(own_v=st.floats(0.0, 0.05), own_w=st.floats(0.0, 0.2))
 def test_the_band_noise_is_the_models_share_plus_the_logs_own(own_v: float, own_w: float) -> None:
-    own = LogNoise(std_v_mps=own_v, std_w_radps=own_w, n_samples=100)
+    own = SteadyNoise(std_v_mps=own_v, std_w_radps=own_w, n_samples=100)
     noise, note = band_noise(_FILE, _FITTED, own)
     assert "this log's own measurement noise" in note
     model_v, model_w = math.sqrt(0.016**2 - 0.012**2), math.sqrt(0.02**2 - 0.015**2)
@@ -117,5 +116,5 @@ def test_the_band_noise_is_the_models_share_plus_the_logs_own(own_v: float, own_
     assert noise.std_w_radps == pytest.approx(math.hypot(model_w, own_w), rel=1e-9)
     # never below the log's own noise nor the model's share; the fit logs' own source: the file's
     assert noise.std_v_mps >= max(own_v, model_v) - 1e-12
-    same = LogNoise(std_v_mps=0.012, std_w_radps=0.015, n_samples=100)
+    same = SteadyNoise(std_v_mps=0.012, std_w_radps=0.015, n_samples=100)
     assert band_noise(_FILE, _FITTED, same)[0].std_v_mps == pytest.approx(0.016)
