@@ -72,10 +72,12 @@ lint: $(STAMP_DEV)
 	$(BIN)/mypy
 
 ## make test: lint, then the whole test suite, one worker per core up to four (pytest-xdist;
-## `make test PYTEST_WORKERS=0` runs it in one process)
+## `make test PYTEST_WORKERS=0` runs it in one process), then the `serial` tests alone (numba's
+## on-disk cache, CPU-time budgets), which other workers' load or cache use could disturb
 PYTEST_WORKERS ?= auto
 test: lint
-	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "not serial"
+	$(BIN)/python -m pytest -q -m serial
 
 ## make docs: the documentation site into site/ (MkDocs + Material + mkdocstrings, the [docs]
 ## extra): the user guide in docs/, the CLI reference from the argument parsers and the API

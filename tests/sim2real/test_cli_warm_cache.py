@@ -48,12 +48,23 @@ def test_every_install_target_warms_the_kernels() -> None:
         assert recipe.index("pip install") < recipe.index("$(call warm,"), stamp
 
 
+def _cache_listing(folder: Path) -> list[str]:
+    """The numba cache files and stamps under ``folder`` (for a failure's message)."""
+    return sorted(
+        f"{p.relative_to(folder)} {p.stat().st_size}"
+        for p in folder.rglob("*")
+        if p.is_file() and p.suffix in (".nbi", ".nbc", ".sha256")
+    )
+
+
 @pytest.mark.slow
+@pytest.mark.serial  # numba's cache files must not see another process's load or writes
 def test_the_first_fit_after_the_warm_up_compiles_nothing(tmp_path: Path) -> None:
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}  # a cold, private cache
     argv = [a.replace("$(1)/..", str(tmp_path)) for a in _warm_argv()]
     warm = subprocess.run(argv, cwd=REPO, env=env, capture_output=True, text=True, check=False)
     assert warm.returncode == 0, warm.stderr[-2000:]
+    after_warm = _cache_listing(tmp_path / "numba")
     probe = subprocess.run(
         [sys.executable, "-c", PROBE, str(REPO / "data" / "demo_train.mcap")],
         cwd=tmp_path,
@@ -65,4 +76,5 @@ def test_the_first_fit_after_the_warm_up_compiles_nothing(tmp_path: Path) -> Non
     assert probe.returncode == 0, probe.stderr[-2000:]
     stats = json.loads(probe.stdout.splitlines()[-1])
     assert "_run_many" in stats  # the fit's kernels ...
-    assert all(hits >= 1 and misses == 0 for hits, misses in stats.values()), stats  # ... loaded
+    loaded = all(hits >= 1 and misses == 0 for hits, misses in stats.values())  # ... loaded
+    assert loaded, (stats, after_warm, _cache_listing(tmp_path / "numba"), probe.stderr[-2000:])
