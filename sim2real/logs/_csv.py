@@ -30,7 +30,7 @@ from robots.units import NS_PER_S, nanoseconds, seconds
 from sim2real._io import atomic_write
 from sim2real.errors import LogFormatError, LogValueError
 from sim2real.logs._timeline import drop_outliers
-from sim2real.logs.trace import Trace, TraceMeta
+from sim2real.logs.trace import Trace, trace_from_columns
 
 __all__ = ["CSV_COLUMNS", "read_csv_trace", "write_csv_trace"]
 
@@ -76,33 +76,22 @@ def read_csv_trace(path: str | Path) -> Trace:
     t_ns, cols = _parse_rows(body, idx, p)
     warnings: list[str] = []
     t_ns, cols = drop_outliers(t_ns, cols, "t", warnings)  # a row with a corrupt far time
-    meta = TraceMeta(
+    pose = {k: cols[k] for k in _POSE if k in cols}
+    return trace_from_columns(
+        t_ns,
+        {"v": cols["cmd_v"], "w": cols["cmd_w"]},
+        t_ns,
+        {"v": cols["meas_v"], "w": cols["meas_w"], **pose},
         path=str(p),
         sha256=hashlib.sha256(raw).hexdigest(),
         cmd_topic="cmd_v,cmd_w",
         cmd_type="csv",
         meas_topic="meas_v,meas_w",
         meas_type="csv",
-        cmd_count=int(t_ns.size),
-        meas_count=int(t_ns.size),
-        cmd_rate_hz=_rate(t_ns),
-        meas_rate_hz=_rate(t_ns),
         cmd_time_source="csv",
         meas_time_source="csv",
         encoding="csv",
         warnings=tuple(warnings),
-    )
-    return Trace(
-        cmd_t_ns=t_ns,
-        cmd_v=cols["cmd_v"],
-        cmd_w=cols["cmd_w"],
-        meas_t_ns=t_ns,
-        meas_v=cols["meas_v"],
-        meas_w=cols["meas_w"],
-        pose_x=cols.get("x"),
-        pose_y=cols.get("y"),
-        pose_yaw=cols.get("yaw"),
-        meta=meta,
     )
 
 
@@ -161,10 +150,6 @@ def _cell(row: list[str], i: int, col: str, line: int, p: Path, conv: type | obj
             "fix or delete that row (every cell must be a number, NaN rows are not allowed)"
         )
     return value  # type: ignore[no-any-return]
-
-
-def _rate(t: np.ndarray) -> float:
-    return float((t.size - 1) / seconds(t[-1] - t[0])) if t.size > 1 else 0.0
 
 
 def write_csv_trace(path: str | Path, trace: Trace) -> Path:

@@ -30,7 +30,7 @@ from sim2real.logs._timeline import (
     scratch_median,
     segment_bounds,
 )
-from sim2real.logs.trace import Trace, TraceMeta, adopt_trace
+from sim2real.logs.trace import Trace, trace_from_columns
 
 __all__ = ["TIME_SOURCES", "load_log", "read_trace"]
 
@@ -187,37 +187,25 @@ def read_trace(
     _note_gaps(meas_t, meas.topic, warnings)
     meas_cols = velocities_from_pose(meas_t, meas_cols, meas.topic, warnings, mode=odom_velocity)
     pose_window = meas_cols.pop(WINDOW_KEY, None)
-    meta = TraceMeta(
+    # the arrays are handed over, not copied: nothing else refers to them
+    return trace_from_columns(
+        cmd_t,
+        cmd_cols,
+        meas_t,
+        meas_cols,
         path=name,
         sha256=digest,
+        time_source=time_source,
         cmd_topic=cmd.topic,
         cmd_type=cmd.type,
+        cmd_time_source=cmd_src,
         meas_topic=meas.topic,
         meas_type=meas.type,
-        cmd_count=int(cmd_t.size),
-        meas_count=int(meas_t.size),
-        cmd_rate_hz=_rate(cmd_t),
-        meas_rate_hz=_rate(meas_t),
-        time_source=time_source,
-        cmd_time_source=cmd_src,
         meas_time_source=meas_src,
         encoding=meas.encoding,
         warnings=tuple(warnings),
         time_note=time_note,
         pose_window_s=0.0 if pose_window is None else float(pose_window),
-    )
-    # the arrays are handed over, not copied: nothing else refers to them
-    return adopt_trace(
-        cmd_t_ns=cmd_t,
-        cmd_v=cmd_cols["v"],
-        cmd_w=cmd_cols["w"],
-        meas_t_ns=meas_t,
-        meas_v=meas_cols["v"],
-        meas_w=meas_cols["w"],
-        pose_x=meas_cols.get("x"),
-        pose_y=meas_cols.get("y"),
-        pose_yaw=meas_cols.get("yaw"),
-        meta=meta,
     )
 
 
@@ -473,10 +461,3 @@ def _unwind_clock_resets(t: np.ndarray, topic: str, warnings: list[str]) -> np.n
             "are moved a whole day forward)"
         )
     return out
-
-
-def _rate(t: np.ndarray) -> float:
-    """Mean rate (Hz) of sorted times in ns."""
-    if t.size < 2 or t[-1] == t[0]:
-        return 0.0
-    return float((t.size - 1) / seconds(t[-1] - t[0]))

@@ -17,8 +17,10 @@ array([0.2, 0. ])
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from contextvars import ContextVar
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -114,6 +116,47 @@ def adopt_trace(**fields: object) -> Trace:
         return Trace(**fields)  # type: ignore[arg-type]
     finally:
         _ADOPT.reset(token)
+
+
+def trace_from_columns(
+    cmd_t_ns: np.ndarray,
+    cmd_cols: Mapping[str, np.ndarray],
+    meas_t_ns: np.ndarray,
+    meas_cols: Mapping[str, np.ndarray],
+    **meta: Any,
+) -> Trace:
+    """A log reader's :class:`Trace`, taking over its arrays as :func:`adopt_trace` does (private).
+
+    Commands ``cmd_cols["v"]``, ``cmd_cols["w"]`` at ``cmd_t_ns``; measurements
+    ``meas_cols["v"]``, ``meas_cols["w"]`` and the pose ``"x"``, ``"y"``, ``"yaw"`` when present,
+    at ``meas_t_ns``. The :class:`TraceMeta` counts and mean rates come from the times, its
+    other fields from ``meta``.
+    """
+    return adopt_trace(
+        cmd_t_ns=cmd_t_ns,
+        cmd_v=cmd_cols["v"],
+        cmd_w=cmd_cols["w"],
+        meas_t_ns=meas_t_ns,
+        meas_v=meas_cols["v"],
+        meas_w=meas_cols["w"],
+        pose_x=meas_cols.get("x"),
+        pose_y=meas_cols.get("y"),
+        pose_yaw=meas_cols.get("yaw"),
+        meta=TraceMeta(
+            cmd_count=int(cmd_t_ns.size),
+            meas_count=int(meas_t_ns.size),
+            cmd_rate_hz=_mean_rate_hz(cmd_t_ns),
+            meas_rate_hz=_mean_rate_hz(meas_t_ns),
+            **meta,
+        ),
+    )
+
+
+def _mean_rate_hz(t_ns: np.ndarray) -> float:
+    """Mean rate of sorted times in ns, ``(n - 1) / (t_last - t_first)`` (0 with < 2 samples)."""
+    if t_ns.size < 2 or t_ns[-1] == t_ns[0]:
+        return 0.0
+    return float((t_ns.size - 1) / seconds(t_ns[-1] - t_ns[0]))
 
 
 def _frozen(a: np.ndarray | None, dtype: type, name: str) -> np.ndarray | None:
