@@ -59,7 +59,7 @@ class Base:
     """A base from published numbers: the ``robots new`` options and where they come from."""
 
     name: str
-    options: tuple[str, ...]
+    options: str
     skid: bool = False
 
 
@@ -81,39 +81,18 @@ class Base:
 #   jackal_control/config/control.yaml: 2.0 m/s, 4.0 rad/s, 20 m/s^2, 25 rad/s^2,
 #   cmd_vel_timeout 0.25 s, wheel_separation_multiplier 1.5.
 BASES = (
-    Base("neato", ("--wheel-separation", "0.248", "--max-speed", "0.3")),
-    Base("pimouse", ("--wheel-separation", "0.09", "--wheel-radius", "0.024", "--mass", "0.6")),
-    Base(
-        "create2",
-        (
-            "--wheel-separation", "0.235", "--wheel-radius", "0.036", "--mass", "3.5",
-            "--max-speed", "0.5",
-        ),
-    ),
-    Base(
-        "p3dx",
-        (
-            "--wheel-separation", "0.33", "--wheel-radius", "0.0975", "--mass", "9",
-            "--max-speed", "1.2",
-        ),
-    ),
-    Base(
-        "heavy60",
-        (
-            "--wheel-separation", "0.5", "--wheel-radius", "0.1", "--mass", "60",
-            "--max-speed", "1.0",
-        ),
-    ),
+    Base("neato", "--wheel-separation 0.248 --max-speed 0.3"),
+    Base("pimouse", "--wheel-separation 0.09 --wheel-radius 0.024 --mass 0.6"),
+    Base("create2", "--wheel-separation 0.235 --wheel-radius 0.036 --mass 3.5 --max-speed 0.5"),
+    Base("p3dx", "--wheel-separation 0.33 --wheel-radius 0.0975 --mass 9 --max-speed 1.2"),
+    Base("heavy60", "--wheel-separation 0.5 --wheel-radius 0.1 --mass 60 --max-speed 1.0"),
     Base(
         "jackal",
-        (
-            "--wheel-separation", "0.37559", "--wheel-radius", "0.098", "--mass", "17",
-            "--max-speed", "2.0", "--max-turn-rate", "4.0", "--footprint-radius", "0.26",
-            "--drive", "skid", "--driver-track-factor", "1.5",
-        ),
+        "--wheel-separation 0.37559 --wheel-radius 0.098 --mass 17 --max-speed 2.0 "
+        "--max-turn-rate 4.0 --footprint-radius 0.26 --drive skid --driver-track-factor 1.5",
         skid=True,
     ),
-)  # fmt: skip
+)
 #: Bases that also get plants of 0.5x and 3x the spec's mass.
 MASS_BASES = ("create2", "p3dx")
 
@@ -400,7 +379,7 @@ def run_base(
 
 def new_spec(base: Base, folder: Path, row: Row) -> Path | None:
     spec_path = folder / f"{base.name}.yaml"
-    argv = ["robots", "new", base.name, "-o", str(spec_path), *base.options]
+    argv = ["robots", "new", base.name, "-o", str(spec_path), *base.options.split()]
     if cli(argv, row, "robots new") != 0:
         return None
     cli(["robots", "check", str(spec_path)], row, "robots check")
