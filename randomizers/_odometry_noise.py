@@ -12,6 +12,7 @@ training see the same odometry.
 from __future__ import annotations
 
 import functools
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -148,20 +149,10 @@ class VelocityObservationNoise(ObservationRandomizer):
         if env is not None and robot is None:
             robot = env_robot(env)
         noise = load_distribution(path, robot=robot, owner=owner).noise
-        factory = functools.partial(
-            cls,
-            std_v_mps=noise.std_v_mps,
-            std_w_radps=noise.std_w_radps,
-            quantum_v_mps=noise.quantum_v_mps,
-            quantum_w_radps=noise.quantum_w_radps,
-            key=key,
-            index=index,
-            scale=scale,
-            name=name,
-        )
+        make = functools.partial(cls, **asdict(noise), key=key, index=index, scale=scale, name=name)
         if env is None:
-            return _RobotChecked(factory=factory, path=str(path), robot=robot)
-        return factory(env)
+            return _RobotChecked(factory=make, path=str(path), robot=robot)
+        return make(env)
 
     def observation(self, observation: Any) -> Any:
         """Return ``observation`` with odometry noise on (v, w) (a new object)."""
