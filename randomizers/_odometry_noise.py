@@ -149,7 +149,9 @@ class VelocityObservationNoise(ObservationRandomizer):
         if env is not None and robot is None:
             robot = env_robot(env)
         noise = load_distribution(path, robot=robot, owner=owner).noise
-        make = functools.partial(cls, **asdict(noise), key=key, index=index, scale=scale, name=name)
+        make: Any = functools.partial(
+            cls, **asdict(noise), key=key, index=index, scale=scale, name=name
+        )
         if env is None:
             return _RobotChecked(factory=make, path=str(path), robot=robot)
         return make(env)
