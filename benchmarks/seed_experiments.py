@@ -43,6 +43,7 @@ import yaml
 
 import randomizers as dr
 import sim2real.envs  # noqa: F401  (registers the ids)
+from sim2real.envs.baselines import DWAController
 from sim2real.envs.orca import orca_velocities
 from sim2real.envs.race import N_BEAMS, N_NEIGHBOURS
 from sim2real.envs.race_baseline import RaceBaseline
@@ -153,31 +154,85 @@ def random_map(models: Sequence[str], episodes: int) -> None:
         )
 
 
-def crowd_nav(models: Sequence[str], episodes: int, stack: str) -> None:
-    """Every model with and without the randomiser stack."""
+def _crowd_row(name: str, condition: str, rows: Sequence[dict[str, Any]]) -> None:
+    print(
+        f"| {name} | {condition} | {_rate(rows, 'success')} | {_rate(rows, 'collision')} "
+        f"| {_mean(rows, 'time_to_goal_s'):.1f} | {_mean(rows, 'oscillation_per_m'):.2f} |",
+        flush=True,
+    )
+
+
+def crowd_baselines(kwargs: dict[str, Any], episodes: int) -> None:
+    """DWA on the lidar and ORCA with the pedestrians' true states on the same seeded episodes."""
+    env = build_env("sim2real/CrowdNav-v0", {**kwargs, "neighbours": 5})
+    for name, ctrl in (
+        ("DWA (lidar)", DWAController.for_env(env)),
+        ("ORCA (true pedestrian states)", OrcaWalker(env)),
+    ):
+        _crowd_row(name, "none", _episodes(env, ctrl, episodes))
+
+
+def crowd_nav(models: Sequence[str], episodes: int, stack: str, *, baselines: bool) -> None:
+    """Every model with and without the randomiser stack (and the baselines on its env)."""
     doc = yaml.safe_load(open(stack, encoding="utf-8"))  # noqa: SIM115
     print("| policy | evaluated | success | collision | time to goal s | oscillation /m |")
     print("|---|---|---|---|---|---|")
+    kwargs: dict[str, Any] = {}
     for path in models:
         for condition in ("none", "card stack"):
-            policy, env, _ = _policy_env(path)
+            policy, env, kwargs = _policy_env(path)
             if condition != "none":
                 env = policy.wrap(dr.from_config(env.unwrapped, doc))
-            rows = _episodes(env, policy.controller(), episodes)
-            print(
-                f"| {path} | {condition} | {_rate(rows, 'success')} | {_rate(rows, 'collision')} "
-                f"| {_mean(rows, 'time_to_goal_s'):.1f} | {_mean(rows, 'oscillation_per_m'):.2f} |",
-                flush=True,
-            )
+            _crowd_row(path, condition, _episodes(env, policy.controller(), episodes))
+    if baselines:
+        crowd_baselines(kwargs, episodes)
+
+
+def orca_unicycle(
+    xy: np.ndarray,
+    vel: np.ndarray,
+    radius: np.ndarray,
+    pref_mps: np.ndarray,
+    *,
+    yaw_rad: float,
+    max_v_mps: float,
+    max_w_radps: float,
+    dt_s: float,
+    reciprocal: bool,
+) -> tuple[float, float] | None:
+    """Agent 0's ORCA velocity among the others, driven as a unicycle: (v, w), None if ~0.
+
+    v = |u| cos(e), w = 2 e / s clipped, e the heading error of u; ``reciprocal``: the others
+    run ORCA too (half the avoidance each), else agent 0 takes all of it.
+    """
+    n = len(xy)
+    active = np.zeros(n, dtype=bool)
+    active[0] = True
+    u = orca_velocities(
+        xy,
+        vel,
+        radius,
+        pref_mps,
+        np.full(n, max_v_mps),
+        dt_s,
+        active=active,
+        reciprocal=np.full(n, reciprocal),
+    )[0]
+    if float(np.hypot(*u)) < 1e-6:
+        return None
+    err = math.atan2(u[1], u[0]) - yaw_rad
+    err = math.atan2(math.sin(err), math.cos(err))
+    speed = max(0.0, float(np.hypot(*u)) * math.cos(err))
+    return min(speed, max_v_mps), float(np.clip(2.0 * err, -max_w_radps, max_w_radps))
 
 
 class OrcaRacer:
     """The race baseline's plan and carrot, with ORCA (van den Berg et al. 2011) among the movers.
 
     The robot takes the ORCA velocity towards the carrot at top speed against the observed
-    movers (half the avoidance each; the opponents run ORCA too) and drives it as a unicycle:
-    v = |u| cos(e), w = 2 e / s clipped, e the heading error of u. Every radius carries
-    ``margin_m`` more, since the unicycle lags the holonomic ORCA velocity.
+    movers (half the avoidance each; the opponents run ORCA too) and drives it as a unicycle
+    (:func:`orca_unicycle`). Every radius carries ``margin_m`` more, since the unicycle lags
+    the holonomic ORCA velocity.
     """
 
     def __init__(self, env: Any, *, margin_m: float = 0.05) -> None:
@@ -204,31 +259,67 @@ class OrcaRacer:
         rot = np.array([[c, -s], [s, c]])  # robot frame -> track frame
         xy = np.vstack([np.zeros(2), rows[:, :2] @ rot.T])
         vel = np.vstack([own, rows[:, 2:] @ rot.T + own])
-        n = len(xy)
         vmax = float(self.high[0])
-        pref = np.zeros((n, 2))
+        pref = vel.copy()
         pref[0] = to / max(float(np.hypot(*to)), 1e-9) * vmax
-        pref[1:] = vel[1:]
-        radius = np.full(n, self.base.robot_radius_m + self.margin_m)
-        active = np.zeros(n, dtype=bool)
-        active[0] = True
-        u = orca_velocities(
+        radius = np.full(len(xy), self.base.robot_radius_m + self.margin_m)
+        vw = orca_unicycle(
             xy,
             vel,
             radius,
             pref,
-            np.full(n, vmax),
-            self.base.control_dt,
-            active=active,
-            reciprocal=np.ones(n, dtype=bool),
-        )[0]
-        if float(np.hypot(*u)) < 1e-6:
+            yaw_rad=yaw,
+            max_v_mps=vmax,
+            max_w_radps=float(self.high[1]),
+            dt_s=self.base.control_dt,
+            reciprocal=True,
+        )
+        if vw is None:
             return np.array([0.0, float(dwa_action[1])], dtype=np.float32)
-        err = math.atan2(u[1], u[0]) - yaw
-        err = math.atan2(math.sin(err), math.cos(err))
-        speed = max(0.0, float(np.hypot(*u)) * math.cos(err))
-        w = float(np.clip(2.0 * err, -self.high[1], self.high[1]))
-        return np.array([min(speed, vmax), w], dtype=np.float32)
+        return np.array(vw, dtype=np.float32)
+
+
+class OrcaWalker:
+    """CrowdNav-v0's reference with the pedestrians' true states: ORCA towards the goal.
+
+    Reads the observation's ``"neighbours"`` (relative positions and velocities, robot frame;
+    the env needs ``neighbours`` > 0) and takes all the avoidance (the pedestrians of eq. (1)
+    do not run ORCA); radii are the robot's plus ``margin_m`` and the largest pedestrian's.
+    It sees neither the static obstacles nor the walls: a feasibility reference, not a policy.
+    """
+
+    def __init__(self, env: Any, *, margin_m: float = 0.05, pedestrian_m: float = 0.24) -> None:
+        self.base = env.unwrapped
+        self.margin_m, self.pedestrian_m = margin_m, pedestrian_m
+        self.high = np.asarray(self.base.action_space.high, dtype=np.float64)
+
+    def reset(self) -> None:
+        pass
+
+    def act(self, obs: Any) -> Any:
+        d, bearing = (float(x) for x in obs["goal"])
+        v = float(obs["velocity"][0])
+        rows = np.asarray(obs["neighbours"], dtype=np.float64).reshape(-1, 4)
+        rows = rows[np.abs(rows).sum(axis=1) > 0]
+        own = np.array([v, 0.0])
+        xy = np.vstack([np.zeros(2), rows[:, :2]])
+        vel = np.vstack([own, rows[:, 2:] + own])
+        pref = vel.copy()
+        pref[0] = np.array([math.cos(bearing), math.sin(bearing)]) * min(float(self.high[0]), d)
+        radius = np.full(len(xy), self.pedestrian_m)
+        radius[0] = self.base.robot_radius_m + self.margin_m
+        vw = orca_unicycle(
+            xy,
+            vel,
+            radius,
+            pref,
+            yaw_rad=0.0,
+            max_v_mps=float(self.high[0]),
+            max_w_radps=float(self.high[1]),
+            dt_s=self.base.control_dt,
+            reciprocal=False,
+        )
+        return np.array((0.0, 0.0) if vw is None else vw, dtype=np.float32)
 
 
 def race(model: str, races: int, racers: Sequence[str] = ("sarl", "dwa", "orca")) -> None:
@@ -299,6 +390,9 @@ def main() -> None:
     p.add_argument("models", nargs="+")
     p.add_argument("--episodes", type=int, default=50)
     p.add_argument("--stack", default="examples/crowdnav_card_randomizers.yaml")
+    p.add_argument(
+        "--baselines", action="store_true", help="also DWA and ORCA on the first model's env"
+    )
     p = sub.add_parser("race")
     p.add_argument("model")
     p.add_argument("--races", type=int, default=50)
@@ -310,7 +404,7 @@ def main() -> None:
     if args.experiment == "randommap":
         random_map(args.models, args.episodes)
     elif args.experiment == "crowdnav":
-        crowd_nav(args.models, args.episodes, args.stack)
+        crowd_nav(args.models, args.episodes, args.stack, baselines=args.baselines)
     elif args.experiment == "curve":
         curve(args.files, args.block)
     else:

@@ -21,6 +21,7 @@ from sim2real.errors import Sim2RealValueError
 
 __all__ = [
     "DiscreteActions",
+    "RescaleDictObservation",
     "build_env",
     "default_action_grid",
     "describe_space",
@@ -53,6 +54,61 @@ class DiscreteActions(gym.ActionWrapper):  # type: ignore[type-arg]
     def action(self, action: Any) -> np.ndarray:
         """The (v, w) command of grid index ``action``."""
         return self.grid[int(np.asarray(action).reshape(-1)[0])]
+
+
+class RescaleDictObservation(gym.ObservationWrapper):  # type: ignore[type-arg]
+    """Every Box entry of a ``Dict`` observation rescaled to [-1, 1] from its bounds.
+
+    The Dict counterpart of ``gymnasium.wrappers.RescaleObservation`` (which takes a Box only):
+    one fixed affine map per entry, so a lidar scan and a depth image in metres sit on the same
+    scale as a goal bearing in radians.
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> import sim2real.envs
+    >>> env = RescaleDictObservation(gym.make("sim2real/CrowdNav-v0", depth_width=8,
+    ...                                       depth_height=6))
+    >>> obs, _ = env.reset(seed=0)
+    >>> all(float(abs(x).max()) <= 1.0 for x in obs.values())
+    True
+    """
+
+    def __init__(self, env: gym.Env[Any, Any]) -> None:
+        super().__init__(env)
+        space = env.observation_space
+        assert isinstance(space, gym.spaces.Dict)
+        self._affine = {
+            key: (0.5 * (box.high + box.low), 0.5 * (box.high - box.low))  # type: ignore[attr-defined]
+            for key, box in space.spaces.items()
+        }
+        self.observation_space = gym.spaces.Dict(
+            {
+                key: gym.spaces.Box(-1.0, 1.0, box.shape, np.float32)
+                for key, box in space.spaces.items()
+            }
+        )
+
+    def observation(self, observation: Any) -> dict[str, np.ndarray]:
+        """The observation with each entry mapped to [-1, 1] (clipped at the bounds)."""
+        return {
+            key: np.clip((np.asarray(value) - mid) / half, -1.0, 1.0).astype(np.float32)
+            for (key, value), (mid, half) in zip(
+                observation.items(), (self._affine[k] for k in observation), strict=True
+            )
+        }
+
+
+def _finite_boxes(space: Any) -> bool:
+    """Whether ``space`` is a Box, or a Dict of Boxes, with finite bounds throughout."""
+    if isinstance(space, gym.spaces.Dict):
+        return len(space.spaces) > 0 and all(_finite_boxes(s) for s in space.spaces.values())
+    return (
+        isinstance(space, gym.spaces.Box)
+        and bool(np.all(np.isfinite(space.low)))
+        and bool(np.all(np.isfinite(space.high)))
+        and bool(np.all(space.high > space.low))
+    )
 
 
 def default_action_grid(env: gym.Env[Any, Any]) -> dict[str, list[float]]:
@@ -119,7 +175,8 @@ def build_env(
 def normalize_spaces(env: Any, normalize: Mapping[str, bool], *, where: str = "env") -> Any:
     """``env`` with its Box observation / action space rescaled to [-1, 1] from their bounds.
 
-    ``normalize["observations"]`` adds ``gymnasium.wrappers.RescaleObservation``,
+    ``normalize["observations"]`` adds ``gymnasium.wrappers.RescaleObservation`` (a Dict of
+    Boxes: :class:`RescaleDictObservation`),
     ``normalize["actions"]`` ``gymnasium.wrappers.RescaleAction`` (a Box action space only; a
     discrete one is left alone). Both are fixed affine maps, so a saved policy evaluates with
     exactly its training scaling.
@@ -135,13 +192,16 @@ def normalize_spaces(env: Any, normalize: Mapping[str, bool], *, where: str = "e
     """
     if normalize.get("observations"):
         space = env.observation_space
-        box = isinstance(space, gym.spaces.Box)
-        if not (box and np.all(np.isfinite(space.low)) and np.all(np.isfinite(space.high))):
+        if not _finite_boxes(space):
             raise Sim2RealValueError(
-                f"{where}: normalize 'observations' needs a Box observation space with finite "
-                f"bounds, got {describe_space(space)}; set normalize.observations: false"
+                f"{where}: normalize 'observations' needs a Box (or a Dict of Boxes) observation "
+                f"space with finite bounds, got {describe_space(space)}; set "
+                "normalize.observations: false"
             )
-        env = gym.wrappers.RescaleObservation(env, np.float32(-1.0), np.float32(1.0))
+        if isinstance(space, gym.spaces.Dict):
+            env = RescaleDictObservation(env)
+        else:
+            env = gym.wrappers.RescaleObservation(env, np.float32(-1.0), np.float32(1.0))
     if normalize.get("actions") and isinstance(env.action_space, gym.spaces.Box):
         env = gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0))
     return env

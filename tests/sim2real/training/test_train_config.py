@@ -146,7 +146,26 @@ def test_normalize_rescales_the_spaces_to_unit_bounds() -> None:
     assert env.action_space.low.tolist() == [-1.0, -1.0]
     assert env.unwrapped.action_space.high.tolist() == pytest.approx([0.21, 1.0])
     with pytest.raises(Sim2RealValueError, match="normalize 'observations' needs a Box"):
-        build_env("sim2real/CrowdNav-v0", {}, normalize={"observations": True})
+        build_env("CartPole-v1", {}, normalize={"observations": True})  # unbounded velocities
+
+
+def test_normalize_rescales_every_entry_of_a_dict_observation() -> None:
+    import numpy as np
+
+    kwargs = {"depth_width": 8, "depth_height": 6, "neighbours": 2}
+    raw = build_env("sim2real/CrowdNav-v0", kwargs)
+    env = build_env("sim2real/CrowdNav-v0", kwargs, normalize={"observations": True})
+    assert set(env.observation_space.spaces) == set(raw.observation_space.spaces)
+    obs_raw, _ = raw.reset(seed=4)
+    obs, _ = env.reset(seed=4)
+    for key, box in raw.observation_space.spaces.items():
+        assert env.observation_space[key].shape == box.shape
+        want = 2 * (np.clip(obs_raw[key], box.low, box.high) - box.low) / (box.high - box.low) - 1
+        np.testing.assert_allclose(obs[key], want, atol=1e-6)
+    # the goal distance (0-20 m) at the start, 6 m across the room at most: below the midpoint
+    assert -1.0 < float(obs["goal"][0]) < -0.3
+    # the room's walls are inside the lidar's 8 m: every reading is strictly inside the scale
+    assert float(obs["lidar"].min()) > -1.0 and float(obs["lidar"].max()) < 1.0
 
 
 def test_action_noise_is_read_and_written_back() -> None:
