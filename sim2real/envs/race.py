@@ -33,7 +33,8 @@ Reward (the terms of the thesis' R1; the constants are ours, in :class:`RaceRewa
     other movers :math:`-0.2\max(0, 1 - c/0.2\,\mathrm m)`; progress along the centre line
     :math:`+2\,\Delta s` per metre; goal +10; collision with a mover -10; keep moving
     :math:`+0.01\,v/v_{max}`; wall collision -10; near a wall :math:`-0.2\max(0, 1 -
-    c_w/0.15\,\mathrm m)`; stopped (v < 0.02 m/s) -0.02; timeout -5. ``reward`` takes a
+    c_w/0.15\,\mathrm m)`; stopped (v < 0.02 m/s) -0.02; timeout -5; a time cost per step
+    (0 by default). ``reward`` takes a
     :class:`RaceReward` or a mapping of some of its fields (a YAML config's ``env.kwargs``).
 Outcome (``info["outcome"]``)
     ``"success"`` (crossed the goal line), ``"collision"`` (touched an opponent or another
@@ -126,6 +127,7 @@ class RaceReward:
     stop: float = 0.02
     stop_below_mps: float = 0.02
     timeout: float = 5.0
+    time: float = 0.0
 
 
 def race_reward(value: RaceReward | Mapping[str, Any] | None) -> RaceReward:
@@ -451,6 +453,7 @@ class RaceCore:
         r += cfg.keep_moving * max(v, 0.0) / self.max_v
         if abs(v) < cfg.stop_below_mps:
             r -= cfg.stop
+        r -= cfg.time
         r += {
             "success": cfg.goal,
             "collision": -cfg.collision,

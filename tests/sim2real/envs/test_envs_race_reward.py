@@ -30,6 +30,21 @@ def test_the_stop_penalty_is_paid_every_step_standing_still() -> None:
     np.testing.assert_allclose(strict, -0.1, atol=1e-9)
 
 
+def _driving_rewards(**kwargs: object) -> list[float]:
+    env = gym.make("sim2real/Race-v0", track="open", num_opponents=0, control_dt=0.25, **kwargs)
+    env.reset(seed=0)
+    return [float(env.step(np.array([0.22, 0.0]))[1]) for _ in range(8)]
+
+
+def test_the_time_cost_is_paid_every_step_moving_or_not() -> None:
+    # the same seed drives the same course: the time cost is the only difference, every step
+    free, timed = _driving_rewards(), _driving_rewards(reward={"time": 0.05})
+    np.testing.assert_allclose(np.subtract(free, timed), 0.05, atol=1e-9)
+    assert np.mean(free[4:]) > 0.05  # at top speed the progress pays more than the time cost
+    standing = _standing_rewards(reward={"time": 0.05})
+    np.testing.assert_allclose(standing, -0.07, atol=1e-9)  # stop 0.02 + time 0.05
+
+
 @pytest.mark.parametrize(
     ("bad", "words"),
     [
