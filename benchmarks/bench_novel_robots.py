@@ -146,30 +146,42 @@ def cli(argv: list[str], row: Row, what: str) -> int:
 
 
 def jackal_plant() -> Any:
-    """A Jackal-like skid plant from the published numbers above (the rest as husky_like)."""
+    """A Jackal-like skid plant from the published numbers above (the rest as husky_like).
+
+    Husky's wheel-side inertia and speed-loop gains are scaled by the mass ratio and the square
+    of the wheel-radius ratio, its stall torque by the mass and the radius ratio.
+    """
     from sim2real.plants.skid import _slip_lat_for, husky_like
 
-    m, length, width = 17.0, 0.42, 0.31
-    base = husky_like().replace(
+    husky = husky_like()
+    m, length, width, radius = 17.0, 0.42, 0.31, 0.098
+    by_mass, by_radius = m / husky.mass_kg, radius / husky.wheel_radius_m
+    base = husky.replace(
         mass_kg=m,
         yaw_inertia_kgm2=m * (length**2 + width**2) / 12.0,
-        wheel_radius_m=0.098,
+        wheel_radius_m=radius,
         track_m=0.37559,
         wheelbase_m=0.262,
-        side_inertia_kgm2=0.4 * (17.0 / 50.0) * (0.098 / 0.165) ** 2,  # husky's, scaled
-        separation_multiplier=1.5,
-        max_v_mps=2.0,
-        max_w_radps=4.0,
-        accel_v_mps2=20.0,
-        accel_w_radps2=25.0,
-        side_speed_max_radps=2.0 / 0.098,
-        kp_nms_per_rad=20.0 * (17.0 / 50.0) * (0.098 / 0.165) ** 2,
-        ki_nm_per_rad=50.0 * (17.0 / 50.0) * (0.098 / 0.165) ** 2,
-        stall_torque_nm=80.0 * (17.0 / 50.0) * (0.098 / 0.165),
-        no_load_speed_radps=1.15 * 2.0 / 0.098,
+        side_inertia_kgm2=husky.side_inertia_kgm2 * by_mass * by_radius**2,
+        kp_nms_per_rad=husky.kp_nms_per_rad * by_mass * by_radius**2,
+        ki_nm_per_rad=husky.ki_nm_per_rad * by_mass * by_radius**2,
+        stall_torque_nm=husky.stall_torque_nm * by_mass * by_radius,
+        **_JACKAL_CONTROL,
+        side_speed_max_radps=_JACKAL_CONTROL["max_v_mps"] / radius,
+        no_load_speed_radps=1.15 * _JACKAL_CONTROL["max_v_mps"] / radius,
     )
     # the steady in-place effective track of the driver's calibration, 1.5
     return base.replace(slip_lat_mps=_slip_lat_for(base, 1.5))
+
+
+#: jackal_control/config/control.yaml (see the sources above).
+_JACKAL_CONTROL = {
+    "separation_multiplier": 1.5,
+    "max_v_mps": 2.0,
+    "max_w_radps": 4.0,
+    "accel_v_mps2": 20.0,
+    "accel_w_radps2": 25.0,
+}
 
 
 def skid_sessions(n: int, *, seed: int, duration_s: float) -> tuple[list[Any], list[float]]:
