@@ -164,12 +164,11 @@ def synthetic_log(
         * tick
         * (np.diff(ticks_r, prepend=ticks_r[0]) + np.diff(ticks_l, prepend=ticks_l[0]))
     )
-    stamps, meas_v, meas_w = _degrade(
-        rng,
+    stamps, meas_v, meas_w = degrade_odometry(
         t_true,
         dist / period,
         np.interp(t_true, fine, truth.w),
-        quantum_v_mps=0.0,
+        seed=rng,  # v is already quantised by the encoder ticks
         noise_v_mps=noise_v_mps,
         noise_w_radps=noise_w_radps,
         jitter_s=jitter_s,
@@ -192,7 +191,7 @@ def degrade_odometry(
     v: FloatArray,
     w: FloatArray,
     *,
-    seed: int,
+    seed: int | np.random.Generator,
     quantum_v_mps: float = 0.0,
     noise_v_mps: float = 0.004,
     noise_w_radps: float = 0.02,
@@ -204,7 +203,8 @@ def degrade_odometry(
 
     v is rounded to ``quantum_v_mps`` (one encoder tick per odometry period) and both channels
     get white noise; stamps get Gaussian jitter; ``drop_fraction`` of the messages are dropped;
-    one sample in the middle becomes a ``spike_mps`` glitch. Returns sorted (t, v, w).
+    one sample in the middle becomes a ``spike_mps`` glitch. Returns sorted (t, v, w). The
+    draws come from ``numpy.random.default_rng(seed)`` (a Generator is drawn from as it is).
 
     Examples
     --------
@@ -213,34 +213,7 @@ def degrade_odometry(
     >>> bool(t.size < 100 and v.max() == 1.35)
     True
     """
-    return _degrade(
-        np.random.default_rng(seed),
-        t_s,
-        v,
-        w,
-        quantum_v_mps=quantum_v_mps,
-        noise_v_mps=noise_v_mps,
-        noise_w_radps=noise_w_radps,
-        jitter_s=jitter_s,
-        drop_fraction=drop_fraction,
-        spike_mps=spike_mps,
-    )
-
-
-def _degrade(
-    rng: np.random.Generator,
-    t_s: FloatArray,
-    v: FloatArray,
-    w: FloatArray,
-    *,
-    quantum_v_mps: float,
-    noise_v_mps: float,
-    noise_w_radps: float,
-    jitter_s: float,
-    drop_fraction: float,
-    spike_mps: float | None,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """:func:`degrade_odometry` drawing from ``rng`` (shared with :func:`synthetic_log`)."""
+    rng = np.random.default_rng(seed)
     n = t_s.size
     v = np.asarray(v, dtype=np.float64).copy()
     if quantum_v_mps > 0:
