@@ -354,13 +354,14 @@ _OUTCOMES = {
     "success": ("success",),
     "collision": ("collision", "crash"),
     "timeout": ("timeout", "trap"),
+    "overshoot": ("overshoot",),
 }
 
 
 def curve(files: Sequence[str], block: int) -> None:
-    """Per block of ``block`` env steps: success, collision and timeout rates, mean return."""
-    print("| run | steps | episodes | success | collision | timeout | mean return |")
-    print("|---|---|---|---|---|---|---|")
+    """Per block of ``block`` env steps: success, collision, timeout, overshoot rates, return."""
+    print("| run | steps | episodes | success | collision | timeout | overshoot | mean return |")
+    print("|---|---|---|---|---|---|---|---|")
     for path in files:
         with open(path, encoding="utf-8", newline="") as f:
             rows = list(csv.DictReader(f))
@@ -376,7 +377,8 @@ def curve(files: Sequence[str], block: int) -> None:
             ret = statistics.fmean(float(r["return"]) for r in part)
             print(
                 f"| {path} | {b * block}-{(b + 1) * block} | {n} | {share['success']:.2f} | "
-                f"{share['collision']:.2f} | {share['timeout']:.2f} | {ret:.2f} |"
+                f"{share['collision']:.2f} | {share['timeout']:.2f} | "
+                f"{share['overshoot']:.2f} | {ret:.2f} |"
             )
 
 

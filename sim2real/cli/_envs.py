@@ -227,6 +227,7 @@ def _eval_table(args: argparse.Namespace, env_id: str, label: str, summary: Any,
     table.add_row("success rate", f"{summary.success_rate:.2f}", ci_text(ci.success_ci95, 2))
     table.add_row("collision rate", f"{summary.collision_rate:.2f}", ci_text(ci.collision_ci95, 2))
     table.add_row("timeout rate", f"{summary.timeout_rate:.2f}")
+    table.add_row("overshoot rate", f"{summary.overshoot_rate:.2f}")
     for key, name, env_kind in (
         ("off_road", "off-road rate", "CarCrossing-v0"),
         ("wall_collision", "wall collision rate", "Race-v0"),
@@ -278,6 +279,7 @@ def _eval_document(
         "collision_rate": summary.collision_rate,
         "collision_ci95": list(ci.collision_ci95),
         "timeout_rate": summary.timeout_rate,
+        "overshoot_rate": summary.overshoot_rate,
         "time_to_goal_ci95": list(ci.time_to_goal_ci95),
         "means": summary.means,
         "episodes": list(summary.per_episode),

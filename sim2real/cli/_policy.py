@@ -187,7 +187,7 @@ def _robustness_table(args: argparse.Namespace, label: str, env_id: str, rows: A
         title=f"robustness of the {label} on {env_id} "
         f"({args.episodes} episodes per condition, seeds {args.seed}..{args.seed + args.episodes - 1})"
     )
-    columns = ("randomizer", "success", "95 % CI", "collision", "95 % CI ", "timeout")
+    columns = ("randomizer", "success", "95 % CI", "collision", "95 % CI ", "timeout", "overshoot")
     for col in (*columns, "time to goal s", "95 % CI  "):
         table.add_column(col, justify="left" if col == "randomizer" else "right")
     for r in rows:
@@ -198,6 +198,7 @@ def _robustness_table(args: argparse.Namespace, label: str, env_id: str, rows: A
             f"{r.collision_rate:.2f}",
             ci_text(r.collision_ci95, 2),
             f"{r.timeout_rate:.2f}",
+            f"{r.overshoot_rate:.2f}",
             "n/a" if math.isnan(r.time_to_goal_s) else f"{r.time_to_goal_s:.2f}",
             ci_text(r.time_to_goal_ci95, 2),
         )
@@ -220,6 +221,7 @@ def _robustness_document(args: argparse.Namespace, label: str, rows: Any) -> dic
                 "collision_rate": r.collision_rate,
                 "collision_ci95": list(r.collision_ci95),
                 "timeout_rate": r.timeout_rate,
+                "overshoot_rate": r.overshoot_rate,
                 "time_to_goal_s": r.time_to_goal_s,
                 "time_to_goal_ci95": list(r.time_to_goal_ci95),
             }

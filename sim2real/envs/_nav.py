@@ -135,6 +135,7 @@ class NavEnvBase(WorldEnv):
         self._goal = np.zeros(2)
         self._prev_goal_dist = 0.0
         self._done = False
+        self._in_goal = False
         self._last_action = np.zeros(2)
 
     # ------------------------------------------------------------------ protocols
@@ -209,6 +210,7 @@ class NavEnvBase(WorldEnv):
         self._tracker.reset(x, y)
         self._prev_goal_dist = self._goal_polar()[0]
         self._done = False
+        self._in_goal = False
         self._last_action = np.zeros(2)
         info = {"outcome": None, **self._extra_info()}
         return self._observation(), info
@@ -225,12 +227,16 @@ class NavEnvBase(WorldEnv):
         d_goal, _ = self._goal_polar()
         clearance = self._clearance()
         outcome: str | None = None
+        in_goal = d_goal < self.goal_tolerance_m
         if clearance <= 0.0:
             outcome = "collision"
-        elif d_goal < self.goal_tolerance_m and abs(v) <= self.goal_speed_mps:
+        elif in_goal and abs(v) <= self.goal_speed_mps:
             outcome = "success"
+        elif self._in_goal and not in_goal:  # only reachable with a finite goal speed
+            outcome = "overshoot"
         elif self._tracker.steps >= self.max_episode_steps:
             outcome = "timeout"
+        self._in_goal = in_goal
         s = StepInfo(
             goal_dist_m=d_goal,
             prev_goal_dist_m=self._prev_goal_dist,
@@ -248,7 +254,7 @@ class NavEnvBase(WorldEnv):
             metrics: EpisodeMetrics = self._tracker.finish(outcome)
             info["outcome"] = self._outcome_name(outcome)
             info["metrics"] = metrics.to_dict()
-        terminated = outcome in ("collision", "success")
+        terminated = outcome in ("collision", "success", "overshoot")
         truncated = outcome == "timeout"
         return obs, reward, terminated, truncated, info
 

@@ -236,6 +236,9 @@ class EvalSummary:
         over successful episodes only; NaN when there were none).
     per_episode : tuple of dict
         The metrics of each episode (plus ``"seed"`` and ``"return"``).
+    overshoot_rate : float
+        Fraction of episodes that left the goal without stopping in it (a task with a goal
+        speed; see :data:`~sim2real.envs.metrics.OUTCOMES`).
     """
 
     episodes: int
@@ -244,6 +247,7 @@ class EvalSummary:
     timeout_rate: float
     means: dict[str, float]
     per_episode: tuple[dict[str, Any], ...]
+    overshoot_rate: float = 0.0
 
 
 _MEAN_KEYS = (
@@ -308,4 +312,5 @@ def evaluate(
         timeout_rate=sum(r["timeout"] for r in rows) / n,
         means={k: mean(k) for k in _MEAN_KEYS},
         per_episode=tuple(rows),
+        overshoot_rate=sum(bool(r.get("overshoot")) for r in rows) / n,
     )

@@ -27,8 +27,9 @@ from sim2real.errors import Sim2RealValueError
 
 __all__ = ["OUTCOMES", "EpisodeMetrics", "MetricsTracker", "episode_metrics"]
 
-#: Episode outcomes: reached the goal, touched an obstacle or person, ran out of time.
-OUTCOMES = ("success", "collision", "timeout")
+#: Episode outcomes: reached the goal, touched an obstacle or person, ran out of time, or (in a
+#: task that asks for a stop at the goal) left the goal's tolerance disc without stopping in it.
+OUTCOMES = ("success", "collision", "timeout", "overshoot")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -38,8 +39,8 @@ class EpisodeMetrics:
     Attributes
     ----------
     outcome : str
-        ``"success"``, ``"collision"`` or ``"timeout"``.
-    success, collision, timeout : bool
+        ``"success"``, ``"collision"``, ``"timeout"`` or ``"overshoot"``.
+    success, collision, timeout, overshoot : bool
         One-hot view of ``outcome``.
     steps : int
         Control steps taken.
@@ -59,6 +60,7 @@ class EpisodeMetrics:
     success: bool
     collision: bool
     timeout: bool
+    overshoot: bool
     steps: int
     episode_time_s: float
     path_length_m: float
@@ -151,6 +153,7 @@ def episode_metrics(
         success=outcome == "success",
         collision=outcome == "collision",
         timeout=outcome == "timeout",
+        overshoot=outcome == "overshoot",
         steps=steps,
         episode_time_s=t,
         path_length_m=path_length_m,

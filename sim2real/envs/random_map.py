@@ -28,7 +28,9 @@ Reward (Yang et al. eqs. 2-5; the constants are ours, in :class:`RandomMapReward
       = 0 by default, :math:`R_{stop}` = 1 m): with ``goal_speed_mps`` set it pays for braking
       on the way into the goal, more the closer.
 Outcome (``info["outcome"]`` at the end)
-    ``"success"``, ``"crash"`` (contact) or ``"trap"`` (``max_episode_steps`` reached). The
+    ``"success"``, ``"crash"`` (contact), ``"trap"`` (``max_episode_steps`` reached) or, with a
+    finite ``goal_speed_mps``, ``"overshoot"`` (the robot left the goal tolerance without
+    stopping in it; the episode ends there, as in a crash, without its penalty). The
     generic metrics are in ``info["metrics"]``; ``info["rho_obs"]`` is the map's obstacle
     density.
 
@@ -124,7 +126,9 @@ class RandomMapEnv(NavEnvBase):
         spec's top speed and yaw rate).
     goal_speed_mps : float
         Success needs the measured speed at or below this within the goal tolerance, m/s
-        (default inf: passing through the goal counts; e.g. 0.05: stop inside it).
+        (default inf: passing through the goal counts; e.g. 0.05: stop inside it). With a
+        finite value, leaving the tolerance disc after entering it ends the episode as an
+        overshoot.
 
     Notes
     -----
@@ -246,4 +250,5 @@ class RandomMapEnv(NavEnvBase):
         return {"rho_obs": rho, "preset": self.preset}
 
     def _outcome_name(self, outcome: str) -> str:
-        return {"success": "success", "collision": "crash", "timeout": "trap"}[outcome]
+        names = {"success": "success", "collision": "crash", "timeout": "trap"}
+        return names.get(outcome, outcome)

@@ -348,6 +348,8 @@ class RobustnessRow:
         Mean time to goal over the successes, s (NaN without one).
     time_to_goal_ci95 : tuple of float
         Its 95 % interval (:class:`OutcomeIntervals`), s.
+    overshoot_rate : float
+        Share of episodes that left the goal without stopping in it.
     """
 
     condition: str
@@ -359,6 +361,7 @@ class RobustnessRow:
     collision_ci95: tuple[float, float] = (math.nan, math.nan)
     time_to_goal_s: float = math.nan
     time_to_goal_ci95: tuple[float, float] = (math.nan, math.nan)
+    overshoot_rate: float = 0.0
 
 
 def robustness(
@@ -418,6 +421,7 @@ def robustness(
                 collision_ci95=ci.collision_ci95,
                 time_to_goal_s=ci.time_to_goal_s,
                 time_to_goal_ci95=ci.time_to_goal_ci95,
+                overshoot_rate=s.overshoot_rate,
             )
         )
     return rows

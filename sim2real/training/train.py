@@ -291,6 +291,7 @@ def final_evaluation(cfg: TrainConfig, model: Any, *, controller: Any = None) ->
         "success_rate": summary.success_rate,
         "collision_rate": summary.collision_rate,
         "timeout_rate": summary.timeout_rate,
+        "overshoot_rate": summary.overshoot_rate,
         **(
             {"off_road_rate": sum(bool(r.get("off_road")) for r in rows) / len(rows)}
             if rows and "off_road" in rows[0]

@@ -36,5 +36,8 @@ def test_success_has_time_to_goal_and_bad_outcome_is_refused() -> None:
     tr.record(x=0.1, y=0.0, v=1.0, w=0.0)
     m = tr.finish("success")
     assert m.time_to_goal_s == pytest.approx(0.1) and m.to_dict()["outcome"] == "success"
+    over = tr.finish("overshoot")
+    assert over.overshoot and not (over.success or over.collision or over.timeout)
+    assert math.isnan(over.time_to_goal_s)
     with pytest.raises(Sim2RealValueError, match="outcome"):
         tr.finish("won")

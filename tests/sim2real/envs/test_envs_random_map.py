@@ -18,6 +18,7 @@ from sim2real.envs.maps import MapConfig
 from sim2real.errors import Sim2RealValueError
 
 EMPTY = MapConfig(n_min=0, n_max=0, r_wall=0.0)
+EMPTY_1M = MapConfig(n_min=0, n_max=0, r_wall=0.0, d_target_m=1.0)
 
 
 def test_check_env_passes_and_spaces_match_the_paper() -> None:
@@ -69,6 +70,30 @@ def test_a_goal_speed_makes_success_a_stop_inside_the_tolerance() -> None:
     assert n_stop > n_pass  # inside the 0.3 m tolerance at speed is not yet a stop
 
 
+def test_leaving_the_tolerance_without_a_stop_ends_the_episode_as_an_overshoot() -> None:
+    def through(goal_speed_mps: float) -> tuple[str, bool, dict, list[float]]:
+        env = RandomMapEnv(map_config=EMPTY_1M, goal_speed_mps=goal_speed_mps)
+        obs, _ = env.reset(seed=0)
+        dists, facing = [], False
+        for _ in range(200):  # face the goal, then top speed straight on, never braking
+            bearing = float(obs[37])
+            facing = facing or abs(bearing) < 0.3
+            w = 0.0 if facing else np.clip(2 * bearing, -1, 1)
+            obs, _, term, trunc, info = env.step(np.array([0.21 if facing else 0.0, w]))
+            dists.append(env._goal_polar()[0])
+            if term or trunc:
+                return info["outcome"], term, info["metrics"], dists
+        raise AssertionError("the episode did not end")
+
+    outcome, terminated, metrics, dists = through(0.02)
+    assert outcome == "overshoot" and terminated
+    assert metrics["overshoot"] and not (metrics["success"] or metrics["timeout"])
+    assert math.isnan(metrics["time_to_goal_s"])
+    # it ends on the first step outside the 0.3 m disc after steps inside it
+    assert dists[-1] >= 0.3 and min(dists) < 0.3 and all(d < 0.3 for d in dists[-3:-1])
+    assert through(math.inf)[0] == "success"  # without a goal speed, passing through counts
+
+
 def test_the_goal_speed_term_charges_speed_near_the_goal_more_the_closer() -> None:
     radius_m, k = 0.8, 5.0
 
@@ -80,13 +105,15 @@ def test_the_goal_speed_term_charges_speed_near_the_goal_more_the_closer() -> No
         )
         obs, _ = env.reset(seed=0)
         out = []
-        for _ in range(60):  # at 0.21 m/s towards the goal, through it and around
+        for _ in range(100):  # at 0.21 m/s towards the goal and through it
             bearing = float(obs[37])
-            obs, r, term, trunc, _ = env.step(np.array([0.21, np.clip(2 * bearing, -1, 1)]))
+            obs, r, term, trunc, info = env.step(np.array([0.21, np.clip(2 * bearing, -1, 1)]))
             d, _ = env._goal_polar()
             out.append((d, float(obs[38]), r))
-            assert not (term or trunc)  # never slow enough to count as a stop
-        return out
+            if term or trunc:  # never slow enough to count as a stop
+                assert info["outcome"] == "overshoot"
+                return out
+        raise AssertionError("the episode did not end")
 
     base = rewards(None)
     shaped = rewards({"goal_speed_per_mps": k, "goal_speed_radius_m": radius_m})

@@ -17,7 +17,9 @@ def test_curve_counts_random_map_crashes_and_traps(tmp_path: Path) -> None:
         f"{100 * (i + 1)},{o},-1.0,100" for i, o in enumerate(["crash", "trap", "trap", "success"])
     ]
     # CrowdNav-v0 / Race-v0 words in the second block
-    rows += [f"{1100 + 100 * i},{o},2.0,100" for i, o in enumerate(["collision", "timeout"])]
+    rows += [
+        f"{1100 + 100 * i},{o},2.0,100" for i, o in enumerate(["collision", "timeout", "overshoot"])
+    ]
     csv.write_text("\n".join(rows) + "\n", encoding="utf-8")
     script = ROOT / "benchmarks" / "seed_experiments.py"
     run = subprocess.run(
@@ -28,5 +30,5 @@ def test_curve_counts_random_map_crashes_and_traps(tmp_path: Path) -> None:
         check=True,
     )
     lines = [line for line in run.stdout.splitlines() if line.startswith(f"| {csv} |")]
-    assert lines[0].endswith("| 0-1000 | 4 | 0.25 | 0.25 | 0.50 | -1.00 |")
-    assert lines[1].endswith("| 1000-2000 | 2 | 0.00 | 0.50 | 0.50 | 2.00 |")
+    assert lines[0].endswith("| 0-1000 | 4 | 0.25 | 0.25 | 0.50 | 0.00 | -1.00 |")
+    assert lines[1].endswith("| 1000-2000 | 3 | 0.00 | 0.33 | 0.33 | 0.33 | 2.00 |")
