@@ -5,8 +5,9 @@ A TurtleBot 3 Burger starts at the origin with a random heading and must reach t
 
 Observation (40 float32 values, Yang et al. Sec. III-B)
     36 lidar ranges (m, LDS-01 limits 0.12-3.5 m; beams every 10 degrees counter-clockwise from
-    straight ahead; readings outside the limits read 3.5), goal distance (m) and bearing (rad,
-    counter-clockwise from the heading), measured v (m/s) and w (rad/s).
+    straight ahead; readings outside the limits read 3.5), goal distance (m, clipped at
+    ``goal_range_m``) and bearing (rad, counter-clockwise from the heading), measured v (m/s)
+    and w (rad/s).
 Action
     (v, w) with v in [0, 0.21] m/s and w in [-1, 1] rad/s (Yang et al. Sec. III-B);
     ``action_limits="robot"``: v in [0, max_v] and w in [-max_w, max_w] of the robot spec
@@ -124,6 +125,10 @@ class RandomMapEnv(NavEnvBase):
     action_limits : str
         ``"paper"`` (v <= 0.21 m/s and w within 1 rad/s, Yang et al.) or ``"robot"`` (the robot
         spec's top speed and yaw rate).
+    goal_range_m : float
+        The observed goal distance is clipped at this, m (default 30; its bound in the
+        observation space, so a policy that rescales observations to [-1, 1] resolves
+        distances near the goal finer with a range fitted to the course).
     goal_speed_mps : float
         Success needs the measured speed at or below this within the goal tolerance, m/s
         (default inf: passing through the goal counts; e.g. 0.05: stop inside it). With a
@@ -151,6 +156,7 @@ class RandomMapEnv(NavEnvBase):
         robot: str = "turtlebot3_burger",
         action_limits: str = "paper",
         goal_speed_mps: float = math.inf,
+        goal_range_m: float = _GOAL_DIST_MAX_M,
     ) -> None:
         if action_limits not in _ACTION_LIMITS:
             raise Sim2RealValueError(
@@ -158,6 +164,17 @@ class RandomMapEnv(NavEnvBase):
                 f"{action_limits!r}; use 'paper' (v <= 0.21 m/s, |w| <= 1 rad/s, Yang et al.) "
                 "or 'robot' (the robot spec's top speed and yaw rate)"
             )
+        if isinstance(goal_range_m, bool) or not (
+            isinstance(goal_range_m, int | float)
+            and math.isfinite(goal_range_m)
+            and goal_range_m > 0
+        ):
+            raise Sim2RealValueError(
+                f"goal_range_m must be a finite number of m > 0 (where the observed goal "
+                f"distance is clipped), got {goal_range_m!r}; e.g. 5.0 for a goal 3 m away"
+            )
+        #: The observed goal distance is clipped at this, m.
+        self.goal_range_m = float(goal_range_m)
         self.map_config = map_config if map_config is not None else get_preset(preset)
         self.preset = str(preset).upper() if map_config is None else "custom"
         super().__init__(
@@ -183,7 +200,7 @@ class RandomMapEnv(NavEnvBase):
             [np.full(_N_BEAMS, self.range_min_m), [0.0, -math.pi, -vmax, -wmax]]
         ).astype(np.float32)
         high = np.concatenate(
-            [np.full(_N_BEAMS, self.range_max_m), [_GOAL_DIST_MAX_M, math.pi, vmax, wmax]]
+            [np.full(_N_BEAMS, self.range_max_m), [self.goal_range_m, math.pi, vmax, wmax]]
         ).astype(np.float32)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         v_cap, w_cap = (0.21, 1.0) if action_limits == "paper" else (vmax, wmax)
@@ -224,7 +241,7 @@ class RandomMapEnv(NavEnvBase):
         self._ranges = self._lidar_ranges(self._scene, self.beam_angles_rad)
         d, bearing = self._goal_polar()
         v, w = self._backend.velocity
-        obs = np.concatenate([self._ranges, [min(d, _GOAL_DIST_MAX_M), bearing, v, w]])
+        obs = np.concatenate([self._ranges, [min(d, self.goal_range_m), bearing, v, w]])
         space = self.observation_space
         return np.clip(obs, space.low, space.high).astype(np.float32)  # type: ignore[attr-defined]
 

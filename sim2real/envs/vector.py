@@ -79,7 +79,7 @@ from sim2real.envs.pedestrians import (
     _OFFSET_PENALTY,
     Crowd,
 )
-from sim2real.envs.random_map import _GOAL_DIST_MAX_M, RandomMapEnv
+from sim2real.envs.random_map import RandomMapEnv
 from sim2real.errors import Sim2RealValueError
 
 __all__ = ["CrowdNavVectorEnv", "NavVectorEnv", "RandomMapVectorEnv"]
@@ -568,7 +568,7 @@ class RandomMapVectorEnv(NavVectorEnv):
             self._prev_goal,
             self.max_episode_steps,
             self._goal_tol,
-            _GOAL_DIST_MAX_M,
+            self.envs[0].goal_range_m,  # type: ignore[attr-defined]
             self._range_max,
             self._obs_low,
             self._obs_high,

@@ -289,3 +289,14 @@ def test_any_seed_reproduces_its_scene(seed: int, preset: str) -> None:
     assert ia["rho_obs"] == ib["rho_obs"]
     act = np.array([0.15, -0.4])
     np.testing.assert_array_equal(a.step(act)[0], b.step(act)[0])
+
+
+def test_the_goal_range_clips_the_observed_distance_and_bounds_its_space() -> None:
+    near, far = (RandomMapEnv(map_config=EMPTY, goal_range_m=r) for r in (2.0, 30.0))
+    assert near.observation_space.high[36] == 2.0 and far.observation_space.high[36] == 30.0
+    obs_near, obs_far = near.reset(seed=0)[0], far.reset(seed=0)[0]
+    assert obs_far[36] > 2.0 and obs_near[36] == 2.0  # the same start, clipped
+    np.testing.assert_array_equal(np.delete(obs_near, 36), np.delete(obs_far, 36))
+    for bad in (0.0, math.inf, True):
+        with pytest.raises(Sim2RealValueError, match="goal_range_m must be a finite number"):
+            RandomMapEnv(goal_range_m=bad)  # type: ignore[arg-type]

@@ -84,6 +84,14 @@ def test_vector_env_equals_n_single_envs_over_episodes_and_autoresets() -> None:
     sync.close()
 
 
+def test_vector_env_equals_single_envs_with_a_short_goal_range() -> None:
+    vec, sync = make_pair(2, preset="TEST1", max_episode_steps=60, goal_range_m=2.5)
+    assert vec.single_observation_space.high[36] == np.float32(2.5)
+    run_both(vec, sync, steps=80, seed=5, rng_seed=3)
+    vec.close()
+    sync.close()
+
+
 def test_vector_env_equals_single_envs_with_per_env_drive_params() -> None:
     """Different robots per sub-env (a long delay grows the command history) stay equal."""
     base = load_spec("turtlebot3_burger").drive
