@@ -151,6 +151,34 @@ class NavEnvBase(WorldEnv):
             )
         self._backend.set_drive_params(params)
 
+    def set_goal_criteria(
+        self, *, speed_mps: float | None = None, tolerance_m: float | None = None
+    ) -> None:
+        """Use a new goal speed (m/s) and/or tolerance (m) from the next step on.
+
+        What a training curriculum anneals (``curriculum`` of the training config); None keeps
+        the current value.
+
+        Examples
+        --------
+        >>> from sim2real.envs import RandomMapEnv
+        >>> env = RandomMapEnv(goal_speed_mps=0.05)
+        >>> env.set_goal_criteria(speed_mps=0.5)
+        >>> env.goal_speed_mps, env.goal_tolerance_m
+        (0.5, 0.3)
+        """
+        for name, value in (("speed_mps", speed_mps), ("tolerance_m", tolerance_m)):
+            if value is not None and (
+                isinstance(value, bool) or not isinstance(value, int | float) or not value > 0
+            ):
+                raise Sim2RealValueError(
+                    f"set_goal_criteria: {name} must be a number > 0 or None, got {value!r}"
+                )
+        if speed_mps is not None:
+            self.goal_speed_mps = float(speed_mps)
+        if tolerance_m is not None:
+            self.goal_tolerance_m = float(tolerance_m)
+
     # ------------------------------------------------------------------ hooks
     def _build(self, options: dict[str, Any]) -> tuple[float, float, float]:
         """Build the world for a new episode; return the start pose (x, y, yaw)."""

@@ -33,7 +33,15 @@ from sim2real.training._sarl import SarlExtractor
 from sim2real.training.config import SARL_POLICY, TrainConfig
 from sim2real.training.environment import build_env, neighbour_slots
 
-__all__ = ["EpisodeLog", "EpisodeRow", "RichProgress", "action_noise", "learn", "load_model"]
+__all__ = [
+    "EpisodeLog",
+    "EpisodeRow",
+    "GoalCurriculum",
+    "RichProgress",
+    "action_noise",
+    "learn",
+    "load_model",
+]
 
 #: One training episode: env step at its end, outcome, return, length.
 EpisodeRow = tuple[int, str, float, int]
@@ -68,6 +76,8 @@ def learn(
                     name_prefix="model",
                 )
             )
+        if cfg.curriculum is not None:
+            callbacks.append(GoalCurriculum(cfg.curriculum, cfg.timesteps))
         if progress:
             callbacks.append(RichProgress(cfg.timesteps))
         t0 = time.perf_counter()
@@ -198,6 +208,40 @@ class RichProgress(BaseCallback):  # type: ignore[misc]
 
     def _on_training_end(self) -> None:
         self._bar.stop()
+
+
+class GoalCurriculum(BaseCallback):  # type: ignore[misc]
+    """An SB3 callback moving the envs' goal criteria from ``start`` to their own values.
+
+    ``start`` is the config's ``curriculum`` (``goal_speed_mps`` and/or ``goal_tolerance_m``
+    start values, ``until`` a share of ``timesteps``). At every rollout start each criterion is
+    ``start * (own / start) ** p`` with ``p = min(1, steps / (until * timesteps))``.
+    """
+
+    def __init__(self, start: Mapping[str, float], timesteps: int) -> None:
+        super().__init__()
+        self.start = {k: float(v) for k, v in start.items() if k != "until"}
+        self.until_steps = max(float(start.get("until", 0.5)) * timesteps, 1.0)
+        self.own: dict[str, float] = {}
+
+    def _on_training_start(self) -> None:
+        self.own = {k: float(self.training_env.get_attr(k, [0])[0]) for k in self.start}
+
+    def values(self, steps: int) -> dict[str, float]:
+        """The criteria after ``steps`` env steps (``goal_speed_mps`` etc. -> value)."""
+        p = min(1.0, steps / self.until_steps)
+        return {k: s * (self.own[k] / s) ** p for k, s in self.start.items()}
+
+    def _on_rollout_start(self) -> None:
+        now = self.values(int(self.num_timesteps))
+        self.training_env.env_method(
+            "set_goal_criteria",
+            speed_mps=now.get("goal_speed_mps"),
+            tolerance_m=now.get("goal_tolerance_m"),
+        )
+
+    def _on_step(self) -> bool:
+        return True
 
 
 class EpisodeLog(BaseCallback):  # type: ignore[misc]

@@ -24,6 +24,15 @@ Relative paths are relative to the config file::
     discrete_actions: {v_mps: [0.0, 0.1, 0.21], w_radps: [-1.0, 0.0, 1.0]}  # for DQN
     normalize: {observations: true, actions: true, rewards: true}   # all false by default
     action_noise: {type: normal, sigma: 0.1}   # TD3/SAC exploration noise (see below)
+    curriculum: {goal_speed_mps: 0.7, until: 0.5}   # an easier goal at first (see below)
+
+``curriculum`` (SB3 algorithms, navigation envs): the goal criteria start at the values given
+(``goal_speed_mps``, ``goal_tolerance_m``) and move geometrically, at every rollout, to the
+env's own values (its ``goal_speed_mps`` and tolerance), which they reach after ``until`` of
+the timesteps (a share in (0, 1], default 0.5) and keep. The saved policy's env, and every
+evaluation, has the env's own values: e.g. a stop at the goal (``goal_speed_mps: 0.05``) first
+counts any speed below 0.7 m/s inside the tolerance, so that the policy learns to reach the
+goal before it has to stop in it.
 
 ``action_noise``: Gaussian (``normal``) or Ornstein-Uhlenbeck (``ornstein-uhlenbeck``) noise
 of standard deviation ``sigma`` added to every action TD3 or SAC takes while training (SB3's
@@ -70,6 +79,7 @@ __all__ = [
     "ACTION_NOISES",
     "ALGORITHMS",
     "CONFIG_FORMAT",
+    "CURRICULUM_KEYS",
     "POLICIES",
     "RLLIB_KEYS",
     "RLLIB_PPO",
@@ -112,9 +122,13 @@ _KEYS = (
     "discrete_actions",
     "normalize",
     "action_noise",
+    "curriculum",
     "rllib",
 )
 _NORMALIZE = ("observations", "actions", "rewards")
+#: Keys of ``curriculum``: the goal criteria it starts from, and the share of the timesteps
+#: after which they are the env's own.
+CURRICULUM_KEYS = ("goal_speed_mps", "goal_tolerance_m", "until")
 #: Values of ``action_noise.type``.
 ACTION_NOISES = ("normal", "ornstein-uhlenbeck")
 #: Algorithms that take ``action_noise`` (SB3's off-policy continuous ones).
@@ -169,6 +183,9 @@ class TrainConfig:
         ``{observations: bool, actions: bool, rewards: bool}`` (see the module docstring).
     action_noise : dict or None
         ``{type: normal | ornstein-uhlenbeck, sigma: float}`` for TD3/SAC, in action units.
+    curriculum : dict or None
+        ``{goal_speed_mps, goal_tolerance_m, until}`` (start values and the share of the
+        timesteps at which the env's own are reached; see the module docstring).
     rllib : dict
         ``{address, num_env_runners, num_envs_per_env_runner}`` for ``algorithm: rllib-ppo``.
     source : str
@@ -194,6 +211,7 @@ class TrainConfig:
     discrete_actions: dict[str, list[float]] | None = None
     normalize: dict[str, bool] = field(default_factory=lambda: dict.fromkeys(_NORMALIZE, False))
     action_noise: dict[str, Any] | None = None
+    curriculum: dict[str, float] | None = None
     rllib: dict[str, Any] = field(default_factory=dict)
     source: str = "config"
 
@@ -221,6 +239,7 @@ class TrainConfig:
             "discrete_actions": self.discrete_actions,
             "normalize": dict(self.normalize),
             "action_noise": None if self.action_noise is None else dict(self.action_noise),
+            "curriculum": None if self.curriculum is None else dict(self.curriculum),
             **({"rllib": dict(self.rllib)} if self.algorithm == RLLIB_PPO else {}),
         }
 
@@ -436,6 +455,26 @@ def _action_noise(value: Any, where: str) -> dict[str, Any] | None:
     return {"type": str(value["type"]), "sigma": float(sigma)}
 
 
+def _curriculum(value: Any, where: str) -> dict[str, float] | None:
+    """``{goal_speed_mps, goal_tolerance_m, until}`` checked, ``until`` filled in."""
+    if value is None:
+        return None
+    ok = isinstance(value, Mapping) and set(value) <= set(CURRICULUM_KEYS)
+    ok = ok and bool(set(value) - {"until"})
+    numbers = dict(value) if ok else {}
+    for v in numbers.values():
+        ok = ok and isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+        ok = ok and v > 0
+    until = numbers.get("until", 0.5)
+    if not (ok and until <= 1):
+        raise Sim2RealValueError(
+            f"{where}: key 'curriculum' must map goal_speed_mps and/or goal_tolerance_m to the "
+            f"start value (a number > 0) and optionally until to a share of the timesteps in "
+            f"(0, 1], got {value!r}; e.g. curriculum: {{goal_speed_mps: 0.7, until: 0.5}}"
+        )
+    return {**{str(k): float(v) for k, v in numbers.items()}, "until": float(until)}
+
+
 def rllib_options(value: Any, where: str) -> dict[str, Any]:
     """The config's ``rllib`` mapping with defaults filled in, checked."""
     if value is None:
@@ -523,6 +562,7 @@ def config_from_dict(
         discrete_actions=_discrete(doc.get("discrete_actions"), where),
         normalize=_normalize(doc.get("normalize"), where),
         action_noise=_action_noise(doc.get("action_noise"), where),
+        curriculum=_curriculum(doc.get("curriculum"), where),
         rllib=rllib_options(doc.get("rllib"), where),
         source=where,
     )
@@ -530,6 +570,11 @@ def config_from_dict(
         raise Sim2RealValueError(
             f"{where}: key 'action_noise' applies to {' and '.join(_NOISY)} only, not "
             f"{cfg.algorithm}; remove the key or use one of those algorithms"
+        )
+    if cfg.curriculum is not None and cfg.algorithm == RLLIB_PPO:
+        raise Sim2RealValueError(
+            f"{where}: key 'curriculum' applies to the stable-baselines3 algorithms "
+            f"({', '.join(ALGORITHMS)}), not {RLLIB_PPO}; remove the key or use one of those"
         )
     if cfg.vec_env not in _VEC_ENVS:
         raise Sim2RealValueError(

@@ -153,6 +153,22 @@ def model_metadata(cfg: TrainConfig, env: Any) -> dict[str, Any]:
     }
 
 
+def _check_curriculum(cfg: TrainConfig, curriculum: Mapping[str, float], env: Any) -> None:
+    """Refuse a curriculum the env cannot follow (no goal criteria, or no finite goal speed)."""
+    if not hasattr(env, "set_goal_criteria"):
+        raise Sim2RealValueError(
+            f"{cfg.source}: key 'curriculum' anneals a navigation env's goal, which "
+            f"{cfg.env_id} does not have; remove the key or use RandomMap-v0 or CrowdNav-v0"
+        )
+    if "goal_speed_mps" in curriculum and not math.isfinite(env.goal_speed_mps):
+        raise Sim2RealValueError(
+            f"{cfg.source}: key 'curriculum' starts goal_speed_mps at "
+            f"{curriculum['goal_speed_mps']:g} but the env's own goal_speed_mps is inf "
+            "(passing through the goal counts); set env.kwargs goal_speed_mps to the speed "
+            "the curriculum ends at, e.g. 0.05"
+        )
+
+
 def save_model(model: Any, path: Path, metadata: Mapping[str, Any]) -> Path:
     """Save an SB3 model to ``path`` with a ``sim2real.yaml`` entry, atomically."""
     buf = io.BytesIO()
@@ -187,6 +203,8 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
         )
     if cfg.policy == SARL_POLICY:
         _check_sarl(cfg, probe)
+    if cfg.curriculum is not None:
+        _check_curriculum(cfg, cfg.curriculum, probe.unwrapped)
     if cfg.discrete_actions is not None:
         probe = DiscreteActions(probe, **cfg.discrete_actions)
     probe = normalize_spaces(probe, cfg.normalize, where=cfg.source)

@@ -291,6 +291,24 @@ def test_any_seed_reproduces_its_scene(seed: int, preset: str) -> None:
     np.testing.assert_array_equal(a.step(act)[0], b.step(act)[0])
 
 
+def test_goal_criteria_can_change_between_steps() -> None:
+    env = RandomMapEnv(map_config=EMPTY_1M, goal_speed_mps=0.05)
+    env.set_goal_criteria(speed_mps=1.0, tolerance_m=0.5)
+    assert (env.goal_speed_mps, env.goal_tolerance_m) == (1.0, 0.5)
+    env.set_goal_criteria(tolerance_m=0.4)  # None keeps the speed
+    assert (env.goal_speed_mps, env.goal_tolerance_m) == (1.0, 0.4)
+    obs, _ = env.reset(seed=0)
+    for _ in range(200):  # at the loose criteria driving through the goal is a success
+        bearing = float(obs[37])
+        v = 0.21 if abs(bearing) < 0.3 else 0.0
+        obs, _, term, trunc, info = env.step(np.array([v, np.clip(2 * bearing, -1, 1)]))
+        if term or trunc:
+            break
+    assert info["outcome"] == "success" and env._goal_polar()[0] < 0.4
+    with pytest.raises(Sim2RealValueError, match="speed_mps must be a number > 0 or None"):
+        env.set_goal_criteria(speed_mps=0.0)
+
+
 def test_the_goal_range_clips_the_observed_distance_and_bounds_its_space() -> None:
     near, far = (RandomMapEnv(map_config=EMPTY, goal_range_m=r) for r in (2.0, 30.0))
     assert near.observation_space.high[36] == 2.0 and far.observation_space.high[36] == 30.0

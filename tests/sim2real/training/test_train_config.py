@@ -94,6 +94,22 @@ def test_example_configs_load_with_overrides() -> None:
             {"action_noise": {"type": "normal", "sigma": 0.1}},
             r"key 'action_noise' applies to SAC and TD3 only, not PPO; remove the key",
         ),
+        (
+            {"curriculum": {"goal_speed_mps": -0.7}},
+            r"key 'curriculum' must map goal_speed_mps and/or goal_tolerance_m to the start "
+            r"value \(a number > 0\) .* got \{'goal_speed_mps': -0.7\}; e.g. curriculum: ",
+        ),
+        ({"curriculum": {"until": 0.5}}, r"key 'curriculum' must map goal_speed_mps"),
+        ({"curriculum": {"goal_speed_mps": 0.7, "until": 1.5}}, r"key 'curriculum' must map"),
+        (
+            {"curriculum": {"goal_speed": 0.7}},
+            r"key 'curriculum' must map .* got \{'goal_speed': 0.7\}",
+        ),
+        ({"curriculum": {"goal_speed_mps": True}}, r"key 'curriculum' must map"),
+        (
+            {"algorithm": "rllib-ppo", "curriculum": {"goal_speed_mps": 0.7}},
+            r"key 'curriculum' applies to the stable-baselines3 algorithms .* not rllib-ppo",
+        ),
     ],
 )
 def test_bad_config_is_one_sentence(change: dict, match: str) -> None:
@@ -329,3 +345,11 @@ def test_cli_train_without_the_extra_says_how_to_install(
     assert len(err) == 1 and "sim2real train needs torch, which is not installed" in err[0]
     assert "pip install torch==2.13.0 && pip install -e '.[train]'" in err[0]
     assert "make train-extra" in err[0]
+
+
+def test_curriculum_fills_in_until_and_round_trips() -> None:
+    doc = {"env": {"id": "RandomMap-v0"}, "curriculum": {"goal_tolerance_m": 1}}
+    cfg = config_from_dict(doc)
+    assert cfg.curriculum == {"goal_tolerance_m": 1.0, "until": 0.5}
+    assert config_from_dict(cfg.to_dict()).curriculum == cfg.curriculum
+    assert config_from_dict({"env": {"id": "RandomMap-v0"}}).curriculum is None

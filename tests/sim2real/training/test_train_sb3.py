@@ -301,6 +301,52 @@ def test_td3_trains_with_the_configured_action_noise(tmp_path: Path) -> None:
     assert len({a.tobytes() for a in noisy}) == 5
 
 
+def test_a_goal_curriculum_moves_the_envs_goal_to_their_own_values(
+    tmp_path: Path,
+) -> None:
+    from sim2real.training import _sb3
+    from sim2real.training.config import load_config
+    from sim2real.training.environment import build_env
+
+    kwargs = {"preset": "TEST1", "max_episode_steps": 40, "goal_speed_mps": 0.05}
+    change = {"env": {"id": "RandomMap-v0", "kwargs": kwargs}, "randomizers": None}
+    curriculum = {"goal_speed_mps": 0.8, "goal_tolerance_m": 1.2, "until": 0.5}
+    cfg = load_config(_config(tmp_path, **change, timesteps=512, curriculum=curriculum))
+    seen: list[tuple[int, float, float]] = []
+
+    class Spy(_sb3.GoalCurriculum):
+        def _on_rollout_start(self) -> None:
+            super()._on_rollout_start()
+            speed, tol = (
+                self.training_env.get_attr(k) for k in ("goal_speed_mps", "goal_tolerance_m")
+            )
+            assert len(set(speed)) == len(set(tol)) == 1  # every env follows
+            seen.append((int(self.num_timesteps), speed[0], tol[0]))
+
+    real = _sb3.GoalCurriculum
+    _sb3.GoalCurriculum = Spy  # type: ignore[misc]
+    try:
+        _sb3.learn(cfg, build_env(cfg.env_id, cfg.env_kwargs))
+    finally:
+        _sb3.GoalCurriculum = real  # type: ignore[misc]
+    # rollouts of 2 x 64 steps: 0, 128, 256, 384; the own values (0.05 m/s, TEST1's 0.3 m) at
+    # 256 = 0.5 x 512 and after; geometric in between
+    assert [s for s, _, _ in seen] == [0, 128, 256, 384]
+    assert seen[0][1:] == pytest.approx((0.8, 1.2))
+    assert seen[1][1:] == pytest.approx(((0.8 * 0.05) ** 0.5, (1.2 * 0.3) ** 0.5))
+    assert seen[2][1:] == seen[3][1:] == pytest.approx((0.05, 0.3))
+
+
+def test_a_curriculum_needs_a_finite_goal_speed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cfg = _config(tmp_path, randomizers=None, curriculum={"goal_speed_mps": 0.7})
+    assert main(["train", str(cfg)]) == 2
+    err = capsys.readouterr().err
+    assert "the env's own goal_speed_mps is inf (passing through the goal counts)" in err
+    assert "Traceback" not in err
+
+
 def test_episodes_csv_is_written_while_training_goes(tmp_path: Path) -> None:
     from sim2real.training import _sb3
     from sim2real.training.config import load_config
