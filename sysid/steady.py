@@ -42,11 +42,14 @@ class SteadyNoise:
     """A log's own odometry noise, measured where it runs steady (:func:`steady_noise`):
     ``std_v_mps`` and ``std_w_radps``, the robust sd of the measured v (m/s) and w (rad/s)
     about their steady level (NaN when the log has too few steady samples), over
-    ``n_samples`` steady samples."""
+    ``n_samples`` steady samples. ``method`` says how it was measured: ``"steady"`` here,
+    ``"high-frequency"`` by :func:`sysid.hfnoise.highfreq_noise` (``n_samples`` its stencils),
+    joined with ``"+"`` when pooled over both."""
 
     std_v_mps: float
     std_w_radps: float
     n_samples: int
+    method: str = "steady"
 
     @property
     def measured(self) -> bool:
@@ -121,9 +124,11 @@ def pooled_steady_noise(noises: Sequence[SteadyNoise]) -> SteadyNoise:
     own = [n for n in noises if n.measured]
     if not own:
         return SteadyNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=0)
+    methods = "+".join(sorted({part for n in own for part in n.method.split("+")}, reverse=True))
     weights = np.array([n.n_samples for n in own], dtype=np.float64)
     return SteadyNoise(
         std_v_mps=float(np.sqrt(np.average([n.std_v_mps**2 for n in own], weights=weights))),
         std_w_radps=float(np.sqrt(np.average([n.std_w_radps**2 for n in own], weights=weights))),
         n_samples=int(weights.sum()),
+        method=methods,
     )
