@@ -25,8 +25,9 @@ odometry reads exact zeros, which say nothing of its noise while the robot moves
 drive does faster than the odometry period is read as noise too: commands that jump at every
 message to a base whose wheel loops follow them within a period raise the estimate (never
 lower it), and transients after command steps raise the robust scale by their share of the
-stencils. On a log that also holds commands, :func:`sysid.steady.steady_noise` is the
-estimate to use.
+stencils. Scatter slower than the odometry period (a filtered gyro, a level that wanders
+under a held command) is the reverse: it is not seen. On a log that also holds commands,
+:func:`sysid.steady.steady_noise` is the estimate to use.
 
 Two measurements are read differently:
 
