@@ -4,7 +4,8 @@ One physics step of the drive chain of :class:`robots.params.DriveParams`, on pl
 packed parameter vector (:func:`pack_params`), compiled with numba and callable from Python:
 
 1. :func:`shape_command`: firmware speed clamp, velocity-smoother rate limit, wheel speed
-   targets with the per-wheel speed cap (both wheels scaled together);
+   targets with the per-wheel speed cap (both wheels scaled together, or each clipped on its
+   own: ``wheel_cap_per_side``);
 2. :func:`wheel_loops`: per-wheel PI speed loops with torque saturation and the axis
    friction. Unsaturated: backward Euler of the PI loops and viscous friction, then Coulomb
    friction as a proximal step (it stops the base but never reverses it); the torques are the
@@ -67,8 +68,9 @@ CMD_TRACK = 17  # the driver's track multiplier for its wheel targets
 KI = 18  # the wheel loops' integral gain over the P gain, 1/s (0 = P loops)
 TS = 19  # the motors' stall torque at the wheel, N m (the torque-speed line)
 W0 = 20  # the motors' no-load wheel speed, rad/s (inf: no line, a flat torque cap)
+CAP_SIDE = 21  # 1: each wheel target clipped at the cap on its own; 0: both scaled together
 #: Length of the packed parameter vector.
-N_PACKED = 21
+N_PACKED = 22
 #: A wheel target below this (rad/s) is a stop: it clears that wheel's integrator.
 ZERO_TARGET_RADPS = 1e-9
 
@@ -90,6 +92,7 @@ _AS_IS = {
     TRACK: "track_factor",
     CMD_TRACK: "driver_track_factor",
     KI: "speed_loop_ki_per_s",
+    CAP_SIDE: "wheel_cap_per_side",
 }
 
 
@@ -212,7 +215,9 @@ def shape_command(
 ) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
     """Clamp, rate-limit and cap command (u_v, u_w); returns (ref_v, ref_w, wr_ref, wl_ref).
 
-    The wheel targets use the driver's track (``driver_track_factor`` x the geometric one).
+    The wheel targets use the driver's track (``driver_track_factor`` x the geometric one);
+    a target beyond the cap ``wheel_speed_max_radps`` scales both by one factor (the turn's
+    curvature kept) or, with ``wheel_cap_per_side``, is clipped on its own.
     """
     r, half_l = p[R], 0.5 * (p[L] * p[CMD_TRACK])
     u_v = clip(u_v, p[SPEED_V])
@@ -221,6 +226,8 @@ def shape_command(
     ref_w += clip(u_w - ref_w, p[ACC_W] * dt)
     wr_ref = (ref_v + ref_w * half_l) / r
     wl_ref = (ref_v - ref_w * half_l) / r
+    if p[CAP_SIDE] > 0.0:
+        return ref_v, ref_w, clip(wr_ref, p[WMAX]), clip(wl_ref, p[WMAX])
     peak = max(abs(wr_ref), abs(wl_ref))
     if peak > p[WMAX]:
         s = p[WMAX] / peak

@@ -147,7 +147,7 @@ _IN_MJCF = """
 base_mass | added_mass_kg | body base_link / inertial mass | body base_link body_mass 0 | the spec's lumped base mass (base, casters, point masses) + added_mass_kg
 base_yaw_inertia | added_yaw_inertia_kgm2 | body base_link / inertial diaginertia[2] | body base_link body_inertia 2 | the spec's lumped base izz + added_yaw_inertia_kgm2
 speed_loop_gain | motor_gain_nms_per_rad | actuator velocity wheel_*_speed / kv | actuator wheel_left_speed,wheel_right_speed actuator_gainprm 0 | torque K (ctrl - wheel speed); biasprm[2] = -K
-wheel_speed_cap | wheel_speed_max_radps | actuator velocity wheel_*_speed / ctrlrange | actuator wheel_left_speed,wheel_right_speed actuator_ctrlrange 1 | the speed target's range +-cap (MujocoDrive scales both targets together)
+wheel_speed_cap | wheel_speed_max_radps | actuator velocity wheel_*_speed / ctrlrange | actuator wheel_left_speed,wheel_right_speed actuator_ctrlrange 1 | the speed target's range +-cap (MujocoDrive scales both targets together or clips each, by wheel_cap_per_side)
 wheel_torque_cap | wheel_torque_max_nm | joint wheel_*_joint / actuatorfrcrange | joint wheel_left_joint,wheel_right_joint jnt_actfrcrange 1 | +-cap on the sum of the wheel's two actuators, at most what a tyre carries at MAX_TYRE_FRICTION
 motor_inertia | wheels.spin_inertia_kgm2 | joint wheel_*_joint / armature | joint wheel_left_joint,wheel_right_joint dof_armature 0 | 0: the spec's wheel spin inertia (motor included) is the wheel body's iyy
 forward_viscous | viscous_v_ns_per_m | tendon fixed forward / damping | tendon forward tendon_damping 0 | tendon = (r/2)(q_left + q_right): its rate is v
@@ -249,6 +249,7 @@ _DRIVE_ONLY = (
     ("accel_lim_v_mps2", "rate-limits the reference v"),
     ("accel_lim_w_radps2", "rate-limits the reference w"),
     ("driver_track_factor", "the wheel targets of a (v, w) command"),
+    ("wheel_cap_per_side", "the wheel targets beyond the speed cap: both scaled, or each clipped"),
     ("speed_loop_ki_per_s", "K ki (integrated speed error) on the wheel_*_loop actuators"),
     ("track_factor", "the loops' wheel speeds on the effective track (wheel_*_loop)"),
     ("wheel_stall_torque_nm", "the wheel joints' actfrcrange on the torque-speed line"),

@@ -3,8 +3,8 @@
 The drive model is the chain described in ``shared/notes/drive-model.md``::
 
     command (v, w) -> transport delay -> firmware speed clamp -> velocity smoother
-    (acceleration limits) -> wheel targets (per-wheel speed cap, both wheels scaled
-    together) -> per-wheel PI speed loop with torque saturation -> base
+    (acceleration limits) -> wheel targets (per-wheel speed cap: both wheels scaled
+    together, or each clipped on its own) -> per-wheel PI speed loop with torque saturation -> base
     dynamics with mass, yaw inertia, Coulomb and viscous friction -> measured (v, w)
 
 The same :class:`DriveParams` drive the numpy/numba reduced model (:mod:`robots.reduced`)
@@ -149,8 +149,8 @@ class DriveParams:
     accel_lim_v_mps2, accel_lim_w_radps2 : float
         Velocity-smoother rate limits on the reference, m/s^2 and rad/s^2 (inf = none).
     wheel_speed_max_radps : float
-        Per-wheel speed cap, rad/s; when a wheel target exceeds it both targets are scaled
-        together (curvature kept).
+        Per-wheel speed cap, rad/s; what the driver does with a wheel target beyond it is
+        ``wheel_cap_per_side``.
     motor_gain_nms_per_rad : float
         Proportional gain K of each wheel's speed loop, N m s/rad.
     speed_loop_ki_per_s : float
@@ -189,6 +189,12 @@ class DriveParams:
         wheel targets (ROS ``diff_drive_controller``'s ``wheel_separation_multiplier``: 1.875
         on the Husky); a driver setting, not fitted. A yaw command w then turns the base at
         about ``w * driver_track_factor / track_factor``.
+    wheel_cap_per_side : float
+        How the driver holds the wheel targets to ``wheel_speed_max_radps`` (a driver
+        setting, not fitted): 0, it scales both targets by one factor when either exceeds
+        the cap, keeping the turn's curvature (Clearpath's ``husky_base``
+        ``limitDifferentialSpeed``; the Neato driver); 1, it clips each side's target at the
+        cap on its own, so a turn beyond the cap loses yaw rate to the outer side alone.
     """
 
     delay_s: float = 0.0
@@ -212,6 +218,7 @@ class DriveParams:
     added_yaw_inertia_kgm2: float = 0.0
     track_factor: float = 1.0
     driver_track_factor: float = 1.0
+    wheel_cap_per_side: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -361,6 +368,9 @@ class FieldSchema:
         for ``log``).
     fit_step : float
         Finite-difference step of the internal coordinate.
+    choices : tuple of float
+        The only values a mode field takes (a driver's mode, coded as a number); () = any
+        value the other rules allow.
     """
 
     name: str
@@ -379,6 +389,7 @@ class FieldSchema:
     fit_kind: str = "lin"
     fit_range: tuple[float, float] | None = None
     fit_step: float = 1e-3
+    choices: tuple[float, ...] = ()
 
     @property
     def per_field(self) -> str | None:
@@ -779,6 +790,19 @@ SCHEMA: dict[str, FieldSchema] = {
             session_sd=_abs(0.0),
             doc="the driver's track multiplier for its wheel targets (a driver setting)",
         ),
+        _field(
+            "wheel_cap_per_side",
+            "1",
+            "nonneg",
+            "lin",
+            (0.0, 1.0),
+            fittable=False,
+            prior_sd=_abs(0.0),
+            session_sd=_abs(0.0),
+            choices=(0.0, 1.0),
+            doc="the driver clips each wheel's target at the speed cap on its own (1) or "
+            "scales both together (0; a driver setting)",
+        ),
     )
 }
 
@@ -922,6 +946,11 @@ def _check_value(name: str, value: float) -> None:
     if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
         raise RobotsValueError(f"drive parameter '{name}' must be a number, got {value!r}")
     rule = SCHEMA[name]
+    if rule.choices and value not in rule.choices:
+        raise RobotsValueError(
+            f"drive parameter '{name}' must be one of {[_plain(c) for c in rule.choices]} "
+            f"({rule.doc}), got {value!r}"
+        )
     if math.isinf(value) and not (rule.may_be_inf and value > 0):
         raise RobotsValueError(
             f"drive parameter '{name}' must be finite, got {value!r}; give a finite value"
@@ -935,6 +964,11 @@ def _check_value(name: str, value: float) -> None:
         raise RobotsValueError(
             f"drive parameter '{name}' must be >= 0 (non-physical otherwise), got {value!r}"
         )
+
+
+def _plain(x: float) -> float | int:
+    """A whole number as an int (how a mode's choices read in a message)."""
+    return int(x) if float(x).is_integer() else x
 
 
 @dataclass(frozen=True, kw_only=True)

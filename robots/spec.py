@@ -610,9 +610,16 @@ def _point(s: Section) -> PointMass:
     return p
 
 
+#: Drive keys a spec may leave out: their default is what most drivers do (both wheel
+#: targets scaled together at the speed cap).
+_OPTIONAL_DRIVE_KEYS = frozenset({"wheel_cap_per_side"})
+
+
 def _drive(s: Section) -> DriveParams:
     values: dict[str, Any] = {}
     for name in DriveParams.names():
+        if name in _OPTIONAL_DRIVE_KEYS and name not in s.data:
+            continue
         # the DriveParams validation below gives the rule; here only "is it a number"
         values[name] = s.number(name, allow_inf=True) if name in s.data else s.raw(name)
     s.finish()

@@ -32,10 +32,13 @@ from dataclasses import dataclass
 
 from robots.errors import RobotsValueError
 
-__all__ = ["DRIVES", "NewRobot", "spec_text"]
+__all__ = ["DRIVES", "WHEEL_CAPS", "NewRobot", "spec_text"]
 
 #: ``--drive`` choices: differential drive, skid steer.
 DRIVES = ("diff", "skid")
+#: ``--wheel-cap`` choices: how the driver holds wheel targets to the speed cap (both scaled
+#: together, or each clipped on its own; ``robots.params.DriveParams.wheel_cap_per_side``).
+WHEEL_CAPS = ("joint", "per-side")
 _G = 9.81
 _SKID_CHI = 1.6  # prior track factor of a skid steer (see _render)
 
@@ -56,6 +59,7 @@ class NewRobot:
     footprint_radius_m: float
     drive: str
     driver_track_factor: float
+    wheel_cap: str
     given: frozenset[str]
 
     @classmethod
@@ -71,13 +75,15 @@ class NewRobot:
         footprint_radius_m: float | None = None,
         drive: str = "diff",
         driver_track_factor: float | None = None,
+        wheel_cap: str | None = None,
     ) -> NewRobot:
         """Fill the facts not given (see the module docstring for the rules).
 
         ``driver_track_factor`` is the driver's ``wheel_separation_multiplier`` (its wheel
         targets use that many times the geometric track; Clearpath's Husky driver ships 1.875,
         the Jackal's 1.5); when not given: 1 for a differential drive, the skid prior (1.6)
-        for a skid steer.
+        for a skid steer. ``wheel_cap`` (one of :data:`WHEEL_CAPS`) is how the driver holds the
+        wheel targets to the speed cap; when not given, ``joint`` (both scaled together).
         """
         facts = {
             "wheel_separation_m": wheel_separation_m,
@@ -89,6 +95,11 @@ class NewRobot:
             "driver_track_factor": driver_track_factor,
         }
         _check_facts(name, drive, facts)
+        if wheel_cap is not None and wheel_cap not in WHEEL_CAPS:
+            raise RobotsValueError(
+                f"wheel_cap must be one of {list(WHEEL_CAPS)}, got {wheel_cap!r}; 'per-side' "
+                "when the driver clips each wheel's target at the cap on its own"
+            )
         b = wheel_separation_m
         r = wheel_radius_m or 0.2 * b
         v = max_speed_mps or 0.5
@@ -110,7 +121,11 @@ class NewRobot:
             footprint_radius_m=footprint_radius_m or max(0.7 * b, min_footprint),
             drive=drive,
             driver_track_factor=driver_track_factor or (_SKID_CHI if drive == "skid" else 1.0),
-            given=frozenset(k for k, val in facts.items() if val is not None),
+            wheel_cap=wheel_cap or "joint",
+            given=frozenset(
+                [k for k, val in facts.items() if val is not None]
+                + (["wheel_cap"] if wheel_cap is not None else [])
+            ),
         )
 
 
@@ -354,8 +369,7 @@ def _drive_lines(robot: NewRobot, d: _Derived) -> list[str]:
         f"{'given top yaw rate' if 'max_turn_rate_radps' in given else 'the wheel cap limits it'}",
         "  accel_lim_v_mps2: .inf  # prior: no velocity smoother known",
         "  accel_lim_w_radps2: .inf",
-        f"  wheel_speed_max_radps: {_g(v / r)}  # top speed / r; a command beyond it scales both"
-        " wheels together (as most drivers do), keeping the turn radius",
+        f"  wheel_speed_max_radps: {_g(v / r)}  # top speed / r",
         f"  motor_gain_nms_per_rad: {_g(d.k_motor)}  # prior: speed-loop time constant 0.1 s,"
         " K = m_eff r^2 / (2 T)",
         "  speed_loop_ki_per_s: 0.0  # a P loop until sysid identifies the integral term",
@@ -372,6 +386,22 @@ def _drive_lines(robot: NewRobot, d: _Derived) -> list[str]:
         "  added_yaw_inertia_kgm2: 0.0",
         f"  track_factor: {_g(chi)}  # prior: {chi_rule}",
         f"  driver_track_factor: {_g(robot.driver_track_factor)}  # {driver_rule}",
+        *_wheel_cap_lines(robot),
+    ]
+
+
+def _wheel_cap_lines(robot: NewRobot) -> list[str]:
+    per_side = robot.wheel_cap == "per-side"
+    how = (
+        "the driver clips each wheel's target at the cap on its own"
+        if per_side
+        else "a command beyond the cap scales both wheel targets together, keeping the turn "
+        "radius (as most drivers do: Clearpath's husky_base, the Neato's)"
+    )
+    source = "given" if "wheel_cap" in robot.given else "prior"
+    return [
+        f"  wheel_cap_per_side: {1 if per_side else 0}  # {source}: {how}; a driver setting "
+        "(--wheel-cap)",
     ]
 
 
@@ -409,6 +439,7 @@ def _prior_lines(robot: NewRobot, d: _Derived) -> list[str]:
         f"  track_factor: {{sd: {0.3 if skid else 0.0}, session_sd: {0.1 if skid else 0.0}}}  "
         f"# {'1.2-2.5, the surface changes it' if skid else 'a differential drive: exactly 1'}",
         "  driver_track_factor: {sd: 0.0, session_sd: 0.0}  # a driver setting: edit it above",
+        "  wheel_cap_per_side: {sd: 0.0, session_sd: 0.0}  # a driver setting: edit it above",
     ]
 
 

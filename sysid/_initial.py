@@ -199,19 +199,24 @@ def _references(
     geometry: BaseGeometry,
 ) -> dict[str, FloatArray]:
     """Wheel-loop references on the sample grid: delayed command -> clamp -> rate limit ->
-    per-wheel speed cap (both wheels scaled together), as in the drive chain."""
+    per-wheel speed cap (both wheels scaled together, or each clipped on its own), as in the
+    drive chain."""
     ref = {}
     for axis, lim in (("v", params.speed_lim_v_mps), ("w", params.speed_lim_w_radps)):
         cmd = log.cmd_v if axis == "v" else log.cmd_w
         u = np.clip(held_command(log.cmd_t_s, cmd, t - delay_s), -lim, lim)
         ref[axis] = _rate_limited(t, u, acc.get(axis, math.inf))
     cap = params.wheel_speed_max_radps
-    if math.isfinite(cap):
-        half, r = 0.5 * geometry.wheel_separation_m, geometry.wheel_radius_m
-        peak = (np.abs(ref["v"]) + np.abs(ref["w"]) * half) / r
-        scale = np.where(peak > cap, cap / np.maximum(peak, 1e-12), 1.0)
-        ref = {k: v * scale for k, v in ref.items()}
-    return ref
+    if not math.isfinite(cap):
+        return ref
+    half, r = 0.5 * geometry.wheel_separation_m, geometry.wheel_radius_m
+    if params.wheel_cap_per_side:
+        right = np.clip((ref["v"] + ref["w"] * half) / r, -cap, cap)
+        left = np.clip((ref["v"] - ref["w"] * half) / r, -cap, cap)
+        return {"v": 0.5 * r * (right + left), "w": 0.5 * r * (right - left) / half}
+    peak = (np.abs(ref["v"]) + np.abs(ref["w"]) * half) / r
+    scale = np.where(peak > cap, cap / np.maximum(peak, 1e-12), 1.0)
+    return {k: v * scale for k, v in ref.items()}
 
 
 def _regress(

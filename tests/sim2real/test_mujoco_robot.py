@@ -127,6 +127,26 @@ def test_skid_steer_turns_on_its_effective_track(new_robots: dict[str, Path]) ->
     assert mv[1] == pytest.approx(ref.v[1], rel=0.03)
 
 
+def test_skid_steer_clips_each_side_at_the_cap(new_robots: dict[str, Path]) -> None:
+    """wheel_cap_per_side: the MuJoCo drive clips each wheel target on its own, as the kernel."""
+    from sim2real.mujoco import MujocoRobot
+
+    spec = load_spec(new_robots["husky"])
+    t = np.arange(0.0, 4.0, 0.1)
+    t_out = np.array([0.0, 3.5])
+    # both wheel targets near the cap (14 and 6 rad/s against 10): clipped, the turn slows
+    args = {"cmd_t_s": t, "cmd_v": np.full(t.size, 1.0), "cmd_w": np.full(t.size, 1.0)}
+    out = {}
+    for mode in (0.0, 1.0):
+        params = spec.drive.replace(wheel_cap_per_side=mode, accel_lim_w_radps2=6.0)
+        mv, mw = MujocoRobot(spec, params).replay(tuple(args.values()), t_out)
+        ref = simulate(params, spec.geometry, t_out_s=t_out, **args)
+        assert mw[1] == pytest.approx(ref.w[1], rel=0.03), mode
+        assert mv[1] == pytest.approx(ref.v[1], rel=0.03), mode
+        out[mode] = ref.w[1]
+    assert out[0.0] - out[1.0] > 0.15  # the modes part far beyond the 3 % tolerance
+
+
 def test_ensemble_member_is_a_field_edit() -> None:
     from sim2real.mujoco import MujocoRobot
 

@@ -143,6 +143,12 @@ def _register_new(group_sub: argparse._SubParsersAction) -> None:  # type: ignor
         help="the driver's wheel_separation_multiplier (e.g. 1.875 for a Husky; default 1 for "
         "diff, 1.6 for skid)",
     )
+    new.add_argument(
+        "--wheel-cap",
+        choices=("joint", "per-side"),
+        help="how the driver holds wheel targets to the speed cap: 'joint' scales both together "
+        "(default; most drivers), 'per-side' clips each wheel's target on its own",
+    )
     new.add_argument("--force", action="store_true", help="overwrite an existing output file")
     new.set_defaults(handler="robots:handle_new")
 
