@@ -10,7 +10,9 @@ absent). Per base, as a new user would work (the public CLI: ``robots new``, ``s
 - TurtleBot3 Waffle Pi with an arm (shipped spec): fit the first half, check the second.
 - Husky A200, wheels lifted (``robots new --drive skid``, 0.538 m, r 0.15875 m; MuJoCo as
   ``mujoco-lifted``): fit the first half of session a, calibrate on its second half, check b.
-- Warthog (``--drive skid``, 1.08 m, r 0.3 m): fit up to 28 s (the middle of the driving),
+- Warthog (``--drive skid``, 1.08 m, r 0.3 m, ``--driver-track-factor 1 --wheel-cap
+  per-side``: its encoders read each side's commanded wheel speed on the 1.08 m track, clipped
+  on its own at ~13.1 rad/s): fit up to 28 s (the middle of the driving),
   check 28-40 s (the rest of the driving: after 40 s the driver holds a command with the
   wheels stopped).
 
@@ -123,7 +125,13 @@ BASES = (
     ),
     Base(
         name="warthog",
-        spec=("--wheel-separation", "1.08", "--wheel-radius", "0.3", "--drive", "skid"),
+        spec=(
+            *("--wheel-separation", "1.08", "--wheel-radius", "0.3", "--drive", "skid"),
+            # the recording's driver: its encoders read the commanded wheel speeds of the
+            # geometric track (left 10.70 rad/s at -3.72 m/s, -0.95 rad/s), each clipped on its
+            # own at ~13.1 rad/s (right 14.11 -> 13.07)
+            *("--driver-track-factor", "1", "--wheel-cap", "per-side"),
+        ),
         fit="warthog_close/trace.csv",
         fit_window="0:28",
         checks=("warthog_close/trace.csv@28:40",),
