@@ -513,6 +513,13 @@ def _field(
     )
 
 
+def _mode(name: str, doc: str, choices: tuple[float, ...] = (0.0, 1.0)) -> FieldSchema:
+    """A driver's mode, coded as one of ``choices``: set in the spec, never fitted or spread."""
+    kw: dict[str, Any] = {"prior_sd": _abs(0.0), "session_sd": _abs(0.0), "fittable": False}
+    return _field(name, "1", "nonneg", "lin", (min(choices), max(choices)), choices=choices,
+                  doc=doc, **kw)  # fmt: skip
+
+
 #: The drive-parameter schema, one entry per :class:`DriveParams` field in declaration order.
 #: Generic priors (used when a spec has no ``priors`` entry): typical command latencies are
 #: 0.05-0.3 s (Liang et al. 2020; GitHub yujinrobot/kobuki issue #389: ~0.2 s), so the delay
@@ -790,18 +797,10 @@ SCHEMA: dict[str, FieldSchema] = {
             session_sd=_abs(0.0),
             doc="the driver's track multiplier for its wheel targets (a driver setting)",
         ),
-        _field(
+        _mode(
             "wheel_cap_per_side",
-            "1",
-            "nonneg",
-            "lin",
-            (0.0, 1.0),
-            fittable=False,
-            prior_sd=_abs(0.0),
-            session_sd=_abs(0.0),
-            choices=(0.0, 1.0),
-            doc="the driver clips each wheel's target at the speed cap on its own (1) or "
-            "scales both together (0; a driver setting)",
+            "the driver clips each wheel's target at the speed cap on its own (1) or scales "
+            "both together (0; a driver setting)",
         ),
     )
 }
