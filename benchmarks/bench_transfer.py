@@ -71,6 +71,9 @@ BUDGETS = {
     "smoke": {"sessions": 3, "session_s": 30.0, "timesteps": 1024, "seeds": [0]},
 }
 CONDITIONS = ("spec", "fitted", "calibrated DR", "blind DR")
+#: ``burger_stop``'s time limit in 0.1 s steps: 1.5 m at 0.22 m/s is 6.8 s, a half turn at
+#: 2.84 rad/s 1.1 s more: 10.5 s leaves 2.6 s for accelerating, braking and aiming.
+BURGER_STOP_STEPS = 105
 #: ``--gap``: tasks on which the spec-defaults policy is probed, as env kwargs. ``kobuki``: a
 #: TurtleBot 2 at its 0.7 m/s top speed to a goal 3 m away through 2-6 cylinders in 12 s
 #: (2.8 times the straight line at top speed). ``kobuki_stop``: the same base to a stop
@@ -116,6 +119,24 @@ GAP_TASKS: dict[str, dict[str, Any]] = {
         "goal_speed_mps": 0.05,
         "reward": {"goal_speed_per_mps": 5.0, "goal_speed_radius_m": 1.0},
     },
+    "burger_stop": {
+        "map_config": {
+            **COURSE,
+            "d_target_m": 1.5,
+            "n_min": 0,
+            "n_max": 0,
+            "goal_tolerance_m": 0.05,
+        },
+        "max_episode_steps": BURGER_STOP_STEPS,
+        "action_limits": "robot",
+        "goal_speed_mps": 0.05,
+        "goal_range_m": 2.5,
+    },
+}
+#: ``--gap``: training curricula of the stop tasks (config key ``curriculum``): any speed below
+#: 0.3 m/s inside 0.3 m first, the task's own criteria from 60 % of the timesteps on.
+GAP_CURRICULA: dict[str, dict[str, float]] = {
+    "burger_stop": {"goal_speed_mps": 0.3, "goal_tolerance_m": 0.3, "until": 0.6},
 }
 #: ``--gap``: PPO settings of the top-speed tasks (longer rollouts, a smaller step and a longer
 #: horizon than the smoke-tuned ones, which stop moving at the Kobuki's top speed).
@@ -128,22 +149,40 @@ TOP_SPEED_PPO: dict[str, Any] = {
     "gae_lambda": 0.95,
     "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -0.5},
 }
-GAP_PPO: dict[str, dict[str, Any]] = {"kobuki_fast": TOP_SPEED_PPO, "kobuki_stop": TOP_SPEED_PPO}
-#: ``--gap``: plant session distributions (the default one, then one factor pushed further).
+GAP_PPO: dict[str, dict[str, Any]] = {
+    "kobuki_fast": TOP_SPEED_PPO,
+    "kobuki_stop": TOP_SPEED_PPO,
+    "burger_stop": TOP_SPEED_PPO,
+}
+#: ``--gap``: plant session distributions (the default one, then one factor pushed further, then
+#: the command latency real bases show: 0.10-0.23 s on the TurtleBot3 and Neato recordings of
+#: the development set, against 0.05 s in the TurtleBot3 specs).
+REAL_LATENCY = SessionVariation(latency_s=(0.10, 0.23))
 GAP_SESSIONS = {
     "plant": SessionVariation(),
+    "plant, latency 0.10-0.23 s": REAL_LATENCY,
     "plant, latency 0.15-0.25 s": SessionVariation(latency_s=(0.15, 0.25)),
     "plant, latency 0.2-0.3 s": SessionVariation(latency_s=(0.2, 0.3)),
     "plant, payload 1-2x": SessionVariation(payload_fraction=(1.0, 2.0)),
+}
+#: ``--task``: the experiment's task (env kwargs) and the plant sessions that stand in for the
+#: user's robot (recorded for sysid and evaluated on). ``course``: the Burger's course above on
+#: the default sessions; ``burger_stop``: the stop at the goal of ``GAP_TASKS`` on sessions
+#: with the command latency of real bases.
+TASKS: dict[str, tuple[dict[str, Any], SessionVariation]] = {
+    "course": ({"map_config": COURSE, "max_episode_steps": MAX_STEPS}, SessionVariation()),
+    "burger_stop": (GAP_TASKS["burger_stop"], REAL_LATENCY),
 }
 PLANT_SEED0 = 800_000
 SIM_SEED0 = 900_000
 
 
-def record_sessions(out: Path, n: int, duration_s: float) -> list[Path]:
+def record_sessions(
+    out: Path, n: int, duration_s: float, variation: SessionVariation
+) -> list[Path]:
     """``sysid plan``'s script played on ``n`` plant sessions (seeds 0..n-1), as MCAP logs."""
     plan = write_plan(out / "excite.mcap", ROBOT, duration_s=duration_s)
-    sessions = PlantSessions.of(ROBOT)
+    sessions = PlantSessions.of(ROBOT, variation=variation)
     paths = []
     for i in range(n):
         trace = record_plan(plan, sessions, seed=i, name=f"session_{i}")
@@ -181,9 +220,10 @@ def blind_params(out: Path, fitted: Path) -> Path:
     return path
 
 
-def conditions(fitted: Path, calibrated: Path, blind: Path) -> dict[str, tuple[dict, Any]]:
-    """Condition -> (env kwargs, randomizer stack) to train in."""
-    base: dict[str, Any] = {"map_config": COURSE, "max_episode_steps": MAX_STEPS}
+def conditions(
+    fitted: Path, calibrated: Path, blind: Path, base: dict[str, Any]
+) -> dict[str, tuple[dict, Any]]:
+    """Condition -> (env kwargs, randomizer stack) to train in (``base``: the task's kwargs)."""
     noise = DriveDistribution.from_params_file(calibrated, robot=ROBOT).noise
 
     def dr(path: Path, std: list[float]) -> dict[str, Any]:
@@ -201,7 +241,13 @@ def conditions(fitted: Path, calibrated: Path, blind: Path) -> dict[str, tuple[d
 
 
 def train_run(
-    out: Path, kwargs: dict, stack: Any, seed: int, timesteps: int, ppo: dict | None = None
+    out: Path,
+    kwargs: dict,
+    stack: Any,
+    seed: int,
+    timesteps: int,
+    ppo: dict | None = None,
+    curriculum: dict | None = None,
 ) -> Path:
     """Train one model into ``out`` (skipped when it exists); its model.zip."""
     if not (out / "model.zip").is_file():
@@ -218,6 +264,7 @@ def train_run(
                 "out": str(out),
                 "evaluation": {"episodes": 0},
                 "normalize": {"observations": True, "actions": True, "rewards": False},
+                "curriculum": curriculum,
             }
         )
         train(cfg)
@@ -237,37 +284,49 @@ def table(rows: dict[str, dict[str, list[Any]]], header: str) -> str:
     lines = [
         header,
         "",
-        f"| condition | world | {POOLED_HEADER} | time to goal s |",
-        "|---|---|---|---|---|---|",
+        f"| condition | world | {POOLED_HEADER} | overshoot pooled | time to goal s |",
+        "|---|---|---|---|---|---|---|",
     ]
     for key, row in rows.items():
         name, world = key.split("@")
         times = [t for t in row["time"] if t == t]
         ttg = f"{sum(times) / len(times):.2f}" if times else "n/a"
-        lines.append(f"| {name} | {world} | {pooled_cells(row)} | {ttg} |")
+        over = f"{sum(row['overshoot'])}/{sum(row['n'])}" if "overshoot" in row else "n/a"
+        lines.append(f"| {name} | {world} | {pooled_cells(row)} | {over} | {ttg} |")
     return "\n".join(lines)
 
 
-def gap_probe(out: Path, task: str, timesteps: int, episodes: int) -> str:
-    """The spec-defaults policy of ``task`` (seed 0) in its sim and on plant sessions."""
+def gap_probe(out: Path, task: str, timesteps: int, episodes: int, seeds: list[int]) -> str:
+    """The spec-defaults policy of ``task`` (one per seed) in its sim and on plant sessions."""
     kwargs = GAP_TASKS[task]
-    model = train_run(out / f"gap_{task}", kwargs, None, 0, timesteps, GAP_PPO.get(task))
+    runs = [out / f"gap_{task}" if seed == 0 else out / f"gap_{task}_seed{seed}" for seed in seeds]
+    models = [
+        train_run(run, kwargs, None, seed, timesteps, GAP_PPO.get(task), GAP_CURRICULA.get(task))
+        for run, seed in zip(runs, seeds, strict=True)
+    ]
     robot = kwargs.get("robot", ROBOT)
     worlds: dict[str, dict[str, Any]] = {"sim": kwargs}
     for name, variation in GAP_SESSIONS.items():
         sessions = PlantSessions.of(robot, variation=variation)
         worlds[name] = {**kwargs, "dynamics": "plant", "plant_sessions": sessions}
     rows: dict[str, dict[str, list[Any]]] = {}
-    for world, kw in worlds.items():  # the same maps (seeds) in every world
-        s = evaluate(model, kw, None, episodes, PLANT_SEED0)
-        row = rows.setdefault(f"spec@{world}", {})
-        add_outcomes(row, s)
-        row["time"] = [s.means["time_to_goal_s"]]
+    for model in models:
+        for world, kw in worlds.items():  # the same maps (seeds) in every world
+            s = evaluate(model, kw, None, episodes, PLANT_SEED0)
+            row = rows.setdefault(f"spec@{world}", {})
+            add_outcomes(row, s)
+            row.setdefault("time", []).append(s.means["time_to_goal_s"])
+            row.setdefault("overshoot", []).append(round(s.overshoot_rate * s.episodes))
+    curriculum = f", curriculum {GAP_CURRICULA[task]}" if task in GAP_CURRICULA else ""
     header = (
-        f"gap probe, task {task} ({kwargs}): PPO spec defaults, {timesteps} env steps, seed 0; "
-        f"{episodes} episodes per world, seeds {PLANT_SEED0}.. (the same maps in every world)"
+        f"gap probe, task {task} ({kwargs}): PPO spec defaults{curriculum}, {timesteps} env "
+        f"steps, seeds {seeds}; {episodes} episodes per world and seed, seeds {PLANT_SEED0}.. "
+        "(the same maps in every world)"
     )
-    curve = learning_curve(out / f"gap_{task}" / "episodes.csv", max(timesteps // 10, 1))
+    curve = "; ".join(
+        f"seed {seed}: " + learning_curve(run / "episodes.csv", max(timesteps // 10, 1))
+        for run, seed in zip(runs, seeds, strict=True)
+    )
     response = step_response(worlds, sessions=max(2, min(episodes, 20)))
     return (
         f"{table(rows, header)}\n\ntraining success (stochastic actions) per env steps: "
@@ -346,6 +405,12 @@ def main(argv: list[str] | None = None) -> int:
         help="only probe the gap: the spec-defaults policy of this task in its sim and on "
         "plant session distributions",
     )
+    ap.add_argument(
+        "--task",
+        choices=sorted(TASKS),
+        default="course",
+        help="the experiment's task and plant sessions (default course)",
+    )
     ap.add_argument("--out", type=Path, default=Path("bench-transfer"))
     args = ap.parse_args(argv)
     budget = dict(BUDGETS["smoke" if args.smoke else "full"])
@@ -355,22 +420,26 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     if args.gap:
-        text = gap_probe(args.out, args.gap, budget["timesteps"], episodes)
+        seeds = args.seeds or [0]
+        text = gap_probe(args.out, args.gap, budget["timesteps"], episodes, seeds)
         print(text)
         print(f"wall time {time.perf_counter() - t0:.0f} s")
         (args.out / f"gap_{args.gap}.md").write_text(text + "\n")
         return 0
-    logs = record_sessions(args.out, budget["sessions"], budget["session_s"])
+    task, variation = TASKS[args.task]
+    logs = record_sessions(args.out, budget["sessions"], budget["session_s"], variation)
     fitted, calibrated = identify(args.out, logs)
     blind = blind_params(args.out, fitted)
-    plant_kwargs = {"map_config": COURSE, "max_episode_steps": MAX_STEPS, "dynamics": "plant"}
+    sessions = PlantSessions.of(ROBOT, variation=variation)
+    plant_kwargs = {**task, "dynamics": "plant", "plant_sessions": sessions}
+    ppo, curriculum = GAP_PPO.get(args.task), GAP_CURRICULA.get(args.task)
     rows: dict[str, dict[str, list[Any]]] = {}
     for seed in budget["seeds"]:
-        for name, (kwargs, stack) in conditions(fitted, calibrated, blind).items():
+        for name, (kwargs, stack) in conditions(fitted, calibrated, blind, task).items():
             if name not in args.conditions:
                 continue
             run = args.out / f"{name.replace(' ', '_')}_seed{seed}"
-            model = train_run(run, kwargs, stack, seed, budget["timesteps"])
+            model = train_run(run, kwargs, stack, seed, budget["timesteps"], ppo, curriculum)
             for world, kw, st, seed0 in (
                 ("sim", kwargs, stack, SIM_SEED0),
                 ("plant", plant_kwargs, None, PLANT_SEED0),
@@ -379,12 +448,15 @@ def main(argv: list[str] | None = None) -> int:
                 row = rows.setdefault(f"{name}@{world}", {})
                 add_outcomes(row, s)
                 row.setdefault("time", []).append(s.means["time_to_goal_s"])
+                row.setdefault("overshoot", []).append(round(s.overshoot_rate * s.episodes))
                 print(f"{name} seed {seed} {world}: success {s.success_rate:.2f}", flush=True)
     header = (
         f"PPO, {budget['timesteps']} env steps per run, seeds {budget['seeds']}; "
         f"{budget['sessions']} plant sessions of {budget['session_s']:g} s (sysid plan), "
-        f"fit on {max(1, 2 * budget['sessions'] // 3)}, calibrate on the rest; course {COURSE}, "
-        f"{MAX_STEPS} steps; {episodes} evaluation episodes per model and world (sim seeds "
+        f"fit on {max(1, 2 * budget['sessions'] // 3)}, calibrate on the rest; task "
+        f"{args.task} ({task}), plant sessions {variation}"
+        + (f", curriculum {curriculum}" if curriculum else "")
+        + f"; {episodes} evaluation episodes per model and world (sim seeds "
         f"{SIM_SEED0}.., plant seeds {PLANT_SEED0}..)"
     )
     text = table(rows, header)
