@@ -241,13 +241,7 @@ def conditions(
 
 
 def train_run(
-    out: Path,
-    kwargs: dict,
-    stack: Any,
-    seed: int,
-    timesteps: int,
-    ppo: dict | None = None,
-    curriculum: dict | None = None,
+    out: Path, kwargs: dict, stack: Any, seed: int, timesteps: int, task: str = "course"
 ) -> Path:
     """Train one model into ``out`` (skipped when it exists); its model.zip."""
     if not (out / "model.zip").is_file():
@@ -256,7 +250,7 @@ def train_run(
                 "env": {"id": ENV_ID, "kwargs": kwargs},
                 "randomizers": stack,
                 "algorithm": "PPO",
-                "hyperparameters": ppo or HYPERPARAMETERS["PPO"],
+                "hyperparameters": GAP_PPO.get(task, HYPERPARAMETERS["PPO"]),
                 "timesteps": timesteps,
                 "n_envs": 4,
                 "vec_env": "dummy",
@@ -264,7 +258,7 @@ def train_run(
                 "out": str(out),
                 "evaluation": {"episodes": 0},
                 "normalize": {"observations": True, "actions": True, "rewards": False},
-                "curriculum": curriculum,
+                "curriculum": GAP_CURRICULA.get(task),
             }
         )
         train(cfg)
@@ -301,7 +295,7 @@ def gap_probe(out: Path, task: str, timesteps: int, episodes: int, seeds: list[i
     kwargs = GAP_TASKS[task]
     runs = [out / f"gap_{task}" if seed == 0 else out / f"gap_{task}_seed{seed}" for seed in seeds]
     models = [
-        train_run(run, kwargs, None, seed, timesteps, GAP_PPO.get(task), GAP_CURRICULA.get(task))
+        train_run(run, kwargs, None, seed, timesteps, task)
         for run, seed in zip(runs, seeds, strict=True)
     ]
     robot = kwargs.get("robot", ROBOT)
@@ -432,14 +426,14 @@ def main(argv: list[str] | None = None) -> int:
     blind = blind_params(args.out, fitted)
     sessions = PlantSessions.of(ROBOT, variation=variation)
     plant_kwargs = {**task, "dynamics": "plant", "plant_sessions": sessions}
-    ppo, curriculum = GAP_PPO.get(args.task), GAP_CURRICULA.get(args.task)
+    curriculum = GAP_CURRICULA.get(args.task)
     rows: dict[str, dict[str, list[Any]]] = {}
     for seed in budget["seeds"]:
         for name, (kwargs, stack) in conditions(fitted, calibrated, blind, task).items():
             if name not in args.conditions:
                 continue
             run = args.out / f"{name.replace(' ', '_')}_seed{seed}"
-            model = train_run(run, kwargs, stack, seed, budget["timesteps"], ppo, curriculum)
+            model = train_run(run, kwargs, stack, seed, budget["timesteps"], args.task)
             for world, kw, st, seed0 in (
                 ("sim", kwargs, stack, SIM_SEED0),
                 ("plant", plant_kwargs, None, PLANT_SEED0),
