@@ -54,7 +54,8 @@ Reward (constants in :class:`CrowdNavReward`)
     footprint disc and the nearest body; defaults :math:`r_{reach}` = 10, :math:`r_{coll}` =
     10, :math:`k_{prog}` = 2.5 /m, :math:`k_{prox}` = 0.25 with :math:`c_{safe}` = 0.3 m,
     :math:`k_v` = 0.5 s/m, :math:`k_w` = 0.1 s/rad (smoothness, the paper's jerk concern),
-    :math:`r_{step}` = 0.01.
+    :math:`r_{step}` = 0.01. ``reward`` takes a :class:`CrowdNavReward` or a mapping of some
+    of its fields (a YAML config's ``env.kwargs``).
 Outcome
     ``info["outcome"]`` is ``"success"``, ``"collision"`` or ``"timeout"``;
     ``info["metrics"]`` holds the episode metrics (:class:`~sim2real.envs.EpisodeMetrics`).
@@ -73,7 +74,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -83,6 +84,7 @@ from gymnasium import spaces
 from robots.params import DriveParams
 from robots.randomization import DriveDistribution
 from sim2real.envs._nav import NavEnvBase, StepInfo
+from sim2real.envs._reward import reward_constants
 from sim2real.envs.depth import DepthCamera, DepthScene
 from sim2real.envs.geometry import (
     FloatArray,
@@ -190,8 +192,8 @@ class CrowdNavEnv(NavEnvBase):
         Control period, s.
     max_episode_steps : int
         Steps before a timeout (default 600 = 60 s).
-    reward : CrowdNavReward, optional
-        Reward constants.
+    reward : CrowdNavReward or mapping, optional
+        Reward constants (a mapping sets some of the fields).
     drive_params : DriveParams, optional
         Drive parameters (default: the robot spec's).
     drive_distribution : robots.randomization.DriveDistribution, optional
@@ -223,7 +225,7 @@ class CrowdNavEnv(NavEnvBase):
         dynamics: str = "reduced",
         control_dt: float = 0.1,
         max_episode_steps: int = 600,
-        reward: CrowdNavReward | None = None,
+        reward: CrowdNavReward | Mapping[str, Any] | None = None,
         drive_params: DriveParams | None = None,
         drive_distribution: DriveDistribution | None = None,
         drive_spread: float = 1.0,
@@ -282,7 +284,7 @@ class CrowdNavEnv(NavEnvBase):
             rpy_rad=cam.rpy_rad,
             base_height_m=self.robot_spec.base_link_height_m,
         )
-        self.reward_config = reward if reward is not None else CrowdNavReward()
+        self.reward_config = reward_constants(CrowdNavReward, reward, "step_penalty")
         lid = self.robot_spec.lidar
         self.lidar_angles_rad = np.linspace(lid.angle_min_rad, lid.angle_max_rad, lid.beams)
         vmax, wmax = float(self.robot_spec.max_v_mps), float(self.robot_spec.max_w_radps)
