@@ -59,6 +59,7 @@ class NewRobot:
     footprint_radius_m: float
     drive: str
     driver_track_factor: float
+    track_factor: float
     wheel_cap: str
     given: frozenset[str]
 
@@ -75,6 +76,7 @@ class NewRobot:
         footprint_radius_m: float | None = None,
         drive: str = "diff",
         driver_track_factor: float | None = None,
+        track_factor: float | None = None,
         wheel_cap: str | None = None,
     ) -> NewRobot:
         """Fill the facts not given (see the module docstring for the rules).
@@ -82,8 +84,11 @@ class NewRobot:
         ``driver_track_factor`` is the driver's ``wheel_separation_multiplier`` (its wheel
         targets use that many times the geometric track; Clearpath's Husky driver ships 1.875,
         the Jackal's 1.5); when not given: 1 for a differential drive, the skid prior (1.6)
-        for a skid steer. ``wheel_cap`` (one of :data:`WHEEL_CAPS`) is how the driver holds the
-        wheel targets to the speed cap; when not given, ``joint`` (both scaled together).
+        for a skid steer. ``track_factor`` is a skid steer's effective over geometric track as
+        its recordings see it (1 when they read the yaw rate from the wheel encoders, which turn
+        on the geometric track); when not given, the skid prior (1.6). ``wheel_cap`` (one of
+        :data:`WHEEL_CAPS`) is how the driver holds the wheel targets to the speed cap; when not
+        given, ``joint`` (both scaled together).
         """
         facts = {
             "wheel_separation_m": wheel_separation_m,
@@ -95,6 +100,11 @@ class NewRobot:
             "driver_track_factor": driver_track_factor,
         }
         _check_facts(name, drive, facts)
+        if track_factor is not None and not (drive == "skid" and 1.0 <= track_factor <= 4.0):
+            raise RobotsValueError(
+                f"track_factor must be in [1, 4] on a skid steer (--drive skid), got "
+                f"{track_factor!r} on drive {drive!r}; a differential drive's is 1"
+            )
         if wheel_cap is not None and wheel_cap not in WHEEL_CAPS:
             raise RobotsValueError(
                 f"wheel_cap must be one of {list(WHEEL_CAPS)}, got {wheel_cap!r}; 'per-side' "
@@ -121,9 +131,11 @@ class NewRobot:
             footprint_radius_m=footprint_radius_m or max(0.7 * b, min_footprint),
             drive=drive,
             driver_track_factor=driver_track_factor or (_SKID_CHI if drive == "skid" else 1.0),
+            track_factor=track_factor or (_SKID_CHI if drive == "skid" else 1.0),
             wheel_cap=wheel_cap or "joint",
             given=frozenset(
                 [k for k, val in facts.items() if val is not None]
+                + (["track_factor"] if track_factor is not None else [])
                 + (["wheel_cap"] if wheel_cap is not None else [])
             ),
         )
@@ -332,9 +344,12 @@ def _skid_rules(robot: NewRobot) -> tuple[str, str, str]:
     # 1.5 (Jackal) and 1.875 (Husky)); the treads' lateral scrub resists turning with about
     # a tenth of the weight at half the track (differential drive: 1 % for a caster's drag).
     chi_rule = (
-        "skid steer, effective track ~1.6 x the geometric one (Mandow 2007, Clearpath)"
+        "given: the effective / geometric track the recordings see (1 when they read the yaw "
+        "rate from the wheel encoders)"
+        if "track_factor" in robot.given
+        else "prior: skid steer, effective track ~1.6 x the geometric one (Mandow 2007, Clearpath)"
         if skid
-        else "differential drive, the wheels roll without lateral slip"
+        else "prior: differential drive, the wheels roll without lateral slip"
     )
     driver_rule = (
         "given: the driver's wheel_separation_multiplier"
@@ -356,7 +371,7 @@ def _skid_rules(robot: NewRobot) -> tuple[str, str, str]:
 def _drive_lines(robot: NewRobot, d: _Derived) -> list[str]:
     r, m, v, w = robot.wheel_radius_m, robot.mass_kg, robot.max_speed_mps, robot.max_turn_rate_radps
     given, skid = robot.given, robot.drive == "skid"
-    chi = _SKID_CHI if skid else 1.0
+    chi = robot.track_factor
     scrub = (0.1 if skid else 0.01) * m * _G * robot.wheel_separation_m / 2
     chi_rule, driver_rule, scrub_rule = _skid_rules(robot)
     return [
@@ -384,7 +399,7 @@ def _drive_lines(robot: NewRobot, d: _Derived) -> list[str]:
         f"  viscous_w_nms_per_rad: {_g(0.1 * d.i_eff)}  # prior: 0.1 /s of the yaw inertia",
         "  added_mass_kg: 0.0",
         "  added_yaw_inertia_kgm2: 0.0",
-        f"  track_factor: {_g(chi)}  # prior: {chi_rule}",
+        f"  track_factor: {_g(chi)}  # {chi_rule}",
         f"  driver_track_factor: {_g(robot.driver_track_factor)}  # {driver_rule}",
         *_wheel_cap_lines(robot),
     ]
@@ -436,11 +451,24 @@ def _prior_lines(robot: NewRobot, d: _Derived) -> list[str]:
         f"  added_mass_kg: {{sd: {0.3 if 'mass_kg' in given else 0.7}, session_sd: 0.1}}"
         "  # payload; a factor 2 when the mass was not given",
         "  added_yaw_inertia_kgm2: {sd: 0.7, session_sd: 0.15}  # body shape is a guess",
-        f"  track_factor: {{sd: {0.3 if skid else 0.0}, session_sd: {0.1 if skid else 0.0}}}  "
-        f"# {'1.2-2.5, the surface changes it' if skid else 'a differential drive: exactly 1'}",
+        f"  track_factor: {{sd: {_track_sd(robot)}, session_sd: {0.1 if skid else 0.0}}}  "
+        f"# {_track_note(robot)}",
         "  driver_track_factor: {sd: 0.0, session_sd: 0.0}  # a driver setting: edit it above",
         "  wheel_cap_per_side: {sd: 0.0, session_sd: 0.0}  # a driver setting: edit it above",
     ]
+
+
+def _track_note(robot: NewRobot) -> str:
+    if robot.drive != "skid":
+        return "a differential drive: exactly 1"
+    return "given (narrow)" if "track_factor" in robot.given else "1.2-2.5, the surface changes it"
+
+
+def _track_sd(robot: NewRobot) -> float:
+    """The track factor's prior sd: 0 on a differential drive, narrow when given."""
+    if robot.drive != "skid":
+        return 0.0
+    return 0.1 if "track_factor" in robot.given else 0.3
 
 
 def _sensor_lines(d: _Derived) -> list[str]:

@@ -64,6 +64,7 @@ def handle_new(args: argparse.Namespace) -> int:
         footprint_radius_m=args.footprint_radius,
         drive=args.drive,
         driver_track_factor=args.driver_track_factor,
+        track_factor=args.track_factor,
         wheel_cap=args.wheel_cap,
     )
     out = Path(args.out or f"{args.name}.yaml")

@@ -95,6 +95,19 @@ def test_driver_track_factor_is_the_drivers_multiplier(
     assert check_spec(spec, drive_test=False).passed
 
 
+@pytest.mark.parametrize("given", [None, 1.0, 2.2])
+def test_track_factor_given_centres_a_narrow_prior(given: float | None, tmp_path: Path) -> None:
+    """A skid steer whose recordings read the yaw rate from its encoders sees the geometric
+    track (``--track-factor 1``): the prior is centred there, narrow as a given number's."""
+    text = spec_text("b", wheel_separation_m=1.08, drive="skid", track_factor=given)
+    spec = load_spec(_write(tmp_path, text))
+    prior = spec.priors["track_factor"]
+    assert spec.drive.track_factor == prior.nominal == (given or 1.6)
+    assert prior.sd == (0.3 if given is None else 0.1)
+    line = next(ln for ln in text.splitlines() if ln.strip().startswith("track_factor: "))
+    assert ("given" in line) is (given is not None), line
+
+
 @pytest.mark.parametrize(
     ("kw", "match"),
     [
@@ -104,6 +117,9 @@ def test_driver_track_factor_is_the_drivers_multiplier(
         ({"wheel_separation_m": 0.3, "drive": "tank"}, "drive must be one of"),
         ({"wheel_separation_m": 0.3, "driver_track_factor": 0.1}, "must be in \\[0.5, 5\\]"),
         ({"wheel_separation_m": 0.3, "driver_track_factor": math.inf}, "driver_track_factor"),
+        ({"wheel_separation_m": 0.3, "track_factor": 1.2}, "on drive 'diff'"),
+        ({"wheel_separation_m": 0.3, "drive": "skid", "track_factor": 0.8}, "in \\[1, 4\\]"),
+        ({"wheel_separation_m": 0.3, "wheel_cap": "each"}, "wheel_cap must be one of"),
     ],
 )
 def test_new_refuses_bad_numbers(kw: dict, match: str) -> None:

@@ -144,6 +144,13 @@ def _register_new(group_sub: argparse._SubParsersAction) -> None:  # type: ignor
         "diff, 1.6 for skid)",
     )
     new.add_argument(
+        "--track-factor",
+        type=float,
+        metavar="X",
+        help="skid steer: effective / geometric track as the recordings see it (default prior "
+        "1.6; 1 when they read the yaw rate from the wheel encoders)",
+    )
+    new.add_argument(
         "--wheel-cap",
         choices=("joint", "per-side"),
         help="how the driver holds wheel targets to the speed cap: 'joint' scales both together "
