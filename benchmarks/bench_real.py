@@ -131,6 +131,8 @@ BASES = (
             # geometric track (left 10.70 rad/s at -3.72 m/s, -0.95 rad/s), each clipped on its
             # own at ~13.1 rad/s (right 14.11 -> 13.07)
             *("--driver-track-factor", "1", "--wheel-cap", "per-side"),
+            # its yaw rate is read from the wheel encoders, which turn on the geometric track
+            *("--track-factor", "1"),
         ),
         fit="warthog_close/trace.csv",
         fit_window="0:28",

@@ -178,8 +178,9 @@ def beyond_spec_notes(pieces: Sequence[Trace | LogArrays], spec: RobotSpec) -> l
     """A note for each axis on which the logs measure the robot well beyond its spec's top speed.
 
     The spec's top speeds (``limits.max_v_mps``, ``limits.max_w_radps``, and the wheel speed
-    cap derived from them) are priors the fit moves only as far as their spread allows; a
-    robot measured at
+    cap derived from them) are priors; the fit centres the wheel speed cap's prior on the
+    measured speeds when they exceed it this far, but the spec's limits and what derives from
+    them stay. A robot measured at
     :data:`BEYOND_SPEC_FACTOR` times the cap or more (99th percentile of the measured speed,
     so single odometry spikes do not count) tells that the spec's number is wrong, not the
     robot. The note says what to set.
@@ -208,8 +209,9 @@ def beyond_spec_notes(pieces: Sequence[Trace | LogArrays], spec: RobotSpec) -> l
         if top >= BEYOND_SPEC_FACTOR * cap:
             notes.append(
                 f"the logs measure {axis} up to {top:.3g} {unit}, {top / cap:.3g}x the spec's "
-                f"{what} {cap:.3g} {unit}: the fit keeps its speed cap near that prior, so "
-                f"the simulation cannot drive as fast; give the spec the robot's own {what} "
+                f"{what} {cap:.3g} {unit}: the spec's number is wrong (the fit centres the "
+                f"prior of its wheel speed cap on the measured speeds, but the spec's limits and "
+                f"the priors derived from them stay); give the spec the robot's own {what} "
                 f"('sim2real robots new NAME ... {option}', which sets the limits and the wheel "
                 f"speed cap together) and refit"
             )

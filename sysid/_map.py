@@ -285,9 +285,19 @@ def noise_scale(prob: Problem, f: FloatArray, n_params: int) -> tuple[float, flo
     channels): correlated residuals -- model error that lasts over several samples, stamp
     jitter -- carry as much information as :math:`n/c` independent ones; counting them as
     :math:`n` would make the intervals far too narrow.
+
+    :math:`s^2` is the scaled median absolute deviation of the rows that can show noise. A
+    quantised channel (:func:`sysid._problem.quantised`: an encoder's speed) reads exactly
+    zero at every speed under one tick per period, so where the model predicts zero too (at
+    rest) its residual is exactly zero whatever the noise: those rows are left out (all rows
+    count when fewer than ``n_params + 2`` others remain). Counted, a recording that stands
+    for half its length would put the median at zero and the scale on its floor, and the
+    priors would weigh nothing against the data.
     """
     n = f.size
-    s2 = (1.4826 * float(np.median(np.abs(f - np.median(f))))) ** 2 * n / max(n - n_params, 1)
+    g = f[~(prob.quantised & (f == 0.0))]
+    g = g if g.size >= n_params + 2 else f
+    s2 = (1.4826 * float(np.median(np.abs(g - np.median(g))))) ** 2 * n / max(n - n_params, 1)
     taus = [_autocorr_time(f[rows]) for rows in (prob.rows["v"], prob.rows["w"]) if rows.size]
     c = float(np.clip(np.mean(taus) if taus else 1.0, 1.0, 200.0))
     return max(s2, 1e-12), c

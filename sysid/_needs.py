@@ -28,11 +28,26 @@ import numpy as np
 from robots.arrays import FloatArray
 from robots.params import BaseGeometry, DriveParams
 
-__all__ = ["REACHED_SHARE", "limit_needs", "lower_bounds"]
+__all__ = [
+    "BEYOND_PRIOR_FACTOR",
+    "MEASURED_PERCENTILE",
+    "REACHED_SHARE",
+    "limit_needs",
+    "lower_bounds",
+    "measured_speeds",
+]
 
 
 #: A demand of at least this share of a limit's fitted value means the limit acted.
 REACHED_SHARE = 0.9
+
+#: Percentile of the measured speeds taken as what a log proves of a speed limit (single
+#: odometry spikes stay above it).
+MEASURED_PERCENTILE = 99.0
+
+#: A measured speed this many times a speed limit's prior centre or more contradicts the
+#: prior; below it, noisy or pose-derived odometry and the prior's own spread cover the gap.
+BEYOND_PRIOR_FACTOR = 1.25
 
 
 def _rate(t: FloatArray, y: FloatArray) -> float:
@@ -122,3 +137,38 @@ def lower_bounds(
         if name in varying and need > 0 and need < REACHED_SHARE * limit:
             out[name] = need
     return out
+
+
+def measured_speeds(
+    meas_v: Sequence[FloatArray], meas_w: Sequence[FloatArray], geometry: BaseGeometry
+) -> dict[str, float]:
+    r"""What measured velocities prove of the speed limits: the :data:`MEASURED_PERCENTILE`
+    percentile of each limit's demand over all rows (0 without finite rows).
+
+    - ``wheel_speed_max_radps``: :math:`(|v| + |\omega| b/2)/r` (the outer wheel on the
+      geometric track; a skid steer's wheels turn faster still, on its effective track);
+    - ``speed_lim_v_mps``, ``speed_lim_w_radps``: :math:`|v|`, :math:`|\omega|`.
+
+    A robot measured at a speed has a limit at least that high, whatever a prior says.
+
+    Examples
+    --------
+    >>> geo = BaseGeometry(mass_kg=1.0, yaw_inertia_kgm2=0.01, wheel_radius_m=0.1,
+    ...                    wheel_separation_m=0.4)
+    >>> out = measured_speeds([np.full(50, 1.0)], [np.full(50, 2.0)], geo)
+    >>> round(out["wheel_speed_max_radps"], 3), round(out["speed_lim_w_radps"], 3)
+    (14.0, 2.0)
+    """
+    r, b = geometry.wheel_radius_m, geometry.wheel_separation_m
+    v = np.abs(np.concatenate([np.asarray(x, dtype=np.float64) for x in meas_v] or [np.zeros(0)]))
+    w = np.abs(np.concatenate([np.asarray(x, dtype=np.float64) for x in meas_w] or [np.zeros(0)]))
+    ok = np.isfinite(v) & np.isfinite(w)
+    if not np.any(ok):
+        return dict.fromkeys(("wheel_speed_max_radps", "speed_lim_v_mps", "speed_lim_w_radps"), 0.0)
+    v, w = v[ok], w[ok]
+    demands = {
+        "wheel_speed_max_radps": (v + w * b / 2) / r,
+        "speed_lim_v_mps": v,
+        "speed_lim_w_radps": w,
+    }
+    return {k: float(np.percentile(x, MEASURED_PERCENTILE)) for k, x in demands.items()}

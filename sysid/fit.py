@@ -72,7 +72,7 @@ from sysid._fleet import SessionInfo, population
 from sysid._linear import first_order_stats
 from sysid._logs import LogArrays, as_log_arrays, log_name, log_warnings
 from sysid._map import MapOptions, Posterior, _solve, map_fit
-from sysid._needs import limit_needs, lower_bounds
+from sysid._needs import BEYOND_PRIOR_FACTOR, limit_needs, lower_bounds, measured_speeds
 from sysid._problem import Problem
 from sysid._summary import (
     FitSummary,
@@ -637,9 +637,35 @@ def _start(
     """The coordinate mapper of the checked priors around ``base_params`` (with the command
     timeout the logs show) and the timeout's notes."""
     pri = _check_priors(priors, base_params, geometry)
+    pri, raised = _raise_exceeded_caps(fit_logs, geometry, pri)
     base = _prior_base(base_params, pri)
     base, timeout_notes = fit_cmd_timeout(fit_logs, base)  # held or timed-out commands
-    return Mapper(geometry, base, pri), timeout_notes
+    return Mapper(geometry, base, pri), raised + timeout_notes
+
+
+def _raise_exceeded_caps(
+    fit_logs: Sequence[LogArrays], geometry: BaseGeometry, priors: dict[str, Prior]
+) -> tuple[dict[str, Prior], list[str]]:
+    """The priors with each finite speed limit the logs exceed by
+    :data:`sysid._needs.BEYOND_PRIOR_FACTOR` or more centred on what they measured
+    (:func:`sysid._needs.measured_speeds`), and a note per limit moved.
+
+    A prior centred far below a speed the robot was measured at is contradicted by the log: the
+    limit is at least that speed (a proven lower bound). Centred there, with its spread, the fit
+    starts from a cap the log allows and the prior no longer holds the fit below the data.
+    """
+    seen = measured_speeds([g.meas_v for g in fit_logs], [g.meas_w for g in fit_logs], geometry)
+    out, notes = dict(priors), []
+    for name, speed in seen.items():
+        p = priors.get(name)
+        if p is None or not math.isfinite(p.nominal) or speed < BEYOND_PRIOR_FACTOR * p.nominal:
+            continue
+        out[name] = dataclasses.replace(p, nominal=speed)
+        notes.append(
+            f"the logs measure {name} {speed:.4g} (99th percentile), above its prior centre "
+            f"{p.nominal:.4g}: the limit is at least that, so its prior is centred there"
+        )
+    return out, notes
 
 
 def _measurement_noise(fit_logs: Sequence[LogArrays]) -> dict[str, Any]:

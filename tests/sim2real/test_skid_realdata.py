@@ -21,8 +21,9 @@ from robots.params import read_params_file
 from sim2real.cli import main
 from sim2real.logs import read_trace, write_csv_trace
 
-#: The Warthog's driver: wheel targets on the geometric track, each side clipped at the cap.
-WARTHOG_DRIVER = ("--driver-track-factor", "1", "--wheel-cap", "per-side")
+#: The Warthog's driver: wheel targets on the geometric track, each side clipped at the cap;
+#: its recording reads the yaw rate from the wheel encoders, on the geometric track.
+WARTHOG_DRIVER = ("--driver-track-factor", "1", "--wheel-cap", "per-side", "--track-factor", "1")
 
 #: (``robots new`` arguments, fit recording, fit window, checked recording, its window or
 #: None, the least fitted point agreement on it).
@@ -33,7 +34,7 @@ BASES = {
         "0:155",
         "husky_lifted_b/trace.csv",
         None,
-        0.73,
+        0.85,
     ),
     "warthog": (
         ("--wheel-separation", "1.08", "--wheel-radius", "0.3", *WARTHOG_DRIVER),
@@ -41,7 +42,7 @@ BASES = {
         "0:28",
         "warthog_close/trace.csv",
         (28.0, 40.0),
-        0.60,
+        0.45,
     ),
 }
 
@@ -84,24 +85,25 @@ def test_skid_fit_beats_the_spec_on_an_unseen_recording(
 
 @pytest.mark.realdata
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    ("wheel_cap", "least", "most"), [("per-side", 0.60, 1.0), ("joint", 0.0, 0.3)]
-)
-def test_warthog_clips_each_side_at_its_cap(
-    wheel_cap: str, least: float, most: float, realdata_dir: Path, tmp_path: Path
-) -> None:
+def test_warthog_clips_each_side_at_its_cap(realdata_dir: Path, tmp_path: Path) -> None:
     """Fitted with each side clipped on its own, the cap is the 13.07 rad/s the encoders hold
-    and the unseen hard turn-and-reverse is predicted (68 %); scaling both wheels together,
-    no cap fits both turns (under 30 %)."""
-    robot = tmp_path / "warthog.yaml"
-    new = ["robots", "new", "warthog", "--wheel-separation", "1.08", "--wheel-radius", "0.3"]
-    driver = ["--driver-track-factor", "1", "--wheel-cap", wheel_cap]
-    assert main([*new, "--drive", "skid", *driver, "-o", str(robot)]) == 0
-    params = tmp_path / "params.yaml"
-    fit = ["sysid", "fit", str(realdata_dir / "warthog_close/trace.csv"), "--robot", str(robot)]
-    assert main([*fit, "--window", "0:28", "-o", str(params)]) == 0
+    and the unseen hard turn-and-reverse is predicted 10 points better or more than scaling
+    both wheels together, which no cap fits to both turns. The priors keep their weight (the
+    encoders' exact zeros at rest are left out of the noise scale): the wheel loop's integral
+    gain stays within 3 prior sd of its 10 +- 10 /s (with the zeros counted, the noise scale
+    sits near its floor, the priors weigh nothing and the fit took it to 167 /s)."""
+    agreement, values = {}, {}
     log = _part(realdata_dir / "warthog_close/trace.csv", (28.0, 40.0), tmp_path / "checked.csv")
-    assert least <= _agreement(log, robot, tmp_path, "--params", str(params)) <= most
-    if wheel_cap == "per-side":
-        cap = read_params_file(params).values["wheel_speed_max_radps"]
-        assert cap == pytest.approx(13.07, rel=0.02)
+    for wheel_cap in ("per-side", "joint"):
+        robot = tmp_path / f"warthog_{wheel_cap}.yaml"
+        new = ["robots", "new", "warthog", "--wheel-separation", "1.08", "--wheel-radius", "0.3"]
+        driver = ["--driver-track-factor", "1", "--wheel-cap", wheel_cap, "--track-factor", "1"]
+        assert main([*new, "--drive", "skid", *driver, "-o", str(robot)]) == 0
+        params = tmp_path / f"params_{wheel_cap}.yaml"
+        fit = ["sysid", "fit", str(realdata_dir / "warthog_close/trace.csv"), "--robot", str(robot)]
+        assert main([*fit, "--window", "0:28", "-o", str(params)]) == 0
+        agreement[wheel_cap] = _agreement(log, robot, tmp_path, "--params", str(params))
+        values[wheel_cap] = read_params_file(params).values
+    assert agreement["per-side"] >= agreement["joint"] + 0.10, agreement
+    assert values["per-side"]["wheel_speed_max_radps"] == pytest.approx(13.07, rel=0.02)
+    assert abs(values["per-side"]["speed_loop_ki_per_s"] - 10.0) <= 30.0, values["per-side"]
