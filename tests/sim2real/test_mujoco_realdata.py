@@ -77,7 +77,7 @@ def test_husky_lifted_replay_within_two_points(
     realdata_dir: Path, tmp_path_factory: pytest.TempPathFactory
 ) -> None:
     """The Husky recordings were made with the wheels lifted (realdata README): replayed with
-    the base held up, MuJoCo agrees with the reduced engine; on the ground it does not."""
+    the base held up, MuJoCo agrees with the reduced engine, and on the ground as well."""
     root = tmp_path_factory.mktemp("husky")
     spec_file, params_file = root / "husky.yaml", root / "params.yaml"
     new = ["robots", "new", "husky", "--wheel-separation", "0.538", "--wheel-radius", "0.15875"]
@@ -94,4 +94,6 @@ def test_husky_lifted_replay_within_two_points(
     }
     assert figures["reduced"].agreement > 0.8
     assert abs(figures["mujoco-lifted"].agreement - figures["reduced"].agreement) <= 0.02
-    assert figures["mujoco"].agreement < 0.5
+    # on the ground too: the fit's wheel-speed cap follows the log, and the scrub of its
+    # turns stays within the tyres' grip
+    assert abs(figures["mujoco"].agreement - figures["reduced"].agreement) <= 0.02
