@@ -8,8 +8,8 @@ absent). Per base, as a new user would work (the public CLI: ``robots new``, ``s
   unit's test drive, calibrate on its obstacle avoidance (its longest), check on its three
   other recordings and on the recordings of four other units (2018 and 2017).
 - TurtleBot3 Waffle Pi with an arm (shipped spec): fit the first half, check the second.
-- Husky A200, wheels lifted (``robots new --drive skid``, 0.538 m, r 0.15875 m; MuJoCo as
-  ``mujoco-lifted``): fit the first half of session a, calibrate on its second half, check b.
+- Husky A200, wheels lifted (``robots new --drive skid``, 0.538 m, r 0.15875 m, top speed
+  1.0 m/s, driver and track factors 1: no slip on a stand; MuJoCo as ``mujoco-lifted``): fit the first half of session a, calibrate on its second half, check b.
 - Warthog (``--drive skid``, 1.08 m, r 0.3 m, ``--driver-track-factor 1 --wheel-cap
   per-side``: its encoders read each side's commanded wheel speed on the 1.08 m track, clipped
   on its own at ~13.1 rad/s): fit up to 28 s (the middle of the driving),
@@ -114,7 +114,14 @@ BASES = (
     ),
     Base(
         name="husky",
-        spec=("--wheel-separation", "0.538", "--wheel-radius", "0.15875", "--drive", "skid"),
+        spec=(
+            *("--wheel-separation", "0.538", "--wheel-radius", "0.15875", "--drive", "skid"),
+            *("--max-speed", "1.0"),  # Clearpath's datasheet (husky_base's max_speed)
+            # on a stand the wheels cannot slip, and the recording's yaw rate is the encoders'
+            # on the 0.538 m track, where its commands reach them (measured / commanded w 1.00
+            # below 0.9 rad/s)
+            *("--driver-track-factor", "1", "--track-factor", "1"),
+        ),
         fit="husky_lifted_a/trace.csv",
         fit_window="0:155",
         calibrate="husky_lifted_a/trace.csv@155:310",
