@@ -7,6 +7,8 @@ absent). Per base, as a new user would work (the public CLI: ``robots new``, ``s
 - Neato (spec from ``robots new``: wheel separation 0.248 m, top speed 0.3 m/s): fit on one
   unit's test drive, calibrate on its obstacle avoidance (its longest), check on its three
   other recordings and on the recordings of four other units (2018 and 2017).
+- Where a base has a calibration recording, the fit is validated on it too (``sysid fit
+  --validate``): it judges whether the wheel loops keep an integral term.
 - TurtleBot3 Waffle Pi with an arm (shipped spec): fit the first half, check the second.
 - Husky A200, wheels lifted (``robots new --drive skid``, 0.538 m, r 0.15875 m, top speed
   1.0 m/s, driver and track factors 1: no slip on a stand; MuJoCo as ``mujoco-lifted``): fit the first half of session a, calibrate on its second half, check b.
@@ -181,6 +183,15 @@ def log_path(ref: str, tmp: Path) -> Path:
     return out
 
 
+def validation_args(base: Base) -> tuple[str, ...]:
+    """``sysid fit`` arguments that validate the fit on the calibration recording (it judges
+    the wheel loops' integral term: :func:`sysid.fit.fit_drive`); none without one."""
+    if not base.calibrate:
+        return ()
+    name, _, part = base.calibrate.partition("@")
+    return ("--validate", str(REALDATA / name), *(("--validate-window", part) if part else ()))
+
+
 def spec_file(base: Base, tmp: Path) -> str:
     if base.spec[0] == "shipped":
         return base.spec[1]
@@ -315,7 +326,7 @@ def run_base(
         window = ("--window", base.fit_window) if base.fit_window else ()
         t0 = time.perf_counter()
         cli("sysid", "fit", str(REALDATA / base.fit), "--robot", robot, "-o", str(params),
-            *window, *base.fit_args)  # fmt: skip
+            *window, *validation_args(base), *base.fit_args)  # fmt: skip
         fit_s = time.perf_counter() - t0
         if base.calibrate:
             calibrated = tmp / "calibrated.yaml"

@@ -496,7 +496,10 @@ def fit_drive(
         gain whenever a mass or inertia is fitted) and explains what it leaves at the prior in
         :attr:`SysidResult.warnings`.
     validate : sequence of VelocityLog
-        Logs only scored (FIT %, agreement) with the fitted parameters.
+        Logs scored (FIT %, agreement) with the fitted parameters, and the judges of the wheel
+        loops' integral term: when the fit frees it, the fit is also made with P loops and the
+        one that predicts these logs better is returned, with a note
+        (:func:`_judge_integral`).
     robot : str
         Robot name written in the result.
     loss, f_scale : str, float
@@ -546,6 +549,129 @@ def fit_drive(
     ExcitationError
         Too short a log, no motion, commands that never change.
     """
+    started = time.perf_counter()
+    options: dict[str, Any] = {
+        "geometry": geometry,
+        "base_params": base_params,
+        "free": free,
+        "validate": validate,
+        "robot": robot,
+        "loss": loss,
+        "f_scale": f_scale,
+        "scale": scale,
+        "weights": weights,
+        "tol_v": tol_v,
+        "tol_w": tol_w,
+        "dt_s": dt_s,
+        "odom_v_window_s": odom_v_window_s,
+        "max_nfev": max_nfev,
+        "python": python,
+        "bootstrap": bootstrap,
+        "segment_s": segment_s,
+        "seed": seed,
+        "progress": progress,
+        "map_sessions": map_sessions,
+    }
+    result = _fit_once(logs, priors=priors, **options)
+    return _judge_integral(
+        result,
+        lambda: _fit_once(logs, priors=_p_loops(priors, base_params, geometry), **options),
+        (tol_v, tol_w),
+        started,
+    )
+
+
+#: The wheel loops' integral gain, judged on the validation logs (:func:`_judge_integral`).
+_INTEGRAL = "speed_loop_ki_per_s"
+#: Validation errors within this fraction of each other are a tie (one validation log cannot
+#: resolve a 1 % difference of a mean squared error): the P loops, the simpler model, win it.
+_TIE = 0.01
+
+
+def _p_loops(
+    priors: Mapping[str, Prior] | None, base: DriveParams, geometry: BaseGeometry
+) -> dict[str, Prior]:
+    """``priors`` with the wheel loops' integral gain known to be 0 (P loops)."""
+    out = _check_priors(priors, base, geometry)
+    out[_INTEGRAL] = dataclasses.replace(out[_INTEGRAL], nominal=0.0, sd=0.0, session_sd=0.0)
+    return out
+
+
+def _validation_error(result: SysidResult, tol: tuple[float, float]) -> float:
+    """Mean over the validation logs of the squared RMSE in tolerance units, v plus w."""
+    errs = [(s.rmse_v / tol[0]) ** 2 + (s.rmse_w / tol[1]) ** 2 for s in result.scores_validation]
+    finite = [e for e in errs if math.isfinite(e)]
+    return float(np.mean(finite)) if finite else math.nan
+
+
+def _judge_integral(
+    result: SysidResult,
+    p_loops: Callable[[], SysidResult],
+    tol: tuple[float, float],
+    started: float,
+) -> SysidResult:
+    r"""The fit with the wheel loops' integral term, or with P loops if the validation logs
+    say so.
+
+    An integral term shows in a log as the slow part of a step response, and it sets how far
+    a large step overshoots: the speed error integrated during the rise (about the step times
+    the loop's time constant) is worked off again beyond the target. A log whose steps are
+    small or end in the wheel-speed cap constrains it little while friction and the integral
+    trade off, so the in-sample fit can prefer it and still overshoot where a held-out log
+    reverses a wheel or spins at the cap. In-sample likelihood always favours the larger
+    model; held-out prediction judges the two nested loop structures fairly: the fit is redone
+    with P loops (:math:`k_i = 0`, every other field as before) and the one whose mean squared
+    validation error (v and w in tolerance units, :func:`_validation_error`) is lower is
+    returned, P loops on a tie (:data:`_TIE`). Without validation logs, or when the fit did
+    not free the integral gain, ``result`` as it is.
+    """
+    if not result.scores_validation or _INTEGRAL not in result.settings.get("free", ()):
+        return result
+    alt = p_loops()
+    with_ki, without = _validation_error(result, tol), _validation_error(alt, tol)
+    if not (math.isfinite(with_ki) and math.isfinite(without)):
+        return result
+    said = (
+        f"the validation logs judged the wheel loops' integral term: their mean squared error "
+        f"(v and w in tolerance units) is {with_ki:.3g} with it ({_INTEGRAL} "
+        f"{result.params.speed_loop_ki_per_s:.3g} 1/s) and {without:.3g} with P loops"
+    )
+    if with_ki < (1.0 - _TIE) * without:
+        return dataclasses.replace(result, warnings=(*result.warnings, f"{said}: it is kept"))
+    return dataclasses.replace(
+        alt,
+        warnings=(*alt.warnings, f"{said}: P loops are kept ({_INTEGRAL} 0)"),
+        settings=alt.settings | {"seconds": time.perf_counter() - started},
+        priors=alt.priors | {_INTEGRAL: result.priors[_INTEGRAL]},
+    )
+
+
+def _fit_once(
+    logs: Sequence[object],
+    *,
+    geometry: BaseGeometry,
+    base_params: DriveParams,
+    priors: Mapping[str, Prior] | None,
+    free: str | Sequence[str] | None,
+    validate: Sequence[object],
+    robot: str,
+    loss: str,
+    f_scale: float,
+    scale: str | tuple[float, float],
+    weights: tuple[float, float],
+    tol_v: float,
+    tol_w: float,
+    dt_s: float,
+    odom_v_window_s: float,
+    max_nfev: int,
+    python: bool,
+    bootstrap: int,
+    segment_s: float,
+    seed: int,
+    progress: Progress | None,
+    map_sessions: Callable[[Callable[[Any], Any], Sequence[Any]], Sequence[Any]] | None,
+) -> SysidResult:
+    """:func:`fit_drive` with the given priors (no judging of the integral term)."""
     started = time.perf_counter()
     _check_args(loss, scale, weights)
     _check_numbers(logs, dt_s, bootstrap, segment_s, odom_v_window_s)

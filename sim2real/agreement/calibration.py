@@ -1345,12 +1345,18 @@ def session_covariance(distribution: Any, robot: Any) -> FloatArray:
     return out
 
 
-def _fit_logs(document: Any) -> set[str]:
-    """SHA-256 of the logs a params file was fitted on (its ``data`` entries)."""
+def _fit_logs(document: Any, role: str = "fit") -> set[str]:
+    """SHA-256 of the logs of one ``role`` in a params file's ``data`` entries: ``fit`` (an
+    entry without a role counts as one), or ``validation`` (scored, and the judges of the
+    wheel loops' integral term, :func:`sysid.fit.fit_drive`)."""
     entries = document.get("data") if isinstance(document, dict) else None
     out = set()
     for entry in entries if isinstance(entries, list) else []:
-        if isinstance(entry, dict) and isinstance(entry.get("sha256"), str):
+        if (
+            isinstance(entry, dict)
+            and isinstance(entry.get("sha256"), str)
+            and entry.get("role", "fit") == role
+        ):
             out.add(entry["sha256"])
     return out
 
@@ -1413,7 +1419,7 @@ def calibrate(
     params_file = read_params_file(params_path)  # read once: the spread and the settings
     distribution = DriveDistribution.from_params_file(params_file, robot=spec.name)
     document = params_file.document
-    fitted_on = _fit_logs(document)
+    fitted_on, validated_on = _fit_logs(document), _fit_logs(document, "validation")
     read = [
         read_for_robot(
             path,
@@ -1439,6 +1445,13 @@ def calibrate(
         for note in (trace.meta.time_note, *trace.meta.warnings)
         if note
     ) + tuple(note for _, note in read if note)
+    notes += tuple(
+        f"calibration log '{path}' also validated the fit (the validation logs judge its wheel "
+        "loops' structure): the coverage judged on it may be a little optimistic; check on a "
+        "log neither saw"
+        for path, trace in zip(logs, traces, strict=True)
+        if getattr(trace.meta, "sha256", None) in validated_on
+    )
     window = _window_of(document) if odom_v_window_s is None else odom_v_window_s
     result = calibrate_traces(
         traces,

@@ -203,3 +203,53 @@ def test_integral_gain_of_the_wheel_loops_is_identified(truth_ki: float) -> None
         assert est.ci95_low - 0.5 <= truth_ki <= est.ci95_high + 0.5
     assert abs(est.value - truth_ki) < 0.15 * truth_ki + 1.0
     assert est.ci95_high - est.ci95_low < 0.5 * spec.priors["speed_loop_ki_per_s"].sd
+
+
+@pytest.mark.parametrize("truth_ki", [0.0, 15.0])
+def test_validation_logs_judge_the_integral_term(truth_ki: float) -> None:
+    """With a validation log, the fit is also made with P loops and the loop structure that
+    predicts the validation log better is returned, with a note saying both errors: a P
+    plant's fit gets P loops, a PI plant's keeps its integral term."""
+    from robots.spec import load_spec
+
+    spec = load_spec("turtlebot3_burger")
+    truth = spec.drive.replace(speed_loop_ki_per_s=truth_ki, delay_s=0.08)
+    logs = []
+    for seed, name in ((5, "fit"), (7, "val")):
+        t, v, w = step_commands(25.0, seed=seed, v_max_mps=0.2, w_max_radps=1.5)
+        logs.append(
+            synthetic_log(
+                truth, spec.geometry, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=seed + 1,
+                spike_mps=None, name=name,
+            )
+        )  # fmt: skip
+    res = fit_drive(
+        logs[:1], geometry=spec.geometry, base_params=spec.drive, priors=spec.priors,
+        validate=logs[1:], odom_v_window_s=0.02,
+    )  # fmt: skip
+    est = res.estimate("speed_loop_ki_per_s")
+    judged = [w for w in res.warnings if "judged the wheel loops' integral term" in w]
+    assert len(judged) == 1
+    if truth_ki == 0.0:
+        assert (est.status, est.value) == ("fixed", 0.0)
+        assert judged[0].endswith("P loops are kept (speed_loop_ki_per_s 0)")
+    else:
+        assert est.status == "fitted"
+        assert abs(est.value - truth_ki) < 0.15 * truth_ki + 1.0
+        assert judged[0].endswith("it is kept")
+    # the file keeps the spec's prior of the gain, whichever structure won
+    assert res.priors["speed_loop_ki_per_s"]["sd"] == spec.priors["speed_loop_ki_per_s"].sd
+
+
+def test_no_judging_without_validation_logs() -> None:
+    from robots.spec import load_spec
+
+    spec = load_spec("turtlebot3_burger")
+    t, v, w = step_commands(15.0, seed=5, v_max_mps=0.2, w_max_radps=1.5)
+    log = synthetic_log(
+        spec.drive.replace(delay_s=0.08), spec.geometry, cmd_t_s=t, cmd_v=v, cmd_w=w, seed=6,
+        spike_mps=None,
+    )  # fmt: skip
+    res = fit_drive([log], geometry=spec.geometry, base_params=spec.drive, priors=spec.priors)
+    assert not any("integral term" in w for w in res.warnings)
+    assert res.estimate("speed_loop_ki_per_s").status == "fitted"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import math
 from pathlib import Path
 
@@ -335,3 +336,28 @@ def test_mujoco_calibration_searches_on_the_reduced_model_and_bands_in_mujoco(
     # MuJoCo's replays leave a little more residual than the model the logs come from
     # (measured 0.00329 against 0.00297 m/s)
     assert mujoco.noise_std_v_mps == pytest.approx(reduced.noise_std_v_mps, rel=0.15)
+
+
+@pytest.mark.parametrize("role", ["fit", "validation"])
+def test_calibrate_refuses_a_fit_log_and_notes_a_validation_log(
+    logs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str], role: str
+) -> None:
+    """A log the file was fitted on is refused; one that only validated the fit (it judged
+    the wheel loops' structure) is calibrated on, with a note that says so."""
+    params = write_params_file(
+        tmp_path / "p.yaml", hidden_params(), ROBOT, fitted=HIDDEN, rel=0.05, noise_v=0.03
+    )
+    doc = yaml.safe_load(params.read_text())
+    sha = hashlib.sha256(logs[0].read_bytes()).hexdigest()
+    doc["data"] = [{"file": str(logs[0]), "sha256": sha, "role": role}]
+    params.write_text(yaml.safe_dump(doc))
+    out = tmp_path / "cal.yaml"
+    argv = ["sysid", "calibrate", str(params), str(logs[0]), "--robot", ROBOT, "-o", str(out)]
+    code = main([*argv, "--ensemble", "8"])
+    text = capsys.readouterr()
+    if role == "fit":
+        assert code == 2 and "is one of the logs params file" in text.err
+        assert not out.exists()
+    else:
+        assert code == 0 and out.exists()
+        assert f"calibration log '{logs[0]}' also validated the fit" in text.out
