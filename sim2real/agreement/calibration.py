@@ -129,7 +129,7 @@ from robots.errors import ParamsFileError
 from robots.params import read_params_file
 from robots.randomization import DriveDistribution, cap_spread
 from robots.spec import load_spec
-from sim2real._arrays import BoolArray, FloatArray
+from sim2real._arrays import BoolArray, FloatArray, IntArray
 from sim2real._io import atomic_write, check_not_an_input
 from sim2real.agreement.figures import (
     band_coverage,
@@ -162,6 +162,7 @@ __all__ = [
     "predictive_log_likelihood",
     "robust_noise_std",
     "shrunk_noise_std",
+    "stretch_noise_std",
     "write_calibrated",
 ]
 
@@ -579,6 +580,68 @@ def robust_noise_std(
     return math.exp(float(brentq(excess, lo, hi, xtol=1e-6)))
 
 
+def _steady_stretches(since_step_s: FloatArray, steady: BoolArray) -> IntArray:
+    """A label per ``steady`` sample naming its stretch: the run of steady samples after one
+    command step (a new stretch where the time since the step stops growing or a sample
+    between is not steady).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> since = np.array([1.0, 1.2, 0.1, 1.1, 1.3, 1.5, 0.2, 1.0])
+    >>> _steady_stretches(since, since >= 1.0).tolist()
+    [0, 0, 2, 2, 2, 4]
+    """
+    since = np.asarray(since_step_s, dtype=np.float64)
+    steady = np.asarray(steady, dtype=bool)
+    new = np.ones(since.size, dtype=bool)
+    new[1:] = ~(np.diff(since) > 0.0) | ~steady[:-1]
+    out: IntArray = (np.cumsum(new) - 1)[steady]
+    return out
+
+
+def stretch_noise_std(
+    real: FloatArray, members: FloatArray, stretch: IntArray, quantum: float
+) -> float:
+    r"""The robust noise std of the samples' scatter within their steady stretches.
+
+    A residual on a steady stretch is the model's miss there, held for the stretch (a wheel
+    loop's steady-state error, a gain off), plus odometry noise, independent reading to
+    reading. The first is the dynamics spread's to cover and moves every sample of the
+    stretch alike; white noise does not. So each stretch's own level is taken out of the real
+    samples and of every member (one-way decomposition: the pooled within-group scatter,
+    each deviation scaled by :math:`\sqrt{n/(n-1)}` for the level its stretch of *n* spent),
+    and :func:`robust_noise_std` is taken of what is left. Stretches of one sample tell
+    nothing of it; NaN when fewer than :data:`MIN_STEADY` samples are in longer ones.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> stretch = np.repeat(np.arange(100), 10)
+    >>> real = 0.1 * rng.standard_normal(100)[stretch] + 0.01 * rng.standard_normal(1000)
+    >>> round(robust_noise_std(real, np.zeros((8, 1000)), 0.0), 2)  # the held misses too
+    0.1
+    >>> round(stretch_noise_std(real, np.zeros((8, 1000)), stretch, 0.0), 2)
+    0.01
+    """
+    stretch = np.asarray(stretch)
+    _, index, counts = np.unique(stretch, return_inverse=True, return_counts=True)
+    keep = counts[index] >= 2
+    if int(keep.sum()) < MIN_STEADY:
+        return math.nan
+    scale = np.sqrt(counts[index][keep] / (counts[index][keep] - 1.0))
+
+    def within(x: FloatArray) -> FloatArray:
+        level = np.bincount(index, weights=x, minlength=counts.size) / counts
+        out: FloatArray = (x - level[index])[keep] * scale
+        return out
+
+    real_dev = within(np.asarray(real, dtype=np.float64))
+    members_dev = np.stack([within(m) for m in np.asarray(members, dtype=np.float64)])
+    return robust_noise_std(real_dev, members_dev, quantum)
+
+
 def noise_information_share(members: FloatArray, std: float, quantum: float) -> float:
     r"""How much the validation samples say about the noise variance, per sample (0-1).
 
@@ -649,11 +712,20 @@ class _AxisNoise:
 
     @staticmethod
     def identified(
-        real: FloatArray, members: FloatArray, *, file_std: float, quantum: float
+        real: FloatArray,
+        members: FloatArray,
+        *,
+        file_std: float,
+        quantum: float,
+        stretch: IntArray | None = None,
     ) -> tuple[float, float]:
-        """(identified, robust): the robust noise std of these samples, and it shrunk to the
-        file's where they do not identify it."""
+        """(identified, robust): the robust noise std of these samples, no larger than their
+        scatter within their steady stretches (:func:`stretch_noise_std`, where ``stretch``
+        numbers them), and it shrunk to the file's where they do not identify it."""
         robust = robust_noise_std(real, members, quantum)
+        if stretch is not None:
+            within = stretch_noise_std(real, members, stretch, quantum)
+            robust = min(robust, within) if math.isfinite(within) else robust
         share = noise_information_share(members, robust, quantum)
         return shrunk_noise_std(robust, file_std, share), robust
 
@@ -1040,8 +1112,9 @@ class _FactorSearch:
         :attr:`identified` for the coverage matching (before the spread moves)."""
         used = _steady_or_all(steady)
         members = self.members(1.0, 0.0)
+        stretch = _steady_stretches(self.since_step_s, used) if used is steady else None
         self.identified = [
-            _AxisNoise.identified(real[used], m[:, used], file_std=std, quantum=q)
+            _AxisNoise.identified(real[used], m[:, used], file_std=std, quantum=q, stretch=stretch)
             for (_, real, std, q), m in zip(self.axes(), members, strict=True)
         ]
         self.fixed_noise = (self.identified[0][0], self.identified[1][0])
