@@ -48,6 +48,10 @@ times over. So the noise std of each axis is estimated on the samples at least
 :data:`STEADY_AFTER_STEP_S` after a command step (all of them when fewer than
 :data:`MIN_STEADY` are), by a median-based scale that a minority of large misses cannot move
 (:func:`robust_noise_std`), and the likelihood of (a, b) is evaluated with that std fixed.
+That scale is taken no larger than the residuals' scatter within their steady stretches
+(:func:`stretch_noise_std`): a model's miss held over a stretch (a P wheel loop's steady-state
+error on a slow turn) moves all its samples alike, which independent odometry noise does not;
+it is the dynamics spread's to cover.
 Where the members' spread already explains the residuals, the samples cannot tell a noise std
 of 0 from the file's; so the variance is weighted by the share :math:`\rho` of a noise-only
 log's Fisher information on :math:`\sigma^2` that the samples hold
@@ -169,8 +173,9 @@ __all__ = [
 
 #: Name of the method in the output file's ``calibration`` block.
 CALIBRATION_METHOD = (
-    "gaussian-predictive-likelihood/5 (DROPO-style, Tiboni et al. 2023), pooled with the fit's "
-    "spread by sessions, noise from the steady samples (robust scale) matched to the band's "
+    "gaussian-predictive-likelihood/6 (DROPO-style, Tiboni et al. 2023), pooled with the fit's "
+    "spread by sessions, noise from the steady samples (robust scale, no larger than their "
+    "scatter within their steady stretches) matched to the band's "
     "coverage of them no lower than the logs' own scatter, an over-covering axis's parameter "
     "spread narrowed (pooled with the fit's by sessions) and the session spread widened to "
     "cover the rest (split conformal)"
