@@ -5,21 +5,19 @@ absent). Per base, as a new user would work (the public CLI: ``robots new``, ``s
 ``sysid calibrate``, ``agree --ensemble 30 --json``):
 
 - Neato (spec from ``robots new``: wheel separation 0.248 m, top speed 0.3 m/s): fit on one
-  unit's test drive, calibrate on its obstacle avoidance (its longest), check on its three
-  other recordings and on the recordings of four other units (2018 and 2017).
-- Where a base has a calibration recording, the fit is validated on it too (``sysid fit
-  --validate``): it judges whether the wheel loops keep an integral term.
+  unit's test drive, calibrate on its obstacle avoidance (its longest; the fit is validated on
+  it, ``sysid fit --validate``, which judges whether the wheel loops keep an integral term),
+  check on its three other recordings and on the recordings of four other units.
 - TurtleBot3 Waffle Pi with an arm (shipped spec): fit the first half, check the second.
-- Husky A200, wheels lifted (``robots new --drive skid``, 0.538 m, r 0.15875 m, top speed
-  1.0 m/s, driver and track factors 1: no slip on a stand; MuJoCo as ``mujoco-lifted``): fit the first half of session a, calibrate on its second half, check b.
+- Husky A200, wheels lifted (``robots new --drive skid``, 0.538 m, r 0.15875 m, 1.0 m/s, driver
+  and track factors 1: no slip on a stand; MuJoCo as ``mujoco-lifted``): fit the first half of
+  session a, calibrate on its second half, check b.
 - Warthog (``--drive skid``, 1.08 m, r 0.3 m, ``--driver-track-factor 1 --wheel-cap
   per-side``: its encoders read each side's commanded wheel speed on the 1.08 m track, clipped
-  on its own at ~13.1 rad/s): fit up to 28 s (the middle of the driving),
-  check 28-40 s (the rest of the driving: after 40 s the driver holds a command with the
-  wheels stopped).
+  on its own at ~13.1 rad/s): fit up to 28 s, check 28-40 s (after 40 s the driver holds a
+  command with the wheels stopped).
 
 A checked half is written as a log for ``agree``. Per checked recording and engine, one row:
-
 - ``spec``: point agreement of the spec defaults; ``fit``: of the fitted (calibrated) point;
 - ``own lat.``: the fitted point at the session's own best command latency (and that
   latency), :func:`sim2real.agreement.latency.session_latency`;
@@ -32,14 +30,14 @@ A checked half is written as a log for ``agree``. Per checked recording and engi
 Targets (issue 28): ``fit >= spec`` on every row; ``own lat.`` >= 80 % or within 5 points of
 ``ceiling`` on differential-drive bases; coverage 80-99 % in v and w with a median width <=
 20 % of the top speed / yaw rate or <= 1.25x the noise-only band. A closing line counts the
-rows that hold each. ``--explain`` adds, per base, a table of where each row's band gets its width and its misses
-(:func:`sim2real.agreement.sources.band_sources`, reduced engine): the three largest sources
+rows that hold each. ``--explain`` adds, per base, a table of where each row's band gets its
+width and its misses (:func:`sim2real.agreement.sources.band_sources`, reduced engine): the three largest sources
 of each axis's variance (noise, command latency, a parameter) with their share and the width
 each would make alone; the share of the misses within 1 s of a command step and above the
 band; and the coverage with every member at the session's own best latency.
 
-``--quick`` checks three Neato recordings (one of the fitted unit, one other 2018 unit, one
-2017 unit) and one engine (reduced); ``--base NAME`` runs one base.
+``--quick``: three Neato recordings (fitted unit, another 2018 unit, a 2017 unit), reduced
+engine only; ``--base NAME`` runs one base.
 """
 
 from __future__ import annotations

@@ -48,7 +48,7 @@ def quantised(readings: FloatArray) -> bool:
     Examples
     --------
     >>> tick = 0.01
-    >>> quantised(tick * np.round(np.linspace(-1.0, 1.0, 200) / tick))
+    >>> quantised(tick * np.round(np.linspace(-1.0, 1.0, 1000) / tick))
     True
     >>> quantised(np.linspace(0.013, 1.0, 200))
     False
