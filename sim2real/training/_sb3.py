@@ -26,6 +26,7 @@ from stable_baselines3.common.noise import (
     NormalActionNoise,
     OrnsteinUhlenbeckActionNoise,
 )
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
 from sim2real.errors import Sim2RealValueError
@@ -89,8 +90,18 @@ def learn(
 
 
 def load_model(algorithm: str, path: Path) -> Any:
-    """The SB3 model of class ``algorithm`` (``PPO``, ``SAC``, ...) saved at ``path``, on the CPU."""
-    return getattr(sb3, algorithm).load(str(path), device="cpu")
+    """The SB3 model of class ``algorithm`` (``PPO``, ``SAC``, ...) saved at ``path``, on the CPU.
+
+    An off-policy model saved with ``n_steps > 1`` stores the ``NStepReplayBuffer`` SB3 chose
+    for it, and SB3 warns on reload that ``n_steps`` is ignored for a custom buffer class.
+    Loading with the class unset lets SB3 choose it again from the saved ``n_steps``: the same
+    buffer with the same kwargs, and no warning.
+    """
+    cls = getattr(sb3, algorithm)
+    custom: dict[str, Any] = {}
+    if issubclass(cls, OffPolicyAlgorithm):
+        custom["replay_buffer_class"] = None
+    return cls.load(str(path), device="cpu", custom_objects=custom)
 
 
 def _env_factory(cfg: TrainConfig, *, rank: int) -> Callable[[], Any]:

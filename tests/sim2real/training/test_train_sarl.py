@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import doctest
 import time
+import warnings
 from pathlib import Path
 
 import gymnasium as gym
@@ -96,8 +97,13 @@ def test_race_smoke_trains_and_evaluates_under_60_s(tmp_path: Path) -> None:
     assert result.timesteps >= 1000 and result.evaluation["episodes"] == 4
     rates = [result.evaluation[k] for k in ("success_rate", "collision_rate", "timeout_rate")]
     assert all(0.0 <= r <= 1.0 for r in rates)
-    policy = load_policy(result.model_path)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        policy = load_policy(result.model_path)
+    assert not [w for w in caught if "is ignored" in str(w.message)]
     assert isinstance(policy.model.policy.q_net.features_extractor, SarlExtractor)
+    buffer = policy.model.replay_buffer  # the config's 3-step returns, as trained
+    assert type(buffer).__name__ == "NStepReplayBuffer" and buffer.n_steps == 3
     env = policy.wrap(gym.make("sim2real/Race-v0", track="open", num_opponents=3))
     check_spaces(policy, env, "Race-v0")
     obs, _ = env.reset(seed=3)
