@@ -28,7 +28,7 @@ from robots.reduced import DEFAULT_DT_S
 from robots.spec import RobotSpec, load_spec
 from robots.units import seconds
 from sim2real.errors import LogValueError, Sim2RealError, Sim2RealValueError
-from sim2real.logs import Trace, read_for_robot
+from sim2real.logs import ReadOptions, Trace, read_for_robot
 from sysid import LogArrays, SysidResult, crop_log, fit_drive, why_not_fittable
 
 __all__ = ["BEYOND_SPEC_FACTOR", "LogFit", "beyond_spec_notes", "fit_logs", "read_fit_logs"]
@@ -63,11 +63,7 @@ def fit_logs(
     window: tuple[float, float] | None = None,
     validate_window: tuple[float, float] | None = None,
     free: str | Sequence[str] = "auto",
-    cmd_topic: str | None = None,
-    odom_topic: str | None = None,
-    time_source: str = "auto",
-    odom_velocity: str = "auto",
-    keep_all: bool = False,
+    read: ReadOptions | None = None,
     odom_v_window_s: float | None = None,
     loss: str = "soft_l1",
     dt_s: float | None = None,
@@ -92,11 +88,9 @@ def fit_logs(
         (validation) logs to use.
     free : "auto" or sequence of str
         The parameters to fit (``"auto"``: chosen from the excitation).
-    cmd_topic, odom_topic, time_source, odom_velocity
-        How each file is read (the keywords of :func:`sim2real.logs.read_trace`).
-    keep_all : bool
-        Keep the unattended samples (motion with no command in force, a command held while
-        the wheels stay stopped; :func:`sim2real.logs.without_unattended`).
+    read : sim2real.logs.ReadOptions, optional
+        How each file is read: topics, clock, velocity source, and whether the unattended
+        samples are kept (default ``ReadOptions()``).
     odom_v_window_s : float, optional
         The odometry's velocity window, s (default: the spec's, e.g. one encoder period).
     dt_s : float, optional
@@ -127,20 +121,10 @@ def fit_logs(
     spec = robot if isinstance(robot, RobotSpec) else load_spec(robot)
     notes: list[str] = []
 
-    def read(paths: Sequence[str | Path], crop: tuple[float, float] | None) -> list[Any]:
-        return read_fit_logs(
-            paths,
-            spec=spec,
-            window=crop,
-            notes=notes,
-            cmd_topic=cmd_topic,
-            odom_topic=odom_topic,
-            time_source=time_source,
-            odom_velocity=odom_velocity,
-            keep_all=keep_all,
-        )
+    def read_set(paths: Sequence[str | Path], crop: tuple[float, float] | None) -> list[Any]:
+        return read_fit_logs(paths, spec=spec, window=crop, notes=notes, read=read)
 
-    fit_set, val_set = read(logs, window), read(validate, validate_window)
+    fit_set, val_set = read_set(logs, window), read_set(validate, validate_window)
     notes.extend(beyond_spec_notes(fit_set, spec))
     try:
         result = fit_drive(
@@ -224,11 +208,7 @@ def read_fit_logs(
     spec: RobotSpec,
     window: tuple[float, float] | None = None,
     notes: list[str] | None = None,
-    cmd_topic: str | None = None,
-    odom_topic: str | None = None,
-    time_source: str = "auto",
-    odom_velocity: str = "auto",
-    keep_all: bool = False,
+    read: ReadOptions | None = None,
 ) -> list[Trace | LogArrays]:
     """The logs to fit: each file read, screened, cropped and split at its pauses.
 
@@ -244,13 +224,6 @@ def read_fit_logs(
     >>> traces = read_fit_logs(["data/demo_train.mcap"], spec=spec)  # doctest: +SKIP
     """
     notes = [] if notes is None else notes
-    read = {
-        "cmd_topic": cmd_topic,
-        "odom_topic": odom_topic,
-        "time_source": time_source,
-        "odom_velocity": odom_velocity,
-        "keep_all": keep_all,
-    }
     out: list[Trace | LogArrays] = []
     errors: list[Sim2RealError] = []
     for path in paths:
@@ -272,10 +245,10 @@ def _read_one(
     path: str | Path,
     spec: RobotSpec,
     notes: list[str],
-    read: dict[str, Any],
+    read: ReadOptions | None,
 ) -> Trace:
     """One log read as the fit reads it (:func:`sim2real.logs.read_for_robot`), noted."""
-    trace, note = read_for_robot(path, spec, **read)
+    trace, note = read_for_robot(path, spec, read)
     if trace.meta.time_note:
         notes.append(f"{path}: {trace.meta.time_note}")
     if note:

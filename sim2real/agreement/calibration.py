@@ -148,7 +148,7 @@ from sim2real.agreement.latency import log_noise
 from sim2real.agreement.replay import resolve_robot
 from sim2real.agreement.sources import source_variances
 from sim2real.errors import Sim2RealValueError
-from sim2real.logs import read_for_robot
+from sim2real.logs import ReadOptions, read_for_robot
 from sysid import spread_degrees_of_freedom
 from sysid.metrics import active_mask
 from sysid.steady import pooled_steady_noise
@@ -1476,41 +1476,24 @@ def calibrate(
     odom_v_window_s: float | None = None,
     tol_v: float = 0.02,
     tol_w: float = 0.1,
-    cmd_topic: str | None = None,
-    odom_topic: str | None = None,
-    time_source: str = "auto",
-    odom_velocity: str = "auto",
-    keep_all: bool = False,
+    read: ReadOptions | None = None,
 ) -> CalibrationResult:
     """Read a params file and validation logs and fit the spread (:func:`calibrate_traces`).
 
     The odometry window defaults to the fit's (``settings.odom_v_window_s`` of the file). A
     validation log the params file was fitted on is refused: a spread fitted to the fit's own
     residuals is too narrow for any other session. The logs are read as ``sysid fit`` and
-    ``agree`` read them: ``cmd_topic``, ``odom_topic``, ``time_source`` and ``odom_velocity``
-    are those of :func:`sim2real.logs.read_trace` (default: auto-detected topics, header
-    stamps unless they run on another clock, velocities from the pose when the twist is junk),
-    and their unattended samples are left out with a note unless ``keep_all``
-    (:func:`sim2real.logs.without_unattended`).
+    ``agree`` read them, with ``read`` (:class:`sim2real.logs.ReadOptions`; default:
+    auto-detected topics, header stamps unless they run on another clock, velocities from the
+    pose when the twist is junk, and the unattended samples left out with a note).
     """
     spec = load_spec(robot)
     params_file = read_params_file(params_path)  # read once: the spread and the settings
     distribution = DriveDistribution.from_params_file(params_file, robot=spec.name)
     document = params_file.document
     fitted_on, validated_on = _fit_logs(document), _fit_logs(document, "validation")
-    read = [
-        read_for_robot(
-            path,
-            spec,
-            cmd_topic=cmd_topic,
-            odom_topic=odom_topic,
-            time_source=time_source,
-            odom_velocity=odom_velocity,
-            keep_all=keep_all,
-        )
-        for path in logs
-    ]
-    traces = [trace for trace, _ in read]
+    screened = [read_for_robot(path, spec, read) for path in logs]
+    traces = [trace for trace, _ in screened]
     for path, trace in zip(logs, traces, strict=True):
         if getattr(trace.meta, "sha256", None) in fitted_on:
             raise Sim2RealValueError(
@@ -1522,7 +1505,7 @@ def calibrate(
         for path, trace in zip(logs, traces, strict=True)
         for note in (trace.meta.time_note, *trace.meta.warnings)
         if note
-    ) + tuple(note for _, note in read if note)
+    ) + tuple(note for _, note in screened if note)
     notes += tuple(
         f"calibration log '{path}' also validated the fit (the validation logs judge its wheel "
         "loops' structure): the coverage judged on it may be a little optimistic; check on a "

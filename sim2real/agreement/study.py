@@ -24,7 +24,7 @@ import json
 import math
 import platform
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -64,7 +64,7 @@ from sim2real.agreement.verdict import (
     speed_shortfall,
 )
 from sim2real.errors import LogValueError, Sim2RealValueError
-from sim2real.logs import read_for_robot, write_velocity_log
+from sim2real.logs import ReadOptions, read_for_robot, write_velocity_log
 from sim2real.logs._bags import open_log_source
 from sim2real.logs._digest import FileDigest
 from sysid.envelope import Envelope, EnvelopeCheck, check_envelope, unknown_envelope
@@ -116,12 +116,10 @@ class StudyConfig:
     odom_v_window : float or "auto"
         Odometry window of v, s (see :func:`sim2real.agreement.replay.replay`); ``"auto"`` (default)
         takes the robot's (:attr:`robots.spec.OdometrySpec.v_window_s`), like ``sysid fit``.
-    cmd_topic, odom_topic : str, optional
-        Topics (default: auto-detect).
-    time_source : {"auto", "header", "log"}
-        Message timing (see :func:`sim2real.logs.read_trace`).
-    odom_velocity : {"auto", "twist", "pose"}
-        Where the measured velocities come from (see :func:`sim2real.logs.read_trace`).
+    read : sim2real.logs.ReadOptions
+        How the log is read: topics, clock, velocity source, and whether the unattended
+        samples (motion with no command in force, a command held while the wheels stay
+        stopped) are kept rather than left out with a note.
     json_path, report_path, sim_out : str or Path, optional
         Outputs: the figures as JSON, the HTML report (+ PNGs), the simulated run as MCAP.
     command_line : str
@@ -132,9 +130,6 @@ class StudyConfig:
         How the outputs (JSON ``params_file``, report) name the params file when it is read
         from elsewhere (``sim2real demo`` reads it from its staging folder); default
         ``params_path``.
-    keep_all : bool
-        Keep the unattended samples (motion with no command in force, a command held while
-        the wheels stay stopped), which are otherwise left out with a note.
     """
 
     log: str | Path
@@ -148,17 +143,13 @@ class StudyConfig:
     spread: float = 1.0
     band_level: float = 0.9
     odom_v_window: float | str = "auto"
-    cmd_topic: str | None = None
-    odom_topic: str | None = None
-    time_source: str = "auto"
-    odom_velocity: str = "auto"
+    read: ReadOptions = field(default_factory=ReadOptions)
     json_path: str | Path | None = None
     report_path: str | Path | None = None
     sim_out: str | Path | None = None
     command_line: str = ""
     title: str = "sim2real agreement report"
     params_shown: str | None = None
-    keep_all: bool = False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -357,15 +348,7 @@ def run_study(
     params = None
     if params_file is not None:
         params = load_drive_params(params_file, robot=spec.name, base=spec.drive)
-    trace, screened = read_for_robot(
-        config.log,
-        spec,
-        cmd_topic=config.cmd_topic,
-        odom_topic=config.odom_topic,
-        time_source=config.time_source,
-        odom_velocity=config.odom_velocity,
-        keep_all=config.keep_all,
-    )
+    trace, screened = read_for_robot(config.log, spec, config.read)
     runs = _replays(config, trace, spec, params, window_s)
     ensemble, band_note = _ensemble(config, trace, spec, params_file, window_s, progress)
     latency, ceiling = _reference_figures(config, trace, spec, params, params_file, window_s)
@@ -491,10 +474,10 @@ def fitted_noise(noise: ObservationNoise, calibration: Any) -> ObservationNoise:
     if not isinstance(calibration, Mapping):
         return noise
     stds = {}
-    for axis, field in (("v", "std_v_mps"), ("w", "std_w_radps")):
+    for axis, name in (("v", "std_v_mps"), ("w", "std_w_radps")):
         factor = calibration.get(f"noise_factor_{axis}")
         ok = isinstance(factor, int | float) and math.isfinite(factor) and factor > 0
-        stds[field] = getattr(noise, field) / factor if ok else getattr(noise, field)
+        stds[name] = getattr(noise, name) / factor if ok else getattr(noise, name)
     try:
         return replace(noise, **stds)
     except RobotsValueError:  # an absurd quotient (a factor near 0): the file's own noise

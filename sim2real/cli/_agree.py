@@ -75,7 +75,7 @@ def study_config(args: argparse.Namespace) -> StudyConfig:
         spread=args.spread,
         band_level=args.band_level,
         odom_v_window=args.odom_v_window,
-        **read_options(args),
+        read=read_options(args),
         json_path=args.json,
         report_path=args.report,
         sim_out=args.sim_out,

@@ -34,7 +34,7 @@ def handle_calibrate(args: argparse.Namespace) -> int:
         seed=args.seed,
         engine=args.engine,
         odom_v_window_s=window,
-        **read_options(args),
+        read=read_options(args),
     )
     write_calibrated(args.params, args.out, result)
     for note in result.notes:  # what reading the logs chose or repaired: say it

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 import math
-from typing import Any, NoReturn
+from dataclasses import fields
+from typing import NoReturn
+
+from sim2real.logs import ReadOptions
 
 __all__ = [
     "EPILOG_MAIN",
@@ -147,22 +150,15 @@ def gate_line(agreement: float | None, gate: float, *, what: str = "agreement") 
     return f"{what} {value} is below --min-agreement {100 * gate:.1f} %", 1
 
 
-def read_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The parsed options of :func:`add_read_arguments`, as the keywords of the library's
-    log readers (``cmd_topic``, ``odom_topic``, ``time_source``, ``odom_velocity``,
-    ``keep_all``).
+def read_options(args: argparse.Namespace) -> ReadOptions:
+    """The parsed options of :func:`add_read_arguments` (their destinations are the fields'
+    names), as the library's :class:`sim2real.logs.ReadOptions`.
 
     Examples
     --------
     >>> p = argparse.ArgumentParser()
     >>> add_read_arguments(p)
-    >>> read_options(p.parse_args(["--time-source", "log"]))["time_source"]
+    >>> read_options(p.parse_args(["--time-source", "log"])).time_source
     'log'
     """
-    return {
-        "cmd_topic": args.cmd_topic,
-        "odom_topic": args.odom_topic,
-        "time_source": args.time_source,
-        "odom_velocity": args.odom_velocity,
-        "keep_all": args.keep_all,
-    }
+    return ReadOptions(**{f.name: getattr(args, f.name) for f in fields(ReadOptions)})

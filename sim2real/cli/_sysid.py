@@ -65,7 +65,7 @@ def handle_fit(args: argparse.Namespace) -> int:
             window=window,
             validate_window=validate_window,
             free=free,
-            **read_options(args),
+            read=read_options(args),
             odom_v_window_s=v_window,
             loss=args.loss,
             dt_s=args.dt,

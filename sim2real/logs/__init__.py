@@ -95,6 +95,7 @@ if TYPE_CHECKING:
     from sim2real.logs._csv import CSV_COLUMNS, write_csv_trace
     from sim2real.logs._depth import DepthImages, read_depth
     from sim2real.logs._info import LogInfo, TopicInfo, inspect_log
+    from sim2real.logs._options import ReadOptions
     from sim2real.logs._reader import read_trace
     from sim2real.logs._scans import LASER_SCAN, LaserScans, read_scans
     from sim2real.logs._schemas import JOINT_STATE, ODOMETRY, SCHEMA_TEXT, TWIST, TWIST_STAMPED
@@ -122,6 +123,7 @@ _LAZY = {
     "LogInfo": "_info",
     "TopicInfo": "_info",
     "inspect_log": "_info",
+    "ReadOptions": "_options",
     "read_trace": "_reader",
     "LASER_SCAN": "_scans",
     "LaserScans": "_scans",
@@ -170,6 +172,7 @@ __all__ = [
     "DepthImages",
     "LaserScans",
     "LogInfo",
+    "ReadOptions",
     "TopicInfo",
     "Trace",
     "TraceMeta",

@@ -20,7 +20,7 @@ from robots.reduced import simulate
 from robots.spec import load_spec
 from sim2real.agreement.calibration import calibrate
 from sim2real.cli import main
-from sim2real.logs import integrate_pose, write_velocity_log
+from sim2real.logs import ReadOptions, integrate_pose, write_velocity_log
 from tests.randomization_block import write_params_file
 
 ROBOT = "turtlebot3_burger"
@@ -98,7 +98,11 @@ def test_time_source_auto_reads_past_a_clock_offset(
     assert main([*argv, "-o", str(log_out), "--ensemble", "4", "--time-source", "log"]) == 0
     assert yaml.safe_load(log_out.read_text())["calibration"] == auto
     header = calibrate(  # the wrong clock: kept whole (screened, it is mostly unattended)
-        files["params"], [files["offset"]], robot=ROBOT, n=4, time_source="header", keep_all=True
+        files["params"],
+        [files["offset"]],
+        robot=ROBOT,
+        n=4,
+        read=ReadOptions(time_source="header", keep_all=True),
     )
     # right clock: the noise the log was made with; 15 s off: the steps land on the wrong
     # commands and the "noise" is the whole motion
@@ -123,8 +127,7 @@ def test_odom_velocity_pose_reads_a_zero_twist(
         [files["zero_twist"]],
         robot=ROBOT,
         n=4,
-        odom_velocity="twist",
-        keep_all=True,
+        read=ReadOptions(odom_velocity="twist", keep_all=True),
     )
     # from the pose: v, w back within a few times the log's noise (the differentiation
     # smooths); from the zeros: the "noise" is the whole motion

@@ -23,7 +23,7 @@ from robots.spec import load_spec
 from sim2real.agreement.replay import replay
 from sim2real.cli import main as cli_main
 from sim2real.fitting import fit_logs
-from sim2real.logs import read_trace, write_trace
+from sim2real.logs import ReadOptions, read_trace, write_trace
 from sim2real.logs._pose_velocity import _update_derivative, pose_changes
 from sim2real.plants.diff_drive import command_profile, plant_from_spec, run_plant, run_to_trace
 from sysid import fit_drive
@@ -107,9 +107,11 @@ def test_held_readings_keep_the_plant_delay(tmp_path: Path) -> None:
     assert model is not None and model.kind == "hold"
     assert model.update_period_s == pytest.approx(0.15, abs=0.01)
     twist = write_trace(tmp_path / "twist.mcap", trace)
-    reference = _delay(twist, odom_velocity="twist")
+    reference = _delay(twist, read=ReadOptions(odom_velocity="twist"))
     assert reference == pytest.approx(LATENCY_S, abs=0.02)
-    assert _delay(path, odom_velocity="twist") == pytest.approx(reference, abs=0.02)
+    assert _delay(path, read=ReadOptions(odom_velocity="twist")) == pytest.approx(
+        reference, abs=0.02
+    )
     assert _delay_without_operator(path) > reference + 0.03  # the hold's mean age, 0.05 s
 
 
