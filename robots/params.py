@@ -635,12 +635,16 @@ SCHEMA: dict[str, FieldSchema] = {
             fit_step=1e-2,
             doc="integral gain of each wheel's speed loop over its P gain (1/integral time)",
         ),
+        # Wheel torques span small robots to large field bases: traction alone lets a 1 t
+        # base on 0.4 m wheels push ~2000 N m per side (mu 1 on half its weight), so the
+        # plausible range ends at 1e4 N m, never below what the spec template's traction
+        # prior gives a heavy base.
         _field(
             "wheel_torque_max_nm",
             "N m",
             "positive",
             "log",
-            (1e-4, 100.0),
+            (1e-4, 1e4),
             may_be_inf=True,
             prior_sd=_abs(0.7),
             session_sd=_abs(0.1),
@@ -660,7 +664,7 @@ SCHEMA: dict[str, FieldSchema] = {
             "N m",
             "positive",
             "log",
-            (1e-4, 100.0),
+            (1e-4, 1e4),
             may_be_inf=True,
             prior_sd=_abs(0.3),
             session_sd=_abs(0.05),

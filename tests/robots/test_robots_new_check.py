@@ -11,6 +11,7 @@ import math
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -211,3 +212,24 @@ def test_did_you_mean_a_spec_file(
     monkeypatch.chdir(tmp_path)  # `robots new neato` wrote neato.yaml; `--robot neato` names it
     with pytest.raises(UnknownRobotError, match=r"did you mean the file 'neato\.yaml'\?"):
         load_spec("neato")
+
+
+def test_a_heavy_bases_torque_stays_inside_the_schema_range(tmp_path: Path) -> None:
+    """A 1.08 m skid steer (~200 kg from the template) gets a traction prior above 100 N m;
+    that prior and a fitted torque cap of several hundred N m stay what they are in draws
+    and at the mean (a range ending at 100 N m stalled every member of such a band)."""
+    from robots.randomization import DriveDistribution
+
+    spec = load_spec(_write(tmp_path, spec_text("b", wheel_separation_m=1.08, wheel_radius_m=0.3,
+                                                drive="skid")))  # fmt: skip
+    field = SCHEMA["wheel_torque_max_nm"]
+    assert spec.drive.wheel_torque_max_nm > 100.0
+    assert math.exp(field.coord_bounds(spec.geometry)[1]) > spec.drive.wheel_torque_max_nm
+    dist = DriveDistribution(
+        robot="b", geometry=spec.geometry, names=("wheel_torque_max_nm",),
+        mean=(math.log(750.0),), covariance=((0.25,),),
+        fixed={n: getattr(spec.drive, n) for n in SCHEMA if n != "wheel_torque_max_nm"},
+    )  # fmt: skip
+    assert math.isclose(dist.mean_params().wheel_torque_max_nm, 750.0, rel_tol=1e-9)
+    drawn = [p.wheel_torque_max_nm for p in dist.sample(np.random.default_rng(0), 200)]
+    assert max(drawn) > 1500.0 and len(set(drawn)) == 200
