@@ -15,7 +15,10 @@ __all__ = [
     "OneLineErrorParser",
     "add_command",
     "add_group",
+    "add_logs_argument",
+    "add_odom_v_window_argument",
     "add_odom_velocity_argument",
+    "add_ray_argument",
     "add_read_arguments",
     "gate_line",
     "read_options",
@@ -81,6 +84,59 @@ def add_group(
     group_sub = group.add_subparsers(dest=f"{name}_command", metavar="SUBCOMMAND")
     group_sub.required = True
     return group_sub
+
+
+def add_logs_argument(
+    parser: argparse.ArgumentParser, dest: str, *, what: str, several: str
+) -> None:
+    """The positional logs (``LOG...``): files or folders of any readable format, or globs.
+
+    ``what`` names the logs and ``several`` says what several of them mean, e.g. "fitting
+    log(s)" and "several logs are several sessions (a population)".
+    """
+    parser.add_argument(
+        dest,
+        nargs="+",
+        metavar="LOG",
+        help=(
+            f"{what}: .mcap files, ROS 1 .bag, rosbag2 folders or .csv; paths or quoted "
+            f"globs ('fleet/*.mcap'); {several}"
+        ),
+    )
+
+
+def add_ray_argument(parser: argparse.ArgumentParser, *, several: str) -> None:
+    """``--ray auto|ADDRESS``: run the work of several logs as Ray tasks; ``several`` says
+    what the tasks are (e.g. "with several logs, run one Ray task per log")."""
+    parser.add_argument(
+        "--ray",
+        metavar="auto|ADDRESS",
+        help=(
+            f"{several}: 'auto' joins the running cluster or starts a local one, ADDRESS is a "
+            "head node (needs the [cluster] extra)"
+        ),
+    )
+
+
+def add_odom_v_window_argument(
+    parser: argparse.ArgumentParser, *, compared: str, averaged: str = "", like: str = ""
+) -> None:
+    """``--odom-v-window S|auto`` (default ``auto``): the window of the odometry's v.
+
+    ``compared`` names the v compared without a window ("model", "simulated"); ``averaged``
+    and ``like`` are inserted before and inside the default's parentheses.
+    """
+    parser.add_argument(
+        "--odom-v-window",
+        default="auto",
+        metavar="S|auto",
+        help=(
+            f"odometry v is a wheel-encoder tick difference over this window, s{averaged} "
+            "(default 'auto': from the spec's odometry, one period for an encoder base, e.g. "
+            f"1/30 s on a TurtleBot3, 0 otherwise{like}); 0 = compare the instantaneous "
+            f"{compared} v"
+        ),
+    )
 
 
 def add_odom_velocity_argument(parser: argparse.ArgumentParser) -> None:

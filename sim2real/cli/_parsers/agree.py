@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from sim2real.cli._common import add_command, add_read_arguments
+from sim2real.cli._common import (
+    add_command,
+    add_logs_argument,
+    add_odom_v_window_argument,
+    add_ray_argument,
+    add_read_arguments,
+)
 
 __all__ = ["register"]
 
@@ -70,15 +76,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         description=_DESCRIPTION,
         examples=_EXAMPLES,
     )
-    p.add_argument(
-        "log",
-        metavar="LOG",
-        nargs="+",
-        help=(
-            "the real log(s): .mcap files, ROS 1 .bag, rosbag2 folders or .csv; paths or quoted "
-            "globs ('fleet/*.mcap'); several logs print one row each and a fleet summary"
-        ),
-    )
+    several = "several logs print one row each and a fleet summary"
+    add_logs_argument(p, "log", what="the real log(s)", several=several)
     p.add_argument("--robot", required=True, help="robot name (see 'sim2real robots list')")
     p.add_argument("--params", metavar="PARAMS.yaml", help="sysid result (default: spec values)")
     p.add_argument(
@@ -106,14 +105,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     _add_band_options(p)
     add_read_arguments(p)
-    p.add_argument(
-        "--ray",
-        metavar="auto|ADDRESS",
-        help=(
-            "with several logs, run one Ray task per log: 'auto' joins the running cluster or "
-            "starts a local one, ADDRESS is a head node (needs the [cluster] extra)"
-        ),
-    )
+    add_ray_argument(p, several="with several logs, run one Ray task per log")
     p.set_defaults(handler="agree:handle_agree")
 
 
@@ -141,14 +133,9 @@ def _add_band_options(p: argparse.ArgumentParser) -> None:
         metavar="P",
         help="central probability of the ensemble's predictive band, in (0, 1) (default 0.9)",
     )
-    p.add_argument(
-        "--odom-v-window",
-        default="auto",
-        metavar="S|auto",
-        help=(
-            "odometry v is a wheel-encoder tick difference over this window, s; the simulated v "
-            "is averaged the same way (default 'auto': from the spec's odometry, one period for "
-            "an encoder base, e.g. 1/30 s on a TurtleBot3, 0 otherwise; like 'sysid fit'); "
-            "0 = compare the instantaneous simulated v"
-        ),
+    add_odom_v_window_argument(
+        p,
+        compared="simulated",
+        averaged="; the simulated v is averaged the same way",
+        like="; like 'sysid fit'",
     )

@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import argparse
 
-from sim2real.cli._common import add_command, add_group, add_read_arguments
+from sim2real.cli._common import (
+    add_command,
+    add_group,
+    add_logs_argument,
+    add_odom_v_window_argument,
+    add_ray_argument,
+    add_read_arguments,
+)
 from sysid.definitions import FIT_PERCENT_DEFINITION, LOSSES
 
 __all__ = ["register"]
@@ -166,24 +173,10 @@ def _register_fit(group_sub: argparse._SubParsersAction) -> None:  # type: ignor
         description=_FIT_DESCRIPTION,
         examples=_FIT_EXAMPLES,
     )
-    fit.add_argument(
-        "logs",
-        nargs="+",
-        metavar="LOG",
-        help=(
-            "fitting log(s): .mcap files, ROS 1 .bag, rosbag2 folders or .csv; paths or quoted "
-            "globs ('fleet/*.mcap'); several logs are several sessions (a population)"
-        ),
-    )
+    several = "several logs are several sessions (a population)"
+    add_logs_argument(fit, "logs", what="fitting log(s)", several=several)
     fit.add_argument("--robot", required=True, help="robot spec name (see 'sim2real robots list')")
-    fit.add_argument(
-        "--ray",
-        metavar="auto|ADDRESS",
-        help=(
-            "with several sessions, fit each as a Ray task: 'auto' joins the running cluster or "
-            "starts a local one, ADDRESS is a head node (needs the [cluster] extra)"
-        ),
-    )
+    add_ray_argument(fit, several="with several sessions, fit each as a Ray task")
     fit.add_argument("-o", "--output", required=True, metavar="PARAMS.yaml", help="result file")
     fit.add_argument(
         "--validate", action="append", default=[], metavar="VAL.mcap", help="validation log(s)"
@@ -221,16 +214,7 @@ def _add_fit_options(fit: argparse.ArgumentParser) -> None:
         help="also refit N block-bootstrap resamples of 10 s segments (a check on the errors)",
     )
     fit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap draws")
-    fit.add_argument(
-        "--odom-v-window",
-        default="auto",
-        metavar="S|auto",
-        help=(
-            "odometry v is a wheel-encoder tick difference over this window, s (default 'auto': "
-            "from the spec's odometry, one period for an encoder base, e.g. 1/30 s on a "
-            "TurtleBot3, 0 otherwise); 0 = compare the instantaneous model v"
-        ),
-    )
+    add_odom_v_window_argument(fit, compared="model")
 
 
 _CALIBRATE_EXAMPLES = """\
