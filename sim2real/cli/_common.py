@@ -17,7 +17,6 @@ __all__ = [
     "add_group",
     "add_logs_argument",
     "add_odom_v_window_argument",
-    "add_odom_velocity_argument",
     "add_ray_argument",
     "add_read_arguments",
     "gate_line",
@@ -139,24 +138,6 @@ def add_odom_v_window_argument(
     )
 
 
-def add_odom_velocity_argument(parser: argparse.ArgumentParser) -> None:
-    """``--odom-velocity {auto,twist,pose}``: where a log's measured velocities come from.
-
-    The choices are those of :func:`sim2real.logs.read_trace` (``odom_velocity=``); every
-    command that reads velocity logs takes it.
-    """
-    parser.add_argument(
-        "--odom-velocity",
-        choices=("auto", "twist", "pose"),
-        default="auto",
-        help=(
-            "measured velocities from the Odometry twist, from its pose (smoothed "
-            "differentiation), or 'auto' (default: the pose when the twist is zero or spiky "
-            "while the pose moves, which it says)"
-        ),
-    )
-
-
 def add_read_arguments(parser: argparse.ArgumentParser, *, time_source_note: str = "") -> None:
     """The options of every command that reads velocity logs: which topics, which clock, and
     where the measured velocities come from (the keywords of :func:`sim2real.logs.read_trace`).
@@ -167,17 +148,22 @@ def add_read_arguments(parser: argparse.ArgumentParser, *, time_source_note: str
     """
     parser.add_argument("--cmd-topic", help="command topic (default: auto-detect)")
     parser.add_argument("--odom-topic", help="odometry topic (default: auto-detect)")
-    parser.add_argument(
-        "--time-source",
-        choices=("auto", "header", "log"),
-        default="auto",
-        help=(
-            "message timing: header stamps, recorder log times, or 'auto' (default: header "
-            "stamps unless they run on another clock than the log times, which it says)"
-            + (f"; {time_source_note}" if time_source_note else "")
-        ),
+    time_source = (
+        "message timing: header stamps, recorder log times, or 'auto' (default: header stamps "
+        "unless they run on another clock than the log times, which it says)"
+        + (f"; {time_source_note}" if time_source_note else "")
     )
-    add_odom_velocity_argument(parser)
+    odom_velocity = (
+        "measured velocities from the Odometry twist, from its pose (smoothed differentiation), "
+        "or 'auto' (default: the pose when the twist is zero or spiky while the pose moves, "
+        "which it says)"
+    )
+    # the choices of sim2real.logs.read_trace, each with 'auto' (the reader chooses) as default
+    for flag, choices, text in (
+        ("--time-source", ("header", "log"), time_source),
+        ("--odom-velocity", ("twist", "pose"), odom_velocity),
+    ):
+        parser.add_argument(flag, choices=("auto", *choices), default="auto", help=text)
     parser.add_argument(
         "--keep-all",
         action="store_true",
