@@ -255,23 +255,23 @@ class DriveParams:
 
     def total_mass_kg(self, geometry: BaseGeometry) -> float:
         """Spec mass plus :attr:`added_mass_kg`; raises if not positive."""
-        m = geometry.mass_kg + self.added_mass_kg
-        if m <= 0:
-            raise RobotsValueError(
-                f"added_mass_kg={self.added_mass_kg} makes the total mass {m:.4g} kg <= 0; "
-                f"it must be > -{geometry.mass_kg} kg for this robot"
-            )
-        return m
+        return self._total("added_mass_kg", geometry.mass_kg, "mass", "kg")
 
     def total_yaw_inertia_kgm2(self, geometry: BaseGeometry) -> float:
         """Spec yaw inertia plus :attr:`added_yaw_inertia_kgm2`; raises if not positive."""
-        j = geometry.yaw_inertia_kgm2 + self.added_yaw_inertia_kgm2
-        if j <= 0:
+        return self._total(
+            "added_yaw_inertia_kgm2", geometry.yaw_inertia_kgm2, "yaw inertia", "kg m^2"
+        )
+
+    def _total(self, added_key: str, spec: float, what: str, unit: str) -> float:
+        added = getattr(self, added_key)
+        total = spec + added
+        if total <= 0:
             raise RobotsValueError(
-                f"added_yaw_inertia_kgm2={self.added_yaw_inertia_kgm2} makes the total yaw "
-                f"inertia {j:.4g} kg m^2 <= 0; it must be > -{geometry.yaw_inertia_kgm2}"
+                f"{added_key}={added} makes the total {what} {total:.4g} {unit} <= 0; "
+                f"it must be > -{spec} {unit} for this robot"
             )
-        return j
+        return float(total)
 
 
 # ----------------------------------------------------------------------------- the schema
@@ -494,9 +494,22 @@ class FieldSchema:
         return float(value) + self.spec_value(geometry)
 
 
-def _field(
-    name: str, unit: str, sign: str, coord: str, bounds: tuple[float, float], **kw: Any
+def _f(
+    name: str,
+    unit: str,
+    sign: str,
+    coord: str,
+    bounds: tuple[float, float],
+    axis: str,
+    spread: tuple[float | Callable[[BaseGeometry], float], float | Callable[[BaseGeometry], float]],
+    *,
+    inf: bool = False,
+    **kw: Any,
 ) -> FieldSchema:
+    """One row of :data:`SCHEMA`: ``spread`` is the generic (prior, session) sd, a number
+    for a spread that does not depend on the robot's size or a function of the geometry;
+    ``inf``: :attr:`FieldSchema.may_be_inf`; ``kw``: other attributes where not the default."""
+    prior_sd, session_sd = (s if callable(s) else _abs(s) for s in spread)
     return FieldSchema(
         name=name,
         unit=unit,
@@ -504,8 +517,10 @@ def _field(
         coord=coord,
         lower=bounds[0],
         upper=bounds[1],
-        may_be_inf=kw.pop("may_be_inf", False),
-        axis=kw.pop("axis", "vw"),
+        may_be_inf=inf,
+        axis=axis,
+        prior_sd=prior_sd,
+        session_sd=session_sd,
         fittable=kw.pop("fittable", True),
         absurd_sd=kw.pop("absurd_sd", 3.0 if coord.startswith("log") else 100.0),
         fit_kind=kw.pop("fit_kind", "lin" if coord == "lin" else "log"),
@@ -515,9 +530,15 @@ def _field(
 
 def _mode(name: str, doc: str, choices: tuple[float, ...] = (0.0, 1.0)) -> FieldSchema:
     """A driver's mode, coded as one of ``choices``: set in the spec, never fitted or spread."""
-    kw: dict[str, Any] = {"prior_sd": _abs(0.0), "session_sd": _abs(0.0), "fittable": False}
-    return _field(name, "1", "nonneg", "lin", (min(choices), max(choices)), choices=choices,
-                  doc=doc, **kw)  # fmt: skip
+    bounds = (min(choices), max(choices))
+    return _f(name, "1", "nonneg", "lin", bounds, "vw", (0.0, 0.0), fittable=False,
+              choices=choices, doc=doc)  # fmt: skip
+
+
+#: Fit ranges of sysid's internal coordinates (``sysid._coords``): the log of a torque cap
+#: over the loop gain, and the log of a total mass or yaw inertia over it.
+_LOG_TORQUE_RATIO = (math.log(1e-3), math.log(1e4))
+_LOG_TOTAL_RATIO = (math.log(2e-3), math.log(20.0))
 
 
 #: The drive-parameter schema, one entry per :class:`DriveParams` field in declaration order.
@@ -529,285 +550,76 @@ def _mode(name: str, doc: str, choices: tuple[float, ...] = (0.0, 1.0)) -> Field
 #: wheel-controller gains; Dynamixel servos in velocity mode run a PI loop with a nonzero
 #: default I gain), tuned with integral times of ~0.05-0.5 s: the reset rate
 #: ``speed_loop_ki_per_s`` gets an 8 /s prior sd.
-SCHEMA: dict[str, FieldSchema] = {
-    f.name: f
-    for f in (
-        _field(
-            "delay_s",
-            "s",
-            "nonneg",
-            "lin",
-            (0.0, 1.0),
-            prior_sd=_abs(0.1),
-            session_sd=_abs(0.02),
-            absurd_sd=10.0,
-            doc="command transport delay",
-        ),
-        _field(
-            "cmd_timeout_s",
-            "s",
-            "positive",
-            "log",
-            (0.01, 100.0),
-            may_be_inf=True,
-            fittable=False,
-            prior_sd=_abs(0.0),
-            session_sd=_abs(0.0),
-            doc="stop after this long without a command (firmware setting)",
-        ),
-        _field(
-            "speed_lim_v_mps",
-            "m/s",
-            "positive",
-            "log",
-            (0.01, 10.0),
-            may_be_inf=True,
-            axis="v",
-            prior_sd=_abs(0.02),
-            session_sd=_abs(0.0),
-            doc="firmware clamp on the commanded forward speed",
-        ),
-        _field(
-            "speed_lim_w_radps",
-            "rad/s",
-            "positive",
-            "log",
-            (0.05, 50.0),
-            may_be_inf=True,
-            axis="w",
-            prior_sd=_abs(0.02),
-            session_sd=_abs(0.0),
-            doc="firmware clamp on the commanded yaw rate",
-        ),
-        _field(
-            "accel_lim_v_mps2",
-            "m/s^2",
-            "positive",
-            "log",
-            (0.02, 50.0),
-            may_be_inf=True,
-            axis="v",
-            prior_sd=_abs(0.3),
-            session_sd=_abs(0.05),
-            doc="velocity-smoother rate limit, forward",
-        ),
-        _field(
-            "accel_lim_w_radps2",
-            "rad/s^2",
-            "positive",
-            "log",
-            (0.1, 300.0),
-            may_be_inf=True,
-            axis="w",
-            prior_sd=_abs(0.3),
-            session_sd=_abs(0.05),
-            doc="velocity-smoother rate limit, yaw",
-        ),
-        _field(
-            "wheel_speed_max_radps",
-            "rad/s",
-            "positive",
-            "log",
-            (0.3, 300.0),
-            may_be_inf=True,
-            prior_sd=_abs(0.15),
-            session_sd=_abs(0.05),
-            doc="per-wheel speed cap (loaded, at the battery's voltage)",
-        ),
-        _field(
-            "motor_gain_nms_per_rad",
-            "N m s/rad",
-            "positive",
-            "log",
-            (1e-5, 1e3),
-            prior_sd=_abs(1.0),
-            session_sd=_abs(0.05),
-            doc="P gain of each wheel's speed loop",
-        ),
-        _field(
-            "speed_loop_ki_per_s",
-            "1/s",
-            "nonneg",
-            "lin",
-            (0.0, 200.0),
-            prior_sd=_abs(8.0),
-            session_sd=_abs(0.0),
-            fit_step=1e-2,
-            doc="integral gain of each wheel's speed loop over its P gain (1/integral time)",
-        ),
-        # Wheel torques span small robots to large field bases: traction alone lets a 1 t
-        # base on 0.4 m wheels push ~2000 N m per side (mu 1 on half its weight), so the
-        # plausible range ends at 1e4 N m, never below what the spec template's traction
-        # prior gives a heavy base.
-        _field(
-            "wheel_torque_max_nm",
-            "N m",
-            "positive",
-            "log",
-            (1e-4, 1e4),
-            may_be_inf=True,
-            prior_sd=_abs(0.7),
-            session_sd=_abs(0.1),
-            fit_kind="torque_ratio",
-            fit_range=(math.log(1e-3), math.log(1e4)),
-            doc="per-wheel torque saturation (traction or the driver's current limit)",
-        ),
-        # A DC motor at full drive voltage V gives k_t (V - k_e omega) / R: its torque falls
-        # linearly from stall to zero at the no-load speed omega_0 = V / k_e, and both scale
-        # with V (Hughes & Drury, Electric Motors and Drives, 4th ed., ch. 3). Datasheets
-        # quote them at the wheel at a nominal voltage, e.g. ROBOTIS XL430-W250 (TurtleBot3
-        # Burger): 1.4 N m stall and 57 rev/min no-load at 11.1 V, 1.5 N m and 61 rev/min at
-        # 12 V. A battery between tired and full moves both by ~+-8 % (Li-ion 3.6-4.2 V per
-        # cell): a between-session spread. Generic priors: known to ~35 % (log sd 0.3).
-        _field(
-            "wheel_stall_torque_nm",
-            "N m",
-            "positive",
-            "log",
-            (1e-4, 1e4),
-            may_be_inf=True,
-            prior_sd=_abs(0.3),
-            session_sd=_abs(0.05),
-            fit_kind="torque_ratio",
-            fit_range=(math.log(1e-3), math.log(1e4)),
-            doc="the wheel motors' stall torque (their torque-speed line; at the battery's voltage)",
-        ),
-        _field(
-            "wheel_no_load_speed_radps",
-            "rad/s",
-            "positive",
-            "log",
-            (0.3, 300.0),
-            may_be_inf=True,
-            prior_sd=_abs(0.3),
-            session_sd=_abs(0.05),
-            doc="the motors' no-load wheel speed (their torque-speed line; at the battery's voltage)",
-        ),
-        _field(
-            "coulomb_v_fwd_n",
-            "N",
-            "nonneg",
-            "per_total_mass",
-            (0.0, math.inf),
-            axis="v",
-            prior_sd=_weight(0.02),
-            session_sd=_weight(0.005),
-            fit_kind="ratio_v",
-            fit_range=(0.0, 0.5),
-            fit_step=1e-4,
-            doc="Coulomb friction force, moving forward",
-        ),
-        _field(
-            "coulomb_v_bwd_n",
-            "N",
-            "nonneg",
-            "per_total_mass",
-            (0.0, math.inf),
-            axis="v",
-            prior_sd=_weight(0.02),
-            session_sd=_weight(0.005),
-            fit_kind="ratio_v",
-            fit_range=(0.0, 0.5),
-            fit_step=1e-4,
-            doc="Coulomb friction force, moving backward",
-        ),
-        _field(
-            "coulomb_w_nm",
-            "N m",
-            "nonneg",
-            "per_total_inertia",
-            (0.0, math.inf),
-            axis="w",
-            prior_sd=_weight_arm(0.03),
-            session_sd=_weight_arm(0.008),
-            fit_kind="ratio_w",
-            fit_range=(0.0, 3.0),
-            fit_step=5e-4,
-            doc="Coulomb friction torque about yaw",
-        ),
-        _field(
-            "viscous_v_ns_per_m",
-            "N s/m",
-            "nonneg",
-            "per_total_mass",
-            (0.0, math.inf),
-            axis="v",
-            prior_sd=_abs(1.0),
-            session_sd=_abs(0.2),
-            fit_kind="ratio_v",
-            fit_range=(0.0, 5.0),
-            doc="viscous friction, forward",
-        ),
-        _field(
-            "viscous_w_nms_per_rad",
-            "N m s/rad",
-            "nonneg",
-            "per_total_inertia",
-            (0.0, math.inf),
-            axis="w",
-            prior_sd=_abs(1.0),
-            session_sd=_abs(0.2),
-            fit_kind="ratio_w",
-            fit_range=(0.0, 5.0),
-            doc="viscous friction about yaw",
-        ),
-        _field(
-            "added_mass_kg",
-            "kg",
-            "total_positive",
-            "log_total_mass",
-            (0.1, 20.0),
-            axis="v",
-            prior_sd=_abs(0.3),
-            session_sd=_abs(0.1),
-            fit_kind="mass",
-            fit_range=(math.log(2e-3), math.log(20.0)),
-            doc="payload beyond the spec mass",
-        ),
-        _field(
-            "added_yaw_inertia_kgm2",
-            "kg m^2",
-            "total_positive",
-            "log_total_inertia",
-            (0.1, 30.0),
-            axis="w",
-            prior_sd=_abs(0.4),
-            session_sd=_abs(0.15),
-            fit_kind="inertia",
-            fit_range=(math.log(2e-3), math.log(20.0)),
-            doc="payload yaw inertia beyond the spec",
-        ),
-        # Differential drive: 1 exactly (no prior spread). Skid steer: Mandow et al. 2007
-        # measured chi ~1.5-2 on their four-wheel base; Clearpath ships a separation
-        # multiplier of 1.875 for Husky and 1.5 for Jackal (robots/template.py's skid prior).
-        _field(
-            "track_factor",
-            "1",
-            "positive",
-            "log",
-            (1.0, 4.0),
-            prior_sd=_abs(0.0),
-            session_sd=_abs(0.0),
-            doc="skid steer: effective / geometric track (ICR spread; 1 = differential drive)",
-        ),
-        _field(
-            "driver_track_factor",
-            "1",
-            "positive",
-            "log",
-            (1.0, 4.0),
-            fittable=False,
-            prior_sd=_abs(0.0),
-            session_sd=_abs(0.0),
-            doc="the driver's track multiplier for its wheel targets (a driver setting)",
-        ),
-        _mode(
-            "wheel_cap_per_side",
-            "the driver clips each wheel's target at the speed cap on its own (1) or scales "
-            "both together (0; a driver setting)",
-        ),
-    )
-}
+# fmt: off
+SCHEMA: dict[str, FieldSchema] = {f.name: f for f in (
+    _f("delay_s", "s", "nonneg", "lin", (0.0, 1.0), "vw", (0.1, 0.02), absurd_sd=10.0,
+       doc="command transport delay"),
+    _f("cmd_timeout_s", "s", "positive", "log", (0.01, 100.0), "vw", (0.0, 0.0), inf=True,
+       fittable=False, doc="stop after this long without a command (firmware setting)"),
+    _f("speed_lim_v_mps", "m/s", "positive", "log", (0.01, 10.0), "v", (0.02, 0.0), inf=True,
+       doc="firmware clamp on the commanded forward speed"),
+    _f("speed_lim_w_radps", "rad/s", "positive", "log", (0.05, 50.0), "w", (0.02, 0.0), inf=True,
+       doc="firmware clamp on the commanded yaw rate"),
+    _f("accel_lim_v_mps2", "m/s^2", "positive", "log", (0.02, 50.0), "v", (0.3, 0.05), inf=True,
+       doc="velocity-smoother rate limit, forward"),
+    _f("accel_lim_w_radps2", "rad/s^2", "positive", "log", (0.1, 300.0), "w", (0.3, 0.05), inf=True,
+       doc="velocity-smoother rate limit, yaw"),
+    _f("wheel_speed_max_radps", "rad/s", "positive", "log", (0.3, 300.0), "vw", (0.15, 0.05),
+       inf=True, doc="per-wheel speed cap (loaded, at the battery's voltage)"),
+    _f("motor_gain_nms_per_rad", "N m s/rad", "positive", "log", (1e-5, 1e3), "vw", (1.0, 0.05),
+       doc="P gain of each wheel's speed loop"),
+    _f("speed_loop_ki_per_s", "1/s", "nonneg", "lin", (0.0, 200.0), "vw", (8.0, 0.0), fit_step=1e-2,
+       doc="integral gain of each wheel's speed loop over its P gain (1/integral time)"),
+    # Wheel torques span small robots to large field bases: traction alone lets a 1 t
+    # base on 0.4 m wheels push ~2000 N m per side (mu 1 on half its weight), so the
+    # plausible range ends at 1e4 N m, never below what the spec template's traction
+    # prior gives a heavy base.
+    _f("wheel_torque_max_nm", "N m", "positive", "log", (1e-4, 1e4), "vw", (0.7, 0.1), inf=True,
+       fit_kind="torque_ratio", fit_range=_LOG_TORQUE_RATIO,
+       doc="per-wheel torque saturation (traction or the driver's current limit)"),
+    # A DC motor at full drive voltage V gives k_t (V - k_e omega) / R: its torque falls
+    # linearly from stall to zero at the no-load speed omega_0 = V / k_e, and both scale
+    # with V (Hughes & Drury, Electric Motors and Drives, 4th ed., ch. 3). Datasheets
+    # quote them at the wheel at a nominal voltage, e.g. ROBOTIS XL430-W250 (TurtleBot3
+    # Burger): 1.4 N m stall and 57 rev/min no-load at 11.1 V, 1.5 N m and 61 rev/min at
+    # 12 V. A battery between tired and full moves both by ~+-8 % (Li-ion 3.6-4.2 V per
+    # cell): a between-session spread. Generic priors: known to ~35 % (log sd 0.3).
+    _f("wheel_stall_torque_nm", "N m", "positive", "log", (1e-4, 1e4), "vw", (0.3, 0.05),
+       inf=True, fit_kind="torque_ratio", fit_range=_LOG_TORQUE_RATIO,
+       doc="the wheel motors' stall torque (their torque-speed line; at the battery's voltage)"),
+    _f("wheel_no_load_speed_radps", "rad/s", "positive", "log", (0.3, 300.0), "vw", (0.3, 0.05),
+       inf=True,
+       doc="the motors' no-load wheel speed (their torque-speed line; at the battery's voltage)"),
+    _f("coulomb_v_fwd_n", "N", "nonneg", "per_total_mass", (0.0, math.inf), "v",
+       (_weight(0.02), _weight(0.005)), fit_kind="ratio_v", fit_range=(0.0, 0.5), fit_step=1e-4,
+       doc="Coulomb friction force, moving forward"),
+    _f("coulomb_v_bwd_n", "N", "nonneg", "per_total_mass", (0.0, math.inf), "v",
+       (_weight(0.02), _weight(0.005)), fit_kind="ratio_v", fit_range=(0.0, 0.5), fit_step=1e-4,
+       doc="Coulomb friction force, moving backward"),
+    _f("coulomb_w_nm", "N m", "nonneg", "per_total_inertia", (0.0, math.inf), "w",
+       (_weight_arm(0.03), _weight_arm(0.008)), fit_kind="ratio_w", fit_range=(0.0, 3.0),
+       fit_step=5e-4, doc="Coulomb friction torque about yaw"),
+    _f("viscous_v_ns_per_m", "N s/m", "nonneg", "per_total_mass", (0.0, math.inf), "v", (1.0, 0.2),
+       fit_kind="ratio_v", fit_range=(0.0, 5.0), doc="viscous friction, forward"),
+    _f("viscous_w_nms_per_rad", "N m s/rad", "nonneg", "per_total_inertia", (0.0, math.inf), "w",
+       (1.0, 0.2), fit_kind="ratio_w", fit_range=(0.0, 5.0), doc="viscous friction about yaw"),
+    _f("added_mass_kg", "kg", "total_positive", "log_total_mass", (0.1, 20.0), "v", (0.3, 0.1),
+       fit_kind="mass", fit_range=_LOG_TOTAL_RATIO, doc="payload beyond the spec mass"),
+    _f("added_yaw_inertia_kgm2", "kg m^2", "total_positive", "log_total_inertia", (0.1, 30.0), "w",
+       (0.4, 0.15), fit_kind="inertia", fit_range=_LOG_TOTAL_RATIO,
+       doc="payload yaw inertia beyond the spec"),
+    # Differential drive: 1 exactly (no prior spread). Skid steer: Mandow et al. 2007
+    # measured chi ~1.5-2 on their four-wheel base; Clearpath ships a separation
+    # multiplier of 1.875 for Husky and 1.5 for Jackal (robots/template.py's skid prior).
+    _f("track_factor", "1", "positive", "log", (1.0, 4.0), "vw", (0.0, 0.0),
+       doc="skid steer: effective / geometric track (ICR spread; 1 = differential drive)"),
+    _f("driver_track_factor", "1", "positive", "log", (1.0, 4.0), "vw", (0.0, 0.0), fittable=False,
+       doc="the driver's track multiplier for its wheel targets (a driver setting)"),
+    _mode("wheel_cap_per_side",
+          "the driver clips each wheel's target at the speed cap on its own (1) or scales "
+          "both together (0; a driver setting)"),
+)}
+# fmt: on
 
 #: Parameters that may be +inf (meaning "no such limit"); derived from :data:`SCHEMA`.
 MAY_BE_INF = frozenset(n for n, f in SCHEMA.items() if f.may_be_inf)
