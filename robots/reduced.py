@@ -132,7 +132,7 @@ def _run(
 
     One pass and no trajectory: each time is read while its grid interval is integrated.
     """
-    m = t_out.shape[0]
+    m = len(t_out)
     j = 0
     while j < m and t_out[j] - shift < t0:
         out_v[j], out_w[j] = v0, w0
@@ -195,32 +195,10 @@ def _run_python(
 ) -> tuple[FloatArray, FloatArray]:
     """:func:`_run` in plain Python, one kernel call per step: the same arithmetic on Python
     floats and lists (the benchmark baseline and the interpreted mode)."""
-    step, lerp = _step.py_func, _lerp.py_func
-    times = (t_out - shift).tolist()
-    m = len(times)
-    out_v = [v0] * m
-    out_w = [w0] * m
-    state = [v0, w0, v0, w0, 0.0, 0.0]
-    packed = p.tolist()
-    uv, uw = u_v[offset : offset + n].tolist(), u_w[offset : offset + n].tolist()
-    j = 0
-    while j < m and times[j] < t0:
-        j += 1
-    cur_v, cur_w, x1 = v0, w0, t0
-    for k in range(1, n + 1):
-        if j == m:
-            break
-        prev_v, prev_w, x0 = cur_v, cur_w, x1
-        step(state, uv[k - 1], uw[k - 1], dt, packed)
-        cur_v, cur_w = state[0], state[1]
-        x1 = t0 + dt * float(k)
-        while j < m and times[j] < x1:
-            out_v[j] = lerp(times[j], x0, x1, prev_v, cur_v)
-            out_w[j] = lerp(times[j], x0, x1, prev_w, cur_w)
-            j += 1
-    while j < m:
-        out_v[j], out_w[j] = cur_v, cur_w
-        j += 1
+    m = t_out.shape[0]
+    out_v, out_w = [0.0] * m, [0.0] * m
+    uv, uw, times, packed = u_v.tolist(), u_w.tolist(), t_out.tolist(), p.tolist()
+    _run.py_func(uv, uw, offset, n, t0, dt, packed, v0, w0, times, shift, out_v, out_w)
     return np.array(out_v), np.array(out_w)
 
 
