@@ -496,25 +496,15 @@ class OrcaCrowd(Crowd):
 
     config: OrcaConfig = OrcaConfig(time_horizon_s=2.0, neighbor_dist_m=4.0)
 
-    def step(
+    def _walk(
         self,
         dt_s: float,
         scene: Scene2D,
-        *,
-        robot_xy: FloatArray,
-        robot_radius_m: float,
-        robot_velocity_mps: FloatArray | None = None,
+        walking: BoolArray,
+        robot: tuple[FloatArray, float, FloatArray | None],
     ) -> None:
-        """Advance every pedestrian by ``dt_s`` (the robot moves at ``robot_velocity_mps``)."""
-        n = len(self)
-        self.time_s += dt_s
-        if n == 0:
-            return
-        to_goal = self.goals - self.position_m
-        reached = np.linalg.norm(to_goal, axis=1) < 0.3
-        if reached.any():
-            self.goals[reached] = self._random_goals(int(reached.sum()))
-        walking = (self.time_s >= self.start_time_s) & (self.pref_speed_mps > 0)
+        """The ORCA step of :meth:`Crowd.step` (the robot moves at its velocity, zero if not
+        given)."""
         agents = OrcaAgents(
             position_m=self.position_m,
             radius_m=self.radius_m,
@@ -522,14 +512,15 @@ class OrcaCrowd(Crowd):
             config=self.config,
         )
         agents.velocity_mps = self.velocity_mps
+        robot_xy, robot_radius_m, robot_velocity_mps = robot
         rv = np.zeros(2) if robot_velocity_mps is None else np.asarray(robot_velocity_mps)
         m = scene.circles_r.shape[0]
         agents.step(
             dt_s,
             goals=self.goals,
-            others_xy=np.vstack([np.asarray(robot_xy).reshape(1, 2), scene.circles_xy]),
+            others_xy=np.vstack([robot_xy.reshape(1, 2), scene.circles_xy]),
             others_velocity_mps=np.vstack([rv.reshape(1, 2), np.zeros((m, 2))]),
-            others_radius_m=np.concatenate([[float(robot_radius_m)], scene.circles_r]),
+            others_radius_m=np.concatenate([[robot_radius_m], scene.circles_r]),
             walls=(scene.seg_a, scene.seg_b),
         )
         self.velocity_mps = agents.velocity_mps

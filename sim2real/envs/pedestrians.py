@@ -301,19 +301,30 @@ class Crowd:
         ``robot_velocity_mps`` is unused here (eq. (1) looks at free space only); the ORCA
         crowd (:class:`sim2real.envs.orca.OrcaCrowd`) needs it.
         """
-        n = len(self)
         self.time_s += dt_s
-        if n == 0:
+        if len(self) == 0:
             return
-        to_goal = self.goals - self.position_m
-        reached = np.linalg.norm(to_goal, axis=1) < _GOAL_REACHED_M
+        reached = np.linalg.norm(self.goals - self.position_m, axis=1) < _GOAL_REACHED_M
         if reached.any():
             self.goals[reached] = self._random_goals(int(reached.sum()))
-            to_goal = self.goals - self.position_m
         walking = (self.time_s >= self.start_time_s) & (self.pref_speed_mps > 0)
+        robot = (np.asarray(robot_xy), float(robot_radius_m), robot_velocity_mps)
+        self._walk(dt_s, scene, walking, robot)
+
+    def _walk(
+        self,
+        dt_s: float,
+        scene: Scene2D,
+        walking: NDArray[np.bool_],
+        robot: tuple[FloatArray, float, FloatArray | None],
+    ) -> None:
+        """Move the ``walking`` pedestrians by ``dt_s`` (eq. (1)); ``robot`` is its position,
+        radius and velocity (of :meth:`step`)."""
+        to_goal = self.goals - self.position_m
         goal_dir = np.arctan2(to_goal[:, 1], to_goal[:, 0])
         position = self.position_m.copy()
-        velocity = np.empty((n, 2))
+        velocity = np.empty((len(self), 2))
+        robot_xy, robot_radius_m, _ = robot
         walk(
             position,
             velocity,
@@ -326,7 +337,7 @@ class Crowd:
             *scene.kernel_arrays(),
             float(robot_xy[0]),
             float(robot_xy[1]),
-            float(robot_radius_m),
+            robot_radius_m,
             float(dt_s),
         )
         self.velocity_mps = velocity
