@@ -12,7 +12,8 @@ env and N single envs with the same seeds give the same numbers:
 - the goal (distance and bearing) and the clearance of :func:`sim2real.envs.geometry.disc_clearance`;
 - CrowdNav's eq. (1) pedestrians (:meth:`sim2real.envs.pedestrians.Crowd.step`: the clock and
   goals here, then the single env's kernel ``_walk_kernel``; new goals are drawn in Python from
-  each env's own generator) and depth images (:func:`sim2real.envs.depth.render_camera`).
+  each env's own generator) and depth images (:func:`sim2real.envs.depth.camera_frame` and
+  :func:`~sim2real.envs.depth.render_frame`).
 
 The lidar casts each obstacle only along the beams it can be seen under
 (:func:`sim2real.envs.geometry.cast_beams`): the same per-beam arithmetic as
@@ -35,7 +36,7 @@ from robots import _jit
 from robots.reduced import _advance_history
 from sim2real.envs import _robot, depth, geometry, pedestrians
 from sim2real.envs._robot import arc_step
-from sim2real.envs.depth import render_camera
+from sim2real.envs.depth import camera_frame, render_frame
 from sim2real.envs.geometry import FloatArray, cast_beams, segment_distance
 from sim2real.envs.pedestrians import _walk_kernel
 
@@ -527,26 +528,14 @@ def render_depths(
     frame: FloatArray,
     out: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
-    """Depth images of the ``active`` envs (the single env's :func:`render_camera`; env i's
+    """Depth images of the ``active`` envs (the single env's :func:`render_frame`; env i's
     camera mount ``xyz[i]``, ``r_mount[i]``), as float32 into ``out`` (N, height, width);
     ``frame`` (height, width) is scratch."""
     for i in range(active.shape[0]):
         if not active[i]:
             continue
-        render_camera(
-            pose[i, 0],
-            pose[i, 1],
-            pose[i, 2],
-            base_height,
-            xyz[i],
-            r_mount[i],
-            rays,
-            cyl[i, : n_cyl[i]],
-            boxes[i, : n_boxes[i]],
-            near,
-            far,
-            frame,
-        )
+        eye, rot = camera_frame(pose[i, 0], pose[i, 1], pose[i, 2], base_height, xyz[i], r_mount[i])
+        render_frame(eye, rot, rays, cyl[i, : n_cyl[i]], boxes[i, : n_boxes[i]], near, far, frame)
         for r in range(frame.shape[0]):
             for c in range(frame.shape[1]):
                 out[i, r, c] = np.float32(frame[r, c])

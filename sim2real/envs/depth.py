@@ -38,8 +38,8 @@ __all__ = [
     "DepthScene",
     "camera_frame",
     "camera_rays",
-    "render_camera",
     "render_depth",
+    "render_frame",
     "rpy_matrix",
     "world_rays",
 ]
@@ -259,7 +259,7 @@ def _level(rays: FloatArray, rotation: FloatArray, width: int) -> bool:  # pragm
 
 
 @numba.njit(cache=True)
-def _render_frame(
+def render_frame(
     eye: FloatArray,
     rotation: FloatArray,
     rays: FloatArray,
@@ -270,7 +270,9 @@ def _render_frame(
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
     """Depth image ``out`` (height, width) clipped to [near, far]: the camera-frame ``rays``
-    turned into the world by ``rotation`` (sums in index order), then cast from ``eye``."""
+    turned into the world by ``rotation`` (sums in index order), then cast from ``eye``
+    (``boxes`` packed by ``_packed_boxes``); the native vector env calls it per sub-env with
+    the pose of :func:`camera_frame`."""
     height, width = out.shape
     flat = np.empty(rays.shape[0])
     if _level(rays, rotation, width):
@@ -316,27 +318,6 @@ def camera_frame(
                 + r_base[a, 2] * r_mount[2, b]
             )
     return eye, rot
-
-
-@numba.njit(cache=True)
-def render_camera(
-    x: float,
-    y: float,
-    yaw: float,
-    base_height: float,
-    xyz: FloatArray,
-    r_mount: FloatArray,
-    rays: FloatArray,
-    cyl: FloatArray,
-    boxes: FloatArray,
-    near: float,
-    far: float,
-    out: FloatArray,
-) -> None:  # pragma: no cover - compiled
-    """:meth:`DepthCamera.render` compiled: the frame of a base at (x, y, yaw) into ``out``
-    (``boxes`` packed by ``_packed_boxes``); the native vector env calls it per sub-env."""
-    eye, rot = camera_frame(x, y, yaw, base_height, xyz, r_mount)
-    _render_frame(eye, rot, rays, cyl, boxes, near, far, out)
 
 
 def _packed_boxes(boxes: FloatArray) -> FloatArray:
@@ -385,7 +366,7 @@ def render_depth(
     """
     cam = camera_rays(width, height, hfov_deg) if rays is None else rays
     out = np.empty((height, width))
-    _render_frame(
+    render_frame(
         np.asarray(eye, dtype=np.float64).reshape(3),
         np.ascontiguousarray(rotation, dtype=np.float64).reshape(3, 3),
         np.ascontiguousarray(cam, dtype=np.float64),
@@ -486,19 +467,9 @@ class DepthCamera:
     def render(self, scene: DepthScene, x: float, y: float, yaw: float) -> FloatArray:
         """Depth image (m along the optical axis), shape (height, width)."""
         self.update_view(x, y, yaw)
+        eye, rot = self.world_pose(x, y, yaw)
         out = np.empty((self.height, self.width))
-        render_camera(
-            float(x),
-            float(y),
-            float(yaw),
-            self.base_height_m,
-            self.xyz_m,
-            self._r_mount,
-            self._rays,
-            np.ascontiguousarray(scene.cylinders, dtype=np.float64).reshape(-1, 4),
-            _packed_boxes(scene.boxes),
-            self.near_m,
-            self.far_m,
-            out,
-        )
+        cyl = np.ascontiguousarray(scene.cylinders, dtype=np.float64).reshape(-1, 4)
+        boxes = _packed_boxes(scene.boxes)
+        render_frame(eye, rot, self._rays, cyl, boxes, self.near_m, self.far_m, out)
         return out

@@ -9,7 +9,7 @@ env's: env *i* of the vector env and the single env reset with the same seed and
 same actions produce the same observations, rewards, ends and infos (tested against
 gymnasium's ``SyncVectorEnv``). CrowdNav's eq. (1) pedestrians walk and its depth images are
 rendered for all sub-envs in compiled loops too (the single env's kernels,
-:func:`sim2real.envs.pedestrians.walk` and :func:`sim2real.envs.depth.render_camera`); ORCA
+:func:`sim2real.envs.pedestrians.walk` and :func:`sim2real.envs.depth.render_frame`); ORCA
 crowds step per sub-env by the sub-env's own crowd object.
 
 Gymnasium conventions
