@@ -21,6 +21,7 @@ and the wall time. ``--smoke`` runs the same loop at a tiny budget; its table (`
 is the same for the same arguments. ``--gap TASK`` only trains the spec-defaults policy of a
 task and evaluates it in its sim and on plant session distributions (``gap_TASK.md``): the
 check that the spec policy loses on the plant before the experiment is worth running.
+``--jobs N`` trains and evaluates N runs at a time in worker processes (the same table).
 """
 
 from __future__ import annotations
@@ -135,8 +136,8 @@ GAP_TASKS: dict[str, dict[str, Any]] = {
     },
 }
 #: ``burger_stop_4cm``: the same stop inside 0.04 m. At 0.22 m/s the real latency's range
-#: (0.10-0.23 s) rolls 0.03-0.06 m after a stop command: a policy tuned to one latency has
-#: about 1 cm of margin each side for the spread.
+#: (0.10-0.23 s) rolls 0.03-0.06 m after a stop command, a spread close to the 0.08 m disc:
+#: a policy that brakes for one latency near the disc's edge overshoots at the longer ones.
 GAP_TASKS["burger_stop_4cm"] = {
     **GAP_TASKS["burger_stop"],
     "map_config": {**GAP_TASKS["burger_stop"]["map_config"], "goal_tolerance_m": 0.04},

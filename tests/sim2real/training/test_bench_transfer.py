@@ -16,8 +16,8 @@ pytestmark = pytest.mark.train
 ROOT = Path(__file__).resolve().parents[3]
 
 
-def _smoke(out: Path) -> str:
-    cmd = [sys.executable, str(ROOT / "benchmarks" / "bench_transfer.py"), "--smoke"]
+def _smoke(out: Path, *extra: str) -> str:
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "bench_transfer.py"), "--smoke", *extra]
     run = subprocess.run(
         [*cmd, "--out", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=900
     )
@@ -34,7 +34,8 @@ def test_smoke_runs_the_loop_and_repeats_its_table(tmp_path: Path) -> None:
             assert f"| {name} | {world} |" in first
     assert (tmp_path / "a" / "excite.mcap").is_file()
     assert (tmp_path / "a" / "calibrated.yaml").is_file()
-    assert _smoke(tmp_path / "b") == first
+    # the same table when the runs train and evaluate in two worker processes
+    assert _smoke(tmp_path / "b", "--jobs", "2") == first
 
 
 @pytest.mark.slow

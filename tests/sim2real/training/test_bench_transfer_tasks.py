@@ -71,10 +71,10 @@ def test_burger_stop_a_brake_the_spec_allows_overshoots_with_the_latency_of_real
     assert all(_brake_at(worlds["real"], 0.04, s, burger=True) == "success" for s in range(20))
 
 
-def test_burger_stop_4cm_leaves_less_margin_than_the_real_latency_spread_rolls() -> None:
+def test_burger_stop_4cm_a_late_brake_overshoots_at_real_latency_an_early_one_does_not() -> None:
     kwargs = bench_transfer.GAP_TASKS["burger_stop_4cm"]
     env = build_env(bench_transfer.ENV_ID, kwargs).unwrapped
-    assert env.goal_tolerance_m == 0.03 and env.max_episode_steps == 105
+    assert env.goal_tolerance_m == 0.04 and env.max_episode_steps == 105
     assert bench_transfer.TASKS["burger_stop_4cm"][1] == bench_transfer.REAL_LATENCY
     real = PlantSessions.of("turtlebot3_burger", variation=bench_transfer.REAL_LATENCY)
     plant = build_env(
@@ -85,11 +85,11 @@ def test_burger_stop_4cm_leaves_less_margin_than_the_real_latency_spread_rolls()
             Counter(_brake_at(env, brake_m, s, burger=True) for s in range(20)),
             Counter(_brake_at(plant, brake_m, s, burger=True) for s in range(20)),
         )
-        for brake_m in (0.01, 0.05)
+        for brake_m in (0.01, 0.04)
     }
     # a stop commanded 1 cm before the goal is in time with the spec's 0.05 s latency, and
-    # overshoots the 3 cm disc on most sessions at 0.10-0.23 s
+    # overshoots the 4 cm disc on most sessions at 0.10-0.23 s
     sim, real_latency = outcomes[0.01]
-    assert sim["success"] == 20 and real_latency["overshoot"] >= 14
-    # commanded 5 cm before, it stops inside on every world: the task stays feasible
-    assert outcomes[0.05][0]["success"] == 20 and outcomes[0.05][1]["success"] == 20
+    assert sim["success"] == 20 and real_latency["overshoot"] >= 12
+    # commanded 4 cm before, it stops inside on every world: the task stays feasible
+    assert outcomes[0.04][0]["success"] == 20 and outcomes[0.04][1]["success"] == 20
