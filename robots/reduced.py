@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -180,26 +181,14 @@ def _run_many(
         _run(u_v[k], u_w[k], 0, n, t0, dt, packed[c], v0, w0, t_out, shifts[c], out_v[c], out_w[c])
 
 
-def _run_python(
-    u_v: FloatArray,
-    u_w: FloatArray,
-    offset: int,
-    n: int,
-    t0: float,
-    dt: float,
-    p: FloatArray,
-    v0: float,
-    w0: float,
-    t_out: FloatArray,
-    shift: float,
-) -> tuple[FloatArray, FloatArray]:
-    """:func:`_run` in plain Python, one kernel call per step: the same arithmetic on Python
-    floats and lists (the benchmark baseline and the interpreted mode)."""
-    m = t_out.shape[0]
-    out_v, out_w = [0.0] * m, [0.0] * m
-    uv, uw, times, packed = u_v.tolist(), u_w.tolist(), t_out.tolist(), p.tolist()
-    _run.py_func(uv, uw, offset, n, t0, dt, packed, v0, w0, times, shift, out_v, out_w)
-    return np.array(out_v), np.array(out_w)
+def _run_python(args: tuple[Any, ...], out_v: FloatArray, out_w: FloatArray) -> None:
+    """:func:`_run` in plain Python, one kernel call per step (its own loop on Python floats and
+    lists, faster to interpret than numpy scalars): ``args`` are its arguments but the outputs
+    (the benchmark baseline and the interpreted mode)."""
+    lists = [a.tolist() if isinstance(a, np.ndarray) else a for a in args]
+    list_v, list_w = [0.0] * out_v.shape[0], [0.0] * out_w.shape[0]
+    _run.py_func(*lists, list_v, list_w)
+    out_v[:], out_w[:] = list_v, list_w
 
 
 @njit(cache=True, inline="always")
@@ -221,29 +210,6 @@ def _held_mean(
             u_v += cmd_v[i] * (hi - lo)
             u_w += cmd_w[i] * (hi - lo)
     return u_v / dt, u_w / dt
-
-
-@njit(cache=True)
-def _advance_held(
-    state: FloatArray,
-    cmd_t: FloatArray,
-    cmd_v: FloatArray,
-    cmd_w: FloatArray,
-    t0: float,
-    dt: float,
-    n: int,
-    delay: float,
-    timeout: float,
-    p: FloatArray,
-) -> None:  # pragma: no cover - compiled
-    """``n`` steps from time ``t0`` with the delayed zero-order-hold command history.
-
-    The same numbers as :func:`delayed_step_average` followed by ``n`` calls of :func:`_step`
-    (up to rounding), in one compiled call (:func:`_held_mean` of each delayed step).
-    """
-    for k in range(n):
-        u_v, u_w = _held_mean(cmd_t, cmd_v, cmd_w, t0 + k * dt - delay, dt, timeout)
-        _step(state, u_v, u_w, dt, p)
 
 
 @njit(cache=True)
@@ -281,15 +247,20 @@ def _advance_history(
     timeout: float,
     p: FloatArray,
 ) -> None:  # pragma: no cover - compiled
-    """:func:`_advance_held` over the rows of a ``(time, v, w)`` history that still act.
+    """``n`` steps from time ``t0`` with the delayed zero-order-hold commands of the rows of a
+    ``(time, v, w)`` history that still act.
 
-    Only commands from the one held at the start of the delayed window on contribute.
+    The same numbers as :func:`delayed_step_average` followed by ``n`` calls of :func:`_step`
+    (up to rounding), in one compiled call (:func:`_held_mean` of each delayed step). Only
+    commands from the one held at the start of the delayed window on contribute.
     """
     first = n_hist - 1
     while first > 0 and hist[first, 0] > t0 - delay:
         first -= 1
-    rows = hist[first:n_hist]
-    _advance_held(state, rows[:, 0], rows[:, 1], rows[:, 2], t0, dt, n, delay, timeout, p)
+    cmd_t, cmd_v, cmd_w = hist[first:n_hist, 0], hist[first:n_hist, 1], hist[first:n_hist, 2]
+    for k in range(n):
+        u_v, u_w = _held_mean(cmd_t, cmd_v, cmd_w, t0 + k * dt - delay, dt, timeout)
+        _step(state, u_v, u_w, dt, p)
 
 
 def _zoh_breakpoints(
@@ -450,11 +421,11 @@ def simulate(
     args = (n, t0, float(dt_s), packed, float(v0), float(w0))
     if python is None:
         python = _within_interpret_budget(n)
+    v, w = np.empty(t_out_s.size), np.empty(t_out_s.size)
     if python:
         with _jit.interpreted():
-            v, w = _run_python(u_v, u_w, 0, *args, t_out_s, 0.0)
+            _run_python((u_v, u_w, 0, *args, t_out_s, 0.0), v, w)
     else:
-        v, w = np.empty(t_out_s.size), np.empty(t_out_s.size)
         _run(u_v, u_w, 0, *args, t_out_s, 0.0, v, w)
     return ReducedResponse(t_s=t_out_s, v=v, w=w)
 
@@ -569,10 +540,8 @@ def simulate_grid(
     out_v, out_w = np.empty((rows, t_out_s.size)), np.empty((rows, t_out_s.size))
     if python:
         for c in range(rows):
-            out_v[c], out_w[c] = _run_python(
-                u_v[which[c]], u_w[which[c]], 0, *grid, packed[c], float(v0), float(w0),
-                t_out_s, float(shifts_s[c]),
-            )  # fmt: skip
+            row = (u_v[which[c]], u_w[which[c]], 0, *grid, packed[c], float(v0), float(w0))
+            _run_python((*row, t_out_s, float(shifts_s[c])), out_v[c], out_w[c])
         return out_v, out_w
     _run_many(
         u_v, u_w, which, *grid, packed, float(v0), float(w0), t_out_s, shifts_s, out_v, out_w
