@@ -39,9 +39,11 @@ from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 from bench_dr_experiment import HYPERPARAMETERS, ODOM, POOLED_HEADER, add_outcomes, pooled_cells
 
+from robots.params import load_drive_params
 from robots.randomization import DriveDistribution
 from robots.spec import load_spec
 from sim2real.cli import main as cli_main
@@ -230,6 +232,33 @@ def blind_params(out: Path, fitted: Path) -> Path:
     path = out / "blind.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path
+
+
+def delay_spread(
+    fitted: Path, calibrated: Path, blind: Path, variation: SessionVariation, n_fit: int
+) -> str:
+    """The command delay each condition trains with, against the fit sessions' true latency.
+
+    Quantiles 5/50/95 % of 2,000 draws of each file's randomisation (seed 0); the fitted
+    point is the fit's value; the plant sessions' latency is drawn from ``variation``.
+    """
+    rng = np.random.default_rng(0)
+    point = load_drive_params(fitted, robot=ROBOT, base=load_spec(ROBOT).drive)
+    cells = [f"fitted point {point.delay_s:.3f} s"]
+    for name, path in (("calibrated DR", calibrated), ("blind DR", blind)):
+        dist = DriveDistribution.from_params_file(path, robot=ROBOT)
+        q = np.quantile([p.delay_s for p in dist.sample(rng, 2000)], [0.05, 0.5, 0.95])
+        cells.append(f"{name} {q[0]:.3f}/{q[1]:.3f}/{q[2]:.3f} s")
+    sessions = PlantSessions.of(ROBOT, variation=variation)
+    true = [sessions.draw(np.random.default_rng(i)).latency_s for i in range(n_fit)]
+    lo, hi = variation.latency_s
+    return (
+        "delay_s trained with (5/50/95 %): "
+        + "; ".join(cells)
+        + "; fit sessions' latency "
+        + ", ".join(f"{t:.3f}" for t in true)
+        + f" s; evaluation sessions {lo:.2f}-{hi:.2f} s"
+    )
 
 
 def conditions(
@@ -452,6 +481,9 @@ def main(argv: list[str] | None = None) -> int:
     logs = record_sessions(args.out, budget["sessions"], budget["session_s"], variation)
     fitted, calibrated = identify(args.out, logs)
     blind = blind_params(args.out, fitted)
+    n_fit = max(1, 2 * budget["sessions"] // 3)
+    delays = delay_spread(fitted, calibrated, blind, variation, n_fit)
+    print(delays, flush=True)
     sessions = PlantSessions.of(ROBOT, variation=variation)
     plant_kwargs = {**task, "dynamics": "plant", "plant_sessions": sessions}
     curriculum = GAP_CURRICULA.get(args.task)
@@ -496,7 +528,7 @@ def main(argv: list[str] | None = None) -> int:
         + f"; {episodes} evaluation episodes per model and world (sim seeds "
         f"{SIM_SEED0}.., plant seeds {PLANT_SEED0}..)"
     )
-    text = table(rows, header)
+    text = f"{table(rows, header)}\n\n{delays}"
     print(text)
     print(f"wall time {time.perf_counter() - t0:.0f} s")
     (args.out / "results.md").write_text(text + "\n")

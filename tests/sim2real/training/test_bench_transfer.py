@@ -32,6 +32,10 @@ def test_smoke_runs_the_loop_and_repeats_its_table(tmp_path: Path) -> None:
     for name in ("spec", "fitted", "calibrated DR", "blind DR"):
         for world in ("sim", "plant"):
             assert f"| {name} | {world} |" in first
+    # what each condition trains with, against the sessions' true latency
+    delays = first.split("delay_s trained with (5/50/95 %): ")[1]
+    assert "fitted point 0." in delays and "calibrated DR 0." in delays
+    assert "evaluation sessions 0.06-0.16 s" in delays
     assert (tmp_path / "a" / "excite.mcap").is_file()
     assert (tmp_path / "a" / "calibrated.yaml").is_file()
     # the same table when the runs train and evaluate in two worker processes
