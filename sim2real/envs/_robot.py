@@ -12,6 +12,7 @@ the project's drive model, and reports the base's odometry as its velocity.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from typing import Any, Protocol
 
 import numpy as np
@@ -152,17 +153,35 @@ class RobotBackend(Protocol):
         """Release resources."""
 
 
-class ReducedBackend:
+class _ArcPose:
+    """The pose of a base that moves along exact arcs (:func:`arc_step`) at the mean of each
+    sub-step's first and last body velocity."""
+
+    _pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        return self._pose
+
+    def _place(self, x: float, y: float, yaw: float) -> None:
+        self._pose = (float(x), float(y), float(yaw))
+
+    def _move(self, v0: float, w0: float, ends: Iterable[tuple[float, float]], h: float) -> None:
+        """Advance the pose over sub-steps of ``h`` s from velocity (v0, w0), one per item of
+        ``ends`` (each sub-step's last velocity)."""
+        x, y, yaw = self._pose
+        for v1, w1 in ends:
+            x, y, yaw = arc_step(x, y, yaw, 0.5 * (v0 + v1), 0.5 * (w0 + w1), h)
+            v0, w0 = v1, w1
+        self._pose = (x, y, yaw)
+
+
+class ReducedBackend(_ArcPose):
     """Reduced drive model (numba) + kinematic pose integration."""
 
     def __init__(self, spec: Any, params: DriveParams, *, substep_s: float = 0.02) -> None:
         self._drive = ReducedDrive(params, spec.geometry)
         self._substep_s = substep_s
-        self._pose = (0.0, 0.0, 0.0)
-
-    @property
-    def pose(self) -> tuple[float, float, float]:
-        return self._pose
 
     @property
     def velocity(self) -> tuple[float, float]:
@@ -170,7 +189,7 @@ class ReducedBackend:
 
     def reset(self, x: float, y: float, yaw: float) -> None:
         self._drive.reset()
-        self._pose = (float(x), float(y), float(yaw))
+        self._place(x, y, yaw)
 
     def new_session(self, rng: Any) -> None:
         pass
@@ -178,13 +197,8 @@ class ReducedBackend:
     def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
         n = max(1, math.ceil(duration_s / self._substep_s - 1e-9))
         h = duration_s / n
-        x, y, yaw = self._pose
         v0, w0 = self._drive.velocity
-        for _ in range(n):
-            v1, w1 = self._drive.step(cmd_v, cmd_w, h)
-            x, y, yaw = arc_step(x, y, yaw, 0.5 * (v0 + v1), 0.5 * (w0 + w1), h)
-            v0, w0 = v1, w1
-        self._pose = (x, y, yaw)
+        self._move(v0, w0, (self._drive.step(cmd_v, cmd_w, h) for _ in range(n)), h)
         return self._drive.velocity
 
     def get_drive_params(self) -> DriveParams:
@@ -257,7 +271,7 @@ class PybulletBackend:
         pass
 
 
-class PlantBackend:
+class PlantBackend(_ArcPose):
     """A foreign plant session per episode (:class:`~sim2real.plants.closed_loop.PlantStepper`).
 
     The pose is integrated from the plant's true body velocity (exact arcs over its sub-steps,
@@ -270,16 +284,11 @@ class PlantBackend:
         self._params = params
         self.sessions = sessions
         self._stepper = PlantStepper(sessions.base, np.random.default_rng(0))
-        self._pose = (0.0, 0.0, 0.0)
 
     @property
     def session(self) -> PlantParams:
         """The plant of the current episode."""
         return self._stepper.params
-
-    @property
-    def pose(self) -> tuple[float, float, float]:
-        return self._pose
 
     @property
     def velocity(self) -> tuple[float, float]:
@@ -292,17 +301,12 @@ class PlantBackend:
 
     def reset(self, x: float, y: float, yaw: float) -> None:
         self._stepper.reset()
-        self._pose = (float(x), float(y), float(yaw))
+        self._place(x, y, yaw)
 
     def step(self, cmd_v: float, cmd_w: float, duration_s: float) -> tuple[float, float]:
         v0, w0 = self._stepper.true_velocity
         t, v, w = self._stepper.step(cmd_v, cmd_w, duration_s)
-        h = duration_s / t.size
-        x, y, yaw = self._pose
-        for v1, w1 in zip(v.tolist(), w.tolist(), strict=True):
-            x, y, yaw = arc_step(x, y, yaw, 0.5 * (v0 + v1), 0.5 * (w0 + w1), h)
-            v0, w0 = v1, w1
-        self._pose = (x, y, yaw)
+        self._move(v0, w0, zip(v.tolist(), w.tolist(), strict=True), duration_s / t.size)
         return self._stepper.odometry
 
     def get_drive_params(self) -> DriveParams:
