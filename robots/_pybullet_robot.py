@@ -26,17 +26,6 @@ from robots.reduced import _check_inputs, _delayed_commands, delayed_step_averag
 from robots.spec import RobotSpec, load_spec, lumped_base_inertia, lumped_base_mass_kg
 from robots.world import add_ground
 
-__all__ = [
-    "LOAD_STEP_FACTOR",
-    "MIN_LOAD_FRACTION",
-    "SOLVER_ITERATIONS",
-    "WHEEL_FRICTION",
-    "DriveParamsNotAppliedError",
-    "PybulletResponse",
-    "UncheckedPybulletRobot",
-    "tyre_friction",
-]
-
 _Robot = TypeVar("_Robot", bound="UncheckedPybulletRobot")
 
 #: Least lateral friction coefficient of the wheel tyres (times the ground's 1.0); a drive that
