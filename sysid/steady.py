@@ -3,9 +3,10 @@
 Where a non-zero command has been held for over :data:`STEADY_AFTER_S` (past the delay and the
 rise), the robot runs steady and what the measurement does about its level (the median of that
 stretch) is the measurement's noise: its robust sd (MAD) per axis, the statistic the fit uses
-on its residuals. It describes the odometry source (encoders and their rate, a pose-derived or
-a twist velocity, a gyro), not the drive model: the same base logged through another source
-shows another noise. A log with fewer than :data:`MIN_STEADY_SAMPLES` such samples cannot tell
+on its residuals. One labeller names the steady stretches (:func:`steady_stretches`), here and
+in :mod:`sim2real.agreement.calibration`. The noise describes the odometry source (encoders and
+their rate, a pose-derived or a twist velocity, a gyro), not the drive model: the same base
+logged through another source shows another noise. A log with fewer than :data:`MIN_STEADY_SAMPLES` such samples cannot tell
 its noise.
 
 Examples
@@ -34,6 +35,7 @@ __all__ = [
     "SteadyNoise",
     "pooled_steady_noise",
     "steady_noise",
+    "steady_stretches",
 ]
 
 
@@ -66,14 +68,33 @@ MIN_STEADY_SAMPLES = 30
 MIN_STRETCH = 5
 
 
+def steady_stretches(since_step_s: ArrayLike, steady: ArrayLike) -> np.ndarray:
+    """A label per ``steady`` sample naming its stretch: the run of steady samples after one
+    command step (a new stretch where the time since the step stops growing or a sample
+    between is not steady).
+
+    Examples
+    --------
+    >>> since = np.array([1.0, 1.2, 0.1, 1.1, 1.3, 1.5, 0.2, 1.0])
+    >>> steady_stretches(since, since >= 1.0).tolist()
+    [0, 0, 2, 2, 2, 4]
+    """
+    since = np.asarray(since_step_s, dtype=np.float64)
+    mask = np.asarray(steady, dtype=bool)
+    new = np.ones(since.size, dtype=bool)
+    new[1:] = ~(np.diff(since) > 0.0) | ~mask[:-1]
+    out: np.ndarray = (np.cumsum(new) - 1)[mask]
+    return out
+
+
 def _steady(t: np.ndarray, cmd_v: np.ndarray, cmd_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The stretch index of each measurement (one per held command) and the mask of the
-    samples under a non-zero command held for over :data:`STEADY_AFTER_S`."""
+    """The mask of the samples under a non-zero command held for over
+    :data:`STEADY_AFTER_S`, and their stretch labels (:func:`steady_stretches`)."""
     change = np.ones(t.size, dtype=bool)
     change[1:] = (np.diff(cmd_v) != 0) | (np.diff(cmd_w) != 0)
-    stretch = np.cumsum(change) - 1
-    held_s = t - t[change][stretch]
-    return stretch, (held_s > STEADY_AFTER_S) & ((cmd_v != 0) | (cmd_w != 0))
+    held_s = t - t[change][np.cumsum(change) - 1]
+    steady = (held_s > STEADY_AFTER_S) & ((cmd_v != 0) | (cmd_w != 0))
+    return steady, steady_stretches(held_s, steady)
 
 
 def steady_noise(
@@ -93,21 +114,22 @@ def steady_noise(
         NaN sds when the log has fewer than :data:`MIN_STEADY_SAMPLES` steady samples.
     """
     t = np.asarray(meas_t_s, dtype=np.float64)
-    stretch, steady = _steady(
+    steady, ids = _steady(
         t, np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
     )
-    ids = stretch[steady]
-    counts = np.unique(ids, return_counts=True)[1]
-    long_enough = np.repeat(counts >= MIN_STRETCH, counts)
-    ids = ids[long_enough]
-    if ids.size < MIN_STEADY_SAMPLES:
-        return SteadyNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=int(ids.size))
+    _, index, counts = np.unique(ids, return_inverse=True, return_counts=True)
+    long_enough = counts[index] >= MIN_STRETCH
+    if int(long_enough.sum()) < MIN_STEADY_SAMPLES:
+        return SteadyNoise(
+            std_v_mps=math.nan, std_w_radps=math.nan, n_samples=int(long_enough.sum())
+        )
     stds = []
     for y in (meas_v, meas_w):
-        ys = np.asarray(y, dtype=np.float64)[steady][long_enough]
-        dev = np.concatenate([ys[ids == k] - np.median(ys[ids == k]) for k in np.unique(ids)])
+        ys = np.asarray(y, dtype=np.float64)[steady]
+        level = np.array([np.median(ys[index == k]) for k in range(counts.size)])
+        dev = (ys - level[index])[long_enough]
         stds.append(float(1.4826 * np.median(np.abs(dev - np.median(dev)))))
-    return SteadyNoise(std_v_mps=stds[0], std_w_radps=stds[1], n_samples=int(ids.size))
+    return SteadyNoise(std_v_mps=stds[0], std_w_radps=stds[1], n_samples=int(long_enough.sum()))
 
 
 def pooled_steady_noise(noises: Sequence[SteadyNoise]) -> SteadyNoise:

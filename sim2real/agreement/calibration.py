@@ -151,7 +151,7 @@ from sim2real.errors import Sim2RealValueError
 from sim2real.logs import ReadOptions, read_for_robot
 from sysid import spread_degrees_of_freedom
 from sysid.metrics import active_mask
-from sysid.steady import pooled_steady_noise
+from sysid.steady import pooled_steady_noise, steady_stretches
 
 __all__ = [
     "CALIBRATION_METHOD",
@@ -583,26 +583,6 @@ def robust_noise_std(
     if excess(hi) >= 0.0:
         return span[1]
     return math.exp(float(brentq(excess, lo, hi, xtol=1e-6)))
-
-
-def _steady_stretches(since_step_s: FloatArray, steady: BoolArray) -> IntArray:
-    """A label per ``steady`` sample naming its stretch: the run of steady samples after one
-    command step (a new stretch where the time since the step stops growing or a sample
-    between is not steady).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> since = np.array([1.0, 1.2, 0.1, 1.1, 1.3, 1.5, 0.2, 1.0])
-    >>> _steady_stretches(since, since >= 1.0).tolist()
-    [0, 0, 2, 2, 2, 4]
-    """
-    since = np.asarray(since_step_s, dtype=np.float64)
-    steady = np.asarray(steady, dtype=bool)
-    new = np.ones(since.size, dtype=bool)
-    new[1:] = ~(np.diff(since) > 0.0) | ~steady[:-1]
-    out: IntArray = (np.cumsum(new) - 1)[steady]
-    return out
 
 
 def stretch_noise_std(
@@ -1117,7 +1097,7 @@ class _FactorSearch:
         :attr:`identified` for the coverage matching (before the spread moves)."""
         used = _steady_or_all(steady)
         members = self.members(1.0, 0.0)
-        stretch = _steady_stretches(self.since_step_s, used) if used is steady else None
+        stretch = steady_stretches(self.since_step_s, used) if used is steady else None
         self.identified = [
             _AxisNoise.identified(real[used], m[:, used], file_std=std, quantum=q, stretch=stretch)
             for (_, real, std, q), m in zip(self.axes(), members, strict=True)
