@@ -3,11 +3,11 @@
 Where a non-zero command has been held for over :data:`STEADY_AFTER_S` (past the delay and the
 rise), the robot runs steady and what the measurement does about its level (the median of that
 stretch) is the measurement's noise: its robust sd (MAD) per axis, the statistic the fit uses
-on its residuals. One labeller names the steady stretches (:func:`steady_stretches`), here and
-in :mod:`sim2real.agreement.calibration`. The noise describes the odometry source (encoders and
-their rate, a pose-derived or a twist velocity, a gyro), not the drive model: the same base
-logged through another source shows another noise. A log with fewer than :data:`MIN_STEADY_SAMPLES` such samples cannot tell
-its noise.
+on its residuals. :func:`steady_stretches` is the one labeller of steady stretches, for this
+module and for the calibration's within-stretch scatter. The noise describes the odometry
+source (encoders and their rate, a pose-derived or a twist velocity, a gyro), not the drive
+model: the same base logged through another source shows another noise. A log with fewer than
+:data:`MIN_STEADY_SAMPLES` such samples cannot tell its noise.
 
 Examples
 --------
