@@ -67,6 +67,8 @@ def main(argv: list[str] | None = None) -> int:
                 logs = [write_trace(folder / f"skid_{i}.mcap", tr) for i, tr in enumerate(sessions)]
                 spec = folder / "husky.yaml"
                 cli("robots", "new", "husky", *HUSKY, "-o", str(spec))
+                # the plant's yaw rate is a gyro's, as a user edits the spec to say
+                spec.write_text(spec.read_text().replace("w_source: wheels", "w_source: imu"))
                 robot = str(spec)
             params = folder / "params.yaml"
             cli("sysid", "fit", str(logs[0]), "--robot", robot, "-o", str(params))

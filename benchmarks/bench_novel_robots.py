@@ -394,6 +394,8 @@ def new_spec(base: Base, folder: Path, row: Row) -> Path | None:
     argv = ["robots", "new", base.name, "-o", str(spec_path), *base.options.split()]
     if cli(argv, row, "robots new") != 0:
         return None
+    if base.skid:  # the skid plant's yaw rate is a gyro's, as a user edits the spec to say
+        spec_path.write_text(spec_path.read_text().replace("w_source: wheels", "w_source: imu"))
     cli(["robots", "check", str(spec_path)], row, "robots check")
     return spec_path
 

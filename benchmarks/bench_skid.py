@@ -37,6 +37,7 @@ SENSITIVITY = (0.8, 0.9, 1.0, 1.2)
 def _husky(drive_type: str = "skid") -> Any:
     from robots.spec import load_spec
     from robots.template import spec_text
+    from sim2real.plants.skid import plant_odometry
 
     path = Path(tempfile.mkdtemp()) / f"husky_{drive_type}.yaml"
     text = spec_text(
@@ -48,7 +49,7 @@ def _husky(drive_type: str = "skid") -> Any:
         drive=drive_type,
     )
     path.write_text(text)
-    spec = load_spec(path)
+    spec = plant_odometry(load_spec(path))  # the plant's yaw rate is a gyro's
     drive = spec.drive.replace(
         cmd_timeout_s=0.25, accel_lim_v_mps2=3.0, accel_lim_w_radps2=6.0, driver_track_factor=1.875
     )

@@ -49,9 +49,19 @@ from numpy.typing import NDArray
 from robots.arrays import BoolArray, FloatArray
 from robots.errors import RobotsValueError
 
-__all__ = ["MeasurementModel", "ReadOperator", "fresh_readings", "hold_model", "pose_model"]
+__all__ = [
+    "W_SOURCES",
+    "MeasurementModel",
+    "ReadOperator",
+    "fresh_readings",
+    "hold_model",
+    "pose_model",
+    "yaw_reading_factor",
+]
 
 
+#: Where a base's odometry yaw rate comes from (``odometry.w_source`` of a robot spec).
+W_SOURCES = ("imu", "wheels")
 #: Kinds of :class:`MeasurementModel`.
 MEASUREMENT_KINDS = ("pose", "hold")
 #: Share of the moving samples whose (v, w) repeats the previous one exactly beyond which the
@@ -61,6 +71,36 @@ _MOVING_V, _MOVING_W = 0.05, 0.2
 _MIN_MOVING = 20
 #: Simpson panels per interval between two updates (the interval integrals of the pose model).
 _PANELS = 2
+
+
+def yaw_reading_factor(w_source: str, track_factor: float) -> float:
+    r"""The odometry's yaw rate over the model's body yaw rate.
+
+    A gyro (``w_source`` ``"imu"``) reads the body's rate: 1. Wheel encoders (``"wheels"``)
+    read the wheels' differential speed over the geometric track,
+    :math:`r(\omega_r - \omega_l)/L`, and the drive model links the wheels to the body
+    through the effective track :math:`\chi L` (a skid steer's treads slip sideways in a
+    turn; Mandow et al. 2007), so they read :math:`\chi\,\omega_{body}` whatever
+    :math:`\chi` is: ``track_factor``. A differential drive's track factor is 1, so both
+    sources read the same. The fit and every replay engine compare a log's yaw rate with
+    the model's body rate times this factor.
+
+    Examples
+    --------
+    >>> yaw_reading_factor("wheels", 1.6), yaw_reading_factor("imu", 1.6)
+    (1.6, 1.0)
+    """
+    if w_source not in W_SOURCES:
+        raise RobotsValueError(
+            f"w_source must be one of {list(W_SOURCES)}, got {w_source!r}; use 'imu' for a "
+            "gyro's yaw rate, 'wheels' for the wheel encoders'"
+        )
+    if not (math.isfinite(track_factor) and track_factor > 0.0):
+        raise RobotsValueError(
+            f"track_factor must be a finite number > 0, got {track_factor!r}; a "
+            "differential drive's is 1"
+        )
+    return float(track_factor) if w_source == "wheels" else 1.0
 
 
 def fresh_readings(t: NDArray[Any], changed: BoolArray) -> tuple[BoolArray, float]:

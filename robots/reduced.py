@@ -168,17 +168,18 @@ def _run_many(
     dt: float,
     packed: FloatArray,
     v0: float,
-    w0: float,
+    w0: FloatArray,
     t_out: FloatArray,
     shifts: FloatArray,
     out_v: FloatArray,
     out_w: FloatArray,
 ) -> None:  # pragma: no cover - compiled
     """:func:`_run` for each row ``c`` of ``packed`` with the commands of row ``which[c]`` of
-    ``u_v``, ``u_w`` and its own shift, into its own output row."""
+    ``u_v``, ``u_w``, its own start yaw rate ``w0[c]`` and shift, into its own output row."""
     for c in range(packed.shape[0]):
         k = which[c]
-        _run(u_v[k], u_w[k], 0, n, t0, dt, packed[c], v0, w0, t_out, shifts[c], out_v[c], out_w[c])
+        args = (packed[c], v0, w0[c], t_out, shifts[c], out_v[c], out_w[c])
+        _run(u_v[k], u_w[k], 0, n, t0, dt, *args)
 
 
 def _run_python(args: tuple[Any, ...], out_v: FloatArray, out_w: FloatArray) -> None:
@@ -493,14 +494,14 @@ def simulate_grid(
     shifts_s: FloatArray,
     *,
     v0: float,
-    w0: float,
+    w0: float | FloatArray,
     python: bool = False,
 ) -> tuple[FloatArray, FloatArray]:
     """Simulate several parameter sets of one log in one compiled call.
 
     Row ``c`` of ``packed`` (:func:`pack_params`) runs with the grid commands
     ``commands[c]`` (all on one grid; rows may share them) from ``t0_s`` in state
-    (``v0``, ``w0``) and is read at the times ``t_out_s - shifts_s[c]`` (``t_out_s`` sorted):
+    (``v0``, ``w0``; ``w0`` one yaw rate, or one per row) and is read at the times ``t_out_s - shifts_s[c]`` (``t_out_s`` sorted):
     bit for bit :func:`simulate` with those commands' delay and timeout and the output times
     ``[t0_s, *(t_out_s - shifts_s[c])]`` (its first output dropped). Returns v and w, shape
     ``(rows, t_out_s.size)``. ``python=True`` runs the plain-Python loop instead (the same
@@ -537,14 +538,15 @@ def simulate_grid(
     packed = np.ascontiguousarray(packed, dtype=np.float64)
     shifts_s = np.ascontiguousarray(shifts_s, dtype=np.float64)
     grid = (first.n, float(first.t0_s), float(first.dt_s))
+    w0s = np.ascontiguousarray(np.broadcast_to(np.asarray(w0, dtype=np.float64), (rows,)))
     out_v, out_w = np.empty((rows, t_out_s.size)), np.empty((rows, t_out_s.size))
     if python:
         for c in range(rows):
-            row = (u_v[which[c]], u_w[which[c]], 0, *grid, packed[c], float(v0), float(w0))
+            row = (u_v[which[c]], u_w[which[c]], 0, *grid, packed[c], float(v0), float(w0s[c]))
             _run_python((*row, t_out_s, float(shifts_s[c])), out_v[c], out_w[c])
         return out_v, out_w
     _run_many(
-        u_v, u_w, which, *grid, packed, float(v0), float(w0), t_out_s, shifts_s, out_v, out_w
+        u_v, u_w, which, *grid, packed, float(v0), w0s, t_out_s, shifts_s, out_v, out_w
     )  # fmt: skip
     return out_v, out_w
 

@@ -140,6 +140,7 @@ def fit_logs(
             odom_v_window_s=spec.odometry.v_window_s
             if odom_v_window_s is None
             else odom_v_window_s,
+            w_source=spec.odometry.w_source,
             bootstrap=bootstrap,
             seed=seed,
             progress=progress,

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.arrays import FloatArray
+from robots.measurement import yaw_reading_factor
 from robots.params import DriveParams
 from robots.reduced import GridCommands, ReducedResponse, pack_params, simulate_grid
 from sysid._coords import COORDS, Mapper
@@ -130,6 +131,9 @@ class Problem:
         0 = instantaneous.
     python : bool
         Use the plain-Python model loop (benchmark baseline).
+    w_source : {"imu", "wheels"}
+        Where the logs' yaw rate comes from: the model's body rate is read times
+        :func:`robots.measurement.yaw_reading_factor` (the track factor for wheel encoders).
     """
 
     def __init__(
@@ -148,7 +152,9 @@ class Problem:
         v_window_s: float = 0.0,
         on_eval: Callable[[int], None] | None = None,
         prior_weight: float = 1.0,
+        w_source: str = "imu",
     ) -> None:
+        yaw_reading_factor(w_source, 1.0)  # a known source, or one sentence
         self.logs = list(logs)
         self.mapper = mapper
         self.free = tuple(free)
@@ -158,6 +164,7 @@ class Problem:
         self.dt_s = dt_s
         self.python = python
         self.v_window_s = v_window_s
+        self.w_source = w_source
         self._queries = [_reads(g, v_window_s) for g in self.logs]
         self.on_eval = on_eval
         self.n_evals = 0
@@ -193,6 +200,7 @@ class Problem:
             "dt_s": dt_s,
             "python": python,
             "v_window_s": v_window_s,
+            "w_source": w_source,
         }
 
     def subset(self, free: Sequence[str]) -> Problem:
@@ -274,7 +282,7 @@ class Problem:
 
         With ``v_window_s > 0`` the reported v is the mean over the preceding window (Simpson's
         rule), as wheel-encoder odometry reports it (tick difference over one odometry
-        period); w stays instantaneous (gyro).
+        period); w stays instantaneous, times the track factor for wheel-encoder yaw rates.
         """
         return [
             ReducedResponse(t_s=g.meas_t_s, v=v[0], w=w[0])
@@ -298,9 +306,11 @@ class Problem:
         steps = np.array([math.floor(p.delay_s / self.dt_s + 1e-9) for p in params], dtype=np.int64)
         delays = [(p.delay_s, k) for p, k in zip(params, steps.tolist(), strict=True)]
         shifts = np.array([d - k * self.dt_s for d, k in delays])
+        gains = np.array([yaw_reading_factor(self.w_source, p.track_factor) for p in params])
         out = []
         for i, reads in enumerate(self._queries):
-            out.append(reads.apply(*self._simulate_log(i, params, steps, shifts)))
+            v, w = self._simulate_log(i, params, steps, shifts, gains)
+            out.append(reads.apply(v, w * gains[:, None]))
         return out
 
     def _grid(self, i: int) -> tuple[float, int]:
@@ -311,9 +321,15 @@ class Problem:
         return t0, max(1, math.ceil((float(t_query[-1]) - t0) / self.dt_s))
 
     def _simulate_log(
-        self, i: int, params: Sequence[DriveParams], steps: NDArray[np.int64], shifts: FloatArray
+        self,
+        i: int,
+        params: Sequence[DriveParams],
+        steps: NDArray[np.int64],
+        shifts: FloatArray,
+        gains: FloatArray,
     ) -> tuple[FloatArray, FloatArray]:
-        """v and w of log ``i`` at its query times for each parameter set."""
+        """Body v and w of log ``i`` at its query times for each parameter set, each started
+        at the body yaw rate its reading ``gains`` (:func:`yaw_reading_factor`) gives."""
         t0, n = self._grid(i)
         t_query = self._queries[i].t_query
         v0, w0 = self._starts[i]
@@ -323,7 +339,8 @@ class Problem:
             for p, k in zip(params, steps.tolist(), strict=True)
         ]
         packed = np.stack([pack_params(p, geo) for p in params])
-        return simulate_grid(cmds, packed, t_query, shifts, v0=v0, w0=w0, python=self.python)
+        w0s = w0 / gains
+        return simulate_grid(cmds, packed, t_query, shifts, v0=v0, w0=w0s, python=self.python)
 
     def _commands(
         self, i: int, t0: float, n: int, delay_s: float, timeout_s: float

@@ -139,6 +139,7 @@ def score_logs(
     tol_v: float = metrics.DEFAULT_TOL_V,
     tol_w: float = metrics.DEFAULT_TOL_W,
     odom_v_window_s: float = 0.0,
+    w_source: str = "imu",
 ) -> tuple[FitScores, ...]:
     """FIT %, agreement and RMSE of ``params`` on each log (model started at the first sample).
 
@@ -158,6 +159,7 @@ def score_logs(
         scale_w=1.0,
         dt_s=dt_s,
         v_window_s=odom_v_window_s,
+        w_source=w_source,
     )
     out = []
     for log, sim in zip(prob.logs, prob.simulate(params), strict=True):
@@ -468,6 +470,7 @@ def fit_drive(
     tol_w: float = metrics.DEFAULT_TOL_W,
     dt_s: float = DEFAULT_DT_S,
     odom_v_window_s: float = 0.0,
+    w_source: str = "imu",
     max_nfev: int = 60,
     python: bool = False,
     bootstrap: int = 0,
@@ -519,6 +522,11 @@ def fit_drive(
         TurtleBot3); 0 (default) compares the instantaneous model v. A log with its own
         measurement operator (``log.measurement``, :mod:`robots.measurement`: a pose
         derivative, a zero-order hold) is read through that instead, in v and w.
+    w_source : {"imu", "wheels"}
+        Where the logs' yaw rate comes from (the spec's ``odometry.w_source``): a gyro reads
+        the model's body rate, wheel encoders read it times the track factor
+        (:func:`robots.measurement.yaw_reading_factor`; a skid steer's slip is invisible to
+        them).
     max_nfev : int
         Cap on residual evaluations of the optimiser (hitting it is a warning).
     python : bool
@@ -564,6 +572,7 @@ def fit_drive(
         "tol_w": tol_w,
         "dt_s": dt_s,
         "odom_v_window_s": odom_v_window_s,
+        "w_source": w_source,
         "max_nfev": max_nfev,
         "python": python,
         "bootstrap": bootstrap,
@@ -663,6 +672,7 @@ def _fit_once(
     tol_w: float,
     dt_s: float,
     odom_v_window_s: float,
+    w_source: str,
     max_nfev: int,
     python: bool,
     bootstrap: int,
@@ -694,6 +704,7 @@ def _fit_once(
         "weight_w": weights[1],
         "dt_s": dt_s,
         "v_window_s": odom_v_window_s,
+        "w_source": w_source,
     }
     groups = [fit_logs] if len(fit_logs) == 1 else [[g] for g in fit_logs]
     session = _Session(
@@ -732,12 +743,19 @@ def _fit_once(
             "weights": list(weights),
             "dt_s": dt_s,
             "odom_v_window_s": odom_v_window_s,
+            "w_source": w_source,
             "measurement": {name: model.describe() for name, model in _operated(fit_logs)},
             **_measurement_noise(fit_logs),
             "max_nfev": max_nfev,
             "bootstrap": {"replicates": bootstrap, "segment_s": segment_s, "seed": seed},
         },
-        scoring={"dt_s": dt_s, "tol_v": tol_v, "tol_w": tol_w, "odom_v_window_s": odom_v_window_s},
+        scoring={
+            "dt_s": dt_s,
+            "tol_v": tol_v,
+            "tol_w": tol_w,
+            "odom_v_window_s": odom_v_window_s,
+            "w_source": w_source,
+        },
         bootstrap=(bootstrap, segment_s, seed, loss, f_scale),
         started=started,
         report=report,

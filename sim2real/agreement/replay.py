@@ -4,7 +4,9 @@ The commanded velocities of a log are fed, at their real times, into the pybulle
 (``engine="pybullet"``, the default), the reduced drive model (``engine="reduced"``) or the
 exported MuJoCo robot (``engine="mujoco"``, the ``[mujoco]`` extra), with
 the spec's default drive parameters or a sysid result, and the simulated base velocity is
-recorded at every real measurement time.
+recorded at every real measurement time. The engines run the body's yaw rate; a log whose
+yaw rate comes from the wheel encoders (the spec's ``odometry.w_source: wheels``) reads it
+times the track factor (:func:`robots.measurement.yaw_reading_factor`), as ``sysid fit`` does.
 
 Timing
 ------
@@ -54,9 +56,10 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from robots.measurement import yaw_reading_factor
 from robots.params import BaseGeometry, DriveParams
 from robots.reduced import DEFAULT_DT_S, simulate
-from robots.spec import load_spec
+from robots.spec import OdometrySpec, load_spec
 from sim2real._arrays import FloatArray, IntArray
 from sim2real.errors import Sim2RealValueError
 from sim2real.mujoco import Commands, MujocoRobot
@@ -129,6 +132,8 @@ class RobotSpecLike(Protocol):
     def geometry(self) -> BaseGeometry: ...
     @property
     def drive(self) -> DriveParams: ...
+    @property
+    def odometry(self) -> OdometrySpec: ...
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -287,7 +292,9 @@ def replay(
         t_out = op.t_query
     elif odom_v_window_s > 0:
         t_out = _fine_times(meas_t, 1.0 / rate)
-    initial = (float(meas_v[0]), float(meas_w[0]))
+    # the engines run the body's yaw rate; the log reads it through its odometry's sensor
+    w_factor = yaw_reading_factor(spec.odometry.w_source, p.track_factor)
+    initial = (float(meas_v[0]), float(meas_w[0]) / w_factor)
     if not isinstance(engine, str):
         v, w = engine.replay((cmd_t, cmd_v, cmd_w), t_out, initial)
     elif engine == "reduced":
@@ -297,6 +304,7 @@ def replay(
         v, w = _replay_mujoco(spec, p, (cmd_t, cmd_v, cmd_w), t_out, initial, lifted=lifted)
     else:
         v, w = _replay_pybullet(spec, p, cmd_t, cmd_v, cmd_w, t_out, initial, physics_hz)
+    w = w * w_factor
     if op is not None:  # the log's own measurement operator, in v and w
         v, w = op.apply(v), op.apply(w)
     elif odom_v_window_s > 0:

@@ -59,6 +59,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from robots.spec import RobotSpec
 from robots.units import nanoseconds
 from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
@@ -78,6 +79,7 @@ __all__ = [
     "effective_track_factor",
     "husky_like",
     "make_skid_sessions",
+    "plant_odometry",
     "run_skid_plant",
     "skid_robot",
 ]
@@ -394,6 +396,24 @@ def _states(
     dt, ctrl_dt = params.physics_dt_s, 1.0 / params.control_rate_hz
     _simulate(packed, arrival, cmd_v, cmd_w, ticks, dt, ctrl_dt, out)
     return out
+
+
+def plant_odometry(spec: RobotSpec) -> RobotSpec:
+    """``spec`` with the plant's odometry sources: v from the wheel encoders, w from the gyro.
+
+    ``robots new`` writes wheel-encoder yaw rates, which read the body's rate times the track
+    factor (:func:`robots.measurement.yaw_reading_factor`); the plant's gyro reads the body's.
+
+    Examples
+    --------
+    >>> from robots.spec import load_spec
+    >>> spec = load_spec("turtlebot3_burger")
+    >>> encoders = dataclasses.replace(spec.odometry, w_source="wheels")
+    >>> plant_odometry(dataclasses.replace(spec, odometry=encoders)).odometry.w_source
+    'imu'
+    """
+    odometry = dataclasses.replace(spec.odometry, v_source="wheels", w_source="imu")
+    return dataclasses.replace(spec, odometry=odometry)
 
 
 def effective_track_factor(

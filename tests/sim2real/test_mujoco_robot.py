@@ -312,14 +312,14 @@ def test_plant_fleet_agreement_within_two_points(robot: str) -> None:
 def test_skid_plant_fleet_on_the_ground_agrees_within_two_points(tmp_path: Path) -> None:
     """A skid steer whose slip comes from tyre forces on the ground (sim2real.plants.skid):
     fit one session, check another with the same params in both engines."""
-    from sim2real.plants.skid import husky_like, make_skid_sessions
+    from sim2real.plants.skid import husky_like, make_skid_sessions, plant_odometry
     from sysid import fit_drive
 
     path = tmp_path / "husky.yaml"
     new = ["robots", "new", "husky", "--wheel-separation", "0.555", "--wheel-radius", "0.165",
            "--mass", "50", "--max-speed", "1.0", "--drive", "skid", "-o", str(path)]  # fmt: skip
     assert main(new) == 0
-    spec = load_spec(path)
+    spec = plant_odometry(load_spec(path))  # the plant's yaw rate is a gyro's
     fit_log, held = make_skid_sessions(husky_like(), 2, seed=7, duration_s=40.0)
     fit = fit_drive([fit_log], geometry=spec.geometry, base_params=spec.drive, robot=spec.name)
     assert fit.params.track_factor > 1.1  # a skid steer: the effective track is wider

@@ -35,6 +35,7 @@ from sim2real.plants.skid import (
     effective_track_factor,
     husky_like,
     make_skid_sessions,
+    plant_odometry,
     run_skid_plant,
     skid_robot,
 )
@@ -56,7 +57,7 @@ def _husky_spec(folder: Path, drive_type: str) -> RobotSpec:
             drive=drive_type,
         )
     )
-    spec = load_spec(path)
+    spec = plant_odometry(load_spec(path))  # the plant's yaw rate is a gyro's
     drive = spec.drive.replace(
         cmd_timeout_s=0.25, accel_lim_v_mps2=3.0, accel_lim_w_radps2=6.0, driver_track_factor=1.875
     )
@@ -153,7 +154,13 @@ def _fit_and_score(case: FitCase) -> tuple[list[float], DriveParams, float]:
         plant, 2, seed=seed, duration_s=duration_s, profile="teleop"
     )
     priors = _fixed(spec, driver_track_factor=1.875)
-    result = fit_drive([fit_log], geometry=spec.geometry, base_params=spec.drive, priors=priors)
+    result = fit_drive(
+        [fit_log],
+        geometry=spec.geometry,
+        base_params=spec.drive,
+        priors=priors,
+        w_source=spec.odometry.w_source,
+    )
     scores = []
     for engine in engines:
         sim = replay(held_out, robot=spec, params=result.params, engine=engine)
