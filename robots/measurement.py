@@ -48,6 +48,7 @@ from numpy.typing import NDArray
 
 from robots.arrays import BoolArray, FloatArray
 from robots.errors import RobotsValueError
+from robots.params import DriveParams
 
 __all__ = [
     "W_SOURCES",
@@ -73,21 +74,24 @@ _MIN_MOVING = 20
 _PANELS = 2
 
 
-def yaw_reading_factor(w_source: str, track_factor: float) -> float:
+def yaw_reading_factor(w_source: str, params: DriveParams) -> float:
     r"""The odometry's yaw rate over the model's body yaw rate.
 
     A gyro (``w_source`` ``"imu"``) reads the body's rate: 1. Wheel encoders (``"wheels"``)
-    read the wheels' differential speed over the geometric track,
-    :math:`r(\omega_r - \omega_l)/L`, and the drive model links the wheels to the body
-    through the effective track :math:`\chi L` (a skid steer's treads slip sideways in a
-    turn; Mandow et al. 2007), so they read :math:`\chi\,\omega_{body}` whatever
-    :math:`\chi` is: ``track_factor``. A differential drive's track factor is 1, so both
-    sources read the same. The fit and every replay engine compare a log's yaw rate with
-    the model's body rate times this factor.
+    read the wheels' differential speed over the track the driver drives them by,
+    :math:`r(\omega_r - \omega_l)/(\chi_d L)` (ROS ``diff_drive_controller`` applies its
+    ``wheel_separation_multiplier`` :math:`\chi_d`, ``driver_track_factor``, to its wheel
+    targets and to its odometry alike), while the drive model links the wheels to the body
+    through the effective track :math:`\chi L` (``track_factor``: a skid steer's treads slip
+    sideways in a turn; Mandow et al. 2007). So they read :math:`\chi/\chi_d` times the body
+    rate: the wheels' speeds, whatever the slip. A differential drive's factors are 1, so both
+    sources read the same. The fit and every replay engine compare a log's yaw rate with the
+    model's body rate times this factor.
 
     Examples
     --------
-    >>> yaw_reading_factor("wheels", 1.6), yaw_reading_factor("imu", 1.6)
+    >>> p = DriveParams(track_factor=1.6, driver_track_factor=1.0)
+    >>> yaw_reading_factor("wheels", p), yaw_reading_factor("imu", p)
     (1.6, 1.0)
     """
     if w_source not in W_SOURCES:
@@ -95,12 +99,9 @@ def yaw_reading_factor(w_source: str, track_factor: float) -> float:
             f"w_source must be one of {list(W_SOURCES)}, got {w_source!r}; use 'imu' for a "
             "gyro's yaw rate, 'wheels' for the wheel encoders'"
         )
-    if not (math.isfinite(track_factor) and track_factor > 0.0):
-        raise RobotsValueError(
-            f"track_factor must be a finite number > 0, got {track_factor!r}; a "
-            "differential drive's is 1"
-        )
-    return float(track_factor) if w_source == "wheels" else 1.0
+    if w_source == "imu":
+        return 1.0
+    return float(params.track_factor / params.driver_track_factor)
 
 
 def fresh_readings(t: NDArray[Any], changed: BoolArray) -> tuple[BoolArray, float]:

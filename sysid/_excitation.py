@@ -370,17 +370,31 @@ def _with_priors(
     return out, kept_ties
 
 
+#: Why ``"auto"`` leaves a skid steer's track factor at its prior when the yaw rate comes from
+#: the wheel encoders.
+ENCODER_YAW_NOTE = (
+    "track_factor is kept at its prior {value:.3g}: the log's yaw rate comes from the wheel "
+    "encoders (odometry.w_source: wheels), which read the wheels' speeds whatever the treads' "
+    "slip, so the track factor only rescales the yaw inertia and viscous yaw friction the fit "
+    "has (chi, I, b act as 1, I/chi, b/chi); a gyro's yaw rate would measure it"
+)
+
+
 def analyse(
     logs: Sequence[LogArrays],
     geometry: BaseGeometry,
     base: DriveParams,
     free: str | Sequence[str] | None,
     informative: Collection[str] = (),
+    *,
+    encoder_yaw: bool = False,
 ) -> Excitation:
     """Refuse logs with nothing to identify, then choose the free parameters.
 
     ``free`` is ``None``/``"auto"`` (choose from the excitation, plus every field of an excited
-    axis with a prior in ``informative``) or a list of DriveParams fields. Raises
+    axis with a prior in ``informative``; with ``encoder_yaw``, a yaw rate read by the wheel
+    encoders, not the track factor: :data:`ENCODER_YAW_NOTE`) or a list of DriveParams
+    fields. Raises
     :class:`~sysid.errors.ExcitationError` (too short, no motion, flat commands) or
     :class:`~sysid.errors.SysidValueError` (unknown or unidentifiable names).
     """
@@ -389,6 +403,9 @@ def analyse(
     if free is None or free == "auto":
         names, ties, notes = _auto_free(logs, geometry, base)
         names, ties = _with_priors(logs, names, ties, informative)
+        if encoder_yaw and "track_factor" in names:
+            names.remove("track_factor")
+            notes.append(ENCODER_YAW_NOTE.format(value=base.track_factor))
         if "coulomb_v_bwd_n" not in ties:
             notes = [n.replace(_TIE_NOTE, _UNTIED_NOTE) for n in notes]
     elif isinstance(free, str):

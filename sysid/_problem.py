@@ -133,7 +133,8 @@ class Problem:
         Use the plain-Python model loop (benchmark baseline).
     w_source : {"imu", "wheels"}
         Where the logs' yaw rate comes from: the model's body rate is read times
-        :func:`robots.measurement.yaw_reading_factor` (the track factor for wheel encoders).
+        :func:`robots.measurement.yaw_reading_factor` (effective over driver's track for wheel
+        encoders).
     """
 
     def __init__(
@@ -154,7 +155,7 @@ class Problem:
         prior_weight: float = 1.0,
         w_source: str = "imu",
     ) -> None:
-        yaw_reading_factor(w_source, 1.0)  # a known source, or one sentence
+        yaw_reading_factor(w_source, DriveParams())  # a known source, or one sentence
         self.logs = list(logs)
         self.mapper = mapper
         self.free = tuple(free)
@@ -282,7 +283,7 @@ class Problem:
 
         With ``v_window_s > 0`` the reported v is the mean over the preceding window (Simpson's
         rule), as wheel-encoder odometry reports it (tick difference over one odometry
-        period); w stays instantaneous, times the track factor for wheel-encoder yaw rates.
+        period); w stays instantaneous, read by :func:`robots.measurement.yaw_reading_factor`.
         """
         return [
             ReducedResponse(t_s=g.meas_t_s, v=v[0], w=w[0])
@@ -306,7 +307,7 @@ class Problem:
         steps = np.array([math.floor(p.delay_s / self.dt_s + 1e-9) for p in params], dtype=np.int64)
         delays = [(p.delay_s, k) for p, k in zip(params, steps.tolist(), strict=True)]
         shifts = np.array([d - k * self.dt_s for d, k in delays])
-        gains = np.array([yaw_reading_factor(self.w_source, p.track_factor) for p in params])
+        gains = np.array([yaw_reading_factor(self.w_source, p) for p in params])
         out = []
         for i, reads in enumerate(self._queries):
             v, w = self._simulate_log(i, params, steps, shifts, gains)

@@ -440,7 +440,15 @@ class _Session:
     ) -> tuple[Posterior, list[str]]:
         out = notes if notes is not None else []
         start = len(out)
-        exc = analyse(group, self.geometry, self.base, self.free, set(self.informative))
+        encoder_yaw = self.options.problem_kw.get("w_source") == "wheels"
+        exc = analyse(
+            group,
+            self.geometry,
+            self.base,
+            self.free,
+            set(self.informative),
+            encoder_yaw=encoder_yaw,
+        )
         prefix = f"{group[0].name}: " if self.several else ""
         out += [prefix + w for w in exc.warnings]
         post = map_fit(group, self.mapper, exc, self.options, on_eval=on_eval, notes=out)
@@ -524,9 +532,9 @@ def fit_drive(
         derivative, a zero-order hold) is read through that instead, in v and w.
     w_source : {"imu", "wheels"}
         Where the logs' yaw rate comes from (the spec's ``odometry.w_source``): a gyro reads
-        the model's body rate, wheel encoders read it times the track factor
-        (:func:`robots.measurement.yaw_reading_factor`; a skid steer's slip is invisible to
-        them).
+        the model's body rate, wheel encoders read it times the effective over the driver's
+        track (:func:`robots.measurement.yaw_reading_factor`; a skid steer's slip is invisible
+        to them).
     max_nfev : int
         Cap on residual evaluations of the optimiser (hitting it is a warning).
     python : bool

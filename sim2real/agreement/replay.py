@@ -6,7 +6,8 @@ exported MuJoCo robot (``engine="mujoco"``, the ``[mujoco]`` extra), with
 the spec's default drive parameters or a sysid result, and the simulated base velocity is
 recorded at every real measurement time. The engines run the body's yaw rate; a log whose
 yaw rate comes from the wheel encoders (the spec's ``odometry.w_source: wheels``) reads it
-times the track factor (:func:`robots.measurement.yaw_reading_factor`), as ``sysid fit`` does.
+times the effective over the driver's track (:func:`robots.measurement.yaw_reading_factor`),
+as ``sysid fit`` does.
 
 Timing
 ------
@@ -293,7 +294,7 @@ def replay(
     elif odom_v_window_s > 0:
         t_out = _fine_times(meas_t, 1.0 / rate)
     # the engines run the body's yaw rate; the log reads it through its odometry's sensor
-    w_factor = yaw_reading_factor(spec.odometry.w_source, p.track_factor)
+    w_factor = yaw_reading_factor(spec.odometry.w_source, p)
     initial = (float(meas_v[0]), float(meas_w[0]) / w_factor)
     if not isinstance(engine, str):
         v, w = engine.replay((cmd_t, cmd_v, cmd_w), t_out, initial)

@@ -401,8 +401,9 @@ def _states(
 def plant_odometry(spec: RobotSpec) -> RobotSpec:
     """``spec`` with the plant's odometry sources: v from the wheel encoders, w from the gyro.
 
-    ``robots new`` writes wheel-encoder yaw rates, which read the body's rate times the track
-    factor (:func:`robots.measurement.yaw_reading_factor`); the plant's gyro reads the body's.
+    ``robots new`` writes wheel-encoder yaw rates, which read the wheels' speeds, not the
+    body's rate (:func:`robots.measurement.yaw_reading_factor`); the plant's gyro reads the
+    body's.
 
     Examples
     --------

@@ -1,5 +1,6 @@
 """A yaw rate read by the wheel encoders: every engine and the fit read the model's body rate
-times the track factor (:func:`robots.measurement.yaw_reading_factor`), a gyro's is the body's.
+times the effective over the driver's track (:func:`robots.measurement.yaw_reading_factor`),
+a gyro's is the body's.
 
 A skid steer's treads slip sideways in a turn, so its body turns slower than its wheels say
 (the effective track, ``track_factor`` x the geometric one). The encoders see the wheels, not
@@ -24,6 +25,7 @@ from robots.template import spec_text
 from sim2real.agreement.replay import replay
 from sim2real.logs import Trace
 from sysid._coords import Mapper
+from sysid._excitation import analyse
 from sysid._logs import as_log_arrays
 from sysid._problem import Problem
 
@@ -55,10 +57,10 @@ def _gyro(spec: RobotSpec) -> RobotSpec:
     return dataclasses.replace(spec, odometry=dataclasses.replace(spec.odometry, w_source="imu"))
 
 
-def _params(spec: RobotSpec, chi: float) -> DriveParams:
-    """PI wheel loops that hold the wheels at the targets of a driver on the geometric track:
-    the wheel speeds of a held command do not depend on the track factor."""
-    return spec.drive.replace(track_factor=chi, driver_track_factor=1.0, speed_loop_ki_per_s=5.0)
+def _params(spec: RobotSpec, chi: float, driver: float = 1.0) -> DriveParams:
+    """PI wheel loops that hold the wheels at the targets of a driver on ``driver`` x the
+    geometric track: the wheel speeds of a held command do not depend on the track factor."""
+    return spec.drive.replace(track_factor=chi, driver_track_factor=driver, speed_loop_ki_per_s=5.0)
 
 
 def _trace(duration_s: float, cmd_w: float, meas_w0: float) -> Trace:
@@ -87,16 +89,20 @@ def _trace(duration_s: float, cmd_w: float, meas_w0: float) -> Trace:
 )
 def test_encoder_yaw_rate_does_not_see_the_slip(encoders: RobotSpec, engine: str) -> None:
     """(0.3 m/s, 0.6 rad/s) held 4 s, steady over the last second. Golden: the encoders read
-    0.600 rad/s at every track factor; the gyro 0.600 / 0.375 / 0.273 (0.6 / chi), measured
-    the same to 1e-3 in the three engines."""
+    0.600 rad/s at every track factor, with a driver on the geometric track and with the
+    Husky's (``wheel_separation_multiplier`` 1.875, which its odometry divides by too); the
+    gyro 0.600 / 0.375 / 0.273 (0.6 / chi) and 1.125 / 0.703 / 0.511 (0.6 x 1.875 / chi),
+    measured the same to 1e-3 in the three engines."""
     trace = _trace(4.0, 0.6, 0.0)
-    for chi, body in zip(CHIS, (0.600, 0.375, 0.273), strict=True):
-        p = _params(encoders, chi)
+    geometric = [(chi, 1.0, 0.6 / chi) for chi in CHIS]
+    husky = [(chi, 1.875, 1.125 / chi) for chi in CHIS]
+    for chi, driver, body in geometric + husky:
+        p = _params(encoders, chi, driver)
         read = replay(trace, robot=encoders, params=p, engine=engine)
         gyro = replay(trace, robot=_gyro(encoders), params=p, engine=engine)
-        assert float(np.mean(read.w[-20:])) == pytest.approx(0.600, abs=1e-3), chi
-        assert float(np.mean(gyro.w[-20:])) == pytest.approx(body, abs=1e-3), chi
-        np.testing.assert_allclose(read.w, chi * gyro.w, rtol=1e-12, atol=1e-12)
+        assert float(np.mean(read.w[-20:])) == pytest.approx(0.600, abs=1e-3), (chi, driver)
+        assert float(np.mean(gyro.w[-20:])) == pytest.approx(body, abs=1e-3), (chi, driver)
+        np.testing.assert_allclose(read.w, chi / driver * gyro.w, rtol=1e-12, atol=1e-12)
         np.testing.assert_array_equal(read.v, gyro.v)  # v is the same reading
 
 
@@ -154,18 +160,76 @@ def test_the_fit_reads_the_model_as_replay_does(encoders: RobotSpec) -> None:
 
 
 @settings(max_examples=30, deadline=None)
-@given(chi=st.floats(0.25, 4.0), source=st.sampled_from(("imu", "wheels")))
-def test_the_reading_factor(chi: float, source: str) -> None:
-    factor = yaw_reading_factor(source, chi)
-    assert factor == (chi if source == "wheels" else 1.0)
-    assert yaw_reading_factor(source, 1.0) == 1.0  # a differential drive: both read the same
+@given(
+    chi=st.floats(1.0, 4.0), driver=st.floats(1.0, 4.0), source=st.sampled_from(("imu", "wheels"))
+)
+def test_the_reading_factor(chi: float, driver: float, source: str) -> None:
+    p = DriveParams(track_factor=chi, driver_track_factor=driver)
+    factor = yaw_reading_factor(source, p)
+    assert factor == pytest.approx(chi / driver if source == "wheels" else 1.0, rel=1e-15)
+    # a differential drive: both read the same
+    assert yaw_reading_factor(source, DriveParams()) == 1.0
 
 
 def test_an_unknown_source_is_refused_in_one_sentence(encoders: RobotSpec) -> None:
     with pytest.raises(RobotsValueError, match=r"w_source must be one of .* got 'compass'"):
-        yaw_reading_factor("compass", 1.0)
-    with pytest.raises(RobotsValueError, match=r"track_factor must be .* got 0\.0"):
-        yaw_reading_factor("wheels", 0.0)
+        yaw_reading_factor("compass", DriveParams())
     with pytest.raises(ValueError, match="w_source"):
         Problem([as_log_arrays(_trace(1.0, 0.0, 0.0), 0)], Mapper(encoders.geometry, DriveParams()),
                 (), {}, scale_v=1.0, scale_w=1.0, dt_s=0.01, w_source="odom")  # fmt: skip
+
+
+def _teleop() -> Trace:
+    """12 s of (v, w) commands held 1 s each, seeded; odometry at rest (only its times)."""
+    rng = np.random.default_rng(3)
+    cmd_t = np.arange(0.0, 12.0, 0.1)
+    steps = np.repeat(rng.uniform(-1.0, 1.0, (12, 2)), 10, axis=0)
+    meas_t = np.arange(0.0, 12.0, 0.05)
+    return Trace(
+        cmd_t_ns=T0_NS + np.rint(cmd_t * 1e9).astype(np.int64),
+        cmd_v=0.5 * steps[:, 0],
+        cmd_w=steps[:, 1],
+        meas_t_ns=T0_NS + np.rint(meas_t * 1e9).astype(np.int64),
+        meas_v=np.zeros(meas_t.size),
+        meas_w=np.zeros(meas_t.size),
+    )
+
+
+def test_encoder_yaw_cannot_tell_the_slip_from_the_yaw_inertia(encoders: RobotSpec) -> None:
+    """With the yaw rate read by the encoders, track factor chi, yaw inertia I and viscous yaw
+    friction b act as (1, I / chi, b / chi): a teleop-like run reads the same to 1e-9 rad/s,
+    so ``sysid fit`` leaves chi at its prior (:data:`sysid._excitation.ENCODER_YAW_NOTE`).
+    The gyro tells them apart (measured: up to 0.386 rad/s)."""
+    trace = _teleop()
+    geo = encoders.geometry
+    slip = _params(encoders, 1.5, 1.2).replace(viscous_w_nms_per_rad=3.0)
+    inertia = slip.total_yaw_inertia_kgm2(geo) / 1.5
+    rolling = slip.replace(
+        track_factor=1.0,
+        added_yaw_inertia_kgm2=inertia - geo.yaw_inertia_kgm2,
+        viscous_w_nms_per_rad=3.0 / 1.5,
+    )
+    a, b = (replay(trace, robot=encoders, params=p, engine="reduced") for p in (slip, rolling))
+    assert np.max(np.abs(a.w)) > 0.5  # it turns
+    np.testing.assert_allclose(a.w, b.w, atol=1e-9)
+    np.testing.assert_allclose(a.v, b.v, atol=1e-9)
+    gyro = [
+        replay(trace, robot=_gyro(encoders), params=p, engine="reduced") for p in (slip, rolling)
+    ]
+    assert np.max(np.abs(gyro[0].w - gyro[1].w)) > 0.3
+
+
+def test_the_fit_leaves_the_track_factor_to_its_prior_under_encoder_yaw(
+    encoders: RobotSpec,
+) -> None:
+    """``"auto"`` frees the skid steer's track factor against its prior for a gyro's yaw rate
+    and leaves it at the prior, with a note, for the encoders'."""
+    simulated = replay(_teleop(), robot=encoders, params=encoders.drive, engine="reduced")
+    log = as_log_arrays(dataclasses.replace(_teleop(), meas_v=simulated.v, meas_w=simulated.w), 0)
+    informative = {n for n, p in encoders.priors.items() if p.informative}
+    assert "track_factor" in informative
+    gyro = analyse([log], encoders.geometry, encoders.drive, "auto", informative)
+    read = analyse([log], encoders.geometry, encoders.drive, "auto", informative, encoder_yaw=True)
+    assert "track_factor" in gyro.free and "track_factor" not in read.free
+    assert set(gyro.free) - set(read.free) == {"track_factor"}
+    assert [n for n in read.warnings if n.startswith("track_factor is kept at its prior 1.6")]
