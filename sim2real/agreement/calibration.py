@@ -1403,7 +1403,7 @@ def session_covariance(distribution: Any, robot: Any) -> FloatArray:
     return out
 
 
-def _fit_logs(document: Any, role: str = "fit") -> set[str]:
+def _logs_of_role(document: Any, role: str = "fit") -> set[str]:
     """SHA-256 of the logs of one ``role`` in a params file's ``data`` entries: ``fit`` (an
     entry without a role counts as one), or ``validation`` (scored, and the judges of the
     wheel loops' integral term, :func:`sysid.fit.fit_drive`)."""
@@ -1471,7 +1471,7 @@ def calibrate(
     params_file = read_params_file(params_path)  # read once: the spread and the settings
     distribution = DriveDistribution.from_params_file(params_file, robot=spec.name)
     document = params_file.document
-    fitted_on, validated_on = _fit_logs(document), _fit_logs(document, "validation")
+    fitted_on, validated_on = _logs_of_role(document), _logs_of_role(document, "validation")
     screened = [read_for_robot(path, spec, read) for path in logs]
     traces = [trace for trace, _ in screened]
     for path, trace in zip(logs, traces, strict=True):
