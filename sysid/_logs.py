@@ -179,13 +179,9 @@ def crop_log(log: object, start_s: float, end_s: float, *, lead_s: float = 2.0) 
     before = np.flatnonzero(full.cmd_t_s < start_s - lead_s)
     if before.size:
         c[before[-1]] = True
+    kept = {f: getattr(full, f)[c if f.startswith("cmd") else m] for f in _FIELDS}
     return LogArrays(
-        cmd_t_s=full.cmd_t_s[c],
-        cmd_v=full.cmd_v[c],
-        cmd_w=full.cmd_w[c],
-        meas_t_s=full.meas_t_s[m],
-        meas_v=full.meas_v[m],
-        meas_w=full.meas_w[m],
+        **kept,
         name=f"{full.name}[{start_s:g}:{end_s:g}]",
         sha256=full.sha256,
         measurement=None if full.measurement is None else full.measurement.sliced(m),
