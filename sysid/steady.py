@@ -33,6 +33,7 @@ __all__ = [
     "MIN_STEADY_SAMPLES",
     "STEADY_AFTER_S",
     "SteadyNoise",
+    "motion_noise",
     "pooled_steady_noise",
     "steady_noise",
     "steady_stretches",
@@ -117,19 +118,65 @@ def steady_noise(
     steady, ids = _steady(
         t, np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
     )
-    _, index, counts = np.unique(ids, return_inverse=True, return_counts=True)
+    keep = np.ones(ids.size, dtype=bool)
+    (sd_v, n), (sd_w, _) = (_stretch_sd(y, steady, ids, keep) for y in (meas_v, meas_w))
+    if n < MIN_STEADY_SAMPLES:
+        return SteadyNoise(std_v_mps=math.nan, std_w_radps=math.nan, n_samples=n)
+    return SteadyNoise(std_v_mps=sd_v, std_w_radps=sd_w, n_samples=n)
+
+
+def _stretch_sd(
+    y: ArrayLike, steady: np.ndarray, ids: np.ndarray, keep: np.ndarray
+) -> tuple[float, int]:
+    """Robust sd (MAD) of ``y`` about its stretch medians over the ``keep`` steady samples of
+    stretches of :data:`MIN_STRETCH` or more, and their number (NaN sd for none)."""
+    ys = np.asarray(y, dtype=np.float64)[steady][keep]
+    _, index, counts = np.unique(ids[keep], return_inverse=True, return_counts=True)
     long_enough = counts[index] >= MIN_STRETCH
-    if int(long_enough.sum()) < MIN_STEADY_SAMPLES:
-        return SteadyNoise(
-            std_v_mps=math.nan, std_w_radps=math.nan, n_samples=int(long_enough.sum())
-        )
-    stds = []
-    for y in (meas_v, meas_w):
-        ys = np.asarray(y, dtype=np.float64)[steady]
-        level = np.array([np.median(ys[index == k]) for k in range(counts.size)])
-        dev = (ys - level[index])[long_enough]
-        stds.append(float(1.4826 * np.median(np.abs(dev - np.median(dev)))))
-    return SteadyNoise(std_v_mps=stds[0], std_w_radps=stds[1], n_samples=int(long_enough.sum()))
+    n = int(long_enough.sum())
+    if n == 0:
+        return math.nan, 0
+    level = np.array([np.median(ys[index == k]) for k in range(counts.size)])
+    dev = (ys - level[index])[long_enough]
+    return float(1.4826 * np.median(np.abs(dev - np.median(dev)))), n
+
+
+def motion_noise(
+    meas_t_s: ArrayLike, cmd_v: ArrayLike, cmd_w: ArrayLike, meas_v: ArrayLike, meas_w: ArrayLike
+) -> tuple[SteadyNoise, SteadyNoise]:
+    """The log's noise of each axis where that axis is commanded to move, and where it is not.
+
+    :func:`steady_noise` pools every steady stretch, but an axis held at zero reads far less
+    noise than one that moves (a Neato's v while it spins in place reads 0 to the bit; its v
+    while driving scatters by ~1 cm/s). Returns ``(moving, still)``: ``moving.std_v_mps`` over
+    the steady stretches whose ``cmd_v`` is not 0, ``moving.std_w_radps`` over those whose
+    ``cmd_w`` is not 0, ``still`` over the others (the other axis moving). An axis with fewer
+    than :data:`MIN_STEADY_SAMPLES` samples of its class has a NaN sd; ``n_samples`` is the
+    smaller count of the two axes.
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 40.0, 0.1)
+    >>> spin = t >= 20.0  # drive straight, then spin in place
+    >>> cmd_v, cmd_w = np.where(spin, 0.0, 0.3), np.where(spin, 1.0, 0.0)
+    >>> rng = np.random.default_rng(0)
+    >>> meas_v = np.where(spin, 0.0, 0.3 + rng.normal(0.0, 0.01, t.size))
+    >>> moving, still = motion_noise(t, cmd_v, cmd_w, meas_v, cmd_w)
+    >>> round(moving.std_v_mps, 2), still.std_v_mps
+    (0.01, 0.0)
+    """
+    t = np.asarray(meas_t_s, dtype=np.float64)
+    cv, cw = np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
+    steady, ids = _steady(t, cv, cw)
+    out = []
+    for moves in (True, False):
+        sds = []
+        for y, cmd in ((meas_v, cv), (meas_w, cw)):
+            sd, n = _stretch_sd(y, steady, ids, (cmd[steady] != 0) == moves)
+            sds.append((sd if n >= MIN_STEADY_SAMPLES else math.nan, n))
+        (sd_v, n_v), (sd_w, n_w) = sds
+        out.append(SteadyNoise(std_v_mps=sd_v, std_w_radps=sd_w, n_samples=min(n_v, n_w)))
+    return out[0], out[1]
 
 
 def pooled_steady_noise(noises: Sequence[SteadyNoise]) -> SteadyNoise:

@@ -50,7 +50,14 @@ import numpy as np
 
 from sim2real.agreement.figures import AgreementReport, measure_agreement
 from sim2real.agreement.replay import RobotSpecLike, TraceLike, replay
-from sysid.steady import MIN_STEADY_SAMPLES, STEADY_AFTER_S, SteadyNoise, steady_noise
+from sysid.metrics import active_mask
+from sysid.steady import (
+    MIN_STEADY_SAMPLES,
+    STEADY_AFTER_S,
+    SteadyNoise,
+    motion_noise,
+    steady_noise,
+)
 
 if TYPE_CHECKING:
     from robots.params import DriveParams
@@ -65,6 +72,7 @@ __all__ = [
     "SessionLatency",
     "band_noise",
     "log_noise",
+    "motion_ceiling",
     "noise_ceiling",
     "noise_note",
     "session_latency",
@@ -175,6 +183,66 @@ def noise_ceiling(
         band_width_w_radps=2.0 * z * sd_w,
         std_v_mps=sd_v,
         std_w_radps=sd_w,
+    )
+
+
+#: The sd fields of a :class:`SteadyNoise`, and what the ceiling's note says of a NaN one.
+_SDS = ("std_v_mps", "std_w_radps")
+_NAN_NOTE = " (nan: too few samples to tell, the pooled noise stands in)"
+
+
+def motion_ceiling(
+    trace: TraceLike, noise: ObservationNoise, *, tol_v: float, tol_w: float, level: float = 0.9
+) -> NoiseCeiling:
+    """:func:`noise_ceiling` with each scored sample's noise of its own motion.
+
+    The agreement is scored on the active samples (:func:`sysid.metrics.active_mask`), and
+    an axis that moves reads more noise than one held at zero (:func:`sysid.steady.
+    motion_noise`): pooled over both, the noise of a log that spins in place as often as it
+    drives is the spinning's. So each active sample gets, per axis, the log's own noise of
+    the stretches whose command on that axis is zero or not, like its own (``noise``'s where
+    the log cannot tell that class), and the ceiling is the mean over the active samples of
+    the product of the two axes' chances. The noise-only band and the sds stay ``noise``'s;
+    the note gives the four noises.
+
+    Examples
+    --------
+    >>> ceiling = motion_ceiling(trace, noise, tol_v=0.02, tol_w=0.1)  # doctest: +SKIP
+    """
+    pooled = noise_ceiling(noise, tol_v=tol_v, tol_w=tol_w, level=level)
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    meas_v, meas_w = trace.meas_v, trace.meas_w
+    active = active_mask(cmd_v, cmd_w, meas_v, meas_w, tol_v=tol_v, tol_w=tol_w)
+    if not active.any():
+        return pooled
+    moving, still = motion_noise(trace.meas_t_s, cmd_v, cmd_w, meas_v, meas_w)
+    chances = []
+    for cmd, tol, quantum, field, fallback in (
+        (cmd_v, tol_v, noise.quantum_v_mps, "std_v_mps", noise.std_v_mps),
+        (cmd_w, tol_w, noise.quantum_w_radps, "std_w_radps", noise.std_w_radps),
+    ):
+        chance = {}
+        for moves, own in ((True, moving), (False, still)):
+            sd = getattr(own, field)
+            sd = math.hypot(fallback if math.isnan(sd) else sd, quantum / math.sqrt(12.0))
+            chance[moves] = _within_prob(tol, sd)
+        chances.append(np.where(np.asarray(cmd)[active] != 0, chance[True], chance[False]))
+    a_v, a_w = chances
+    return replace(
+        pooled,
+        agreement=float(np.mean(a_v * a_w)),
+        agreement_v=float(np.mean(a_v)),
+        agreement_w=float(np.mean(a_w)),
+        note=(
+            "the noise ceiling takes each scored sample's noise of its own motion: v "
+            f"{moving.std_v_mps:.3g} m/s while driving, {still.std_v_mps:.3g} while not; w "
+            f"{moving.std_w_radps:.3g} rad/s while turning, {still.std_w_radps:.3g} while not"
+            + (
+                _NAN_NOTE
+                if any(math.isnan(getattr(n, f)) for n in (moving, still) for f in _SDS)
+                else ""
+            )
+        ),
     )
 
 

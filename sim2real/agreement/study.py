@@ -50,6 +50,7 @@ from sim2real.agreement.latency import (
     SessionLatency,
     band_noise,
     log_noise,
+    motion_ceiling,
     noise_ceiling,
     noise_note,
     session_latency,
@@ -463,8 +464,10 @@ def _reference_figures(
     )
     if noise is None:  # no noise model and too few steady samples: no ceiling
         return latency, None
-    ceiling = noise_ceiling(noise, tol_v=config.tol_v, tol_w=config.tol_w, level=config.band_level)
-    return latency, replace(ceiling, note=noise_note(own, fit))
+    tols = {"tol_v": config.tol_v, "tol_w": config.tol_w, "level": config.band_level}
+    ceiling = motion_ceiling(trace, noise, **tols) if own.measured else noise_ceiling(noise, **tols)
+    note = "; ".join(n for n in (noise_note(own, fit), ceiling.note) if n)
+    return latency, replace(ceiling, note=note)
 
 
 def fitted_noise(noise: ObservationNoise, calibration: Any) -> ObservationNoise:
