@@ -21,6 +21,7 @@ from robots._pybullet import pybullet as p
 from robots._urdf import LEFT_WHEEL_JOINT, RIGHT_WHEEL_JOINT, urdf_path
 from robots.arrays import FloatArray
 from robots.errors import RobotsError, RobotsValueError
+from robots.measurement import yaw_reading_factor
 from robots.params import DriveParams
 from robots.reduced import _check_inputs, _delayed_commands, delayed_step_average
 from robots.spec import RobotSpec, load_spec, lumped_base_inertia, lumped_base_mass_kg
@@ -474,14 +475,16 @@ class UncheckedPybulletRobot:
         """(v, w) as the base reports it: v from the wheel encoders, w per ``spec.odometry``.
 
         ``w_source == "imu"`` (TurtleBot 2 and 3) gives the gyro's yaw rate, i.e. the true body
-        rate; ``"wheels"`` gives :math:`r(\\omega_r - \\omega_l)/L`.
+        rate; ``"wheels"`` gives the encoders' reading, :math:`r(\\omega_r - \\omega_l)/L`
+        times the effective over the driver's track (the tyres grip on the geometric track and
+        the treads' slip is in the wheel loops: :func:`robots.measurement.yaw_reading_factor`).
         """
         wl, wr = self.wheel_speeds()
         r, sep = self.spec.wheels.radius_m, self.spec.wheels.separation_m
         v = 0.5 * r * (wr + wl)
         if self.spec.odometry.w_source == "imu":
             return v, self.velocity[1]
-        return v, r * (wr - wl) / sep
+        return v, yaw_reading_factor("wheels", self._params) * r * (wr - wl) / sep
 
     # ------------------------------------------------------------------ stepping
 
@@ -597,12 +600,13 @@ class UncheckedPybulletRobot:
         rec[:, 6] = np.unwrap(rec[:, 6])
         col = [np.interp(t_out_s, grid[sampled], rec[:, j]) for j in range(7)]
         imu = self.spec.odometry.w_source == "imu"
+        encoders = yaw_reading_factor("wheels", self._params) * col[3]
         return PybulletResponse(
             t_s=t_out_s,
             v=col[0],
             w=col[1],
             odom_v=col[2],
-            odom_w=col[1] if imu else col[3],
+            odom_w=col[1] if imu else encoders,
             x_m=col[4],
             y_m=col[5],
             yaw_rad=col[6],

@@ -31,8 +31,10 @@ model (:mod:`robots.reduced`):
    ``localInertiaDiagonal``), read back with ``getDynamicsInfo``;
 6. skid steer (``track_factor`` > 1): the two tyres grip and roll on the geometric track; the
    treads' slip is in the kernel's wheel loops (wheel speeds through the effective track) and
-   its torques and axis friction take the base where the reduced model goes, so the wheel
-   odometry reports the body's true yaw rate (a driver calibrated to the slip).
+   its torques and axis friction take the base where the reduced model goes. The wheel
+   odometry reads what the real encoders would: the joints' yaw rate times the effective
+   over the driver's track (:func:`robots.measurement.yaw_reading_factor`), the wheels'
+   speeds whatever the slip.
 
 Contacts: tyre friction at least 1.5 x ground 1.0, and as much as the drive can ask
 (:func:`tyre_friction`: a hard reversal brakes the base and moves weight onto a caster, which

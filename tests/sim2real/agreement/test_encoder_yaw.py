@@ -233,3 +233,23 @@ def test_the_fit_leaves_the_track_factor_to_its_prior_under_encoder_yaw(
     assert "track_factor" in gyro.free and "track_factor" not in read.free
     assert set(gyro.free) - set(read.free) == {"track_factor"}
     assert [n for n in read.warnings if n.startswith("track_factor is kept at its prior 1.6")]
+
+
+def test_the_pybullet_robot_odometry_reads_the_encoders(encoders: RobotSpec) -> None:
+    """The pybullet robot's own odometry (what an env observes) reads the encoders as replay
+    does: 0.600 rad/s under the held command at chi 1.6 (body 0.375), the gyro spec 0.375."""
+    from robots.pybullet_robot import PybulletRobot
+
+    p = _params(encoders, 1.6)
+    for spec, want in ((encoders, 0.600), (_gyro(encoders), 0.375)):
+        with PybulletRobot(spec, params=p) as robot:
+            for _ in range(40):
+                robot.step(0.3, 0.6, 0.1)
+            _, odom_w = robot.odometry()
+            assert odom_w == pytest.approx(want, abs=1e-3)
+            assert robot.velocity[1] == pytest.approx(0.375, abs=1e-3)
+            out = robot.replay(
+                cmd_t_s=np.array([0.0]), cmd_v=np.array([0.3]), cmd_w=np.array([0.6]),
+                t_out_s=np.arange(0.0, 4.0, 0.1),
+            )  # fmt: skip
+            assert float(out.odom_w[-1]) == pytest.approx(want, abs=1e-3)
