@@ -189,18 +189,24 @@ def _check_encoding(encoding: str) -> None:
 def _cmd_stream(
     cmd_type: str,
     topic: str,
-    t: np.ndarray,
-    v: np.ndarray,
-    w: np.ndarray,
-    log_t: np.ndarray | None,
+    cmd_t_ns: Any,
+    cmd_v: Any,
+    cmd_w: Any,
+    cmd_log_t_ns: Any,
     frame_id: str,
     encoding: str,
 ) -> _Stream:
+    """The command stream of a writer: its arrays checked (the writers' argument names in the
+    errors), then encoded; ``cmd_log_t_ns`` None logs each command at its ``cmd_t_ns``."""
+    t = _ints("cmd_t_ns", cmd_t_ns)
+    v, w = _floats("cmd_v", cmd_v, t.size), _floats("cmd_w", cmd_w, t.size)
+    lt = t if cmd_log_t_ns is None else _ints("cmd_log_t_ns", cmd_log_t_ns)
+    if lt.size != t.size:
+        raise Sim2RealValueError(f"cmd_log_t_ns must have {t.size} values, got {lt.size}")
     if cmd_type not in (TWIST, TWIST_STAMPED):
         raise Sim2RealValueError(
             f"cmd_type must be '{TWIST}' or '{TWIST_STAMPED}', got {cmd_type!r}"
         )
-    lt = t if log_t is None else log_t
     if encoding == "json":
         cols = {"t": t, "v": v, "w": w, "frame_id": frame_id}
         return _Stream(topic, cmd_type, lt, _json_payloads(cmd_type, cols, t.size))
@@ -268,15 +274,14 @@ def write_velocity_log(
     PosixPath('run.mcap')
     """
     _check_encoding(encoding)
-    ct = _ints("cmd_t_ns", cmd_t_ns)
+    cmd = _cmd_stream(
+        cmd_type, cmd_topic, cmd_t_ns, cmd_v, cmd_w, cmd_log_t_ns, base_frame_id, encoding
+    )
     mt = _ints("meas_t_ns", meas_t_ns)
-    cv, cw = _floats("cmd_v", cmd_v, ct.size), _floats("cmd_w", cmd_w, ct.size)
     mv, mw = _floats("meas_v", meas_v, mt.size), _floats("meas_w", meas_w, mt.size)
-    clt = None if cmd_log_t_ns is None else _ints("cmd_log_t_ns", cmd_log_t_ns)
     mlt = mt if meas_log_t_ns is None else _ints("meas_log_t_ns", meas_log_t_ns)
-    for name, arr, n in (("cmd_log_t_ns", clt, ct.size), ("meas_log_t_ns", mlt, mt.size)):
-        if arr is not None and arr.size != n:
-            raise Sim2RealValueError(f"{name} must have {n} values, got {arr.size}")
+    if mlt.size != mt.size:
+        raise Sim2RealValueError(f"meas_log_t_ns must have {mt.size} values, got {mlt.size}")
     if pose_x is None or pose_y is None or pose_yaw is None:
         if not (pose_x is None and pose_y is None and pose_yaw is None):
             raise Sim2RealValueError("give all of pose_x, pose_y and pose_yaw, or none of them")
@@ -284,7 +289,6 @@ def write_velocity_log(
     else:
         px, py = _floats("pose_x", pose_x, mt.size), _floats("pose_y", pose_y, mt.size)
         pyaw = _floats("pose_yaw", pose_yaw, mt.size)
-    cmd = _cmd_stream(cmd_type, cmd_topic, ct, cv, cw, clt, base_frame_id, encoding)
     if encoding == "json":
         cols: dict[str, Any] = {"t": mt, "v": mv, "w": mw, "x": px, "y": py, "yaw": pyaw}
         cols |= {"frame_id": odom_frame_id, "child_frame_id": base_frame_id}
@@ -316,9 +320,7 @@ def write_commands(
     >>> write_commands("script.mcap", cmd_t_ns=t, cmd_v=np.ones(5), cmd_w=np.zeros(5))  # doctest: +SKIP
     PosixPath('script.mcap')
     """
-    ct = _ints("cmd_t_ns", cmd_t_ns)
-    cv, cw = _floats("cmd_v", cmd_v, ct.size), _floats("cmd_w", cmd_w, ct.size)
-    cmd = _cmd_stream(TWIST, cmd_topic, ct, cv, cw, None, "", "cdr")
+    cmd = _cmd_stream(TWIST, cmd_topic, cmd_t_ns, cmd_v, cmd_w, None, "", "cdr")
     return _write(path, [cmd], encoding="cdr")
 
 
@@ -380,14 +382,13 @@ def write_joint_state_log(
     PosixPath('js.mcap')
     """
     _check_encoding(encoding)
-    ct, jt = _ints("cmd_t_ns", cmd_t_ns), _ints("js_t_ns", js_t_ns)
-    cv, cw = _floats("cmd_v", cmd_v, ct.size), _floats("cmd_w", cmd_w, ct.size)
+    cmd = _cmd_stream(TWIST, cmd_topic, cmd_t_ns, cmd_v, cmd_w, None, "", encoding)
+    jt = _ints("js_t_ns", js_t_ns)
     left = _floats("left_radps", left_radps, jt.size)
     right = _floats("right_radps", right_radps, jt.size)
     vel = np.stack([left, right], axis=1)
     dt = seconds(np.diff(jt, prepend=jt[:1]).astype(np.float64))
     pos = np.cumsum(np.nan_to_num(vel) * dt[:, None], axis=0)
-    cmd = _cmd_stream(TWIST, cmd_topic, ct, cv, cw, None, "", encoding)
     if encoding == "json":
         cols = {"t": jt, "frame_id": "", "names": joint_names, "position": pos, "velocity": vel}
         payloads = _json_payloads(JOINT_STATE, cols, jt.size)
