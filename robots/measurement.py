@@ -41,14 +41,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from robots.arrays import BoolArray, FloatArray
 from robots.errors import RobotsValueError
-from robots.params import DriveParams
+
+if TYPE_CHECKING:  # annotations only: reading a log imports this module, and must not import yaml
+    from robots.params import DriveParams
 
 __all__ = [
     "W_SOURCES",
@@ -90,6 +92,7 @@ def yaw_reading_factor(w_source: str, params: DriveParams) -> float:
 
     Examples
     --------
+    >>> from robots.params import DriveParams
     >>> p = DriveParams(track_factor=1.6, driver_track_factor=1.0)
     >>> yaw_reading_factor("wheels", p), yaw_reading_factor("imu", p)
     (1.6, 1.0)
