@@ -138,7 +138,9 @@ BASES = (
             # geometric track (left 10.70 rad/s at -3.72 m/s, -0.95 rad/s), each clipped on its
             # own at ~13.1 rad/s (right 14.11 -> 13.07)
             *("--driver-track-factor", "1", "--wheel-cap", "per-side"),
-            # its yaw rate is read from the wheel encoders, which turn on the geometric track
+            # its yaw rate is the wheel encoders' (w_source: wheels), which read the wheels
+            # whatever the treads slip: no fit can measure the track factor from it, so 1 is only
+            # its prior mean (the readings are the same at any value; a gyro would measure it)
             *("--track-factor", "1"),
         ),
         fit="warthog_close/trace.csv",

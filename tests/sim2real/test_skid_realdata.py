@@ -22,7 +22,8 @@ from sim2real.cli import main
 from sim2real.logs import read_trace, write_csv_trace
 
 #: The Warthog's driver: wheel targets on the geometric track, each side clipped at the cap;
-#: its recording reads the yaw rate from the wheel encoders, on the geometric track.
+#: its recording reads the yaw rate from the wheel encoders, which the track factor does not
+#: change (the fit leaves it at its prior; 1 is that prior's mean).
 WARTHOG_DRIVER = ("--driver-track-factor", "1", "--wheel-cap", "per-side", "--track-factor", "1")
 
 #: (``robots new`` arguments, fit recording, fit window, checked recording, its window or
