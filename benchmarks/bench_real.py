@@ -273,7 +273,7 @@ def explain(log: Path, robot: str, params: Path) -> str:
     from robots.params import read_params_file
     from robots.randomization import DriveDistribution
     from robots.spec import load_spec
-    from sim2real.agreement.latency import band_noise, log_noise
+    from sim2real.agreement.latency import band_log_noise, band_noise
     from sim2real.agreement.sources import band_sources
     from sim2real.agreement.study import parse_odom_v_window
     from sim2real.logs import read_for_robot
@@ -282,8 +282,12 @@ def explain(log: Path, robot: str, params: Path) -> str:
     dist = DriveDistribution.from_params_file(params, robot=spec.name)
     window_s = parse_odom_v_window("auto", spec.odometry.rate_hz, v_source=spec.odometry.v_source)
     trace, _ = read_for_robot(log, spec)
-    settings = read_params_file(params).document.get("settings")  # agree's band noise
-    dist = replace(dist, noise=band_noise(dist.noise, settings, log_noise(trace))[0])
+    document = read_params_file(params).document  # agree's band noise
+    own = band_log_noise(trace)
+    noise, _ = band_noise(
+        dist.noise, document.get("settings"), own, calibration=document.get("calibration")
+    )
+    dist = replace(dist, noise=noise)
     why = band_sources(trace, robot=spec, distribution=dist, n=ENSEMBLE_N, odom_v_window_s=window_s)
 
     def axis(a: str) -> str:

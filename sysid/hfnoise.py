@@ -21,7 +21,10 @@ extrapolation of the residual variance to a zero stencil). Command steps, where 
 motion is not smooth at this rate, are a minority of the stencils and the robust scale (MAD,
 the statistic of :func:`sysid.steady.steady_noise` and of the fit's residuals) leaves them out.
 Only stencils whose three readings are under a non-zero command count: at rest a wheel
-odometry reads exact zeros, which say nothing of its noise while the robot moves. What the
+odometry reads exact zeros, which say nothing of its noise while the robot moves; for the same
+reason v is read on the stencils under a non-zero v command when there are
+:data:`sysid.steady.MIN_STEADY_SAMPLES` of them (a spin in place reads v close to zero, as
+:func:`sysid.steady.steady_noise` reads it). What the
 drive does faster than the odometry period is read as noise too: commands that jump at every
 message to a base whose wheel loops follow them within a period raise the estimate (never
 lower it), and transients after command steps raise the robust scale by their share of the
@@ -178,8 +181,9 @@ def highfreq_noise(
     """
     t = np.asarray(meas_t_s, dtype=np.float64)
     keep = np.ones(t.size, dtype=bool) if measurement is None else measurement.fresh
-    moving = (np.asarray(cmd_v, dtype=np.float64) != 0) | (np.asarray(cmd_w, dtype=np.float64) != 0)
-    tk, mk = t[keep], moving[keep]
+    driving = np.asarray(cmd_v, dtype=np.float64) != 0
+    moving = driving | (np.asarray(cmd_w, dtype=np.float64) != 0)
+    tk, mk, dk = t[keep], moving[keep], driving[keep]
     if pose is not None and measurement is not None and measurement.kind == "pose":
         x, y, yaw = (np.asarray(p, dtype=np.float64)[keep] for p in pose)
         yaw = np.unwrap(yaw)
@@ -189,8 +193,10 @@ def highfreq_noise(
     else:
         series = tuple((np.asarray(z, dtype=np.float64)[keep], 1.0) for z in (meas_v, meas_w))
     stds, counts = [], []
-    for z, gain_per_s in series:
-        var, count = _noise_var(tk, z, mk)
+    for (z, gain_per_s), first in zip(series, (dk, mk), strict=True):
+        var, count = _noise_var(tk, z, first)
+        if not math.isfinite(var):  # too few stencils under a v command: every moving one
+            var, count = _noise_var(tk, z, mk)
         stds.append(math.sqrt(var) * gain_per_s if math.isfinite(var) else math.nan)
         counts.append(count)
     n = min(counts)

@@ -97,7 +97,9 @@ floor) is the between-session spread's to cover; where no b does, the noise std 
 axis is widened on every sample until it does (the band is then wider than the odometry
 noise, by what the model lacks). The factors, noise
 stds, the likelihood before and after and the validation coverage before and after go into a
-``calibration:`` block. Calibrate on logs of sessions the fit did not see; several sessions
+``calibration:`` block, with the model's share of the noise judged on these logs, which the fit
+never saw (:func:`held_out_model_noise`): ``agree``'s band sets it beside a checked log's own
+noise (:func:`sim2real.agreement.latency.band_noise`). Calibrate on logs of sessions the fit did not see; several sessions
 estimate the between-session spread better than one.
 
 Engines
@@ -144,8 +146,8 @@ from sim2real.agreement.figures import (
     predictive_band,
     since_command_step_s,
 )
-from sim2real.agreement.latency import log_noise
-from sim2real.agreement.replay import resolve_robot
+from sim2real.agreement.latency import band_log_noise, log_noise
+from sim2real.agreement.replay import replay, resolve_robot
 from sim2real.agreement.sources import source_variances
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import ReadOptions, read_for_robot
@@ -158,6 +160,7 @@ __all__ = [
     "CalibrationResult",
     "calibrate",
     "calibrate_traces",
+    "held_out_model_noise",
     "match_noise_scale",
     "match_range",
     "noise_information_share",
@@ -289,6 +292,9 @@ class CalibrationResult:
     narrowing : tuple of (str, float)
         (parameter, multiplier of its sd) of each parameter whose spread the over-covered
         band narrowed (module docstring); empty when none was.
+    model_noise_std_v_mps, model_noise_std_w_radps : float
+        The model's share of the noise, judged out of sample (:func:`held_out_model_noise`;
+        NaN when the logs cannot tell their own measurement noise).
     """
 
     dynamics_factor: float
@@ -323,6 +329,8 @@ class CalibrationResult:
     steady_v: float = 1.0
     steady_w: float = 1.0
     narrowing: tuple[tuple[str, float], ...] = ()
+    model_noise_std_v_mps: float = math.nan
+    model_noise_std_w_radps: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """The ``calibration`` block of the output file (plain YAML types)."""
@@ -355,6 +363,8 @@ class CalibrationResult:
             "validation_steady_share_v": float(self.steady_v),
             "validation_steady_share_w": float(self.steady_w),
             "spread_narrowing": {name: float(m) for name, m in self.narrowing},
+            "model_noise_std_v_mps": num(self.model_noise_std_v_mps),
+            "model_noise_std_w_radps": num(self.model_noise_std_w_radps),
             "n_active": int(self.n_active),
             "ensemble_n": int(self.n),
             "seed": int(self.seed),
@@ -843,17 +853,19 @@ def calibrate_traces(
     before = search.coverage(mvb, mwb, (axes[0].identified_std, axes[1].identified_std))
     ll_before = search.log_likelihood_before()  # the file's own spread: before any narrowing
     (mvb, mwb), narrow_note = search.narrowed(
-        factor,
-        session_factor,
-        (axes[0].std, axes[1].std),
-        sessions=(fit_sessions, len(traces)),
+        factor, session_factor, (axes[0].std, axes[1].std), sessions=(fit_sessions, len(traces))
     )
     widened, after, widen_note = search.widened(factor, session_factor, (mvb, mwb), axes)
     widen_note = "; ".join(n for n in (narrow_note, widen_note) if n)
+    widened_noise = (0.0, 0.0)  # the noise std a failing axis had to be widened to
     if min(after) < MATCH_LEVEL:  # no spread covers the misses: the noise, as the last resort
-        axes, after, last = _noise_last_resort(search, (mvb, mwb), axes, after)
+        axes, after, last, widened_noise = _noise_last_resort(search, (mvb, mwb), axes, after)
         widen_note = f"{widen_note}; {last}"
     std_v, std_w = axes[0].std, axes[1].std
+    model_v, model_w = held_out_model_noise(
+        traces, robot=spec, distribution=distribution, engine=engine,
+        odom_v_window_s=odom_v_window_s, tol_v=tol_v, tol_w=tol_w, at_least=widened_noise,
+    )  # fmt: skip
     calibrated = dataclasses.replace(
         search.mixed(factor, widened),
         noise=dataclasses.replace(noise, std_v_mps=std_v, std_w_radps=std_w),
@@ -885,20 +897,92 @@ def calibrate_traces(
         odom_v_window_s=float(odom_v_window_s),
         distribution=calibrated,
         original=distribution,
-        validation=tuple(
-            (str(getattr(t.meta, "path", "")), str(getattr(t.meta, "sha256", ""))) for t in traces
-        ),
+        validation=_provenance(traces),
         steady_v=axes[0].steady,
         steady_w=axes[1].steady,
-        narrowing=tuple(
-            (name, float(m))
-            for name, m in zip(distribution.names, search.narrowing, strict=True)
-            if m != 1.0
-        ),
+        narrowing=_narrowed(distribution.names, search.narrowing),
         notes=tuple(a.note for a in axes if a.note)
         + ((widen_note,) if widen_note else ())
         + searched,
+        model_noise_std_v_mps=model_v,
+        model_noise_std_w_radps=model_w,
     )
+
+
+def _provenance(traces: Sequence[Any]) -> tuple[tuple[str, str], ...]:
+    """(file, sha256) of each trace ("" where it has none)."""
+    return tuple(
+        (str(getattr(t.meta, "path", "")), str(getattr(t.meta, "sha256", ""))) for t in traces
+    )
+
+
+def _narrowed(names: Sequence[str], multipliers: Any) -> tuple[tuple[str, float], ...]:
+    """(parameter, multiplier of its sd) of each parameter whose spread was narrowed."""
+    return tuple((name, float(m)) for name, m in zip(names, multipliers, strict=True) if m != 1.0)
+
+
+def held_out_model_noise(
+    traces: Sequence[Any],
+    *,
+    robot: Any,
+    distribution: Any,
+    engine: str = "reduced",
+    odom_v_window_s: float = 0.0,
+    tol_v: float = 0.02,
+    tol_w: float = 0.1,
+    at_least: tuple[float, float] = (0.0, 0.0),
+) -> tuple[float, float]:
+    r"""The model's misses that look like noise, judged on logs the fit never saw.
+
+    The fitted point (the distribution's mean) replays each log; the robust sd (MAD, the
+    fit's statistic for its residuals) of the residuals over the active samples of all the
+    logs, :math:`\sigma_r`, holds the logs' own measurement noise :math:`\sigma_m`
+    (:func:`sim2real.agreement.latency.band_log_noise`, between the readings where no command is
+    held long enough) and the model's share :math:`\delta = \sqrt{\max(\sigma_r^2 -
+    \sigma_m^2, 0)}` per axis. In sample, the fit's residuals hold less of it the more the
+    loop form can absorb (integral wheel loops follow the fit log's own wiggles); held out,
+    the share is what the band has to add on another session
+    (:func:`sim2real.agreement.latency.band_noise`). ``at_least`` (v m/s, w rad/s) stands in
+    for :math:`\sigma_r` where it is larger: the noise std a calibration had to widen an axis
+    to on every sample, because no spread of the model covered those logs (the band carries
+    what the model lacks to the next session).
+
+    Returns
+    -------
+    (float, float)
+        :math:`\delta` of v (m/s) and w (rad/s); NaN when the logs cannot tell their own
+        noise.
+
+    Examples
+    --------
+    >>> held_out_model_noise([trace], robot="neato", distribution=dist)  # doctest: +SKIP
+    (0.0078, 0.0125)
+    """
+    spec = resolve_robot(robot)
+    own = pooled_steady_noise([band_log_noise(t, between_readings=True) for t in traces])
+    if not own.measured:
+        return math.nan, math.nan
+    point = distribution.mean_params()
+    res_v, res_w = [], []
+    for trace in traces:
+        rep = replay(
+            trace, robot=spec, params=point, engine=engine, odom_v_window_s=odom_v_window_s
+        )
+        rv = np.asarray(trace.meas_v, dtype=np.float64)
+        rw = np.asarray(trace.meas_w, dtype=np.float64)
+        cv, cw = trace.cmd_at_meas()
+        active = active_mask(cv, cw, rv, rw, tol_v=tol_v, tol_w=tol_w)
+        res_v.append((rv - rep.v)[active])
+        res_w.append((rw - rep.w)[active])
+    out = []
+    for res, meas, floor in zip(
+        (res_v, res_w), (own.std_v_mps, own.std_w_radps), at_least, strict=True
+    ):
+        r = np.concatenate(res)
+        mad = 1.4826 * float(np.median(np.abs(r - np.median(r)))) if r.size else math.nan
+        scale = max(mad, floor)
+        out.append(math.sqrt(max(scale**2 - meas**2, 0.0)) if math.isfinite(scale) else math.nan)
+    return out[0], out[1]
 
 
 def _noise_last_resort(
@@ -906,11 +990,13 @@ def _noise_last_resort(
     members: tuple[FloatArray, FloatArray],
     axes: Sequence[_AxisNoise],
     coverage: tuple[float, float],
-) -> tuple[list[_AxisNoise], tuple[float, float], str]:
+) -> tuple[list[_AxisNoise], tuple[float, float], str, tuple[float, float]]:
     """Each axis whose band covers less than :data:`MATCH_LEVEL` of all the validation
     samples gets its noise std scaled until it does (:func:`match_noise_scale` on every
-    sample): the band is then wider than the odometry noise, by what the model lacks."""
+    sample): the band is then wider than the odometry noise, by what the model lacks. Last:
+    the widened std of each such axis (0 for the others)."""
     out, cov, said = list(axes), list(coverage), []
+    widened = [0.0, 0.0]
     for k, (axis, real, _, quantum) in enumerate(search.axes()):
         if cov[k] >= MATCH_LEVEL:
             continue
@@ -918,6 +1004,7 @@ def _noise_last_resort(
             real, members[k], out[k].std, quantum, seed=search.seed + k
         )
         out[k] = dataclasses.replace(out[k], std=out[k].std * scale, scale=out[k].scale * scale)
+        widened[k] = out[k].std
         said.append(
             f"on {axis} to x{out[k].scale:.3g} the identified std ({out[k].std:.4g}, "
             f"{100 * cov[k]:.1f} %)"
@@ -929,6 +1016,7 @@ def _noise_last_resort(
             f"so the noise std is widened on every sample, {' and '.join(said)}: the band is wider "
             "than the odometry noise by what the model lacks"
         ),
+        (widened[0], widened[1]),
     )
 
 

@@ -26,8 +26,8 @@ a pose-derived velocity. Where a non-zero command has been held for over
 what the measurement does about its level (the median of that stretch) is noise: its robust sd
 (MAD) per axis, the same statistic the fit uses on its residuals. A log with fewer than
 :data:`sysid.steady.MIN_STEADY_SAMPLES` such samples keeps the fit's noise, and the note says
-so. The band of ``agree --ensemble`` keeps the model's share of the file's noise and takes the
-log's own measurement noise in place of the fit logs' (:func:`band_noise`): one noise model per
+so. The band of ``agree --ensemble`` keeps the model's share of the noise and takes the log's
+own measurement noise in place of the fit logs' (:func:`band_noise`): one noise model per
 odometry source.
 
 Examples
@@ -50,6 +50,7 @@ import numpy as np
 
 from sim2real.agreement.figures import AgreementReport, measure_agreement
 from sim2real.agreement.replay import RobotSpecLike, TraceLike, replay
+from sysid.hfnoise import highfreq_noise, log_pose
 from sysid.metrics import active_mask
 from sysid.steady import (
     MIN_STEADY_SAMPLES,
@@ -70,6 +71,7 @@ __all__ = [
     "REFERENCE_KEYS",
     "NoiseCeiling",
     "SessionLatency",
+    "band_log_noise",
     "band_noise",
     "log_noise",
     "motion_ceiling",
@@ -261,21 +263,61 @@ def log_noise(trace: TraceLike) -> SteadyNoise:
     return steady_noise(trace.meas_t_s, cmd_v, cmd_w, trace.meas_v, trace.meas_w)
 
 
+def band_log_noise(trace: TraceLike, *, between_readings: bool = False) -> SteadyNoise:
+    """The log's own measurement noise as the band sets it beside the model's share
+    (:func:`band_noise`): :func:`log_noise`, with v read on the steady stretches under a
+    non-zero v command where there are :data:`sysid.steady.MIN_STEADY_SAMPLES` of them
+    (:func:`sysid.steady.motion_noise`). A band has v's scatter to cover where the model's v
+    is not zero; spinning in place, odometry reads v close to exact zero, and pooled with
+    the spins that scatter reads a fraction of itself.
+
+    With ``between_readings``, a log with too few steady samples is measured between its
+    readings (:func:`sysid.hfnoise.highfreq_noise`, the pose's when the velocities are its
+    slope): a calibration log's, beside its residuals
+    (:func:`sim2real.agreement.calibration.held_out_model_noise`). A checked log's band does
+    not take it: on a log whose commands jump at every message it reads the drive's fast
+    response as noise too, many times the scatter the same unit shows under a held command.
+
+    Examples
+    --------
+    >>> band_log_noise(olin_teleop).std_v_mps  # driving; log_noise: 0.0010  # doctest: +SKIP
+    0.0122
+    """
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    args = (trace.meas_t_s, cmd_v, cmd_w, trace.meas_v, trace.meas_w)
+    own = steady_noise(*args)
+    if own.measured:
+        driving = motion_noise(*args)[0].std_v_mps
+        return replace(own, std_v_mps=driving) if math.isfinite(driving) else own
+    if not between_readings:
+        return own
+    high = highfreq_noise(
+        *args,
+        measurement=getattr(trace, "measurement", None),  # the pose derivative, a slow hold
+        pose=log_pose(trace),
+    )
+    return high if high.measured else own
+
+
 def band_noise(
-    noise: ObservationNoise, settings: Any, own: SteadyNoise
+    noise: ObservationNoise, settings: Any, own: SteadyNoise, *, calibration: Any = None
 ) -> tuple[ObservationNoise, str]:
     r"""The odometry noise of the band on a checked log: a noise model per odometry source.
 
-    A params file's noise std :math:`\sigma` covers what its residuals showed: the model's
-    misses that look like noise (:math:`\delta`) and the measurement noise of the logs it was
-    fitted on (:math:`\sigma_f`, ``settings.measurement_noise``: their own scatter where they
-    run steady, no model). Another recording of the robot through another odometry source (a
-    pose-derived velocity at 7 Hz, a 20 Hz twist, another unit's encoders) keeps the model's
-    share and brings its own measurement noise :math:`\sigma_o` (:func:`log_noise`):
+    The band's white noise is the checked log's own measurement noise :math:`\sigma_o`
+    (:func:`band_log_noise`) beside the model's misses that look like noise, :math:`\delta`, per
+    axis:
 
-    .. math:: \sigma_{band}^2 = \max(\sigma^2 - \sigma_f^2, 0) + \sigma_o^2
+    .. math:: \sigma_{band}^2 = \delta^2 + \sigma_o^2.
 
-    per axis. Where the file does not record :math:`\sigma_f` or the checked log cannot tell
+    :math:`\delta` is judged out of sample where it can be: ``sysid calibrate`` replays the
+    fitted point on logs the fit never saw and records the robust sd of its residuals beyond
+    those logs' own measurement noise (``calibration.model_noise_std_v_mps``, ``_w_radps``).
+    In sample, the fit's residual sd :math:`\sigma` (the file's noise) holds what the loops
+    of the fitted model absorbed, so a more flexible loop form reads a smaller share; only a
+    file without that record gives :math:`\delta^2 = \max(\sigma^2 - \sigma_f^2, 0)`, with
+    :math:`\sigma_f` the fit logs' own scatter where they run steady
+    (``settings.measurement_noise``). Where neither is recorded or the checked log cannot tell
     :math:`\sigma_o`, the file's noise; the note is then "".
 
     Examples
@@ -287,25 +329,66 @@ def band_noise(
     >>> noise, _ = band_noise(file, fitted, own)
     >>> round(noise.std_v_mps, 4), round(noise.std_w_radps, 4)
     (0.0106, 0.0305)
+    >>> held_out = {"model_noise_std_v_mps": 0.008, "model_noise_std_w_radps": 0.0}
+    >>> noise, _ = band_noise(file, fitted, own, calibration=held_out)
+    >>> round(noise.std_v_mps, 4), round(noise.std_w_radps, 4)
+    (0.008, 0.03)
     """
-    block = settings.get("measurement_noise") if isinstance(settings, Mapping) else None
-    if not own.measured or not isinstance(block, Mapping):
+    if not own.measured:
         return noise, ""
-    stds = {}
-    for field, own_std in (("std_v_mps", own.std_v_mps), ("std_w_radps", own.std_w_radps)):
-        fitted = block.get(field)
-        if not isinstance(fitted, int | float) or not math.isfinite(fitted) or fitted < 0:
-            return noise, ""
-        model = max(getattr(noise, field) ** 2 - float(fitted) ** 2, 0.0)
-        stds[field] = math.sqrt(model + own_std**2)
-    out = replace(noise, **stds)
+    shares, whose = _model_share(noise, settings, calibration)
+    if shares is None:
+        return noise, ""
+    out = replace(
+        noise,
+        std_v_mps=math.hypot(shares[0], own.std_v_mps),
+        std_w_radps=math.hypot(shares[1], own.std_w_radps),
+    )
     return out, (
         f"the band's odometry noise is this log's own measurement noise (v {own.std_v_mps:.3g} "
-        f"m/s, w {own.std_w_radps:.3g} rad/s) beside the model's share of the file's noise: v "
+        f"m/s, w {own.std_w_radps:.3g} rad/s) beside {whose}: v "
         f"{noise.std_v_mps:.3g} -> {out.std_v_mps:.3g} m/s, w {noise.std_w_radps:.3g} -> "
-        f"{out.std_w_radps:.3g} rad/s (the fit logs' own was v {float(block['std_v_mps']):.3g}, w "
-        f"{float(block['std_w_radps']):.3g})"
+        f"{out.std_w_radps:.3g} rad/s"
     )
+
+
+def _model_share(
+    noise: ObservationNoise, settings: Any, calibration: Any
+) -> tuple[tuple[float, float] | None, str]:
+    """The model's share of the noise (v m/s, w rad/s) as :func:`band_noise` takes it, and
+    the words that say whose it is; (None, "") when the file records neither."""
+    held = _stds(calibration, "model_noise_std_v_mps", "model_noise_std_w_radps")
+    if held is not None:
+        return held, (
+            f"the model's share of the noise, measured on the calibration logs the fit never "
+            f"saw (v {held[0]:.3g} m/s, w {held[1]:.3g} rad/s)"
+        )
+    block = settings.get("measurement_noise") if isinstance(settings, Mapping) else None
+    fitted = _stds(block, "std_v_mps", "std_w_radps")
+    if fitted is None:
+        return None, ""
+    share = (
+        math.sqrt(max(noise.std_v_mps**2 - fitted[0] ** 2, 0.0)),
+        math.sqrt(max(noise.std_w_radps**2 - fitted[1] ** 2, 0.0)),
+    )
+    return share, (
+        f"the model's share of the file's noise (the fit logs' own was v {fitted[0]:.3g}, w "
+        f"{fitted[1]:.3g})"
+    )
+
+
+def _stds(block: Any, key_v: str, key_w: str) -> tuple[float, float] | None:
+    """The two non-negative finite numbers ``block`` holds at ``key_v`` and ``key_w``; None
+    when it is no mapping or either is missing or not such a number."""
+    if not isinstance(block, Mapping):
+        return None
+    out = []
+    for key in (key_v, key_w):
+        x = block.get(key)
+        if isinstance(x, bool) or not isinstance(x, int | float) or not math.isfinite(x) or x < 0:
+            return None
+        out.append(float(x))
+    return out[0], out[1]
 
 
 def noise_note(own: SteadyNoise, fit: ObservationNoise | None) -> str:

@@ -48,6 +48,7 @@ from sim2real.agreement.figures import (
 from sim2real.agreement.latency import (
     NoiseCeiling,
     SessionLatency,
+    band_log_noise,
     band_noise,
     log_noise,
     motion_ceiling,
@@ -606,7 +607,10 @@ def _ensemble(
         return None, ""
     distribution = DriveDistribution.from_params_file(params_file, robot=spec.name)
     noise, note = band_noise(
-        distribution.noise, params_file.document.get("settings"), log_noise(trace)
+        distribution.noise,
+        params_file.document.get("settings"),
+        band_log_noise(trace),
+        calibration=params_file.document.get("calibration"),
     )
     ensemble = run_ensemble(
         trace,

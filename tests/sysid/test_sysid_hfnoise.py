@@ -5,6 +5,7 @@ held-command estimate on real logs that have both."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ from sim2real.logs import read_for_robot
 from sim2real.logs._pose_velocity import pose_changes, pose_derivative
 from sim2real.plants.skid import husky_like, run_skid_plant
 from sysid.hfnoise import HIGHFREQ_METHOD, highfreq_noise, log_pose
-from sysid.steady import MIN_STEADY_SAMPLES, steady_noise
+from sysid.steady import MIN_STEADY_SAMPLES, motion_noise, steady_noise
 
 
 def _lagged(t: np.ndarray, cmd: np.ndarray, tau_s: float) -> np.ndarray:
@@ -170,11 +171,13 @@ def test_real_logs_agree_with_the_held_command_estimate(
 ) -> None:
     """On the samples where the command is held (the held-command estimate's), both
     estimates agree within a factor 1.75 per axis, over noise levels 30x apart (0.5-13 mm/s,
-    5-32 mrad/s)."""
+    5-32 mrad/s); v, as both read it, where v is commanded when a log holds enough of that."""
     trace, _ = read_for_robot(realdata_dir / name, neato)
     cv, cw = trace.cmd_at_meas()
     held = steady_noise(trace.meas_t_s, cv, cw, trace.meas_v, trace.meas_w)
     assert held.measured
+    driving = motion_noise(trace.meas_t_s, cv, cw, trace.meas_v, trace.meas_w)[0].std_v_mps
+    held = replace(held, std_v_mps=driving) if math.isfinite(driving) else held
     t = trace.meas_t_s
     steady = _held_over(t, cv, cw, 1.0)
     own = highfreq_noise(
@@ -203,3 +206,22 @@ def test_real_logs_that_never_hold_a_command_measure_their_noise(
     )  # fmt: skip
     assert own.measured and own.n_samples >= 100
     assert 0.0005 < own.std_v_mps < 0.02 and 0.003 < own.std_w_radps < 0.035
+
+
+def test_v_noise_is_read_where_v_is_commanded() -> None:
+    """A square: straights (0.2 m/s, v noise 0.01 m/s) and spins in place (v reads ~0, 5e-4 m/s
+    of noise), three spins a straight. Over every moving stencil the spins' near-zeros would
+    set the v noise (~7e-4); read under v commands it is the straights' own, and w keeps every
+    stencil. A log that never commands v reads its v wherever it moves."""
+    rng = np.random.default_rng(1)
+    t = np.arange(0.0, 160.0, 0.05)
+    straight = (np.floor(t / 4.0) % 4) == 0
+    cmd_v, cmd_w = np.where(straight, 0.2, 0.0), np.where(straight, 0.0, 1.0)
+    meas_v = cmd_v + rng.normal(0.0, np.where(straight, 0.01, 5e-4))
+    meas_w = cmd_w + rng.normal(0.0, 0.03, t.size)
+    own = highfreq_noise(t, cmd_v, cmd_w, meas_v, meas_w)
+    assert own.measured
+    assert own.std_v_mps == pytest.approx(0.01, rel=0.15)
+    assert own.std_w_radps == pytest.approx(0.03, rel=0.15)
+    spins = highfreq_noise(t, 0 * cmd_v, cmd_w, 5e-4 * rng.standard_normal(t.size), meas_w)
+    assert spins.std_v_mps == pytest.approx(5e-4, rel=0.25)

@@ -10,17 +10,22 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from _agreement_fixtures import ROBOT, hidden_params, write_log
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from robots.spec import load_spec
 from sim2real.agreement.calibration import (
     MIN_STEADY,
+    held_out_model_noise,
     noise_information_share,
     robust_noise_std,
     shrunk_noise_std,
     stretch_noise_std,
 )
 from sim2real.cli import main
+from sim2real.logs import read_trace
+from tests.randomization_block import distribution_around
 
 stds = st.floats(1e-5, 1.0)
 
@@ -132,3 +137,19 @@ def test_a_log_the_spread_explains_does_not_drive_the_noise_to_zero(
     # alone gives 1e-5 rad/s, the search floor)
     assert 0.15 <= block["noise_factor_w"] <= 2.0
     assert 0.9 <= block["validation_coverage_w"] <= 0.955
+
+
+def test_the_held_out_model_share_is_what_the_point_misses_beyond_the_logs_noise(
+    tmp_path: Path,
+) -> None:
+    """A log of known parameters and white noise: replayed with those parameters, the residuals
+    are the noise alone and the share is a third of it at most (0.001 m/s, 0.006 rad/s); with
+    the spec defaults (no 0.15 s delay, no added mass) the point misses every step: v's share
+    is ~4x the noise (0.011 m/s) and w's ~2x the right point's (0.011 rad/s)."""
+    trace = read_trace(write_log(tmp_path / "a.mcap", noise_v=0.003, noise_w=0.02))
+    right = distribution_around(hidden_params(), ROBOT, rel=1e-6)
+    v, w = held_out_model_noise([trace], robot=ROBOT, distribution=right)
+    assert v < 0.35 * 0.003 and w < 0.35 * 0.02
+    wrong = distribution_around(load_spec(ROBOT).drive, ROBOT, rel=1e-6)
+    v_off, w_off = held_out_model_noise([trace], robot=ROBOT, distribution=wrong)
+    assert v_off > 3 * 0.003 and w_off > max(1.8 * w, 0.5 * 0.02)

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from robots.randomization import ObservationNoise
 from sim2real.agreement.latency import (
+    band_log_noise,
     band_noise,
     log_noise,
     noise_ceiling,
@@ -22,6 +23,7 @@ from sim2real.agreement.latency import (
 )
 from sim2real.cli import main
 from sim2real.logs import Trace, read_trace
+from sysid.hfnoise import HIGHFREQ_METHOD
 from sysid.steady import MIN_STEADY_SAMPLES, SteadyNoise
 
 
@@ -118,3 +120,64 @@ def test_the_band_noise_is_the_models_share_plus_the_logs_own(own_v: float, own_
     assert noise.std_v_mps >= max(own_v, model_v) - 1e-12
     same = SteadyNoise(std_v_mps=0.012, std_w_radps=0.015, n_samples=100)
     assert band_noise(_FILE, _FITTED, same)[0].std_v_mps == pytest.approx(0.016)
+
+
+def test_a_log_that_never_holds_a_command_is_measured_between_its_readings() -> None:
+    """A controller's new command every message (20 Hz, a 0.3 s lag, 0.01 m/s and 0.05 rad/s of
+    noise): no held command, so only ``between_readings`` measures it (a calibration log's
+    noise beside its residuals); the band and the ceiling keep the fit's."""
+    rng = np.random.default_rng(0)
+    t = np.arange(0, 60_000_000_000, 50_000_000)  # 60 s at 20 Hz
+    s = t / 1e9
+    cmd = 0.2 + 0.1 * np.sin(0.3 * s)
+    trace = Trace(cmd_t_ns=t, cmd_v=cmd, cmd_w=0 * cmd + 0.3, meas_t_ns=t,
+                  meas_v=0.2 + 0.1 * np.sin(0.3 * (s - 0.3)) + rng.normal(0, 0.01, t.size),
+                  meas_w=0.3 + rng.normal(0, 0.05, t.size))  # fmt: skip
+    assert not log_noise(trace).measured
+    assert band_noise(_FILE, _FITTED, band_log_noise(trace)) == (_FILE, "")
+    own = band_log_noise(trace, between_readings=True)
+    assert own.measured and own.method == HIGHFREQ_METHOD
+    assert own.std_v_mps == pytest.approx(0.01, rel=0.2)
+    assert own.std_w_radps == pytest.approx(0.05, rel=0.2)
+    short = Trace(cmd_t_ns=t[:25], cmd_v=cmd[:25], cmd_w=0 * cmd[:25], meas_t_ns=t[:25],
+                  meas_v=cmd[:25], meas_w=0 * cmd[:25])  # fmt: skip
+    assert not band_log_noise(short, between_readings=True).measured  # too few readings: unmeasured
+
+
+@settings_(max_examples=100, deadline=None)
+@given(
+    model_v=st.floats(0.0, 0.05), model_w=st.floats(0.0, 0.2), own_v=st.floats(0.0, 0.05),
+    file_v=st.floats(0.0, 0.05),
+)  # fmt: skip
+def test_a_held_out_model_share_replaces_the_in_sample_one(
+    model_v: float, model_w: float, own_v: float, file_v: float
+) -> None:
+    """With the calibration's held-out share the file's (in-sample) noise no longer enters:
+    whatever the fit's residual sd, the band is that share beside the log's own noise."""
+    held = {"model_noise_std_v_mps": model_v, "model_noise_std_w_radps": model_w}
+    own = SteadyNoise(std_v_mps=own_v, std_w_radps=0.01, n_samples=100)
+    file = ObservationNoise(std_v_mps=file_v, std_w_radps=0.02)
+    noise, note = band_noise(file, _FITTED, own, calibration=held)
+    assert noise.std_v_mps == pytest.approx(math.hypot(model_v, own_v), abs=1e-12)
+    assert noise.std_w_radps == pytest.approx(math.hypot(model_w, 0.01), abs=1e-12)
+    assert "measured on the calibration logs the fit never saw" in note
+    # a calibration without the record (older file, unmeasured logs: null) keeps the fit rule
+    for block in ({}, {"model_noise_std_v_mps": None, "model_noise_std_w_radps": None}):
+        assert band_noise(file, _FITTED, own, calibration=block) == band_noise(file, _FITTED, own)
+
+
+def test_the_bands_v_noise_is_read_where_v_is_commanded() -> None:
+    """Commands held 4 s, one straight (0.2 m/s, v noise 0.01 m/s) to three spins in place (v
+    reads 5e-4 m/s of noise): pooled, the spins set the log's v noise; the band's is the
+    straights' own, its w the pooled one."""
+    rng = np.random.default_rng(1)
+    t = np.arange(0, 160_000_000_000, 50_000_000)
+    straight = (np.floor(t / 4e9) % 4) == 0
+    cmd_v, cmd_w = np.where(straight, 0.2, 0.0), np.where(straight, 0.0, 1.0)
+    trace = Trace(cmd_t_ns=t, cmd_v=cmd_v, cmd_w=cmd_w, meas_t_ns=t,
+                  meas_v=cmd_v + rng.normal(0.0, np.where(straight, 0.01, 5e-4)),
+                  meas_w=cmd_w + rng.normal(0.0, 0.03, t.size))  # fmt: skip
+    pooled, band = log_noise(trace), band_log_noise(trace)
+    assert pooled.std_v_mps < 0.2 * 0.01
+    assert band.std_v_mps == pytest.approx(0.01, rel=0.15)
+    assert band.std_w_radps == pooled.std_w_radps and band.n_samples == pooled.n_samples
