@@ -31,7 +31,8 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNorm
 
 from sim2real.errors import Sim2RealValueError
 from sim2real.training._sarl import SarlExtractor
-from sim2real.training.config import SARL_POLICY, TrainConfig
+from sim2real.training._sensors import SensorEncoderExtractor
+from sim2real.training.config import SARL_POLICY, SENSORS_POLICY, TrainConfig
 from sim2real.training.environment import build_env, neighbour_slots
 
 __all__ = [
@@ -130,7 +131,7 @@ def _make_monitored(
 
 
 def _policy_name(cfg: TrainConfig, env: Any) -> str:
-    if cfg.policy not in ("auto", SARL_POLICY):
+    if cfg.policy not in ("auto", SARL_POLICY, SENSORS_POLICY):
         return cfg.policy
     return "MultiInputPolicy" if isinstance(env.observation_space, gym.spaces.Dict) else "MlpPolicy"
 
@@ -160,6 +161,11 @@ def _model(cfg: TrainConfig, vec: Any, probe: Any) -> Any:
             **dict(hyper.get("policy_kwargs") or {}),
             "features_extractor_class": SarlExtractor,
             "features_extractor_kwargs": extractor,
+        }
+    if cfg.policy == SENSORS_POLICY:
+        hyper["policy_kwargs"] = {
+            **dict(hyper.get("policy_kwargs") or {}),
+            "features_extractor_class": SensorEncoderExtractor,
         }
     try:
         return cls(

@@ -12,7 +12,8 @@ Relative paths are relative to the config file::
     algorithm: PPO                     # PPO, SAC, TD3, DQN (stable-baselines3) or rllib-ppo
     policy: auto                       # MlpPolicy for Box observations, MultiInputPolicy for Dict;
                                        # sarl: SARL*'s attention over neighbours (Race-v0, or
-                                       # CrowdNav-v0 with kwargs neighbours: K)
+                                       # CrowdNav-v0 with kwargs neighbours: K); sensors: a
+                                       # small encoder per lidar / depth entry of a Dict
     hyperparameters: {n_steps: 256, batch_size: 64}   # SB3 constructor keyword arguments
     timesteps: 20000
     n_envs: 2
@@ -84,6 +85,7 @@ __all__ = [
     "RLLIB_KEYS",
     "RLLIB_PPO",
     "SARL_POLICY",
+    "SENSORS_POLICY",
     "TrainConfig",
     "config_from_dict",
     "config_summary",
@@ -102,8 +104,10 @@ ALGORITHMS = ("PPO", "SAC", "TD3", "DQN")
 RLLIB_PPO = "rllib-ppo"
 #: The crowd-aware policy (:mod:`sim2real.training._sarl`): SB3's policy on SARL*'s features.
 SARL_POLICY = "sarl"
-#: Values of the config's ``policy`` key (SB3 policy names, ``auto`` and :data:`SARL_POLICY`).
-POLICIES = ("auto", "MlpPolicy", "MultiInputPolicy", "CnnPolicy", SARL_POLICY)
+#: SB3's policy over a small encoder per sensor of a Dict observation (:mod:`sim2real.training._sensors`).
+SENSORS_POLICY = "sensors"
+#: Values of the config's ``policy`` key (SB3 policy names, ``auto`` and the two above).
+POLICIES = ("auto", "MlpPolicy", "MultiInputPolicy", "CnnPolicy", SARL_POLICY, SENSORS_POLICY)
 _VEC_ENVS = ("subproc", "dummy")
 _KEYS = (
     "format",

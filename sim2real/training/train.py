@@ -50,6 +50,7 @@ from sim2real.errors import Sim2RealValueError
 from sim2real.training.config import (
     RLLIB_PPO,
     SARL_POLICY,
+    SENSORS_POLICY,
     TrainConfig,
     require_rllib,
     require_train_extra,
@@ -203,6 +204,11 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
         )
     if cfg.policy == SARL_POLICY:
         _check_sarl(cfg, probe)
+    if cfg.policy == SENSORS_POLICY and not isinstance(probe.observation_space, gym.spaces.Dict):
+        raise Sim2RealValueError(
+            f"{cfg.source}: policy 'sensors' encodes the entries of a Dict observation, but "
+            f"{cfg.env_id} observes {describe_space(probe.observation_space)}; use policy auto"
+        )
     if cfg.curriculum is not None:
         _check_curriculum(cfg, cfg.curriculum, probe.unwrapped)
     if cfg.discrete_actions is not None:
@@ -243,9 +249,9 @@ def _check_sarl(cfg: TrainConfig, env: Any) -> None:
 
 def _train_rllib(cfg: TrainConfig) -> TrainResult:
     """``algorithm: rllib-ppo``: RLlib's PPO on the same env construction (sim2real.training._rllib)."""
-    if cfg.policy == SARL_POLICY:
+    if cfg.policy in (SARL_POLICY, SENSORS_POLICY):
         raise Sim2RealValueError(
-            f"{cfg.source}: policy 'sarl' is a stable-baselines3 features extractor; use "
+            f"{cfg.source}: policy '{cfg.policy}' is a stable-baselines3 features extractor; use "
             f"algorithm DQN or PPO with it, not {RLLIB_PPO}"
         )
     require_rllib()
