@@ -23,6 +23,7 @@ from robots.spec import RobotSpec, load_spec
 from robots.template import spec_text
 from sysid.errors import SysidValueError
 from sysid.fit import fit_drive
+from tests.husky import husky_spec
 
 GEO = BaseGeometry(
     mass_kg=50.0, yaw_inertia_kgm2=2.5, wheel_radius_m=0.165, wheel_separation_m=0.555
@@ -32,17 +33,7 @@ GEO = BaseGeometry(
 @pytest.fixture(scope="module")
 def husky(tmp_path_factory: pytest.TempPathFactory) -> RobotSpec:
     """`robots new husky --drive skid` from the A200's published numbers."""
-    path = tmp_path_factory.mktemp("skid") / "husky.yaml"
-    text = spec_text(
-        "husky",
-        wheel_separation_m=0.555,
-        wheel_radius_m=0.165,
-        mass_kg=50.0,
-        max_speed_mps=1.0,
-        drive="skid",
-    )
-    path.write_text(text)
-    return load_spec(path)
+    return husky_spec(tmp_path_factory.mktemp("skid"))
 
 
 def _steady(params: DriveParams, v: float, w: float, geometry: BaseGeometry = GEO) -> tuple:

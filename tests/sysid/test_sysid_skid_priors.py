@@ -23,8 +23,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from robots.params import BaseGeometry
-from robots.spec import RobotSpec, load_spec
-from robots.template import spec_text
+from robots.spec import RobotSpec
 from sim2real.logs import Trace
 from sim2real.plants.skid import husky_like, run_skid_plant
 from sysid._map import noise_scale
@@ -32,6 +31,7 @@ from sysid._needs import measured_speeds
 from sysid._problem import Problem, quantised
 from sysid.fit import fit_drive
 from sysid.synthetic import step_commands
+from tests.husky import husky_spec
 
 GEO = BaseGeometry(
     mass_kg=50.0, yaw_inertia_kgm2=5.0, wheel_radius_m=0.165, wheel_separation_m=0.555
@@ -110,13 +110,7 @@ def plant_log() -> Trace:
 
 
 def _spec(folder: Path, max_speed_mps: float) -> RobotSpec:
-    path = folder / "husky.yaml"
-    text = spec_text(
-        "husky", wheel_separation_m=0.555, wheel_radius_m=0.165, mass_kg=50.0,
-        max_speed_mps=max_speed_mps, drive="skid",
-    )  # fmt: skip
-    path.write_text(text)
-    return load_spec(path)
+    return husky_spec(folder, max_speed_mps=max_speed_mps)
 
 
 @pytest.mark.slow

@@ -20,14 +20,14 @@ from robots.errors import RobotsValueError
 from robots.measurement import yaw_reading_factor
 from robots.params import DriveParams
 from robots.reduced import DEFAULT_DT_S
-from robots.spec import RobotSpec, load_spec
-from robots.template import spec_text
+from robots.spec import RobotSpec
 from sim2real.agreement.replay import replay
 from sim2real.logs import Trace
 from sysid._coords import Mapper
 from sysid._excitation import analyse
 from sysid._logs import as_log_arrays
 from sysid._problem import Problem
+from tests.husky import husky_spec
 
 T0_NS = 1_700_000_000_000_000_000
 #: Track factors: a differential drive's, and two skid steers' slips.
@@ -37,18 +37,7 @@ CHIS = (1.0, 1.6, 2.2)
 @pytest.fixture(scope="module")
 def encoders(tmp_path_factory: pytest.TempPathFactory) -> RobotSpec:
     """A Husky-sized skid steer from ``robots new --drive skid`` (yaw rate from the wheels)."""
-    path = tmp_path_factory.mktemp("encoder_yaw") / "husky.yaml"
-    path.write_text(
-        spec_text(
-            "husky",
-            wheel_separation_m=0.555,
-            wheel_radius_m=0.165,
-            mass_kg=50.0,
-            max_speed_mps=1.0,
-            drive="skid",
-        )
-    )
-    spec = load_spec(path)
+    spec = husky_spec(tmp_path_factory.mktemp("encoder_yaw"))
     assert spec.odometry.w_source == "wheels"
     return spec
 

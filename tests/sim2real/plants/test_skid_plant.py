@@ -23,8 +23,7 @@ import numpy as np
 import pytest
 
 from robots.params import DriveParams, Prior
-from robots.spec import RobotSpec, load_spec
-from robots.template import spec_text
+from robots.spec import RobotSpec
 from sim2real.agreement.figures import measure_agreement
 from sim2real.agreement.replay import replay
 from sim2real.errors import Sim2RealValueError
@@ -40,24 +39,14 @@ from sim2real.plants.skid import (
     skid_robot,
 )
 from sysid.fit import fit_drive
+from tests.husky import husky_spec
 from tests.processes import map_in_processes
 
 
 def _husky_spec(folder: Path, drive_type: str) -> RobotSpec:
     """The Husky's spec as ``robots new --drive DRIVE_TYPE`` writes it, with its driver's
     published settings."""
-    path = folder / f"husky_{drive_type}.yaml"
-    path.write_text(
-        spec_text(
-            "husky",
-            wheel_separation_m=0.555,
-            wheel_radius_m=0.165,
-            mass_kg=50.0,
-            max_speed_mps=1.0,
-            drive=drive_type,
-        )
-    )
-    spec = plant_odometry(load_spec(path))  # the plant's yaw rate is a gyro's
+    spec = plant_odometry(husky_spec(folder, drive=drive_type))  # the plant's yaw rate is a gyro's
     drive = spec.drive.replace(
         cmd_timeout_s=0.25, accel_lim_v_mps2=3.0, accel_lim_w_radps2=6.0, driver_track_factor=1.875
     )
