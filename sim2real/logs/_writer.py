@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -332,27 +332,16 @@ def write_trace(
     Reading the file back with :func:`~sim2real.logs.read_trace` gives the same times and
     velocities bit for bit, and the same pose up to the yaw -> quaternion -> yaw round-off
     (~1e-16 rad). A trace without pose is written with the dead-reckoned pose of
-    :func:`integrate_pose`.
+    :func:`integrate_pose`. The trace's arrays (its fields but ``meta``) are the
+    :func:`write_velocity_log` keywords of the same names.
 
     Examples
     --------
     >>> write_trace("sim.mcap", trace)  # doctest: +SKIP
     PosixPath('sim.mcap')
     """
-    return write_velocity_log(
-        path,
-        cmd_t_ns=trace.cmd_t_ns,
-        cmd_v=trace.cmd_v,
-        cmd_w=trace.cmd_w,
-        meas_t_ns=trace.meas_t_ns,
-        meas_v=trace.meas_v,
-        meas_w=trace.meas_w,
-        pose_x=trace.pose_x,
-        pose_y=trace.pose_y,
-        pose_yaw=trace.pose_yaw,
-        cmd_topic=cmd_topic,
-        odom_topic=odom_topic,
-    )
+    arrays = {f.name: getattr(trace, f.name) for f in fields(trace) if f.name != "meta"}
+    return write_velocity_log(path, **arrays, cmd_topic=cmd_topic, odom_topic=odom_topic)
 
 
 def write_joint_state_log(
