@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 import zipfile
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -350,6 +350,9 @@ class RobustnessRow:
         Its 95 % interval (:class:`OutcomeIntervals`), s.
     overshoot_rate : float
         Share of episodes that left the goal without stopping in it.
+
+    The figures but ``condition``, ``timeout_rate`` and ``overshoot_rate`` are the
+    :class:`OutcomeIntervals` of the condition's evaluation.
     """
 
     condition: str
@@ -409,19 +412,13 @@ def robustness(
         if wrap is not None:
             wrapped = wrap(wrapped)
         s = evaluate_controller(wrapped, controller, episodes=episodes, seed=seed, options=options)
-        ci = outcome_intervals(s)
+        figures = asdict(outcome_intervals(s))
         rows.append(
             RobustnessRow(
                 condition=label,
-                episodes=s.episodes,
-                success_rate=s.success_rate,
-                collision_rate=s.collision_rate,
                 timeout_rate=s.timeout_rate,
-                success_ci95=ci.success_ci95,
-                collision_ci95=ci.collision_ci95,
-                time_to_goal_s=ci.time_to_goal_s,
-                time_to_goal_ci95=ci.time_to_goal_ci95,
                 overshoot_rate=s.overshoot_rate,
+                **figures,
             )
         )
     return rows
