@@ -184,6 +184,10 @@ class CrowdNavEnv(NavEnvBase):
         Pedestrian policy, one of :data:`PEDESTRIAN_POLICIES` (``"eq1"`` or ``"orca"``).
     depth_width, depth_height : int
         Depth image size, pixels.
+    lidar_beams : int, optional
+        Beams of the ``"lidar"`` entry, spread evenly over the spec's scan angles (default:
+        the spec's count; the TurtleBot 2's 640 beams are its depth camera's columns, and the
+        seed papers' policies read 36-72).
     neighbours : int
         Nearest pedestrians in the observation's ``"neighbours"`` entry (0 = no such entry).
     dynamics : str
@@ -221,6 +225,7 @@ class CrowdNavEnv(NavEnvBase):
         pedestrians: str = "eq1",
         depth_width: int = 64,
         depth_height: int = 48,
+        lidar_beams: int | None = None,
         neighbours: int = 0,
         dynamics: str = "reduced",
         control_dt: float = 0.1,
@@ -286,12 +291,18 @@ class CrowdNavEnv(NavEnvBase):
         )
         self.reward_config = reward_constants(CrowdNavReward, reward, "step_penalty")
         lid = self.robot_spec.lidar
-        self.lidar_angles_rad = np.linspace(lid.angle_min_rad, lid.angle_max_rad, lid.beams)
+        beams = lid.beams if lidar_beams is None else lidar_beams
+        if isinstance(beams, bool) or not (isinstance(beams, int) and beams >= 1):
+            raise Sim2RealValueError(
+                f"lidar_beams must be an integer >= 1 or None (the spec's {lid.beams}), got "
+                f"{lidar_beams!r}; e.g. lidar_beams=64"
+            )
+        self.lidar_angles_rad = np.linspace(lid.angle_min_rad, lid.angle_max_rad, beams)
         vmax, wmax = float(self.robot_spec.max_v_mps), float(self.robot_spec.max_w_radps)
         f32 = np.float32
         self.observation_space = spaces.Dict(
             {
-                "lidar": spaces.Box(lid.range_min_m, lid.range_max_m, (lid.beams,), f32),
+                "lidar": spaces.Box(lid.range_min_m, lid.range_max_m, (beams,), f32),
                 "depth": spaces.Box(cam.near_m, cam.far_m, (depth_height, depth_width), f32),
                 "goal": spaces.Box(
                     np.array([0.0, -math.pi], f32), np.array([20.0, math.pi], f32), dtype=f32
@@ -320,6 +331,24 @@ class CrowdNavEnv(NavEnvBase):
         self._occlusion = 0.0
         self._episode_scenario = self.scenario
         self._episode_complexity = self.complexity
+
+    def set_task(self, *, scenario: str | None = None, complexity: float | None = None) -> None:
+        """Use a new default scenario family and/or complexity from the next reset on.
+
+        What a training curriculum moves (``curriculum`` of the training config); None keeps
+        the current value, and reset options still override both.
+
+        Examples
+        --------
+        >>> env = CrowdNavEnv()
+        >>> env.set_task(scenario="static", complexity=0.0)
+        >>> env.reset(seed=0)[1]["num_pedestrians"]
+        0
+        """
+        self.scenario, self.complexity = self._check_scenario(
+            self.scenario if scenario is None else scenario,
+            self.complexity if complexity is None else complexity,
+        )
 
     # ------------------------------------------------------------------ protocols
     def get_camera_pose(self) -> tuple[FloatArray, FloatArray]:

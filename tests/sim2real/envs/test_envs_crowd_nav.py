@@ -210,3 +210,19 @@ def test_occluded_scenario_stays_passable_at_full_complexity(env: CrowdNavEnv, s
     _, info = env.reset(seed=seed, options={"scenario": "occluded", "complexity": 1.0})
     assert info["occlusion_pct"] == pytest.approx(90.0, abs=1.0)
     assert _passable(env, (-3.0, 0.0), (3.0, 0.0))
+
+
+def test_fewer_lidar_beams_read_the_full_scan_at_their_angles() -> None:
+    full, few = CrowdNavEnv(), CrowdNavEnv(lidar_beams=72)  # 640 beams, 639 = 9 x 71 gaps
+    obs_full, _ = full.reset(seed=3)
+    obs_few, _ = few.reset(seed=3)
+    assert few.observation_space["lidar"].shape == (72,)
+    np.testing.assert_array_equal(obs_few["lidar"], obs_full["lidar"][::9])
+    np.testing.assert_array_equal(obs_few["depth"], obs_full["depth"])  # the world is the same
+    assert few.observation_space.contains(obs_few)
+
+
+@pytest.mark.parametrize("beams", [0, -3, 2.5, True])
+def test_bad_lidar_beams_are_refused(beams: object) -> None:
+    with pytest.raises(Sim2RealValueError, match="lidar_beams must be an integer >= 1"):
+        CrowdNavEnv(lidar_beams=beams)  # type: ignore[arg-type]
