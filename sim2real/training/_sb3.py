@@ -36,9 +36,9 @@ from sim2real.training.config import SARL_POLICY, SENSORS_POLICY, TrainConfig
 from sim2real.training.environment import build_env, neighbour_slots
 
 __all__ = [
+    "Curriculum",
     "EpisodeLog",
     "EpisodeRow",
-    "GoalCurriculum",
     "RichProgress",
     "action_noise",
     "learn",
@@ -79,7 +79,7 @@ def learn(
                 )
             )
         if cfg.curriculum is not None:
-            callbacks.append(GoalCurriculum(cfg.curriculum, cfg.timesteps))
+            callbacks.append(Curriculum(cfg.curriculum, cfg.timesteps))
         if progress:
             callbacks.append(RichProgress(cfg.timesteps))
         t0 = time.perf_counter()
@@ -227,35 +227,57 @@ class RichProgress(BaseCallback):  # type: ignore[misc]
         self._bar.stop()
 
 
-class GoalCurriculum(BaseCallback):  # type: ignore[misc]
-    """An SB3 callback moving the envs' goal criteria from ``start`` to their own values.
+class Curriculum(BaseCallback):  # type: ignore[misc]
+    """An SB3 callback moving the envs' goal criteria and crowd from ``start`` to their own.
 
-    ``start`` is the config's ``curriculum`` (``goal_speed_mps`` and/or ``goal_tolerance_m``
-    start values, ``until`` a share of ``timesteps``). At every rollout start each criterion is
-    ``start * (own / start) ** p`` with ``p = min(1, steps / (until * timesteps))``.
+    ``start`` is the config's ``curriculum``. At every rollout start, after ``steps`` env
+    steps, each goal criterion (``goal_speed_mps``, ``goal_tolerance_m``) is
+    ``start * (own / start) ** p`` with ``p = min(1, steps / (until * timesteps))``; the
+    ``complexity`` is ``start`` (in ``scenario``, if given) until ``hold * timesteps``, then
+    rises linearly, in the env's own scenario, to its own at ``until * timesteps``.
     """
 
-    def __init__(self, start: Mapping[str, float], timesteps: int) -> None:
+    _GOAL = ("goal_speed_mps", "goal_tolerance_m")
+
+    def __init__(self, start: Mapping[str, Any], timesteps: int) -> None:
         super().__init__()
-        self.start = {k: float(v) for k, v in start.items() if k != "until"}
+        self.start = {k: float(v) for k, v in start.items() if k in (*self._GOAL, "complexity")}
+        self.scenario: str | None = start.get("scenario")
         self.until_steps = max(float(start.get("until", 0.5)) * timesteps, 1.0)
-        self.own: dict[str, float] = {}
+        self.hold_steps = float(start.get("hold", 0.0)) * timesteps
+        self.own: dict[str, Any] = {}
 
     def _on_training_start(self) -> None:
-        self.own = {k: float(self.training_env.get_attr(k, [0])[0]) for k in self.start}
+        names = [*self.start, *(["scenario"] if self.scenario is not None else [])]
+        self.own = {k: self.training_env.get_attr(k, [0])[0] for k in names}
 
-    def values(self, steps: int) -> dict[str, float]:
-        """The criteria after ``steps`` env steps (``goal_speed_mps`` etc. -> value)."""
+    def values(self, steps: int) -> dict[str, Any]:
+        """The criteria and crowd after ``steps`` env steps (``goal_speed_mps`` etc. -> value)."""
         p = min(1.0, steps / self.until_steps)
-        return {k: s * (self.own[k] / s) ** p for k, s in self.start.items()}
+        now: dict[str, Any] = {
+            k: s * (self.own[k] / s) ** p for k, s in self.start.items() if k in self._GOAL
+        }
+        if "complexity" in self.start:
+            ramp = self.until_steps - self.hold_steps
+            q = min(1.0, max(0.0, steps - self.hold_steps) / ramp)
+            c0 = self.start["complexity"]
+            now["complexity"] = c0 + (float(self.own["complexity"]) - c0) * q
+        if self.scenario is not None:
+            now["scenario"] = self.scenario if steps < self.hold_steps else self.own["scenario"]
+        return now
 
     def _on_rollout_start(self) -> None:
         now = self.values(int(self.num_timesteps))
-        self.training_env.env_method(
-            "set_goal_criteria",
-            speed_mps=now.get("goal_speed_mps"),
-            tolerance_m=now.get("goal_tolerance_m"),
-        )
+        if set(now) & set(self._GOAL):
+            self.training_env.env_method(
+                "set_goal_criteria",
+                speed_mps=now.get("goal_speed_mps"),
+                tolerance_m=now.get("goal_tolerance_m"),
+            )
+        if "complexity" in now:
+            self.training_env.env_method(
+                "set_task", scenario=now.get("scenario"), complexity=now["complexity"]
+            )
 
     def _on_step(self) -> bool:
         return True

@@ -33,7 +33,14 @@ env's own values (its ``goal_speed_mps`` and tolerance), which they reach after 
 the timesteps (a share in (0, 1], default 0.5) and keep. The saved policy's env, and every
 evaluation, has the env's own values: e.g. a stop at the goal (``goal_speed_mps: 0.05``) first
 counts any speed below 0.7 m/s inside the tolerance, so that the policy learns to reach the
-goal before it has to stop in it.
+goal before it has to stop in it. CrowdNav-v0's crowd can grow the same way::
+
+    curriculum: {complexity: 0.0, scenario: static, hold: 0.2, until: 0.5}
+
+``complexity`` (in [0, 1]) holds for the first ``hold`` of the timesteps (a share below
+``until``, default 0), in the scenario family ``scenario`` if given (``static`` at complexity
+0 is the empty room), then, in the env's own family, rises linearly to the env's own
+complexity at ``until``. Each episode keeps the task it was reset with.
 
 ``action_noise``: Gaussian (``normal``) or Ornstein-Uhlenbeck (``ornstein-uhlenbeck``) noise
 of standard deviation ``sigma`` added to every action TD3 or SAC takes while training (SB3's
@@ -130,9 +137,9 @@ _KEYS = (
     "rllib",
 )
 _NORMALIZE = ("observations", "actions", "rewards")
-#: Keys of ``curriculum``: the goal criteria it starts from, and the share of the timesteps
-#: after which they are the env's own.
-CURRICULUM_KEYS = ("goal_speed_mps", "goal_tolerance_m", "until")
+#: Keys of ``curriculum``: the goal criteria and the crowd it starts from, the share of the
+#: timesteps the crowd holds, and the share after which all are the env's own.
+CURRICULUM_KEYS = ("goal_speed_mps", "goal_tolerance_m", "complexity", "scenario", "hold", "until")
 #: Values of ``action_noise.type``.
 ACTION_NOISES = ("normal", "ornstein-uhlenbeck")
 #: Algorithms that take ``action_noise`` (SB3's off-policy continuous ones).
@@ -188,8 +195,9 @@ class TrainConfig:
     action_noise : dict or None
         ``{type: normal | ornstein-uhlenbeck, sigma: float}`` for TD3/SAC, in action units.
     curriculum : dict or None
-        ``{goal_speed_mps, goal_tolerance_m, until}`` (start values and the share of the
-        timesteps at which the env's own are reached; see the module docstring).
+        ``{goal_speed_mps, goal_tolerance_m, complexity, scenario, hold, until}`` (start
+        values and the shares of the timesteps at which they move and at which the env's own
+        are reached; see the module docstring).
     rllib : dict
         ``{address, num_env_runners, num_envs_per_env_runner}`` for ``algorithm: rllib-ppo``.
     source : str
@@ -215,7 +223,7 @@ class TrainConfig:
     discrete_actions: dict[str, list[float]] | None = None
     normalize: dict[str, bool] = field(default_factory=lambda: dict.fromkeys(_NORMALIZE, False))
     action_noise: dict[str, Any] | None = None
-    curriculum: dict[str, float] | None = None
+    curriculum: dict[str, Any] | None = None
     rllib: dict[str, Any] = field(default_factory=dict)
     source: str = "config"
 
@@ -459,24 +467,35 @@ def _action_noise(value: Any, where: str) -> dict[str, Any] | None:
     return {"type": str(value["type"]), "sigma": float(sigma)}
 
 
-def _curriculum(value: Any, where: str) -> dict[str, float] | None:
-    """``{goal_speed_mps, goal_tolerance_m, until}`` checked, ``until`` filled in."""
+def _curriculum(value: Any, where: str) -> dict[str, Any] | None:
+    """``{goal_speed_mps, goal_tolerance_m, complexity, scenario, hold, until}`` checked,
+    ``until`` filled in."""
     if value is None:
         return None
     ok = isinstance(value, Mapping) and set(value) <= set(CURRICULUM_KEYS)
-    ok = ok and bool(set(value) - {"until"})
-    numbers = dict(value) if ok else {}
-    for v in numbers.values():
+    ok = ok and bool(set(value) & {"goal_speed_mps", "goal_tolerance_m", "complexity"})
+    doc = dict(value) if ok else {}
+    scenario = doc.pop("scenario", None)
+    for k, v in doc.items():
         ok = ok and isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-        ok = ok and v > 0
-    until = numbers.get("until", 0.5)
-    if not (ok and until <= 1):
+        ok = ok and (0 <= v <= 1 if k in ("complexity", "hold") else v > 0)
+    until, hold = doc.get("until", 0.5), doc.get("hold", 0.0)
+    ok = ok and until <= 1 and hold < until
+    ok = ok and (scenario is None or (scenario in sim2real.envs.SCENARIOS and hold > 0))
+    ok = ok and ("complexity" in doc or not {"scenario", "hold"} & set(value))
+    if not ok:
         raise Sim2RealValueError(
             f"{where}: key 'curriculum' must map goal_speed_mps and/or goal_tolerance_m to the "
-            f"start value (a number > 0) and optionally until to a share of the timesteps in "
-            f"(0, 1], got {value!r}; e.g. curriculum: {{goal_speed_mps: 0.7, until: 0.5}}"
+            f"start value (a number > 0) and/or complexity to one in [0, 1], optionally "
+            f"until to a share of the timesteps in (0, 1], hold to a share below until and, "
+            f"with hold, scenario to one of {', '.join(sim2real.envs.SCENARIOS)}; got "
+            f"{value!r}; e.g. curriculum: {{goal_speed_mps: 0.7, until: 0.5}} or "
+            f"{{complexity: 0.0, scenario: static, hold: 0.2, until: 0.5}}"
         )
-    return {**{str(k): float(v) for k, v in numbers.items()}, "until": float(until)}
+    out: dict[str, Any] = {str(k): float(v) for k, v in doc.items()}
+    if scenario is not None:
+        out["scenario"] = str(scenario)
+    return {**out, "until": float(until)}
 
 
 def rllib_options(value: Any, where: str) -> dict[str, Any]:

@@ -154,9 +154,11 @@ def model_metadata(cfg: TrainConfig, env: Any) -> dict[str, Any]:
     }
 
 
-def _check_curriculum(cfg: TrainConfig, curriculum: Mapping[str, float], env: Any) -> None:
-    """Refuse a curriculum the env cannot follow (no goal criteria, or no finite goal speed)."""
-    if not hasattr(env, "set_goal_criteria"):
+def _check_curriculum(cfg: TrainConfig, curriculum: Mapping[str, Any], env: Any) -> None:
+    """Refuse a curriculum the env cannot follow (no goal criteria, no finite goal speed, no
+    crowd)."""
+    goal = {"goal_speed_mps", "goal_tolerance_m"} & set(curriculum)
+    if goal and not hasattr(env, "set_goal_criteria"):
         raise Sim2RealValueError(
             f"{cfg.source}: key 'curriculum' anneals a navigation env's goal, which "
             f"{cfg.env_id} does not have; remove the key or use RandomMap-v0 or CrowdNav-v0"
@@ -167,6 +169,11 @@ def _check_curriculum(cfg: TrainConfig, curriculum: Mapping[str, float], env: An
             f"{curriculum['goal_speed_mps']:g} but the env's own goal_speed_mps is inf "
             "(passing through the goal counts); set env.kwargs goal_speed_mps to the speed "
             "the curriculum ends at, e.g. 0.05"
+        )
+    if "complexity" in curriculum and not hasattr(env, "set_task"):
+        raise Sim2RealValueError(
+            f"{cfg.source}: key 'curriculum' grows a crowd's complexity, which {cfg.env_id} "
+            "does not have; remove complexity, scenario and hold or use CrowdNav-v0"
         )
 
 

@@ -106,6 +106,16 @@ def test_example_configs_load_with_overrides() -> None:
             r"key 'curriculum' must map .* got \{'goal_speed': 0.7\}",
         ),
         ({"curriculum": {"goal_speed_mps": True}}, r"key 'curriculum' must map"),
+        ({"curriculum": {"complexity": 1.5}}, r"key 'curriculum' must map .* in \[0, 1\]"),
+        (
+            {"curriculum": {"complexity": 0.0, "hold": 0.6, "until": 0.5}},
+            r"hold to a share below until",
+        ),
+        (
+            {"curriculum": {"complexity": 0.0, "scenario": "empty"}},
+            r"with hold, scenario to one of static, dynamic, occluded; got",
+        ),
+        ({"curriculum": {"goal_speed_mps": 0.7, "hold": 0.2}}, r"key 'curriculum' must map"),
         (
             {"algorithm": "rllib-ppo", "curriculum": {"goal_speed_mps": 0.7}},
             r"key 'curriculum' applies to the stable-baselines3 algorithms .* not rllib-ppo",
@@ -353,3 +363,10 @@ def test_curriculum_fills_in_until_and_round_trips() -> None:
     assert cfg.curriculum == {"goal_tolerance_m": 1.0, "until": 0.5}
     assert config_from_dict(cfg.to_dict()).curriculum == cfg.curriculum
     assert config_from_dict({"env": {"id": "RandomMap-v0"}}).curriculum is None
+
+
+def test_a_crowd_curriculum_round_trips() -> None:
+    start = {"complexity": 0, "scenario": "static", "hold": 0.2, "until": 0.5}
+    cfg = config_from_dict({"env": {"id": "CrowdNav-v0"}, "curriculum": start})
+    assert cfg.curriculum == {"complexity": 0.0, "hold": 0.2, "scenario": "static", "until": 0.5}
+    assert config_from_dict(cfg.to_dict()).curriculum == cfg.curriculum

@@ -314,7 +314,7 @@ def test_a_goal_curriculum_moves_the_envs_goal_to_their_own_values(
     cfg = load_config(_config(tmp_path, **change, timesteps=512, curriculum=curriculum))
     seen: list[tuple[int, float, float]] = []
 
-    class Spy(_sb3.GoalCurriculum):
+    class Spy(_sb3.Curriculum):
         def _on_rollout_start(self) -> None:
             super()._on_rollout_start()
             speed, tol = (
@@ -323,18 +323,66 @@ def test_a_goal_curriculum_moves_the_envs_goal_to_their_own_values(
             assert len(set(speed)) == len(set(tol)) == 1  # every env follows
             seen.append((int(self.num_timesteps), speed[0], tol[0]))
 
-    real = _sb3.GoalCurriculum
-    _sb3.GoalCurriculum = Spy  # type: ignore[misc]
+    real = _sb3.Curriculum
+    _sb3.Curriculum = Spy  # type: ignore[misc]
     try:
         _sb3.learn(cfg, build_env(cfg.env_id, cfg.env_kwargs))
     finally:
-        _sb3.GoalCurriculum = real  # type: ignore[misc]
+        _sb3.Curriculum = real  # type: ignore[misc]
     # rollouts of 2 x 64 steps: 0, 128, 256, 384; the own values (0.05 m/s, TEST1's 0.3 m) at
     # 256 = 0.5 x 512 and after; geometric in between
     assert [s for s, _, _ in seen] == [0, 128, 256, 384]
     assert seen[0][1:] == pytest.approx((0.8, 1.2))
     assert seen[1][1:] == pytest.approx(((0.8 * 0.05) ** 0.5, (1.2 * 0.3) ** 0.5))
     assert seen[2][1:] == seen[3][1:] == pytest.approx((0.05, 0.3))
+
+
+def test_a_crowd_curriculum_holds_the_empty_room_then_grows_the_crowd(tmp_path: Path) -> None:
+    from sim2real.training import _sb3
+    from sim2real.training.config import load_config
+    from sim2real.training.environment import build_env
+
+    kwargs = {"complexity": 0.5, "depth_width": 8, "depth_height": 6, "max_episode_steps": 40}
+    change = {"env": {"id": "CrowdNav-v0", "kwargs": kwargs}, "randomizers": None}
+    curriculum = {"complexity": 0.1, "scenario": "static", "hold": 0.25, "until": 0.75}
+    cfg = load_config(_config(tmp_path, **change, timesteps=512, curriculum=curriculum))
+    seen: list[tuple[int, str, float, int]] = []
+
+    class Spy(_sb3.Curriculum):
+        def _on_rollout_start(self) -> None:
+            super()._on_rollout_start()
+            scenario, c = (self.training_env.get_attr(k) for k in ("scenario", "complexity"))
+            assert len(set(scenario)) == len(set(c)) == 1  # every env follows
+            # the next episode is built with them
+            peds = self.training_env.env_method("reset", seed=1)[0][1]["num_pedestrians"]
+            seen.append((int(self.num_timesteps), scenario[0], c[0], peds))
+
+    real = _sb3.Curriculum
+    _sb3.Curriculum = Spy  # type: ignore[misc]
+    try:
+        _sb3.learn(cfg, build_env(cfg.env_id, cfg.env_kwargs))
+    finally:
+        _sb3.Curriculum = real  # type: ignore[misc]
+    # rollouts of 2 x 64 steps: 0, 128, 256, 384; the empty room before 128 = 0.25 x 512, then
+    # the env's own dynamic scenario, complexity 0.1 -> 0.5 linearly by 384 = 0.75 x 512
+    assert [(s, sc) for s, sc, _, _ in seen] == [
+        (0, "static"),
+        (128, "dynamic"),
+        (256, "dynamic"),
+        (384, "dynamic"),
+    ]
+    assert [c for _, _, c, _ in seen] == pytest.approx([0.1, 0.1, 0.3, 0.5])
+    assert [p for _, _, _, p in seen] == [0, round(5 + 1.5), round(5 + 4.5), round(5 + 7.5)]
+
+
+def test_a_crowd_curriculum_needs_a_crowd(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cfg = _config(tmp_path, randomizers=None, curriculum={"complexity": 0.0})
+    assert main(["train", str(cfg)]) == 2
+    err = capsys.readouterr().err
+    assert "key 'curriculum' grows a crowd's complexity, which sim2real/RandomMap-v0" in err
+    assert "Traceback" not in err
 
 
 def test_a_curriculum_needs_a_finite_goal_speed(
