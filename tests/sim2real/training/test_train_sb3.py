@@ -337,7 +337,9 @@ def test_a_goal_curriculum_moves_the_envs_goal_to_their_own_values(
     assert seen[2][1:] == seen[3][1:] == pytest.approx((0.05, 0.3))
 
 
-def test_a_crowd_curriculum_holds_the_empty_room_then_grows_the_crowd(tmp_path: Path) -> None:
+def test_a_crowd_curriculum_holds_the_empty_room_then_grows_the_crowd(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from sim2real.training import _sb3
     from sim2real.training.config import load_config
     from sim2real.training.environment import build_env
@@ -357,12 +359,8 @@ def test_a_crowd_curriculum_holds_the_empty_room_then_grows_the_crowd(tmp_path: 
             peds = self.training_env.env_method("reset", seed=1)[0][1]["num_pedestrians"]
             seen.append((int(self.num_timesteps), scenario[0], c[0], peds))
 
-    real = _sb3.Curriculum
-    _sb3.Curriculum = Spy  # type: ignore[misc]
-    try:
-        _sb3.learn(cfg, build_env(cfg.env_id, cfg.env_kwargs))
-    finally:
-        _sb3.Curriculum = real  # type: ignore[misc]
+    monkeypatch.setattr(_sb3, "Curriculum", Spy)
+    _sb3.learn(cfg, build_env(cfg.env_id, cfg.env_kwargs))
     # rollouts of 2 x 64 steps: 0, 128, 256, 384; the empty room before 128 = 0.25 x 512, then
     # the env's own dynamic scenario, complexity 0.1 -> 0.5 linearly by 384 = 0.75 x 512
     assert [(s, sc) for s, sc, _, _ in seen] == [
@@ -375,23 +373,26 @@ def test_a_crowd_curriculum_holds_the_empty_room_then_grows_the_crowd(tmp_path: 
     assert [p for _, _, _, p in seen] == [0, round(5 + 1.5), round(5 + 4.5), round(5 + 7.5)]
 
 
-def test_a_crowd_curriculum_needs_a_crowd(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize(
+    ("curriculum", "says"),
+    [
+        (
+            {"goal_speed_mps": 0.7},
+            "the env's own goal_speed_mps is inf (passing through the goal counts)",
+        ),
+        (
+            {"complexity": 0.0},
+            "key 'curriculum' grows a crowd's complexity, which sim2real/RandomMap-v0",
+        ),
+    ],
+)
+def test_a_curriculum_the_env_cannot_follow_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], curriculum: dict, says: str
 ) -> None:
-    cfg = _config(tmp_path, randomizers=None, curriculum={"complexity": 0.0})
+    cfg = _config(tmp_path, randomizers=None, curriculum=curriculum)
     assert main(["train", str(cfg)]) == 2
     err = capsys.readouterr().err
-    assert "key 'curriculum' grows a crowd's complexity, which sim2real/RandomMap-v0" in err
-    assert "Traceback" not in err
-
-
-def test_a_curriculum_needs_a_finite_goal_speed(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    cfg = _config(tmp_path, randomizers=None, curriculum={"goal_speed_mps": 0.7})
-    assert main(["train", str(cfg)]) == 2
-    err = capsys.readouterr().err
-    assert "the env's own goal_speed_mps is inf (passing through the goal counts)" in err
+    assert says in err
     assert "Traceback" not in err
 
 
