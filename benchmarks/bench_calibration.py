@@ -38,6 +38,7 @@ from __future__ import annotations
 import argparse
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -110,17 +111,23 @@ def _table_row(fleet_name: str, i: int, engine: str, band: str, ens: Any, point:
     counts[2] += round(ens.coverage_w * n)
 
 
-def fleet(
-    n_sessions: int,
-    n_reduced: int,
-    n_pybullet: int,
-    folder: Path,
-    *,
-    robot: str = ROBOT,
-    seed: int = 11,
-    integral_time_s: float | None = None,
-    name: str = "turtlebot2 seed 11",
-) -> None:
+@dataclass(frozen=True, kw_only=True)
+class Fleet:
+    """A fleet of plant sessions: the robot, the seed of its sessions and, for the variant of a
+    faster PI loop, the integral time of its wheel loops, s (None: the spec's)."""
+
+    robot: str = ROBOT
+    seed: int = 11
+    integral_time_s: float | None = None
+
+    @property
+    def name(self) -> str:
+        """The fleet's label in the output, e.g. ``turtlebot2 seed 23, T_i 0.05 s``."""
+        loop = "" if self.integral_time_s is None else f", T_i {self.integral_time_s:g} s"
+        return f"{self.robot} seed {self.seed}{loop}"
+
+
+def fleet(run: Fleet, n_sessions: int, n_reduced: int, n_pybullet: int, folder: Path) -> None:
     from robots.randomization import DriveDistribution
     from robots.spec import load_spec
     from sim2real.agreement.calibration import calibrate, write_calibrated
@@ -129,13 +136,14 @@ def fleet(
     from sim2real.plants.diff_drive import plant_from_spec, write_fleet
     from sysid import fit_drive
 
+    robot, name = run.robot, run.name
     spec = load_spec(robot)
     window = spec.odometry.v_window_s
     plant: Any = robot
-    if integral_time_s is not None:
+    if run.integral_time_s is not None:
         base = plant_from_spec(robot)
-        plant = base.replace(ki_nm_per_rad=base.kp_nms_per_rad / integral_time_s)
-    paths = write_fleet(folder, plant, n_sessions, seed=seed, duration_s=90.0)
+        plant = base.replace(ki_nm_per_rad=base.kp_nms_per_rad / run.integral_time_s)
+    paths = write_fleet(folder, plant, n_sessions, seed=run.seed, duration_s=90.0)
     traces = [read_trace(p) for p in paths]
     t = time.perf_counter()
     result = fit_drive(
@@ -343,19 +351,13 @@ def main() -> None:
     )
     args = parser.parse_args()
     np.seterr(all="ignore")
-    runs: list[dict[str, Any]] = [{"seed": s, "name": f"turtlebot2 seed {s}"} for s in args.seeds]
+    runs = [Fleet(seed=s) for s in args.seeds]
     if args.variants:
-        runs += [
-            {"seed": s, "integral_time_s": 0.05, "name": f"turtlebot2 seed {s}, T_i 0.05 s"}
-            for s in args.ti_seeds
-        ]
-        runs += [
-            {"seed": s, "robot": "turtlebot3_burger", "name": f"turtlebot3_burger seed {s}"}
-            for s in args.burger_seeds
-        ]
+        runs += [Fleet(seed=s, integral_time_s=0.05) for s in args.ti_seeds]
+        runs += [Fleet(seed=s, robot="turtlebot3_burger") for s in args.burger_seeds]
     for run in runs:
         with tempfile.TemporaryDirectory() as tmp:
-            fleet(args.sessions, args.reduced_n, args.pybullet_n, Path(tmp), **run)
+            fleet(run, args.sessions, args.reduced_n, args.pybullet_n, Path(tmp))
     if not args.no_real:
         tb3_halves(args.reduced_n)
     print_table()
