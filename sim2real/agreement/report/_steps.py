@@ -1,8 +1,8 @@
 r"""Step-like segments of a log and their response figures (rise time, overshoot, error).
 
-A *step* is a command change of at least ``min_jump_v`` (m/s) or ``min_jump_w`` (rad/s) on one
-axis that is then held (within ``hold_tol`` of the new value) for at least ``min_hold_s``. For
-a step from command :math:`u_0` to :math:`u_1` on an axis with response :math:`y(t)`:
+A *step* is a command change of at least :data:`MIN_JUMP` (m/s on v, rad/s on w) on one axis
+that is then held (within :data:`HOLD_TOL_FRAC` of the change) for at least :data:`MIN_HOLD_S`.
+For a step from command :math:`u_0` to :math:`u_1` on an axis with response :math:`y(t)`:
 
 - settled value :math:`y_{ss}`: the mean over the last 30 % of the hold; :math:`y_0` is the
   response at the step time;
@@ -66,18 +66,19 @@ class StepResponse:
     ss_error: float
 
 
+#: The smallest command change that makes a step, per axis (m/s on v, rad/s on w).
+MIN_JUMP = {"v": 0.05, "w": 0.3}
+#: How long the new command must be held, s, ...
+MIN_HOLD_S = 1.0
+#: ... within this fraction of the change.
+HOLD_TOL_FRAC = 0.05
+
+
 def find_steps(
-    cmd_t_s: FloatArray,
-    cmd_v: FloatArray,
-    cmd_w: FloatArray,
-    *,
-    min_jump_v: float = 0.05,
-    min_jump_w: float = 0.3,
-    min_hold_s: float = 1.0,
-    hold_tol_frac: float = 0.05,
-    max_steps: int = 12,
+    cmd_t_s: FloatArray, cmd_v: FloatArray, cmd_w: FloatArray, *, max_steps: int = 12
 ) -> list[Step]:
-    """Held command changes in a command sequence (see the module docstring).
+    """The first ``max_steps`` held command changes in a command sequence, in time order (see
+    the module docstring).
 
     Examples
     --------
@@ -88,18 +89,18 @@ def find_steps(
     """
     t = np.asarray(cmd_t_s, dtype=np.float64)
     out: list[Step] = []
-    for axis, u, jump in (("v", cmd_v, min_jump_v), ("w", cmd_w, min_jump_w)):
+    for axis, u in (("v", cmd_v), ("w", cmd_w)):
         u = np.asarray(u, dtype=np.float64)
         for i in range(1, t.size):
             delta = u[i] - u[i - 1]
-            if abs(delta) < jump:
+            if abs(delta) < MIN_JUMP[axis]:
                 continue
-            tol = max(hold_tol_frac * abs(delta), 1e-9)
+            tol = max(HOLD_TOL_FRAC * abs(delta), 1e-9)
             j = i + 1
             while j < t.size and abs(u[j] - u[i]) <= tol:
                 j += 1
             t_end = t[j] if j < t.size else t[-1]
-            if t_end - t[i] >= min_hold_s:
+            if t_end - t[i] >= MIN_HOLD_S:
                 out.append(
                     Step(
                         axis=axis,
