@@ -55,7 +55,16 @@ def test_crowdnav_pair_differs_only_in_the_card_stack() -> None:
     types = [entry["type"] for entry in stack["randomizers"]]
     assert types == ["DepthNoise", "GoalNoise", "OdometryDelay", "CameraPoseJitter"]
     assert stack["randomizers"][0]["std_m"] == 0.2  # Liang et al.: N(0, 0.2) on depth
-    for key in ("env", "algorithm", "hyperparameters", "normalize", "timesteps", "evaluation"):
+    for key in (
+        "env",
+        "algorithm",
+        "policy",
+        "hyperparameters",
+        "normalize",
+        "curriculum",
+        "timesteps",
+        "evaluation",
+    ):
         assert card[key] == nominal[key], key
 
 
