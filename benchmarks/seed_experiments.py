@@ -173,17 +173,27 @@ def crowd_baselines(kwargs: dict[str, Any], episodes: int) -> None:
 
 
 def crowd_nav(models: Sequence[str], episodes: int, stack: str, *, baselines: bool) -> None:
-    """Every model with and without the randomiser stack (and the baselines on its env)."""
+    """Every model with and without the randomiser stack, then pooled over the models (seeds)
+    with the per-model success min / median / max (and the baselines on its env)."""
     doc = yaml.safe_load(open(stack, encoding="utf-8"))  # noqa: SIM115
     print("| policy | evaluated | success | collision | time to goal s | oscillation /m |")
     print("|---|---|---|---|---|---|")
     kwargs: dict[str, Any] = {}
+    pooled: dict[str, list[dict[str, Any]]] = {"none": [], "card stack": []}
+    per_model: dict[str, list[float]] = {"none": [], "card stack": []}
     for path in models:
         for condition in ("none", "card stack"):
             policy, env, kwargs = _policy_env(path)
             if condition != "none":
                 env = policy.wrap(dr.from_config(env.unwrapped, doc))
-            _crowd_row(path, condition, _episodes(env, policy.controller(), episodes))
+            rows = _episodes(env, policy.controller(), episodes)
+            _crowd_row(path, condition, rows)
+            pooled[condition] += rows
+            per_model[condition].append(sum(r["success"] for r in rows) / len(rows))
+    if len(models) > 1:
+        for condition, rows in pooled.items():
+            _crowd_row(f"{len(models)} models pooled", condition, rows)
+            print(f"  success per model min / median / max: {_spread(per_model[condition])}")
     if baselines:
         crowd_baselines(kwargs, episodes)
 
