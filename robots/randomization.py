@@ -73,6 +73,7 @@ __all__ = [
     "TRUNCATE_SIGMA",
     "DriveDistribution",
     "ObservationNoise",
+    "apply_noise",
     "cap_spread",
     "spread_limit",
 ]
@@ -204,15 +205,31 @@ class ObservationNoise:
         self, rng: np.random.Generator, v: Any, w: Any, *, spread: float = 1.0
     ) -> tuple[FloatArray, FloatArray]:
         """Noisy, quantised copies of ``v`` and ``w`` (v noise drawn first, then w)."""
-        va = np.asarray(v, dtype=np.float64)
-        wa = np.asarray(w, dtype=np.float64)
-        nv = va + spread * self.std_v_mps * rng.standard_normal(va.shape)
-        nw = wa + spread * self.std_w_radps * rng.standard_normal(wa.shape)
-        if self.quantum_v_mps > 0:
-            nv = np.round(nv / self.quantum_v_mps) * self.quantum_v_mps
-        if self.quantum_w_radps > 0:
-            nw = np.round(nw / self.quantum_w_radps) * self.quantum_w_radps
-        return nv, nw
+        return apply_noise(rng, v, w, noise=self, spread=spread)
+
+
+def apply_noise(
+    rng: np.random.Generator, v: Any, w: Any, *, noise: Any, spread: float = 1.0
+) -> tuple[FloatArray, FloatArray]:
+    """Noisy, quantised copies of ``v`` and ``w``: white noise of sd ``noise.std_v_mps`` and
+    ``noise.std_w_radps`` (numbers, or one per sample along the last axis), v drawn first,
+    then rounded to ``noise.quantum_v_mps`` and ``noise.quantum_w_radps`` (0 = none).
+
+    Examples
+    --------
+    >>> n = ObservationNoise(std_v_mps=0.0, std_w_radps=0.0, quantum_v_mps=0.5)
+    >>> apply_noise(np.random.default_rng(0), [0.2, 0.3], [0.1, 0.1], noise=n)[0].tolist()
+    [0.0, 0.5]
+    """
+    va = np.asarray(v, dtype=np.float64)
+    wa = np.asarray(w, dtype=np.float64)
+    nv = va + spread * np.asarray(noise.std_v_mps) * rng.standard_normal(va.shape)
+    nw = wa + spread * np.asarray(noise.std_w_radps) * rng.standard_normal(wa.shape)
+    if noise.quantum_v_mps > 0:
+        nv = np.round(nv / noise.quantum_v_mps) * noise.quantum_v_mps
+    if noise.quantum_w_radps > 0:
+        nw = np.round(nw / noise.quantum_w_radps) * noise.quantum_w_radps
+    return nv, nw
 
 
 def _principal_root(cov: FloatArray) -> FloatArray:

@@ -33,6 +33,7 @@ __all__ = [
     "MIN_STEADY_SAMPLES",
     "STEADY_AFTER_S",
     "SteadyNoise",
+    "held_at_zero_noise",
     "motion_noise",
     "pooled_steady_noise",
     "steady_noise",
@@ -177,6 +178,39 @@ def motion_noise(
         (sd_v, n_v), (sd_w, n_w) = sds
         out.append(SteadyNoise(std_v_mps=sd_v, std_w_radps=sd_w, n_samples=min(n_v, n_w)))
     return out[0], out[1]
+
+
+def held_at_zero_noise(
+    meas_t_s: ArrayLike, cmd_v: ArrayLike, cmd_w: ArrayLike, meas_v: ArrayLike, meas_w: ArrayLike
+) -> SteadyNoise:
+    """The log's scatter of each axis about zero where that axis is held at zero and the other
+    moves (steady stretches, as :func:`motion_noise`): a robust sd (1.4826 x the median of
+    |y|) about zero, not about the stretch's level. Spinning in place, a drive model's v is
+    exactly zero; the odometry's v is not (the wheels turn at not quite opposite speeds),
+    and that offset is the band's to cover as much as the scatter about it. An axis with fewer
+    than :data:`MIN_STEADY_SAMPLES` such samples has a NaN sd; ``n_samples`` is the smaller
+    count of the two axes.
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 20.0, 0.1)
+    >>> spin = np.ones(t.size)
+    >>> off = held_at_zero_noise(t, 0 * t, spin, np.full(t.size, 0.002), spin)
+    >>> round(off.std_v_mps, 4), off.std_w_radps
+    (0.003, nan)
+    """
+    t = np.asarray(meas_t_s, dtype=np.float64)
+    cv, cw = np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
+    steady, _ = _steady(t, cv, cw)
+    sds = []
+    for y, cmd in ((meas_v, cv), (meas_w, cw)):
+        held = np.asarray(y, dtype=np.float64)[steady & (cmd == 0)]
+        n = int(held.size)
+        sds.append(
+            (1.4826 * float(np.median(np.abs(held))) if n >= MIN_STEADY_SAMPLES else math.nan, n)
+        )
+    (sd_v, n_v), (sd_w, n_w) = sds
+    return SteadyNoise(std_v_mps=sd_v, std_w_radps=sd_w, n_samples=min(n_v, n_w))
 
 
 def pooled_steady_noise(noises: Sequence[SteadyNoise]) -> SteadyNoise:

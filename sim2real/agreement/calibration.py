@@ -146,7 +146,7 @@ from sim2real.agreement.figures import (
     predictive_band,
     since_command_step_s,
 )
-from sim2real.agreement.latency import band_log_noise, log_noise
+from sim2real.agreement.latency import band_log_noise, fit_model_share, log_noise, replay_rate
 from sim2real.agreement.replay import replay, resolve_robot
 from sim2real.agreement.sources import source_variances
 from sim2real.errors import Sim2RealValueError
@@ -293,8 +293,12 @@ class CalibrationResult:
         (parameter, multiplier of its sd) of each parameter whose spread the over-covered
         band narrowed (module docstring); empty when none was.
     model_noise_std_v_mps, model_noise_std_w_radps : float
-        The model's share of the noise, judged out of sample (:func:`held_out_model_noise`;
-        NaN when the logs cannot tell their own measurement noise).
+        The model's share of the noise where the replay runs steady, judged out of sample
+        (:func:`held_out_model_noise`; NaN when the logs cannot tell their own measurement
+        noise).
+    model_noise_timing_v_s, model_noise_timing_w_s : float
+        Its growth with the replay's rate of change, s
+        (:class:`sim2real.agreement.latency.ModelShare`).
     """
 
     dynamics_factor: float
@@ -331,6 +335,8 @@ class CalibrationResult:
     narrowing: tuple[tuple[str, float], ...] = ()
     model_noise_std_v_mps: float = math.nan
     model_noise_std_w_radps: float = math.nan
+    model_noise_timing_v_s: float = math.nan
+    model_noise_timing_w_s: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """The ``calibration`` block of the output file (plain YAML types)."""
@@ -365,6 +371,8 @@ class CalibrationResult:
             "spread_narrowing": {name: float(m) for name, m in self.narrowing},
             "model_noise_std_v_mps": num(self.model_noise_std_v_mps),
             "model_noise_std_w_radps": num(self.model_noise_std_w_radps),
+            "model_noise_timing_v_s": num(self.model_noise_timing_v_s),
+            "model_noise_timing_w_s": num(self.model_noise_timing_w_s),
             "n_active": int(self.n_active),
             "ensemble_n": int(self.n),
             "seed": int(self.seed),
@@ -862,7 +870,7 @@ def calibrate_traces(
         axes, after, last, widened_noise = _noise_last_resort(search, (mvb, mwb), axes, after)
         widen_note = f"{widen_note}; {last}"
     std_v, std_w = axes[0].std, axes[1].std
-    model_v, model_w = held_out_model_noise(
+    model_v, model_w, timing_v, timing_w = held_out_model_noise(
         traces, robot=spec, distribution=distribution, engine=engine,
         odom_v_window_s=odom_v_window_s, tol_v=tol_v, tol_w=tol_w, at_least=widened_noise,
     )  # fmt: skip
@@ -906,6 +914,8 @@ def calibrate_traces(
         + searched,
         model_noise_std_v_mps=model_v,
         model_noise_std_w_radps=model_w,
+        model_noise_timing_v_s=timing_v,
+        model_noise_timing_w_s=timing_w,
     )
 
 
@@ -931,58 +941,64 @@ def held_out_model_noise(
     tol_v: float = 0.02,
     tol_w: float = 0.1,
     at_least: tuple[float, float] = (0.0, 0.0),
-) -> tuple[float, float]:
+) -> tuple[float, float, float, float]:
     r"""The model's misses that look like noise, judged on logs the fit never saw.
 
-    The fitted point (the distribution's mean) replays each log; the robust sd (MAD, the
-    fit's statistic for its residuals) of the residuals over the active samples of all the
-    logs, :math:`\sigma_r`, holds the logs' own measurement noise :math:`\sigma_m`
-    (:func:`sim2real.agreement.latency.band_log_noise`, between the readings where no command is
-    held long enough) and the model's share :math:`\delta = \sqrt{\max(\sigma_r^2 -
-    \sigma_m^2, 0)}` per axis. In sample, the fit's residuals hold less of it the more the
-    loop form can absorb (integral wheel loops follow the fit log's own wiggles); held out,
-    the share is what the band has to add on another session
-    (:func:`sim2real.agreement.latency.band_noise`). ``at_least`` (v m/s, w rad/s) stands in
-    for :math:`\sigma_r` where it is larger: the noise std a calibration had to widen an axis
-    to on every sample, because no spread of the model covered those logs (the band carries
-    what the model lacks to the next session).
+    The fitted point (the distribution's mean) replays each log; its residuals over the
+    active samples of all the logs hold the logs' own measurement noise :math:`\sigma_m`
+    (:func:`sim2real.agreement.latency.band_log_noise`, between the readings where no command
+    is held long enough) and the model's share, which grows with the replay's rate of change
+    :math:`a` (:class:`sim2real.agreement.latency.ModelShare`, :math:`\delta(a)^2 =
+    \delta_0^2 + (\tau a)^2`): :func:`sim2real.agreement.latency.fit_model_share` fits
+    :math:`\delta_0` and :math:`\tau` per axis to the robust variance (MAD, the fit's
+    statistic for its residuals) of the residuals binned by :math:`a`. In sample, the fit's
+    residuals hold less of it the more the loop form can absorb (integral wheel loops follow
+    the fit log's own wiggles); held out, the share is what the band has to add on another
+    session (:func:`sim2real.agreement.latency.band_sample_noise`). ``at_least`` (v m/s, w
+    rad/s) stands in for the residuals' scale where the replay is steady where it is larger:
+    the noise std a calibration had to widen an axis to on every sample, because no spread of
+    the model covered those logs (the band carries what the model lacks to the next session).
 
     Returns
     -------
-    (float, float)
-        :math:`\delta` of v (m/s) and w (rad/s); NaN when the logs cannot tell their own
-        noise.
+    (float, float, float, float)
+        :math:`\delta_0` of v (m/s) and w (rad/s), :math:`\tau` of v and w (s); NaN when
+        the logs cannot tell their own noise.
 
     Examples
     --------
     >>> held_out_model_noise([trace], robot="neato", distribution=dist)  # doctest: +SKIP
-    (0.0078, 0.0125)
+    (0.0021, 0.0058, 0.041, 0.037)
     """
     spec = resolve_robot(robot)
     own = pooled_steady_noise([band_log_noise(t, between_readings=True) for t in traces])
     if not own.measured:
-        return math.nan, math.nan
+        return math.nan, math.nan, math.nan, math.nan
     point = distribution.mean_params()
-    res_v, res_w = [], []
+    res: tuple[list[FloatArray], list[FloatArray]] = ([], [])
+    rates: tuple[list[FloatArray], list[FloatArray]] = ([], [])
     for trace in traces:
         rep = replay(
             trace, robot=spec, params=point, engine=engine, odom_v_window_s=odom_v_window_s
         )
-        rv = np.asarray(trace.meas_v, dtype=np.float64)
-        rw = np.asarray(trace.meas_w, dtype=np.float64)
+        real = (
+            np.asarray(trace.meas_v, dtype=np.float64),
+            np.asarray(trace.meas_w, dtype=np.float64),
+        )
         cv, cw = trace.cmd_at_meas()
-        active = active_mask(cv, cw, rv, rw, tol_v=tol_v, tol_w=tol_w)
-        res_v.append((rv - rep.v)[active])
-        res_w.append((rw - rep.w)[active])
-    out = []
-    for res, meas, floor in zip(
-        (res_v, res_w), (own.std_v_mps, own.std_w_radps), at_least, strict=True
-    ):
-        r = np.concatenate(res)
-        mad = 1.4826 * float(np.median(np.abs(r - np.median(r)))) if r.size else math.nan
-        scale = max(mad, floor)
-        out.append(math.sqrt(max(scale**2 - meas**2, 0.0)) if math.isfinite(scale) else math.nan)
-    return out[0], out[1]
+        active = active_mask(cv, cw, real[0], real[1], tol_v=tol_v, tol_w=tol_w)
+        for k, sim in enumerate((rep.v, rep.w)):
+            res[k].append((real[k] - sim)[active])
+            rates[k].append(replay_rate(trace.meas_t_s, sim)[active])
+    (d_v, tau_v), (d_w, tau_w) = (
+        fit_model_share(
+            np.concatenate(res[k]), np.concatenate(rates[k]), measurement_std=meas, at_least=floor
+        )
+        for k, (meas, floor) in enumerate(
+            zip((own.std_v_mps, own.std_w_radps), at_least, strict=True)
+        )
+    )
+    return d_v, d_w, tau_v, tau_w
 
 
 def _noise_last_resort(

@@ -720,6 +720,7 @@ def run_ensemble(
     band_level: float = DEFAULT_BAND_LEVEL,
     noise_draws: int = NOISE_DRAWS,
     progress: Callable[[int, int], None] | None = None,
+    noise: Any = None,
 ) -> EnsembleResult:
     """Replay ``trace`` with ``n`` robots drawn from ``distribution``; band and coverage.
 
@@ -749,6 +750,9 @@ def run_ensemble(
         raised so that the traces can span the widest band of :data:`COVERAGE_LEVELS` (*m*
         draws span at most an :math:`(m - 1)/(m + 1)` band). Where the dynamics dominate the
         band, only ``n`` decides: use ``n >= 2 / (1 - band_level) - 1`` (19 for 90 %).
+    noise : ObservationNoise or SampleNoise, optional
+        The band's odometry noise (:func:`sim2real.agreement.latency.band_sample_noise`: an
+        sd per sample); default ``distribution.noise``.
 
     Examples
     --------
@@ -777,7 +781,7 @@ def run_ensemble(
     return ensemble_of_members(
         trace,
         (mv, mw),
-        noise=distribution.noise,
+        noise=distribution.noise if noise is None else noise,
         seed=seed,
         params=tuple(drawn),
         sampled=tuple(distribution.names),

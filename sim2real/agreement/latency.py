@@ -26,8 +26,9 @@ a pose-derived velocity. Where a non-zero command has been held for over
 what the measurement does about its level (the median of that stretch) is noise: its robust sd
 (MAD) per axis, the same statistic the fit uses on its residuals. A log with fewer than
 :data:`sysid.steady.MIN_STEADY_SAMPLES` such samples keeps the fit's noise, and the note says
-so. The band of ``agree --ensemble`` keeps the model's share of the noise and takes the log's
-own measurement noise in place of the fit logs' (:func:`band_noise`): one noise model per
+so. The band of ``agree --ensemble`` keeps the model's share of the noise, which grows with
+the replay's rate of change (:class:`ModelShare`), and takes the log's own measurement noise of
+each sample's motion in place of the fit logs' (:func:`band_sample_noise`): one noise model per
 odometry source.
 
 Examples
@@ -47,7 +48,10 @@ from statistics import NormalDist
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from scipy.optimize import nnls
 
+from robots.randomization import apply_noise
+from sim2real._arrays import FloatArray
 from sim2real.agreement.figures import AgreementReport, measure_agreement
 from sim2real.agreement.replay import RobotSpecLike, TraceLike, replay
 from sysid.hfnoise import highfreq_noise, log_pose
@@ -56,6 +60,7 @@ from sysid.steady import (
     MIN_STEADY_SAMPLES,
     STEADY_AFTER_S,
     SteadyNoise,
+    held_at_zero_noise,
     motion_noise,
     steady_noise,
 )
@@ -69,14 +74,20 @@ __all__ = [
     "LATENCY_FINE_STEP_S",
     "LATENCY_MAX_S",
     "REFERENCE_KEYS",
+    "SHARE_BIN_SAMPLES",
+    "ModelShare",
     "NoiseCeiling",
+    "SampleNoise",
     "SessionLatency",
     "band_log_noise",
     "band_noise",
+    "band_sample_noise",
+    "fit_model_share",
     "log_noise",
     "motion_ceiling",
     "noise_ceiling",
     "noise_note",
+    "replay_rate",
     "session_latency",
 ]
 
@@ -101,6 +112,9 @@ LATENCY_MAX_S = 0.6
 #: Coarse and fine grid steps of the search, s.
 LATENCY_COARSE_STEP_S = 0.05
 LATENCY_FINE_STEP_S = 0.01
+#: Residuals per bin of :func:`fit_model_share` (the robust sd of 100 Gaussian residuals has a
+#: standard error of ~12 %).
+SHARE_BIN_SAMPLES = 100
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -297,6 +311,227 @@ def band_log_noise(trace: TraceLike, *, between_readings: bool = False) -> Stead
         pose=log_pose(trace),
     )
     return high if high.measured else own
+
+
+@dataclass(frozen=True, kw_only=True)
+class ModelShare:
+    r"""The model's misses that look like noise, at each sample: a floor and a timing term.
+
+    .. math:: \delta(a)^2 = \delta_0^2 + (\tau\,a)^2,
+
+    with :math:`a` the rate of change of the fitted point's replay at that sample
+    (:func:`replay_rate`, m/s² or rad/s²). A replay off in time by :math:`\tau` misses by
+    :math:`\tau a`: the misses grow in the transients (starts, stops, turns begun and ended) and
+    shrink where the robot runs steady, which one number per axis cannot follow.
+
+    Attributes
+    ----------
+    std_v_mps, std_w_radps : float
+        :math:`\delta_0`: the share where the replay is steady, m/s and rad/s.
+    timing_v_s, timing_w_s : float
+        :math:`\tau`: the timing scale of each axis's misses, s (0: a share that does not
+        depend on the motion).
+
+    Examples
+    --------
+    >>> share = ModelShare(std_v_mps=0.003, std_w_radps=0.004, timing_w_s=0.04)
+    >>> [round(float(x), 4) for x in share.at(np.zeros(2), np.array([0.0, 1.0]))[1]]
+    [0.004, 0.0402]
+    """
+
+    std_v_mps: float
+    std_w_radps: float
+    timing_v_s: float = 0.0
+    timing_w_s: float = 0.0
+
+    def at(self, rate_v: FloatArray, rate_w: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """:math:`\\delta` of v (m/s) and w (rad/s) at the replay's rates of change."""
+        return (
+            np.hypot(self.std_v_mps, self.timing_v_s * np.asarray(rate_v, dtype=np.float64)),
+            np.hypot(self.std_w_radps, self.timing_w_s * np.asarray(rate_w, dtype=np.float64)),
+        )
+
+
+def replay_rate(t_s: Any, y: Any) -> FloatArray:
+    """|dy/dt| of a replayed signal at its samples (central differences over the neighbours,
+    one-sided at the ends; 0 where the neighbours share a time stamp).
+
+    Examples
+    --------
+    >>> replay_rate([0.0, 0.1, 0.2, 0.3], [0.0, 0.0, 0.1, 0.1]).round(3).tolist()
+    [0.0, 0.5, 0.5, 0.0]
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    v = np.asarray(y, dtype=np.float64)
+    if t.size < 2:
+        return np.zeros(t.size)
+    ahead, behind = np.r_[1 : t.size, t.size - 1], np.r_[0, 0 : t.size - 1]
+    dt = t[ahead] - t[behind]
+    out: FloatArray = np.abs(
+        np.divide(v[ahead] - v[behind], dt, out=np.zeros(t.size), where=dt > 0)
+    )
+    return out
+
+
+def fit_model_share(
+    residuals: Any, rates: Any, *, measurement_std: float, at_least: float = 0.0
+) -> tuple[float, float]:
+    r"""The floor :math:`\delta_0` and timing :math:`\tau` of :class:`ModelShare` on held-out
+    residuals of one axis.
+
+    The residuals are sorted by the replay's rate of change :math:`a` into bins of
+    :data:`SHARE_BIN_SAMPLES` or more; each bin's robust variance (MAD, the fit's statistic
+    for its residuals) is :math:`c_0 + \tau^2 \overline{a^2}`, fitted by non-negative least
+    squares in relative terms (each bin's variance is known to a relative error of about one
+    over the root of its size; one bin: :math:`\tau = 0`). What the logs' own
+    measurement noise ``measurement_std`` explains is taken out of :math:`c_0`;
+    ``at_least`` stands in for :math:`\sqrt{c_0}` where it is larger (an axis a calibration
+    widened on every sample). NaN, NaN without residuals or a measurement noise.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> a = rng.uniform(0.0, 3.0, 4000)
+    >>> r = rng.normal(0.0, np.hypot(0.01, 0.04 * a))
+    >>> d0, tau = fit_model_share(r, a, measurement_std=0.006)
+    >>> round(d0, 3), round(tau, 3)
+    (0.007, 0.039)
+    """
+    r = np.asarray(residuals, dtype=np.float64)
+    a = np.asarray(rates, dtype=np.float64)
+    if r.size == 0 or not math.isfinite(measurement_std):
+        return math.nan, math.nan
+    bins = np.array_split(np.argsort(a, kind="stable"), max(r.size // SHARE_BIN_SAMPLES, 1))
+    scale = np.array([_mad(r[b]) ** 2 for b in bins])
+    rows = np.array([[1.0, float(np.mean(a[b] ** 2))] for b in bins])
+    # each bin's robust variance is known to a relative error ~ 1 / sqrt(its size), and to
+    # no better than the measurement's variance (a bin of exact replays has a MAD of 0)
+    floor = max(measurement_std**2, 1e-6 * float(scale.max()))
+    if len(bins) == 1 or floor == 0.0:
+        c0, tau2 = float(scale[0]), 0.0
+    else:
+        weight = np.sqrt([b.size for b in bins]) / np.maximum(scale, floor)
+        (c0, tau2), _ = nnls(rows * weight[:, None], scale * weight)
+    c0 = max(float(c0), at_least**2)
+    return math.sqrt(max(c0 - measurement_std**2, 0.0)), math.sqrt(float(tau2))
+
+
+def _mad(x: FloatArray) -> float:
+    return 1.4826 * float(np.median(np.abs(x - np.median(x))))
+
+
+@dataclass(frozen=True, kw_only=True)
+class SampleNoise:
+    """The band's odometry noise with an sd per measurement sample (the last axis of the
+    replays it is added to), applied as :meth:`robots.randomization.ObservationNoise.apply`
+    applies its single sd (the same draws).
+
+    Attributes
+    ----------
+    std_v_mps, std_w_radps : ndarray
+        White noise sd at each sample, m/s and rad/s.
+    quantum_v_mps, quantum_w_radps : float
+        Resolution of the reported values, 0 = none.
+    """
+
+    std_v_mps: FloatArray
+    std_w_radps: FloatArray
+    quantum_v_mps: float = 0.0
+    quantum_w_radps: float = 0.0
+
+    def apply(
+        self, rng: np.random.Generator, v: Any, w: Any, *, spread: float = 1.0
+    ) -> tuple[FloatArray, FloatArray]:
+        """Noisy, quantised copies of ``v`` and ``w`` (:func:`robots.randomization.apply_noise`)."""
+        return apply_noise(rng, v, w, noise=self, spread=spread)
+
+
+def band_sample_noise(
+    noise: ObservationNoise,
+    settings: Any,
+    trace: TraceLike,
+    replayed: Any,
+    *,
+    calibration: Any = None,
+) -> tuple[ObservationNoise | SampleNoise, str]:
+    r"""The band's odometry noise on a checked log, sample by sample: each sample's model
+    share beside the log's own measurement noise of its motion.
+
+    .. math:: \sigma_{band,k}^2 = \delta(a_k)^2 + \sigma_{o,k}^2
+
+    :math:`\delta` is the :class:`ModelShare` a calibration measured on logs the fit never
+    saw (``calibration.model_noise_*``), at the rate of change :math:`a_k` of ``replayed``
+    (the fitted point's replay of ``trace``). :math:`\sigma_o` is the log's own (as the noise
+    ceiling takes it, :func:`motion_ceiling`): v where v is commanded from the log's steady
+    stretches under a v command, v held at zero as its scatter about zero there
+    (:func:`sysid.steady.held_at_zero_noise`: the replay's v is zero, so the odometry's offset
+    is a miss too), w from all its steady stretches; a class the log cannot tell takes the fit logs' own
+    (``settings.measurement_noise``), and a log that cannot tell its noise at all the file's
+    (:func:`band_noise` keeps it too: the fit logs' robust sd need not describe another unit's
+    odometry); none is taken below the quantisation's sd :math:`q /
+    \sqrt{12}` (a robust sd of quantised readings is 0 once most sit on one step). Without a held-out share (no calibration, an older one),
+    :func:`band_noise`.
+
+    Examples
+    --------
+    >>> noise, note = band_sample_noise(file, settings, trace, sim, calibration=cal)
+    ... # doctest: +SKIP
+    """
+    share = _held_out_share(calibration)
+    block = settings.get("measurement_noise") if isinstance(settings, Mapping) else None
+    fitted = _stds(block, "std_v_mps", "std_w_radps")
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    args = (trace.meas_t_s, cmd_v, cmd_w, trace.meas_v, trace.meas_w)
+    own = steady_noise(*args)
+    if share is None:
+        return band_noise(noise, settings, band_log_noise(trace), calibration=calibration)
+    # a log that cannot tell its noise keeps the file's, as the one-number band does
+    fit_v, fit_w = (
+        fitted if fitted is not None and own.measured else (noise.std_v_mps, noise.std_w_radps)
+    )
+    moving, still = motion_noise(*args)[0], held_at_zero_noise(*args)
+    sd_v = np.where(
+        np.asarray(cmd_v) != 0,
+        _known(moving.std_v_mps, fit_v),
+        _known(still.std_v_mps, fit_v),
+    )
+    sd_w = np.full(sd_v.shape, _known(own.std_w_radps, fit_w))
+    # a robust sd of readings on a lattice says 0 once most of them sit on one step: below
+    # the quantum the noise is the quantisation's at least
+    sd_v = np.maximum(sd_v, noise.quantum_v_mps / math.sqrt(12.0))
+    sd_w = np.maximum(sd_w, noise.quantum_w_radps / math.sqrt(12.0))
+    t = trace.meas_t_s
+    model_v, model_w = share.at(replay_rate(t, replayed.v), replay_rate(t, replayed.w))
+    out = SampleNoise(
+        std_v_mps=np.hypot(model_v, sd_v),
+        std_w_radps=np.hypot(model_w, sd_w),
+        quantum_v_mps=noise.quantum_v_mps,
+        quantum_w_radps=noise.quantum_w_radps,
+    )
+    return out, (
+        f"the band's odometry noise is, at each sample, the model's share measured on the "
+        f"calibration logs the fit never saw (v {share.std_v_mps:.3g} m/s + "
+        f"{share.timing_v_s:.3g} s x the replay's acceleration, w {share.std_w_radps:.3g} rad/s "
+        f"+ {share.timing_w_s:.3g} s x its angular acceleration) beside this log's own "
+        f"measurement noise of that motion (the fit logs' where it cannot tell): median v "
+        f"{float(np.median(out.std_v_mps)):.3g} m/s, w {float(np.median(out.std_w_radps)):.3g} "
+        f"rad/s (the file's: {noise.std_v_mps:.3g}, {noise.std_w_radps:.3g})"
+    )
+
+
+def _known(x: float, fallback: float) -> float:
+    return x if math.isfinite(x) else fallback
+
+
+def _held_out_share(calibration: Any) -> ModelShare | None:
+    """The :class:`ModelShare` a calibration block records (None without one)."""
+    held = _stds(calibration, "model_noise_std_v_mps", "model_noise_std_w_radps")
+    timing = _stds(calibration, "model_noise_timing_v_s", "model_noise_timing_w_s")
+    if held is None or timing is None:
+        return None
+    return ModelShare(
+        std_v_mps=held[0], std_w_radps=held[1], timing_v_s=timing[0], timing_w_s=timing[1]
+    )
 
 
 def band_noise(

@@ -48,8 +48,7 @@ from sim2real.agreement.figures import (
 from sim2real.agreement.latency import (
     NoiseCeiling,
     SessionLatency,
-    band_log_noise,
-    band_noise,
+    band_sample_noise,
     log_noise,
     motion_ceiling,
     noise_ceiling,
@@ -352,7 +351,9 @@ def run_study(
         params = load_drive_params(params_file, robot=spec.name, base=spec.drive)
     trace, screened = read_for_robot(config.log, spec, config.read)
     runs = _replays(config, trace, spec, params, window_s)
-    ensemble, band_note = _ensemble(config, trace, spec, params_file, window_s, progress)
+    ensemble, band_note = _ensemble(
+        config, trace, spec, params_file, (window_s, runs[-1].replay), progress
+    )
     latency, ceiling = _reference_figures(config, trace, spec, params, params_file, window_s)
     figures = study_figures(runs[-1].agreement, ensemble)
     figures.update(reference_figures(latency, ceiling))
@@ -598,24 +599,29 @@ def _ensemble(
     trace: Any,
     spec: Any,
     params_file: ParamsFile | None,
-    window_s: float,
+    window: tuple[float, Any],
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[EnsembleResult | None, str]:
-    """The band on the checked log, its odometry noise the log's own source's
-    (:func:`sim2real.agreement.latency.band_noise`), and the note that says so ("" if not)."""
+    """The band on the checked log, its odometry noise per sample the model's share beside
+    the log's own (:func:`sim2real.agreement.latency.band_sample_noise`, at the rates of the
+    params' replay: ``window`` = (odometry window s, that replay)), and the note that says so
+    ("" if not)."""
     if config.ensemble_n is None or params_file is None:
         return None, ""
+    window_s, replayed = window
     distribution = DriveDistribution.from_params_file(params_file, robot=spec.name)
-    noise, note = band_noise(
+    noise, note = band_sample_noise(
         distribution.noise,
         params_file.document.get("settings"),
-        band_log_noise(trace),
+        trace,
+        replayed,
         calibration=params_file.document.get("calibration"),
     )
     ensemble = run_ensemble(
         trace,
         robot=spec,
-        distribution=replace(distribution, noise=noise),
+        distribution=distribution,
+        noise=noise,
         n=config.ensemble_n,
         seed=config.seed,
         spread=config.spread,
