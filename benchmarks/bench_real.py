@@ -273,7 +273,8 @@ def explain(log: Path, robot: str, params: Path) -> str:
     from robots.params import read_params_file
     from robots.randomization import DriveDistribution
     from robots.spec import load_spec
-    from sim2real.agreement.latency import band_log_noise, band_noise
+    from sim2real.agreement.latency import band_sample_noise
+    from sim2real.agreement.replay import replay
     from sim2real.agreement.sources import band_sources
     from sim2real.agreement.study import parse_odom_v_window
     from sim2real.logs import read_for_robot
@@ -283,12 +284,12 @@ def explain(log: Path, robot: str, params: Path) -> str:
     window_s = parse_odom_v_window("auto", spec.odometry.rate_hz, v_source=spec.odometry.v_source)
     trace, _ = read_for_robot(log, spec)
     document = read_params_file(params).document  # agree's band noise
-    own = band_log_noise(trace)
-    noise, _ = band_noise(
-        dist.noise, document.get("settings"), own, calibration=document.get("calibration")
+    point = replay(trace, robot=spec, params=dist.mean_params(), odom_v_window_s=window_s)
+    noise, _ = band_sample_noise(
+        dist.noise, document.get("settings"), trace, point, calibration=document.get("calibration")
     )
-    dist = replace(dist, noise=noise)
-    why = band_sources(trace, robot=spec, distribution=dist, n=ENSEMBLE_N, odom_v_window_s=window_s)
+    why = band_sources(trace, robot=spec, distribution=dist, n=ENSEMBLE_N,
+                       odom_v_window_s=window_s, noise=noise)  # fmt: skip
 
     def axis(a: str) -> str:
         return ", ".join(

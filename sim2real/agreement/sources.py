@@ -48,6 +48,9 @@ from sim2real.agreement.latency import session_latency
 from sim2real.agreement.replay import resolve_robot
 from sim2real.agreement.verdict import STEP_WINDOW_S
 
+#: The white-noise sd fields of a band's odometry noise (numbers, or one per sample).
+_SDS = ("std_v_mps", "std_w_radps")
+
 __all__ = ["BandSources", "band_sources", "marginal", "source_variances"]
 
 
@@ -166,11 +169,14 @@ def band_sources(
     seed: int = 0,
     tol_v: float = 0.02,
     tol_w: float = 0.1,
+    noise: Any = None,
 ) -> BandSources:
     """Measure where ``distribution``'s band on ``trace`` gets its width and its misses.
 
-    Parameters are those of :func:`sim2real.agreement.figures.run_ensemble`; the parameter
-    replays use the same ``n`` and ``seed``. Returns :class:`BandSources`.
+    Parameters are those of :func:`sim2real.agreement.figures.run_ensemble` (``noise``: the
+    band's odometry noise, e.g. an sd per sample, default the distribution's; its variance
+    counts as its mean over the active samples); the parameter replays use the same ``n`` and
+    ``seed``. Returns :class:`BandSources`.
     """
     spec = resolve_robot(robot)
     kw: dict[str, Any] = {
@@ -180,19 +186,22 @@ def band_sources(
         "engine": engine,
         "odom_v_window_s": odom_v_window_s,
     }
+    noise = distribution.noise if noise is None else noise
+    kw["noise"] = noise
     ens = run_ensemble(trace, distribution=distribution, tol_v=tol_v, tol_w=tol_w,
                        band_level=band_level, **kw)  # fmt: skip
     act = ens.active
 
     def members_of(dist: Any) -> tuple[FloatArray, FloatArray]:
-        _, mv, mw = ensemble_members(trace, distribution=dist, **kw)
+        _, mv, mw = ensemble_members(trace, distribution=dist, **replay_kw)
         return mv[:, act], mw[:, act]
 
-    noise = distribution.noise
+    replay_kw = {k: v for k, v in kw.items() if k != "noise"}
+    sd_v, sd_w = (np.broadcast_to(getattr(noise, f), act.shape)[act] for f in _SDS)
     var = np.vstack(
         [
-            [noise.std_v_mps**2 + noise.quantum_v_mps**2 / 12.0,
-             noise.std_w_radps**2 + noise.quantum_w_radps**2 / 12.0],
+            [float(np.mean(sd_v**2)) + noise.quantum_v_mps**2 / 12.0,
+             float(np.mean(sd_w**2)) + noise.quantum_w_radps**2 / 12.0],
             source_variances(distribution, members_of),
         ]
     )  # fmt: skip

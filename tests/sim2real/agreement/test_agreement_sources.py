@@ -11,6 +11,7 @@ import pytest
 from _agreement_fixtures import ROBOT, hidden_params, spec, write_log
 
 from sim2real.agreement.calibration import _validation_logs
+from sim2real.agreement.latency import SampleNoise
 from sim2real.agreement.sources import band_sources, marginal
 from sim2real.logs import read_trace
 from tests.randomization_block import distribution_around
@@ -28,6 +29,23 @@ def test_noise_alone_makes_a_band_of_noise(plant_log: Path) -> None:
     assert why.width_v_mps[0] == pytest.approx(3.29 * 0.01, rel=1e-3)
     assert why.width_w_radps[0] == pytest.approx(3.29 * 0.05, rel=1e-3)
     assert why.largest("v", 1)[0][0] == "noise"
+
+
+def test_a_noise_per_sample_counts_by_its_mean_variance(plant_log: Path) -> None:
+    """The band's noise as agree draws it (an sd per sample): half the samples at 0.01 m/s,
+    half at 0.03, is the noise-only band of sqrt((0.01^2 + 0.03^2) / 2) = 0.0224 m/s; a
+    constant one is the distribution's own."""
+    trace = read_trace(plant_log)
+    dist = distribution_around(hidden_params(), ROBOT, rel=0.0, noise_v=0.01, noise_w=0.05)
+    size = trace.meas_v.size
+    same = SampleNoise(std_v_mps=np.full(size, 0.01), std_w_radps=np.full(size, 0.05))
+    assert band_sources(trace, robot=ROBOT, distribution=dist, n=4, noise=same) == band_sources(
+        trace, robot=ROBOT, distribution=dist, n=4
+    )
+    mixed = dataclasses.replace(same, std_v_mps=np.where(np.arange(size) % 2 == 0, 0.01, 0.03))
+    why = band_sources(trace, robot=ROBOT, distribution=dist, n=4, noise=mixed)
+    assert why.width_v_mps[0] == pytest.approx(3.29 * 0.0224, rel=0.02)
+    assert why.band_width_v_mps > 3.29 * 0.01
 
 
 def test_a_wide_latency_spread_makes_the_width_and_the_own_latency_the_misses(
