@@ -812,9 +812,14 @@ def map_fit(
     ties = {k: v for k, v in exc.ties.items() if v in kept}
     final = Problem(logs, mapper, kept, ties, **problem_kw)
     final.prior_weight = math.sqrt(s2 * c)
-    jac = np.asarray(res.jac)[: prob.n_data][:, keep]
+    if dropped:
+        # the optimiser's Jacobian is the problem's with the dropped limits in place (where a
+        # limit and a cap do the same job, the cap's column is zero): the final problem's own
+        jac = _robust_jacobian(final, x[keep], exc.coupled, loss, f_scale)
+    else:
+        jac = np.asarray(res.jac)[: prob.n_data][:, keep]
     z, cov, info, cov_u, weak = _map_covariance(
-        prob, final, x, keep, jac, s2 * c, (loss, f_scale), problem_kw
+        final, x[keep], jac, s2 * c, (loss, f_scale), problem_kw
     )
     return Posterior(
         free=kept,
@@ -858,31 +863,43 @@ def _map_point(
     return res, converged, message
 
 
+def _robust_jacobian(
+    prob: Problem, u: FloatArray, coupled: bool, loss: str, f_scale: float
+) -> FloatArray:
+    r"""Data Jacobian of ``prob`` at ``u`` scaled for the robust loss as ``least_squares``
+    scales its own (row :math:`i` times :math:`\sqrt{\rho' + 2\rho'' z_i}`,
+    :math:`z_i = (f_i/f_{scale})^2`)."""
+    jac = prob.data_jacobian(u, coupled)
+    z = (prob.data_residuals(u) / f_scale) ** 2
+    rho = _rho(loss, z)
+    out: FloatArray = jac * np.sqrt(np.maximum(rho[1] + 2.0 * rho[2] * z, 1e-30))[:, None]
+    return out
+
+
 def _map_covariance(
-    prob: Problem,
     final: Problem,
-    x: FloatArray,
-    keep: list[int],
+    u: FloatArray,
     jac: FloatArray,
     scale2: float,
     robust: tuple[str, float],
     problem_kw: dict[str, Any],
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, list[int]]:
-    """Posterior (z, cov, info, cov_u, weak) of the kept coordinates at the MAP point ``x``: the
-    sandwich covariance of the data, the prior, and the model's time-step bias."""
+    """Posterior (z, cov, info, cov_u, weak) of the final problem's coordinates at its MAP point
+    ``u``: the sandwich covariance of the data, the prior, and the model's time-step bias.
+    ``jac`` is the final problem's data Jacobian at ``u``, scaled for the robust loss."""
     loss, f_scale = robust
-    f = prob.data_residuals(x)
+    f = final.data_residuals(u)
     with threadpool_limits(limits=1):
-        sizes = [g.meas_t_s.size for g in prob.logs]
-        meat = score_covariance(sizes, _row_scores(jac, f, loss, f_scale), _bandwidth(prob, f))
+        sizes = [g.meas_t_s.size for g in final.logs]
+        meat = score_covariance(sizes, _row_scores(jac, f, loss, f_scale), _bandwidth(final, f))
         info_u = data_information(jac, meat)
         # the population (sysid._fleet) weighs sessions by the Gauss-Newton information with
         # the autocorrelation factor, as it was tuned on; the sandwich is this log's posterior
         session_info = jac.T @ jac / scale2
-        z, cov, info, cov_u, weak = _posterior_cov(info_u, final, x[keep], session_info)
-    bias = _discretisation_bias(final, x[keep], jac, problem_kw)
+        z, cov, info, cov_u, weak = _posterior_cov(info_u, final, u, session_info)
+    bias = _discretisation_bias(final, u, jac, problem_kw)
     bias[list(weak)] = 0.0
-    _, g = final.schema_coords(x[keep])
+    _, g = final.schema_coords(u)
     cov_u += np.outer(bias, bias)
     cov += np.outer(g @ bias, g @ bias)
     _timing_floor(final, z, cov, cov_u)

@@ -14,7 +14,12 @@ from robots.params import SCHEMA
 from robots.randomization import DriveDistribution
 from robots.spec import load_spec
 from sysid import SysidResult, fit_drive
+from sysid._coords import Mapper
+from sysid._excitation import analyse
+from sysid._logs import as_log_arrays
+from sysid._map import MapOptions, _rho, map_fit
 from sysid._summary import quantum
+from sysid.plan import plan_excitation
 from sysid.synthetic import degrade_odometry, step_commands, synthetic_log
 
 SPEC = load_spec("turtlebot3_burger")
@@ -145,3 +150,38 @@ def test_quantum_of_encoder_odometry() -> None:
     )
     assert quantum(vq) == pytest.approx(0.005)
     assert quantum(v) == 0.0  # a continuum of values: no lattice
+
+
+def test_posterior_after_a_dropped_limit_is_the_final_problems() -> None:
+    """A limit the log never shows is dropped after the optimiser ran with it in place; the
+    posterior is the final problem's (without it), not the optimiser's Jacobian's, in which a
+    limit and a torque cap doing the same job leave the cap's column empty."""
+    spec = SPEC.drive
+    truth = spec.replace(wheel_torque_max_nm=0.05, delay_s=0.1, speed_loop_ki_per_s=20.0)
+    plan = plan_excitation(SPEC, 60.0)
+    raw = synthetic_log(
+        truth, GEO, cmd_t_s=plan.t_s, cmd_v=plan.v_mps, cmd_w=plan.w_radps, seed=1, spike_mps=None
+    )
+    logs = [as_log_arrays(raw, 0)]
+    informative = {n for n, p in SPEC.priors.items() if p.informative}
+    exc = analyse(logs, GEO, spec, "auto", informative)
+    assert "accel_lim_w_radps2" in exc.free
+    kw = {"scale_v": 0.02, "scale_w": 0.1, "dt_s": 1.0 / 240.0}
+    options = MapOptions(problem_kw=kw, loss="soft_l1", f_scale=1.0, max_nfev=60)
+    notes: list[str] = []
+    post = map_fit(logs, Mapper(GEO, spec, SPEC.priors), exc, options, notes=notes)
+    assert "accel_lim_w_radps2" not in post.free
+    assert any("accel_lim_w_radps2 never limited the response" in n for n in notes)
+    # the data information of the final problem at the MAP point, scaled for the robust loss
+    # as least_squares scales its Jacobian, over the residual variance s^2 c
+    final = post.problem
+    jac = final.data_jacobian(post.u, post.coupled)
+    z2 = final.data_residuals(post.u) ** 2
+    rho = _rho("soft_l1", z2)
+    jac = jac * np.sqrt(rho[1] + 2.0 * rho[2] * z2)[:, None]
+    _, g = final.schema_coords(post.u)
+    g_inv = np.linalg.pinv(g)
+    info = g_inv.T @ (jac.T @ jac / final.prior_weight**2) @ g_inv
+    np.testing.assert_allclose(post.info, info, rtol=1e-6, atol=1e-9 * float(np.max(info)))
+    j = post.free.index("wheel_torque_max_nm")
+    assert info[j, j] > 0.0
