@@ -93,15 +93,37 @@ def _poorly_informed(trace: object, robot: str) -> set[str]:
     return {e.name for e in res.estimates if e.sd_ratio is not None and e.sd_ratio > 0.5}
 
 
+#: What one 90 s planned session leaves near its prior on each base (docs/transfer.md): the
+#: mass-gain direction and a torque cap the wheel loops never reach (behind the Kobuki's
+#: 1 m/s^2 smoother; on the Burger plant the PI loops ask less than its motors give); on the
+#: Burger also the viscous and yaw Coulomb terms, whose whole prior range moves the response
+#: by a tenth of the residual level (its PI loops cancel friction at any steady speed)
+_UNINFORMED = {
+    "turtlebot2": {"wheel_torque_max_nm", "added_mass_kg", "added_yaw_inertia_kgm2"},
+    "turtlebot3_burger": {
+        "wheel_torque_max_nm",
+        "added_mass_kg",
+        "added_yaw_inertia_kgm2",
+        "viscous_v_ns_per_m",
+        "viscous_w_nms_per_rad",
+        "coulomb_w_nm",
+    },
+}
+
+
 @pytest.mark.slow
-def test_a_planned_session_informs_what_a_go_to_goal_session_does_not() -> None:
-    # one 90 s session of a drawn plant (not the spec's model): the plan leaves the mass-gain
-    # family and the torque cap (behind the Kobuki's smoother); go-to-goal leaves the limits too
-    robot, seed = "turtlebot2", 2
-    params = draw_session(plant_from_spec(robot), np.random.default_rng([seed, 0]))
-    planned = _poorly_informed(
-        record_plan(plan_excitation(load_spec(robot), 90.0), params, seed=seed), robot
-    )
-    goals = _poorly_informed(make_fleet(robot, 1, seed=seed, profile="goals")[0], robot)
-    assert planned <= {"wheel_torque_max_nm", "added_mass_kg", "added_yaw_inertia_kgm2"}
-    assert len(goals) >= 6 and {"speed_lim_v_mps", "speed_lim_w_radps"} <= goals
+@pytest.mark.parametrize(
+    ("robot", "seeds"), [("turtlebot2", (2, 4)), ("turtlebot3_burger", (1, 2))]
+)
+def test_a_planned_session_informs_what_a_go_to_goal_session_does_not(
+    robot: str, seeds: tuple[int, ...]
+) -> None:
+    # one 90 s session of a drawn plant (not the spec's model) per seed
+    plan = plan_excitation(load_spec(robot), 90.0)
+    for seed in seeds:
+        params = draw_session(plant_from_spec(robot), np.random.default_rng([seed, 0]))
+        planned = _poorly_informed(record_plan(plan, params, seed=seed), robot)
+        assert planned <= _UNINFORMED[robot], (seed, planned)
+    # go-to-goal leaves the speed limits and more besides
+    goals = _poorly_informed(make_fleet(robot, 1, seed=seeds[-1], profile="goals")[0], robot)
+    assert len(goals) >= len(planned) + 3 and {"speed_lim_v_mps", "speed_lim_w_radps"} <= goals
