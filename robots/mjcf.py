@@ -267,11 +267,16 @@ def _range(limit: float) -> str:
     return f'"{_f(-limit)} {_f(limit)}"' if math.isfinite(limit) else '"0 0"'
 
 
+#: Half the yaw inertia, raised by more than the 9-significant-digit rounding of ``_f`` can take
+#: from each of roll, pitch and yaw (up to 5e-9 relative), so that the written text keeps A + B >= C.
+_HALF_WITH_MARGIN = 0.5 * (1.0 + 1e-7)
+
+
 def _base(spec: RobotSpec, v: dict[str, MjcfValue]) -> list[str]:
     # roll and pitch do not act on flat ground: raised where the yaw inertia needs it (MuJoCo's
-    # triangle inequality A + B >= C)
+    # triangle inequality A + B >= C), with a margin above the rounding of the 9-digit text
     izz = v["base_yaw_inertia"].value
-    ixx, iyy = (max(i, 0.5 * izz) for i in lumped_base_inertia(spec)[:2])
+    ixx, iyy = (max(i, _HALF_WITH_MARGIN * izz) for i in lumped_base_inertia(spec)[:2])
     sx, sy, sz = spec.body.size_m
     bx, by, bz = spec.body.xyz_m
     shape = (

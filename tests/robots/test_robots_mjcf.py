@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 import xml.etree.ElementTree as ET
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robots.errors import ParamsFileError
 from robots.mjcf import (
@@ -111,3 +114,17 @@ def test_docs_table_is_the_mapping() -> None:
         assert place == (entry.mjcf or "`MujocoDrive`")
         assert field == ("" if entry.model is None else f"`{entry.model[2]}`")
         assert note == entry.note
+
+
+@pytest.mark.parametrize("name", list_robots())
+@settings(max_examples=200, deadline=None)
+@given(added=st.floats(min_value=0.0, max_value=0.2))
+def test_written_inertia_keeps_the_triangle_inequality(name: str, added: float) -> None:
+    # MuJoCo refuses a body whose diaginertia breaks A + B >= C; roll and pitch are raised to
+    # half the yaw inertia, and the 9-digit text must not round that below C
+    spec = load_spec(name)
+    params = dataclasses.replace(spec.drive, added_yaw_inertia_kgm2=added)
+    base = ET.fromstring(mjcf_text(spec, params)).find(".//body[@name='base_link']/inertial")
+    assert base is not None
+    a, b, c = (float(x) for x in base.get("diaginertia", "").split())
+    assert a + b >= c
