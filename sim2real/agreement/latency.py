@@ -48,7 +48,6 @@ from statistics import NormalDist
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.optimize import nnls
 
 from robots.randomization import apply_noise
 from sim2real._arrays import FloatArray
@@ -411,9 +410,31 @@ def fit_model_share(
         c0, tau2 = float(scale[0]), 0.0
     else:
         weight = np.sqrt([b.size for b in bins]) / np.maximum(scale, floor)
-        (c0, tau2), _ = nnls(rows * weight[:, None], scale * weight)
+        c0, tau2 = _nonnegative_lstsq(rows * weight[:, None], scale * weight)
     c0 = max(float(c0), at_least**2)
     return math.sqrt(max(c0 - measurement_std**2, 0.0)), math.sqrt(float(tau2))
+
+
+def _nonnegative_lstsq(a: FloatArray, y: FloatArray) -> tuple[float, float]:
+    """Least squares of two coefficients, both >= 0 (the exact non-negative solution).
+
+    The unconstrained solution where both are >= 0; otherwise the better of the two
+    one-coefficient fits (the other at 0), each clipped at 0: the optimum of a convex problem
+    with two bounds lies in one of those faces. numpy only, which keeps ``agree`` free of scipy.
+    """
+    x, *_ = np.linalg.lstsq(a, y, rcond=None)
+    if x[0] >= 0.0 and x[1] >= 0.0:
+        return float(x[0]), float(x[1])
+    best = (0.0, 0.0)
+    best_cost = float(y @ y)
+    for j in (0, 1):
+        col = a[:, j]
+        norm = float(col @ col)
+        c = max(float(col @ y) / norm, 0.0) if norm > 0.0 else 0.0
+        cost = float(np.sum((y - c * col) ** 2))
+        if cost < best_cost:
+            best, best_cost = ((c, 0.0) if j == 0 else (0.0, c)), cost
+    return best
 
 
 def _mad(x: FloatArray) -> float:
