@@ -36,6 +36,7 @@ __all__ = [
     "held_at_zero_noise",
     "motion_noise",
     "pooled_steady_noise",
+    "robust_sd",
     "steady_noise",
     "steady_stretches",
 ]
@@ -139,7 +140,7 @@ def _stretch_sd(
         return math.nan, 0
     level = np.array([np.median(ys[index == k]) for k in range(counts.size)])
     dev = (ys - level[index])[long_enough]
-    return float(1.4826 * np.median(np.abs(dev - np.median(dev)))), n
+    return robust_sd(dev), n
 
 
 def motion_noise(
@@ -178,6 +179,21 @@ def motion_noise(
         (sd_v, n_v), (sd_w, n_w) = sds
         out.append(SteadyNoise(std_v_mps=sd_v, std_w_radps=sd_w, n_samples=min(n_v, n_w)))
     return out[0], out[1]
+
+
+def robust_sd(x: ArrayLike) -> float:
+    """The sd of Gaussian samples estimated robustly: 1.4826 x the median absolute deviation
+    from the median (NaN for no samples).
+
+    Examples
+    --------
+    >>> round(robust_sd(np.random.default_rng(0).normal(0.0, 0.02, 10_000)), 3)
+    0.02
+    """
+    a = np.asarray(x, dtype=np.float64)
+    if a.size == 0:
+        return math.nan
+    return float(1.4826 * np.median(np.abs(a - np.median(a))))
 
 
 def held_at_zero_noise(

@@ -61,6 +61,7 @@ from sysid.steady import (
     SteadyNoise,
     held_at_zero_noise,
     motion_noise,
+    robust_sd,
     steady_noise,
 )
 
@@ -401,7 +402,7 @@ def fit_model_share(
     if r.size == 0 or not math.isfinite(measurement_std):
         return math.nan, math.nan
     bins = np.array_split(np.argsort(a, kind="stable"), max(r.size // SHARE_BIN_SAMPLES, 1))
-    scale = np.array([_mad(r[b]) ** 2 for b in bins])
+    scale = np.array([robust_sd(r[b]) ** 2 for b in bins])
     rows = np.array([[1.0, float(np.mean(a[b] ** 2))] for b in bins])
     # each bin's robust variance is known to a relative error ~ 1 / sqrt(its size), and to
     # no better than the measurement's variance (a bin of exact replays has a MAD of 0)
@@ -435,10 +436,6 @@ def _nonnegative_lstsq(a: FloatArray, y: FloatArray) -> tuple[float, float]:
         if cost < best_cost:
             best, best_cost = ((c, 0.0) if j == 0 else (0.0, c)), cost
     return best
-
-
-def _mad(x: FloatArray) -> float:
-    return 1.4826 * float(np.median(np.abs(x - np.median(x))))
 
 
 @dataclass(frozen=True, kw_only=True)
