@@ -707,11 +707,12 @@ def _problem(
     worse = fitted.agreement < defaults.agreement - WORSE_MARGIN
     if worse or (fitted.agreement < defaults.agreement and _slower_unit(s) is not None):
         cause = _likely_cause(defaults, fitted, s)
+        slower = _slower_unit(s)  # the first cause when it holds, latency's part said after it
         return (
             "fit_worse",
             f"The fit does worse than the spec defaults on this log: {after} against {before}; "
             f"likely cause: {cause}.",
-            _SLOWER_UNIT_STEP if cause == _slower_unit(s) else _WORSE_STEP,
+            _SLOWER_UNIT_STEP if slower is not None and cause.startswith(slower) else _WORSE_STEP,
         )
     latency = _latency_reason(fitted, s)
     if latency is not None:

@@ -192,6 +192,16 @@ def test_a_unit_slower_than_the_fits_is_the_headline_even_within_the_margin() ->
     assert above.kind == "extrapolates"
     assert sum("this unit is slower than the fit log's" in r for r in above.reasons) == 1
     assert not any("this unit is slower" in r for r in v.reasons)  # the headline says it
+    # a latency that explains part of the gap is said after the unit's top speed: the next
+    # step stays the unit's
+    partial = SessionFigures(
+        speed_shortfall=("v", 0.276, 0.302), fitted_delay_s=0.214, best_delay_s=0.03,
+        agreement_at_best_delay=0.401,
+    )  # fmt: skip
+    both = _decide(0.369, before=0.481, session=partial)
+    cause = both.headline.split("likely cause: ", 1)[1]
+    assert cause.startswith("this robot holds 0.276 m/s") and "explains only part" in cause
+    assert both.next_step.startswith("fit on a log of this unit, or on logs of several units")
 
 
 @given(
