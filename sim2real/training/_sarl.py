@@ -19,8 +19,8 @@ the mean embedding of the present neighbours (SARL's global state) and the softm
 the present ones only (an all-zero row is an empty slot). Every weight is shared across
 neighbours, so the network takes any number of them and their order does not matter. SB3's
 heads read :math:`f`: with DQN it is SARL's value network over a discrete (v, w) action set,
-learned as :math:`Q(s, a)` instead of :math:`V` of a one-step look-ahead (that needs a model of
-the next observation, which lidar and depth images do not give).
+learned as :math:`Q(s, a)`; SARL's :math:`V` of a one-step look-ahead needs a model of the
+next observation, which :mod:`sim2real.training._lookahead` gives for Race-v0.
 
 Examples
 --------
@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import Any
+from typing import Any, cast
 
 import torch
 from gymnasium import spaces
@@ -54,6 +54,17 @@ def _mlp(*sizes: int) -> nn.Sequential:
     for a, b in itertools.pairwise(sizes):
         layers += [nn.Linear(a, b), nn.ReLU()]
     return nn.Sequential(*layers)
+
+
+def _split_linear(
+    layer: nn.Linear, shared: torch.Tensor, slots: torch.Tensor, *, shared_first: bool = True
+) -> torch.Tensor:
+    """``layer([shared, slot])`` (or ``[slot, shared]``) for every slot: (B, S), (B, K, F) -> (B, K, out)."""
+    n = shared.shape[-1]
+    cut = slice(None, n) if shared_first else slice(layer.in_features - n, None)
+    rest = slice(n, None) if shared_first else slice(None, layer.in_features - n)
+    own = nn.functional.linear(shared, layer.weight[:, cut], layer.bias).unsqueeze(1)
+    return own + nn.functional.linear(slots, layer.weight[:, rest])
 
 
 class SarlExtractor(BaseFeaturesExtractor):  # type: ignore[misc]
@@ -108,9 +119,22 @@ class SarlExtractor(BaseFeaturesExtractor):  # type: ignore[misc]
         r = self.robot(own)
         present = (rows.abs().sum(dim=-1) > 0).unsqueeze(-1).to(rows.dtype)  # (B, K, 1)
         dist = torch.linalg.vector_norm(rows[..., :2], dim=-1, keepdim=True)
-        e = self.pair(torch.cat([r.unsqueeze(1).expand(-1, rows.shape[1], -1), rows, dist], -1))
+        # the first layers of psi_e and psi_alpha on concatenated inputs, split by part: the
+        # robot's and the mean's share is computed once per observation, not once per slot
+        e = self.pair[2:](
+            torch.relu(_split_linear(cast(nn.Linear, self.pair[0]), r, torch.cat([rows, dist], -1)))
+        )
         mean = (e * present).sum(dim=1, keepdim=True) / present.sum(dim=1, keepdim=True).clamp(1)
-        logits = self.score(torch.cat([e, mean.expand_as(e)], dim=-1))
+        logits = self.score[1](
+            torch.relu(
+                _split_linear(
+                    cast(nn.Linear, cast(nn.Sequential, self.score[0])[0]),
+                    mean.squeeze(1),
+                    e,
+                    shared_first=False,
+                )
+            )
+        )
         logits = logits.masked_fill(present == 0, -1e9)
         alpha = torch.softmax(logits, dim=1) * present  # no neighbour: all weights 0
         pooled = (alpha * self.hidden(e)).sum(dim=1)

@@ -30,9 +30,15 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
 from sim2real.errors import Sim2RealValueError
+from sim2real.training._lookahead import LookaheadDQNPolicy, lookahead_kwargs, race_lookahead
 from sim2real.training._sarl import SarlExtractor
 from sim2real.training._sensors import SensorEncoderExtractor
-from sim2real.training.config import SARL_POLICY, SENSORS_POLICY, TrainConfig
+from sim2real.training.config import (
+    SARL_LOOKAHEAD_POLICY,
+    SARL_POLICY,
+    SENSORS_POLICY,
+    TrainConfig,
+)
 from sim2real.training.environment import build_env, neighbour_slots
 
 __all__ = [
@@ -130,7 +136,9 @@ def _make_monitored(
     return Monitor(env)
 
 
-def _policy_name(cfg: TrainConfig, env: Any) -> str:
+def _policy_name(cfg: TrainConfig, env: Any) -> Any:
+    if cfg.policy == SARL_LOOKAHEAD_POLICY:
+        return LookaheadDQNPolicy
     if cfg.policy not in ("auto", SARL_POLICY, SENSORS_POLICY):
         return cfg.policy
     return "MultiInputPolicy" if isinstance(env.observation_space, gym.spaces.Dict) else "MlpPolicy"
@@ -154,14 +162,22 @@ def _model(cfg: TrainConfig, vec: Any, probe: Any) -> Any:
     hyper = dict(cfg.hyperparameters)
     if cfg.action_noise is not None:
         hyper["action_noise"] = action_noise(cfg.action_noise, probe.action_space)
-    if cfg.policy == SARL_POLICY:
+    if cfg.policy in (SARL_POLICY, SARL_LOOKAHEAD_POLICY):
         k, f = neighbour_slots(probe, where=cfg.source)
-        extractor = {"neighbours": k, "neighbour_features": f}
+        user = dict(hyper.get("policy_kwargs") or {})
+        extractor = {
+            **dict(user.get("features_extractor_kwargs") or {}),  # robot_dim, pair_dim
+            "neighbours": k,
+            "neighbour_features": f,
+        }
         hyper["policy_kwargs"] = {
-            **dict(hyper.get("policy_kwargs") or {}),
+            **user,
             "features_extractor_class": SarlExtractor,
             "features_extractor_kwargs": extractor,
         }
+    if cfg.policy == SARL_LOOKAHEAD_POLICY:
+        grid = race_lookahead(probe, **dict(cfg.discrete_actions or {}), where=cfg.source)
+        hyper["policy_kwargs"]["lookahead"] = lookahead_kwargs(grid)
     if cfg.policy == SENSORS_POLICY:
         hyper["policy_kwargs"] = {
             **dict(hyper.get("policy_kwargs") or {}),

@@ -12,7 +12,9 @@ Relative paths are relative to the config file::
     algorithm: PPO                     # PPO, SAC, TD3, DQN (stable-baselines3) or rllib-ppo
     policy: auto                       # MlpPolicy for Box observations, MultiInputPolicy for Dict;
                                        # sarl: SARL*'s attention over neighbours (Race-v0, or
-                                       # CrowdNav-v0 with kwargs neighbours: K); sensors: a
+                                       # CrowdNav-v0 with kwargs neighbours: K);
+                                       # sarl-lookahead: its value of each action's predicted
+                                       # next observation (DQN on Race-v0); sensors: a
                                        # small encoder per lidar / depth entry of a Dict
     hyperparameters: {n_steps: 256, batch_size: 64}   # SB3 constructor keyword arguments
     timesteps: 20000
@@ -91,6 +93,7 @@ __all__ = [
     "POLICIES",
     "RLLIB_KEYS",
     "RLLIB_PPO",
+    "SARL_LOOKAHEAD_POLICY",
     "SARL_POLICY",
     "SENSORS_POLICY",
     "TrainConfig",
@@ -111,10 +114,20 @@ ALGORITHMS = ("PPO", "SAC", "TD3", "DQN")
 RLLIB_PPO = "rllib-ppo"
 #: The crowd-aware policy (:mod:`sim2real.training._sarl`): SB3's policy on SARL*'s features.
 SARL_POLICY = "sarl"
+#: SARL's value network with a one-step look-ahead as DQN's Q (:mod:`sim2real.training._lookahead`).
+SARL_LOOKAHEAD_POLICY = "sarl-lookahead"
 #: SB3's policy over a small encoder per sensor of a Dict observation (:mod:`sim2real.training._sensors`).
 SENSORS_POLICY = "sensors"
-#: Values of the config's ``policy`` key (SB3 policy names, ``auto`` and the two above).
-POLICIES = ("auto", "MlpPolicy", "MultiInputPolicy", "CnnPolicy", SARL_POLICY, SENSORS_POLICY)
+#: Values of the config's ``policy`` key (SB3 policy names, ``auto`` and the three above).
+POLICIES = (
+    "auto",
+    "MlpPolicy",
+    "MultiInputPolicy",
+    "CnnPolicy",
+    SARL_POLICY,
+    SARL_LOOKAHEAD_POLICY,
+    SENSORS_POLICY,
+)
 _VEC_ENVS = ("subproc", "dummy")
 _KEYS = (
     "format",

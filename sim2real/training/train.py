@@ -49,6 +49,7 @@ from sim2real._io import atomic_write
 from sim2real.errors import Sim2RealValueError
 from sim2real.training.config import (
     RLLIB_PPO,
+    SARL_LOOKAHEAD_POLICY,
     SARL_POLICY,
     SENSORS_POLICY,
     TrainConfig,
@@ -200,7 +201,7 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
     if cfg.algorithm == RLLIB_PPO:
         return _train_rllib(cfg)
     require_train_extra()
-    from sim2real.training import _sb3  # the [train] extra, checked above
+    from sim2real.training import _lookahead, _sb3  # the [train] extra, checked above
 
     probe = build_env(cfg.env_id, cfg.env_kwargs, randomizers=cfg.randomizers, where=cfg.source)
     cfg = _check_action_space(cfg, probe)
@@ -209,7 +210,14 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
             f"{cfg.source}: {cfg.algorithm} needs a continuous (Box) action space but "
             f"{cfg.env_id} has {probe.action_space}; use PPO or DQN"
         )
-    if cfg.policy == SARL_POLICY:
+    if cfg.policy == SARL_LOOKAHEAD_POLICY:
+        if cfg.algorithm != "DQN":
+            raise Sim2RealValueError(
+                f"{cfg.source}: policy 'sarl-lookahead' values each command of a discrete "
+                f"(v, w) grid, which {cfg.algorithm} does not act on; use algorithm DQN"
+            )
+        _lookahead.race_lookahead(probe, **dict(cfg.discrete_actions or {}), where=cfg.source)
+    if cfg.policy in (SARL_POLICY, SARL_LOOKAHEAD_POLICY):
         _check_sarl(cfg, probe)
     if cfg.policy == SENSORS_POLICY and not isinstance(probe.observation_space, gym.spaces.Dict):
         raise Sim2RealValueError(
@@ -249,14 +257,14 @@ def _check_sarl(cfg: TrainConfig, env: Any) -> None:
     neighbour_slots(env, where=cfg.source)
     if cfg.normalize.get("observations"):
         raise Sim2RealValueError(
-            f"{cfg.source}: policy 'sarl' reads empty neighbour slots as zero rows, which "
+            f"{cfg.source}: policy '{cfg.policy}' reads empty neighbour slots as zero rows, which "
             "normalize 'observations' shifts; set normalize.observations: false"
         )
 
 
 def _train_rllib(cfg: TrainConfig) -> TrainResult:
     """``algorithm: rllib-ppo``: RLlib's PPO on the same env construction (sim2real.training._rllib)."""
-    if cfg.policy in (SARL_POLICY, SENSORS_POLICY):
+    if cfg.policy in (SARL_POLICY, SARL_LOOKAHEAD_POLICY, SENSORS_POLICY):
         raise Sim2RealValueError(
             f"{cfg.source}: policy '{cfg.policy}' is a stable-baselines3 features extractor; use "
             f"algorithm DQN or PPO with it, not {RLLIB_PPO}"

@@ -4,6 +4,7 @@ and evaluated in under 60 s, CrowdNav-v0 with neighbours, and the bad-input sent
 from __future__ import annotations
 
 import doctest
+import importlib
 import time
 import warnings
 from pathlib import Path
@@ -15,7 +16,6 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import sim2real.envs
 from sim2real.cli import main
 from sim2real.training.config import load_config
 from sim2real.training.evaluation import check_spaces, load_policy
@@ -24,7 +24,6 @@ from sim2real.training.train import train
 pytestmark = pytest.mark.train
 torch = pytest.importorskip("torch")
 
-import sim2real.training._sarl  # noqa: E402  (needs torch)
 from sim2real.training._sarl import SarlExtractor  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -124,6 +123,15 @@ def test_crowdnav_with_neighbours_trains(tmp_path: Path) -> None:
         ({"env": {"id": "CrowdNav-v0"}}, "observes none"),
         ({"policy": "sarl-star"}, "not a known policy preset"),
         ({"env": {"id": "RandomMap-v0", "kwargs": {"preset": "TEST9"}}}, "unknown map preset"),
+        (
+            {"policy": "sarl-lookahead", "env": {"id": "RandomMap-v0", "kwargs": {}}},
+            "predicts the next Race-v0 observation",
+        ),
+        (
+            {"policy": "sarl-lookahead", "env": {"id": "CrowdNav-v0", "kwargs": {"neighbours": 5}}},
+            "use sim2real/Race-v0",
+        ),
+        ({"policy": "sarl-lookahead", "algorithm": "PPO"}, "use algorithm DQN"),
     ],
 )
 def test_bad_sarl_configs_one_sentence_exit_2(
@@ -139,8 +147,9 @@ def test_bad_sarl_configs_one_sentence_exit_2(
     assert not (tmp_path / "run" / "model.zip").exists()
 
 
-def test_docstring_example() -> None:
-    result = doctest.testmod(sim2real.training._sarl)
+@pytest.mark.parametrize("module", ["_sarl", "_lookahead"])
+def test_docstring_example(module: str) -> None:
+    result = doctest.testmod(importlib.import_module(f"sim2real.training.{module}"))
     assert result.attempted > 0 and result.failed == 0
 
 

@@ -1,0 +1,274 @@
+r"""SARL's value network with a one-step look-ahead, as a stable-baselines3 DQN policy.
+
+Chen et al. (2019) act by :math:`a_t = \arg\max_a R(s_t, a) + \gamma^{\Delta t\, v_{pref}}
+V(\hat s^a_{t+\Delta t})`: every action's next joint state is predicted (the robot by its
+kinematics, the humans at constant velocity) and scored by the attention network's value
+:math:`V`, so that a manoeuvre is judged by where the others will be, not where they are.
+``policy: sarl-lookahead`` makes that the Q-network of DQN on a Race-v0 observation:
+
+.. math::
+
+    Q(s, a) = V(f(s, a)), \qquad V = \text{head} \circ \text{SarlExtractor}
+
+with :math:`f` the one-step look-ahead of the observation under grid command :math:`a = (v,
+w)` over one control step :math:`\Delta t`:
+
+- the robot drives the arc of :math:`(v, w)` (the command taken as reached): its track-frame
+  pose moves along it and its measured (v, w) becomes the command;
+- the goal point (distance, bearing) is the same point seen from the new pose (SARL*'s local
+  goal moves on along the plan as the robot drives; the prediction keeps the point);
+- each observed mover moves at its observed velocity (constant-velocity prediction) and is seen
+  from the new pose, its relative velocity against the commanded one; empty slots stay empty;
+- every lidar return moves as a point: its range is its distance from the new pose, and it is
+  placed at its beam angle minus the turn, interpolated between beams. That is exact for a
+  small obstacle; along a wall the beam meets another point of the wall, so a wall parallel to
+  the motion is predicted nearer by up to the step's 5.5 cm; a mover inside the scan stays
+  where it was seen (its motion is in the neighbour rows); the lidar's 3 cm offset from the
+  robot's centre is neglected.
+
+:math:`V(f(s, a))` is the value of the predicted post-decision state (an afterstate, Sutton and
+Barto 2018, section 6.8): DQN's target :math:`r + \gamma \max_{a'} Q(s', a')` trains it through
+the look-ahead, the step reward :math:`R` is learned into it rather than computed, and the
+greedy action is SARL's arg max over the discrete set. The network sees one observation per
+action (the 3 x 7 grid: 21), so a step costs 21 forward passes of the SARL network.
+
+Examples
+--------
+>>> import gymnasium as gym
+>>> import sim2real.envs
+>>> env = gym.make("sim2real/Race-v0", track="open", num_opponents=2, control_dt=0.25)
+>>> model = race_lookahead(env, v_mps=[0.0, 0.22], w_radps=[-1.0, 0.0, 1.0])
+>>> obs, _ = env.reset(seed=0)
+>>> nxt = model.predict(torch.as_tensor(obs)[None])
+>>> tuple(nxt.shape), round(float(nxt[0, 4, 36] - obs[36]), 4)  # (0.22, 0): 5.5 cm along yaw
+((1, 6, 63), 0.055)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from typing import Any, cast
+
+import gymnasium as gym
+import torch
+from stable_baselines3.common.preprocessing import preprocess_obs
+from stable_baselines3.common.torch_layers import create_mlp
+from stable_baselines3.dqn.policies import DQNPolicy, QNetwork
+from torch import nn
+
+from sim2real.envs.race import N_BEAMS, N_NEIGHBOURS, RaceEnv
+from sim2real.errors import Sim2RealValueError
+
+#: Values of the robot's own block (x, y, yaw, v, w, goal distance, goal bearing).
+_OWN = 7
+
+__all__ = [
+    "LookaheadDQNPolicy",
+    "LookaheadQNetwork",
+    "RaceLookahead",
+    "lookahead_kwargs",
+    "race_lookahead",
+]
+
+
+def race_lookahead(
+    env: gym.Env[Any, Any], *, v_mps: Sequence[float], w_radps: Sequence[float], where: str = "env"
+) -> RaceLookahead:
+    """The look-ahead of ``env``'s observation over the (v, w) grid (``discrete_actions``).
+
+    Raises one sentence for an env other than Race-v0: the look-ahead needs the layout and the
+    lidar of its observation.
+    """
+    base = env.unwrapped
+    if not isinstance(base, RaceEnv):
+        name = base.spec.id if base.spec is not None else type(base).__name__
+        raise Sim2RealValueError(
+            f"{where}: policy 'sarl-lookahead' predicts the next Race-v0 observation (lidar, "
+            f"pose, goal and the nearest movers), but the env is {name}; use "
+            "sim2real/Race-v0, or policy sarl"
+        )
+    lidar = base.robot_spec.lidar
+    grid = [(float(v), float(w)) for v in v_mps for w in w_radps]
+    return RaceLookahead(
+        v_mps=tuple(v for v, _ in grid),
+        w_radps=tuple(w for _, w in grid),
+        control_dt_s=float(base.control_dt),
+        beam_angles_rad=tuple(float(a) for a in base.beam_angles_rad),
+        range_min_m=float(lidar.range_min_m),
+        range_max_m=float(lidar.range_max_m),
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class RaceLookahead:
+    """The one-step look-ahead of a Race-v0 observation over a discrete (v, w) grid.
+
+    Parameters
+    ----------
+    v_mps, w_radps : tuple of float
+        The grid's commands in action order: action k is (v_mps[k], w_radps[k]), m/s and rad/s.
+    control_dt_s : float
+        Control step, s.
+    beam_angles_rad : tuple of float
+        Lidar beam angles in the robot frame, rad, evenly spaced over a full turn.
+    range_min_m, range_max_m : float
+        Lidar range limits, m (a reading at ``range_max_m`` is no return).
+    neighbours, neighbour_features : int
+        Neighbour slots at the end of the observation and values per slot (x, y, vx, vy).
+    """
+
+    v_mps: tuple[float, ...]
+    w_radps: tuple[float, ...]
+    control_dt_s: float
+    beam_angles_rad: tuple[float, ...]
+    range_min_m: float
+    range_max_m: float
+    neighbours: int = N_NEIGHBOURS
+    neighbour_features: int = 4
+
+    def arcs(self) -> torch.Tensor:
+        """(actions, 3): each command's displacement dx, dy (m, robot frame) and turn (rad)."""
+        v = torch.tensor(self.v_mps, dtype=torch.float64)
+        turn = torch.tensor(self.w_radps, dtype=torch.float64) * self.control_dt_s
+        chord = v * self.control_dt_s * torch.sinc(turn / (2 * math.pi))  # 2 v/w sin(w dt/2)
+        return torch.stack([chord * torch.cos(turn / 2), chord * torch.sin(turn / 2), turn], 1)
+
+    def predict(self, obs: torch.Tensor) -> torch.Tensor:
+        """Observations (batch, 63) -> their predicted successors (batch, actions, 63)."""
+        arcs = self.arcs().to(obs.dtype)
+        dx, dy, turn = (arcs[:, i][None] for i in range(3))  # (1, A)
+        c, s = torch.cos(turn), torch.sin(turn)
+        n_act = arcs.shape[0]
+        lidar = self._lidar(obs[:, :N_BEAMS], dx, dy, c, s, turn)
+        own = obs[:, N_BEAMS : N_BEAMS + _OWN]
+        x, y, yaw, v, _, goal_d, bearing = (own[:, i : i + 1] for i in range(_OWN))
+        cy, sy = torch.cos(yaw), torch.sin(yaw)
+        new_yaw = torch.atan2(torch.sin(yaw + turn), torch.cos(yaw + turn))
+        gx, gy = goal_d * torch.cos(bearing) - dx, goal_d * torch.sin(bearing) - dy
+        gx, gy = c * gx + s * gy, -s * gx + c * gy
+        cmd_v = torch.tensor(self.v_mps, dtype=obs.dtype)[None].expand(obs.shape[0], -1)
+        cmd_w = torch.tensor(self.w_radps, dtype=obs.dtype)[None].expand(obs.shape[0], -1)
+        own_next = torch.stack(
+            [
+                x + dx * cy - dy * sy,
+                y + dx * sy + dy * cy,
+                new_yaw,
+                cmd_v,
+                cmd_w,
+                torch.hypot(gx, gy),
+                torch.atan2(gy, gx),
+            ],
+            dim=-1,
+        )
+        rows = obs[:, N_BEAMS + _OWN :].reshape(obs.shape[0], 1, -1, self.neighbour_features)
+        present = (rows.abs().sum(-1) > 0).to(obs.dtype)  # (B, 1, K)
+        ux, uy = rows[..., 2] + v[..., None], rows[..., 3]  # mover velocity, old robot frame
+        qx = rows[..., 0] + ux * self.control_dt_s - dx[..., None]
+        qy = rows[..., 1] + uy * self.control_dt_s - dy[..., None]
+        cc, ss = c[..., None], s[..., None]
+        movers = (
+            torch.stack(
+                [
+                    cc * qx + ss * qy,
+                    -ss * qx + cc * qy,
+                    cc * ux + ss * uy - cmd_v[..., None],
+                    -ss * ux + cc * uy,
+                ],
+                dim=-1,
+            )
+            * present[..., None]
+        )
+        return torch.cat([lidar, own_next, movers.flatten(2)], dim=-1).reshape(
+            obs.shape[0], n_act, -1
+        )
+
+    def _lidar(
+        self,
+        ranges: torch.Tensor,
+        dx: torch.Tensor,
+        dy: torch.Tensor,
+        c: torch.Tensor,
+        s: torch.Tensor,
+        turn: torch.Tensor,
+    ) -> torch.Tensor:
+        """Scans (B, N) -> (B, A, N): every return seen from each action's new pose."""
+        angles = torch.tensor(self.beam_angles_rad, dtype=ranges.dtype)
+        px = (ranges * torch.cos(angles))[:, None] - dx[..., None]
+        py = (ranges * torch.sin(angles))[:, None] - dy[..., None]
+        seen = torch.hypot(
+            c[..., None] * px + s[..., None] * py, -s[..., None] * px + c[..., None] * py
+        )
+        seen = torch.where(ranges[:, None] >= self.range_max_m - 1e-6, self.range_max_m, seen)
+        # a return at beam angle theta lies near theta - turn from the new pose: resample
+        shift = turn[0] / (2 * math.pi / len(self.beam_angles_rad))  # (A,) in beams
+        base = torch.floor(shift)
+        frac = (shift - base)[None, :, None]
+        n = len(self.beam_angles_rad)
+        idx0 = (torch.arange(n)[None] + base.long()[:, None]) % n  # (A, N)
+        idx1 = (idx0 + 1) % n
+        expand = (ranges.shape[0], -1, -1)
+        lo = torch.gather(seen, 2, idx0[None].expand(*expand))
+        hi = torch.gather(seen, 2, idx1[None].expand(*expand))
+        return ((1 - frac) * lo + frac * hi).clamp(self.range_min_m, self.range_max_m)
+
+
+class LookaheadQNetwork(QNetwork):  # type: ignore[misc]
+    """:math:`Q(s, a) = V(f(s, a))`: the value head on each action's predicted observation.
+
+    ``lookahead`` holds :class:`RaceLookahead`'s fields (a plain mapping, saved in the zip).
+    """
+
+    def __init__(self, *args: Any, lookahead: dict[str, Any], **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.lookahead = dict(lookahead)
+        fields = {k: tuple(v) if isinstance(v, list) else v for k, v in self.lookahead.items()}
+        self.model = RaceLookahead(**cast(dict[str, Any], fields))
+        if len(self.model.v_mps) != int(self.action_space.n):
+            raise Sim2RealValueError(
+                f"policy 'sarl-lookahead' has {len(self.model.v_mps)} look-ahead commands for "
+                f"{self.action_space.n} actions; its grid must be the discrete_actions grid"
+            )
+        self.q_net = nn.Sequential(
+            *create_mlp(self.features_dim, 1, self.net_arch, self.activation_fn)
+        )
+
+    def forward(self, obs: Any) -> torch.Tensor:
+        """Q-values (batch, actions): the value of each action's predicted observation."""
+        flat = preprocess_obs(obs, self.observation_space, normalize_images=self.normalize_images)
+        nxt = self.model.predict(cast(torch.Tensor, flat).float())
+        b, n_act, d = nxt.shape
+        values = self.q_net(self.features_extractor(nxt.reshape(b * n_act, d)))
+        return values.reshape(b, n_act)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        return {**super()._get_constructor_parameters(), "lookahead": self.lookahead}
+
+
+class LookaheadDQNPolicy(DQNPolicy):  # type: ignore[misc]
+    """SB3's DQN policy whose Q-network is :class:`LookaheadQNetwork`.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        Those of ``DQNPolicy``.
+    lookahead : dict
+        :class:`RaceLookahead`'s fields (``dataclasses.asdict`` of :func:`race_lookahead`).
+    """
+
+    def __init__(self, *args: Any, lookahead: dict[str, Any], **kwargs: Any) -> None:
+        self.lookahead = dict(lookahead)
+        super().__init__(*args, **kwargs)
+
+    def make_q_net(self) -> LookaheadQNetwork:
+        net_args = self._update_features_extractor(self.net_args, features_extractor=None)
+        return LookaheadQNetwork(**net_args, lookahead=self.lookahead).to(self.device)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        return {**super()._get_constructor_parameters(), "lookahead": self.lookahead}
+
+
+def lookahead_kwargs(model: RaceLookahead) -> dict[str, Any]:
+    """``model`` as the plain ``lookahead`` policy keyword (lists, floats)."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(model).items()}
