@@ -86,7 +86,7 @@ from sysid.definitions import LOSSES
 from sysid.envelope import envelope_of
 from sysid.errors import SysidValueError
 from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
-from sysid.steady import pooled_steady_noise, steady_noise
+from sysid.steady import measurement_lead_s, pooled_steady_noise, speed_noise, steady_noise
 
 __all__ = ["Progress", "fit_drive", "score_logs"]
 
@@ -823,26 +823,32 @@ def _raise_exceeded_caps(
 def _measurement_noise(fit_logs: Sequence[LogArrays]) -> dict[str, Any]:
     """``settings.measurement_noise``: the fitted logs' own odometry noise where they run
     steady (:func:`sysid.steady.steady_noise`, no model), the measurement's share of the
-    noise the residuals show; nothing when no log runs steady long enough to tell it."""
-    own = pooled_steady_noise(
-        [
-            steady_noise(
-                log.meas_t_s,
-                held_command(log.cmd_t_s, log.cmd_v, log.meas_t_s),
-                held_command(log.cmd_t_s, log.cmd_w, log.meas_t_s),
-                log.meas_v,
-                log.meas_w,
-            )
-            for log in fit_logs
-        ]
-    )
+    noise the residuals show, with the parts of its growth with speed the logs tell
+    (:func:`sysid.steady.speed_noise`: ``floor_v_mps``, ``fraction_v``, ``floor_w_radps``,
+    ``fraction_w``); nothing when no log runs steady long enough to tell it."""
+    columns = [
+        (
+            log.meas_t_s,
+            held_command(log.cmd_t_s, log.cmd_v, log.meas_t_s),
+            held_command(log.cmd_t_s, log.cmd_w, log.meas_t_s),
+            log.meas_v,
+            log.meas_w,
+        )
+        for log in fit_logs
+    ]
+    own = pooled_steady_noise([steady_noise(*c) for c in columns])
     if not own.measured:
         return {}
+    lead = max((measurement_lead_s(log.measurement) for log in fit_logs), default=0.0)
+    law = speed_noise(columns, ahead_s=lead)
     return {
         "measurement_noise": {
             "std_v_mps": own.std_v_mps,
             "std_w_radps": own.std_w_radps,
             "samples": own.n_samples,
+            # the noise's growth with speed (sysid.steady.SpeedNoise), the parts these logs
+            # measure: a checked log takes them where it cannot tell its own
+            **{k: getattr(law, k) for k in law.told},
         }
     }
 

@@ -25,20 +25,29 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 __all__ = [
     "MIN_STEADY_SAMPLES",
+    "MOVING_SPEEDS",
+    "SPEED_NOISE_PARTS",
+    "SPEED_SPREAD",
     "STEADY_AFTER_S",
+    "SpeedNoise",
     "SteadyNoise",
     "held_at_zero_noise",
+    "measurement_lead_s",
     "motion_noise",
     "pooled_steady_noise",
     "robust_sd",
+    "speed_bins",
+    "speed_noise",
     "steady_noise",
     "steady_stretches",
+    "variance_law",
 ]
 
 
@@ -90,13 +99,19 @@ def steady_stretches(since_step_s: ArrayLike, steady: ArrayLike) -> np.ndarray:
     return out
 
 
-def _steady(t: np.ndarray, cmd_v: np.ndarray, cmd_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _steady(
+    t: np.ndarray, cmd_v: np.ndarray, cmd_w: np.ndarray, ahead_s: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """The mask of the samples under a non-zero command held for over
-    :data:`STEADY_AFTER_S`, and their stretch labels (:func:`steady_stretches`)."""
+    :data:`STEADY_AFTER_S` (and for ``ahead_s`` more after them), and their stretch labels
+    (:func:`steady_stretches`)."""
     change = np.ones(t.size, dtype=bool)
     change[1:] = (np.diff(cmd_v) != 0) | (np.diff(cmd_w) != 0)
-    held_s = t - t[change][np.cumsum(change) - 1]
+    step = np.cumsum(change) - 1
+    held_s = t - t[change][step]
     steady = (held_s > STEADY_AFTER_S) & ((cmd_v != 0) | (cmd_w != 0))
+    if ahead_s > 0.0:
+        steady &= np.r_[t[change][1:], np.inf][step] - t > ahead_s
     return steady, steady_stretches(held_s, steady)
 
 
@@ -127,20 +142,25 @@ def steady_noise(
     return SteadyNoise(std_v_mps=sd_v, std_w_radps=sd_w, n_samples=n)
 
 
+def _stretch_deviations(
+    y: ArrayLike, steady: np.ndarray, ids: np.ndarray, keep: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The deviations of the ``keep`` steady samples of ``y`` from their stretch's median, over
+    stretches of :data:`MIN_STRETCH` or more, and that median at each of them."""
+    ys = np.asarray(y, dtype=np.float64)[steady][keep]
+    _, index, counts = np.unique(ids[keep], return_inverse=True, return_counts=True)
+    long_enough = counts[index] >= MIN_STRETCH
+    level = np.array([np.median(ys[index == k]) for k in range(counts.size)], dtype=np.float64)
+    return (ys - level[index])[long_enough], level[index][long_enough]
+
+
 def _stretch_sd(
     y: ArrayLike, steady: np.ndarray, ids: np.ndarray, keep: np.ndarray
 ) -> tuple[float, int]:
     """Robust sd (MAD) of ``y`` about its stretch medians over the ``keep`` steady samples of
     stretches of :data:`MIN_STRETCH` or more, and their number (NaN sd for none)."""
-    ys = np.asarray(y, dtype=np.float64)[steady][keep]
-    _, index, counts = np.unique(ids[keep], return_inverse=True, return_counts=True)
-    long_enough = counts[index] >= MIN_STRETCH
-    n = int(long_enough.sum())
-    if n == 0:
-        return math.nan, 0
-    level = np.array([np.median(ys[index == k]) for k in range(counts.size)])
-    dev = (ys - level[index])[long_enough]
-    return robust_sd(dev), n
+    dev, _ = _stretch_deviations(y, steady, ids, keep)
+    return (robust_sd(dev), dev.size) if dev.size else (math.nan, 0)
 
 
 def motion_noise(
@@ -251,3 +271,297 @@ def pooled_steady_noise(noises: Sequence[SteadyNoise]) -> SteadyNoise:
         n_samples=int(weights.sum()),
         method=methods,
     )
+
+
+#: A log tells the floor of its noise from the part that grows with speed when the speeds of
+#: its steady samples spread by this factor (rms speed of its fastest bin over its slowest's).
+SPEED_SPREAD = 2.0
+
+#: Speeds (v m/s, w rad/s) below which the noise's growth with speed is too small to tell
+#: from its floor: a log tells the fraction only where its fastest bin moves this fast.
+MOVING_SPEEDS = (0.05, 0.2)
+
+#: The parts of a :class:`SpeedNoise`, in the words of its notes.
+SPEED_NOISE_PARTS = ("floor_v_mps", "fraction_v", "floor_w_radps", "fraction_w")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SpeedNoise:
+    r"""Odometry noise that grows with speed, per axis (:func:`speed_noise`):
+
+    .. math:: \sigma(s)^2 = \sigma_0^2 + (r\,|s|)^2,
+
+    with :math:`s` the speed of that axis. A velocity differenced from a pose over stamps
+    that jitter by :math:`\delta` is off by :math:`s\,\delta / \Delta t`: the error of a
+    7 Hz pose-derived velocity is a share of the speed, which one sd per axis cannot follow
+    (a log that spins at 2 rad/s reads many times the yaw noise of one that drives straight).
+
+    Attributes
+    ----------
+    floor_v_mps, floor_w_radps : float
+        :math:`\sigma_0`: the sd of v (m/s) and w (rad/s) at zero speed of that axis (the
+        other axis may move). NaN when neither the log nor the fallback tells it.
+    fraction_v, fraction_w : float
+        :math:`r`: the sd per unit speed of the axis (m/s per m/s, rad/s per rad/s). NaN when
+        neither the log nor the fallback tells it.
+    n_v, n_w : int
+        Steady samples of each axis in the log (0 when every part is the fallback's).
+    told : tuple of str
+        The parts (names of :data:`SPEED_NOISE_PARTS`) the log itself measured; the others
+        are the fallback's (or, for a log whose steady samples all share one speed and no
+        fallback, the constant noise it shows: ``fraction`` 0).
+
+    Examples
+    --------
+    >>> law = SpeedNoise(floor_v_mps=0.001, fraction_v=0.05, floor_w_radps=0.005,
+    ...                  fraction_w=0.06, n_v=60, n_w=60)
+    >>> sd_v, sd_w = law.std_at(np.array([0.0, 0.3]), np.array([2.0, 0.0]))
+    >>> sd_v.round(4).tolist(), sd_w.round(4).tolist()
+    ([0.001, 0.015], [0.1201, 0.005])
+    """
+
+    floor_v_mps: float
+    fraction_v: float
+    floor_w_radps: float
+    fraction_w: float
+    n_v: int = 0
+    n_w: int = 0
+    told: tuple[str, ...] = ()
+
+    def std_at(self, v: ArrayLike, w: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """The noise sd at speeds ``v`` (m/s) and ``w`` (rad/s): m/s and rad/s (an unknown
+        fraction counts as 0, an unknown floor gives NaN)."""
+        return (
+            np.hypot(self.floor_v_mps, _known(self.fraction_v) * np.abs(np.asarray(v, float))),
+            np.hypot(self.floor_w_radps, _known(self.fraction_w) * np.abs(np.asarray(w, float))),
+        )
+
+
+def measurement_lead_s(measurement: Any) -> float:
+    """How early a log's measured velocity sees a change of motion, s: half the window of a
+    pose derivative (:class:`robots.measurement.MeasurementModel` of kind ``"pose"``), else 0.
+
+    Examples
+    --------
+    >>> measurement_lead_s(None)
+    0.0
+    """
+    if getattr(measurement, "kind", None) != "pose":
+        return 0.0
+    return 0.5 * float(measurement.window_s)
+
+
+def _known(x: float) -> float:
+    return x if math.isfinite(x) else 0.0
+
+
+def speed_noise(
+    logs: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike, ArrayLike, ArrayLike]],
+    *,
+    fallback: SpeedNoise | None = None,
+    ahead_s: float = 0.0,
+) -> SpeedNoise:
+    r"""The :class:`SpeedNoise` of one or more logs of one odometry source.
+
+    Each axis's steady samples (:func:`steady_noise`'s stretches, under a non-zero command
+    held over :data:`STEADY_AFTER_S`, the axis's own command zero or not) give their
+    deviation from their stretch's median and that median's size as the speed. Sorted by
+    speed into bins of :data:`MIN_STEADY_SAMPLES`, the bins' robust variances are
+    :math:`\sigma_0^2 + r^2 \overline{s^2}` (:func:`variance_law`). What the log can tell:
+
+    - both parts, when it has two bins or more whose rms speeds spread by
+      :data:`SPEED_SPREAD`, the fastest at :data:`MOVING_SPEEDS` or more (e.g. an axis held
+      at zero while the other moves, whose speed counts as 0, and moving);
+    - the floor alone, when every steady sample holds the axis at zero (or moves it slower
+      than :data:`MOVING_SPEEDS`): the fraction is the fallback's (the fit logs', as the
+      per-motion rule takes them);
+    - one speed's noise alone (the axis moves at about one speed): the floor is the
+      fallback's (at most that noise) and the fraction the rest; with no fallback floor, the
+      constant noise it shows (fraction 0);
+    - nothing, with fewer than :data:`MIN_STEADY_SAMPLES` steady samples of the axis: the
+      fallback's parts (NaN without one).
+
+    Parameters
+    ----------
+    logs : sequence of (meas_t_s, cmd_v, cmd_w, meas_v, meas_w)
+        Per log and measurement: its time (s, increasing), the command held then (m/s,
+        rad/s), the measured v (m/s) and w (rad/s).
+    fallback : SpeedNoise, optional
+        The parts a log cannot tell (the fit logs' law: ``settings.measurement_noise``).
+    ahead_s : float
+        A steady sample also needs its command held this long after it, s: a velocity
+        derived from the pose over a centred window of width :math:`W` sees the next
+        command's motion :math:`W/2` early (:func:`measurement_lead_s`), which reads as noise.
+
+    Returns
+    -------
+    SpeedNoise
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 40.0, 0.1)
+    >>> spin = t >= 20.0  # drive straight at 0.3 m/s, then spin at 2 rad/s
+    >>> rng = np.random.default_rng(0)
+    >>> cmd_v, cmd_w = np.where(spin, 0.0, 0.3), np.where(spin, 2.0, 0.0)
+    >>> meas_w = cmd_w + rng.normal(0.0, np.hypot(0.005, 0.06 * cmd_w))
+    >>> law = speed_noise([(t, cmd_v, cmd_w, cmd_v, meas_w)])
+    >>> round(law.floor_w_radps, 3), round(law.fraction_w, 2), law.told[-2:]
+    (0.005, 0.06, ('floor_w_radps', 'fraction_w'))
+    """
+    axes: list[tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]] = [
+        ([], [], []),
+        ([], [], []),
+    ]
+    for meas_t_s, cmd_v, cmd_w, meas_v, meas_w in logs:
+        t = np.asarray(meas_t_s, dtype=np.float64)
+        cv, cw = np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
+        steady, ids = _steady(t, cv, cw, ahead_s)
+        for (devs, speeds, still), y, cmd in zip(axes, (meas_v, meas_w), (cv, cw), strict=True):
+            for held_at_zero in (False, True):
+                dev, level = _stretch_deviations(y, steady, ids, (cmd[steady] == 0) == held_at_zero)
+                devs.append(dev)
+                # an axis held at zero stands: its level's offset from 0 is no speed
+                speeds.append(0.0 * level if held_at_zero else np.abs(level))
+                still.append(np.full(dev.size, held_at_zero))
+    parts: dict[str, float] = {}
+    told: list[str] = []
+    counts = []
+    for (devs, speeds, still), floor_name, fraction_name, moving in zip(
+        axes, SPEED_NOISE_PARTS[::2], SPEED_NOISE_PARTS[1::2], MOVING_SPEEDS, strict=True
+    ):
+        dev, speed = np.concatenate(devs), np.concatenate(speeds)
+        known = (
+            (getattr(fallback, floor_name), getattr(fallback, fraction_name))
+            if fallback is not None
+            else (math.nan, math.nan)
+        )
+        (floor, fraction), shown = _axis_law(dev, speed, np.concatenate(still), known, moving)
+        parts[floor_name], parts[fraction_name] = floor, fraction
+        told += [name for name, own in zip((floor_name, fraction_name), shown, strict=True) if own]
+        counts.append(int(dev.size) if dev.size >= MIN_STEADY_SAMPLES else 0)
+    return SpeedNoise(**parts, n_v=counts[0], n_w=counts[1], told=tuple(told))
+
+
+def _axis_law(
+    dev: np.ndarray,
+    speed: np.ndarray,
+    still: np.ndarray,
+    fallback: tuple[float, float],
+    moving: float,
+) -> tuple[tuple[float, float], tuple[bool, bool]]:
+    """(floor, fraction) of one axis (:func:`speed_noise`'s rules) and which of the two the
+    deviations told; ``still`` marks the samples whose axis is held at zero, ``moving`` is
+    the axis's :data:`MOVING_SPEEDS`."""
+    if dev.size < MIN_STEADY_SAMPLES:
+        return fallback, (False, False)
+    bins = speed_bins(speed, MIN_STEADY_SAMPLES, classes=still)
+    rms = sorted(math.sqrt(float(np.mean(speed[b] ** 2))) for b in bins)
+    if len(bins) > 1 and rms[-1] >= moving and rms[-1] >= SPEED_SPREAD * rms[0]:
+        c0, c1 = variance_law(
+            dev, speed, bin_samples=MIN_STEADY_SAMPLES, classes=still, refine=True
+        )
+        return (math.sqrt(c0), math.sqrt(c1)), (True, True)
+    sd = robust_sd(dev)
+    if still.all() or rms[-1] < moving:  # the floor; the fraction is the fallback's
+        return (sd, fallback[1]), (True, False)
+    if not math.isfinite(fallback[0]):  # one speed, nothing to split it by: a constant
+        return (sd, 0.0), (False, False)
+    floor = min(fallback[0], sd)
+    s = math.sqrt(float(np.mean(speed**2)))
+    return (floor, math.sqrt(sd**2 - floor**2) / s), (False, True)
+
+
+def speed_bins(
+    speeds: ArrayLike, bin_samples: int, *, classes: ArrayLike | None = None
+) -> list[np.ndarray]:
+    """Indices of ``speeds`` in bins of consecutive speeds, ``bin_samples`` or more each (one
+    bin when there are fewer); with ``classes``, each class is binned on its own (no bin
+    mixes two: a robust variance of a mixture of two noises is neither's).
+
+    Examples
+    --------
+    >>> [b.tolist() for b in speed_bins([0.3, 0.0, 0.1, 0.2], 2)]
+    [[1, 2], [3, 0]]
+    >>> [b.tolist() for b in speed_bins([0.3, 0.0, 0.1, 0.2], 2, classes=[0, 0, 1, 1])]
+    [[1, 0], [2, 3]]
+    """
+    a = np.asarray(speeds, dtype=np.float64)
+    labels = np.zeros(a.size, dtype=np.int64) if classes is None else np.asarray(classes)
+    out: list[np.ndarray] = []
+    for label in np.unique(labels):
+        members = np.flatnonzero(labels == label)
+        order = members[np.argsort(a[members], kind="stable")]
+        out += np.array_split(order, max(order.size // bin_samples, 1))
+    return out
+
+
+def variance_law(
+    values: ArrayLike,
+    speeds: ArrayLike,
+    *,
+    bin_samples: int,
+    variance_floor: float = 0.0,
+    classes: ArrayLike | None = None,
+    refine: bool = False,
+) -> tuple[float, float]:
+    r"""The coefficients :math:`c_0, c_1` of :math:`\operatorname{var}(x) = c_0 + c_1 s^2`:
+    zero-mean ``values`` :math:`x` whose spread grows with ``speeds`` :math:`s` (a speed, or
+    any rate).
+
+    The values are sorted by :math:`s` into bins of ``bin_samples`` or more
+    (:func:`speed_bins`, per class of ``classes``); each bin's robust variance
+    (:func:`robust_sd` squared) is :math:`c_0 + c_1 \overline{s^2}`, fitted by non-negative
+    least squares in relative terms (a bin's variance is known to a relative error of about
+    one over the root of its size, and to no better than ``variance_floor``). One bin:
+    :math:`c_1 = 0`. NaN, NaN without values. Weighted by each bin's own variance, a bin that
+    reads low by chance weighs more, and the law comes out low (by ~15 % in :math:`c_1` at 30
+    samples a bin); ``refine`` weighs the bins by the law once fitted instead (two passes),
+    which removes that bias.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> s = rng.uniform(0.0, 3.0, 4000)
+    >>> c0, c1 = variance_law(rng.normal(0.0, np.hypot(0.01, 0.04 * s)), s, bin_samples=100)
+    >>> round(math.sqrt(c0), 3), round(math.sqrt(c1), 3)
+    (0.009, 0.039)
+    """
+    x = np.asarray(values, dtype=np.float64)
+    a = np.asarray(speeds, dtype=np.float64)
+    if x.size == 0:
+        return math.nan, math.nan
+    bins = speed_bins(a, bin_samples, classes=classes)
+    scale = np.array([robust_sd(x[b]) ** 2 for b in bins])
+    rows = np.array([[1.0, float(np.mean(a[b] ** 2))] for b in bins])
+    floor = max(variance_floor, 1e-6 * float(scale.max()))
+    if len(bins) == 1 or floor == 0.0:
+        return float(scale[0]), 0.0
+    sizes = np.sqrt([b.size for b in bins])
+    c = _nonnegative_lstsq(rows * (sizes / np.maximum(scale, floor))[:, None], scale * sizes
+                           / np.maximum(scale, floor))  # fmt: skip
+    for _ in range(2 if refine else 0):
+        weight = sizes / np.maximum(rows @ np.array(c), floor)
+        c = _nonnegative_lstsq(rows * weight[:, None], scale * weight)
+    return c
+
+
+def _nonnegative_lstsq(a: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """Least squares of two coefficients, both >= 0 (the exact non-negative solution).
+
+    The unconstrained solution where both are >= 0; otherwise the better of the two
+    one-coefficient fits (the other at 0), each clipped at 0: the optimum of a convex problem
+    with two bounds lies in one of those faces. numpy only, which keeps ``agree`` free of scipy.
+    """
+    x, *_ = np.linalg.lstsq(a, y, rcond=None)
+    if x[0] >= 0.0 and x[1] >= 0.0:
+        return float(x[0]), float(x[1])
+    best = (0.0, 0.0)
+    best_cost = float(y @ y)
+    for j in (0, 1):
+        col = a[:, j]
+        norm = float(col @ col)
+        c = max(float(col @ y) / norm, 0.0) if norm > 0.0 else 0.0
+        cost = float(np.sum((y - c * col) ** 2))
+        if cost < best_cost:
+            best, best_cost = ((c, 0.0) if j == 0 else (0.0, c)), cost
+    return best

@@ -57,12 +57,16 @@ from sysid.hfnoise import highfreq_noise, log_pose
 from sysid.metrics import active_mask
 from sysid.steady import (
     MIN_STEADY_SAMPLES,
+    SPEED_NOISE_PARTS,
     STEADY_AFTER_S,
+    SpeedNoise,
     SteadyNoise,
     held_at_zero_noise,
+    measurement_lead_s,
     motion_noise,
-    robust_sd,
+    speed_noise,
     steady_noise,
+    variance_law,
 )
 
 if TYPE_CHECKING:
@@ -83,12 +87,14 @@ __all__ = [
     "band_noise",
     "band_sample_noise",
     "fit_model_share",
+    "fit_speed_noise",
     "log_noise",
     "motion_ceiling",
     "noise_ceiling",
     "noise_note",
     "replay_rate",
     "session_latency",
+    "speed_noise_note",
 ]
 
 #: JSON keys of ``sim2real agree --json`` with a params file (after the band's keys):
@@ -202,24 +208,27 @@ def noise_ceiling(
     )
 
 
-#: The sd fields of a :class:`SteadyNoise`, and what the ceiling's note says of a NaN one.
-_SDS = ("std_v_mps", "std_w_radps")
-_NAN_NOTE = " (nan: too few samples to tell, the pooled noise stands in)"
-
-
 def motion_ceiling(
-    trace: TraceLike, noise: ObservationNoise, *, tol_v: float, tol_w: float, level: float = 0.9
+    trace: TraceLike,
+    noise: ObservationNoise,
+    *,
+    tol_v: float,
+    tol_w: float,
+    level: float = 0.9,
+    fallback: SpeedNoise | None = None,
 ) -> NoiseCeiling:
-    """:func:`noise_ceiling` with each scored sample's noise of its own motion.
+    """:func:`noise_ceiling` with each scored sample's noise at its own speed.
 
     The agreement is scored on the active samples (:func:`sysid.metrics.active_mask`), and
-    an axis that moves reads more noise than one held at zero (:func:`sysid.steady.
-    motion_noise`): pooled over both, the noise of a log that spins in place as often as it
-    drives is the spinning's. So each active sample gets, per axis, the log's own noise of
-    the stretches whose command on that axis is zero or not, like its own (``noise``'s where
-    the log cannot tell that class), and the ceiling is the mean over the active samples of
-    the product of the two axes' chances. The noise-only band and the sds stay ``noise``'s;
-    the note gives the four noises.
+    odometry reads more noise the faster its axis moves (:class:`sysid.steady.SpeedNoise`: a
+    velocity differenced from a pose over jittery stamps is off by a share of the speed; an
+    axis held at zero reads its floor). So each active sample gets, per axis, the log's own
+    noise law (:func:`sysid.steady.speed_noise`, its steady samples clear of the next command
+    by the lead of a pose derivative's window) at its measured speed, and the ceiling is the
+    mean over the active samples of the product of the two axes' chances. A part of the law
+    the log cannot tell is ``fallback``'s (the fit logs' law, :func:`fit_speed_noise`), else
+    the constant ``noise``. The noise-only band and the sds stay ``noise``'s; the note gives
+    the law and whose each part is.
 
     Examples
     --------
@@ -231,35 +240,82 @@ def motion_ceiling(
     active = active_mask(cmd_v, cmd_w, meas_v, meas_w, tol_v=tol_v, tol_w=tol_w)
     if not active.any():
         return pooled
-    moving, still = motion_noise(trace.meas_t_s, cmd_v, cmd_w, meas_v, meas_w)
-    chances = []
-    for cmd, tol, quantum, field, fallback in (
-        (cmd_v, tol_v, noise.quantum_v_mps, "std_v_mps", noise.std_v_mps),
-        (cmd_w, tol_w, noise.quantum_w_radps, "std_w_radps", noise.std_w_radps),
-    ):
-        chance = {}
-        for moves, own in ((True, moving), (False, still)):
-            sd = getattr(own, field)
-            sd = math.hypot(fallback if math.isnan(sd) else sd, quantum / math.sqrt(12.0))
-            chance[moves] = _within_prob(tol, sd)
-        chances.append(np.where(np.asarray(cmd)[active] != 0, chance[True], chance[False]))
-    a_v, a_w = chances
+    law = speed_noise(
+        [(trace.meas_t_s, cmd_v, cmd_w, meas_v, meas_w)],
+        fallback=fallback,
+        ahead_s=measurement_lead_s(getattr(trace, "measurement", None)),
+    )
+    law = replace(
+        law,
+        floor_v_mps=_known(law.floor_v_mps, noise.std_v_mps),
+        floor_w_radps=_known(law.floor_w_radps, noise.std_w_radps),
+    )
+    sd_v, sd_w = law.std_at(np.asarray(meas_v)[active], np.asarray(meas_w)[active])
+    a_v = _within(tol_v, np.hypot(sd_v, noise.quantum_v_mps / math.sqrt(12.0)))
+    a_w = _within(tol_w, np.hypot(sd_w, noise.quantum_w_radps / math.sqrt(12.0)))
     return replace(
         pooled,
         agreement=float(np.mean(a_v * a_w)),
         agreement_v=float(np.mean(a_v)),
         agreement_w=float(np.mean(a_w)),
-        note=(
-            "the noise ceiling takes each scored sample's noise of its own motion: v "
-            f"{moving.std_v_mps:.3g} m/s while driving, {still.std_v_mps:.3g} while not; w "
-            f"{moving.std_w_radps:.3g} rad/s while turning, {still.std_w_radps:.3g} while not"
-            + (
-                _NAN_NOTE
-                if any(math.isnan(getattr(n, f)) for n in (moving, still) for f in _SDS)
-                else ""
-            )
-        ),
+        note=speed_noise_note(law),
     )
+
+
+def _within(tol: float, sd: FloatArray) -> FloatArray:
+    """P(|e| < tol) of zero-mean Gaussian errors of sd ``sd`` (1 where sd is 0)."""
+    out: FloatArray = np.vectorize(_within_prob, otypes=[np.float64])(tol, sd)
+    return out
+
+
+def speed_noise_note(law: SpeedNoise) -> str:
+    """One sentence: the noise law the ceiling takes, and which parts are the log's own.
+
+    Examples
+    --------
+    >>> from sysid.steady import SpeedNoise
+    >>> law = SpeedNoise(floor_v_mps=0.001, fraction_v=0.05, floor_w_radps=0.005,
+    ...                  fraction_w=0.06, told=("floor_w_radps",))
+    >>> speed_noise_note(law)[-106:]
+    "0.005 rad/s + 6 % of |w| (this log's own: the floor of w; the others the fit logs', else its pooled noise)"
+    """
+    own = {"floor_v_mps": "the floor of v", "fraction_v": "the share of |v|",
+           "floor_w_radps": "the floor of w", "fraction_w": "the share of |w|"}  # fmt: skip
+    told = [own[k] for k in law.told] or ["none"]
+    return (
+        "the noise ceiling takes each scored sample's odometry noise at its own speed: v "
+        f"{law.floor_v_mps:.3g} m/s + {100 * _known(law.fraction_v, 0.0):.3g} % of |v|, w "
+        f"{law.floor_w_radps:.3g} rad/s + {100 * _known(law.fraction_w, 0.0):.3g} % of |w| "
+        f"(this log's own: {', '.join(told)}; the others the fit logs', else its pooled noise)"
+    )
+
+
+def fit_speed_noise(settings: Any) -> SpeedNoise | None:
+    """The fit logs' :class:`sysid.steady.SpeedNoise` a params file records
+    (``settings.measurement_noise``: the parts its logs told, NaN for the others); None
+    without any.
+
+    Examples
+    --------
+    >>> law = fit_speed_noise({"measurement_noise": {"std_v_mps": 0.01, "fraction_w": 0.06}})
+    >>> law.fraction_w, law.floor_w_radps
+    (0.06, nan)
+    """
+    block = settings.get("measurement_noise") if isinstance(settings, Mapping) else None
+    if not isinstance(block, Mapping):
+        return None
+    floor_v, fraction_v, floor_w, fraction_w = (_part(block.get(k)) for k in SPEED_NOISE_PARTS)
+    if all(math.isnan(x) for x in (floor_v, fraction_v, floor_w, fraction_w)):
+        return None
+    return SpeedNoise(
+        floor_v_mps=floor_v, fraction_v=fraction_v, floor_w_radps=floor_w, fraction_w=fraction_w
+    )
+
+
+def _part(x: Any) -> float:
+    """``x`` when it is a finite number >= 0, else NaN."""
+    ok = not isinstance(x, bool) and isinstance(x, int | float) and math.isfinite(x) and x >= 0
+    return float(x) if ok else math.nan
 
 
 def log_noise(trace: TraceLike) -> SteadyNoise:
@@ -398,44 +454,13 @@ def fit_model_share(
     (0.007, 0.039)
     """
     r = np.asarray(residuals, dtype=np.float64)
-    a = np.asarray(rates, dtype=np.float64)
     if r.size == 0 or not math.isfinite(measurement_std):
         return math.nan, math.nan
-    bins = np.array_split(np.argsort(a, kind="stable"), max(r.size // SHARE_BIN_SAMPLES, 1))
-    scale = np.array([robust_sd(r[b]) ** 2 for b in bins])
-    rows = np.array([[1.0, float(np.mean(a[b] ** 2))] for b in bins])
-    # each bin's robust variance is known to a relative error ~ 1 / sqrt(its size), and to
-    # no better than the measurement's variance (a bin of exact replays has a MAD of 0)
-    floor = max(measurement_std**2, 1e-6 * float(scale.max()))
-    if len(bins) == 1 or floor == 0.0:
-        c0, tau2 = float(scale[0]), 0.0
-    else:
-        weight = np.sqrt([b.size for b in bins]) / np.maximum(scale, floor)
-        c0, tau2 = _nonnegative_lstsq(rows * weight[:, None], scale * weight)
-    c0 = max(float(c0), at_least**2)
-    return math.sqrt(max(c0 - measurement_std**2, 0.0)), math.sqrt(float(tau2))
-
-
-def _nonnegative_lstsq(a: FloatArray, y: FloatArray) -> tuple[float, float]:
-    """Least squares of two coefficients, both >= 0 (the exact non-negative solution).
-
-    The unconstrained solution where both are >= 0; otherwise the better of the two
-    one-coefficient fits (the other at 0), each clipped at 0: the optimum of a convex problem
-    with two bounds lies in one of those faces. numpy only, which keeps ``agree`` free of scipy.
-    """
-    x, *_ = np.linalg.lstsq(a, y, rcond=None)
-    if x[0] >= 0.0 and x[1] >= 0.0:
-        return float(x[0]), float(x[1])
-    best = (0.0, 0.0)
-    best_cost = float(y @ y)
-    for j in (0, 1):
-        col = a[:, j]
-        norm = float(col @ col)
-        c = max(float(col @ y) / norm, 0.0) if norm > 0.0 else 0.0
-        cost = float(np.sum((y - c * col) ** 2))
-        if cost < best_cost:
-            best, best_cost = ((c, 0.0) if j == 0 else (0.0, c)), cost
-    return best
+    c0, tau2 = variance_law(
+        r, rates, bin_samples=SHARE_BIN_SAMPLES, variance_floor=measurement_std**2
+    )
+    c0 = max(c0, at_least**2)
+    return math.sqrt(max(c0 - measurement_std**2, 0.0)), math.sqrt(tau2)
 
 
 @dataclass(frozen=True, kw_only=True)

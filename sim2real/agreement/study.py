@@ -49,6 +49,7 @@ from sim2real.agreement.latency import (
     NoiseCeiling,
     SessionLatency,
     band_sample_noise,
+    fit_speed_noise,
     log_noise,
     motion_ceiling,
     noise_ceiling,
@@ -467,7 +468,12 @@ def _reference_figures(
     if noise is None:  # no noise model and too few steady samples: no ceiling
         return latency, None
     tols = {"tol_v": config.tol_v, "tol_w": config.tol_w, "level": config.band_level}
-    ceiling = motion_ceiling(trace, noise, **tols) if own.measured else noise_ceiling(noise, **tols)
+    law = fit_speed_noise(params_file.document.get("settings"))
+    ceiling = (
+        motion_ceiling(trace, noise, **tols, fallback=law)
+        if own.measured
+        else noise_ceiling(noise, **tols)
+    )
     note = "; ".join(n for n in (noise_note(own, fit), ceiling.note) if n)
     return latency, replace(ceiling, note=note)
 
