@@ -69,7 +69,9 @@ def test_agree_judges_by_the_checked_logs_noise_not_the_fits(
         tol_w=0.1,
     )
     assert figures["noise_std_v_mps"] == pytest.approx(0.012, rel=0.15)
-    assert figures["noise_ceiling"] == pytest.approx(expected.agreement)
+    # the log's own noise law at each sample's speed (sysid.steady.speed_noise): on white
+    # noise of one sd its estimate stays within 0.015 of the constant's (the fit's: ~1.0)
+    assert figures["noise_ceiling"] == pytest.approx(expected.agreement, abs=0.015)
     assert figures["noise_band_width_w_radps"] == pytest.approx(expected.band_width_w_radps)
     assert figures["noise_band_width_v_mps"] > 3 * 3.29 * 0.003  # not the fit's 0.003 m/s
     note = figures["notes"][-1]
