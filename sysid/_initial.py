@@ -37,6 +37,7 @@ from sysid._excitation import held_command
 from sysid._logs import LogArrays, crop_log
 from sysid._problem import Problem
 from sysid.metrics import xcorr_lag_s
+from sysid.steady import difference_sd, robust_sd
 
 __all__ = ["busiest_window", "initial_coords", "spike_mask"]
 
@@ -57,7 +58,7 @@ def spike_mask(x: FloatArray, floor: float) -> BoolArray:
     if x.size < 5:
         return np.zeros(x.shape, dtype=bool)
     dev = x - median_filter(x, size=5, mode="nearest")
-    sigma = 1.4826 * float(np.median(np.abs(dev))) + 1e-12
+    sigma = robust_sd(dev, about=0.0) + 1e-12
     mask: BoolArray = np.abs(dev) > max(8.0 * sigma, floor)
     return mask
 
@@ -117,8 +118,7 @@ def _rts_kernel(
 def _rts(t: FloatArray, z: FloatArray, good: BoolArray) -> tuple[FloatArray, FloatArray]:
     """Smoothed value and derivative of ``z``: Kalman filter and RTS smoother of a
     constant-acceleration model (Rauch, Tung & Striebel 1965) with irregular sample times."""
-    dev = np.diff(z[good])
-    sigma = max(1.4826 * float(np.median(np.abs(dev))) / math.sqrt(2.0), 1e-4)
+    sigma = max(difference_sd(z[good]), 1e-4)
     span = float(np.ptp(z[good])) or 1.0
     q = span**2 / 0.1**3  # jerk intensity of a step of size `span` through a 0.1 s lag
     dts = np.maximum(np.diff(t, prepend=t[0]), 1e-4)

@@ -34,6 +34,7 @@ from sysid._excitation import Excitation
 from sysid._initial import busiest_window, initial_coords
 from sysid._logs import LogArrays, crop_log
 from sysid._problem import Problem
+from sysid.steady import robust_sd
 
 __all__ = [
     "FittedCoords",
@@ -297,7 +298,7 @@ def noise_scale(prob: Problem, f: FloatArray, n_params: int) -> tuple[float, flo
     n = f.size
     g = f[~(prob.quantised & (f == 0.0))]
     g = g if g.size >= n_params + 2 else f
-    s2 = (1.4826 * float(np.median(np.abs(g - np.median(g))))) ** 2 * n / max(n - n_params, 1)
+    s2 = robust_sd(g) ** 2 * n / max(n - n_params, 1)
     taus = [_autocorr_time(f[rows]) for rows in (prob.rows["v"], prob.rows["w"]) if rows.size]
     c = float(np.clip(np.mean(taus) if taus else 1.0, 1.0, 200.0))
     return max(s2, 1e-12), c
@@ -763,7 +764,7 @@ def _timing_floor(prob: Problem, z: FloatArray, cov: FloatArray, cov_u: FloatArr
     for g in prob.logs:
         d = np.diff(g.meas_t_s)
         if d.size > 3:
-            jitter.append(1.4826 * float(np.median(np.abs(d - np.median(d)))))
+            jitter.append(robust_sd(d))
     floor = prob.dt_s**2 / 12.0 + 0.5 * float(np.mean(jitter) if jitter else 0.0) ** 2
     cov[j, j] += floor
     cov_u[j, j] += floor

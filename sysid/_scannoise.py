@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.arrays import BoolArray, FloatArray
+from sysid.steady import robust_sd
 
 __all__ = ["PairResiduals", "pair_residuals"]
 
@@ -99,7 +100,7 @@ class _Compare:
         for _ in range(_REFINE_STEPS):
             _, d, f = self.residuals(k, (p[0], p[1], p[2]))
             z = d / np.sqrt(f)
-            w = np.where(np.abs(z) <= 3.0 * 1.4826 * float(np.median(np.abs(z))), 1.0 / f, 0.0)
+            w = np.where(np.abs(z) <= 3.0 * robust_sd(z, about=0.0), 1.0 / f, 0.0)
             jac = np.empty((d.size, 3))
             for c in range(3):
                 q = p.copy()

@@ -20,6 +20,7 @@ from sysid._logs import LogArrays
 from sysid._map import FittedCoords
 from sysid._problem import Problem
 from sysid.result import ParameterEstimate
+from sysid.steady import robust_sd
 
 __all__ = [
     "Z95",
@@ -309,7 +310,7 @@ def estimate_noise(
     """
 
     def mad(r: FloatArray) -> float:
-        return float(1.4826 * np.median(np.abs(r - np.median(r)))) if r.size else 0.0
+        return robust_sd(r) if r.size else 0.0
 
     active = _active(logs)
     if active.size == residuals_v.size and int(active.sum()) >= 20:

@@ -68,18 +68,12 @@ from numpy.typing import ArrayLike
 
 from robots.arrays import BoolArray, FloatArray
 from robots.measurement import MeasurementModel
-from sysid.steady import MIN_STEADY_SAMPLES, SteadyNoise
+from sysid.steady import MIN_STEADY_SAMPLES, SteadyNoise, robust_sd
 
 __all__ = ["HIGHFREQ_METHOD", "highfreq_noise", "log_pose"]
 
 #: :attr:`sysid.steady.SteadyNoise.method` of an estimate made by :func:`highfreq_noise`.
 HIGHFREQ_METHOD = "high-frequency"
-_MAD_TO_SD = 1.4826
-
-
-def _robust_var(r: FloatArray) -> float:
-    """The robust variance (MAD about the median, scaled to a Gaussian's sd, squared)."""
-    return float((_MAD_TO_SD * np.median(np.abs(r - np.median(r)))) ** 2)
 
 
 def _chord_residuals(t: FloatArray, z: FloatArray, step: int) -> FloatArray:
@@ -102,7 +96,7 @@ def _noise_var(t: FloatArray, z: FloatArray, moving: BoolArray) -> tuple[float, 
         res = _chord_residuals(t, z, step)[ok]
         if res.size < MIN_STEADY_SAMPLES:
             return math.nan, int(res.size)
-        variances.append(_robust_var(res))
+        variances.append(robust_sd(res) ** 2)
         counts.append(int(res.size))
     r1, r2 = variances
     return min(max((16.0 * r1 - r2) / 15.0, 0.0), r1), counts[0]

@@ -87,6 +87,7 @@ from sysid._scanmatch import (
 )
 from sysid._scannoise import PairResiduals, pair_residuals
 from sysid.errors import ExcitationError, ResultFileError, SysidValueError
+from sysid.steady import robust_sd
 
 __all__ = [
     "FORMAT",
@@ -785,13 +786,13 @@ def _gate(rho: FloatArray, z: FloatArray) -> BoolArray:
     deviations of zero, judged per range bin: a return that hit another surface is left out."""
     edges = np.quantile(rho, np.linspace(0.0, 1.0, _GATE_BINS + 1))
     which = np.clip(np.searchsorted(edges, rho, side="right") - 1, 0, _GATE_BINS - 1)
-    scale = np.array(
+    sd = np.array(
         [
-            float(np.median(np.abs(z[which == b]))) if (which == b).any() else 0.0
+            robust_sd(z[which == b], about=0.0) if (which == b).any() else 0.0
             for b in range(_GATE_BINS)
         ]
     )
-    return np.abs(z) <= _GATE_SIGMAS * 1.4826 * scale[which]
+    return np.abs(z) <= _GATE_SIGMAS * sd[which]
 
 
 def _moving_noise(pairs: _Pairs, n_boot: int, rng: np.random.Generator) -> _MovingResult | None:
@@ -1003,8 +1004,7 @@ def _timing(
     grid, inc, w = _offset_curve(pairs, odoms)
     off, scale = _best_offset(grid, inc, pairs.dth, w)
     resid = pairs.dth - scale * inc[int(np.argmin(np.abs(grid - off)))]
-    mad = float(np.median(np.abs(resid - np.median(resid)))) * 1.4826
-    w = (np.abs(resid) <= max(6.0 * mad, 1e-3)).astype(np.float64)
+    w = (np.abs(resid) <= max(6.0 * robust_sd(resid), 1e-3)).astype(np.float64)
     off, scale = _best_offset(grid, inc, pairs.dth, w)
     accel = np.diff(inc[int(np.argmin(np.abs(grid)))]) if pairs.t0.size > 1 else np.zeros(0)
     turning = bool(np.sum(np.abs(accel) > 0.02) >= 5)

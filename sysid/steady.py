@@ -38,6 +38,7 @@ __all__ = [
     "STEADY_AFTER_S",
     "SpeedNoise",
     "SteadyNoise",
+    "difference_sd",
     "held_at_zero_noise",
     "measurement_lead_s",
     "motion_noise",
@@ -201,19 +202,37 @@ def motion_noise(
     return out[0], out[1]
 
 
-def robust_sd(x: ArrayLike) -> float:
+def robust_sd(x: ArrayLike, *, about: float | None = None) -> float:
     """The sd of Gaussian samples estimated robustly: 1.4826 x the median absolute deviation
-    from the median (NaN for no samples).
+    from the median, or from ``about`` when given (e.g. 0 for residuals centred on zero by
+    construction); NaN for no samples.
 
     Examples
     --------
     >>> round(robust_sd(np.random.default_rng(0).normal(0.0, 0.02, 10_000)), 3)
     0.02
+    >>> robust_sd([1.0, 2.0, 4.0]), robust_sd([1.0, 2.0, 4.0], about=0.0)
+    (1.4826, 2.9652)
     """
     a = np.asarray(x, dtype=np.float64)
     if a.size == 0:
         return math.nan
-    return float(1.4826 * np.median(np.abs(a - np.median(a))))
+    centre = np.median(a) if about is None else about
+    return float(1.4826 * np.median(np.abs(a - centre)))
+
+
+def difference_sd(x: ArrayLike) -> float:
+    """The sd of white noise on a signal that changes slowly between samples, from its first
+    differences: :func:`robust_sd` of the differences about zero over :math:`\\sqrt 2` (a step
+    or a ramp moves few differences, so the median ignores it); NaN for fewer than 2 samples.
+
+    Examples
+    --------
+    >>> x = np.r_[np.zeros(500), np.ones(500)] + np.random.default_rng(0).normal(0, 0.01, 1000)
+    >>> round(difference_sd(x), 3)
+    0.01
+    """
+    return robust_sd(np.diff(np.asarray(x, dtype=np.float64)), about=0.0) / math.sqrt(2.0)
 
 
 def held_at_zero_noise(
@@ -242,9 +261,7 @@ def held_at_zero_noise(
     for y, cmd in ((meas_v, cv), (meas_w, cw)):
         held = np.asarray(y, dtype=np.float64)[steady & (cmd == 0)]
         n = int(held.size)
-        sds.append(
-            (1.4826 * float(np.median(np.abs(held))) if n >= MIN_STEADY_SAMPLES else math.nan, n)
-        )
+        sds.append((robust_sd(held, about=0.0) if n >= MIN_STEADY_SAMPLES else math.nan, n))
     (sd_v, n_v), (sd_w, n_w) = sds
     return SteadyNoise(std_v_mps=sd_v, std_w_radps=sd_w, n_samples=min(n_v, n_w))
 

@@ -101,6 +101,7 @@ from sysid.metrics import (
     rmse,
     xcorr_lag_s,
 )
+from sysid.steady import difference_sd
 
 __all__ = [
     "AGREEMENT_KEYS",
@@ -344,7 +345,7 @@ def _varies(
         return False, sim_varies
     floor = tol
     if above_noise:
-        floor = max(tol, 4.0 * 1.4826 * float(np.median(np.abs(np.diff(real)))) / math.sqrt(2))
+        floor = max(tol, 4.0 * difference_sd(real))
     spread = float(np.percentile(real, 97.5) - np.percentile(real, 2.5))
     return spread >= floor, sim_varies
 
