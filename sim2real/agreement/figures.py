@@ -81,7 +81,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -134,30 +134,8 @@ __all__ = [
     "since_command_step_s",
 ]
 
-
 #: Largest ensemble (``--ensemble``): each member is one full replay of the log.
 MAX_ENSEMBLE = 10_000
-
-#: The keys of :meth:`AgreementReport.to_dict` (and of ``sim2real agree --json``), in order.
-AGREEMENT_KEYS: tuple[str, ...] = (
-    "agreement",
-    "agreement_v",
-    "agreement_w",
-    "fit_percent_v",
-    "fit_percent_w",
-    "rmse_v",
-    "rmse_w",
-    "lag_s_v",
-    "lag_s_w",
-    "n_samples",
-    "n_active",
-    "tol_v",
-    "tol_w",
-    "robot",
-    "params_file",
-    "log_file",
-    "log_sha256",
-)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -215,6 +193,13 @@ class AgreementReport:
                 value = None
             out[name] = value
         return out
+
+
+#: The keys of :meth:`AgreementReport.to_dict` (and of ``sim2real agree --json``), in order:
+#: the report's fields but its odometry window.
+AGREEMENT_KEYS: tuple[str, ...] = tuple(
+    f.name for f in fields(AgreementReport) if f.name != "odom_v_window_s"
+)
 
 
 def check_tolerances(tol_v: float, tol_w: float) -> None:
