@@ -74,7 +74,7 @@ _CHI2_OBVIOUS = 1e4
 #: Evaluation cap of the re-balancing pass when the residual scale moved a lot.
 _REBALANCE_NFEV = 5
 #: Skid steer: starts of log(track_factor) tried besides the spec's, in prior sds (see
-#: :func:`_track_fit`).
+#: :func:`_map_point`).
 _TRACK_RESTARTS_SD = (-1.0, 1.0)
 #: Skid steer: at most this many rounds of re-balancing the prior weight on the candidate
 #: fits (:func:`_final_choice`; one suffices on the skid plant's logs).
@@ -442,27 +442,30 @@ def _optimise(
     return res, first.status != 0
 
 
-def _track_fit(
+def _map_point(
     prob: Problem,
     x0: FloatArray,
     extra: Sequence[FloatArray],
     solve: Callable[[Problem, FloatArray, int], Any],
     nfev: int,
     notes: list[str],
-) -> tuple[Any, bool, bool]:
-    """Skid steer: fit from the spec's starts and with the track factor one prior sd below
-    and above, then keep the candidate with the lowest negative log posterior of the final
-    objective (:func:`_final_choice`).
+) -> tuple[Any, bool, str]:
+    """The optimiser's result from ``x0`` and the ``extra`` starts, whether its last pass
+    converged and its message.
+
+    A skid steer (``track_factor`` free) is also fitted with the track factor one prior sd
+    below and above, and the candidate with the lowest negative log posterior of the final
+    objective is kept (:func:`_final_choice`).
 
     The effective track trades against the yaw friction, the wheel loops' droop and the torque
     cap (the yaw-loop gain is :math:`K L \\chi L/(2r^2)`), and the trust region can end in a
     basin of twice the cost from a start that is close to the answer (seen on teleop logs of a
     Husky-like skid-steer plant with tyre forces, not this model). Differential drives (chi
-    fixed) do not come here.
-
-    Returns the result, whether its last pass converged and whether the prior weight was
-    re-balanced.
+    fixed) take the plain starts.
     """
+    if "track_factor" not in prob.free:
+        res, converged = _optimise(prob, x0, solve, nfev, extra)
+        return res, converged, str(res.message)
     j = prob.free.index("track_factor")
     prior = prob.mapper.prior("track_factor")
     sd = prior[1] if prior is not None and prior[1] > 0 else 0.3
@@ -493,7 +496,10 @@ def _track_fit(
             f"{own:.4g}); a start one prior sd away reached cost {float(res.cost):.4g}"
             f" (track_factor {math.exp(float(res.x[j])):.3g}), which is kept"
         )
-    return res, res.status != 0, rebalanced
+    message = str(res.message)
+    if rebalanced:
+        message += " (the prior weight re-balanced at the solution, the candidates re-solved)"
+    return res, res.status != 0, message
 
 
 def _final_choice(
@@ -842,26 +848,6 @@ def map_fit(
         steps=prob.n_steps,
         coupled=exc.coupled,
     )
-
-
-def _map_point(
-    prob: Problem,
-    x0: FloatArray,
-    extra: list[FloatArray],
-    solve: Callable[[Problem, FloatArray, int], Any],
-    max_nfev: int,
-    notes: list[str],
-) -> tuple[Any, bool, str]:
-    """The optimiser's result from ``x0`` and the ``extra`` starts (a skid steer's track-factor
-    restarts too), whether it converged and its message."""
-    if "track_factor" in prob.free:
-        res, converged, rebalanced = _track_fit(prob, x0, extra, solve, max_nfev, notes)
-    else:
-        (res, converged), rebalanced = _optimise(prob, x0, solve, max_nfev, extra), False
-    message = str(res.message)
-    if rebalanced:
-        message += " (the prior weight re-balanced at the solution, the candidates re-solved)"
-    return res, converged, message
 
 
 def _robust_jacobian(
