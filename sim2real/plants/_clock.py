@@ -1,5 +1,5 @@
-"""What every plant shares: its parameters' sign check, the command arrays checked, the
-firmware's control tick and the odometry clock."""
+"""What every plant shares: its parameters' sign check, the command arrays checked, their
+arrival at the firmware, the firmware's control tick and the odometry clock."""
 
 from __future__ import annotations
 
@@ -14,7 +14,13 @@ import numpy as np
 from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 
-__all__ = ["check_commands", "firmware_tick", "negative_field", "odometry_clock"]
+__all__ = [
+    "check_commands",
+    "command_arrivals",
+    "firmware_tick",
+    "negative_field",
+    "odometry_clock",
+]
 
 
 def negative_field(params: Any, *, text: tuple[str, ...] = ()) -> tuple[str, Any] | None:
@@ -64,6 +70,27 @@ def check_commands(
             f"sizes {t.size}, {cv.size}, {cw.size}"
         )
     return t, cv, cw
+
+
+def command_arrivals(
+    rng: np.random.Generator,
+    cmd_t_s: FloatArray,
+    latency_s: float,
+    jitter_s: float,
+    *,
+    floor_s: float,
+) -> FloatArray:
+    """When each command reaches the firmware, s: its time plus its own latency, ``latency_s``
+    plus ``jitter_s`` times a normal draw from ``rng`` (one per command), at least ``floor_s``;
+    the order is kept (one serial link).
+
+    Examples
+    --------
+    >>> command_arrivals(np.random.default_rng(0), np.array([0.0, 0.1]), 0.05, 0.0, floor_s=0.0)
+    array([0.05, 0.15])
+    """
+    lat = np.maximum(latency_s + jitter_s * rng.standard_normal(cmd_t_s.size), floor_s)
+    return np.maximum.accumulate(cmd_t_s + lat)
 
 
 def odometry_clock(

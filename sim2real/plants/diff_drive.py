@@ -64,6 +64,7 @@ from sim2real.logs import integrate_pose, write_trace
 from sim2real.logs.trace import Trace, TraceMeta
 from sim2real.plants._clock import (
     check_commands,
+    command_arrivals,
     firmware_tick,
     negative_field,
     odometry_clock,
@@ -700,12 +701,6 @@ class PlantRun:
     kept: NDArray[np.bool_]
 
 
-def _arrivals(p: PlantParams, t: FloatArray, rng: np.random.Generator) -> FloatArray:
-    """Per-message latency (mean + jitter, at least 2 ms); order kept (one serial link)."""
-    lat = np.maximum(p.latency_s + p.latency_jitter_s * rng.standard_normal(t.size), 0.002)
-    return np.maximum.accumulate(t + lat)
-
-
 def run_plant(
     params: PlantParams,
     cmd_t_s: Sequence[float] | FloatArray,
@@ -731,7 +726,7 @@ def run_plant(
     t, cv, cw = check_commands(cmd_t_s, cmd_v, cmd_w)
     if not np.all(np.isfinite(cv)) or not np.all(np.isfinite(cw)) or not duration_s > 0:
         raise Sim2RealValueError("commands must be finite and duration_s positive")
-    arrival = _arrivals(params, t, rng)
+    arrival = command_arrivals(rng, t, params.latency_s, params.latency_jitter_s, floor_s=0.002)
     period, ticks_t = odometry_clock(rng, params.odom_rate_hz, duration_s)
     out = np.zeros((ticks_t.size, 4))
     _kernel(

@@ -66,11 +66,12 @@ from sim2real.errors import Sim2RealValueError
 from sim2real.logs.trace import Trace, TraceMeta
 from sim2real.plants._clock import (
     check_commands,
+    command_arrivals,
     firmware_tick,
     negative_field,
     odometry_clock,
 )
-from sim2real.plants.diff_drive import command_profile
+from sim2real.plants.diff_drive import T0_NS, command_profile
 
 __all__ = [
     "CHI_RANGE",
@@ -85,7 +86,6 @@ __all__ = [
 ]
 
 _G = 9.81
-T0_NS = 1_700_000_000_000_000_000
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -456,8 +456,7 @@ def run_skid_plant(
     the encoder-v noise and the gyro noise.
     """
     t, cv, cw = check_commands(cmd_t_s, cmd_v, cmd_w)
-    lat = np.maximum(params.latency_s + params.latency_jitter_s * rng.standard_normal(t.size), 0)
-    arrival = np.maximum.accumulate(t + lat)
+    arrival = command_arrivals(rng, t, params.latency_s, params.latency_jitter_s, floor_s=0.0)
     _, ticks = odometry_clock(rng, params.odom_rate_hz, duration_s)
     out = _states(params, arrival, cv, cw, ticks)
     r = params.wheel_radius_m
