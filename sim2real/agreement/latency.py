@@ -88,6 +88,7 @@ __all__ = [
     "band_sample_noise",
     "fit_model_share",
     "fit_speed_noise",
+    "jitter_timing_s",
     "log_noise",
     "motion_ceiling",
     "noise_ceiling",
@@ -251,6 +252,11 @@ def motion_ceiling(
         floor_w_radps=_known(law.floor_w_radps, noise.std_w_radps),
     )
     sd_v, sd_w = law.std_at(np.asarray(meas_v)[active], np.asarray(meas_w)[active])
+    tau = jitter_timing_s(getattr(trace, "measurement", None))
+    if tau > 0.0:  # the stamp jitter's error where the velocity changes
+        t = trace.meas_t_s
+        sd_v = np.hypot(sd_v, tau * _known(law.fraction_v, 0.0) * replay_rate(t, meas_v)[active])
+        sd_w = np.hypot(sd_w, tau * _known(law.fraction_w, 0.0) * replay_rate(t, meas_w)[active])
     a_v = _within(tol_v, np.hypot(sd_v, noise.quantum_v_mps / math.sqrt(12.0)))
     a_w = _within(tol_w, np.hypot(sd_w, noise.quantum_w_radps / math.sqrt(12.0)))
     return replace(
@@ -260,6 +266,35 @@ def motion_ceiling(
         agreement_w=float(np.mean(a_w)),
         note=speed_noise_note(law),
     )
+
+
+def jitter_timing_s(measurement: Any) -> float:
+    r"""The timing scale of a pose derivative's error where the velocity changes, per unit of
+    its error share of the speed, s (0 for any other measurement).
+
+    A velocity fitted as the least-squares slope of the pose over a window of updates at
+    times :math:`u_j` about its centre, each pose taken :math:`\delta_j` off its stamp, is off
+    by :math:`\sum_j c_j\,s(t_j)\,\delta_j` with :math:`c_j = u_j / \sum u^2`. At a
+    steady speed that is :math:`s\,\sigma_\delta / \sqrt{\sum u^2}`: the share
+    :math:`r` of :class:`sysid.steady.SpeedNoise`. Where the speed changes at a rate
+    :math:`a`, it adds :math:`a\,\sigma_\delta \sqrt{\sum u^4} / \sum u^2 = r\,a\,\tau`,
+    :math:`\tau = \sqrt{\sum u^4 / \sum u^2}` over updates one period apart within the
+    window: the same jitter, with no further parameter.
+
+    Examples
+    --------
+    >>> from robots.measurement import MeasurementModel
+    >>> pose = MeasurementModel(kind="pose", window_s=0.75, update_period_s=0.15)
+    >>> round(jitter_timing_s(pose), 3)  # 5 updates: 1.84 periods
+    0.277
+    """
+    if getattr(measurement, "kind", None) != "pose":
+        return 0.0
+    period, half = float(measurement.update_period_s), 0.5 * float(measurement.window_s)
+    if not (period > 0.0 and half >= period):
+        return 0.0
+    u = period * np.arange(-int(half // period), int(half // period) + 1)
+    return math.sqrt(float(np.sum(u**4) / np.sum(u**2)))
 
 
 def _within(tol: float, sd: FloatArray) -> FloatArray:
