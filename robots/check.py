@@ -59,15 +59,6 @@ __all__ = [
     "ensure_spec_ok",
 ]
 
-#: Smallest allowed gap between the body and flat ground, m.
-MIN_CLEARANCE_M = 0.001
-#: Smallest allowed distance of the centre of mass from the support polygon's edges, m.
-MIN_COM_MARGIN_M = 0.005
-#: Allowed relative deviation of the driven speed from the commanded one.
-SPEED_TOLERANCE = 0.2
-_SETTLE_S = 0.25
-_DRIVE_S = 1.0
-
 
 @dataclass(frozen=True, kw_only=True)
 class CheckItem:
@@ -114,6 +105,11 @@ class SpecCheck:
 
 
 # ------------------------------------------------------------------------------- geometry
+
+#: Smallest allowed gap between the body and flat ground, m.
+MIN_CLEARANCE_M = 0.001
+#: Smallest allowed distance of the centre of mass from the support polygon's edges, m.
+MIN_COM_MARGIN_M = 0.005
 
 
 def _body_clearance(spec: RobotSpec) -> CheckItem:
@@ -205,6 +201,13 @@ def _com_support(spec: RobotSpec) -> CheckItem:
 
 
 # ------------------------------------------------------------------------------- drive test
+
+#: Allowed relative deviation of the driven speed from the commanded one.
+SPEED_TOLERANCE = 0.2
+#: Rest before the contact check, s.
+_SETTLE_S = 0.25
+#: Length of the forward and turn tests, s.
+_DRIVE_S = 1.0
 
 
 def _drive_items(spec: RobotSpec) -> list[CheckItem]:

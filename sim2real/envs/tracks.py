@@ -44,12 +44,6 @@ __all__ = ["TRACKS", "OccupancyGrid", "Track", "get_track", "occupancy_grid"]
 #: Track names.
 TRACKS = ("open", "curve", "cross", "circuit")
 
-WIDTH_M = 1.4
-_START_LEAD_M = 2.2  # corridor behind the start line (the start grid stands there)
-_END_LEAD_M = 0.6  # corridor beyond the goal line
-_ARC_STEP_RAD = math.radians(10.0)
-_WAYPOINT_STEP_M = 0.25
-
 
 @dataclass(frozen=True, kw_only=True)
 class Track:
@@ -130,6 +124,16 @@ class Track:
     def lane_path(self, offset_m: float) -> FloatArray:
         """The centre line shifted ``offset_m`` to the left (a racing lane), shape (N, 2)."""
         return np.asarray(self.centreline + offset_m * self.normals)
+
+
+# ------------------------------------------------------------------------ building the tracks
+
+#: Corridor width, m.
+WIDTH_M = 1.4
+_START_LEAD_M = 2.2  # corridor behind the start line (the start grid stands there)
+_END_LEAD_M = 0.6  # corridor beyond the goal line
+_ARC_STEP_RAD = math.radians(10.0)
+_WAYPOINT_STEP_M = 0.25
 
 
 class _Builder:
