@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -44,6 +45,9 @@ from sim2real.envs.pedestrians import _walk_kernel
 _arc_step = numba.njit(cache=True)(arc_step)
 
 __all__ = [
+    "Drives",
+    "Episodes",
+    "Readings",
     "crowd_clock",
     "finish_crowd_nav",
     "finish_random_map",
@@ -66,88 +70,156 @@ def history_rows(max_delay_s: float, substep_s: float) -> int:
     return max(256, math.ceil((max_delay_s + 1.0) / substep_s) + 64)
 
 
+class Drives(NamedTuple):
+    """The reduced drive models of a vector env's robots, row ``i`` for env ``i``: one kernel
+    argument.
+
+    Row ``i`` holds what :class:`robots.reduced.ReducedDrive` holds of env ``i``'s robot; the
+    split of a control step is :class:`sim2real.envs._robot.ReducedBackend`'s (the same for
+    every env). The kernels change the arrays in place.
+
+    Attributes
+    ----------
+    state : ndarray
+        (N, 6) ``[v, w, ref_v, ref_w, ir, il]``: m/s, rad/s, m/s, rad/s, rad, rad.
+    hist : ndarray
+        (N, rows, 3) command history: time (s), v (m/s), w (rad/s).
+    n_hist : ndarray
+        (N,) rows of ``hist`` in use (int64).
+    time_s : ndarray
+        (N,) drive clocks, s.
+    delay_s, timeout_s : ndarray
+        (N,) command delays and command time-outs, s.
+    packed : ndarray
+        (N, P) drive parameters as the drive kernel reads them (``ReducedDrive._packed``).
+    n_sub : int
+        Pose sub-steps per control step.
+    sub_s : float
+        One pose sub-step, s.
+    n_inner : int
+        Drive-model steps per pose sub-step.
+    inner_s : float
+        One drive-model step, s.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d = Drives(state=np.zeros((2, 6)), hist=np.zeros((2, 256, 3)),
+    ...            n_hist=np.zeros(2, np.int64), time_s=np.zeros(2), delay_s=np.zeros(2),
+    ...            timeout_s=np.full(2, 0.5), packed=np.zeros((2, 20)), n_sub=1, sub_s=0.1,
+    ...            n_inner=10, inner_s=0.01)
+    >>> d.state.shape
+    (2, 6)
+    """
+
+    state: FloatArray
+    hist: FloatArray
+    n_hist: IntArray
+    time_s: FloatArray
+    delay_s: FloatArray
+    timeout_s: FloatArray
+    packed: FloatArray
+    n_sub: int
+    sub_s: float
+    n_inner: int
+    inner_s: float
+
+
+class Readings(NamedTuple):
+    """What :func:`sense` gives of each env's robot (row ``i`` for env ``i``).
+
+    Attributes
+    ----------
+    ranges : ndarray
+        (N, beams) lidar ranges, m.
+    goal_polar : ndarray
+        (N, 2) goal distance (m) and bearing (rad) in the robot frame.
+    clearance : ndarray
+        (N,) gap between the robot's footprint disc and the nearest obstacle, m.
+    """
+
+    ranges: FloatArray
+    goal_polar: FloatArray
+    clearance: FloatArray
+
+
+class Episodes(NamedTuple):
+    """Each env's episode so far (row ``i`` for env ``i``) and when one ends.
+
+    Attributes
+    ----------
+    steps : ndarray
+        (N,) steps taken (int64).
+    vw_hist : ndarray
+        (N, max_steps + 1, 2) measured (v, w) after each step (row 0: the start), m/s, rad/s.
+    prev_goal : ndarray
+        (N,) goal distance after the previous step, m.
+    max_steps : int
+        Steps before a timeout.
+    goal_tol : float
+        Goal distance that counts as reached, m.
+    """
+
+    steps: IntArray
+    vw_hist: FloatArray
+    prev_goal: FloatArray
+    max_steps: int
+    goal_tol: float
+
+
 @numba.njit(cache=True)
-def _compact(
-    i: int, hist: FloatArray, n_hist: IntArray, time_s: float, delay_s: float
-) -> None:  # pragma: no cover - compiled
+def _compact(i: int, d: Drives) -> None:  # pragma: no cover - compiled
     """Forget env ``i``'s commands that can no longer act (ReducedDrive._compact_history)."""
-    n = n_hist[i]
-    horizon = time_s - delay_s - 1.0
-    first = max(np.searchsorted(hist[i, :n, 0], horizon, side="right") - 1, 0)
+    n = d.n_hist[i]
+    horizon = d.time_s[i] - d.delay_s[i] - 1.0
+    first = max(np.searchsorted(d.hist[i, :n, 0], horizon, side="right") - 1, 0)
     if first == 0:
         return
     kept = n - first
     for k in range(kept):
-        hist[i, k, 0] = hist[i, first + k, 0]
-        hist[i, k, 1] = hist[i, first + k, 1]
-        hist[i, k, 2] = hist[i, first + k, 2]
-    n_hist[i] = kept
+        d.hist[i, k, 0] = d.hist[i, first + k, 0]
+        d.hist[i, k, 1] = d.hist[i, first + k, 1]
+        d.hist[i, k, 2] = d.hist[i, first + k, 2]
+    d.n_hist[i] = kept
 
 
 @numba.njit(cache=True)
 def _drive_and_move(
-    i: int,
-    cmd_v: float,
-    cmd_w: float,
-    n_sub: int,
-    h: float,
-    n_inner: int,
-    dt_inner: float,
-    state: FloatArray,
-    hist: FloatArray,
-    n_hist: IntArray,
-    time_s: FloatArray,
-    delay_s: FloatArray,
-    timeout_s: FloatArray,
-    packed: FloatArray,
-    pose: FloatArray,
+    i: int, cmd_v: float, cmd_w: float, d: Drives, pose: FloatArray
 ) -> None:  # pragma: no cover - compiled
     """One control step of env ``i``'s robot: ReducedBackend.step, sub-step by sub-step."""
     x, y, yaw = pose[i, 0], pose[i, 1], pose[i, 2]
-    v0, w0 = state[i, 0], state[i, 1]
-    for _ in range(n_sub):
-        if n_hist[i] == hist.shape[1]:
-            _compact(i, hist, n_hist, time_s[i], delay_s[i])
-        k = n_hist[i]
-        hist[i, k, 0] = time_s[i]
-        hist[i, k, 1] = cmd_v
-        hist[i, k, 2] = cmd_w
-        n_hist[i] = k + 1
+    v0, w0 = d.state[i, 0], d.state[i, 1]
+    hist = d.hist[i]
+    for _ in range(d.n_sub):
+        if d.n_hist[i] == hist.shape[0]:
+            _compact(i, d)
+        k = d.n_hist[i]
+        hist[k, 0] = d.time_s[i]
+        hist[k, 1] = cmd_v
+        hist[k, 2] = cmd_w
+        d.n_hist[i] = k + 1
         _advance_history(
-            state[i],
-            hist[i],
+            d.state[i],
+            hist,
             k + 1,
-            time_s[i],
-            dt_inner,
-            n_inner,
-            delay_s[i],
-            timeout_s[i],
-            packed[i],
+            d.time_s[i],
+            d.inner_s,
+            d.n_inner,
+            d.delay_s[i],
+            d.timeout_s[i],
+            d.packed[i],
         )
-        time_s[i] += h
-        v1, w1 = state[i, 0], state[i, 1]
-        x, y, yaw = _arc_step(x, y, yaw, 0.5 * (v0 + v1), 0.5 * (w0 + w1), h)
+        d.time_s[i] += d.sub_s
+        v1, w1 = d.state[i, 0], d.state[i, 1]
+        x, y, yaw = _arc_step(x, y, yaw, 0.5 * (v0 + v1), 0.5 * (w0 + w1), d.sub_s)
         v0, w0 = v1, w1
     pose[i, 0], pose[i, 1], pose[i, 2] = x, y, yaw
 
 
 @numba.njit(cache=True)
 def move_robots(
-    active: np.ndarray,
-    cmd: FloatArray,
-    n_sub: int,
-    h: float,
-    n_inner: int,
-    dt_inner: float,
-    state: FloatArray,
-    hist: FloatArray,
-    n_hist: IntArray,
-    time_s: FloatArray,
-    delay_s: FloatArray,
-    timeout_s: FloatArray,
-    packed: FloatArray,
-    pose: FloatArray,
-    path_m: FloatArray,
+    active: np.ndarray, cmd: FloatArray, drives: Drives, pose: FloatArray, path_m: FloatArray
 ) -> None:  # pragma: no cover - compiled
     """One control step of the robots of the ``active`` envs; ``path_m`` grows by the distance.
 
@@ -157,23 +229,7 @@ def move_robots(
         if not active[i]:
             continue
         x0, y0 = pose[i, 0], pose[i, 1]
-        _drive_and_move(
-            i,
-            cmd[i, 0],
-            cmd[i, 1],
-            n_sub,
-            h,
-            n_inner,
-            dt_inner,
-            state,
-            hist,
-            n_hist,
-            time_s,
-            delay_s,
-            timeout_s,
-            packed,
-            pose,
-        )
+        _drive_and_move(i, cmd[i, 0], cmd[i, 1], drives, pose)
         path_m[i] += math.hypot(pose[i, 0] - x0, pose[i, 1] - y0)
 
 
@@ -215,19 +271,18 @@ def sense(
     n_segments: IntArray,
     goal: FloatArray,
     radius: float,
-    ranges: FloatArray,
-    goal_polar: FloatArray,
-    clearance: FloatArray,
+    out: Readings,
 ) -> None:  # pragma: no cover - compiled
     """Lidar, goal and clearance of the ``active`` envs' robots against their obstacles.
 
-    ``ranges`` (N, beams) gets the lidar (below ``range_min`` reads ``range_max``),
-    ``goal_polar`` (N, 2) the goal distance and bearing, ``clearance`` (N,) the gap between
-    the footprint disc and the nearest obstacle. The rays are cast against the obstacles
+    ``out.ranges`` gets the lidar (below ``range_min`` reads ``range_max``), ``out.goal_polar``
+    the goal distance and bearing, ``out.clearance`` the gap between the footprint disc and
+    the nearest obstacle (:class:`Readings`). The rays are cast against the obstacles
     within the lidar's range only (the others cannot change a reading: each hit lies at least
     as far as the obstacle), each only along the beams under which it is seen
     (:func:`~sim2real.envs.geometry.cast_beams`), which gives the same numbers as casting every ray against all.
     """
+    ranges, goal_polar, clearance = out
     lx, ly = lidar_xy[0], lidar_xy[1]
     offset = math.hypot(lx, ly)
     reach = range_max + _CULL_MARGIN_M
@@ -283,26 +338,20 @@ def sense(
 
 @numba.njit(cache=True, inline="always")
 def _count_step(
-    i: int,
-    state: FloatArray,
-    steps: IntArray,
-    vw_hist: FloatArray,
-    clearance_m: float,
-    goal_dist_m: float,
-    goal_tol: float,
-    max_steps: int,
+    i: int, state: FloatArray, episodes: Episodes, clearance_m: float, goal_dist_m: float
 ) -> int:  # pragma: no cover - compiled
     """Count env ``i``'s step, record its (v, w) for the episode metrics and return its
     outcome: 1 collision (no clearance left), 2 success (within ``goal_tol`` of the goal),
     3 timeout (``max_steps`` reached), else 0 (running)."""
+    steps, vw_hist = episodes.steps, episodes.vw_hist
     steps[i] += 1
     vw_hist[i, steps[i], 0] = state[i, 0]
     vw_hist[i, steps[i], 1] = state[i, 1]
     if clearance_m <= 0.0:
         return 1
-    if goal_dist_m < goal_tol:
+    if goal_dist_m < episodes.goal_tol:
         return 2
-    if steps[i] >= max_steps:
+    if steps[i] >= episodes.max_steps:
         return 3
     return 0
 
@@ -310,15 +359,9 @@ def _count_step(
 @numba.njit(cache=True)
 def finish_random_map(
     active: np.ndarray,
-    ranges: FloatArray,
-    goal_polar: FloatArray,
+    sensed: Readings,
     state: FloatArray,
-    clearance: FloatArray,
-    steps: IntArray,
-    vw_hist: FloatArray,
-    prev_goal: FloatArray,
-    max_steps: int,
-    goal_tol: float,
+    episodes: Episodes,
     goal_dist_max: float,
     range_max: float,
     obs_low: FloatArray,
@@ -330,11 +373,14 @@ def finish_random_map(
 ) -> None:  # pragma: no cover - compiled
     """Observation, outcome and reward of RandomMap-v0 for the ``active`` envs.
 
-    ``consts`` = (reach, progress_per_m, 3 crash band edges, 3 penalties, free_weight,
-    step_penalty) of :class:`~sim2real.envs.RandomMapReward`. ``outcome``: 0 running,
+    ``consts`` = the fields of :class:`~sim2real.envs.RandomMapReward` in their order, tuples
+    flattened: (reach, progress_per_m, 3 crash band edges, 3 penalties, free_weight,
+    step_penalty, ...). ``outcome``: 0 running,
     1 collision, 2 success, 3 timeout. Also counts the step, records (v, w) for the episode
     metrics and moves the previous goal distance on. Inactive envs get reward 0, outcome 0.
     """
+    ranges, goal_polar, clearance = sensed
+    prev_goal = episodes.prev_goal
     nb = ranges.shape[1]
     for i in range(active.shape[0]):
         rewards[i] = 0.0
@@ -343,7 +389,7 @@ def finish_random_map(
             continue
         d = goal_polar[i, 0]
         c = clearance[i]
-        outcome[i] = _count_step(i, state, steps, vw_hist, c, d, goal_tol, max_steps)
+        outcome[i] = _count_step(i, state, episodes, c, d)
         free = 0.0
         for k in range(nb):
             r = ranges[i, k]
@@ -366,16 +412,10 @@ def finish_random_map(
 @numba.njit(cache=True)
 def finish_crowd_nav(
     active: np.ndarray,
-    ranges: FloatArray,
-    goal_polar: FloatArray,
+    sensed: Readings,
     state: FloatArray,
-    clearance: FloatArray,
-    steps: IntArray,
-    vw_hist: FloatArray,
-    prev_goal: FloatArray,
+    episodes: Episodes,
     prev_vw: FloatArray,
-    max_steps: int,
-    goal_tol: float,
     vel_low: FloatArray,
     vel_high: FloatArray,
     consts: FloatArray,
@@ -387,11 +427,13 @@ def finish_crowd_nav(
 ) -> None:  # pragma: no cover - compiled
     """Lidar, goal and velocity observations, outcome and reward of CrowdNav-v0.
 
-    ``consts`` = (reach, collision, progress_per_m, proximity, safe_clearance_m, dv_per_mps,
-    dw_per_radps, step_penalty) of :class:`~sim2real.envs.CrowdNavReward`, applied in the
-    single env's order. Outcome codes and bookkeeping as :func:`finish_random_map`; the
+    ``consts`` = the fields of :class:`~sim2real.envs.CrowdNavReward` in their order (reach,
+    collision, progress_per_m, proximity, safe_clearance_m, dv_per_mps, dw_per_radps,
+    step_penalty), applied in the single env's order. Outcome codes and bookkeeping as :func:`finish_random_map`; the
     previous velocity (smoothness terms) moves on too.
     """
+    ranges, goal_polar, clearance = sensed
+    prev_goal = episodes.prev_goal
     for i in range(active.shape[0]):
         rewards[i] = 0.0
         outcome[i] = 0
@@ -399,7 +441,7 @@ def finish_crowd_nav(
             continue
         v, w = state[i, 0], state[i, 1]
         d, c = goal_polar[i, 0], clearance[i]
-        outcome[i] = _count_step(i, state, steps, vw_hist, c, d, goal_tol, max_steps)
+        outcome[i] = _count_step(i, state, episodes, c, d)
         for k in range(ranges.shape[1]):
             lidar[i, k] = np.float32(ranges[i, k])
         goal_obs[i, 0] = np.float32(min(d, 20.0))

@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import astuple
 from typing import Any
 
 import numpy as np
@@ -59,6 +60,9 @@ from robots.reduced import _HISTORY_ROWS, ReducedDrive
 from sim2real.envs._nav import NavEnvBase
 from sim2real.envs._robot import ReducedBackend
 from sim2real.envs._vecnav import (
+    Drives,
+    Episodes,
+    Readings,
     crowd_clock,
     finish_crowd_nav,
     finish_random_map,
@@ -154,28 +158,31 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         drive = first._backend  # with the plant, its arrays stay unused
         if not isinstance(drive, ReducedBackend):
             drive = ReducedBackend(first.robot_spec, first.robot_spec.drive)
-        self._substep_s = drive._substep_s
-        self._n_sub = max(1, math.ceil(self.control_dt / self._substep_s - 1e-9))
-        self._h = self.control_dt / self._n_sub
-        self._n_inner = max(1, round(self._h / drive._drive.dt_s))
-        self._dt_inner = self._h / self._n_inner
+        n_sub = max(1, math.ceil(self.control_dt / drive._substep_s - 1e-9))
+        sub_s = self.control_dt / n_sub
+        n_inner = max(1, round(sub_s / drive._drive.dt_s))
         lid = first.robot_spec.lidar
         self._lidar_xy = np.array([lid.xyz_m[0], lid.xyz_m[1]], dtype=np.float64)
         self._range_min = float(lid.range_min_m)
         self._range_max = float(lid.range_max_m)
         self._radius = float(first.robot_radius_m)
-        self._goal_tol = float(first.goal_tolerance_m)
         self._act_low = np.asarray(self.single_action_space.low, dtype=np.float64)  # type: ignore[attr-defined]
         self._act_high = np.asarray(self.single_action_space.high, dtype=np.float64)  # type: ignore[attr-defined]
         # robot state
         self._pose = np.zeros((n, 3))
-        self._state = np.zeros((n, 6))  # ReducedDrive._state: [v, w, ref_v, ref_w, ir, il]
-        self._hist = np.zeros((n, _HISTORY_ROWS, 3))
-        self._n_hist = np.zeros(n, dtype=np.int64)
-        self._time = np.zeros(n)
-        self._packed = np.zeros((n, drive._drive._packed.shape[0]))
-        self._delay = np.zeros(n)
-        self._timeout = np.zeros(n)
+        self._drives = Drives(
+            state=np.zeros((n, 6)),
+            hist=np.zeros((n, _HISTORY_ROWS, 3)),
+            n_hist=np.zeros(n, dtype=np.int64),
+            time_s=np.zeros(n),
+            delay_s=np.zeros(n),
+            timeout_s=np.zeros(n),
+            packed=np.zeros((n, drive._drive._packed.shape[0])),
+            n_sub=n_sub,
+            sub_s=sub_s,
+            n_inner=n_inner,
+            inner_s=sub_s / n_inner,
+        )
         # world
         self._cxy = np.zeros((n, 0, 2))
         self._cr = np.zeros((n, 0))
@@ -184,19 +191,26 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self._sb = np.zeros((n, 0, 2))
         self._ns = np.zeros(n, dtype=np.int64)
         self._goal = np.zeros((n, 2))
+        # the reward constants as the kernels read them: the fields in order, tuples flattened
+        reward = first.reward_config  # type: ignore[attr-defined]
+        self._consts = np.hstack(astuple(reward)).astype(np.float64)
         # episode
-        self._prev_goal = np.zeros(n)
-        self._steps = np.zeros(n, dtype=np.int64)
+        self._episodes = Episodes(
+            steps=np.zeros(n, dtype=np.int64),
+            vw_hist=np.zeros((n, self.max_episode_steps + 1, 2)),
+            prev_goal=np.zeros(n),
+            max_steps=self.max_episode_steps,
+            goal_tol=float(first.goal_tolerance_m),
+        )
         self._path = np.zeros(n)
-        self._vw_hist = np.zeros((n, self.max_episode_steps + 1, 2))
         self._autoreset = np.zeros(n, dtype=np.bool_)
         self._was_reset = np.zeros(n, dtype=np.bool_)
         self._extra: dict[str, np.ndarray] = {}
         for i in range(n):
             self._load_drive(i)
-        self._ranges = np.zeros((n, 0))
-        self._goal_polar = np.zeros((n, 2))
-        self._clearance = np.zeros(n)
+        self._sensed = Readings(
+            ranges=np.zeros((n, 0)), goal_polar=np.zeros((n, 2)), clearance=np.zeros(n)
+        )
 
     # ------------------------------------------------------------------ drive protocol
     def get_drive_params(self) -> tuple[DriveParams, ...]:
@@ -224,13 +238,11 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         """Copy sub-env ``i``'s drive parameters into the arrays."""
         if self._plant:
             return
-        drive = self._drive(i)
-        self._packed[i] = drive._packed
-        self._delay[i] = drive.params.delay_s
-        self._timeout[i] = drive.params.cmd_timeout_s
-        rows = history_rows(float(self._delay.max()), self._h)
-        if rows > self._hist.shape[1]:
-            self._hist = _with_room(self._hist, rows)
+        drive, arrays = self._drive(i), self._drives
+        arrays.packed[i] = drive._packed
+        arrays.delay_s[i] = drive.params.delay_s
+        arrays.timeout_s[i] = drive.params.cmd_timeout_s
+        self._room_for_history(history_rows(float(arrays.delay_s.max()), arrays.sub_s))
 
     def _drive(self, i: int) -> ReducedDrive:
         backend = self.envs[i]._backend
@@ -260,16 +272,16 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         backend = env._backend
         self._pose[i] = backend.pose
         if self._plant:
-            self._state[i, :2] = backend.velocity
+            self._drives.state[i, :2] = backend.velocity
         else:
             self._load_reduced(i)
         self._load_scene(i, env._dynamic_scene())
         self._goal[i] = env._goal
-        self._prev_goal[i] = env._prev_goal_dist
-        self._steps[i] = 0
+        self._episodes.prev_goal[i] = env._prev_goal_dist
+        self._episodes.steps[i] = 0
         self._was_reset[i] = True
         self._path[i] = 0.0
-        self._vw_hist[i, 0] = 0.0
+        self._episodes.vw_hist[i, 0] = 0.0
         self._autoreset[i] = False
         for key, value in env._extra_info().items():
             column = self._extra.get(key)
@@ -284,40 +296,32 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
     def _load_reduced(self, i: int) -> None:
         """Copy sub-env ``i``'s freshly reset drive model (state, history, clock)."""
         drive = self._drive(i)
-        self._state[i] = drive._state
         n = drive._n
-        if n > self._hist.shape[1]:
-            self._hist = _with_room(self._hist, n)
-        self._hist[i, :n] = drive._hist[:n]
-        self._n_hist[i] = n
-        self._time[i] = drive.time_s
+        self._room_for_history(n)
+        arrays = self._drives
+        arrays.state[i] = drive._state
+        arrays.hist[i, :n] = drive._hist[:n]
+        arrays.n_hist[i] = n
+        arrays.time_s[i] = drive.time_s
         self._load_drive(i)
+
+    def _room_for_history(self, rows: int) -> None:
+        """Grow every sub-env's command history to at least ``rows`` rows."""
+        hist = self._drives.hist
+        if rows > hist.shape[1]:
+            self._drives = self._drives._replace(hist=_with_room(hist, rows))
 
     def _move(self, active: np.ndarray, cmd: FloatArray) -> None:
         """One control step of the active sub-envs' robots (pose, velocity, path length)."""
         if not self._plant:
-            move_robots(
-                active,
-                cmd,
-                self._n_sub,
-                self._h,
-                self._n_inner,
-                self._dt_inner,
-                self._state,
-                self._hist,
-                self._n_hist,
-                self._time,
-                self._delay,
-                self._timeout,
-                self._packed,
-                self._pose,
-                self._path,
-            )
+            move_robots(active, cmd, self._drives, self._pose, self._path)
             return
         for k in np.flatnonzero(active):
             backend = self.envs[int(k)]._backend
             x0, y0 = self._pose[k, 0], self._pose[k, 1]
-            self._state[k, :2] = backend.step(float(cmd[k, 0]), float(cmd[k, 1]), self.control_dt)
+            self._drives.state[k, :2] = backend.step(
+                float(cmd[k, 0]), float(cmd[k, 1]), self.control_dt
+            )
             self._pose[k] = backend.pose
             self._path[k] += math.hypot(self._pose[k, 0] - x0, self._pose[k, 1] - y0)
 
@@ -328,11 +332,12 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
     def _advance(self, active: np.ndarray) -> None:
         """Move the dynamic parts of the active sub-envs' worlds (after the robots moved)."""
 
-    def _finish(self, active: np.ndarray) -> tuple[Any, FloatArray, np.ndarray]:
-        """Batched observation (fresh), rewards and outcome codes (0 running, 1 collision,
-        2 success, 3 timeout) of the active sub-envs after sensing; also counts their step,
-        records (v, w) for the metrics and moves their previous goal distance on. Inactive
-        sub-envs get reward 0 and outcome 0 (their rows are overwritten by a reset)."""
+    def _finish(self, active: np.ndarray, rewards: FloatArray, outcome: np.ndarray) -> Any:
+        """Batched observation (fresh) of the active sub-envs after sensing, their ``rewards``
+        and ``outcome`` codes (0 running, 1 collision, 2 success, 3 timeout; filled in place);
+        also counts their step, records (v, w) for the metrics and moves their previous goal
+        distance on. Inactive sub-envs get reward 0 and outcome 0 (their rows are overwritten
+        by a reset)."""
         raise NotImplementedError
 
     def _set_row(self, obs: Any, i: int, single: Any) -> None:
@@ -413,7 +418,9 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self._move(active, cmd)
         self._advance(active)
         self._sense(active)
-        obs, rewards, outcome = self._finish(active)
+        rewards = np.empty(n)
+        outcome = np.empty(n, dtype=np.int64)
+        obs = self._finish(active, rewards, outcome)
         terminated = (outcome == 1) | (outcome == 2)
         truncated = outcome == 3
         metrics = {int(i): self._metrics(int(i), int(outcome[i])) for i in np.flatnonzero(outcome)}
@@ -449,10 +456,14 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
             self._ns,
             self._goal,
             self._radius,
-            self._ranges,
-            self._goal_polar,
-            self._clearance,
+            self._sensed,
         )
+
+    def _set_beams(self, angles_rad: Any) -> None:
+        """Cast the lidar along these beams (rad, in the robot frame)."""
+        self._beam_angles = np.asarray(angles_rad, dtype=np.float64)
+        ranges = np.zeros((self.num_envs, self._beam_angles.shape[0]))
+        self._sensed = self._sensed._replace(ranges=ranges)
 
     _beam_angles: FloatArray
     _batch: Any
@@ -466,11 +477,12 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
 
     def _metrics(self, i: int, outcome: int) -> dict[str, Any]:
         """``info["metrics"]`` of sub-env ``i``'s episode, ending now."""
-        k = int(self._steps[i])
+        k = int(self._episodes.steps[i])
+        vw = self._episodes.vw_hist[i, : k + 1]
         return episode_metrics(
             self._OUTCOME_KEYS[outcome - 1],
-            self._vw_hist[i, : k + 1, 0],
-            self._vw_hist[i, : k + 1, 1],
+            vw[:, 0],
+            vw[:, 1],
             path_length_m=float(self._path[i]),
             control_dt_s=self.control_dt,
         ).to_dict()
@@ -487,7 +499,7 @@ class NavVectorEnv(VectorEnv):  # type: ignore[type-arg]
         everyone = np.ones(n, dtype=np.bool_)
         infos: dict[str, Any] = {"outcome": names, "_outcome": everyone}
         if active.any():  # a step info (the sub-envs that reset now give their reset info)
-            infos["clearance_m"] = np.where(active, self._clearance, 0.0)
+            infos["clearance_m"] = np.where(active, self._sensed.clearance, 0.0)
             infos["_clearance_m"] = active.copy()
         for key, column in self._extra.items():
             infos[key] = column.copy()
@@ -530,44 +542,23 @@ class RandomMapVectorEnv(NavVectorEnv):
         super().__init__([RandomMapEnv(**kwargs) for _ in range(n)])
         first = self.envs[0]
         assert isinstance(first, RandomMapEnv)
-        self._beam_angles = np.asarray(first.beam_angles_rad, dtype=np.float64)
-        self._ranges = np.zeros((n, self._beam_angles.shape[0]))
+        self._set_beams(first.beam_angles_rad)
         space = first.observation_space
         self._obs_low = np.asarray(space.low, dtype=np.float64)  # type: ignore[attr-defined]
         self._obs_high = np.asarray(space.high, dtype=np.float64)  # type: ignore[attr-defined]
         self._batch = np.zeros((n, *space.shape), dtype=np.float32)  # type: ignore[misc]
-        cfg = first.reward_config
-        self._consts = np.array(
-            [
-                cfg.reach,
-                cfg.progress_per_m,
-                *cfg.crash_bands_m,
-                *cfg.crash_penalties,
-                cfg.free_weight,
-                cfg.step_penalty,
-            ],
-            dtype=np.float64,
-        )
 
     def _set_row(self, obs: Any, i: int, single: Any) -> None:
         obs[i] = single
 
-    def _finish(self, active: np.ndarray) -> tuple[Any, FloatArray, np.ndarray]:
-        n = self.num_envs
-        obs = np.empty((n, *self.single_observation_space.shape), dtype=np.float32)  # type: ignore[misc]
-        rewards = np.empty(n)
-        outcome = np.empty(n, dtype=np.int64)
+    def _finish(self, active: np.ndarray, rewards: FloatArray, outcome: np.ndarray) -> Any:
+        shape = (self.num_envs, *self.single_observation_space.shape)  # type: ignore[misc]
+        obs = np.empty(shape, dtype=np.float32)
         finish_random_map(
             active,
-            self._ranges,
-            self._goal_polar,
-            self._state,
-            self._clearance,
-            self._steps,
-            self._vw_hist,
-            self._prev_goal,
-            self.max_episode_steps,
-            self._goal_tol,
+            self._sensed,
+            self._drives.state,
+            self._episodes,
             self.envs[0].goal_range_m,  # type: ignore[attr-defined]
             self._range_max,
             self._obs_low,
@@ -577,7 +568,7 @@ class RandomMapVectorEnv(NavVectorEnv):
             rewards,
             outcome,
         )
-        return obs, rewards, outcome
+        return obs
 
 
 class CrowdNavVectorEnv(NavVectorEnv):
@@ -626,8 +617,7 @@ class CrowdNavVectorEnv(NavVectorEnv):
                 f"{first.neighbour_slots[0]}; use single CrowdNav-v0 envs (SB3's vector envs) "
                 "for a crowd-aware policy, or neighbours=0"
             )
-        self._beam_angles = np.asarray(first.lidar_angles_rad, dtype=np.float64)
-        self._ranges = np.zeros((n, self._beam_angles.shape[0]))
+        self._set_beams(first.lidar_angles_rad)
         space: Any = first.observation_space
         self._vel_low = np.asarray(space["velocity"].low, dtype=np.float64)
         self._vel_high = np.asarray(space["velocity"].high, dtype=np.float64)
@@ -637,20 +627,6 @@ class CrowdNavVectorEnv(NavVectorEnv):
         self._cam_xyz = np.zeros((n, 3))
         self._cam_mount = np.zeros((n, 3, 3))
         self._frame = np.zeros((first.camera.height, first.camera.width))
-        cfg = first.reward_config
-        self._consts = np.array(
-            [
-                cfg.reach,
-                cfg.collision,
-                cfg.progress_per_m,
-                cfg.proximity,
-                cfg.safe_clearance_m,
-                cfg.dv_per_mps,
-                cfg.dw_per_radps,
-                cfg.step_penalty,
-            ],
-            dtype=np.float64,
-        )
 
     def _load_more(self, i: int) -> None:
         env = self.envs[i]
@@ -791,7 +767,7 @@ class CrowdNavVectorEnv(NavVectorEnv):
             env = self.envs[i]
             assert isinstance(env, CrowdNavEnv) and env.crowd is not None
             x, y, yaw = (float(c) for c in self._pose[i])
-            v = float(self._state[i, 0])
+            v = float(self._drives.state[i, 0])
             env.crowd.step(
                 self.control_dt,
                 env._scene,
@@ -803,24 +779,16 @@ class CrowdNavVectorEnv(NavVectorEnv):
             self._load_scene(i, env._full_scene)
             self._load_depth(i)
 
-    def _finish(self, active: np.ndarray) -> tuple[Any, FloatArray, np.ndarray]:
+    def _finish(self, active: np.ndarray, rewards: FloatArray, outcome: np.ndarray) -> Any:
         n = self.num_envs
         space: Any = self.single_observation_space
         obs = {k: np.empty((n, *sub.shape), dtype=sub.dtype) for k, sub in space.items()}
-        rewards = np.empty(n)
-        outcome = np.empty(n, dtype=np.int64)
         finish_crowd_nav(
             active,
-            self._ranges,
-            self._goal_polar,
-            self._state,
-            self._clearance,
-            self._steps,
-            self._vw_hist,
-            self._prev_goal,
+            self._sensed,
+            self._drives.state,
+            self._episodes,
             self._prev_vw,
-            self.max_episode_steps,
-            self._goal_tol,
             self._vel_low,
             self._vel_high,
             self._consts,
@@ -851,4 +819,4 @@ class CrowdNavVectorEnv(NavVectorEnv):
             self._frame,
             obs["depth"],
         )
-        return obs, rewards, outcome
+        return obs

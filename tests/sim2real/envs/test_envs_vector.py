@@ -375,7 +375,7 @@ def test_lidar_casting_by_beam_spans_equals_casting_every_ray(
     """The vector envs' lidar casts each obstacle only along the beams it can be seen under;
     the ranges must be cast_rays' (every ray against every obstacle) to the bit, also with the
     origin inside a circle, on a segment or in line with one."""
-    from sim2real.envs._vecnav import sense
+    from sim2real.envs._vecnav import Readings, sense
     from sim2real.envs.geometry import Scene2D, cast_rays
 
     rng = np.random.default_rng(5)
@@ -404,9 +404,7 @@ def test_lidar_casting_by_beam_spans_equals_casting_every_ray(
         counts_s,
         np.zeros((n, 2)),
         0.2,
-        ranges,
-        np.zeros((n, 2)),
-        np.zeros(n),
+        Readings(ranges=ranges, goal_polar=np.zeros((n, 2)), clearance=np.zeros(n)),
     )
     for i in range(n):
         c, s = counts_c[i], counts_s[i]
