@@ -45,6 +45,7 @@ from sim2real.envs.pedestrians import _walk_kernel
 _arc_step = numba.njit(cache=True)(arc_step)
 
 __all__ = [
+    "Crowds",
     "Drives",
     "Episodes",
     "Readings",
@@ -165,6 +166,34 @@ class Episodes(NamedTuple):
     prev_goal: FloatArray
     max_steps: int
     goal_tol: float
+
+
+class Crowds(NamedTuple):
+    """The pedestrians of the envs' eq. (1) crowds, row ``i`` for env ``i`` (its first
+    ``n_ped[i]`` slots), under the names :class:`~sim2real.envs.pedestrians.Crowd` gives them.
+
+    Attributes
+    ----------
+    position_m, velocity_mps, goals : ndarray
+        (N, M, 2) positions (m), velocities (m/s) and goals (m).
+    radius_m, height_m : ndarray
+        (N, M) disc radii and body heights, m.
+    pref_speed_mps : ndarray
+        (N, M) preferred speeds, m/s.
+    alpha : ndarray
+        (N, M) stride constants of eq. (1).
+    start_time_s : ndarray
+        (N, M) times before which each pedestrian stands still, s.
+    """
+
+    position_m: FloatArray
+    velocity_mps: FloatArray
+    goals: FloatArray
+    radius_m: FloatArray
+    height_m: FloatArray
+    pref_speed_mps: FloatArray
+    alpha: FloatArray
+    start_time_s: FloatArray
 
 
 @numba.njit(cache=True)
@@ -339,21 +368,24 @@ def sense(
 @numba.njit(cache=True, inline="always")
 def _count_step(
     i: int, state: FloatArray, episodes: Episodes, clearance_m: float, goal_dist_m: float
-) -> int:  # pragma: no cover - compiled
-    """Count env ``i``'s step, record its (v, w) for the episode metrics and return its
-    outcome: 1 collision (no clearance left), 2 success (within ``goal_tol`` of the goal),
-    3 timeout (``max_steps`` reached), else 0 (running)."""
+) -> tuple[int, float]:  # pragma: no cover - compiled
+    """Count env ``i``'s step, record its (v, w) for the episode metrics, move its previous
+    goal distance on and return its outcome and its progress towards the goal (m, the drop of
+    the goal distance in the step). Outcomes: 1 collision (no clearance left), 2 success
+    (within ``goal_tol`` of the goal), 3 timeout (``max_steps`` reached), else 0 (running)."""
     steps, vw_hist = episodes.steps, episodes.vw_hist
     steps[i] += 1
     vw_hist[i, steps[i], 0] = state[i, 0]
     vw_hist[i, steps[i], 1] = state[i, 1]
+    progress_m = episodes.prev_goal[i] - goal_dist_m
+    episodes.prev_goal[i] = goal_dist_m
     if clearance_m <= 0.0:
-        return 1
+        return 1, progress_m
     if goal_dist_m < episodes.goal_tol:
-        return 2
+        return 2, progress_m
     if steps[i] >= episodes.max_steps:
-        return 3
-    return 0
+        return 3, progress_m
+    return 0, progress_m
 
 
 @numba.njit(cache=True)
@@ -380,7 +412,6 @@ def finish_random_map(
     metrics and moves the previous goal distance on. Inactive envs get reward 0, outcome 0.
     """
     ranges, goal_polar, clearance = sensed
-    prev_goal = episodes.prev_goal
     nb = ranges.shape[1]
     for i in range(active.shape[0]):
         rewards[i] = 0.0
@@ -389,7 +420,7 @@ def finish_random_map(
             continue
         d = goal_polar[i, 0]
         c = clearance[i]
-        outcome[i] = _count_step(i, state, episodes, c, d)
+        outcome[i], progress_m = _count_step(i, state, episodes, c, d)
         free = 0.0
         for k in range(nb):
             r = ranges[i, k]
@@ -399,14 +430,13 @@ def finish_random_map(
         tail = (min(d, goal_dist_max), goal_polar[i, 1], state[i, 0], state[i, 1])
         for k in range(4):
             obs[i, nb + k] = np.float32(min(max(tail[k], obs_low[nb + k]), obs_high[nb + k]))
-        r_goal = consts[0] if outcome[i] == 2 else consts[1] * (prev_goal[i] - d)
+        r_goal = consts[0] if outcome[i] == 2 else consts[1] * progress_m
         r_crash = 0.0
         for b in range(3):
             if c <= consts[2 + b]:
                 r_crash = -consts[5 + b]
                 break
         rewards[i] = r_goal + r_crash - consts[8] * free - consts[9]
-        prev_goal[i] = d
 
 
 @numba.njit(cache=True)
@@ -429,11 +459,10 @@ def finish_crowd_nav(
 
     ``consts`` = the fields of :class:`~sim2real.envs.CrowdNavReward` in their order (reach,
     collision, progress_per_m, proximity, safe_clearance_m, dv_per_mps, dw_per_radps,
-    step_penalty), applied in the single env's order. Outcome codes and bookkeeping as :func:`finish_random_map`; the
-    previous velocity (smoothness terms) moves on too.
+    step_penalty), applied in the single env's order. Outcome codes and bookkeeping as
+    :func:`finish_random_map`; the previous velocity (smoothness terms) moves on too.
     """
     ranges, goal_polar, clearance = sensed
-    prev_goal = episodes.prev_goal
     for i in range(active.shape[0]):
         rewards[i] = 0.0
         outcome[i] = 0
@@ -441,14 +470,14 @@ def finish_crowd_nav(
             continue
         v, w = state[i, 0], state[i, 1]
         d, c = goal_polar[i, 0], clearance[i]
-        outcome[i] = _count_step(i, state, episodes, c, d)
+        outcome[i], progress_m = _count_step(i, state, episodes, c, d)
         for k in range(ranges.shape[1]):
             lidar[i, k] = np.float32(ranges[i, k])
         goal_obs[i, 0] = np.float32(min(d, 20.0))
         goal_obs[i, 1] = np.float32(goal_polar[i, 1])
         vel_obs[i, 0] = np.float32(min(max(v, vel_low[0]), vel_high[0]))
         vel_obs[i, 1] = np.float32(min(max(w, vel_low[1]), vel_high[1]))
-        r = consts[2] * (prev_goal[i] - d) - consts[7]
+        r = consts[2] * progress_m - consts[7]
         if outcome[i] == 2:
             r += consts[0]
         elif outcome[i] == 1:
@@ -457,7 +486,6 @@ def finish_crowd_nav(
         r -= consts[5] * abs(v - prev_vw[i, 0]) + consts[6] * abs(w - prev_vw[i, 1])
         rewards[i] = r
         prev_vw[i, 0], prev_vw[i, 1] = v, w
-        prev_goal[i] = d
 
 
 @numba.njit(cache=True)
@@ -466,10 +494,7 @@ def crowd_clock(
     dt: float,
     time_s: FloatArray,
     n_ped: IntArray,
-    start_s: FloatArray,
-    pref: FloatArray,
-    pos: FloatArray,
-    goals: FloatArray,
+    crowds: Crowds,
     goal_reached_m: float,
     walking: np.ndarray,
     reached: np.ndarray,
@@ -478,6 +503,8 @@ def crowd_clock(
     """The start of :meth:`Crowd.step` for the ``eq1`` envs' crowds: the clock ticks, and
     ``walking`` and ``reached`` (goal closer than ``goal_reached_m``) are marked per pedestrian
     (``any_reached`` per env: those draw new goals from their own generator)."""
+    pos, goals = crowds.position_m, crowds.goals
+    start_s, pref = crowds.start_time_s, crowds.pref_speed_mps
     for i in range(eq1.shape[0]):
         any_reached[i] = False
         if not eq1[i]:
@@ -494,12 +521,7 @@ def crowd_clock(
 def walk_crowds(
     eq1: np.ndarray,
     n_ped: IntArray,
-    pos: FloatArray,
-    vel: FloatArray,
-    rad: FloatArray,
-    height: FloatArray,
-    pref: FloatArray,
-    alpha: FloatArray,
+    crowds: Crowds,
     walking: np.ndarray,
     goal_dir: FloatArray,
     cxy: FloatArray,
@@ -521,6 +543,7 @@ def walk_crowds(
     :func:`sim2real.envs.pedestrians._walk_kernel`, around each env's static obstacles: its
     first ``n_static`` circles and its segments); the pedestrians' new discs are written after
     the static circles (lidar scene) and cylinders (depth scene)."""
+    pos = crowds.position_m
     for i in range(eq1.shape[0]):
         m = n_ped[i]
         if not eq1[i] or m == 0:
@@ -528,11 +551,11 @@ def walk_crowds(
         nc, ns = n_static[i], n_segments[i]
         _walk_kernel(
             pos[i, :m],
-            vel[i, :m],
-            rad[i, :m],
-            height[i, :m],
-            pref[i, :m],
-            alpha[i, :m],
+            crowds.velocity_mps[i, :m],
+            crowds.radius_m[i, :m],
+            crowds.height_m[i, :m],
+            crowds.pref_speed_mps[i, :m],
+            crowds.alpha[i, :m],
             walking[i, :m],
             goal_dir[i, :m],
             cxy[i, :nc],

@@ -60,6 +60,7 @@ from robots.reduced import _HISTORY_ROWS, ReducedDrive
 from sim2real.envs._nav import NavEnvBase
 from sim2real.envs._robot import ReducedBackend
 from sim2real.envs._vecnav import (
+    Crowds,
     Drives,
     Episodes,
     Readings,
@@ -593,8 +594,10 @@ class CrowdNavVectorEnv(NavVectorEnv):
     def __init__(self, num_envs: int = 1, **kwargs: Any) -> None:
         n = _check_num_envs(num_envs)
         # pedestrians (batched; envs.envs[i].crowd holds views of its rows for eq. (1) crowds)
-        for _, field in self._PED_FIELDS:
-            setattr(self, field, np.zeros((n, 0, 2) if field in self._PED_XY else (n, 0)))
+        xy = ("position_m", "velocity_mps", "goals")
+        self._crowds = Crowds(
+            **{k: np.zeros((n, 0, 2) if k in xy else (n, 0)) for k in Crowds._fields}
+        )
         self._walking = np.zeros((n, 0), dtype=np.bool_)
         self._reached = np.zeros((n, 0), dtype=np.bool_)
         self._any_reached = np.zeros(n, dtype=np.bool_)
@@ -635,47 +638,23 @@ class CrowdNavVectorEnv(NavVectorEnv):
         crowd = env.crowd
         m = len(crowd)
         self._eq1[i] = False  # not bound to the rows until copied
-        if m > self._ped_pos.shape[1]:
-            self._grow_crowds(max(m, 2 * self._ped_pos.shape[1]))
+        slots = self._crowds.position_m.shape[1]
+        if m > slots:
+            self._grow_crowds(max(m, 2 * slots))
         self._n_ped[i] = m
         self._eq1[i] = type(crowd) is Crowd
         self._ped_time[i] = crowd.time_s
-        for name, column in self._ped_columns():
+        for name, column in self._crowds._asdict().items():
             column[i, :m] = getattr(crowd, name)
         self._n_static[i] = env._scene.circles_r.shape[0]
         self._load_depth(i)
         if self._eq1[i]:
             self._bind_crowd(i)
 
-    _ped_pos: FloatArray
-    _ped_vel: FloatArray
-    _ped_goal: FloatArray
-    _ped_rad: FloatArray
-    _ped_height: FloatArray
-    _ped_pref: FloatArray
-    _ped_alpha: FloatArray
-    _ped_start: FloatArray
-    _PED_XY = ("_ped_pos", "_ped_vel", "_ped_goal")
-    #: Crowd attributes held in the batch arrays: (attribute, array name)
-    _PED_FIELDS = (
-        ("position_m", "_ped_pos"),
-        ("velocity_mps", "_ped_vel"),
-        ("goals", "_ped_goal"),
-        ("radius_m", "_ped_rad"),
-        ("height_m", "_ped_height"),
-        ("pref_speed_mps", "_ped_pref"),
-        ("alpha", "_ped_alpha"),
-        ("start_time_s", "_ped_start"),
-    )
-
-    def _ped_columns(self) -> list[tuple[str, np.ndarray]]:
-        return [(name, getattr(self, field)) for name, field in self._PED_FIELDS]
-
     def _grow_crowds(self, cap: int) -> None:
         """Room for ``cap`` pedestrians per sub-env (the eq. (1) crowds' views follow)."""
         n = self.num_envs
-        for _, field in self._PED_FIELDS:
-            setattr(self, field, _with_room(getattr(self, field), cap))
+        self._crowds = Crowds(*(_with_room(column, cap) for column in self._crowds))
         self._walking = np.zeros((n, cap), dtype=np.bool_)
         self._reached = np.zeros((n, cap), dtype=np.bool_)
         for i in np.flatnonzero(self._eq1 & self._was_reset):
@@ -686,7 +665,7 @@ class CrowdNavVectorEnv(NavVectorEnv):
         shows the state the vector env steps."""
         crowd = self.envs[i].crowd  # type: ignore[attr-defined]
         m = int(self._n_ped[i])
-        for name, column in self._ped_columns():
+        for name, column in self._crowds._asdict().items():
             setattr(crowd, name, column[i, :m])
 
     def _load_depth(self, i: int) -> None:
@@ -718,10 +697,7 @@ class CrowdNavVectorEnv(NavVectorEnv):
                 self.control_dt,
                 self._ped_time,
                 self._n_ped,
-                self._ped_start,
-                self._ped_pref,
-                self._ped_pos,
-                self._ped_goal,
+                self._crowds,
                 _GOAL_REACHED_M,
                 self._walking,
                 self._reached,
@@ -732,17 +708,12 @@ class CrowdNavVectorEnv(NavVectorEnv):
                 crowd = self.envs[i].crowd  # type: ignore[attr-defined]
                 reached = self._reached[i, : self._n_ped[i]]
                 crowd.goals[reached] = crowd._random_goals(int(reached.sum()))
-            to_goal = self._ped_goal - self._ped_pos
+            to_goal = self._crowds.goals - self._crowds.position_m
             goal_dir = np.arctan2(to_goal[..., 1], to_goal[..., 0])  # numpy's, as the single env
             walk_crowds(
                 eq1,
                 self._n_ped,
-                self._ped_pos,
-                self._ped_vel,
-                self._ped_rad,
-                self._ped_height,
-                self._ped_pref,
-                self._ped_alpha,
+                self._crowds,
                 self._walking,
                 goal_dir,
                 self._cxy,

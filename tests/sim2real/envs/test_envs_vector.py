@@ -445,4 +445,4 @@ def test_crowd_nav_sub_env_crowds_show_the_state_the_vector_env_steps() -> None:
                 single.step(actions[0])
             check(f"{opts}, step {t}")
     assert len(vec.envs[0].crowd) == 45  # type: ignore[attr-defined]
-    assert vec._ped_pos.shape[1] >= 45  # the rows grew
+    assert vec._crowds.position_m.shape[1] >= 45  # the rows grew
