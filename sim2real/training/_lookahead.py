@@ -22,9 +22,9 @@ w)` over one control step :math:`\Delta t`:
 - every lidar return moves as a point: its range is its distance from the new pose, and it is
   placed at its beam angle minus the turn, interpolated between beams. That is exact for a
   small obstacle; along a wall the beam meets another point of the wall, so a wall parallel to
-  the motion is predicted nearer by up to the step's 5.5 cm; a mover inside the scan stays
-  where it was seen (its motion is in the neighbour rows); the lidar's 3 cm offset from the
-  robot's centre is neglected.
+  the motion is predicted nearer ahead and farther behind, by up to the step's 5.5 cm; a
+  mover inside the scan stays where it was seen (its motion is in the neighbour rows); the
+  lidar's 3 cm offset from the robot's centre is neglected.
 
 :math:`V(f(s, a))` is the value of the predicted post-decision state (an afterstate, Sutton and
 Barto 2018, section 6.8): DQN's target :math:`r + \gamma \max_{a'} Q(s', a')` trains it through
