@@ -74,24 +74,29 @@ def test_a_slower_unit_is_the_headline_when_the_fit_does_worse_than_the_defaults
     calibrated: tuple[Path, Path], realdata_dir: Path, tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:  # fmt: skip
-    """The yycho unit holds ~0.276 m/s where the fitted ksoltan unit holds ~0.30: the fit is
-    under the defaults, and the headline says it is this unit's top speed."""
+    """The yycho unit holds ~0.28-0.29 m/s where the fitted ksoltan unit holds ~0.30-0.31: the
+    fit is under the defaults, and the headline names the cause with its next step. The gap
+    sits near v's tolerance (0.02 m/s; 0.026 on one CPU, 0.019 on another), so the cause is
+    this unit's top speed or, under the tolerance, the 13.9 % of the log outside the envelope
+    the fit saw; either way the next step is the one for that cause."""
     robot, params = calibrated
     out = tmp_path / "agree.json"
     main(["agree", str(realdata_dir / "neato_yycho0108_test_drive.mcap"), "--robot", str(robot),
           "--params", str(params), "--ensemble", "30", "--seed", "0", "--json", str(out)])  # fmt: skip
     lines = capsys.readouterr().out.splitlines()
     headline = next(x for x in lines if x.startswith("verdict"))
-    assert next(x for x in lines if x.startswith("next step")).startswith(
-        "next step: fit on a log of this unit, or on logs of several units at once"
-    )
+    step = next(x for x in lines if x.startswith("next step"))
     assert json.loads(out.read_text())["agreement"] < 0.48  # the spec defaults reach 48.1 %
     assert "The fit does worse than the spec defaults" in headline
     held = re.search(r"this robot holds ([\d.]+) m/s in v where the fitted model holds ([\d.]+)",
                      headline)  # fmt: skip
-    assert held is not None, headline
-    assert 0.26 < float(held[1]) < 0.29 < float(held[2]) < 0.32
-    assert "this unit is slower than the fit log's (another unit's top speed" in headline
+    if held is not None:
+        assert 0.26 < float(held[1]) < 0.29 < float(held[2]) < 0.32
+        assert "this unit is slower than the fit log's (another unit's top speed" in headline
+        assert step.startswith("next step: fit on a log of this unit, or on logs of several")
+    else:
+        assert "likely cause: this log drives outside what the fit log saw" in headline
+        assert step.startswith("next step: refit on a log that drives like this one")
 
 
 def test_a_slower_unit_is_a_reason_when_the_fit_beats_the_defaults(
