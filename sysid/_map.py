@@ -12,8 +12,9 @@ heteroscedasticity- and autocorrelation-consistent covariance of the residuals' 
 (:func:`score_covariance`): per direction of the parameter space rather than one factor for
 all, so parameters that transients inform (where stamp jitter and model error concentrate)
 get the spread they have. The model's time-step error is propagated too
-(:func:`_discretisation_bias`): where the log is informative the posterior is narrow, where
-not it is the prior.
+(:func:`_discretisation_bias`), as an inflation bounded so that it never widens the posterior
+past the prior (:func:`bounded_bias`): where the log is informative the posterior is narrow,
+where not it is the prior.
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ __all__ = [
     "FittedCoords",
     "MapOptions",
     "Posterior",
+    "bounded_bias",
     "data_information",
     "map_fit",
     "noise_scale",
@@ -736,7 +738,8 @@ def _discretisation_bias(
     posterior sd (0.5-0.7 sd rms, up to 1.8 sd, on 20 s logs against the plant at 1 ms). The
     estimate is kept -- it is the best parameter set *for the model at this step*, which is
     what the band and the replays run -- and :math:`b b^T` is added to the covariance, so that
-    the intervals hold the physical values too.
+    the intervals hold the physical values too, bounded by :func:`bounded_bias` so that the
+    posterior stays within the prior.
     """
     fine = Problem(
         final.logs,
@@ -752,6 +755,60 @@ def _discretisation_bias(
     gp = g[final.prior_idx]
     h = jac.T @ jac / w2 + gp.T @ (gp / final.prior_sd[:, None] ** 2)
     out: FloatArray = np.linalg.pinv(h, hermitian=True) @ (jac.T @ (2.0 * e)) / w2
+    return out
+
+
+def bounded_bias(bias: FloatArray, info: FloatArray, prior_prec: FloatArray) -> FloatArray:
+    r"""``bias`` shrunk so that adding :math:`b b^T` to the posterior never widens it past the
+    prior.
+
+    :math:`b b^T` is a model-error inflation, not a Bayesian update: it is the squared shift
+    of the estimate that the model's time step causes (:func:`_discretisation_bias`). A
+    linear extrapolation of an error concentrated at a few samples (the step transitions)
+    can put that shift beyond the prior in a direction the data barely inform, which no
+    posterior can be. The inflation is bounded so that the time-step error takes back at most
+    the information the data gave: with posterior precision :math:`\Pi = I + Q` (data
+    information :math:`I`, prior precision :math:`Q`), :math:`(\Pi^{-1} + \beta b b^T)^{-1}
+    \succeq Q` holds exactly when :math:`\beta (t - s) \le 1`, with :math:`c = \Pi b`,
+    :math:`t = c^T I^{+} c` and :math:`s = b^T \Pi b`; the bias returned is
+    :math:`\sqrt{\beta}\, b` with :math:`\beta = \min(1, 1/(t - s))`.
+
+    Parameters
+    ----------
+    bias : ndarray
+        The shift :math:`b` in the fit's internal coordinates (0 in undetermined ones).
+    info : ndarray
+        The data information :math:`I` in the same coordinates.
+    prior_prec : ndarray
+        The prior precision :math:`Q` in the same coordinates.
+
+    Returns
+    -------
+    ndarray
+        :math:`\sqrt{\beta}\, b`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> one = np.eye(1)  # data and prior equally informative: posterior variance 1/2
+    >>> float(bounded_bias(np.array([0.5]), one, one)[0])  # 1/2 + 1/4 <= 1: kept
+    0.5
+    >>> round(float(bounded_bias(np.array([3.0]), one, one)[0] ** 2), 12)  # 1/2 + 1/2 = prior
+    0.5
+    """
+    keep = np.flatnonzero(bias != 0.0)
+    if keep.size == 0:
+        return bias
+    data = info[np.ix_(keep, keep)]
+    lam, vec = np.linalg.eigh(data + prior_prec[np.ix_(keep, keep)])
+    root = vec * np.sqrt(np.clip(lam, 1e-300, None))  # Pi^(1/2) = root @ vec.T
+    inv_root = vec / np.sqrt(np.clip(lam, 1e-300, None))
+    # in Pi-whitened coordinates: the data's share mu of the posterior precision, 0 to 1
+    mu, dirs = np.linalg.eigh(inv_root.T @ data @ inv_root)
+    mu = np.clip(mu, 1e-15, 1.0)
+    proj = dirs.T @ (root.T @ bias[keep])
+    excess = float(np.sum(proj**2 * (1.0 - mu) / mu))  # t - s
+    out: FloatArray = bias / math.sqrt(excess) if excess > 1.0 else bias
     return out
 
 
@@ -887,6 +944,8 @@ def _map_covariance(
     bias = _discretisation_bias(final, u, jac, problem_kw)
     bias[list(weak)] = 0.0
     _, g = final.schema_coords(u)
+    gp = g[final.prior_idx]
+    bias = bounded_bias(bias, info_u, gp.T @ (gp / final.prior_sd[:, None] ** 2))
     cov_u += np.outer(bias, bias)
     cov += np.outer(g @ bias, g @ bias)
     _timing_floor(final, z, cov, cov_u)
