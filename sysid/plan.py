@@ -36,9 +36,10 @@ from typing import Any
 import numpy as np
 
 from robots.arrays import FloatArray
+from robots.params import SCHEMA
 from sysid.errors import SysidValueError
 
-__all__ = ["ExcitationPlan", "PlanBlock", "plan_excitation"]
+__all__ = ["ExcitationPlan", "PlanBlock", "plan_excitation", "weakly_identified"]
 
 
 #: Commands go this far beyond the speed limits, so that the clamps act.
@@ -48,6 +49,10 @@ WHEEL_OVERDRIVE = 1.2
 #: The mass-gain direction: velocity data identify ``T = m / k``, not ``m`` and ``k`` apart.
 MASS_GAIN = ("motor_gain_nms_per_rad", "added_mass_kg", "added_yaw_inertia_kgm2")
 
+#: Behind PI wheel loops, a friction term whose prior sd is below this share of the loop's
+#: proportional gain changes the transients' damping too little to be told from the plant's
+#: other transient errors in one session (:func:`weakly_identified`).
+WEAK_FRICTION_SHARE = 0.05
 #: Block kind -> the DriveParams fields it is designed to identify.
 _EXCITES: dict[str, tuple[str, ...]] = {
     "v steps": (
@@ -115,6 +120,10 @@ class ExcitationPlan:
         The limits designed to: ``v_mps``, ``w_radps``, ``wheel_radps`` (spec values).
     extent_m : float
         Largest distance of the ideal (perfectly tracked) path from its start, m.
+    weak : dict
+        DriveParams field -> why one session of the plan may leave it near its prior, from the
+        spec (:func:`weakly_identified`); fields known exactly (prior sd 0) are left out of
+        :meth:`identifies`.
     """
 
     robot: str
@@ -126,9 +135,12 @@ class ExcitationPlan:
     blocks: tuple[PlanBlock, ...]
     limits: dict[str, float]
     extent_m: float
+    weak: dict[str, str]
 
     def identifies(self) -> dict[str, tuple[str, ...]]:
-        """DriveParams field -> the kinds of block that excite it (in plan order)."""
+        """DriveParams field -> the kinds of block that excite it (in plan order), for the
+        fields with a prior to inform; :attr:`weak` says which of them one session may leave
+        near their priors, and why."""
         out: dict[str, list[str]] = {}
         for block in self.blocks:
             for name in block.identifies:
@@ -230,6 +242,65 @@ def _cycle(script: _Script, k: int, lim: dict[str, float], hold_s: float) -> lis
     return blocks
 
 
+def weakly_identified(spec: Any) -> dict[str, str]:
+    """What one session of a plan may leave near its prior on ``spec``'s base, and why.
+
+    From the spec alone: the mass-gain direction (velocity data fix each axis's response
+    time, not the mass and the gain apart); a wheel torque cap the acceleration limits keep
+    the wheels below, or that the wheel loops' largest demand (a reversal from the wheel-speed
+    cap) may not reach on a base whose motors give more; and, behind PI wheel loops (a prior
+    on ``speed_loop_ki_per_s`` centred above 0), viscous friction whose prior sd is below
+    :data:`WEAK_FRICTION_SHARE` of the loop's proportional gain: the loops cancel friction at
+    any steady speed, so it shows only in the transients' damping.
+
+    Examples
+    --------
+    >>> from robots.spec import load_spec
+    >>> weak = weakly_identified(load_spec("turtlebot2"))
+    >>> sorted(weak)
+    ['added_mass_kg', 'added_yaw_inertia_kgm2', 'viscous_v_ns_per_m', 'wheel_torque_max_nm']
+    >>> "acceleration limits" in weak["wheel_torque_max_nm"]
+    True
+    """
+    drive, geo, priors = spec.drive, spec.geometry, spec.priors
+    r, h, k = geo.wheel_radius_m, 0.5 * geo.wheel_separation_m, drive.motor_gain_nms_per_rad
+    out = {
+        name: f"the mass-gain direction: velocity data fix m/K, not {name} and the gain apart"
+        for name in MASS_GAIN[1:]
+    }
+    cap = priors["wheel_torque_max_nm"]
+    if cap.sd > 0 and math.isfinite(cap.nominal):
+        # per wheel: half the base's force at the wheel radius, half its yaw torque over h
+        accel = max(
+            0.5 * r * geo.mass_kg * drive.accel_lim_v_mps2,
+            0.5 * r / h * geo.yaw_inertia_kgm2 * drive.accel_lim_w_radps2,
+        )
+        if accel < cap.nominal:
+            out["wheel_torque_max_nm"] = (
+                f"the acceleration limits ask at most {accel:.3g} N m per wheel, below the cap "
+                f"({cap.nominal:.3g} N m)"
+            )
+        else:
+            ask = 2.0 * k * drive.wheel_speed_max_radps
+            out["wheel_torque_max_nm"] = (
+                f"the wheel loops ask at most {ask:.3g} N m per wheel (a reversal from the "
+                "wheel-speed cap): a base whose motors give more shows no cap"
+            )
+    if priors["speed_loop_ki_per_s"].nominal > 0:
+        # a friction prior whose sd is this small a share of the loop's proportional gain hides
+        # behind it (docs/transfer.md: the Burger's 2.3-2.4 % stay near their priors on the
+        # plant, the Kobuki's 12 % yaw term is informed)
+        kv, kw = 2.0 * k / r**2, 2.0 * k * (h / r) ** 2  # N s/m, N m s/rad
+        for name, gain in (("viscous_v_ns_per_m", kv), ("viscous_w_nms_per_rad", kw)):
+            sd = priors[name].sd * SCHEMA[name].reference(geo)  # N s/m, N m s/rad
+            if 0 < sd < WEAK_FRICTION_SHARE * gain:
+                out[name] = (
+                    "PI wheel loops cancel friction at a steady speed; in transients one prior "
+                    f"sd is {100.0 * sd / gain:.2g} % of the loop's gain"
+                )
+    return out
+
+
 def _extent(v: FloatArray, w: FloatArray, dt: float) -> float:
     """Largest distance from the start of the perfectly tracked (unicycle) path, m."""
     yaw = np.concatenate(([0.0], np.cumsum(w * dt)))[:-1] + 0.5 * w * dt
@@ -289,8 +360,14 @@ def plan_excitation(
     cmd = np.asarray(script.rows[:n], dtype=np.float64)
     cmd[-round(1.0 * rate_hz) :] = 0.0  # the script ends at rest
     ends = [min(b.end_s, duration_s) for b in blocks]
+    known = {n for n, p in spec.priors.items() if p.sd == 0}
     kept = tuple(
-        PlanBlock(kind=b.kind, start_s=b.start_s, end_s=e, identifies=b.identifies)
+        PlanBlock(
+            kind=b.kind,
+            start_s=b.start_s,
+            end_s=e,
+            identifies=tuple(n for n in b.identifies if n not in known),
+        )
         for b, e in zip(blocks, ends, strict=True)
         if b.start_s < duration_s - 1.0
     )
@@ -304,4 +381,5 @@ def plan_excitation(
         blocks=kept,
         limits={k: lim[k] for k in ("v_mps", "w_radps", "wheel_radps")},
         extent_m=_extent(cmd[:, 0], cmd[:, 1], 1.0 / rate_hz),
+        weak=weakly_identified(spec),
     )

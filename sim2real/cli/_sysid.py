@@ -16,7 +16,6 @@ from sim2real.cluster import expand_logs, map_tasks
 from sim2real.errors import Sim2RealValueError
 from sim2real.fitting import fit_logs
 from sim2real.planning import write_plan
-from sysid.plan import MASS_GAIN
 
 __all__ = ["handle_fit", "handle_plan"]
 
@@ -105,11 +104,10 @@ def handle_plan(args: argparse.Namespace) -> int:
         console.print(f"  {block.start_s:6.1f}-{block.end_s:6.1f} s  {block.kind}", highlight=False)
     console.print("designed to identify:", highlight=False)
     for name, kinds in plan.identifies().items():
-        console.print(f"  {name:<28} by {', '.join(kinds)}", highlight=False)
-    console.print(
-        f"velocity data fix each axis's response, not the split of {', '.join(MASS_GAIN)}: "
-        "that direction rests on the spec's priors",
-        highlight=False,
-    )
+        if name not in plan.weak:
+            console.print(f"  {name:<28} by {', '.join(kinds)}", highlight=False)
+    console.print("excited, but one session may leave near its prior:", highlight=False)
+    for name, why in plan.weak.items():
+        console.print(f"  {name:<28} {escape(why)}", highlight=False)
     console.print(f"wrote [bold]{escape(str(out))}[/]")
     return 0

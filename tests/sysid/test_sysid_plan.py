@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -12,7 +13,7 @@ from hypothesis import strategies as st
 from robots.params import DriveParams
 from robots.spec import load_spec
 from sysid.errors import SysidValueError
-from sysid.plan import MASS_GAIN, OVERDRIVE, plan_excitation
+from sysid.plan import MASS_GAIN, OVERDRIVE, plan_excitation, weakly_identified
 
 ROBOTS = ("turtlebot3_burger", "turtlebot2", "turtlebot3_waffle_pi")
 
@@ -81,3 +82,41 @@ def test_bad_input_is_one_sentence(kwargs: dict[str, float], match: str) -> None
         plan_excitation(load_spec("turtlebot2"), **kwargs)
     with pytest.raises(SysidValueError, match=r"spec must be a robots\.spec\.RobotSpec, got str"):
         plan_excitation("turtlebot2", 60.0)
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_what_a_plan_may_leave_near_its_prior_is_excited_and_argued_from_the_spec(
+    robot: str,
+) -> None:
+    spec = load_spec(robot)
+    plan = plan_excitation(spec, 90.0)
+    assert set(plan.weak) <= set(plan.identifies())
+    assert set(MASS_GAIN[1:]) <= set(plan.weak)
+    # fields the spec knows exactly are not offered as identified
+    assert not {n for n, p in spec.priors.items() if p.sd == 0} & set(plan.identifies())
+
+
+def test_the_weak_list_follows_the_physics_of_each_base() -> None:
+    burger = weakly_identified(load_spec("turtlebot3_burger"))
+    kobuki = weakly_identified(load_spec("turtlebot2"))
+    # the Burger's PI loops ask 2 K x wheel cap = 2 x 0.011323 x 8.0815 N m at a full reversal
+    assert "0.183 N m" in burger["wheel_torque_max_nm"]
+    # the Kobuki's 1 m/s^2 smoother asks m a r / 2 = 2.52 x 1 x 0.035 / 2 N m
+    assert "0.0441 N m" in kobuki["wheel_torque_max_nm"]
+    # viscous priors of 2.4 % and 2.3 % of the Burger's loop gain hide behind it; the Kobuki's
+    # yaw term (12 %) does not
+    assert {"viscous_v_ns_per_m", "viscous_w_nms_per_rad"} <= set(burger)
+    assert "2.4 %" in burger["viscous_v_ns_per_m"]
+    assert "viscous_w_nms_per_rad" not in kobuki
+    # a P-loop base (no integral prior) keeps its friction in the steady state: not weak
+    spec = load_spec("turtlebot3_burger")
+    p_loop = dataclasses.replace(
+        spec,
+        priors={
+            **spec.priors,
+            "speed_loop_ki_per_s": dataclasses.replace(
+                spec.priors["speed_loop_ki_per_s"], nominal=0.0
+            ),
+        },
+    )
+    assert not {"viscous_v_ns_per_m", "viscous_w_nms_per_rad"} & set(weakly_identified(p_loop))

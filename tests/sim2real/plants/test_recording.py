@@ -13,10 +13,12 @@ from mcap_ros2.decoder import DecoderFactory
 
 from robots.spec import load_spec
 from sim2real.errors import Sim2RealValueError
+from sim2real.logs import Trace
 from sim2real.planning import SCRIPT_T0_NS
 from sim2real.plants.closed_loop import PlantSessions
 from sim2real.plants.diff_drive import draw_session, make_fleet, plant_from_spec
 from sim2real.plants.recording import record_plan
+from sysid import fit_drive
 from sysid.plan import plan_excitation
 
 REPO = Path(__file__).resolve().parents[3]
@@ -83,32 +85,17 @@ def test_record_plan_is_one_seeded_call() -> None:
         record_plan(plan, "turtlebot3_burger", seed=0)  # type: ignore[arg-type]
 
 
-def _poorly_informed(trace: object, robot: str) -> set[str]:
-    from sysid import fit_drive
-
+def _sd_ratios(trace: Trace, robot: str) -> dict[str, float]:
+    """Posterior over prior sd of each parameter with a prior, fitted on ``trace`` alone."""
     spec = load_spec(robot)
     res = fit_drive(
         [trace], geometry=spec.geometry, base_params=spec.drive, priors=spec.priors, robot=robot
     )
-    return {e.name for e in res.estimates if e.sd_ratio is not None and e.sd_ratio > 0.5}
+    return {e.name: e.sd_ratio for e in res.estimates if e.sd_ratio is not None}
 
 
-#: What one 90 s planned session leaves near its prior on each base (docs/transfer.md): the
-#: mass-gain direction and a torque cap the wheel loops never reach (behind the Kobuki's
-#: 1 m/s^2 smoother; on the Burger plant the PI loops ask less than its motors give); on the
-#: Burger also the viscous and yaw Coulomb terms, whose whole prior range moves the response
-#: by a tenth of the residual level (its PI loops cancel friction at any steady speed)
-_UNINFORMED = {
-    "turtlebot2": {"wheel_torque_max_nm", "added_mass_kg", "added_yaw_inertia_kgm2"},
-    "turtlebot3_burger": {
-        "wheel_torque_max_nm",
-        "added_mass_kg",
-        "added_yaw_inertia_kgm2",
-        "viscous_v_ns_per_m",
-        "viscous_w_nms_per_rad",
-        "coulomb_w_nm",
-    },
-}
+def _poorly_informed(trace: Trace, robot: str) -> set[str]:
+    return {name for name, ratio in _sd_ratios(trace, robot).items() if ratio > 0.5}
 
 
 @pytest.mark.slow
@@ -118,12 +105,29 @@ _UNINFORMED = {
 def test_a_planned_session_informs_what_a_go_to_goal_session_does_not(
     robot: str, seeds: tuple[int, ...]
 ) -> None:
-    # one 90 s session of a drawn plant (not the spec's model) per seed
+    # one 90 s session of a drawn plant (not the spec's model) per seed: the mass-gain
+    # direction and a torque cap the loops never reach (behind the Kobuki's 1 m/s^2
+    # smoother; the Burger plant's motors give more than its PI loops ask); on the Burger also
+    # the viscous terms, one prior sd of which is 2.3-2.4 % of its loops' proportional gain
     plan = plan_excitation(load_spec(robot), 90.0)
     for seed in seeds:
         params = draw_session(plant_from_spec(robot), np.random.default_rng([seed, 0]))
         planned = _poorly_informed(record_plan(plan, params, seed=seed), robot)
-        assert planned <= _UNINFORMED[robot], (seed, planned)
+        # what sysid plan prints as left near the prior is what the fit leaves there
+        assert planned <= set(plan.weak), (seed, planned)
     # go-to-goal leaves the speed limits and more besides
     goals = _poorly_informed(make_fleet(robot, 1, seed=seeds[-1], profile="goals")[0], robot)
     assert len(goals) >= len(planned) + 3 and {"speed_lim_v_mps", "speed_lim_w_radps"} <= goals
+
+
+@pytest.mark.slow
+def test_the_time_step_bias_never_widens_a_posterior_past_its_prior() -> None:
+    # the Burger's planned session of seed 3: its time-step bias, added whole, took the torque
+    # cap to 3.96 and the added mass to 1.97 of their prior sd
+    robot, seed = "turtlebot3_burger", 3
+    params = draw_session(plant_from_spec(robot), np.random.default_rng([seed, 0]))
+    ratios = _sd_ratios(
+        record_plan(plan_excitation(load_spec(robot), 90.0), params, seed=seed), robot
+    )
+    assert max(ratios.values()) <= 1.0 + 1e-9, ratios
+    assert ratios["wheel_torque_max_nm"] > 0.9  # the cap the loops never reach stays a prior

@@ -1,0 +1,76 @@
+"""Benchmark: what one 90 s session identifies, planned (``sysid plan``) against go-to-goal.
+
+For each base and seed, one plant session is drawn (``draw_session`` with
+``numpy.random.default_rng([seed, 0])``, the session ``make_fleet(robot, 1, seed=seed)`` drives
+too); it drives the base's 90 s excitation plan (:func:`sysid.plan.plan_excitation`) and,
+separately, a go-to-goal profile of the same length (``make_fleet(..., profile="goals")``). A
+fit of each (``sysid.fit_drive`` with the spec's priors) gives each parameter's posterior over
+prior sd; the table counts those above 0.5 (the data hardly informed them) and lists them.
+This is the table of docs/transfer.md, "What a planned session identifies".
+
+Run: ``.venv/bin/python benchmarks/bench_plan.py [--robots turtlebot2 turtlebot3_burger]
+[--seeds 1 2 3 4 5 6] [--profiles planned goals]`` (about 90 s per fit on one core).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from robots.spec import load_spec
+from sim2real.plants.diff_drive import draw_session, make_fleet, plant_from_spec
+from sim2real.plants.recording import record_plan
+from sysid import fit_drive
+from sysid.plan import plan_excitation
+
+#: A parameter whose posterior sd is above this fraction of its prior sd is poorly informed.
+POOR = 0.5
+
+
+def _ratios(robot: str, seed: int, profile: str, duration_s: float) -> dict[str, float]:
+    spec = load_spec(robot)
+    if profile == "planned":
+        params = draw_session(plant_from_spec(robot), np.random.default_rng([seed, 0]))
+        trace = record_plan(plan_excitation(spec, duration_s), params, seed=seed)
+    else:
+        trace = make_fleet(robot, 1, seed=seed, profile=profile, duration_s=duration_s)[0]
+    res = fit_drive(
+        [trace], geometry=spec.geometry, base_params=spec.drive, priors=spec.priors, robot=robot
+    )
+    return {e.name: float(e.sd_ratio) for e in res.estimates if e.sd_ratio is not None}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--robots", nargs="+", default=["turtlebot2", "turtlebot3_burger"])
+    ap.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3, 4, 5, 6])
+    ap.add_argument("--profiles", nargs="+", default=["planned", "goals"])
+    ap.add_argument("--duration", type=float, default=90.0)
+    args = ap.parse_args()
+    counts: dict[tuple[str, str], list[int]] = {}
+    for robot in args.robots:
+        for profile in args.profiles:
+            for seed in args.seeds:
+                t0 = time.perf_counter()
+                ratios = _ratios(robot, seed, profile, args.duration)
+                poor = {k: r for k, r in ratios.items() if r > POOR}
+                counts.setdefault((robot, profile), []).append(len(poor))
+                listed = ", ".join(f"{k} {r:.2f}" for k, r in sorted(poor.items()))
+                print(
+                    f"{robot} {profile} seed {seed}: {len(poor)} of {len(ratios)} above "
+                    f"{POOR} ({time.perf_counter() - t0:.0f} s): {listed}",
+                    flush=True,
+                )
+                print("  all: " + ", ".join(f"{k} {r:.2f}" for k, r in ratios.items()), flush=True)
+    print(
+        "\n| base | profile | post/prior sd > 0.5, seeds " + " ".join(map(str, args.seeds)) + " |"
+    )
+    print("|---|---|---|")
+    for (robot, profile), n in counts.items():
+        print(f"| {robot} | {profile} | {', '.join(map(str, n))} |")
+
+
+if __name__ == "__main__":
+    main()
