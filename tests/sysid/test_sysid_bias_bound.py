@@ -17,17 +17,12 @@ def _widest(bias: np.ndarray, info: np.ndarray, prior_prec: np.ndarray) -> float
 
 
 @settings(max_examples=200, deadline=None)
-@given(
-    seed=st.integers(0, 2**32 - 1),
-    p=st.integers(1, 6),
-    rank=st.integers(0, 6),
-    bias_sd=st.floats(0.01, 100.0),
-)
-def test_the_bounded_bias_keeps_the_posterior_within_the_prior(
-    seed: int, p: int, rank: int, bias_sd: float
-) -> None:
+@given(seed=st.integers(0, 2**32 - 1), bias_sd=st.floats(0.01, 100.0))
+def test_the_bounded_bias_keeps_the_posterior_within_the_prior(seed: int, bias_sd: float) -> None:
+    # any size, any rank of the data information (0 to full), scales over six decades
     rng = np.random.default_rng(seed)
-    a = rng.normal(size=(min(rank, p), p)) * 10.0 ** rng.uniform(-3, 3, size=p)
+    p = int(rng.integers(1, 7))
+    a = rng.normal(size=(int(rng.integers(0, p + 1)), p)) * 10.0 ** rng.uniform(-3, 3, size=p)
     info = a.T @ a
     prior_prec = np.diag(10.0 ** rng.uniform(-2, 2, size=p))
     bias = rng.normal(size=p) * bias_sd / np.sqrt(np.diag(prior_prec))
