@@ -10,7 +10,10 @@ checked here against the two references there are:
   moving sample (what a log that never holds a command offers). The logs that never hold one
   get the high-frequency estimate alone. The TurtleBot3's yaw rate comes from its IMU, read as
   a velocity: there the scatter under held commands is slower than the odometry period and
-  the high-frequency estimate sees a third of it.
+  the high-frequency estimate sees a third of it. Beside them, :func:`sysid.hfnoise.response_noise`
+  on every moving sample against the spec defaults' replay (a model no fit tuned to the log),
+  with the held-command estimate of v while driving (:func:`sysid.steady.motion_noise`) it is
+  compared with.
 
 Run: ``python benchmarks/bench_hfnoise.py`` (a few seconds).
 """
@@ -71,9 +74,10 @@ def _fmt(v: float, w: float) -> str:
 
 def real() -> None:
     from robots.spec import load_spec
+    from sim2real.agreement.replay import replay
     from sim2real.logs import read_for_robot
-    from sysid.hfnoise import highfreq_noise, log_pose
-    from sysid.steady import STEADY_AFTER_S, steady_noise
+    from sysid.hfnoise import highfreq_noise, log_pose, response_noise
+    from sysid.steady import STEADY_AFTER_S, motion_noise, steady_noise
 
     with tempfile.TemporaryDirectory() as tmp:
         neato = Path(tmp) / "neato.yaml"
@@ -84,8 +88,11 @@ def real() -> None:
         )  # fmt: skip
         specs = {"neato": load_spec(str(neato)), "tb3wp": load_spec("turtlebot3_waffle_pi")}
     print("\n## real logs: noise v (mm/s) / w (mrad/s)")
-    print("| log | held-command estimate (samples) | HF on the held samples | HF, every moving |")
-    print("|---|---|---|---|")
+    print(
+        "| log | held-command estimate (samples) | HF on the held samples | HF, every moving |"
+        " held, v while driving | response, every moving |"
+    )
+    print("|---|---|---|---|---|---|")
     for name in sorted(p.name for p in REALDATA.glob("*.mcap")):
         trace, _ = read_for_robot(REALDATA / name, specs[name.split("_")[0]])
         t = trace.meas_t_s
@@ -98,10 +105,19 @@ def real() -> None:
             **kw,
         )  # fmt: skip
         every = highfreq_noise(t, cv, cw, trace.meas_v, trace.meas_w, **kw)
+        # the spec defaults' replay: a model of the drive no fit tuned to this log
+        spec = specs[name.split("_")[0]]
+        sim = replay(trace, robot=spec, engine="reduced", odom_v_window_s=0.05)
+        response = response_noise(
+            t, cv, cw, trace.meas_v, trace.meas_w, (sim.v, sim.w), **kw
+        )  # fmt: skip
+        driving = motion_noise(t, cv, cw, trace.meas_v, trace.meas_w)[0]
         print(
             f"| {name[:40]} | {_fmt(held.std_v_mps, held.std_w_radps)} ({held.n_samples}) |"
             f" {_fmt(same.std_v_mps, same.std_w_radps)} |"
             f" {_fmt(every.std_v_mps, every.std_w_radps)} ({every.n_samples}) |"
+            f" {_fmt(driving.std_v_mps, held.std_w_radps)} |"
+            f" {_fmt(response.std_v_mps, response.std_w_radps)} ({response.n_samples}) |"
         )
 
 

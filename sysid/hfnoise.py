@@ -70,10 +70,12 @@ from robots.arrays import BoolArray, FloatArray
 from robots.measurement import MeasurementModel
 from sysid.steady import MIN_STEADY_SAMPLES, SteadyNoise, robust_sd
 
-__all__ = ["HIGHFREQ_METHOD", "highfreq_noise", "log_pose"]
+__all__ = ["HIGHFREQ_METHOD", "RESPONSE_METHOD", "highfreq_noise", "log_pose", "response_noise"]
 
 #: :attr:`sysid.steady.SteadyNoise.method` of an estimate made by :func:`highfreq_noise`.
 HIGHFREQ_METHOD = "high-frequency"
+#: :attr:`sysid.steady.SteadyNoise.method` of an estimate made by :func:`response_noise`.
+RESPONSE_METHOD = "response"
 
 
 def _chord_residuals(t: FloatArray, z: FloatArray, step: int) -> FloatArray:
@@ -125,6 +127,13 @@ def _path(x: FloatArray, y: FloatArray, yaw: FloatArray) -> FloatArray:
     return np.concatenate(([0.0], np.cumsum(ds)))
 
 
+def _running_integral(t: FloatArray, y: FloatArray) -> FloatArray:
+    """The trapezoid integral of ``y(t)`` from the first sample to each sample."""
+    steps = 0.5 * (y[1:] + y[:-1]) * np.diff(t)
+    out: FloatArray = np.concatenate(([0.0], np.cumsum(steps)))
+    return out
+
+
 def log_pose(log: object) -> tuple[FloatArray, FloatArray, FloatArray] | None:
     """The odometry pose of ``log`` (``pose_x``, ``pose_y``, ``pose_yaw``: m, m, rad, one per
     measurement, as a :class:`sim2real.logs.Trace` has it); None when it has none.
@@ -153,6 +162,7 @@ def highfreq_noise(
     *,
     measurement: MeasurementModel | None = None,
     pose: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+    explained: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> SteadyNoise:
     """The odometry noise of one log from its high-frequency part (module docstring).
 
@@ -166,6 +176,11 @@ def highfreq_noise(
     pose : (x, y, yaw), optional
         Per measurement: the odometry pose (m, m, rad), read when ``measurement`` says the
         velocities are its local-line slope.
+    explained : (v, w), optional
+        Per measurement: what a model of the drive's response to the logged command predicts
+        the readings to be (m/s, rad/s, read through the same measurement). It is taken out
+        first (from the pose, its running integral): the stencils then see what the command
+        does not explain, and a kink the command put in the motion is no longer read as noise.
 
     Returns
     -------
@@ -178,14 +193,22 @@ def highfreq_noise(
     driving = np.asarray(cmd_v, dtype=np.float64) != 0
     moving = driving | (np.asarray(cmd_w, dtype=np.float64) != 0)
     tk, mk, dk = t[keep], moving[keep], driving[keep]
+    model = [np.broadcast_to(np.asarray(e, dtype=np.float64), t.shape) for e in explained or (0, 0)]
     if pose is not None and measurement is not None and measurement.kind == "pose":
         x, y, yaw = (np.asarray(p, dtype=np.float64)[keep] for p in pose)
         yaw = np.unwrap(yaw)
         gain = _slope_gain(tk, measurement.window_s)[mk]
         g = float(np.nanmedian(gain)) if np.isfinite(gain).any() else math.nan
-        series: tuple[tuple[FloatArray, float], ...] = ((_path(x, y, yaw), g), (yaw, g))
+        path_m, turned = (_running_integral(t, m)[keep] for m in model)
+        series: tuple[tuple[FloatArray, float], ...] = (
+            (_path(x, y, yaw) - path_m, g),
+            (yaw - turned, g),
+        )
     else:
-        series = tuple((np.asarray(z, dtype=np.float64)[keep], 1.0) for z in (meas_v, meas_w))
+        series = tuple(
+            ((np.asarray(z, dtype=np.float64) - m)[keep], 1.0)
+            for z, m in zip((meas_v, meas_w), model, strict=True)
+        )
     stds, counts = [], []
     for (z, gain_per_s), first in zip(series, (dk, mk), strict=True):
         var, count = _noise_var(tk, z, first)
@@ -199,3 +222,87 @@ def highfreq_noise(
             std_v_mps=math.nan, std_w_radps=math.nan, n_samples=n, method=HIGHFREQ_METHOD
         )
     return SteadyNoise(std_v_mps=stds[0], std_w_radps=stds[1], n_samples=n, method=HIGHFREQ_METHOD)
+
+
+def response_noise(
+    meas_t_s: ArrayLike,
+    cmd_v: ArrayLike,
+    cmd_w: ArrayLike,
+    meas_v: ArrayLike,
+    meas_w: ArrayLike,
+    explained: tuple[ArrayLike, ArrayLike],
+    *,
+    measurement: MeasurementModel | None = None,
+    pose: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+) -> SteadyNoise:
+    r"""The odometry noise of a log whose commands never hold: the part of its readings that
+    a model of the drive's response to the logged command does not explain, and that changes
+    faster than the motion.
+
+    ``explained`` is a model's replay of the logged commands read through the log's
+    measurement (the fitted point's: :func:`sim2real.agreement.replay.replay`). Per axis, two
+    figures bound the measurement noise from above, and the estimate is the smaller:
+
+    - the robust sd (MAD) of the residual :math:`z - \hat z`: the noise and the model's
+      misses are independent, so the residual's variance is the sum of theirs and never less
+      than the noise's;
+    - :func:`highfreq_noise` of the residual: its scatter between successive readings, with
+      the kinks the command puts in the motion taken out by the model and the model's slow
+      misses taken out by the stencils. It reads the model's misses faster than the odometry
+      period as noise, and a pose-derived velocity's noise through the slope's gain, which
+      holds only for a pose whose noise is white: where that fails, the first figure bounds it.
+
+    On a log that holds commands :func:`sysid.steady.steady_noise` is the estimate to use; on
+    the real Neato logs that have both, this one reads 0.8-1.3 times it on v while driving
+    and on w (``benchmarks/bench_hfnoise.py``).
+
+    Parameters
+    ----------
+    meas_t_s, cmd_v, cmd_w, meas_v, meas_w : array_like
+        The log, as for :func:`sysid.steady.steady_noise`.
+    explained : (v, w)
+        Per measurement: the model's prediction of the readings, m/s and rad/s.
+    measurement, pose
+        As for :func:`highfreq_noise`.
+
+    Returns
+    -------
+    SteadyNoise
+        ``method`` :data:`RESPONSE_METHOD`; ``n_samples`` the smaller count of the two axes'
+        readings; NaN sds when fewer than :data:`sysid.steady.MIN_STEADY_SAMPLES`.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(0.0, 30.0, 0.1)
+    >>> cmd = 0.2 + 0.05 * np.sin(t)  # a new command at every reading
+    >>> model = (cmd, 0.5 * cmd)  # a drive that follows it within a reading
+    >>> own = response_noise(t, cmd, 0.5 * cmd, cmd + rng.normal(0.0, 0.01, t.size),
+    ...                      0.5 * cmd + rng.normal(0.0, 0.02, t.size), model)
+    >>> own.method, round(own.std_v_mps, 2), round(own.std_w_radps, 2)
+    ('response', 0.01, 0.02)
+    """
+    t = np.asarray(meas_t_s, dtype=np.float64)
+    high = highfreq_noise(
+        t, cmd_v, cmd_w, meas_v, meas_w, measurement=measurement, pose=pose, explained=explained
+    )
+    keep = np.ones(t.size, dtype=bool) if measurement is None else measurement.fresh
+    driving = np.asarray(cmd_v, dtype=np.float64) != 0
+    moving = driving | (np.asarray(cmd_w, dtype=np.float64) != 0)
+    if np.count_nonzero(driving & keep) < MIN_STEADY_SAMPLES:
+        driving = moving  # too few readings under a v command: every moving one
+    stds, counts = [], []
+    for z, model, mask, hf in (
+        (meas_v, explained[0], driving & keep, high.std_v_mps),
+        (meas_w, explained[1], moving & keep, high.std_w_radps),
+    ):
+        residual = (np.asarray(z, dtype=np.float64) - np.asarray(model, dtype=np.float64))[mask]
+        counts.append(int(residual.size))
+        bounds = [b for b in (robust_sd(residual), hf) if math.isfinite(b)]
+        stds.append(min(bounds) if bounds else math.nan)
+    n = min(counts)
+    if n < MIN_STEADY_SAMPLES or not all(math.isfinite(s) for s in stds):
+        return SteadyNoise(
+            std_v_mps=math.nan, std_w_radps=math.nan, n_samples=n, method=RESPONSE_METHOD
+        )
+    return SteadyNoise(std_v_mps=stds[0], std_w_radps=stds[1], n_samples=n, method=RESPONSE_METHOD)

@@ -946,8 +946,8 @@ def held_out_model_noise(
 
     The fitted point (the distribution's mean) replays each log; its residuals over the
     active samples of all the logs hold the logs' own measurement noise :math:`\sigma_m`
-    (:func:`sim2real.agreement.latency.band_log_noise`, between the readings where no command
-    is held long enough) and the model's share, which grows with the replay's rate of change
+    (:func:`sim2real.agreement.latency.band_log_noise`: where no command is held long enough,
+    what the fitted point's replay does not explain, as ``agree``'s band reads a checked log) and the model's share, which grows with the replay's rate of change
     :math:`a` (:class:`sim2real.agreement.latency.ModelShare`, :math:`\delta(a)^2 =
     \delta_0^2 + (\tau a)^2`): :func:`sim2real.agreement.latency.fit_model_share` fits
     :math:`\delta_0` and :math:`\tau` per axis to the robust variance (MAD, the fit's
@@ -971,16 +971,15 @@ def held_out_model_noise(
     (0.0021, 0.0058, 0.041, 0.037)
     """
     spec = resolve_robot(robot)
-    own = pooled_steady_noise([band_log_noise(t, between_readings=True) for t in traces])
-    if not own.measured:
-        return math.nan, math.nan, math.nan, math.nan
     point = distribution.mean_params()
     res: tuple[list[FloatArray], list[FloatArray]] = ([], [])
     rates: tuple[list[FloatArray], list[FloatArray]] = ([], [])
+    noises = []
     for trace in traces:
         rep = replay(
             trace, robot=spec, params=point, engine=engine, odom_v_window_s=odom_v_window_s
         )
+        noises.append(band_log_noise(trace, replayed=rep))
         real = (
             np.asarray(trace.meas_v, dtype=np.float64),
             np.asarray(trace.meas_w, dtype=np.float64),
@@ -990,6 +989,9 @@ def held_out_model_noise(
         for k, sim in enumerate((rep.v, rep.w)):
             res[k].append((real[k] - sim)[active])
             rates[k].append(replay_rate(trace.meas_t_s, sim)[active])
+    own = pooled_steady_noise(noises)
+    if not own.measured:
+        return math.nan, math.nan, math.nan, math.nan
     (d_v, tau_v), (d_w, tau_w) = (
         fit_model_share(
             np.concatenate(res[k]), np.concatenate(rates[k]), measurement_std=meas, at_least=floor

@@ -53,7 +53,7 @@ from robots.randomization import apply_noise
 from sim2real._arrays import FloatArray
 from sim2real.agreement.figures import AgreementReport, measure_agreement
 from sim2real.agreement.replay import RobotSpecLike, TraceLike, replay
-from sysid.hfnoise import highfreq_noise, log_pose
+from sysid.hfnoise import log_pose, response_noise
 from sysid.metrics import active_mask
 from sysid.steady import (
     MIN_STEADY_SAMPLES,
@@ -368,7 +368,7 @@ def log_noise(trace: TraceLike) -> SteadyNoise:
     return steady_noise(trace.meas_t_s, cmd_v, cmd_w, trace.meas_v, trace.meas_w)
 
 
-def band_log_noise(trace: TraceLike, *, between_readings: bool = False) -> SteadyNoise:
+def band_log_noise(trace: TraceLike, *, replayed: Any = None) -> SteadyNoise:
     """The log's own measurement noise as the band sets it beside the model's share
     (:func:`band_noise`): :func:`log_noise`, with v read on the steady stretches under a
     non-zero v command where there are :data:`sysid.steady.MIN_STEADY_SAMPLES` of them
@@ -376,12 +376,11 @@ def band_log_noise(trace: TraceLike, *, between_readings: bool = False) -> Stead
     is not zero; spinning in place, odometry reads v close to exact zero, and pooled with
     the spins that scatter reads a fraction of itself.
 
-    With ``between_readings``, a log with too few steady samples is measured between its
-    readings (:func:`sysid.hfnoise.highfreq_noise`, the pose's when the velocities are its
-    slope): a calibration log's, beside its residuals
-    (:func:`sim2real.agreement.calibration.held_out_model_noise`). A checked log's band does
-    not take it: on a log whose commands jump at every message it reads the drive's fast
-    response as noise too, many times the scatter the same unit shows under a held command.
+    With ``replayed`` (a model's replay of the log, the fitted point's), a log with too few
+    steady samples is measured by what that replay does not explain
+    (:func:`sysid.hfnoise.response_noise`): the one rule of ``agree``'s band
+    (:func:`band_sample_noise`) and of a calibration's model share
+    (:func:`sim2real.agreement.calibration.held_out_model_noise`).
 
     Examples
     --------
@@ -394,14 +393,26 @@ def band_log_noise(trace: TraceLike, *, between_readings: bool = False) -> Stead
     if own.measured:
         driving = motion_noise(*args)[0].std_v_mps
         return replace(own, std_v_mps=driving) if math.isfinite(driving) else own
-    if not between_readings:
+    if replayed is None:
         return own
-    high = highfreq_noise(
-        *args,
+    response = _response_noise(trace, replayed)
+    return response if response.measured else own
+
+
+def _response_noise(trace: TraceLike, replayed: Any) -> SteadyNoise:
+    """:func:`sysid.hfnoise.response_noise` of ``trace`` against ``replayed`` (its ``v``,
+    ``w`` at the measurement times), through the log's measurement and pose."""
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    return response_noise(
+        trace.meas_t_s,
+        cmd_v,
+        cmd_w,
+        trace.meas_v,
+        trace.meas_w,
+        (replayed.v, replayed.w),
         measurement=getattr(trace, "measurement", None),  # the pose derivative, a slow hold
         pose=log_pose(trace),
     )
-    return high if high.measured else own
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -543,12 +554,15 @@ def band_sample_noise(
     ceiling takes it, :func:`motion_ceiling`): v where v is commanded from the log's steady
     stretches under a v command, v held at zero as its scatter about zero there
     (:func:`sysid.steady.held_at_zero_noise`: the replay's v is zero, so the odometry's offset
-    is a miss too), w from all its steady stretches; a class the log cannot tell takes the fit logs' own
+    is a miss too), w from all its steady stretches. Where the log holds no command long
+    enough to tell v while driving or w, what ``replayed`` does not explain tells it
+    (:func:`sysid.hfnoise.response_noise`: a follower's or a wall follower's commands change at
+    every message); a class neither tells takes the fit logs' own
     (``settings.measurement_noise``), and a log that cannot tell its noise at all the file's
     (:func:`band_noise` keeps it too: the fit logs' robust sd need not describe another unit's
-    odometry); none is taken below the quantisation's sd :math:`q /
-    \sqrt{12}` (a robust sd of quantised readings is 0 once most sit on one step). Without a held-out share (no calibration, an older one),
-    :func:`band_noise`.
+    odometry); none is taken below the quantisation's sd :math:`q / \sqrt{12}` (a robust sd of
+    quantised readings is 0 once most sit on one step). Without a held-out share (no
+    calibration, an older one), :func:`band_noise`.
 
     Examples
     --------
@@ -563,17 +577,20 @@ def band_sample_noise(
     own = steady_noise(*args)
     if share is None:
         return band_noise(noise, settings, band_log_noise(trace), calibration=calibration)
+    moving, still = motion_noise(*args)[0], held_at_zero_noise(*args)
+    response = _response_noise(trace, replayed)  # where no command is held long enough
     # a log that cannot tell its noise keeps the file's, as the one-number band does
     fit_v, fit_w = (
-        fitted if fitted is not None and own.measured else (noise.std_v_mps, noise.std_w_radps)
+        fitted
+        if fitted is not None and (own.measured or response.measured)
+        else (noise.std_v_mps, noise.std_w_radps)
     )
-    moving, still = motion_noise(*args)[0], held_at_zero_noise(*args)
     sd_v = np.where(
         np.asarray(cmd_v) != 0,
-        _known(moving.std_v_mps, fit_v),
+        _known(moving.std_v_mps, _known(response.std_v_mps, fit_v)),
         _known(still.std_v_mps, fit_v),
     )
-    sd_w = np.full(sd_v.shape, _known(own.std_w_radps, fit_w))
+    sd_w = np.full(sd_v.shape, _known(own.std_w_radps, _known(response.std_w_radps, fit_w)))
     # a robust sd of readings on a lattice says 0 once most of them sit on one step: below
     # the quantum the noise is the quantisation's at least
     sd_v = np.maximum(sd_v, noise.quantum_v_mps / math.sqrt(12.0))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -23,7 +24,7 @@ from sim2real.agreement.latency import (
 )
 from sim2real.cli import main
 from sim2real.logs import Trace, read_trace
-from sysid.hfnoise import HIGHFREQ_METHOD
+from sysid.hfnoise import RESPONSE_METHOD
 from sysid.steady import MIN_STEADY_SAMPLES, SteadyNoise
 
 
@@ -124,10 +125,10 @@ def test_the_band_noise_is_the_models_share_plus_the_logs_own(own_v: float, own_
     assert band_noise(_FILE, _FITTED, same)[0].std_v_mps == pytest.approx(0.016)
 
 
-def test_a_log_that_never_holds_a_command_is_measured_between_its_readings() -> None:
+def test_a_log_that_never_holds_a_command_is_measured_by_what_the_model_leaves() -> None:
     """A controller's new command every message (20 Hz, a 0.3 s lag, 0.01 m/s and 0.05 rad/s of
-    noise): no held command, so only ``between_readings`` measures it (a calibration log's
-    noise beside its residuals); the band and the ceiling keep the fit's."""
+    noise): no held command, so only a replay measures it (what the replay does not explain,
+    as agree's band and a calibration's model share read it); without one, the file's."""
     rng = np.random.default_rng(0)
     t = np.arange(0, 60_000_000_000, 50_000_000)  # 60 s at 20 Hz
     s = t / 1e9
@@ -137,13 +138,15 @@ def test_a_log_that_never_holds_a_command_is_measured_between_its_readings() -> 
                   meas_w=0.3 + rng.normal(0, 0.05, t.size))  # fmt: skip
     assert not log_noise(trace).measured
     assert band_noise(_FILE, _FITTED, band_log_noise(trace)) == (_FILE, "")
-    own = band_log_noise(trace, between_readings=True)
-    assert own.measured and own.method == HIGHFREQ_METHOD
+    model = SimpleNamespace(v=0.2 + 0.1 * np.sin(0.3 * (s - 0.25)), w=0 * s + 0.3)  # misses
+    own = band_log_noise(trace, replayed=model)
+    assert own.measured and own.method == RESPONSE_METHOD
     assert own.std_v_mps == pytest.approx(0.01, rel=0.2)
     assert own.std_w_radps == pytest.approx(0.05, rel=0.2)
     short = Trace(cmd_t_ns=t[:25], cmd_v=cmd[:25], cmd_w=0 * cmd[:25], meas_t_ns=t[:25],
                   meas_v=cmd[:25], meas_w=0 * cmd[:25])  # fmt: skip
-    assert not band_log_noise(short, between_readings=True).measured  # too few readings: unmeasured
+    cut = SimpleNamespace(v=cmd[:25], w=0 * cmd[:25])
+    assert not band_log_noise(short, replayed=cut).measured  # too few readings: unmeasured
 
 
 @settings_(max_examples=100, deadline=None)
