@@ -218,7 +218,8 @@ def motion_ceiling(
     level: float = 0.9,
     fallback: SpeedNoise | None = None,
 ) -> NoiseCeiling:
-    """:func:`noise_ceiling` with each scored sample's noise at its own speed.
+    """:func:`noise_ceiling` with each scored sample's noise at its own speed (a pose
+    derivative) or of its own motion (any other reading, :func:`_class_ceiling`).
 
     The agreement is scored on the active samples (:func:`sysid.metrics.active_mask`), and
     odometry reads more noise the faster its axis moves (:class:`sysid.steady.SpeedNoise`: a
@@ -241,10 +242,13 @@ def motion_ceiling(
     active = active_mask(cmd_v, cmd_w, meas_v, meas_w, tol_v=tol_v, tol_w=tol_w)
     if not active.any():
         return pooled
+    measurement = getattr(trace, "measurement", None)
+    if getattr(measurement, "kind", None) != "pose":
+        return _class_ceiling(trace, noise, pooled, active, tol_v=tol_v, tol_w=tol_w)
     law = speed_noise(
         [(trace.meas_t_s, cmd_v, cmd_w, meas_v, meas_w)],
         fallback=fallback,
-        ahead_s=measurement_lead_s(getattr(trace, "measurement", None)),
+        ahead_s=measurement_lead_s(measurement),
     )
     law = replace(
         law,
@@ -252,7 +256,7 @@ def motion_ceiling(
         floor_w_radps=_known(law.floor_w_radps, noise.std_w_radps),
     )
     sd_v, sd_w = law.std_at(np.asarray(meas_v)[active], np.asarray(meas_w)[active])
-    tau = jitter_timing_s(getattr(trace, "measurement", None))
+    tau = jitter_timing_s(measurement)
     if tau > 0.0:  # the stamp jitter's error where the velocity changes
         t = trace.meas_t_s
         sd_v = np.hypot(sd_v, tau * _known(law.fraction_v, 0.0) * replay_rate(t, meas_v)[active])
@@ -295,6 +299,53 @@ def jitter_timing_s(measurement: Any) -> float:
         return 0.0
     u = period * np.arange(-int(half // period), int(half // period) + 1)
     return math.sqrt(float(np.sum(u**4) / np.sum(u**2)))
+
+
+def _class_ceiling(
+    trace: TraceLike,
+    noise: ObservationNoise,
+    pooled: NoiseCeiling,
+    active: Any,
+    *,
+    tol_v: float,
+    tol_w: float,
+) -> NoiseCeiling:
+    """:func:`motion_ceiling` of a reading that is not a pose derivative: each active sample
+    gets, per axis, the log's own noise of the steady stretches whose command on that axis is
+    zero or not, like its own (:func:`sysid.steady.motion_noise`; ``noise``'s where the log
+    cannot tell that class). No law of speed: the stamp jitter that makes one is a pose
+    derivative's, and per bin of a short log the steady stretches of a heavy base still
+    settling read as noise (a Warthog's 12 s: 0.28 of |v|)."""
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    moving, still = motion_noise(trace.meas_t_s, cmd_v, cmd_w, trace.meas_v, trace.meas_w)
+    chances = []
+    for cmd, tol, quantum, name, fallback in (
+        (cmd_v, tol_v, noise.quantum_v_mps, "std_v_mps", noise.std_v_mps),
+        (cmd_w, tol_w, noise.quantum_w_radps, "std_w_radps", noise.std_w_radps),
+    ):
+        chance = {}
+        for moves, own in ((True, moving), (False, still)):
+            sd = math.hypot(_known(getattr(own, name), fallback), quantum / math.sqrt(12.0))
+            chance[moves] = _within_prob(tol, sd)
+        chances.append(np.where(np.asarray(cmd)[active] != 0, chance[True], chance[False]))
+    a_v, a_w = chances
+    unknown = any(math.isnan(getattr(n, f)) for n in (moving, still) for f in _SDS)
+    return replace(
+        pooled,
+        agreement=float(np.mean(a_v * a_w)),
+        agreement_v=float(np.mean(a_v)),
+        agreement_w=float(np.mean(a_w)),
+        note=(
+            "the noise ceiling takes each scored sample's noise of its own motion: v "
+            f"{moving.std_v_mps:.3g} m/s while driving, {still.std_v_mps:.3g} while not; w "
+            f"{moving.std_w_radps:.3g} rad/s while turning, {still.std_w_radps:.3g} while not"
+            + (" (nan: too few samples to tell, the pooled noise stands in)" if unknown else "")
+        ),
+    )
+
+
+#: The sd fields of a :class:`SteadyNoise`.
+_SDS = ("std_v_mps", "std_w_radps")
 
 
 def _within(tol: float, sd: FloatArray) -> FloatArray:
