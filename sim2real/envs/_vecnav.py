@@ -407,7 +407,7 @@ def finish_random_map(
 
     ``consts`` = the fields of :class:`~sim2real.envs.RandomMapReward` in their order, tuples
     flattened: (reach, progress_per_m, 3 crash band edges, 3 penalties, free_weight,
-    step_penalty, ...). ``outcome``: 0 running,
+    step_penalty, goal_speed_per_mps, goal_speed_radius_m). ``outcome``: 0 running,
     1 collision, 2 success, 3 timeout. Also counts the step, records (v, w) for the episode
     metrics and moves the previous goal distance on. Inactive envs get reward 0, outcome 0.
     """
@@ -436,7 +436,9 @@ def finish_random_map(
             if c <= consts[2 + b]:
                 r_crash = -consts[5 + b]
                 break
-        rewards[i] = r_goal + r_crash - consts[8] * free - consts[9]
+        ramp = max(0.0, 1.0 - d / consts[11])
+        r_stop = -consts[10] * abs(state[i, 0]) * ramp
+        rewards[i] = r_goal + r_crash - consts[8] * free + r_stop - consts[9]
 
 
 @numba.njit(cache=True)

@@ -92,6 +92,15 @@ def test_vector_env_equals_single_envs_with_a_short_goal_range() -> None:
     sync.close()
 
 
+def test_vector_env_equals_single_envs_with_the_goal_speed_reward() -> None:
+    """The goal-speed term (a cost on |v| near the goal) enters both envs' rewards alike."""
+    reward = {"goal_speed_per_mps": 3.0, "goal_speed_radius_m": 30.0}
+    vec, sync = make_pair(2, preset="TEST1", max_episode_steps=60, reward=reward)
+    run_both(vec, sync, steps=80, seed=5, rng_seed=3)
+    vec.close()
+    sync.close()
+
+
 def test_vector_env_equals_single_envs_with_per_env_drive_params() -> None:
     """Different robots per sub-env (a long delay grows the command history) stay equal."""
     base = load_spec("turtlebot3_burger").drive
