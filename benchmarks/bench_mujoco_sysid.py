@@ -52,6 +52,8 @@ import numpy as np
 from _timing import record
 from bench_real import BASES, REALDATA, Base, cli, log_path, spec_file
 
+from robots.units import GRAVITY_MPS2
+
 ENSEMBLE_N = 30
 QUICK = {"base": "neato", "checks": 1, "ensemble": 8, "iters": 10}
 DELAY_MAX_S = 0.5
@@ -109,7 +111,7 @@ class PeerModel:
 
     def _parameters(self) -> Any:
         sysid, spec, d = self.sysid, self.spec, self.spec.drive
-        weight_n = d.total_mass_kg(spec.geometry) * 9.81
+        weight_n = d.total_mass_kg(spec.geometry) * GRAVITY_MPS2
         sep = spec.wheels.separation_m
 
         def per_wheel(kind: str, edit: Any) -> Any:

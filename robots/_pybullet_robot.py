@@ -25,6 +25,7 @@ from robots.measurement import yaw_reading_factor
 from robots.params import DriveParams
 from robots.reduced import _check_inputs, _delayed_commands, delayed_step_average
 from robots.spec import RobotSpec, load_spec, lumped_base_inertia, lumped_base_mass_kg
+from robots.units import GRAVITY_MPS2 as _G
 from robots.world import add_ground
 
 _Robot = TypeVar("_Robot", bound="UncheckedPybulletRobot")
@@ -39,7 +40,6 @@ MIN_LOAD_FRACTION = 0.1
 #: A load the drive puts on a caster at once (a torque step) peaks at twice its steady value on
 #: the stiff, undamped contact (the dynamic load factor of a suddenly applied load).
 LOAD_STEP_FACTOR = 2.0
-_G = 9.81
 #: Constraint-solver iterations per physics step (set on the client, with pyramid friction).
 #: pybullet's default 50 leaves the wheel contacts unconverged (the yaw rate is off and ripples
 #: at the wheel revolution rate); 150 converges at almost no cost (the solver stops early). Its
@@ -198,7 +198,7 @@ class UncheckedPybulletRobot:
         self._own_client = client is None
         if client is None:
             client = int(p.connect(p.DIRECT))
-            p.setGravity(0.0, 0.0, -9.81, physicsClientId=client)
+            p.setGravity(0.0, 0.0, -_G, physicsClientId=client)
             add_ground(client)
         self.client = client
         gravity = p.getPhysicsEngineParameters(physicsClientId=client)["gravityAccelerationZ"]

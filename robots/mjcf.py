@@ -51,6 +51,7 @@ from robots.files import write_text_atomic
 from robots.params import DriveParams
 from robots.reduced import DEFAULT_DT_S
 from robots.spec import RobotSpec, lumped_base_inertia, lumped_base_mass_kg
+from robots.units import GRAVITY_MPS2 as _G
 
 __all__ = [
     "MAX_TYRE_FRICTION",
@@ -64,7 +65,6 @@ __all__ = [
     "write_mjcf",
 ]
 
-_G = 9.81  # m/s^2
 
 #: Physics step of the exported model, s (the reduced model's integration step).
 MJCF_TIMESTEP_S = DEFAULT_DT_S

@@ -32,6 +32,7 @@ from typing import Any
 import yaml
 
 from robots.errors import ParamsFileError, RobotsValueError
+from robots.units import GRAVITY_MPS2 as _G
 
 __all__ = [
     "COORD_KINDS",
@@ -303,8 +304,6 @@ PER_TOTAL = {"per_total_mass": "added_mass_kg", "per_total_inertia": "added_yaw_
 #: Sign rules: ``nonneg`` (>= 0), ``positive`` (> 0; +inf allowed where ``may_be_inf``),
 #: ``total_positive`` (any sign, but the spec value plus it must stay > 0).
 SIGN_RULES = ("nonneg", "positive", "total_positive")
-
-_G = 9.81  # m/s^2, to express friction priors as a fraction of the weight
 
 
 def _abs(value: float) -> Callable[[BaseGeometry], float]:

@@ -31,6 +31,7 @@ import math
 from dataclasses import dataclass
 
 from robots.errors import RobotsValueError
+from robots.units import GRAVITY_MPS2 as _G
 
 __all__ = ["DRIVES", "WHEEL_CAPS", "NewRobot", "spec_text"]
 
@@ -39,7 +40,6 @@ DRIVES = ("diff", "skid")
 #: ``--wheel-cap`` choices: how the driver holds wheel targets to the speed cap (both scaled
 #: together, or each clipped on its own; ``robots.params.DriveParams.wheel_cap_per_side``).
 WHEEL_CAPS = ("joint", "per-side")
-_G = 9.81
 _SKID_CHI = 1.6  # prior track factor of a skid steer (see _render)
 
 

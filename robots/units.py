@@ -1,9 +1,10 @@
-"""The one time conversion: integer nanoseconds (log stamps) <-> seconds (models).
+"""The one time conversion, integer nanoseconds (log stamps) <-> seconds (models), and the
+one value of gravity every package uses.
 
 Logs stamp messages in integer nanoseconds (ROS 2 ``builtin_interfaces/Time``, MCAP); the
 models and fits work in seconds. :func:`seconds` and :func:`nanoseconds` are the conversion
 both ways, for numbers and numpy arrays; :data:`NS_PER_S` splits a stamp into whole seconds
-and nanoseconds.
+and nanoseconds. :data:`GRAVITY_MPS2` is standard gravity rounded as the simulators take it.
 
 Examples
 --------
@@ -23,10 +24,14 @@ from typing import Any, overload
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["NS_PER_S", "nanoseconds", "seconds"]
+__all__ = ["GRAVITY_MPS2", "NS_PER_S", "nanoseconds", "seconds"]
 
 #: Nanoseconds in a second.
 NS_PER_S = 1_000_000_000
+
+#: Gravitational acceleration, m/s^2: weights, friction priors as a fraction of the weight, and
+#: the gravity pybullet and MuJoCo simulate.
+GRAVITY_MPS2 = 9.81
 
 
 @overload

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from robots.units import GRAVITY_MPS2
 from sim2real.envs.geometry import FloatArray
 
 __all__ = ["PybulletWorld", "render_pybullet_depth"]
@@ -34,7 +35,7 @@ class PybulletWorld:
         p, self._bodies = _pybullet()
         self.p = p
         self.client: int = p.connect(p.DIRECT)
-        p.setGravity(0.0, 0.0, -9.81, physicsClientId=self.client)
+        p.setGravity(0.0, 0.0, -GRAVITY_MPS2, physicsClientId=self.client)
         self.ground = self._bodies.add_ground(self.client)
         self._static: list[int] = []
         self._peds: list[int] = []
@@ -48,7 +49,7 @@ class PybulletWorld:
     def reset_simulation(self) -> None:
         """Remove every body and start from a fresh physics state (same seed, same rollout)."""
         self.p.resetSimulation(physicsClientId=self.client)
-        self.p.setGravity(0.0, 0.0, -9.81, physicsClientId=self.client)
+        self.p.setGravity(0.0, 0.0, -GRAVITY_MPS2, physicsClientId=self.client)
         self.ground = self._bodies.add_ground(self.client)
         self._static, self._peds, self._ped_key = [], [], ()
 

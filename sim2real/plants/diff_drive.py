@@ -57,7 +57,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots.spec import load_spec
-from robots.units import nanoseconds
+from robots.units import GRAVITY_MPS2, nanoseconds
 from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import integrate_pose, write_trace
@@ -248,7 +248,7 @@ def plant_from_spec(robot: str, **changes: Any) -> PlantParams:
     """
     spec = load_spec(robot)
     geo, drive, odo = spec.geometry, spec.drive, spec.odometry
-    weight_n = spec.rigid_mass_kg * 9.81
+    weight_n = spec.rigid_mass_kg * GRAVITY_MPS2
     c = 0.04 * weight_n / 2.0
     wheel_cap = drive.wheel_speed_max_radps
     if not math.isfinite(wheel_cap):

@@ -60,6 +60,7 @@ import numba
 import numpy as np
 
 from robots.spec import RobotSpec
+from robots.units import GRAVITY_MPS2 as _G
 from robots.units import nanoseconds
 from sim2real._arrays import FloatArray
 from sim2real.errors import Sim2RealValueError
@@ -84,8 +85,6 @@ __all__ = [
     "run_skid_plant",
     "skid_robot",
 ]
-
-_G = 9.81
 
 
 @dataclass(frozen=True, kw_only=True)
