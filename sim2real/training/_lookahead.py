@@ -19,18 +19,24 @@ w)` over one control step :math:`\Delta t`:
   goal moves on along the plan as the robot drives; the prediction keeps the point);
 - each observed mover moves at its observed velocity (constant-velocity prediction) and is seen
   from the new pose, its relative velocity against the commanded one; empty slots stay empty;
-- every lidar return moves as a point: its range is its distance from the new pose, and it is
-  placed at its beam angle minus the turn, interpolated between beams. That is exact for a
-  small obstacle; along a wall the beam meets another point of the wall, so a wall parallel to
-  the motion is predicted nearer ahead and farther behind, by up to the step's 5.5 cm; a
-  mover inside the scan stays where it was seen (its motion is in the neighbour rows); the
+- the lidar (``lidar_model``): ``"recast"`` joins neighbouring returns into segments (the
+  scan as a polygon) and casts every beam of the new pose against them, so a wall seen by two
+  neighbouring beams keeps its place and each new beam meets it where a real ray would (exact
+  for a straight wall, a chord for a curved one); a beam that meets no segment (beside a
+  single return or a gap) takes the ``"point"`` value. ``"point"`` moves every return as a
+  point: its range is its distance from the new pose, placed at its beam angle minus the
+  turn, interpolated between beams; exact for a small obstacle, while a wall parallel to the
+  motion comes out nearer ahead and farther behind by up to the step's 5.5 cm. Either way a
+  mover inside the scan stays where it was seen (its motion is in the neighbour rows) and the
   lidar's 3 cm offset from the robot's centre is neglected.
 
 :math:`V(f(s, a))` is the value of the predicted post-decision state (an afterstate, Sutton and
 Barto 2018, section 6.8): DQN's target :math:`r + \gamma \max_{a'} Q(s', a')` trains it through
 the look-ahead, the step reward :math:`R` is learned into it rather than computed, and the
 greedy action is SARL's arg max over the discrete set. The network sees one observation per
-action (the 3 x 7 grid: 21), so a step costs 21 forward passes of the SARL network.
+action (the 3 x 7 grid: 21), so a step costs 21 forward passes of the SARL network. The
+prediction itself is one compiled loop (numba) over observations, actions and beams;
+:meth:`RaceLookahead.predict_reference` is the same ``"point"`` model in torch operations.
 
 Examples
 --------
@@ -49,22 +55,29 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
+from functools import cached_property
 from typing import Any, cast
 
 import gymnasium as gym
+import numba
+import numpy as np
 import torch
 from stable_baselines3.common.preprocessing import preprocess_obs
 from stable_baselines3.common.torch_layers import create_mlp
 from stable_baselines3.dqn.policies import DQNPolicy, QNetwork
 from torch import nn
 
+from sim2real.envs.geometry import FloatArray, ray_distance
 from sim2real.envs.race import N_BEAMS, N_NEIGHBOURS, RaceEnv
 from sim2real.errors import Sim2RealValueError
 
 #: Values of the robot's own block (x, y, yaw, v, w, goal distance, goal bearing).
 _OWN = 7
+#: The lidar models of :class:`RaceLookahead` (see the module docstring).
+LIDAR_MODELS = ("point", "recast")
 
 __all__ = [
+    "LIDAR_MODELS",
     "LookaheadDQNPolicy",
     "LookaheadQNetwork",
     "RaceLookahead",
@@ -98,6 +111,7 @@ def race_lookahead(
         beam_angles_rad=tuple(float(a) for a in base.beam_angles_rad),
         range_min_m=float(lidar.range_min_m),
         range_max_m=float(lidar.range_max_m),
+        lidar_model="recast",
     )
 
 
@@ -117,6 +131,9 @@ class RaceLookahead:
         Lidar range limits, m (a reading at ``range_max_m`` is no return).
     neighbours, neighbour_features : int
         Neighbour slots at the end of the observation and values per slot (x, y, vx, vy).
+    lidar_model : {"point", "recast"}
+        How the scan is predicted (module docstring); :func:`race_lookahead` gives
+        ``"recast"``, and a saved model without the key keeps ``"point"``.
     """
 
     v_mps: tuple[float, ...]
@@ -127,6 +144,66 @@ class RaceLookahead:
     range_max_m: float
     neighbours: int = N_NEIGHBOURS
     neighbour_features: int = 4
+    lidar_model: str = "point"
+
+    def __post_init__(self) -> None:
+        if self.lidar_model not in LIDAR_MODELS:
+            raise Sim2RealValueError(
+                f"policy 'sarl-lookahead': lidar_model is {self.lidar_model!r}, which is not "
+                f"one of {', '.join(LIDAR_MODELS)}; use 'recast'"
+            )
+
+    @cached_property
+    def _arrays(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, int]:
+        """The kernel's constants: arcs (A, 3), commands v and w (A,), beam cos and sin (N,)
+        and the segment window (negative for the ``"point"`` lidar)."""
+        angles = np.asarray(self.beam_angles_rad, dtype=np.float64)
+        return (
+            self.arcs().numpy(),
+            np.asarray(self.v_mps, dtype=np.float64),
+            np.asarray(self.w_radps, dtype=np.float64),
+            np.cos(angles),
+            np.sin(angles),
+            self.recast_window() if self.lidar_model == "recast" else -1,
+        )
+
+    def recast_window(self) -> int:
+        """Segments on either side of a beam's turned index that a re-cast beam can meet.
+
+        A step moves the lidar by at most the longest chord d, which turns the bearing of a
+        point of the scan's polygon (at least ``range_min_m cos(beam step / 2)`` away) by at
+        most asin(d / that distance): a ray meets no segment whose beams lie farther round.
+        """
+        n = len(self.beam_angles_rad)
+        step = 2 * math.pi / n
+        chord = float(self.arcs()[:, :2].norm(dim=1).max())
+        ratio = chord / (self.range_min_m * math.cos(step / 2))
+        return n // 2 if ratio >= 1.0 else min(n // 2, math.ceil(math.asin(ratio) / step))
+
+    def predict(self, obs: torch.Tensor) -> torch.Tensor:
+        """Observations (batch, 63) -> their predicted successors (batch, actions, 63).
+
+        One compiled pass (:func:`predict_kernel`), in the observations' dtype; no gradient
+        (the prediction is a fixed model of the world, not learned).
+        """
+        flat = np.ascontiguousarray(obs.detach().cpu().numpy(), dtype=np.float64)
+        out = np.empty((flat.shape[0], len(self.v_mps), flat.shape[1]))
+        arcs, v, w, cos_b, sin_b, window = self._arrays
+        predict_kernel(
+            flat,
+            arcs,
+            v,
+            w,
+            self.control_dt_s,
+            cos_b,
+            sin_b,
+            self.range_min_m,
+            self.range_max_m,
+            self.neighbour_features,
+            window,
+            out,
+        )
+        return torch.from_numpy(out).to(obs.dtype)
 
     def arcs(self) -> torch.Tensor:
         """(actions, 3): each command's displacement dx, dy (m, robot frame) and turn (rad)."""
@@ -135,8 +212,9 @@ class RaceLookahead:
         chord = v * self.control_dt_s * torch.sinc(turn / (2 * math.pi))  # 2 v/w sin(w dt/2)
         return torch.stack([chord * torch.cos(turn / 2), chord * torch.sin(turn / 2), turn], 1)
 
-    def predict(self, obs: torch.Tensor) -> torch.Tensor:
-        """Observations (batch, 63) -> their predicted successors (batch, actions, 63)."""
+    def predict_reference(self, obs: torch.Tensor) -> torch.Tensor:
+        """:meth:`predict` with the ``"point"`` lidar in torch operations (the tests' and the
+        benchmark's reference): (batch, 63) -> (batch, actions, 63)."""
         arcs = self.arcs().to(obs.dtype)
         dx, dy, turn = (arcs[:, i][None] for i in range(3))  # (1, A)
         c, s = torch.cos(turn), torch.sin(turn)
@@ -214,6 +292,109 @@ class RaceLookahead:
         return ((1 - frac) * lo + frac * hi).clamp(self.range_min_m, self.range_max_m)
 
 
+@numba.njit(cache=True)
+def predict_kernel(
+    obs: FloatArray,
+    arcs: FloatArray,
+    v_cmd: FloatArray,
+    w_cmd: FloatArray,
+    dt_s: float,
+    cos_b: FloatArray,
+    sin_b: FloatArray,
+    range_min_m: float,
+    range_max_m: float,
+    features: int,
+    window: int,
+    out: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """:meth:`RaceLookahead.predict` into ``out`` (B, A, D): observations ``obs`` (B, D),
+    each command's ``arcs`` (dx, dy, turn), the commands and the beams' directions; the
+    ``"recast"`` lidar with ``window`` segments on either side of a beam (see
+    :meth:`RaceLookahead.recast_window`), the ``"point"`` lidar for a negative ``window``."""
+    n = cos_b.shape[0]
+    beam_step = 2.0 * math.pi / n
+    no_circle, no_radius = np.zeros((0, 2)), np.zeros(0)
+    # the scan's polygon, segment i from return i to return i + 1, padded by window on
+    # either side so that a window of segments is one slice; a pair with a missing return is
+    # a zero-length segment, which no ray meets
+    recast = window >= 0
+    seg_a = np.zeros((n + 2 * max(window, 0), 2))
+    seg_b = np.zeros((n + 2 * max(window, 0), 2))
+    seen = np.empty(n)
+    for b in range(obs.shape[0]):
+        if recast:
+            for g in range(n + 2 * window):
+                i = (g - window) % n
+                j = (i + 1) % n
+                r_i, r_j = obs[b, i], obs[b, j]
+                if r_i >= range_max_m - 1e-6 or r_j >= range_max_m - 1e-6:
+                    r_i = r_j = 0.0
+                seg_a[g, 0], seg_a[g, 1] = r_i * cos_b[i], r_i * sin_b[i]
+                seg_b[g, 0], seg_b[g, 1] = r_j * cos_b[j], r_j * sin_b[j]
+        x, y, yaw, v = obs[b, n], obs[b, n + 1], obs[b, n + 2], obs[b, n + 3]
+        goal_d, bearing = obs[b, n + 5], obs[b, n + 6]
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        for a in range(arcs.shape[0]):
+            dx, dy, turn = arcs[a, 0], arcs[a, 1], arcs[a, 2]
+            c, s = math.cos(turn), math.sin(turn)
+            # lidar: every return as a point seen from the new pose, then resampled
+            for i in range(n):
+                r = obs[b, i]
+                if r >= range_max_m - 1e-6:
+                    seen[i] = range_max_m
+                else:
+                    px, py = r * cos_b[i] - dx, r * sin_b[i] - dy
+                    seen[i] = math.sqrt(px * px + py * py)
+            shift = turn / beam_step
+            base = math.floor(shift)
+            frac = shift - base
+            for j in range(n):
+                i0 = (j + int(base)) % n
+                value = (1.0 - frac) * seen[i0] + frac * seen[(i0 + 1) % n]
+                value = min(max(value, range_min_m), range_max_m)
+                if recast:
+                    ux = cos_b[j] * c - sin_b[j] * s  # the new beam, old robot frame
+                    uy = sin_b[j] * c + cos_b[j] * s
+                    lo = i0 % n  # segments i0 - window .. i0 + window
+                    t = ray_distance(
+                        dx,
+                        dy,
+                        ux,
+                        uy,
+                        no_circle,
+                        no_radius,
+                        seg_a[lo : lo + 2 * window + 1],
+                        seg_b[lo : lo + 2 * window + 1],
+                        math.inf,
+                    )
+                    if t < math.inf:  # the sensor reads a return below its minimum as none
+                        value = range_max_m if t < range_min_m or t > range_max_m else t
+                out[b, a, j] = value
+            # own block: pose on the arc, the command as the measured (v, w), the goal point
+            gx = goal_d * math.cos(bearing) - dx
+            gy = goal_d * math.sin(bearing) - dy
+            gx, gy = c * gx + s * gy, -s * gx + c * gy
+            out[b, a, n] = x + dx * cy - dy * sy
+            out[b, a, n + 1] = y + dx * sy + dy * cy
+            out[b, a, n + 2] = math.atan2(math.sin(yaw + turn), math.cos(yaw + turn))
+            out[b, a, n + 3] = v_cmd[a]
+            out[b, a, n + 4] = w_cmd[a]
+            out[b, a, n + 5] = math.hypot(gx, gy)
+            out[b, a, n + 6] = math.atan2(gy, gx)
+            # movers at their observed velocity, seen from the new pose; empty slots stay zero
+            for k in range(n + _OWN, obs.shape[1], features):
+                px, py, ux, uy = obs[b, k], obs[b, k + 1], obs[b, k + 2], obs[b, k + 3]
+                if abs(px) + abs(py) + abs(ux) + abs(uy) == 0.0:
+                    out[b, a, k : k + features] = 0.0
+                    continue
+                ux += v  # the mover's velocity in the old robot frame
+                qx, qy = px + ux * dt_s - dx, py + uy * dt_s - dy
+                out[b, a, k] = c * qx + s * qy
+                out[b, a, k + 1] = -s * qx + c * qy
+                out[b, a, k + 2] = c * ux + s * uy - v_cmd[a]
+                out[b, a, k + 3] = -s * ux + c * uy
+
+
 class LookaheadQNetwork(QNetwork):  # type: ignore[misc]
     """:math:`Q(s, a) = V(f(s, a))`: the value head on each action's predicted observation.
 
@@ -260,6 +441,12 @@ class LookaheadDQNPolicy(DQNPolicy):  # type: ignore[misc]
     def __init__(self, *args: Any, lookahead: dict[str, Any], **kwargs: Any) -> None:
         self.lookahead = dict(lookahead)
         super().__init__(*args, **kwargs)
+
+    def set_training_mode(self, mode: bool) -> None:
+        """SB3's train/eval switch, skipped when the modules are in ``mode`` already: DQN
+        calls it at every step and every update, and each call walks every module."""
+        if mode != self.training or mode != self.q_net.training:
+            super().set_training_mode(mode)
 
     def make_q_net(self) -> LookaheadQNetwork:
         net_args = self._update_features_extractor(self.net_args, features_extractor=None)
