@@ -67,7 +67,7 @@ from stable_baselines3.common.torch_layers import create_mlp
 from stable_baselines3.dqn.policies import DQNPolicy, QNetwork
 from torch import nn
 
-from sim2real.envs.geometry import FloatArray, ray_distance
+from sim2real.envs.geometry import FloatArray
 from sim2real.envs.race import N_BEAMS, N_NEIGHBOURS, RaceEnv
 from sim2real.errors import Sim2RealValueError
 
@@ -173,12 +173,13 @@ class RaceLookahead:
         A step moves the lidar by at most the longest chord d, which turns the bearing of a
         point of the scan's polygon (at least ``range_min_m cos(beam step / 2)`` away) by at
         most asin(d / that distance): a ray meets no segment whose beams lie farther round.
+        The kernel narrows it for each observation and command, by the scan's nearest return
+        and the command's own chord (none for a turn on the spot).
         """
         n = len(self.beam_angles_rad)
         step = 2 * math.pi / n
         chord = float(self.arcs()[:, :2].norm(dim=1).max())
-        ratio = chord / (self.range_min_m * math.cos(step / 2))
-        return n // 2 if ratio >= 1.0 else min(n // 2, math.ceil(math.asin(ratio) / step))
+        return min(n // 2, _turned_beams(chord, self.range_min_m * math.cos(step / 2), step))
 
     def predict(self, obs: torch.Tensor) -> torch.Tensor:
         """Observations (batch, 63) -> their predicted successors (batch, actions, 63).
@@ -293,6 +294,43 @@ class RaceLookahead:
 
 
 @numba.njit(cache=True)
+def _turned_beams(chord_m: float, nearest_m: float, beam_step_rad: float) -> int:
+    """Beams by which a move of ``chord_m`` can turn the bearing of a point ``nearest_m`` or
+    more away: ceil(asin(chord / nearest) / beam step), a full half turn if it is nearer."""
+    if chord_m <= 0.0:
+        return 0
+    if chord_m >= nearest_m:
+        return int(math.pi / beam_step_rad)
+    return math.ceil(math.asin(chord_m / nearest_m) / beam_step_rad)
+
+
+@numba.njit(cache=True, inline="always")
+def _polygon_hit(
+    qx: FloatArray, qy: FloatArray, ok: Any, first: int, count: int, ux: float, uy: float
+) -> float:  # pragma: no cover - compiled
+    """Distance from the origin along the unit direction (ux, uy) to the nearest of the
+    ``count`` segments from vertex ``first`` (vertex g to g + 1, both returns), or inf.
+
+    The ray t u meets the segment q_g + s e (e = q_{g+1} - q_g) at t = (q_g x e) / (u x e),
+    s = (q_g x u) / (u x e), taken when t >= 0 and 0 <= s <= 1 (the numerators compared
+    with the denominator's sign before dividing).
+    """
+    best = math.inf
+    for g in range(first, first + count):
+        if not (ok[g] and ok[g + 1]):
+            continue
+        ex, ey = qx[g + 1] - qx[g], qy[g + 1] - qy[g]
+        denom = ux * ey - uy * ex
+        t_num = qx[g] * ey - qy[g] * ex
+        s_num = qx[g] * uy - qy[g] * ux
+        if denom < 0.0:
+            denom, t_num, s_num = -denom, -t_num, -s_num
+        if denom > 0.0 and t_num >= 0.0 and 0.0 <= s_num <= denom and t_num < best * denom:
+            best = t_num / denom
+    return best
+
+
+@numba.njit(cache=True)
 def predict_kernel(
     obs: FloatArray,
     arcs: FloatArray,
@@ -313,24 +351,17 @@ def predict_kernel(
     :meth:`RaceLookahead.recast_window`), the ``"point"`` lidar for a negative ``window``."""
     n = cos_b.shape[0]
     beam_step = 2.0 * math.pi / n
-    no_circle, no_radius = np.zeros((0, 2)), np.zeros(0)
-    # the scan's polygon, segment i from return i to return i + 1, padded by window on
-    # either side so that a window of segments is one slice; a pair with a missing return is
-    # a zero-length segment, which no ray meets
     recast = window >= 0
-    seg_a = np.zeros((n + 2 * max(window, 0), 2))
-    seg_b = np.zeros((n + 2 * max(window, 0), 2))
+    # the scan's returns in the new robot frame, vertex g being return (g - window) mod n, so
+    # that the segments within a window of a beam (vertex g to g + 1) are consecutive
+    pad = n + 2 * max(window, 0) + 1
+    ring_x, ring_y, ok = np.empty(pad), np.empty(pad), np.empty(pad, dtype=np.bool_)
     seen = np.empty(n)
     for b in range(obs.shape[0]):
-        if recast:
-            for g in range(n + 2 * window):
-                i = (g - window) % n
-                j = (i + 1) % n
-                r_i, r_j = obs[b, i], obs[b, j]
-                if r_i >= range_max_m - 1e-6 or r_j >= range_max_m - 1e-6:
-                    r_i = r_j = 0.0
-                seg_a[g, 0], seg_a[g, 1] = r_i * cos_b[i], r_i * sin_b[i]
-                seg_b[g, 0], seg_b[g, 1] = r_j * cos_b[j], r_j * sin_b[j]
+        nearest = range_max_m  # the scan's nearest return, for each command's own window
+        for i in range(n):
+            nearest = min(nearest, obs[b, i])
+        nearest *= math.cos(beam_step / 2)  # the nearest point of the scan's polygon
         x, y, yaw, v = obs[b, n], obs[b, n + 1], obs[b, n + 2], obs[b, n + 3]
         goal_d, bearing = obs[b, n + 5], obs[b, n + 6]
         cy, sy = math.cos(yaw), math.sin(yaw)
@@ -345,6 +376,15 @@ def predict_kernel(
                 else:
                     px, py = r * cos_b[i] - dx, r * sin_b[i] - dy
                     seen[i] = math.sqrt(px * px + py * py)
+            if recast:
+                chord = math.sqrt(dx * dx + dy * dy)
+                near = min(window, _turned_beams(chord, nearest, beam_step))
+                for g in range(pad):
+                    i = (g - window) % n
+                    r = obs[b, i]
+                    ok[g] = r < range_max_m - 1e-6
+                    px, py = r * cos_b[i] - dx, r * sin_b[i] - dy
+                    ring_x[g], ring_y[g] = c * px + s * py, -s * px + c * py
             shift = turn / beam_step
             base = math.floor(shift)
             frac = shift - base
@@ -352,20 +392,9 @@ def predict_kernel(
                 i0 = (j + int(base)) % n
                 value = (1.0 - frac) * seen[i0] + frac * seen[(i0 + 1) % n]
                 value = min(max(value, range_min_m), range_max_m)
-                if recast:
-                    ux = cos_b[j] * c - sin_b[j] * s  # the new beam, old robot frame
-                    uy = sin_b[j] * c + cos_b[j] * s
-                    lo = i0 % n  # segments i0 - window .. i0 + window
-                    t = ray_distance(
-                        dx,
-                        dy,
-                        ux,
-                        uy,
-                        no_circle,
-                        no_radius,
-                        seg_a[lo : lo + 2 * window + 1],
-                        seg_b[lo : lo + 2 * window + 1],
-                        math.inf,
+                if recast:  # segments from returns i0 - near .. i0 + near
+                    t = _polygon_hit(
+                        ring_x, ring_y, ok, i0 + window - near, 2 * near + 1, cos_b[j], sin_b[j]
                     )
                     if t < math.inf:  # the sensor reads a return below its minimum as none
                         value = range_max_m if t < range_min_m or t > range_max_m else t

@@ -7,6 +7,7 @@ from __future__ import annotations
 import copy
 import math
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import gymnasium as gym
@@ -16,6 +17,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from sim2real.envs.geometry import Scene2D, cast_rays
 from sim2real.training.config import load_config
 from sim2real.training.evaluation import check_spaces, load_policy
 from sim2real.training.train import train
@@ -26,6 +28,7 @@ torch = pytest.importorskip("torch")
 from sim2real.training._lookahead import (  # noqa: E402
     LookaheadQNetwork,
     RaceLookahead,
+    lookahead_kwargs,
     race_lookahead,
 )
 
@@ -140,6 +143,139 @@ def test_standing_still_among_standing_movers_changes_nothing(seed: int, movers:
     np.testing.assert_allclose(ahead[:movers, 0], rows[:movers, 0] - 0.055, atol=1e-9)
     np.testing.assert_allclose(ahead[:movers, 2], -0.22, atol=1e-9)
     assert not ahead[movers:].any()
+
+
+def _scan_obs(rng: np.random.Generator, beams: np.ndarray, movers: int) -> np.ndarray:
+    """A random observation: ranges (some of them no return), own block and ``movers`` rows."""
+    ranges = np.where(rng.random(BEAMS) < 0.2, 3.5, rng.uniform(0.12, 3.5, BEAMS))
+    own = [*rng.uniform(-3, 3, 2), rng.uniform(-math.pi, math.pi), rng.uniform(0, 0.22)]
+    own += [rng.uniform(-1.5, 1.5), rng.uniform(0.1, 1.0), rng.uniform(-math.pi, math.pi)]
+    rows = np.zeros((5, 4))
+    rows[:movers] = rng.uniform(-2, 2, (movers, 4))
+    return np.concatenate([ranges, own, rows.reshape(-1)])
+
+
+def _wrapped_gap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """|a - b| with the yaw and goal-bearing entries compared as angles."""
+    gap = np.abs(a - b)
+    for k in (BEAMS + 2, BEAMS + 6):
+        gap[..., k] = np.minimum(gap[..., k], 2 * math.pi - gap[..., k])
+    return gap
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**16), movers=st.integers(0, 5), batch=st.integers(1, 4))
+def test_the_kernel_predicts_what_the_torch_reference_does(
+    seed: int, movers: int, batch: int
+) -> None:
+    """The compiled ``"point"`` prediction is the torch one, to float precision."""
+    model = replace(race_lookahead(_race(0), **GRID), lidar_model="point")
+    rng = np.random.default_rng(seed)
+    obs = np.stack([_scan_obs(rng, model.beam_angles_rad, movers) for _ in range(batch)])
+    for dtype, atol in ((torch.float64, 1e-9), (torch.float32, 2e-6)):
+        x = torch.as_tensor(obs, dtype=dtype)
+        fast, ref = model.predict(x), model.predict_reference(x)
+        assert fast.dtype == dtype and fast.shape == ref.shape == (batch, 21, 63)
+        assert _wrapped_gap(fast.numpy(), ref.numpy()).max() < atol
+
+
+def _pose_after(xy: np.ndarray, yaw: float, arc: np.ndarray) -> tuple[np.ndarray, float]:
+    dx, dy, turn = arc
+    c, s = math.cos(yaw), math.sin(yaw)
+    return xy + np.array([c * dx - s * dy, s * dx + c * dy]), yaw + turn
+
+
+def _cast(scene: Scene2D, xy: np.ndarray, yaw: float, model: RaceLookahead) -> np.ndarray:
+    """The scan a lidar at ``xy``, heading ``yaw``, reads (no return below the minimum)."""
+    angles = np.asarray(model.beam_angles_rad) + yaw
+    ranges = cast_rays(scene, xy, angles, model.range_max_m)
+    return np.where(ranges < model.range_min_m, model.range_max_m, ranges)
+
+
+def _predicted_scans(model: RaceLookahead, scan: np.ndarray) -> np.ndarray:
+    obs = np.zeros(BEAMS + OWN + 20)
+    obs[:BEAMS] = scan
+    obs[BEAMS + 5] = 1.0
+    return model.predict(torch.as_tensor(obs)[None])[0, :, :BEAMS].numpy()
+
+
+def test_a_recast_wall_stays_where_a_ray_cast_finds_it() -> None:
+    """A straight wall 0.4 m to the left, driven along: the re-cast scan is the ray cast from
+    the predicted pose, where the point model puts the wall up to 5.5 cm off."""
+    recast = race_lookahead(_race(0), **GRID)
+    point = replace(recast, lidar_model="point")
+    scene = Scene2D.build(segments=[(-10.0, 0.4, 10.0, 0.4)])
+    xy, yaw = np.zeros(2), 0.0
+    scan = _cast(scene, xy, yaw, recast)
+    arcs = recast.arcs().numpy()
+    worst_point = 0.0
+    for a, arc in enumerate(arcs):
+        truth = _cast(scene, *_pose_after(xy, yaw, arc), recast)
+        # beams meeting the wall between the scan's outermost returns (a step inside them)
+        wall = truth < scan[scan < 3.5].max() - 0.06
+        assert wall.sum() >= 10
+        got = _predicted_scans(recast, scan)[a]
+        np.testing.assert_allclose(got[wall], truth[wall], atol=1e-9)
+        worst_point = max(worst_point, np.abs(_predicted_scans(point, scan)[a] - truth)[wall].max())
+    assert worst_point > 0.02  # the point model's error, which the re-cast removes
+
+
+def test_recast_scans_on_the_curve_track_match_ray_casts() -> None:
+    """Poses along the curve track (walls and islands): the re-cast scan is the ray cast from
+    the predicted pose on most beams, and nearer to it on average than the point model's."""
+    env = _race(0)
+    recast = race_lookahead(env, **GRID)
+    point = replace(recast, lidar_model="point")
+    scene = env.core.scene
+    line = env.core.track.centreline
+    rng = np.random.default_rng(4)
+    gaps: dict[str, list[np.ndarray]] = {"recast": [], "point": []}
+    for k in rng.integers(0, len(line), 30):
+        xy, yaw = line[k] + rng.normal(0.0, 0.2, 2), rng.uniform(-math.pi, math.pi)
+        scan = _cast(scene, xy, yaw, recast)
+        if scan.min() < 0.15:
+            continue
+        truths = [_cast(scene, *_pose_after(xy, yaw, arc), recast) for arc in recast.arcs().numpy()]
+        for name, model in (("recast", recast), ("point", point)):
+            gaps[name].append(np.abs(_predicted_scans(model, scan) - np.array(truths)))
+    r, p = (np.concatenate(gaps[name]).ravel() for name in ("recast", "point"))
+    assert r.size > 10_000
+    assert np.mean(r < 1e-6) > 0.6 and np.mean(p < 1e-6) < 0.3
+    assert r.mean() < 0.75 * p.mean()
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**16), near=st.floats(0.12, 1.0))
+def test_recast_is_a_ray_cast_against_the_scans_polygon(seed: int, near: float) -> None:
+    """Every beam of the new pose cast (geometry.cast_rays) against all the segments between
+    neighbouring returns gives the kernel's windowed result; no hit: the point model's."""
+    recast = race_lookahead(_race(0), **GRID)
+    assert recast.recast_window() == 3  # 5.5 cm at >= 0.12 m: under 30 degrees
+    rng = np.random.default_rng(seed)
+    obs = _scan_obs(rng, recast.beam_angles_rad, 0)
+    obs[rng.integers(BEAMS)] = near  # one return near the robot widens its window
+    angles = np.asarray(recast.beam_angles_rad)
+    xy = obs[:BEAMS, None] * np.stack([np.cos(angles), np.sin(angles)], 1)
+    ret = obs[:BEAMS] < 3.5
+    pairs = [i for i in range(BEAMS) if ret[i] and ret[(i + 1) % BEAMS]]
+    polygon = Scene2D.build(segments=[(*xy[i], *xy[(i + 1) % BEAMS]) for i in pairs])
+    got = recast.predict(torch.as_tensor(obs)[None])[0, :, :BEAMS].numpy()
+    point = replace(recast, lidar_model="point").predict(torch.as_tensor(obs)[None])[0].numpy()
+    for a, (dx, dy, turn) in enumerate(recast.arcs().numpy()):
+        hit = cast_rays(polygon, np.array([dx, dy]), angles + turn, np.inf)
+        want = np.where((hit < 0.12) | ((hit > 3.5) & np.isfinite(hit)), 3.5, hit)
+        want = np.where(np.isfinite(hit), want, point[a, :BEAMS])
+        np.testing.assert_allclose(got[a], want, atol=1e-9)
+
+
+def test_lidar_model_names_are_checked_and_old_models_keep_the_point_model() -> None:
+    model = race_lookahead(_race(0), **GRID)
+    assert model.lidar_model == "recast"
+    fields = {k: v for k, v in lookahead_kwargs(model).items() if k != "lidar_model"}
+    old = RaceLookahead(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
+    assert old.lidar_model == "point"  # a model.zip saved before the key existed
+    with pytest.raises(ValueError, match=r"lidar_model is 'raycast'.*use 'recast'"):
+        replace(model, lidar_model="raycast")
 
 
 def _smoke_doc(tmp_path: Path, **change: object) -> Path:
