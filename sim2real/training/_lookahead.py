@@ -154,18 +154,22 @@ class RaceLookahead:
             )
 
     @cached_property
-    def _arrays(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, int]:
-        """The kernel's constants: arcs (A, 3), commands v and w (A,), beam cos and sin (N,)
-        and the segment window (negative for the ``"point"`` lidar)."""
+    def _kernel_args(
+        self,
+    ) -> tuple[tuple[float, float, float, int, int], FloatArray, FloatArray]:
+        """:func:`predict_kernel`'s sizes, commands and beams."""
         angles = np.asarray(self.beam_angles_rad, dtype=np.float64)
-        return (
-            self.arcs().numpy(),
-            np.asarray(self.v_mps, dtype=np.float64),
-            np.asarray(self.w_radps, dtype=np.float64),
-            np.cos(angles),
-            np.sin(angles),
-            self.recast_window() if self.lidar_model == "recast" else -1,
+        commands = np.column_stack([self.arcs().numpy(), self.v_mps, self.w_radps])
+        window = self.recast_window() if self.lidar_model == "recast" else -1
+        sizes = (
+            float(self.control_dt_s),
+            float(self.range_min_m),
+            float(self.range_max_m),
+            int(self.neighbour_features),
+            window,
         )
+        beams = np.column_stack([np.cos(angles), np.sin(angles)])
+        return sizes, np.ascontiguousarray(commands, dtype=np.float64), beams
 
     def recast_window(self) -> int:
         """Segments on either side of a beam's turned index that a re-cast beam can meet.
@@ -189,21 +193,7 @@ class RaceLookahead:
         """
         flat = np.ascontiguousarray(obs.detach().cpu().numpy(), dtype=np.float64)
         out = np.empty((flat.shape[0], len(self.v_mps), flat.shape[1]))
-        arcs, v, w, cos_b, sin_b, window = self._arrays
-        predict_kernel(
-            flat,
-            arcs,
-            v,
-            w,
-            self.control_dt_s,
-            cos_b,
-            sin_b,
-            self.range_min_m,
-            self.range_max_m,
-            self.neighbour_features,
-            window,
-            out,
-        )
+        predict_kernel(flat, *self._kernel_args, out)
         return torch.from_numpy(out).to(obs.dtype)
 
     def arcs(self) -> torch.Tensor:
@@ -333,22 +323,19 @@ def _polygon_hit(
 @numba.njit(cache=True)
 def predict_kernel(
     obs: FloatArray,
-    arcs: FloatArray,
-    v_cmd: FloatArray,
-    w_cmd: FloatArray,
-    dt_s: float,
-    cos_b: FloatArray,
-    sin_b: FloatArray,
-    range_min_m: float,
-    range_max_m: float,
-    features: int,
-    window: int,
+    sizes: tuple[float, float, float, int, int],
+    commands: FloatArray,
+    beams: FloatArray,
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
-    """:meth:`RaceLookahead.predict` into ``out`` (B, A, D): observations ``obs`` (B, D),
-    each command's ``arcs`` (dx, dy, turn), the commands and the beams' directions; the
-    ``"recast"`` lidar with ``window`` segments on either side of a beam (see
-    :meth:`RaceLookahead.recast_window`), the ``"point"`` lidar for a negative ``window``."""
+    """:meth:`RaceLookahead.predict` into ``out`` (B, A, D): observations ``obs`` (B, D);
+    ``sizes``: the control step, the lidar's range limits, the values per neighbour slot and
+    the re-cast ``window`` (segments on either side of a beam,
+    :meth:`RaceLookahead.recast_window`; negative: the ``"point"`` lidar); ``commands`` (A,
+    5: the arc's dx, dy and turn, then v and w) and ``beams`` (N, 2: each angle's cos, sin)."""
+    dt_s, range_min_m, range_max_m, features, window = sizes
+    cos_b, sin_b = beams[:, 0], beams[:, 1]
+    arcs, v_cmd, w_cmd = commands[:, :3], commands[:, 3], commands[:, 4]
     n = cos_b.shape[0]
     beam_step = 2.0 * math.pi / n
     recast = window >= 0
