@@ -86,6 +86,7 @@ __all__ = [
     "band_log_noise",
     "band_noise",
     "band_sample_noise",
+    "bounded_ceiling",
     "fit_model_share",
     "fit_speed_noise",
     "jitter_timing_s",
@@ -269,6 +270,61 @@ def motion_ceiling(
         agreement_v=float(np.mean(a_v)),
         agreement_w=float(np.mean(a_w)),
         note=speed_noise_note(law),
+    )
+
+
+def bounded_ceiling(
+    fit: ObservationNoise,
+    trace: TraceLike,
+    replayed: Any,
+    *,
+    tol_v: float,
+    tol_w: float,
+    level: float = 0.9,
+) -> NoiseCeiling:
+    r""":func:`noise_ceiling` of a log that cannot tell its own noise from steady stretches:
+    the fit's noise, per axis no larger than the log's own upper bound on its noise.
+
+    Such a log (a follower's or a teleop's command changes before the robot settles) takes
+    the noise the fit estimated (``fit``, :func:`sim2real.agreement.study.fitted_noise`), of
+    other logs and perhaps another unit or odometry rate. What the fitted point's replay
+    ``replayed`` does not explain on this log (:func:`sysid.hfnoise.response_noise`, the band's
+    rule, :func:`band_sample_noise`) bounds its noise from above: the residual is the noise plus
+    the model's misses, independent of it. So per axis the ceiling assumes
+
+    .. math:: \sigma = \min(\sigma_{fit},\ \sigma_{response}),
+
+    never the bound alone: a model that misses inflates it, and an inflated noise makes a
+    ceiling too low, which a poor fit would pass. A bound under the fit's noise is this log's
+    proof that its noise is at most that, so the minimum is never further from the truth
+    than the fit's noise, and it never lowers the ceiling. The noise-only band and the sds
+    stay the fit's; the note gives the bound. Without a bound (too few readings), the fit's.
+
+    Examples
+    --------
+    >>> ceiling = bounded_ceiling(fit, trace, sim, tol_v=0.02, tol_w=0.1)  # doctest: +SKIP
+    """
+    pooled = noise_ceiling(fit, tol_v=tol_v, tol_w=tol_w, level=level)
+    bound = _response_noise(trace, replayed)
+    if not bound.measured:
+        return pooled
+    capped = replace(
+        fit,
+        std_v_mps=min(fit.std_v_mps, bound.std_v_mps),
+        std_w_radps=min(fit.std_w_radps, bound.std_w_radps),
+    )
+    ceiling = noise_ceiling(capped, tol_v=tol_v, tol_w=tol_w, level=level)
+    return replace(
+        pooled,
+        agreement=ceiling.agreement,
+        agreement_v=ceiling.agreement_v,
+        agreement_w=ceiling.agreement_w,
+        note=(
+            f"the noise ceiling takes per axis the smaller of the fit's noise and this log's "
+            f"own upper bound on its noise, what the fitted replay does not explain (v "
+            f"{bound.std_v_mps:.3g} m/s, w {bound.std_w_radps:.3g} rad/s): v "
+            f"{capped.std_v_mps:.3g} m/s, w {capped.std_w_radps:.3g} rad/s"
+        ),
     )
 
 

@@ -49,10 +49,10 @@ from sim2real.agreement.latency import (
     NoiseCeiling,
     SessionLatency,
     band_sample_noise,
+    bounded_ceiling,
     fit_speed_noise,
     log_noise,
     motion_ceiling,
-    noise_ceiling,
     noise_note,
     session_latency,
 )
@@ -355,7 +355,9 @@ def run_study(
     ensemble, band_note = _ensemble(
         config, trace, spec, params_file, (window_s, runs[-1].replay), progress
     )
-    latency, ceiling = _reference_figures(config, trace, spec, params, params_file, window_s)
+    latency, ceiling = _reference_figures(
+        config, trace, spec, (params, runs[-1].replay), params_file, window_s
+    )
     figures = study_figures(runs[-1].agreement, ensemble)
     figures.update(reference_figures(latency, ceiling))
     check_figures(figures, config.log)
@@ -432,15 +434,18 @@ def _reference_figures(
     config: StudyConfig,
     trace: Any,
     spec: Any,
-    params: Any,
+    fitted: tuple[Any, Any],
     params_file: ParamsFile | None,
     window_s: float,
 ) -> tuple[SessionLatency | None, NoiseCeiling | None]:
     """The session's own best latency and the noise ceiling (None without a params file).
 
-    The ceiling assumes this log's own odometry noise when it has enough steady samples, else
-    the fit's (none without a randomisation block); its note says which
+    ``fitted`` is the params and their replay of ``trace``. The ceiling assumes this log's own
+    odometry noise when it has enough steady samples, else the fit's (none without a
+    randomisation block), per axis no larger than the log's own upper bound on its noise
+    (:func:`sim2real.agreement.latency.bounded_ceiling`); its note says which
     (:func:`sim2real.agreement.latency.noise_note`)."""
+    params, replayed = fitted
     if params is None or params_file is None:
         return None, None
     latency = session_latency(
@@ -472,7 +477,7 @@ def _reference_figures(
     ceiling = (
         motion_ceiling(trace, noise, **tols, fallback=law)
         if own.measured
-        else noise_ceiling(noise, **tols)
+        else bounded_ceiling(noise, trace, replayed, **tols)
     )
     note = "; ".join(n for n in (noise_note(own, fit), ceiling.note) if n)
     return latency, replace(ceiling, note=note)
