@@ -36,6 +36,10 @@ of each axis's variance (noise, command latency, a parameter) with their share a
 each would make alone; the share of the misses within 1 s of a command step and above the
 band; and the coverage with every member at the session's own best latency.
 
+``--misses`` adds, per differential-drive base, a table of where the fitted point misses at
+each session's own latency (:func:`misses`): near command changes or not, beyond the fit's
+envelope or not, and the agreement with the model's top speed scaled to the unit's.
+
 ``--quick``: three Neato recordings (fitted unit, another 2018 unit, a 2017 unit), reduced
 engine only; ``--base NAME`` runs one base.
 """
@@ -313,6 +317,82 @@ def explain(log: Path, robot: str, params: Path) -> str:
     )
 
 
+#: Samples this soon after a command change count as at the change, s (the Neato's response
+#: to a step is over within ~0.5 s).
+NEAR_CHANGE_S = 0.6
+
+
+def misses(log: Path, robot: str, params: Path) -> str:
+    """One table row: where the fitted point misses at the session's own latency (reduced).
+
+    The misses (share of the active samples; on v alone, w alone, both), the share of the
+    samples within :data:`NEAR_CHANGE_S` of a command change and the miss rate there and
+    elsewhere, the share beyond the |v| or |w| the fit saw (its ``envelope:``) and the miss
+    rate there, and the unit's held top speed over the model's (median |v| where the model
+    runs at 95 % of its top or more, :func:`sim2real.agreement.verdict.speed_shortfall`'s
+    samples) with the agreement the model reaches with its top speed scaled to the unit's.
+    """
+    import numpy as np
+
+    from robots.params import read_params_file
+    from robots.randomization import DriveDistribution
+    from robots.spec import load_spec
+    from sim2real.agreement.figures import measure_agreement
+    from sim2real.agreement.latency import session_latency
+    from sim2real.agreement.replay import replay
+    from sim2real.agreement.study import parse_odom_v_window
+    from sim2real.agreement.verdict import HELD_TOP_SHARE
+    from sim2real.logs import read_for_robot
+    from sysid.metrics import active_mask
+
+    spec = load_spec(robot)
+    dist = DriveDistribution.from_params_file(params, robot=spec.name)
+    window_s = parse_odom_v_window("auto", spec.odometry.rate_hz, v_source=spec.odometry.v_source)
+    trace, _ = read_for_robot(log, spec)
+    tols = {"tol_v": 0.02, "tol_w": 0.1}
+    lat = session_latency(
+        trace, robot=spec, params=dist.mean_params(), odom_v_window_s=window_s, **tols
+    )
+    point = dist.mean_params().replace(delay_s=lat.delay_s)
+    sim = replay(trace, robot=spec, params=point, odom_v_window_s=window_s)
+    t, (cmd_v, cmd_w) = trace.meas_t_s, trace.cmd_at_meas()
+    real_v, real_w = np.asarray(trace.meas_v), np.asarray(trace.meas_w)
+    active = active_mask(cmd_v, cmd_w, real_v, real_w, **tols)
+    miss_v, miss_w = np.abs(sim.v - real_v) > 0.02, np.abs(sim.w - real_w) > 0.1
+    miss = (miss_v | miss_w)[active]
+    change = np.r_[True, (np.diff(cmd_v) != 0) | (np.diff(cmd_w) != 0)]
+    near = (t - t[change][np.cumsum(change) - 1] < NEAR_CHANGE_S)[active]
+    env = read_params_file(params).document.get("envelope") or {}
+    beyond = (
+        (np.abs(real_v) > env.get("v_mps", np.inf)) | (np.abs(real_w) > env.get("w_radps", np.inf))
+    )[active]
+    s_v, r_v = np.abs(sim.v[active]), np.abs(real_v[active])
+    top = s_v >= HELD_TOP_SHARE * float(np.percentile(s_v, 99))
+    ratio = float(np.median(r_v[top]) / np.median(s_v[top]))
+    scaled = point.replace(wheel_speed_max_radps=ratio * point.wheel_speed_max_radps)
+    own_top = measure_agreement(
+        trace, replay(trace, robot=spec, params=scaled, odom_v_window_s=window_s), **tols
+    )
+
+    def rate(mask: np.ndarray) -> str:
+        return f"{100 * miss[mask].mean():.0f}" if mask.any() else "-"
+
+    both = (miss_v & miss_w)[active]
+    return (
+        f" | {100 * miss.mean():.1f} ({int(miss.sum())}/{int(active.sum())}) |"
+        f" {int((miss_v[active] & ~both).sum())} / {int((miss_w[active] & ~both).sum())} /"
+        f" {int(both.sum())} | {100 * near.mean():.0f} %: {rate(near)} / {rate(~near)} |"
+        f" {100 * beyond.mean():.0f} %: {rate(beyond)} / {rate(~beyond)} |"
+        f" {ratio:.3f} ({int(top.sum())}) | {100 * own_top.agreement:.1f} |"
+    )
+
+
+MISSES_HEAD = (
+    "| checked | misses at own lat. % | v / w / both | near a command change (< 0.6 s):"
+    " share: miss % there / elsewhere | beyond the fit's top v or w: share: miss % there /"
+    " inside | unit's top speed / model's (samples) | own lat. at the unit's top speed % |\n"
+    "|---|---|---|---|---|---|---|"
+)
 UNIT = re.compile(r"_(kg|kgm2|nm|n|nms_per_rad|ns_per_m|radps|per_s|mps2|radps2)$")
 EXPLAIN_HEAD = (
     "| checked | v: largest sources, share (width alone) | w: largest sources |"
@@ -322,7 +402,12 @@ EXPLAIN_HEAD = (
 
 
 def run_base(
-    base: Base, engines: list[str], quick: bool, tally: dict[str, list[int]], why: bool = False
+    base: Base,
+    engines: list[str],
+    quick: bool,
+    tally: dict[str, list[int]],
+    why: bool = False,
+    missed: bool = False,
 ) -> None:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
@@ -343,13 +428,15 @@ def run_base(
         print("| checked | engine | spec | fit | own lat. (s) | ceiling | cov v / w |"
               " width v / w (noise-only) | holds |")  # fmt: skip
         print("|---|---|---|---|---|---|---|---|---|")
-        explained = []
+        explained, where = [], []
         for ref in base.quick_checks if quick and base.quick_checks else base.checks:
             log = log_path(ref, tmp)
             if why:
                 explained.append(
                     f"| {ref.removeprefix('neato_')[:34]}{explain(log, robot, params)}"
                 )
+            if missed and base.diff_drive:
+                where.append(f"| {ref.removeprefix('neato_')[:34]}{misses(log, robot, params)}")
             for named in engines:
                 engine = "mujoco-lifted" if base.lifted and named == "mujoco" else named
                 try:
@@ -377,6 +464,10 @@ def run_base(
             print(f"\nwhere the bands of {base.name} get their width and their misses (reduced)")
             print(EXPLAIN_HEAD)
             print("\n".join(explained), flush=True)
+        if where:
+            print(f"\nwhere {base.name}'s fit misses at each session's own latency (reduced)")
+            print(MISSES_HEAD)
+            print("\n".join(where), flush=True)
 
 
 def main() -> None:
@@ -392,6 +483,11 @@ def main() -> None:
     parser.add_argument(
         "--explain", action="store_true", help="where each band's width and misses come from"
     )
+    parser.add_argument(
+        "--misses",
+        action="store_true",
+        help="where each row's own-latency agreement misses (steps, envelope, top speed)",
+    )
     args = parser.parse_args()
     if not REALDATA.is_dir():
         print(f"skipped: {REALDATA} is absent")
@@ -405,7 +501,7 @@ def main() -> None:
     t0 = time.perf_counter()
     for base in BASES:
         if args.base is None or base.name in args.base:
-            run_base(base, engines, args.quick, tally, args.explain)
+            run_base(base, engines, args.quick, tally, args.explain, args.misses)
     overall = {k: an for k, an in tally.items() if ":" not in k}
     print(f"\ntargets held (rows): {', '.join(f'{k} {a}/{n}' for k, (a, n) in overall.items())};"
           f" {time.perf_counter() - t0:.0f} s")  # fmt: skip
