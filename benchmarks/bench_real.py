@@ -22,24 +22,19 @@ A checked half is written as a log for ``agree``. Per checked recording and engi
 - ``own lat.``: the fitted point at the session's own best command latency (and that
   latency), :func:`sim2real.agreement.latency.session_latency`;
 - ``ceiling``: the agreement a perfect model would reach under the checked log's own odometry
-  noise (:func:`sim2real.agreement.latency.log_noise`; the params' where the log has too few
-  steady samples), :func:`sim2real.agreement.latency.noise_ceiling`;
+  noise (:func:`sim2real.agreement.latency.log_noise`; too few steady samples: the params',
+  capped by the log's own bound, :func:`sim2real.agreement.latency.bounded_ceiling`);
 - ``cov v / w``: coverage of the 90 % band (30 robots); ``width v / w``: its median width,
   beside the noise-only 90 % band (3.29 noise sd).
 
 Targets (issue 28): ``fit >= spec`` on every row; ``own lat.`` >= 80 % or within 5 points of
 ``ceiling`` on differential-drive bases; coverage 80-99 % in v and w with a median width <=
 20 % of the top speed / yaw rate or <= 1.25x the noise-only band. A closing line counts the
-rows that hold each. ``--explain`` adds, per base, a table of where each row's band gets its
-width and its misses (:func:`sim2real.agreement.sources.band_sources`, reduced engine): the three largest sources
-of each axis's variance (noise, command latency, a parameter) with their share and the width
-each would make alone; the share of the misses within 1 s of a command step and above the
-band; and the coverage with every member at the session's own best latency.
-
-``--misses`` adds, per differential-drive base, a table of where the fitted point misses at
-each session's own latency (:func:`misses`): near command changes or not, beyond the fit's
-envelope or not, and the agreement with the model's top speed scaled to the unit's.
-
+rows that hold each. ``--explain`` adds, per base, where each row's band gets its width and
+misses (:func:`sim2real.agreement.sources.band_sources`, reduced engine): the three largest
+sources of each axis's variance with their share and width alone; the share of the misses
+within 1 s of a command step and above the band; the coverage at the session's own latency.
+``--misses`` adds where the fitted point misses at each session's own latency (:func:`misses`).
 ``--quick``: three Neato recordings (fitted unit, another 2018 unit, a 2017 unit), reduced
 engine only; ``--base NAME`` runs one base.
 """
