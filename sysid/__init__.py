@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     from sysid._excitation import why_not_fittable
     from sysid._fleet import spread_degrees_of_freedom
     from sysid._logs import LogArrays, VelocityLog, crop_log
+    from sysid._needs import held_speeds
     from sysid.fit import Progress, fit_drive, score_logs
     from sysid.result import DataFile, FitScores, ParameterEstimate, SysidResult
 
@@ -52,6 +53,7 @@ __all__ = [
     "VelocityLog",
     "crop_log",
     "fit_drive",
+    "held_speeds",
     "score_logs",
     "spread_degrees_of_freedom",
     "why_not_fittable",
@@ -65,6 +67,7 @@ _LAZY = {
     "fit_drive": "sysid.fit",
     "score_logs": "sysid.fit",
     "spread_degrees_of_freedom": "sysid._fleet",
+    "held_speeds": "sysid._needs",
     "why_not_fittable": "sysid._excitation",
     "DataFile": "sysid.result",
     "FitScores": "sysid.result",

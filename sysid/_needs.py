@@ -27,11 +27,13 @@ import numpy as np
 
 from robots.arrays import FloatArray
 from robots.params import BaseGeometry, DriveParams
+from sysid.steady import MIN_STRETCH, steady_samples
 
 __all__ = [
     "BEYOND_PRIOR_FACTOR",
     "MEASURED_PERCENTILE",
     "REACHED_SHARE",
+    "held_speeds",
     "limit_needs",
     "lower_bounds",
     "measured_speeds",
@@ -172,3 +174,64 @@ def measured_speeds(
         "speed_lim_w_radps": w,
     }
     return {k: float(np.percentile(x, MEASURED_PERCENTILE)) for k, x in demands.items()}
+
+
+def held_speeds(
+    meas_t_s: FloatArray,
+    cmd_v: FloatArray,
+    cmd_w: FloatArray,
+    meas_v: FloatArray,
+    meas_w: FloatArray,
+    geometry: BaseGeometry,
+) -> dict[str, float]:
+    r"""What a log proves of the speed limits where it holds a command: per steady stretch
+    (:func:`sysid.steady.steady_samples`: a non-zero command held past the rise, at least
+    :data:`sysid.steady.MIN_STRETCH` samples) the median of each limit's demand, and the largest
+    such median over the stretches (0 where there is none).
+
+    The demands are those of :func:`measured_speeds`. A median over a held stretch is what the
+    robot delivered for a second or more, whatever the odometry's noise: unlike a percentile of
+    single readings, noise does not raise it above the robot's speed, so it is a lower bound of
+    the limit that holds for a log no fit used (a calibration session).
+
+    Parameters
+    ----------
+    meas_t_s, cmd_v, cmd_w, meas_v, meas_w : ndarray
+        Per measurement: its time (s, increasing), the command held then (m/s, rad/s) and the
+        measured v (m/s) and w (rad/s).
+    geometry : BaseGeometry
+        The base geometry (wheel radius and separation).
+
+    Returns
+    -------
+    dict
+        ``{"wheel_speed_max_radps": ..., "speed_lim_v_mps": ..., "speed_lim_w_radps": ...}``.
+
+    Examples
+    --------
+    >>> geo = BaseGeometry(mass_kg=1.0, yaw_inertia_kgm2=0.01, wheel_radius_m=0.1,
+    ...                    wheel_separation_m=0.4)
+    >>> t = np.arange(0.0, 4.0, 0.1)
+    >>> cmd = np.where(t < 1.0, 0.1, 0.3)
+    >>> v = np.where(t < 1.3, 0.1, 0.29) + np.random.default_rng(0).normal(0, 0.01, t.size)
+    >>> round(held_speeds(t, cmd, 0 * t, v, 0 * t, geo)["speed_lim_v_mps"], 2)
+    0.29
+    """
+    keys = ("wheel_speed_max_radps", "speed_lim_v_mps", "speed_lim_w_radps")
+    t, cv, cw, v, w = (
+        np.asarray(x, dtype=np.float64) for x in (meas_t_s, cmd_v, cmd_w, meas_v, meas_w)
+    )
+    steady, labels = steady_samples(t, cv, cw)
+    v, w = np.abs(v[steady]), np.abs(w[steady])
+    ok = np.isfinite(v) & np.isfinite(w)
+    v, w, labels = v[ok], w[ok], labels[ok]
+    r, b = geometry.wheel_radius_m, geometry.wheel_separation_m
+    demands = ((v + w * b / 2) / r, v, w)
+    out = dict.fromkeys(keys, 0.0)
+    for label in np.unique(labels):
+        mine = labels == label
+        if np.count_nonzero(mine) < MIN_STRETCH:
+            continue
+        for key, demand in zip(keys, demands, strict=True):
+            out[key] = max(out[key], float(np.median(demand[mine])))
+    return out

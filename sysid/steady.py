@@ -47,6 +47,7 @@ __all__ = [
     "speed_bins",
     "speed_noise",
     "steady_noise",
+    "steady_samples",
     "steady_stretches",
     "variance_law",
 ]
@@ -100,12 +101,20 @@ def steady_stretches(since_step_s: ArrayLike, steady: ArrayLike) -> np.ndarray:
     return out
 
 
-def _steady(
+def steady_samples(
     t: np.ndarray, cmd_v: np.ndarray, cmd_w: np.ndarray, ahead_s: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """The mask of the samples under a non-zero command held for over
     :data:`STEADY_AFTER_S` (and for ``ahead_s`` more after them), and their stretch labels
-    (:func:`steady_stretches`)."""
+    (:func:`steady_stretches`).
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 3.0, 0.5)
+    >>> mask, labels = steady_samples(t, np.r_[0.0, 0.2, 0.2, 0.2, 0.2, 0.3], np.zeros(6))
+    >>> mask.tolist(), labels.tolist()
+    ([False, False, False, False, True, False], [4])
+    """
     change = np.ones(t.size, dtype=bool)
     change[1:] = (np.diff(cmd_v) != 0) | (np.diff(cmd_w) != 0)
     step = np.cumsum(change) - 1
@@ -133,7 +142,7 @@ def steady_noise(
         NaN sds when the log has fewer than :data:`MIN_STEADY_SAMPLES` steady samples.
     """
     t = np.asarray(meas_t_s, dtype=np.float64)
-    steady, ids = _steady(
+    steady, ids = steady_samples(
         t, np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
     )
     keep = np.ones(ids.size, dtype=bool)
@@ -190,7 +199,7 @@ def motion_noise(
     """
     t = np.asarray(meas_t_s, dtype=np.float64)
     cv, cw = np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
-    steady, ids = _steady(t, cv, cw)
+    steady, ids = steady_samples(t, cv, cw)
     out = []
     for moves in (True, False):
         sds = []
@@ -256,7 +265,7 @@ def held_at_zero_noise(
     """
     t = np.asarray(meas_t_s, dtype=np.float64)
     cv, cw = np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
-    steady, _ = _steady(t, cv, cw)
+    steady, _ = steady_samples(t, cv, cw)
     sds = []
     for y, cmd in ((meas_v, cv), (meas_w, cw)):
         held = np.asarray(y, dtype=np.float64)[steady & (cmd == 0)]
@@ -432,7 +441,7 @@ def speed_noise(
     for meas_t_s, cmd_v, cmd_w, meas_v, meas_w in logs:
         t = np.asarray(meas_t_s, dtype=np.float64)
         cv, cw = np.asarray(cmd_v, dtype=np.float64), np.asarray(cmd_w, dtype=np.float64)
-        steady, ids = _steady(t, cv, cw, ahead_s)
+        steady, ids = steady_samples(t, cv, cw, ahead_s)
         for (devs, speeds, still), y, cmd in zip(axes, (meas_v, meas_w), (cv, cw), strict=True):
             for held_at_zero in (False, True):
                 dev, level = _stretch_deviations(y, steady, ids, (cmd[steady] == 0) == held_at_zero)

@@ -151,7 +151,7 @@ from sim2real.agreement.replay import replay, resolve_robot
 from sim2real.agreement.sources import source_variances
 from sim2real.errors import Sim2RealValueError
 from sim2real.logs import ReadOptions, read_for_robot
-from sysid import spread_degrees_of_freedom
+from sysid import held_speeds, spread_degrees_of_freedom
 from sysid.metrics import active_mask
 from sysid.steady import pooled_steady_noise, steady_stretches
 
@@ -160,6 +160,7 @@ __all__ = [
     "CalibrationResult",
     "calibrate",
     "calibrate_traces",
+    "held_lower_bounds",
     "held_out_model_noise",
     "match_noise_scale",
     "match_range",
@@ -239,9 +240,13 @@ class CalibrationResult:
     session_factor : float
         Factor b on the spec's between-session covariance :math:`\Sigma_s`
         (:func:`session_covariance`), after the widening that makes the band cover the
-        validation samples (module docstring).
+        validation samples (module docstring), on the parameters in ``widened``.
     pooled_session_factor : float
-        b as pooled by sessions, before that widening.
+        b as pooled by sessions, before that widening (the factor of the other parameters).
+    widened : tuple of str
+        The parameters whose between-session spread the widening acted on: of the groups
+        that reach the coverage, the one with the narrowest band (all of them when no
+        widening was needed).
     likelihood_dynamics_factor, likelihood_session_factor : float
         The validation likelihood's optimum, before it is pooled with the file's spread by
         sessions (:func:`pooled_factors`) into ``dynamics_factor`` and
@@ -333,6 +338,7 @@ class CalibrationResult:
     steady_v: float = 1.0
     steady_w: float = 1.0
     narrowing: tuple[tuple[str, float], ...] = ()
+    widened: tuple[str, ...] = ()
     model_noise_std_v_mps: float = math.nan
     model_noise_std_w_radps: float = math.nan
     model_noise_timing_v_s: float = math.nan
@@ -369,6 +375,7 @@ class CalibrationResult:
             "validation_steady_share_v": float(self.steady_v),
             "validation_steady_share_w": float(self.steady_w),
             "spread_narrowing": {name: float(m) for name, m in self.narrowing},
+            "session_factor_parameters": list(self.widened),
             "model_noise_std_v_mps": num(self.model_noise_std_v_mps),
             "model_noise_std_w_radps": num(self.model_noise_std_w_radps),
             "model_noise_timing_v_s": num(self.model_noise_timing_v_s),
@@ -468,12 +475,21 @@ class _BandCoverage:
         self.base = np.repeat(members, band_noise_draws(members.shape[0], level), axis=0)
         self.z = np.random.default_rng(seed).standard_normal(self.base.shape)
 
-    def __call__(self, scale: float) -> float:
+    def band(self, scale: float) -> tuple[FloatArray, FloatArray]:
+        """The band's (lower, upper) edges with the noise std scaled by ``scale``."""
         draws = self.base + (scale * self.std) * self.z
         if self.quantum > 0:
             draws = np.round(draws / self.quantum) * self.quantum
-        lo, hi = predictive_band(draws, self.level)
+        return predictive_band(draws, self.level)
+
+    def __call__(self, scale: float) -> float:
+        lo, hi = self.band(scale)
         return band_coverage(self.real, lo, hi, np.ones(self.real.shape, dtype=bool))
+
+    def width(self, scale: float) -> float:
+        """The band's median width with the noise std scaled by ``scale``."""
+        lo, hi = self.band(scale)
+        return float(np.median(hi - lo))
 
 
 def match_noise_scale(
@@ -830,6 +846,7 @@ def calibrate_traces(
     """
     _check_calibration_args(traces, n, tol_v, tol_w, fit_sessions)
     spec = resolve_robot(robot)
+    original, (distribution, bound_notes) = distribution, held_lower_bounds(distribution, traces)
     search = _FactorSearch(
         _validation_logs(traces, spec, tol_v, tol_w),
         spec=spec,
@@ -875,7 +892,7 @@ def calibrate_traces(
         odom_v_window_s=odom_v_window_s, tol_v=tol_v, tol_w=tol_w, at_least=widened_noise,
     )  # fmt: skip
     calibrated = dataclasses.replace(
-        search.mixed(factor, widened),
+        search.mixed(factor, search.widening if search.widening is not None else widened),
         noise=dataclasses.replace(noise, std_v_mps=std_v, std_w_radps=std_w),
     )
     return CalibrationResult(
@@ -904,12 +921,22 @@ def calibrate_traces(
         engine=engine,
         odom_v_window_s=float(odom_v_window_s),
         distribution=calibrated,
-        original=distribution,
+        original=original,
         validation=_provenance(traces),
         steady_v=axes[0].steady,
         steady_w=axes[1].steady,
         narrowing=_narrowed(distribution.names, search.narrowing),
-        notes=tuple(a.note for a in axes if a.note)
+        widened=tuple(
+            name
+            for name, g in zip(
+                distribution.names,
+                np.ones(len(distribution.names)) if search.widening is None else search.widening,
+                strict=True,
+            )
+            if search.widening is None or g != session_factor
+        ),
+        notes=bound_notes
+        + tuple(a.note for a in axes if a.note)
         + ((widen_note,) if widen_note else ())
         + searched,
         model_noise_std_v_mps=model_v,
@@ -917,6 +944,40 @@ def calibrate_traces(
         model_noise_timing_v_s=timing_v,
         model_noise_timing_w_s=timing_w,
     )
+
+
+def held_lower_bounds(distribution: Any, traces: Sequence[Any]) -> tuple[Any, tuple[str, ...]]:
+    """``distribution`` with the lower bounds of the speed limits the fit never reached
+    (:attr:`robots.randomization.DriveDistribution.lower`) raised to what the validation logs
+    deliver under a held command (:func:`sysid.held_speeds`), and a note per bound raised.
+
+    A fit log that never drove at the top speed leaves the limit at its prior above what it
+    needed; its draws below the speeds a calibration session held for a second or more are
+    robots that session shows do not exist. Only bounds the file already has are raised: a
+    limit the fit identified keeps its posterior.
+
+    Examples
+    --------
+    >>> dist = DriveDistribution.from_params_file("params.yaml", robot="neato")  # doctest: +SKIP
+    >>> raised, notes = held_lower_bounds(dist, [trace])  # doctest: +SKIP
+    """
+    lower, notes = dict(distribution.lower), []
+    for trace in traces:
+        cmd_v, cmd_w = trace.cmd_at_meas()
+        held = held_speeds(
+            trace.meas_t_s, cmd_v, cmd_w, trace.meas_v, trace.meas_w, distribution.geometry
+        )
+        for name, bound in lower.items():
+            if held.get(name, 0.0) > bound:
+                notes.append(
+                    f"'{getattr(trace.meta, 'path', '') or 'trace'}' holds {name} at "
+                    f"{held[name]:.4g} under a held command, above the fit logs' {bound:.4g}: "
+                    "its lower bound is raised there"
+                )
+                lower[name] = held[name]
+    if not notes:
+        return distribution, ()
+    return dataclasses.replace(distribution, lower=lower), tuple(notes)
 
 
 def _provenance(traces: Sequence[Any]) -> tuple[tuple[str, str], ...]:
@@ -1124,6 +1185,8 @@ class _FactorSearch:
         self.own_noise = _own_noise([lg.trace for lg in logs])
         #: multiplier on each parameter's sd after the mixing (:meth:`narrowed`)
         self.narrowing = np.ones(len(distribution.names))
+        #: per-parameter session factors of the widening (:meth:`widened`), None before it
+        self.widening: FloatArray | None = None
         self.narrowing_base = self.narrowing
 
     def use_engine(self, engine: str, steady: BoolArray) -> None:
@@ -1135,11 +1198,13 @@ class _FactorSearch:
         self._memo.clear()
         self.fix_noise(steady)
 
-    def mixed(self, factor: float, session_factor: float) -> Any:
-        """The distribution with covariance ``factor^2 fitted + session_factor^2 session``."""
+    def mixed(self, factor: float, session_factor: float | FloatArray) -> Any:
+        """The distribution with covariance ``factor^2 fitted + g session g``: ``g`` the
+        ``session_factor``, one for every parameter or one per parameter (a diagonal scaling)."""
+        g = np.broadcast_to(np.asarray(session_factor, dtype=np.float64), self.narrowing.shape)
         # a field the logs do not inform cannot be widened without bound (correlations kept)
         cov = cap_spread(
-            (factor**2 * self.fitted + session_factor**2 * self.session)
+            (factor**2 * self.fitted + self.session * np.outer(g, g))
             * np.outer(self.narrowing, self.narrowing),
             self.distribution.names,
             self.distribution.geometry,
@@ -1148,9 +1213,15 @@ class _FactorSearch:
             self.distribution, covariance=tuple(tuple(float(c) for c in row) for row in cov)
         )
 
-    def members(self, factor: float, session_factor: float) -> tuple[FloatArray, FloatArray]:
+    def members(
+        self, factor: float, session_factor: float | FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
         """The ensembles' (v, w) at the active samples of every log, side by side."""
-        plain = (factor, session_factor) == (1.0, 0.0) and bool(np.all(self.narrowing == 1.0))
+        plain = (
+            np.ndim(session_factor) == 0
+            and (factor, float(session_factor)) == (1.0, 0.0)
+            and bool(np.all(self.narrowing == 1.0))
+        )
         if plain and (1.0, 0.0) in self._memo:
             return self._memo[(1.0, 0.0)]  # the file's own spread: the noise and "before"
         out = self.members_of(self.mixed(factor, session_factor))
@@ -1352,25 +1423,81 @@ class _FactorSearch:
                     "spread of its parameters"
                 ),
             )
-        lo, hi, got = session_factor, SESSION_MAX, top
-        for _ in range(WIDEN_STEPS):
-            mid = 0.5 * (lo + hi)
-            cov = self.coverage(*self.members(factor, mid), stds)
-            if min(cov) >= MATCH_LEVEL:
-                hi, got = mid, cov
-            else:
-                lo = mid
+        best: tuple[float, float, FloatArray, tuple[float, float], str] | None = None
+        for what, group in self.widening_groups(factor, session_factor):
+            grown = self._widen(factor, session_factor, group, stds)
+            if grown is None:
+                continue
+            g, got = grown
+            width = self.band_width(*self.members(factor, g), stds)
+            if best is None or width < best[0]:
+                best = (width, float(np.max(g)), g, got, what)
+        assert best is not None  # the union of every group reaches it at SESSION_MAX
+        _, hi, g, got, what = best
+        self.widening = g
         return (
             hi,
             got,
             (
                 f"with the pooled spread the band covers {100 * at[0]:.1f} % (v) and "
                 f"{100 * at[1]:.1f} % (w) of the calibration samples; the misses near command steps "
-                f"are a session unlike the fit's, so the spec's between-session spread is widened "
-                f"(factor {session_factor:.3g} -> {hi:.3g}) until both reach "
-                f"{100 * MATCH_LEVEL:g} %"
+                f"are a session unlike the fit's, so the spec's between-session spread of {what} "
+                f"is widened (factor {session_factor:.3g} -> {hi:.3g}) until both reach "
+                f"{100 * MATCH_LEVEL:g} %: of the spreads that reach it, the one with the "
+                "narrowest band"
             ),
         )
+
+    def widening_groups(self, factor: float, session_factor: float) -> list[tuple[str, BoolArray]]:
+        """The parameter groups a widening may act on, each named: every union of the
+        command latency, the parameters that move v and those that move w
+        (:meth:`axis_groups`), every parameter last."""
+        groups = self.axis_groups(factor, session_factor)
+        names = ("the parameters that move v", "the parameters that move w", "the command latency")
+        order = ((2,), (1,), (0,), (1, 2), (0, 2), (0, 1), (0, 1, 2))
+        kept: list[tuple[str, BoolArray]] = []
+        for pick in order:
+            group = np.logical_or.reduce([groups[k] for k in pick])
+            if group.any() and not any(np.array_equal(group, g) for _, g in kept):
+                kept.append((" and ".join(names[k] for k in sorted(pick, reverse=True)), group))
+        return kept
+
+    def _widen(
+        self, factor: float, session_factor: float, group: BoolArray, stds: tuple[float, float]
+    ) -> tuple[FloatArray, tuple[float, float]] | None:
+        """The per-parameter session factors (``group`` widened, the others at
+        ``session_factor``) of the smallest widening by bisection up to :data:`SESSION_MAX`
+        at which the band covers :data:`MATCH_LEVEL` on both axes, and that coverage; None when
+        even :data:`SESSION_MAX` does not reach it."""
+
+        def factors(x: float) -> FloatArray:
+            return np.where(group, x, session_factor)
+
+        got = self.coverage(*self.members(factor, factors(SESSION_MAX)), stds)
+        if min(got) < MATCH_LEVEL:
+            return None
+        lo, hi = session_factor, SESSION_MAX
+        for _ in range(WIDEN_STEPS):
+            mid = 0.5 * (lo + hi)
+            cov = self.coverage(*self.members(factor, factors(mid)), stds)
+            if min(cov) >= MATCH_LEVEL:
+                hi, got = mid, cov
+            else:
+                lo = mid
+        return factors(hi), got
+
+    def band_width(self, mv: FloatArray, mw: FloatArray, stds: tuple[float, float]) -> float:
+        """The :data:`MATCH_LEVEL` band's median width per axis, over the robot's top speed
+        and top yaw rate, summed (the band built as :meth:`coverage` builds it)."""
+        tops = (float(self.spec.max_v_mps), float(self.spec.max_w_radps))
+        total = 0.0
+        for k, ((_, real, _, q), m, sd, top) in enumerate(
+            zip(self.axes(), (mv, mw), stds, tops, strict=True)
+        ):
+            total += _BandCoverage(real, m, sd, q, level=MATCH_LEVEL, seed=self.seed + k).width(
+                1.0
+            ) / max(top, 1e-12)
+        return total
 
     def evaluate(self, x: Sequence[float]) -> float:
         """-loglik at (log factor, session factor); noise stds maximised inside."""
