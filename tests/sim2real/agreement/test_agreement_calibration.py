@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 from pathlib import Path
@@ -389,3 +390,31 @@ def test_the_widening_acts_on_the_spread_with_the_narrowest_band(logs: tuple[Pat
         test, robot=ROBOT, distribution=res.distribution, n=20, seed=3, engine="reduced"
     )
     assert 0.8 <= after.coverage_v <= 0.99 and 0.8 <= after.coverage_w <= 0.998
+
+
+def test_a_held_speed_of_a_calibration_log_raises_a_never_reached_limits_bound(
+    logs: tuple[Path, Path],
+) -> None:
+    from sim2real.agreement.calibration import held_lower_bounds
+    from sysid import held_speeds
+
+    dist = distribution_around(hidden_params(), ROBOT)
+    assert "wheel_speed_max_radps" in dist.names
+    trace = read_trace(logs[0])
+    cmd_v, cmd_w = trace.cmd_at_meas()
+    held = held_speeds(trace.meas_t_s, cmd_v, cmd_w, trace.meas_v, trace.meas_w, dist.geometry)[
+        "wheel_speed_max_radps"
+    ]
+    assert held > 0.0
+    low = dataclasses.replace(dist, lower={"wheel_speed_max_radps": 0.5 * held})
+    raised, notes = held_lower_bounds(low, [trace])
+    assert raised.lower == {"wheel_speed_max_radps": pytest.approx(held)}
+    assert len(notes) == 1 and "wheel_speed_max_radps" in notes[0]
+    # the same draws for the same seed, none below the raised bound
+    draws = raised.sample(np.random.default_rng(0), 200)
+    speeds = [p.wheel_speed_max_radps for p in draws]
+    assert min(speeds) >= held * (1 - 1e-9)
+    # a bound above what the log holds, or a limit with no bound (the fit reached it): kept
+    high = dataclasses.replace(dist, lower={"wheel_speed_max_radps": 2.0 * held})
+    assert held_lower_bounds(high, [trace]) == (high, ())
+    assert held_lower_bounds(dist, [trace]) == (dist, ())
