@@ -93,7 +93,11 @@ it (the band must hold the next session, not the one it was calibrated on).
 Then, where the band covers less than the level of *all* the samples on either axis (the
 misses near command steps), the session factor b is raised by bisection up to
 :data:`SESSION_MAX` until both axes reach it: a session unlike the fit's (latency, load,
-floor) is the between-session spread's to cover; where no b does, the noise std of the failing
+floor) is the between-session spread's to cover. It is raised on one group of parameters:
+of the unions of the latency, the v and the w parameters whose widening reaches the level, the
+one with the narrowest band (:meth:`_FactorSearch.widened`; sharpness subject to calibration,
+Gneiting, Balabdaoui & Raftery 2007, "Probabilistic forecasts, calibration and sharpness").
+Where no b does, the noise std of the failing
 axis is widened on every sample until it does (the band is then wider than the odometry
 noise, by what the model lacks). The factors, noise
 stds, the likelihood before and after and the validation coverage before and after go into a
