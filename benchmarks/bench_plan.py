@@ -4,7 +4,8 @@ For each base and seed, one plant session is drawn (``draw_session`` with
 ``numpy.random.default_rng([seed, 0])``, the session ``make_fleet(robot, 1, seed=seed)`` drives
 too); it drives the base's 90 s excitation plan (:func:`sysid.plan.plan_excitation`) and,
 separately, a go-to-goal profile of the same length (``make_fleet(..., profile="goals")``). A
-fit of each (``sysid.fit_drive`` with the spec's priors) gives each parameter's posterior over
+fit of each (``sysid.fit_drive`` with the spec's priors and odometry model, as ``sysid fit``
+reads a base's logs: v the mean over the encoder window, w from the spec's source) gives each parameter's posterior over
 prior sd; the table counts those above 0.5 (the data hardly informed them) and lists them.
 This is the table of docs/transfer.md, "What a planned session identifies".
 
@@ -36,8 +37,16 @@ def _ratios(robot: str, seed: int, profile: str, duration_s: float) -> dict[str,
         trace = record_plan(plan_excitation(spec, duration_s), params, seed=seed)
     else:
         trace = make_fleet(robot, 1, seed=seed, profile=profile, duration_s=duration_s)[0]
+    # as ``sysid fit`` reads a base's odometry (sim2real.fitting.fit_logs): v is the mean over
+    # the spec's encoder window, w from the spec's source
     res = fit_drive(
-        [trace], geometry=spec.geometry, base_params=spec.drive, priors=spec.priors, robot=robot
+        [trace],
+        geometry=spec.geometry,
+        base_params=spec.drive,
+        priors=spec.priors,
+        robot=robot,
+        odom_v_window_s=spec.odometry.v_window_s,
+        w_source=spec.odometry.w_source,
     )
     return {e.name: float(e.sd_ratio) for e in res.estimates if e.sd_ratio is not None}
 
