@@ -50,8 +50,9 @@ WHEEL_OVERDRIVE = 1.2
 MASS_GAIN = ("motor_gain_nms_per_rad", "added_mass_kg", "added_yaw_inertia_kgm2")
 
 #: Behind PI wheel loops, a friction term whose prior sd is below this share of the loop's
-#: proportional gain changes the transients' damping too little to be told from the plant's
-#: other transient errors in one session (:func:`weakly_identified`).
+#: proportional gain changes the transients' damping too little to be told, in one session,
+#: from the commands' timing jitter at unsmoothed steps and the per-wheel friction the drive
+#: model sums per axis (:func:`weakly_identified`; docs/transfer.md).
 WEAK_FRICTION_SHARE = 0.05
 #: Block kind -> the DriveParams fields it is designed to identify.
 _EXCITES: dict[str, tuple[str, ...]] = {
@@ -251,7 +252,9 @@ def weakly_identified(spec: Any) -> dict[str, str]:
     cap) may not reach on a base whose motors give more; and, behind PI wheel loops (a prior
     on ``speed_loop_ki_per_s`` centred above 0), viscous friction whose prior sd is below
     :data:`WEAK_FRICTION_SHARE` of the loop's proportional gain: the loops cancel friction at
-    any steady speed, so it shows only in the transients' damping.
+    any steady speed, so it shows only in the transients' damping (on a base with no velocity
+    smoother, where each command change is a step, less than the commands' timing jitter moves
+    the transients).
 
     Examples
     --------
@@ -291,12 +294,16 @@ def weakly_identified(spec: Any) -> dict[str, str]:
         # behind it (docs/transfer.md: the Burger's 2.3-2.4 % stay near their priors on the
         # plant, the Kobuki's 12 % yaw term is informed)
         kv, kw = 2.0 * k / r**2, 2.0 * k * (h / r) ** 2  # N s/m, N m s/rad
+        # with no smoother every command change is a step into the loops, and a command's
+        # timing jitter moves the transients more than one prior sd of friction does
+        smoothed = math.isfinite(drive.accel_lim_v_mps2) and math.isfinite(drive.accel_lim_w_radps2)
+        jitter = "" if smoothed else ", less than the commands' timing jitter moves there"
         for name, gain in (("viscous_v_ns_per_m", kv), ("viscous_w_nms_per_rad", kw)):
             sd = priors[name].sd * SCHEMA[name].reference(geo)  # N s/m, N m s/rad
             if 0 < sd < WEAK_FRICTION_SHARE * gain:
                 out[name] = (
                     "PI wheel loops cancel friction at a steady speed; in transients one prior "
-                    f"sd is {100.0 * sd / gain:.2g} % of the loop's gain"
+                    f"sd is {100.0 * sd / gain:.2g} % of the loop's gain" + jitter
                 )
     return out
 

@@ -108,6 +108,12 @@ def test_the_weak_list_follows_the_physics_of_each_base() -> None:
     assert {"viscous_v_ns_per_m", "viscous_w_nms_per_rad"} <= set(burger)
     assert "2.4 %" in burger["viscous_v_ns_per_m"]
     assert "viscous_w_nms_per_rad" not in kobuki
+    # the Burger has no smoother: every command change is a step, where the commands' timing
+    # jitter moves the transients more than friction does; the Kobuki's smoother ramps them
+    assert all(
+        "timing jitter" in burger[n] for n in ("viscous_v_ns_per_m", "viscous_w_nms_per_rad")
+    )
+    assert "timing jitter" not in kobuki["viscous_v_ns_per_m"]
     # a P-loop base (no integral prior) keeps its friction in the steady state: not weak
     spec = load_spec("turtlebot3_burger")
     p_loop = dataclasses.replace(
