@@ -89,7 +89,11 @@ that makes the width rather than to one factor shared by both axes). That scale,
 validation sessions, is pooled with the file's spread by sessions as the factors are
 (:func:`pooled_narrowing`): a fleet's between-session spread, estimated on several fitted
 sessions, is narrowed by one or two alike validation sessions only as far as they weigh against
-it (the band must hold the next session, not the one it was calibrated on).
+it (the band must hold the next session, not the one it was calibrated on). A parameter
+whose spread moves the validation members by less than the odometry noise moves the readings
+is not measured by that scaling (the samples cannot tell its spread from the noise): it is
+narrowed no further than the spec prior's between-session sd (:func:`narrowing_floor`), the
+spread by which the next session or unit varies and which one session cannot show.
 Then, where the band covers less than the level of *all* the samples on either axis (the
 misses near command steps), the session factor b is raised by bisection up to
 :data:`SESSION_MAX` until both axes reach it: a session unlike the fit's (latency, load,
@@ -168,6 +172,7 @@ __all__ = [
     "held_out_model_noise",
     "match_noise_scale",
     "match_range",
+    "narrowing_floor",
     "noise_information_share",
     "pooled_factors",
     "pooled_narrowing",
@@ -181,11 +186,12 @@ __all__ = [
 
 #: Name of the method in the output file's ``calibration`` block.
 CALIBRATION_METHOD = (
-    "gaussian-predictive-likelihood/6 (DROPO-style, Tiboni et al. 2023), pooled with the fit's "
+    "gaussian-predictive-likelihood/7 (DROPO-style, Tiboni et al. 2023), pooled with the fit's "
     "spread by sessions, noise from the steady samples (robust scale, no larger than their "
     "scatter within their steady stretches) matched to the band's "
     "coverage of them no lower than the logs' own scatter, an over-covering axis's parameter "
-    "spread narrowed (pooled with the fit's by sessions) and the session spread widened to "
+    "spread narrowed (pooled with the fit's by sessions; what the samples cannot tell from the "
+    "noise no further than the spec's between-session sd) and the session spread widened to "
     "cover the rest (split conformal)"
 )
 #: Search range of the dynamics factor.
@@ -1305,22 +1311,24 @@ class _FactorSearch:
 
     def axis_groups(
         self, factor: float, session_factor: float
-    ) -> tuple[BoolArray, BoolArray, BoolArray]:
+    ) -> tuple[tuple[BoolArray, BoolArray, BoolArray], FloatArray]:
         """The varying parameters whose spread moves v more than w, those that move w more,
         and the command latency (it moves both, at every command step): each parameter's share
         of its axis's member variance on the validation samples, with that parameter alone
         drawn from its marginal (common random numbers), replayed with the engine of the
-        likelihood search (the reduced model where the band's engine is slower)."""
+        likelihood search (the reduced model where the band's engine is slower). Also those
+        member variances themselves, shape (parameters, 2): v (m²/s²) and w (rad²/s²)."""
         dist = self.mixed(factor, session_factor)
-        shares = source_variances(dist, lambda d: self.members_of(d, self.searched_on))
-        shares /= np.maximum(shares.sum(axis=0), 1e-300)
+        variances = source_variances(dist, lambda d: self.members_of(d, self.searched_on))
+        shares = variances / np.maximum(variances.sum(axis=0), 1e-300)
         latency = np.array([n == "delay_s" for n in dist.names])
         moves = (shares.max(axis=1) > 0.0) & ~latency
-        return (
+        groups = (
             moves & (shares[:, 0] >= shares[:, 1]),
             moves & (shares[:, 0] < shares[:, 1]),
             latency & (shares.max(axis=1) > 0.0),
         )
+        return groups, variances
 
     def narrowed(
         self,
@@ -1335,15 +1343,26 @@ class _FactorSearch:
         than it did): a band that over-covers one axis with the noise at what the logs show
         is too wide there by the spread of the parameters that move that axis (split-conformal
         scaling of that spread, down to :data:`NARROW_MIN`), pooled with the file's spread by
-        ``sessions`` (fitted, validation: :func:`pooled_narrowing`). Sets :attr:`narrowing`;
-        returns the members at the result and a note ("" when nothing was narrowed)."""
+        ``sessions`` (fitted, validation: :func:`pooled_narrowing`); a parameter whose effect on
+        these samples is below the noise's, no further than the spec's between-session sd
+        (:func:`narrowing_floor`). Sets :attr:`narrowing`; returns the members at the result
+        and a note ("" when nothing was narrowed)."""
         high = match_range(MATCH_LEVEL)[1]
         members = self.members(factor, session_factor)
         start = self.coverage(*members, stds)
         if max(start) <= high:
             return members, ""
-        said = []
-        for k, group in enumerate(self.axis_groups(factor, session_factor)):
+        said, floored = [], []
+        groups, variances = self.axis_groups(factor, session_factor)
+        noise = self.distribution.noise
+        floor = narrowing_floor(
+            np.sqrt(np.diag(factor**2 * self.fitted + session_factor**2 * self.session)),
+            np.sqrt(np.diag(self.session)),
+            variances,
+            (stds[0] ** 2 + noise.quantum_v_mps**2 / 12.0,
+             stds[1] ** 2 + noise.quantum_w_radps**2 / 12.0),
+        )  # fmt: skip
+        for k, group in enumerate(groups):
             at = self.coverage(*members, stds)
             own = [k] if k < 2 else [0, 1]  # the latency's: both axes
             if min(at[i] for i in own) <= high or not group.any():
@@ -1370,17 +1389,32 @@ class _FactorSearch:
                 names = ", ".join(
                     n for n, g in zip(self.distribution.names, group, strict=True) if g
                 )
+                floored += [
+                    n
+                    for n, g, f in zip(self.distribution.names, group, floor, strict=True)
+                    if g and f > scale
+                ]
                 what = ("move v", "move w", "delay every command")[k]
                 said.append(f"x{scale:.3g} on the parameters that {what} ({names})")
             members = self.members(factor, session_factor)
         if not said:
             return members, ""
+        if floored:  # what these samples cannot tell keeps the next session's spread
+            self.narrowing = np.where(self.narrowing < 1.0, np.maximum(self.narrowing, floor), 1.0)
+            members = self.members(factor, session_factor)
         end = self.coverage(*members, stds)
+        kept = (
+            f"; {', '.join(floored)} no further than the spec's between-session sd (their "
+            f"effect on these samples is below the odometry noise's: one session cannot tell "
+            f"their spread, and the next session or unit varies by it)"
+            if floored
+            else ""
+        )
         return members, (
             f"with the odometry noise at what the logs show, the pooled spread covers "
             f"{100 * start[0]:.1f} % (v) and {100 * start[1]:.1f} % (w) of the calibration "
             f"samples: too wide by its dynamics spread, so the spread is narrowed "
-            f"{' and '.join(said)} ({100 * end[0]:.1f} % and {100 * end[1]:.1f} %)"
+            f"{' and '.join(said)} ({100 * end[0]:.1f} % and {100 * end[1]:.1f} %){kept}"
         )
 
     def coverage(
@@ -1626,6 +1660,50 @@ def pooled_narrowing(scale: float, *, fit_sessions: int, validation_sessions: in
     nu = float(fit_sessions) - 1.0
     m = float(validation_sessions)
     return math.sqrt((nu + m * scale**2) / (nu + m))
+
+
+def narrowing_floor(
+    pooled_sd: Any, session_sd: Any, member_variance: Any, noise_variance: tuple[float, float]
+) -> FloatArray:
+    r"""The smallest multiplier the coverage matching may put on each parameter's sd.
+
+    The narrowing (:meth:`_FactorSearch.narrowed`) measures on the validation samples how much
+    of a group's spread the band needs. A parameter whose spread, drawn alone, moves the
+    members by less than the odometry noise moves the readings (member variance below the
+    noise variance on both axes) is not told apart from the noise by those samples: they
+    measure nothing of its spread. Narrowing it anyway would take the band's spread of that
+    parameter down to what one session happened not to need, while a new session (another
+    day's floor, payload and battery; another unit) varies by at least the spec prior's
+    between-session sd :math:`s_j`. Such a parameter is narrowed no further than that:
+
+    .. math:: m_j \ge \min(1, s_j / \sigma_j)
+
+    with :math:`\sigma_j` its pooled sd (coordinates); a parameter the samples inform may
+    be narrowed to :data:`NARROW_MIN` (floor 0 here).
+
+    Parameters
+    ----------
+    pooled_sd, session_sd : array_like
+        Per parameter: the pooled spread's sd and the spec's between-session sd (coordinates).
+    member_variance : array_like, shape (parameters, 2)
+        The members' variance each parameter causes alone on the validation samples, v and w
+        (m²/s², rad²/s²; :func:`sim2real.agreement.sources.source_variances`).
+    noise_variance : (float, float)
+        The band's odometry noise variance of v and w (the same units).
+
+    Examples
+    --------
+    >>> floor = narrowing_floor([0.4, 0.2], [0.05, 0.05], [[1e-4, 0.0], [4e-6, 0.0]], (2.5e-5, 1e-4))
+    >>> floor.tolist()  # the first moves v more than the noise does; the second does not
+    [0.0, 0.25]
+    """
+    pooled = np.asarray(pooled_sd, dtype=np.float64)
+    session = np.asarray(session_sd, dtype=np.float64)
+    var = np.asarray(member_variance, dtype=np.float64).reshape(pooled.size, 2)
+    told = np.any(var >= np.asarray(noise_variance, dtype=np.float64), axis=1)
+    floor = np.minimum(1.0, np.divide(session, pooled, out=np.ones_like(pooled), where=pooled > 0))
+    out: FloatArray = np.where(told, 0.0, floor)
+    return out
 
 
 def session_covariance(distribution: Any, robot: Any) -> FloatArray:

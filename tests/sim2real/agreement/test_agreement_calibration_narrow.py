@@ -9,8 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _agreement_fixtures import ROBOT, hidden_params, write_log
+from hypothesis import given
+from hypothesis import strategies as st
 
-from sim2real.agreement.calibration import NARROW_MIN, calibrate_traces
+from robots.spec import load_spec
+from sim2real.agreement.calibration import NARROW_MIN, calibrate_traces, narrowing_floor
 from sim2real.agreement.figures import run_ensemble
 from sim2real.logs import read_trace
 from tests.randomization_block import distribution_around
@@ -35,15 +38,23 @@ def test_a_too_wide_spread_is_narrowed_on_its_axis_and_holds_on_another_session(
     # the noise stays at the truth: the log's steady stretches show it
     assert res.noise_std_v_mps == pytest.approx(0.003, rel=0.3)
     assert res.noise_std_w_radps == pytest.approx(0.02, rel=0.3)
-    # the calibration samples: covered at the top of the matching range, not above
-    assert 0.9 <= res.coverage_v <= 0.96 and 0.9 <= res.coverage_w <= 0.99
+    # the calibration samples: covered at the top of the matching range, and above it by
+    # no more than what the parameters these samples cannot tell keep of their spread
+    assert 0.9 <= res.coverage_v <= 0.99 and 0.9 <= res.coverage_w <= 0.99
     # the parameters the note names are narrowed, from the pooled spread (the session
-    # factor's share of the spec's session spread aside)
+    # factor's share of the spec's session spread aside), those the samples cannot tell no
+    # further than the spec's between-session sd
     named = note.split("move v (")[1].split(")")[0].split(", ")
+    kept = note.split("%); ")[1].split(" no further")[0].split(", ")
     assert "coulomb_w_nm" not in named and named
+    session = {n: p.session_sd for n, p in load_spec(ROBOT).priors.items()}
     for name in named:
         pooled = res.dynamics_factor * wide.std()[name]
-        assert NARROW_MIN * pooled * 0.99 <= res.distribution.std()[name] < 0.8 * pooled
+        now = res.distribution.std()[name]
+        if name in kept:
+            assert now >= min(pooled, session[name]) * (1 - 1e-9)
+        else:
+            assert NARROW_MIN * pooled * 0.99 <= now < 0.8 * pooled
     # another session of the plant: still covered, by a narrower band than the pooled one
     trace = read_trace(sessions[1])
     before = run_ensemble(trace, robot=ROBOT, distribution=wide, n=20, seed=1)
@@ -75,3 +86,24 @@ def test_a_fleets_spread_is_narrowed_only_as_far_as_the_validation_sessions_weig
         assert floor - 1e-9 <= scale < 1.0, name
     unpooled = math.sqrt(max((5.0 * min(s for _, s in res.narrowing) ** 2 - 4.0), 0.0))
     assert unpooled < 0.5  # what one session alone asked for: a much narrower spread
+
+
+finite = st.floats(min_value=1e-6, max_value=10.0, allow_nan=False)
+
+
+@given(
+    st.lists(st.tuples(finite, finite, finite, finite), min_size=1, max_size=8),
+    finite,
+    finite,
+)
+def test_the_narrowing_floor_is_the_session_sd_of_what_the_samples_cannot_tell(
+    rows: list[tuple[float, float, float, float]], noise_v: float, noise_w: float
+) -> None:
+    pooled, session, var_v, var_w = (np.array(c) for c in zip(*rows, strict=True))
+    floor = narrowing_floor(pooled, session, np.c_[var_v, var_w], (noise_v, noise_w))
+    told = (var_v >= noise_v) | (var_w >= noise_w)
+    # told apart from the noise on either axis: free to narrow (to NARROW_MIN)
+    assert np.all(floor[told] == 0.0)
+    # buried under it on both: the spec's between-session sd, or no narrowing at all
+    np.testing.assert_allclose(floor[~told], np.minimum(1.0, session / pooled)[~told])
+    assert np.all((floor >= 0.0) & (floor <= 1.0))
