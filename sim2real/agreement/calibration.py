@@ -1490,7 +1490,7 @@ class _FactorSearch:
         """The parameter groups a widening may act on, each named: every union of the
         command latency, the parameters that move v and those that move w
         (:meth:`axis_groups`), every parameter last."""
-        groups = self.axis_groups(factor, session_factor)
+        groups, _ = self.axis_groups(factor, session_factor)
         names = ("the parameters that move v", "the parameters that move w", "the command latency")
         order = ((2,), (1,), (0,), (1, 2), (0, 2), (0, 1), (0, 1, 2))
         kept: list[tuple[str, BoolArray]] = []
