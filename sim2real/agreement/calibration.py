@@ -938,12 +938,8 @@ def calibrate_traces(
         narrowing=_narrowed(distribution.names, search.narrowing),
         widened=tuple(
             name
-            for name, g in zip(
-                distribution.names,
-                np.ones(len(distribution.names)) if search.widening is None else search.widening,
-                strict=True,
-            )
-            if search.widening is None or g != session_factor
+            for k, name in enumerate(distribution.names)
+            if search.widening is None or search.widening[k] != session_factor
         ),
         notes=bound_notes
         + tuple(a.note for a in axes if a.note)
@@ -1470,7 +1466,7 @@ class _FactorSearch:
             width = self.band_width(*self.members(factor, g), stds)
             if best is None or width < best[0]:
                 best = (width, float(np.max(g)), g, got, what)
-        assert best is not None  # the union of every group reaches it at SESSION_MAX
+        assert best is not None  # every parameter reaches it at SESSION_MAX (checked above)
         _, hi, g, got, what = best
         self.widening = g
         return (
@@ -1489,10 +1485,17 @@ class _FactorSearch:
     def widening_groups(self, factor: float, session_factor: float) -> list[tuple[str, BoolArray]]:
         """The parameter groups a widening may act on, each named: every union of the
         command latency, the parameters that move v and those that move w
-        (:meth:`axis_groups`), every parameter last."""
-        groups, _ = self.axis_groups(factor, session_factor)
-        names = ("the parameters that move v", "the parameters that move w", "the command latency")
-        order = ((2,), (1,), (0,), (1, 2), (0, 2), (0, 1), (0, 1, 2))
+        (:meth:`axis_groups`), and every parameter last (what :meth:`widened` checked reaches
+        the level at :data:`SESSION_MAX`: a parameter with no share is in no other group)."""
+        axes, _ = self.axis_groups(factor, session_factor)
+        groups: tuple[BoolArray, ...] = (*axes, np.ones(axes[0].shape, dtype=bool))
+        names = (
+            "the parameters that move v",
+            "the parameters that move w",
+            "the command latency",
+            "every parameter",
+        )
+        order = ((2,), (1,), (0,), (1, 2), (0, 2), (0, 1), (0, 1, 2), (3,))
         kept: list[tuple[str, BoolArray]] = []
         for pick in order:
             group = np.logical_or.reduce([groups[k] for k in pick])
