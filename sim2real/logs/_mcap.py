@@ -24,7 +24,10 @@ when the writer filled them in (non-zero); the data CRC runs over the bytes as t
 checked against the ``Statistics`` record of the summary when there is one. A file with no
 CRC at all (what rosbags and several recorders write) is flagged (``Container.checksums`` is
 False, and ``logs info`` says that corruption cannot be detected). A message whose channel id
-no Channel record defines is an error naming its byte offset (never dropped silently).
+no Channel record defines is an error naming its byte offset (never dropped silently). A
+record that runs past the end of the file is a recording cut short (its complete records are
+kept, with a warning) only when the file's end is missing too: in a finished file (Footer and
+closing magic intact) it is a broken length field, and an error.
 """
 
 from __future__ import annotations
@@ -609,6 +612,18 @@ def stream_mcap(
     return scan.out
 
 
+def _footer_intact(fh: BinaryIO, size: int) -> bool:
+    """Whether the file ends with a Footer record and the closing magic: a file the writer
+    finished, which the end of the file cannot have cut short."""
+    tail_at = size - len(MAGIC) - 29
+    if tail_at < len(MAGIC):
+        return False
+    fh.seek(tail_at)
+    tail = fh.read(29 + len(MAGIC))
+    op, length = _OP_LEN.unpack_from(tail)
+    return (op, length) == (_FOOTER, 20) and tail[29:] == MAGIC
+
+
 def _peek_data_crc(fh: BinaryIO, size: int) -> int | None:
     """The data-section CRC from the DataEnd record the footer leads to (None: not found)."""
     tail_at = size - len(MAGIC) - 29
@@ -652,6 +667,7 @@ class _Stream:
     def run(self, head: bytes) -> None:
         fh, n = self.fh, self.size
         want_crc = _peek_data_crc(fh, n)
+        finished = _footer_intact(fh, n)
         crc: int | None = zlib.crc32(head) if want_crc != 0 else None  # None: not computed
         fh.seek(len(MAGIC))
         pos = len(MAGIC)
@@ -663,6 +679,10 @@ class _Stream:
             op, length = _OP_LEN.unpack(rec_head)
             end = pos + 9 + length
             if end > n:
+                if finished:  # not a recording cut short: the length field is broken
+                    raise self._broken(
+                        pos, _Corrupt(f"its length of {length} bytes runs past the file's footer")
+                    )
                 if op == _CHUNK and self.data_end is None:
                     self._cut_chunk(pos, _read_exact(fh, n - pos - 9))
                 self._truncated(pos)

@@ -131,13 +131,20 @@ def test_flipped_byte_in_chunk_fails_crc(tmp_path: Path, small_log: Path):
         read_trace(bad)
 
 
-def test_record_length_past_end_of_file_is_truncation_not_crash(tmp_path: Path, small_log: Path):
+@pytest.mark.parametrize(
+    ("cut", "said"), [(0, r"is corrupt: the record at byte 8 "), (40, r"truncated")]
+)
+def test_record_length_past_end_of_file_is_an_error_not_a_crash(
+    tmp_path: Path, small_log: Path, cut: int, said: str
+):
+    """An absurd record length is corruption in a finished file (its footer intact) and a
+    recording cut short when the end of the file is missing too; never a crash."""
     data = bytearray(small_log.read_bytes())
     # The first record after the magic is the Header; make its length absurd.
     data[9:17] = struct.pack("<Q", 2**62)
     bad = tmp_path / "len.mcap"
-    bad.write_bytes(bytes(data))
-    with pytest.raises(LogFormatError, match=r"truncated"):
+    bad.write_bytes(bytes(data[: len(data) - cut]))
+    with pytest.raises(LogFormatError, match=said):
         read_trace(bad)
 
 

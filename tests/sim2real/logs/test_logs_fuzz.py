@@ -130,3 +130,19 @@ def test_truncations_of_the_crc_file(keep: float):
     if isinstance(out, Trace):
         _assert_subset_of_original(out)
         assert any("truncated" in w or "summary" in w for w in out.meta.warnings)
+
+
+@pytest.mark.parametrize("data", [_VALID, _NO_CRC], ids=["crc", "no-crc"])
+@pytest.mark.parametrize("bit", range(16, 24))
+def test_a_record_length_past_an_intact_footer_is_corruption_not_a_cut(data: bytes, bit: int):
+    """A finished file (footer and closing magic intact) is never read as a recording cut
+    short: a first record whose length runs past the end is an error naming its byte, and the
+    records inside it (no longer covered by a CRC) are not read."""
+    first = 8 + 9 + int.from_bytes(data[9:17], "little")  # after the magic and the Header
+    buf = bytearray(data)
+    buf[first + 1 + bit // 8] ^= 1 << (bit % 8)  # a high bit of the next record's length
+    buf[first + 200] ^= 0x40  # and a byte inside it
+    out = _read(bytes(buf))
+    assert isinstance(out, Sim2RealError)
+    assert "is corrupt" in str(out) and f"record at byte {first} " in str(out)
+    assert "past the file's footer" in str(out)
