@@ -473,7 +473,7 @@ def neato_split(split: str) -> Base:
     every = sorted({neato.fit, neato.calibrate, *neato.checks})
     for name in filter(None, (fit, calibrate)):
         if name not in every:
-            raise SystemExit(f"--neato-split: {name!r} is not a Neato recording; one of {every}")
+            raise ValueError(f"{name!r} is not a Neato recording; give one of {', '.join(every)}")
     checks = tuple(n for n in every if n not in (fit, calibrate))
     return replace(neato, fit=fit, calibrate=calibrate, checks=checks, quick_checks=checks[:3])
 
@@ -512,7 +512,10 @@ def main() -> None:
     )
     if args.quick and args.engine == "both":
         engines = ["reduced"]
-    bases = BASES if args.neato_split is None else (neato_split(args.neato_split),)
+    try:
+        bases = BASES if args.neato_split is None else (neato_split(args.neato_split),)
+    except ValueError as exc:
+        parser.error(f"--neato-split: {exc}")  # exit 2
     tally: dict[str, list[int]] = {}
     t0 = time.perf_counter()
     for base in bases:

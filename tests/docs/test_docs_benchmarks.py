@@ -91,3 +91,11 @@ def test_benchmark_docstrings_say_what_and_how_in_at_most_40_lines() -> None:
         if len(doc.splitlines()) > 40:
             long[path.name] = len(doc.splitlines())
     assert not long, f"benchmark docstrings over 40 lines (results go to docs/): {long}"
+
+
+def test_bench_real_names_a_bad_split_and_exits_2() -> None:
+    cmd = [sys.executable, "bench_real.py", "--neato-split", "nope.mcap"]
+    done = subprocess.run(cmd, cwd=BENCH, capture_output=True, text=True, check=False)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    last = done.stderr.strip().splitlines()[-1]
+    assert "'nope.mcap' is not a Neato recording; give one of neato_" in last
