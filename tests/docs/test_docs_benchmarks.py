@@ -99,3 +99,11 @@ def test_bench_real_names_a_bad_split_and_exits_2() -> None:
     assert done.returncode == 2 and "Traceback" not in done.stderr
     last = done.stderr.strip().splitlines()[-1]
     assert "'nope.mcap' is not a Neato recording; give one of neato_" in last
+
+
+def test_bench_real_refuses_a_folder_without_recordings(tmp_path: Path) -> None:
+    (tmp_path / "notes.txt").write_text("no recording here", encoding="utf-8")
+    cmd = [sys.executable, "bench_real.py", "--more-neato", str(tmp_path)]
+    done = subprocess.run(cmd, cwd=BENCH, capture_output=True, text=True, check=False)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert f"'{tmp_path}' holds no .bag or .mcap file" in done.stderr.strip().splitlines()[-1]
