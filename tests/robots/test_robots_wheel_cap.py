@@ -80,10 +80,14 @@ def test_below_the_cap_the_modes_are_the_same() -> None:
     np.testing.assert_array_equal(joint.w, side.w)
 
 
-def test_default_and_shipped_specs_scale_both_together(tmp_path: Path) -> None:
+#: Shipped specs whose firmware clips each wheel target on its own (OpenCR's controlMotor).
+PER_SIDE = {"turtlebot3_waffle_pi"}
+
+
+def test_default_and_shipped_specs_cap_as_their_firmware_does(tmp_path: Path) -> None:
     assert DriveParams().wheel_cap_per_side == 0.0
     for name in list_robots():
-        assert load_spec(name).drive.wheel_cap_per_side == 0.0, name
+        assert load_spec(name).drive.wheel_cap_per_side == float(name in PER_SIDE), name
     # a spec may leave the key out: both scaled together
     text = spec_text("w", wheel_separation_m=1.08, wheel_cap="per-side")
     path = tmp_path / "w.yaml"
