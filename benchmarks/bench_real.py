@@ -1,17 +1,13 @@
 """Benchmark: do fits and bands hold on real robots, on recordings the fit never saw?
 
 Data: the real development set in ``../shared/realdata`` (read its README; skipped when
-absent). Per base, as a new user would work (the public CLI: ``robots new``, ``sysid fit``,
-``sysid calibrate``, ``agree --ensemble 30 --json``):
+absent). Per base, as a new user would work (the public CLI: ``robots new``, ``sysid fit`` on
+the recording alone, ``sysid calibrate``, ``agree --ensemble 30 --json``; ``--validate`` also
+validates each fit on its calibration recording, which judges the loops' integral term):
 
 - Neato (spec from ``robots new``: wheel separation 0.248 m, top speed 0.3 m/s): fit on one
   unit's test drive, calibrate on its obstacle avoidance (its longest), check on its three
-  other recordings and on the recordings of four other units; ``--more-neato DIR`` checks the
-  recordings in DIR too (other units': docs/agreement.md lists public ones).
-
-Each fit is ``sysid fit`` on its recording alone, as the issue's protocol has it (fit, calibrate,
-check); ``--validate`` also validates it on the base's calibration recording (``sysid fit
---validate``, which then judges whether the wheel loops keep their integral term).
+  other recordings and on four other units' (``--more-neato DIR``: DIR's too).
 - TurtleBot3 Waffle Pi with an arm (shipped spec): fit the first half, check the second.
 - Husky A200, wheels lifted (``robots new --drive skid``, 0.538 m, r 0.15875 m, 1.0 m/s, driver
   and track factors 1: no slip on a stand; MuJoCo as ``mujoco-lifted``): fit the first half of
