@@ -34,7 +34,8 @@ rows that hold each. ``--explain`` adds, per base, where each row's band gets it
 misses (:func:`sim2real.agreement.sources.band_sources`, reduced engine): the three largest
 sources of each axis's variance with their share and width alone; the share of the misses
 within 1 s of a command step and above the band; the coverage at the session's own latency.
-``--misses`` adds where the fitted point misses at each session's own latency (:func:`misses`).
+``--misses``: where the fitted point misses at each session's own latency (:func:`misses`);
+``--budget``: the calibrated band's width built up one source at a time (:func:`budget`).
 ``--quick``: three Neato recordings (fitted unit, another 2018 unit, a 2017 unit), reduced
 engine only; ``--base NAME`` runs one base.
 """
@@ -312,6 +313,84 @@ def explain(log: Path, robot: str, params: Path) -> str:
     )
 
 
+#: The steps of :func:`budget`: each adds one source of the calibrated band's spread.
+BUDGET_STEPS = ("noise", "posterior", "file's session", "calibrate's b", "widening")
+
+
+def budget(log: Path, robot: str, fitted: Path, calibrated: Path) -> str:
+    """One table row: the calibrated band's median width built up one source at a time.
+
+    The calibrated covariance of a one-log fit is ``N (a^2 (P + (1 + f) S0) + g S0 g) N``
+    (:mod:`sim2real.agreement.calibration`): P the fit log's posterior, S0 the spec's
+    between-session covariance, which the file holds 1 + f times
+    (:func:`sysid._summary.distribution`), a the dynamics factor, g the session factors
+    (``pooled_session_factor``, and the widened one on ``session_factor_parameters``), N the
+    narrowing. The band (reduced engine, ``agree``'s noise per sample) is rebuilt with the
+    noise alone, then adding a^2 P, a^2 (1 + f) S0, the pooled b^2 S0 and the widening; each
+    step's share is its increase of the squared width over the calibrated band's. A file
+    fitted on several logs has no such split: "-".
+    """
+    import dataclasses
+
+    import numpy as np
+
+    from robots.params import read_params_file
+    from robots.randomization import DriveDistribution, cap_spread
+    from robots.spec import load_spec
+    from sim2real.agreement.calibration import session_covariance
+    from sim2real.agreement.figures import run_ensemble
+    from sim2real.agreement.latency import band_sample_noise
+    from sim2real.agreement.replay import replay
+    from sim2real.agreement.study import parse_odom_v_window
+    from sim2real.logs import read_for_robot
+    from sysid._fleet import new_session_factor
+
+    spec = load_spec(robot)
+    fit_doc, cal_doc = read_params_file(fitted), read_params_file(calibrated)
+    if (fit_doc.document.get("settings") or {}).get("sessions", 1) != 1:
+        return " | - | - |"
+    fit = DriveDistribution.from_params_file(fit_doc, robot=spec.name)
+    cal = DriveDistribution.from_params_file(cal_doc, robot=spec.name)
+    c = cal_doc.document["calibration"]
+    s0, file_cov = session_covariance(fit, spec), fit.covariance_array
+    post = file_cov - (1.0 + new_session_factor(1)) * s0
+    narrow = c.get("spread_narrowing") or {}
+    n = np.array([narrow.get(name, 1.0) for name in fit.names])
+    a2, b2 = c["dynamics_factor"] ** 2, (c["pooled_session_factor"] or 0.0) ** 2
+    covs = (0.0 * post, a2 * post, a2 * file_cov, a2 * file_cov + b2 * s0, None)
+    window_s = parse_odom_v_window("auto", spec.odometry.rate_hz, v_source=spec.odometry.v_source)
+    trace, _ = read_for_robot(log, spec)
+    point = replay(trace, robot=spec, params=cal.mean_params(), odom_v_window_s=window_s)
+    noise, _ = band_sample_noise(cal.noise, cal_doc.document.get("settings"), trace, point,
+                                 calibration=c)  # fmt: skip
+    widths = []
+    for cov in covs:
+        dist = cal
+        if cov is not None:
+            capped = cap_spread(cov * np.outer(n, n), fit.names, fit.geometry)
+            dist = dataclasses.replace(cal, covariance=tuple(map(tuple, capped.tolist())))
+        ens = run_ensemble(trace, robot=spec, distribution=dist, noise=noise, n=ENSEMBLE_N,
+                           seed=0, odom_v_window_s=window_s)  # fmt: skip
+        widths.append((ens.band_width_v_mps, ens.band_width_w_radps))
+
+    def axis(k: int) -> str:
+        w = [x[k] for x in widths]
+        shares = np.diff([0.0, *np.square(w)]) / max(w[-1] ** 2, 1e-300)
+        return (
+            " -> ".join(f"{x:.3f}" for x in w)
+            + " ("
+            + " / ".join(f"{100 * sh:.0f}" for sh in shares)
+            + " %)"
+        )
+
+    return f" | {axis(0)} | {axis(1)} |"
+
+
+BUDGET_HEAD = (
+    f"| checked | v band: {' -> '.join(BUDGET_STEPS)} (share of the squared width) | w band |\n"
+    "|---|---|---|"
+)
+
 #: Samples this soon after a command change count as at the change, s (the Neato's response
 #: to a step is over within ~0.5 s).
 NEAR_CHANGE_S = 0.6
@@ -404,6 +483,7 @@ def run_base(
     why: bool = False,
     missed: bool = False,
     validate: bool = False,
+    built: bool = False,
 ) -> None:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
@@ -415,6 +495,7 @@ def run_base(
         cli("sysid", "fit", str(REALDATA / base.fit), "--robot", robot, "-o", str(params),
             *window, *validation, *base.fit_args)  # fmt: skip
         fit_s = time.perf_counter() - t0
+        fitted = params
         if base.calibrate:
             calibrated = tmp / "calibrated.yaml"
             cli("sysid", "calibrate", str(params), str(log_path(base.calibrate, tmp)),
@@ -425,11 +506,13 @@ def run_base(
         print("| checked | engine | spec | fit | own lat. (s) | ceiling | cov v / w |"
               " width v / w (noise-only) | holds |")  # fmt: skip
         print("|---|---|---|---|---|---|---|---|---|")
-        explained, where = [], []
+        explained, where, sources = [], [], []
         for ref in base.quick_checks if quick and base.quick_checks else base.checks:
             log = log_path(ref, tmp)
             if why:
                 explained.append(f"| {row_name(ref)}{explain(log, robot, params)}")
+            if built and base.calibrate:
+                sources.append(f"| {row_name(ref)}{budget(log, robot, fitted, params)}")
             if missed and base.diff_drive:
                 where.append(f"| {row_name(ref)}{misses(log, robot, params)}")
             for named in engines:
@@ -459,6 +542,12 @@ def run_base(
             print(f"\nwhere the bands of {base.name} get their width and their misses (reduced)")
             print(EXPLAIN_HEAD)
             print("\n".join(explained), flush=True)
+        if sources:
+            print(
+                f"\nwhat makes {base.name}'s calibrated band wide, one source at a time (reduced)"
+            )
+            print(BUDGET_HEAD)
+            print("\n".join(sources), flush=True)
         if where:
             print(f"\nwhere {base.name}'s fit misses at each session's own latency (reduced)")
             print(MISSES_HEAD)
@@ -524,6 +613,12 @@ def main() -> None:
         " recordings, e.g. the course repositories docs/agreement.md lists)",
     )
     parser.add_argument(
+        "--budget",
+        action="store_true",
+        help="the calibrated band's width built up source by source (noise, posterior, the"
+        " file's session spread, calibrate's session factor, its widening)",
+    )
+    parser.add_argument(
         "--neato-split",
         metavar="FIT[,CALIBRATE]",
         help="another Neato split: fit on FIT, calibrate on CALIBRATE (none if omitted), check"
@@ -552,7 +647,10 @@ def main() -> None:
     t0 = time.perf_counter()
     for base in bases:
         if args.base is None or base.name in args.base:
-            run_base(base, engines, args.quick, tally, args.explain, args.misses, args.validate)
+            run_base(
+                base, engines, args.quick, tally, args.explain, args.misses, args.validate,
+                args.budget,
+            )  # fmt: skip
     overall = {k: an for k, an in tally.items() if ":" not in k}
     print(f"\ntargets held (rows): {', '.join(f'{k} {a}/{n}' for k, (a, n) in overall.items())};"
           f" {time.perf_counter() - t0:.0f} s")  # fmt: skip
