@@ -29,12 +29,15 @@ Observation (63 float32 values per robot)
 Action
     (v, w), v in [0, 0.22] m/s, w in [-2.84, 2.84] rad/s (the Burger's limits).
 Reward (the terms of the thesis' R1; the constants are ours, in :class:`RaceReward`)
-    :math:`R = R_d + R_{pf} + R_g + R_c + R_{km} + R_{cw} + R_w + R_s + R_t`: proximity to
-    other movers :math:`-0.2\max(0, 1 - c/0.2\,\mathrm m)`; progress along the centre line
+    :math:`R = R_d + R_{pf} + R_g + R_c + R_{km} + R_{cw} + R_w + R_s + R_t + R_{turn}`:
+    proximity to other movers :math:`-0.2\max(0, 1 - c/0.2\,\mathrm m)`; progress along the centre line
     :math:`+2\,\Delta s` per metre; goal +10; collision with a mover -10; keep moving
     :math:`+0.01\,v/v_{max}`; wall collision -10; near a wall :math:`-0.2\max(0, 1 -
     c_w/0.15\,\mathrm m)`; stopped (v < 0.02 m/s) -0.02; timeout -5; a time cost per step
-    (0 by default). ``reward`` takes a
+    (0 by default); a turning cost per radian of heading turned,
+    :math:`-k_{turn}\,|w|\,\Delta t` with the measured w (0 by default: a cost on the total
+    turning, which a weave pays on every step and a clean line only where the track bends,
+    :math:`\pi/2` rad on ``curve``). ``reward`` takes a
     :class:`RaceReward` or a mapping of some of its fields (a YAML config's ``env.kwargs``).
 Outcome (``info["outcome"]``)
     ``"success"`` (crossed the goal line), ``"collision"`` (touched an opponent or another
@@ -128,6 +131,7 @@ class RaceReward:
     stop_below_mps: float = 0.02
     timeout: float = 5.0
     time: float = 0.0
+    turn_per_rad: float = 0.0
 
 
 def race_reward(value: RaceReward | Mapping[str, Any] | None) -> RaceReward:
@@ -454,6 +458,7 @@ class RaceCore:
         if abs(v) < cfg.stop_below_mps:
             r -= cfg.stop
         r -= cfg.time
+        r -= cfg.turn_per_rad * abs(w) * self.control_dt
         r += {
             "success": cfg.goal,
             "collision": -cfg.collision,

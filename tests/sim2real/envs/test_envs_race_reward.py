@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import sim2real.envs  # noqa: F401  (registers the ids)
+from sim2real.envs.geometry import FloatArray
 from sim2real.envs.race import RaceReward, race_reward
 from sim2real.errors import Sim2RealValueError
 
@@ -43,6 +44,26 @@ def test_the_time_cost_is_paid_every_step_moving_or_not() -> None:
     assert np.mean(free[4:]) > 0.05  # at top speed the progress pays more than the time cost
     standing = _standing_rewards(reward={"time": 0.05})
     np.testing.assert_allclose(standing, -0.07, atol=1e-9)  # stop 0.02 + time 0.05
+
+
+def _turning_run(command: tuple[float, float], **kwargs: object) -> tuple[FloatArray, FloatArray]:
+    env = gym.make("sim2real/Race-v0", track="open", num_opponents=0, control_dt=0.25, **kwargs)
+    env.reset(seed=0)
+    steps = [env.step(np.array(command)) for _ in range(6)]
+    return np.array([float(s[1]) for s in steps]), np.array([float(s[0][40]) for s in steps])
+
+
+@pytest.mark.parametrize("w_radps", [-1.5, -0.6, 0.2, 1.5])
+def test_the_turn_cost_is_paid_per_radian_of_measured_turn(w_radps: float) -> None:
+    # the same seed drives the same arc: the cost is k |w| dt with the measured w, every step
+    free, w_measured = _turning_run((0.22, w_radps))
+    costly, _ = _turning_run((0.22, w_radps), reward={"turn_per_rad": 0.5})
+    assert np.all(np.abs(w_measured) > 0.1)  # it turns (the drive model takes ~0.08 rad/s off)
+    np.testing.assert_allclose(free - costly, 0.5 * np.abs(w_measured) * 0.25, atol=1e-9)
+    straight, _ = _turning_run((0.22, 0.0))
+    straight_costly, _ = _turning_run((0.22, 0.0), reward={"turn_per_rad": 0.5})
+    np.testing.assert_allclose(straight, straight_costly, atol=1e-12)  # a straight line is free
+    assert RaceReward().turn_per_rad == 0.0  # off unless a config asks for it
 
 
 @pytest.mark.parametrize(
