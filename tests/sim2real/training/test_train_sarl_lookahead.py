@@ -320,3 +320,17 @@ def test_full_and_smoke_configs_share_grid_step_and_widths() -> None:
     assert smoke["env"]["kwargs"]["control_dt"] == full["env"]["kwargs"]["control_dt"]
     widths = [d["hyperparameters"]["policy_kwargs"] for d in (full, smoke)]
     assert widths[0] == widths[1]
+
+
+def test_turn_config_is_the_shipped_look_ahead_with_a_turning_cost() -> None:
+    shipped, turn = (
+        yaml.safe_load((ROOT / "examples" / name).read_text("utf-8"))
+        for name in ("race_sarl_lookahead.yaml", "race_sarl_lookahead_turn.yaml")
+    )
+    reward = turn["env"]["kwargs"].pop("reward")
+    assert reward == {**shipped["env"]["kwargs"].pop("reward"), "turn_per_rad": 0.5}
+    assert {**turn, "out": None} == {**shipped, "out": None}
+    smoke = yaml.safe_load(
+        (ROOT / "examples" / "race_sarl_lookahead_smoke.yaml").read_text("utf-8")
+    )
+    assert smoke["env"]["kwargs"]["reward"]["turn_per_rad"] == reward["turn_per_rad"]
