@@ -4,7 +4,6 @@ bad input; an ensemble member is a field edit; replay speed."""
 from __future__ import annotations
 
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -219,30 +218,6 @@ def test_agree_engine_mujoco_near_reduced(
         figures[engine] = json.loads(out.read_text())
     assert figures["mujoco"]["n_samples"] == figures["reduced"]["n_samples"]
     assert abs(figures["mujoco"]["agreement"] - figures["reduced"]["agreement"]) <= 0.02
-
-
-@pytest.mark.slow
-def test_ten_minute_replay_costs_little_beyond_the_physics() -> None:
-    """The replay's own work (targets, controls, samples) on top of MuJoCo's steps is small:
-    the real-time factor (>= 200x on a free core) is benchmarks/bench_mujoco.py's."""
-    import mujoco
-
-    from sim2real.mujoco import MujocoRobot
-
-    spec = load_spec("turtlebot3_burger")
-    t, v, w = _commands(3, 600.0, spec.max_v_mps, spec.max_w_radps)
-    robot = MujocoRobot(spec)
-    t_out = np.arange(0.0, 600.0, 1 / 30)
-    robot.replay((t[:20], v[:20], w[:20]), t_out[:20])  # compile the kernels first
-    replay_s = physics_s = np.inf
-    for _ in range(3):  # the best of three: a shared machine
-        start = time.perf_counter()
-        robot.replay((t, v, w), t_out)
-        replay_s = min(replay_s, time.perf_counter() - start)
-        start = time.perf_counter()
-        mujoco.mj_step(robot.model, robot.data, 144_000)  # the same 600 s at 240 Hz
-        physics_s = min(physics_s, time.perf_counter() - start)
-    assert replay_s <= 2.0 * physics_s  # a step a call would take ~4x
 
 
 def test_yaw_coulomb_holds_a_small_turn_command_while_driving() -> None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 from typing import Any
 
@@ -186,16 +185,13 @@ def test_mcap_and_ros1_bag_read_the_same_scans(
     assert (a.range_max_m, a.topic, a.odom_topic) == (5.0, "/scan", "/odom")
 
 
-def test_cli_identifies_the_synthetic_lidar_in_time(
+def test_cli_identifies_the_synthetic_lidar(
     tmp_path: Path, mcap_log: Path, spec_file: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     log = mcap_log
     out = tmp_path / "sensors.yaml"
-    start = time.process_time()  # CPU time: other processes on a loaded machine do not count
     run = cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out)
-    elapsed = time.process_time() - start
-    assert run.code == 0, run.err
-    assert elapsed < 5.0  # a 60 s recording of 5 Hz 360-beam scans
+    assert run.code == 0, run.err  # its speed (<= 5 s) is benchmarks/bench_sensors.py's
     est = load_sensor(out)
     truth = draw_truth(np.random.default_rng(11))
     assert est.time_offset_s == pytest.approx(truth.offset_s, abs=0.010)
