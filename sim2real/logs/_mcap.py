@@ -612,34 +612,25 @@ def stream_mcap(
     return scan.out
 
 
-def _footer_intact(fh: BinaryIO, size: int) -> bool:
-    """Whether the file ends with a Footer record and the closing magic: a file the writer
-    finished, which the end of the file cannot have cut short."""
+def _read_footer(fh: BinaryIO, size: int) -> tuple[bool, int | None]:
+    """Whether the file ends with a Footer record and the closing magic (a file the writer
+    finished, which the end of the file cannot have cut short), and the data-section CRC from
+    the DataEnd record that footer leads to (None: not found)."""
     tail_at = size - len(MAGIC) - 29
     if tail_at < len(MAGIC):
-        return False
+        return False, None
     fh.seek(tail_at)
     tail = fh.read(29 + len(MAGIC))
-    op, length = _OP_LEN.unpack_from(tail)
-    return (op, length) == (_FOOTER, 20) and tail[29:] == MAGIC
-
-
-def _peek_data_crc(fh: BinaryIO, size: int) -> int | None:
-    """The data-section CRC from the DataEnd record the footer leads to (None: not found)."""
-    tail_at = size - len(MAGIC) - 29
-    if tail_at < len(MAGIC):
-        return None
-    fh.seek(tail_at)
-    tail = fh.read(29)
     op, length, start = struct.unpack_from("<BQQ", tail)
     if op != _FOOTER or length != 20:
-        return None
+        return False, None
+    finished = tail[29:] == MAGIC
     end_at = (start if start else tail_at) - 13
     if not len(MAGIC) <= end_at <= tail_at - 13:
-        return None
+        return finished, None
     fh.seek(end_at)
     op, length, crc = struct.unpack("<BQI", fh.read(13))
-    return int(crc) if (op, length) == (_DATA_END, 4) else None
+    return finished, (int(crc) if (op, length) == (_DATA_END, 4) else None)
 
 
 class _Stream:
@@ -666,8 +657,7 @@ class _Stream:
 
     def run(self, head: bytes) -> None:
         fh, n = self.fh, self.size
-        want_crc = _peek_data_crc(fh, n)
-        finished = _footer_intact(fh, n)
+        finished, want_crc = _read_footer(fh, n)
         crc: int | None = zlib.crc32(head) if want_crc != 0 else None  # None: not computed
         fh.seek(len(MAGIC))
         pos = len(MAGIC)
