@@ -86,9 +86,9 @@ docs: $(STAMP_DOCS)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --site-dir site
 
 ## make test-train: install the [train]/[cluster] extras (and .venv-rllib), then run the tests
-## that need them; the RLlib tests run in .venv-rllib (gymnasium 1.2.2)
+## that need them, one worker per core up to four; the RLlib tests run in .venv-rllib (gymnasium 1.2.2)
 test-train: $(STAMP_TRAIN) $(STAMP_RLLIB)
-	$(BIN)/python -m pytest -q -m "train or cluster"
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "train or cluster"
 	$(VENV_RLLIB)/bin/python -m pytest -q tests/sim2real/training/test_train_rllib.py
 
 ## make bench: the performance targets (prints ratios measured in the same run) and writes

@@ -115,7 +115,7 @@ def test_sessions_are_seeded_and_bad_input_is_refused() -> None:
 
 #: Seeds of :func:`skid_robot` and its sessions that no design choice was tuned on (the plant's
 #: ranges and the fit's track-factor restarts were chosen on seeds 1-13 and 21-30).
-TARGET_SEEDS = (101, 102, 103, 104, 105)
+TARGET_SEEDS = (101, 103, 105)  # of the ten bench_skid.py measures (docstring below)
 
 
 def test_skid_robots_span_the_published_slip() -> None:
