@@ -12,12 +12,14 @@ per repeat (min / median / max), wall time and CPU time both printed:
 
 - ``predict``: :meth:`RaceLookahead.predict` on batches of 1 (acting) and 32 (a DQN update's
   replay batch) of real curve-race observations: the torch path ``predict_reference`` (the
-  ``"point"`` lidar), the compiled kernel with the ``"point"`` lidar (the same numbers: the
-  tests check them to float precision) and with the ``"recast"`` lidar (the model trained);
+  ``"point"`` lidar, the ``"command"`` motion), the compiled kernel with the same models (the
+  same numbers: the tests check them to float precision), with the ``"recast"`` lidar and
+  with the ``"recast"`` lidar and the ``"drive"`` motion (the model trained: the env's drive
+  model run over each command's step);
 - ``train``: DQN steps per second of ``examples/race_sarl_lookahead.yaml`` (its network, batch
   and update rate; ``learning_starts`` 500, so that most of the steps update) with the old path
   (``predict_reference`` and SB3's ``set_training_mode``) and the new one (kernel with the
-  ``"recast"`` lidar, the mode switch skipped when unchanged).
+  ``"recast"`` lidar and the ``"drive"`` motion, the mode switch skipped when unchanged).
 
 Target: the look-ahead's training run (120,000 steps) within the experiment's 60 minutes on 2
 shared cores, i.e. >= 40 steps/s with the evaluation's time to spare.
@@ -79,7 +81,8 @@ def _ratio_line(name: str, old: Stats, new: Stats) -> str:
 def bench_predict(repeats: int, calls: int) -> None:
     doc = yaml.safe_load(CONFIG.read_text("utf-8"))
     env = gym.make("sim2real/Race-v0", track="curve", num_opponents=4, control_dt=0.25)
-    recast = race_lookahead(env, **doc["discrete_actions"])
+    drive = race_lookahead(env, **doc["discrete_actions"])
+    recast = replace(drive, motion_model="command")
     point = replace(recast, lidar_model="point")
     obs = _observations(64)
     print(f"predict: {len(recast.v_mps)} commands, {calls} calls a repeat, {repeats} repeats")
@@ -95,6 +98,7 @@ def bench_predict(repeats: int, calls: int) -> None:
                 "torch (point)": lambda: loop(point.predict_reference),
                 "kernel (point)": lambda: loop(point.predict),
                 "kernel (recast)": lambda: loop(recast.predict),
+                "kernel (drive)": lambda: loop(drive.predict),
             },
             repeats,
         )
@@ -117,6 +121,13 @@ def bench_predict(repeats: int, calls: int) -> None:
                 stats["kernel (recast)"],
             )
         )
+        print(
+            _ratio_line(
+                f"batch {batch} kernel command / drive motion (recast)",
+                stats["kernel (recast)"],
+                stats["kernel (drive)"],
+            )
+        )
 
 
 def _train_once(steps: int, old: bool) -> None:
@@ -137,9 +148,11 @@ def _train_once(steps: int, old: bool) -> None:
         }
         RaceLookahead.predict = RaceLookahead.predict_reference  # type: ignore[method-assign]
         LookaheadDQNPolicy.set_training_mode = DQNPolicy.set_training_mode  # type: ignore[method-assign]
-        # the torch path knows the point lidar only
+        # the torch path knows the point lidar and the command motion only
         real = race_lookahead
-        _sb3.race_lookahead = lambda *a, **k: replace(real(*a, **k), lidar_model="point")  # type: ignore[assignment]
+        _sb3.race_lookahead = lambda *a, **k: replace(  # type: ignore[assignment]
+            real(*a, **k), lidar_model="point", motion_model="command"
+        )
     try:
         _sb3.learn(cfg, probe)
     finally:

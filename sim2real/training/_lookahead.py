@@ -13,8 +13,20 @@ kinematics, the humans at constant velocity) and scored by the attention network
 with :math:`f` the one-step look-ahead of the observation under grid command :math:`a = (v,
 w)` over one control step :math:`\Delta t`:
 
-- the robot drives the arc of :math:`(v, w)` (the command taken as reached): its track-frame
-  pose moves along it and its measured (v, w) becomes the command;
+- the robot (``motion_model``): ``"drive"`` runs the env's own drive model
+  (:func:`robots._kernel.drive_step` with the env's drive parameters, the chain of the
+  ``reduced`` back-end) over the step from the observed (v, w): for the transport delay the
+  robot keeps the observed velocity (the previous command, held for a whole step, has
+  reached its steady state), then the drive responds to the new command (its clamps, wheel
+  loops, torque cap and friction), and the pose follows the velocity's arcs; the measured
+  (v, w) becomes the drive's velocity at the end of the step. The Burger's P wheel loops
+  with friction hold a turn below the command (0.2 rad/s -> about 0.12 at full speed): the
+  drive model predicts where the robot will be, the command model does not. ``"command"``
+  drives the arc of :math:`(v, w)` with the command taken as reached and the command as the
+  measured (v, w) (the model of policies saved without ``motion_model``). What the
+  observation does not hold is assumed: the velocity-smoother's reference starts at the
+  observed velocity and the wheel loops' integrators at zero (exact for the Burger: no
+  acceleration limit, P loops);
 - the goal point (distance, bearing) is the same point seen from the new pose (SARL*'s local
   goal moves on along the plan as the robot drives; the prediction keeps the point);
 - each observed mover moves at its observed velocity (constant-velocity prediction) and is seen
@@ -36,7 +48,8 @@ the look-ahead, the step reward :math:`R` is learned into it rather than compute
 greedy action is SARL's arg max over the discrete set. The network sees one observation per
 action (the 3 x 7 grid: 21), so a step costs 21 forward passes of the SARL network. The
 prediction itself is one compiled loop (numba) over observations, actions and beams;
-:meth:`RaceLookahead.predict_reference` is the same ``"point"`` model in torch operations.
+:meth:`RaceLookahead.predict_reference` is the ``"point"`` lidar with the ``"command"`` motion in
+torch operations.
 
 Examples
 --------
@@ -46,8 +59,11 @@ Examples
 >>> model = race_lookahead(env, v_mps=[0.0, 0.22], w_radps=[-1.0, 0.0, 1.0])
 >>> obs, _ = env.reset(seed=0)
 >>> nxt = model.predict(torch.as_tensor(obs)[None])
->>> tuple(nxt.shape), round(float(nxt[0, 4, 36] - obs[36]), 4)  # (0.22, 0): 5.5 cm along yaw
-((1, 6, 63), 0.055)
+>>> tuple(nxt.shape), round(float(nxt[0, 4, 36] - obs[36]), 3)  # (0.22, 0) from rest, m
+((1, 6, 63), 0.032)
+
+(5.5 cm at full speed; from rest the delay and the drive's acceleration leave 3.2 cm, as the
+env's step does.)
 """
 
 from __future__ import annotations
@@ -56,6 +72,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from functools import cached_property
+from pathlib import Path
 from typing import Any, cast
 
 import gymnasium as gym
@@ -67,6 +84,12 @@ from stable_baselines3.common.torch_layers import create_mlp
 from stable_baselines3.dqn.policies import DQNPolicy, QNetwork
 from torch import nn
 
+import robots._kernel
+from robots import _jit
+from robots._kernel import N_PACKED, SPEED_V, drive_step, pack_params
+from robots.reduced import DEFAULT_DT_S
+from sim2real.envs import _robot
+from sim2real.envs._robot import arc_step
 from sim2real.envs.geometry import FloatArray
 from sim2real.envs.race import N_BEAMS, N_NEIGHBOURS, RaceEnv
 from sim2real.errors import Sim2RealValueError
@@ -75,9 +98,12 @@ from sim2real.errors import Sim2RealValueError
 _OWN = 7
 #: The lidar models of :class:`RaceLookahead` (see the module docstring).
 LIDAR_MODELS = ("point", "recast")
+#: The motion models of :class:`RaceLookahead` (see the module docstring).
+MOTION_MODELS = ("command", "drive")
 
 __all__ = [
     "LIDAR_MODELS",
+    "MOTION_MODELS",
     "LookaheadDQNPolicy",
     "LookaheadQNetwork",
     "RaceLookahead",
@@ -87,13 +113,21 @@ __all__ = [
 
 
 def race_lookahead(
-    env: gym.Env[Any, Any], *, v_mps: Sequence[float], w_radps: Sequence[float], where: str = "env"
+    env: gym.Env[Any, Any],
+    *,
+    v_mps: Sequence[float],
+    w_radps: Sequence[float],
+    where: str = "env",
+    models: Any = None,
 ) -> RaceLookahead:
     """The look-ahead of ``env``'s observation over the (v, w) grid (``discrete_actions``).
 
-    Raises one sentence for an env other than Race-v0: the look-ahead needs the layout and the
-    lidar of its observation.
+    ``models``: a config's ``hyperparameters.policy_kwargs.lookahead``, a mapping that may
+    choose ``lidar_model`` (default ``"recast"``) and ``motion_model`` (default ``"drive"``,
+    with the env's drive parameters). Raises one sentence for an env other than Race-v0 (the
+    look-ahead needs the layout and the lidar of its observation) and for another key.
     """
+    chosen = _chosen_models(models, where)
     base = env.unwrapped
     if not isinstance(base, RaceEnv):
         name = base.spec.id if base.spec is not None else type(base).__name__
@@ -104,6 +138,7 @@ def race_lookahead(
         )
     lidar = base.robot_spec.lidar
     grid = [(float(v), float(w)) for v in v_mps for w in w_radps]
+    drive = base.get_drive_params()
     return RaceLookahead(
         v_mps=tuple(v for v, _ in grid),
         w_radps=tuple(w for _, w in grid),
@@ -111,8 +146,38 @@ def race_lookahead(
         beam_angles_rad=tuple(float(a) for a in base.beam_angles_rad),
         range_min_m=float(lidar.range_min_m),
         range_max_m=float(lidar.range_max_m),
-        lidar_model="recast",
+        lidar_model=chosen.get("lidar_model", "recast"),
+        motion_model=chosen.get("motion_model", "drive"),
+        drive_packed=tuple(float(x) for x in pack_params(drive, base.robot_spec.geometry)),
+        drive_delay_s=float(drive.delay_s),
+        drive_timeout_s=float(drive.cmd_timeout_s),
     )
+
+
+def _chosen_models(models: Any, where: str) -> dict[str, str]:
+    """``race_lookahead``'s ``models`` as a dict, or one sentence naming what is wrong."""
+    key = "hyperparameters.policy_kwargs.lookahead"
+    if models is None:
+        return {}
+    if not isinstance(models, dict):
+        raise Sim2RealValueError(
+            f"{where}: key '{key}' must be a mapping, got {models!r}; e.g. "
+            "{motion_model: command}"
+        )
+    for name, value in models.items():
+        if name not in ("lidar_model", "motion_model"):
+            raise Sim2RealValueError(
+                f"{where}: key '{key}' has {name!r}, which the look-ahead does not take; use "
+                f"lidar_model ({' or '.join(LIDAR_MODELS)}) or motion_model "
+                f"({' or '.join(MOTION_MODELS)})"
+            )
+        choices = LIDAR_MODELS if name == "lidar_model" else MOTION_MODELS
+        if value not in choices:
+            raise Sim2RealValueError(
+                f"{where}: key '{key}.{name}' is {value!r}, which is not one of "
+                f"{', '.join(choices)}; the default is {choices[-1]!r}"
+            )
+    return dict(models)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -134,6 +199,16 @@ class RaceLookahead:
     lidar_model : {"point", "recast"}
         How the scan is predicted (module docstring); :func:`race_lookahead` gives
         ``"recast"``, and a saved model without the key keeps ``"point"``.
+    motion_model : {"command", "drive"}
+        How the robot moves over the step (module docstring); :func:`race_lookahead` gives
+        ``"drive"``, and a saved model without the key keeps ``"command"``.
+    drive_packed : tuple of float
+        ``"drive"`` only: the env's drive parameters packed for the drive kernel
+        (:func:`robots._kernel.pack_params` of the drive parameters and the base geometry).
+    drive_delay_s, drive_timeout_s : float
+        ``"drive"`` only: the command's transport delay and the time a command holds, s.
+    drive_step_s : float
+        ``"drive"`` only: the drive model's integration step, s (the reduced model's).
     """
 
     v_mps: tuple[float, ...]
@@ -145,6 +220,11 @@ class RaceLookahead:
     neighbours: int = N_NEIGHBOURS
     neighbour_features: int = 4
     lidar_model: str = "point"
+    motion_model: str = "command"
+    drive_packed: tuple[float, ...] = ()
+    drive_delay_s: float = 0.0
+    drive_timeout_s: float = math.inf
+    drive_step_s: float = DEFAULT_DT_S
 
     def __post_init__(self) -> None:
         if self.lidar_model not in LIDAR_MODELS:
@@ -152,12 +232,23 @@ class RaceLookahead:
                 f"policy 'sarl-lookahead': lidar_model is {self.lidar_model!r}, which is not "
                 f"one of {', '.join(LIDAR_MODELS)}; use 'recast'"
             )
+        if self.motion_model not in MOTION_MODELS:
+            raise Sim2RealValueError(
+                f"policy 'sarl-lookahead': motion_model is {self.motion_model!r}, which is not "
+                f"one of {', '.join(MOTION_MODELS)}; use 'drive'"
+            )
+        if self.motion_model == "drive" and len(self.drive_packed) != N_PACKED:
+            raise Sim2RealValueError(
+                f"policy 'sarl-lookahead': motion_model 'drive' needs the {N_PACKED} packed "
+                f"drive parameters in drive_packed, got {len(self.drive_packed)}; build the "
+                "look-ahead with race_lookahead(env, ...)"
+            )
 
     @cached_property
     def _kernel_args(
         self,
-    ) -> tuple[tuple[float, float, float, int, int], FloatArray, FloatArray]:
-        """:func:`predict_kernel`'s sizes, commands and beams."""
+    ) -> tuple[tuple[float, float, float, int, int], FloatArray, FloatArray, FloatArray]:
+        """:func:`predict_kernel`'s sizes, commands, beams and drive."""
         angles = np.asarray(self.beam_angles_rad, dtype=np.float64)
         commands = np.column_stack([self.arcs().numpy(), self.v_mps, self.w_radps])
         window = self.recast_window() if self.lidar_model == "recast" else -1
@@ -169,7 +260,13 @@ class RaceLookahead:
             window,
         )
         beams = np.column_stack([np.cos(angles), np.sin(angles)])
-        return sizes, np.ascontiguousarray(commands, dtype=np.float64), beams
+        drive = np.array(
+            [self.drive_delay_s, self.drive_timeout_s, self.drive_step_s, *self.drive_packed]
+            if self.motion_model == "drive"
+            else [],
+            dtype=np.float64,
+        )
+        return sizes, np.ascontiguousarray(commands, dtype=np.float64), beams, drive
 
     def recast_window(self) -> int:
         """Segments on either side of a beam's turned index that a re-cast beam can meet.
@@ -183,6 +280,8 @@ class RaceLookahead:
         n = len(self.beam_angles_rad)
         step = 2 * math.pi / n
         chord = float(self.arcs()[:, :2].norm(dim=1).max())
+        if self.motion_model == "drive":  # no faster than the drive's speed limit
+            chord = max(chord, self.drive_packed[SPEED_V] * self.control_dt_s)
         return min(n // 2, _turned_beams(chord, self.range_min_m * math.cos(step / 2), step))
 
     def predict(self, obs: torch.Tensor) -> torch.Tensor:
@@ -191,21 +290,25 @@ class RaceLookahead:
         One compiled pass (:func:`predict_kernel`), in the observations' dtype; no gradient
         (the prediction is a fixed model of the world, not learned).
         """
+        if self.motion_model == "drive":
+            _jit.compile_all()  # robots' drive kernel, bound before numba types ours
         flat = np.ascontiguousarray(obs.detach().cpu().numpy(), dtype=np.float64)
         out = np.empty((flat.shape[0], len(self.v_mps), flat.shape[1]))
         predict_kernel(flat, *self._kernel_args, out)
         return torch.from_numpy(out).to(obs.dtype)
 
     def arcs(self) -> torch.Tensor:
-        """(actions, 3): each command's displacement dx, dy (m, robot frame) and turn (rad)."""
+        """(actions, 3): each command's displacement dx, dy (m, robot frame) and turn (rad),
+        the command taken as reached (the ``"command"`` motion model)."""
         v = torch.tensor(self.v_mps, dtype=torch.float64)
         turn = torch.tensor(self.w_radps, dtype=torch.float64) * self.control_dt_s
         chord = v * self.control_dt_s * torch.sinc(turn / (2 * math.pi))  # 2 v/w sin(w dt/2)
         return torch.stack([chord * torch.cos(turn / 2), chord * torch.sin(turn / 2), turn], 1)
 
     def predict_reference(self, obs: torch.Tensor) -> torch.Tensor:
-        """:meth:`predict` with the ``"point"`` lidar in torch operations (the tests' and the
-        benchmark's reference): (batch, 63) -> (batch, actions, 63)."""
+        """:meth:`predict` with the ``"point"`` lidar and the ``"command"`` motion in torch
+        operations (the tests' and the benchmark's reference): (batch, 63) -> (batch, actions,
+        63)."""
         arcs = self.arcs().to(obs.dtype)
         dx, dy, turn = (arcs[:, i][None] for i in range(3))  # (1, A)
         c, s = torch.cos(turn), torch.sin(turn)
@@ -320,19 +423,56 @@ def _polygon_hit(
     return best
 
 
+_arc_step = numba.njit(cache=True)(arc_step)
+
+
+@numba.njit(cache=True)
+def driven_arc(
+    v0: float, w0: float, cmd_v: float, cmd_w: float, dt_s: float, drive: FloatArray
+) -> tuple[float, float, float, float, float]:  # pragma: no cover - compiled
+    """The robot's motion over ``dt_s`` s under command (``cmd_v`` m/s, ``cmd_w`` rad/s) from
+    velocity (``v0``, ``w0``): (dx, dy m in the start frame, turn rad, v m/s, w rad/s at the end).
+
+    ``drive``: the transport delay, the command's hold time and the integration step (s),
+    then the packed drive parameters. For the delay the velocity holds (the previous command
+    at its steady state); then :func:`robots._kernel.drive_step` responds to the command
+    (zero once it has held ``drive[1]`` s), the velocity-smoother's reference starting at
+    (``v0``, ``w0``) and the integrators at zero; the pose moves on the arc of each step's
+    mean velocity (:func:`sim2real.envs._robot.arc_step`).
+    """
+    delay_s, timeout_s, step_s = drive[0], drive[1], drive[2]
+    p = drive[3:]
+    hold = min(delay_s, dt_s)
+    x, y, yaw = _arc_step(0.0, 0.0, 0.0, v0, w0, hold)
+    n = max(0, math.ceil((dt_s - hold) / step_s - 1e-9))
+    h = (dt_s - hold) / max(n, 1)
+    v, w, ref_v, ref_w, ir, il = v0, w0, v0, w0, 0.0, 0.0
+    for k in range(n):
+        on = k * h < timeout_s
+        v1, w1, ref_v, ref_w, ir, il, _, _ = drive_step(
+            v, w, ref_v, ref_w, ir, il, cmd_v if on else 0.0, cmd_w if on else 0.0, h, p
+        )
+        x, y, yaw = _arc_step(x, y, yaw, 0.5 * (v + v1), 0.5 * (w + w1), h)
+        v, w = v1, w1
+    return x, y, yaw, v, w
+
+
 @numba.njit(cache=True)
 def predict_kernel(
     obs: FloatArray,
     sizes: tuple[float, float, float, int, int],
     commands: FloatArray,
     beams: FloatArray,
+    drive: FloatArray,
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
     """:meth:`RaceLookahead.predict` into ``out`` (B, A, D): observations ``obs`` (B, D);
     ``sizes``: the control step, the lidar's range limits, the values per neighbour slot and
     the re-cast ``window`` (segments on either side of a beam,
     :meth:`RaceLookahead.recast_window`; negative: the ``"point"`` lidar); ``commands`` (A,
-    5: the arc's dx, dy and turn, then v and w) and ``beams`` (N, 2: each angle's cos, sin)."""
+    5: the arc's dx, dy and turn, then v and w), ``beams`` (N, 2: each angle's cos, sin) and
+    ``drive`` (:func:`driven_arc`'s; empty: the ``"command"`` motion, the arcs of
+    ``commands``)."""
     dt_s, range_min_m, range_max_m, features, window = sizes
     cos_b, sin_b = beams[:, 0], beams[:, 1]
     arcs, v_cmd, w_cmd = commands[:, :3], commands[:, 3], commands[:, 4]
@@ -349,11 +489,20 @@ def predict_kernel(
         for i in range(n):
             nearest = min(nearest, obs[b, i])
         nearest *= math.cos(beam_step / 2)  # the nearest point of the scan's polygon
-        x, y, yaw, v = obs[b, n], obs[b, n + 1], obs[b, n + 2], obs[b, n + 3]
+        x, y, yaw, v, w = obs[b, n], obs[b, n + 1], obs[b, n + 2], obs[b, n + 3], obs[b, n + 4]
         goal_d, bearing = obs[b, n + 5], obs[b, n + 6]
         cy, sy = math.cos(yaw), math.sin(yaw)
         for a in range(arcs.shape[0]):
-            dx, dy, turn = arcs[a, 0], arcs[a, 1], arcs[a, 2]
+            if drive.shape[0] > 0:
+                dx, dy, turn, v_next, w_next = driven_arc(v, w, v_cmd[a], w_cmd[a], dt_s, drive)
+            else:
+                dx, dy, turn, v_next, w_next = (
+                    arcs[a, 0],
+                    arcs[a, 1],
+                    arcs[a, 2],
+                    v_cmd[a],
+                    w_cmd[a],
+                )
             c, s = math.cos(turn), math.sin(turn)
             # lidar: every return as a point seen from the new pose, then resampled
             for i in range(n):
@@ -386,15 +535,16 @@ def predict_kernel(
                     if t < math.inf:  # the sensor reads a return below its minimum as none
                         value = range_max_m if t < range_min_m or t > range_max_m else t
                 out[b, a, j] = value
-            # own block: pose on the arc, the command as the measured (v, w), the goal point
+            # own block: pose on the arc, the motion's end velocity as the measured (v, w), the
+            # goal point
             gx = goal_d * math.cos(bearing) - dx
             gy = goal_d * math.sin(bearing) - dy
             gx, gy = c * gx + s * gy, -s * gx + c * gy
             out[b, a, n] = x + dx * cy - dy * sy
             out[b, a, n + 1] = y + dx * sy + dy * cy
             out[b, a, n + 2] = math.atan2(math.sin(yaw + turn), math.cos(yaw + turn))
-            out[b, a, n + 3] = v_cmd[a]
-            out[b, a, n + 4] = w_cmd[a]
+            out[b, a, n + 3] = v_next
+            out[b, a, n + 4] = w_next
             out[b, a, n + 5] = math.hypot(gx, gy)
             out[b, a, n + 6] = math.atan2(gy, gx)
             # movers at their observed velocity, seen from the new pose; empty slots stay zero
@@ -407,8 +557,15 @@ def predict_kernel(
                 qx, qy = px + ux * dt_s - dx, py + uy * dt_s - dy
                 out[b, a, k] = c * qx + s * qy
                 out[b, a, k + 1] = -s * qx + c * qy
-                out[b, a, k + 2] = c * ux + s * uy - v_cmd[a]
+                out[b, a, k + 2] = c * ux + s * uy - v_next
                 out[b, a, k + 3] = -s * ux + c * uy
+
+
+# numba keys this module's cache on this file alone; the kernels call robots' drive step and
+# the pose's arc step too
+_jit.key_cache(
+    predict_kernel, {Path(__file__), *(Path(str(m.__file__)) for m in (robots._kernel, _robot))}
+)
 
 
 class LookaheadQNetwork(QNetwork):  # type: ignore[misc]

@@ -176,7 +176,12 @@ def _model(cfg: TrainConfig, vec: Any, probe: Any) -> Any:
             "features_extractor_kwargs": extractor,
         }
     if cfg.policy == SARL_LOOKAHEAD_POLICY:
-        grid = race_lookahead(probe, **dict(cfg.discrete_actions or {}), where=cfg.source)
+        grid = race_lookahead(
+            probe,
+            **dict(cfg.discrete_actions or {}),
+            where=cfg.source,
+            models=dict(hyper.get("policy_kwargs") or {}).get("lookahead"),
+        )
         hyper["policy_kwargs"]["lookahead"] = lookahead_kwargs(grid)
     if cfg.policy == SENSORS_POLICY:
         hyper["policy_kwargs"] = {

@@ -216,7 +216,12 @@ def train(cfg: TrainConfig, *, progress: bool = False) -> TrainResult:
                 f"{cfg.source}: policy 'sarl-lookahead' values each command of a discrete "
                 f"(v, w) grid, which {cfg.algorithm} does not act on; use algorithm DQN"
             )
-        _lookahead.race_lookahead(probe, **dict(cfg.discrete_actions or {}), where=cfg.source)
+        _lookahead.race_lookahead(
+            probe,
+            **dict(cfg.discrete_actions or {}),
+            where=cfg.source,
+            models=dict(cfg.hyperparameters.get("policy_kwargs") or {}).get("lookahead"),
+        )
     if cfg.policy in (SARL_POLICY, SARL_LOOKAHEAD_POLICY):
         _check_sarl(cfg, probe)
     if cfg.policy == SENSORS_POLICY and not isinstance(probe.observation_space, gym.spaces.Dict):

@@ -132,6 +132,20 @@ def test_crowdnav_with_neighbours_trains(tmp_path: Path) -> None:
             "use sim2real/Race-v0",
         ),
         ({"policy": "sarl-lookahead", "algorithm": "PPO"}, "use algorithm DQN"),
+        (
+            {
+                "policy": "sarl-lookahead",
+                "hyperparameters": {"policy_kwargs": {"lookahead": {"motion": "drive"}}},
+            },
+            "which the look-ahead does not take",
+        ),
+        (
+            {
+                "policy": "sarl-lookahead",
+                "hyperparameters": {"policy_kwargs": {"lookahead": {"motion_model": "exact"}}},
+            },
+            "is 'exact', which is not one of command, drive",
+        ),
     ],
 )
 def test_bad_sarl_configs_one_sentence_exit_2(

@@ -44,6 +44,12 @@ def _race(opponents: int) -> gym.Env:  # type: ignore[type-arg]
     ).unwrapped
 
 
+def _on_arcs(model: RaceLookahead) -> RaceLookahead:
+    """``model`` with the ``"command"`` motion: the robot on each command's arc
+    (:meth:`RaceLookahead.arcs`), where the lidar tests cast their rays from."""
+    return replace(model, motion_model="command")
+
+
 def _steady(env: gym.Env, seed: int, command: tuple[float, float], steps: int) -> np.ndarray:  # type: ignore[type-arg]
     obs, _ = env.reset(seed=seed)
     for _ in range(steps):
@@ -86,7 +92,7 @@ def _point_scan(beam: int, range_m: float) -> np.ndarray:
 
 
 def test_a_return_moves_as_a_point() -> None:
-    model = race_lookahead(_race(0), **GRID)
+    model = _on_arcs(race_lookahead(_race(0), **GRID))
     obs = _point_scan(3, 1.0)  # a return 1 m away at 30 degrees
     pred = model.predict(torch.as_tensor(obs)[None])[0].numpy()
     ahead = pred[[(v, w) for v in GRID["v_mps"] for w in GRID["w_radps"]].index((0.22, 0.0))]
@@ -169,7 +175,7 @@ def test_the_kernel_predicts_what_the_torch_reference_does(
     seed: int, movers: int, batch: int
 ) -> None:
     """The compiled ``"point"`` prediction is the torch one, to float precision."""
-    model = replace(race_lookahead(_race(0), **GRID), lidar_model="point")
+    model = replace(race_lookahead(_race(0), **GRID), lidar_model="point", motion_model="command")
     rng = np.random.default_rng(seed)
     obs = np.stack([_scan_obs(rng, model.beam_angles_rad, movers) for _ in range(batch)])
     for dtype, atol in ((torch.float64, 1e-9), (torch.float32, 2e-6)):
@@ -202,7 +208,7 @@ def _predicted_scans(model: RaceLookahead, scan: np.ndarray) -> np.ndarray:
 def test_a_recast_wall_stays_where_a_ray_cast_finds_it() -> None:
     """A straight wall 0.4 m to the left, driven along: the re-cast scan is the ray cast from
     the predicted pose, where the point model puts the wall up to 5.5 cm off."""
-    recast = race_lookahead(_race(0), **GRID)
+    recast = _on_arcs(race_lookahead(_race(0), **GRID))
     point = replace(recast, lidar_model="point")
     scene = Scene2D.build(segments=[(-10.0, 0.4, 10.0, 0.4)])
     xy, yaw = np.zeros(2), 0.0
@@ -224,7 +230,7 @@ def test_recast_scans_on_the_curve_track_match_ray_casts() -> None:
     """Poses along the curve track (walls and islands): the re-cast scan is the ray cast from
     the predicted pose on most beams, and nearer to it on average than the point model's."""
     env = _race(0)
-    recast = race_lookahead(env, **GRID)
+    recast = _on_arcs(race_lookahead(env, **GRID))
     point = replace(recast, lidar_model="point")
     scene = env.core.scene
     line = env.core.track.centreline
@@ -250,7 +256,7 @@ def test_recast_scans_on_the_curve_track_match_ray_casts() -> None:
 def test_recast_is_a_ray_cast_against_the_scans_polygon(seed: int, near: float) -> None:
     """Every beam of the new pose cast (geometry.cast_rays) against all the segments between
     neighbouring returns gives the kernel's windowed result; no hit: the point model's."""
-    recast = race_lookahead(_race(0), **GRID)
+    recast = _on_arcs(race_lookahead(_race(0), **GRID))
     assert recast.recast_window() == 3  # 5.5 cm at >= 0.12 m: under 30 degrees
     rng = np.random.default_rng(seed)
     obs = _scan_obs(rng, recast.beam_angles_rad, 0)
@@ -272,14 +278,83 @@ def test_recast_is_a_ray_cast_against_the_scans_polygon(seed: int, near: float) 
         np.testing.assert_allclose(got[a][~edge], want[~edge], atol=1e-9)
 
 
-def test_lidar_model_names_are_checked_and_old_models_keep_the_point_model() -> None:
+def test_model_names_are_checked_and_old_models_keep_theirs() -> None:
     model = race_lookahead(_race(0), **GRID)
-    assert model.lidar_model == "recast"
-    fields = {k: v for k, v in lookahead_kwargs(model).items() if k != "lidar_model"}
+    assert (model.lidar_model, model.motion_model) == ("recast", "drive")
+    new = ("lidar_model", "motion_model", "drive_packed", "drive_delay_s", "drive_timeout_s")
+    fields = {k: v for k, v in lookahead_kwargs(model).items() if k not in new}
     old = RaceLookahead(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
-    assert old.lidar_model == "point"  # a model.zip saved before the key existed
+    # a model.zip saved before the keys existed
+    assert (old.lidar_model, old.motion_model) == ("point", "command")
     with pytest.raises(ValueError, match=r"lidar_model is 'raycast'.*use 'recast'"):
         replace(model, lidar_model="raycast")
+    with pytest.raises(ValueError, match=r"motion_model is 'exact'.*use 'drive'"):
+        replace(model, motion_model="exact")
+    with pytest.raises(ValueError, match=r"needs the 22 packed drive parameters.*got 0"):
+        replace(old, motion_model="drive")
+    chosen = race_lookahead(_race(0), **GRID, models={"motion_model": "command"})
+    assert (chosen.lidar_model, chosen.motion_model) == ("recast", "command")
+    assert lookahead_kwargs(chosen)["drive_packed"] == lookahead_kwargs(model)["drive_packed"]
+    for bad, words in (
+        ({"motion": "drive"}, "has 'motion', which the look-ahead does not take"),
+        ({"motion_model": "exact"}, "lookahead.motion_model' is 'exact', which is not one of"),
+        (["drive"], "must be a mapping"),
+    ):
+        with pytest.raises(ValueError, match=words) as info:
+            race_lookahead(_race(0), **GRID, models=bad, where="cfg.yaml")
+        assert str(info.value).startswith("cfg.yaml: key 'hyperparameters.policy_kwargs.lookahead")
+
+
+def _random_race_states(seed: int, count: int) -> list[gym.Env]:  # type: ignore[type-arg]
+    """``count`` curve races with 4 opponents, each after 1-7 random grid commands."""
+    rng = np.random.default_rng(seed)
+    commands = [(v, w) for v in GRID["v_mps"] for w in GRID["w_radps"]]
+    states = []
+    for _ in range(count):
+        env = _race(4)
+        env.reset(seed=int(rng.integers(2**20)))
+        for _ in range(int(rng.integers(1, 8))):
+            env.step(np.array(commands[int(rng.integers(len(commands)))], np.float32))
+        states.append(env)
+    return states
+
+
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 2**16))
+def test_the_drive_model_predicts_the_race_step(seed: int) -> None:
+    """Random states and every grid command: the ``"drive"`` prediction of the own block (x,
+    y, yaw, measured v and w) is the env's step to 1 mm, 5 mrad and 1 mm/s; the command taken
+    as reached is centimetres and tenths of a radian per second off."""
+    commands = [(v, w) for v in GRID["v_mps"] for w in GRID["w_radps"]]
+    drive = race_lookahead(_race(0), **GRID)
+    command = replace(drive, motion_model="command")
+    gaps: dict[str, list[np.ndarray]] = {"drive": [], "command": []}
+    for env in _random_race_states(seed, 2):
+        obs = torch.as_tensor(env.core.observation(0))[None]
+        truth = np.array([copy.deepcopy(env).step(np.array(c, np.float32))[0] for c in commands])
+        for name, model in (("drive", drive), ("command", command)):
+            pred = model.predict(obs)[0].numpy()
+            gaps[name].append(_wrapped_gap(pred, truth)[:, BEAMS : BEAMS + 5])
+    near, far = (np.concatenate(gaps[name]).max(0) for name in ("drive", "command"))
+    assert np.all(near <= [1e-3, 1e-3, 5e-3, 1e-3, 1e-3]), near
+    assert far[2] > 0.03 and far[4] > 0.07, far  # yaw rad, w rad/s
+
+
+def test_a_gentle_turn_at_full_speed_is_the_drives() -> None:
+    """Golden numbers of the Burger's drive at steady (0.22, 0.2): it measures (0.214, 0.123),
+    turns 0.031 rad a step, where the command model says (0.22, 0.2) and 0.05 rad."""
+    env = _race(4)
+    model = race_lookahead(env, **GRID)
+    obs = _steady(env, 5, (0.22, 0.2), 6)
+    k = [(v, w) for v in GRID["v_mps"] for w in GRID["w_radps"]].index((0.22, 0.2))
+    pred = model.predict(torch.as_tensor(obs)[None])[0, k].numpy()
+    nxt, *_ = copy.deepcopy(env).step(np.array((0.22, 0.2), np.float32))
+    np.testing.assert_allclose(obs[BEAMS + 3 : BEAMS + 5], [0.2142, 0.1230], atol=1e-4)
+    np.testing.assert_allclose(pred[BEAMS + 3 : BEAMS + 5], [0.2142, 0.1230], atol=1e-4)
+    assert pred[BEAMS + 2] - obs[BEAMS + 2] == pytest.approx(0.0308, abs=2e-4)
+    assert nxt[BEAMS + 2] - obs[BEAMS + 2] == pytest.approx(0.0308, abs=2e-4)
+    old = replace(model, motion_model="command").predict(torch.as_tensor(obs)[None])[0, k].numpy()
+    assert old[BEAMS + 2] - obs[BEAMS + 2] == pytest.approx(0.05, abs=1e-6)
 
 
 def _smoke_doc(tmp_path: Path, **change: object) -> Path:
