@@ -35,6 +35,7 @@ from sysid._excitation import Excitation
 from sysid._initial import busiest_window, initial_coords
 from sysid._logs import LogArrays, crop_log
 from sysid._problem import Problem
+from sysid._timing import JitterEstimate, arrival_whitener
 from sysid.steady import robust_sd
 
 __all__ = [
@@ -194,6 +195,9 @@ class Posterior(FittedCoords):
         Model evaluations and integration steps used.
     coupled : bool
         The axes were coupled (dense Jacobian).
+    jitter : JitterEstimate or None
+        The commands' arrival-time jitter the residuals showed (:mod:`sysid._timing`); the
+        fit whitened its residuals for it when it is significant. None: not estimated.
     """
 
     info: FloatArray
@@ -205,6 +209,7 @@ class Posterior(FittedCoords):
     evaluations: int
     steps: int
     coupled: bool
+    jitter: JitterEstimate | None = None
 
 
 def _rho(kind: str, z: FloatArray) -> FloatArray:
@@ -746,6 +751,7 @@ def _discretisation_bias(
         final.mapper,
         final.free,
         final.ties,
+        timing=final.timing,
         **(problem_kw | {"dt_s": 0.5 * final.dt_s}),
     )
     params = final.params(u)
@@ -869,12 +875,15 @@ def map_fit(
         res = solve(prob, np.asarray(res.x), min(max_nfev, _REBALANCE_NFEV))
         message += " (then the prior weight was re-balanced at the solution)"
         s2, c = noise_scale(prob, prob.data_residuals(np.asarray(res.x)), len(free))
+    jitter, timed, message, (s2, c) = _timing_pass(prob, res, solve, max_nfev, message, (s2, c))
+    if timed is not res:
+        res, converged = timed, converged and int(timed.status) != 0
     x = np.asarray(res.x)
     dropped = _drop_inactive_limits(prob, res, s2 * c, solve, notes, (loss, f_scale))
     keep = [j for j in range(len(free)) if j not in dropped]
     kept = tuple(free[j] for j in keep)
     ties = {k: v for k, v in exc.ties.items() if v in kept}
-    final = Problem(logs, mapper, kept, ties, **problem_kw)
+    final = Problem(logs, mapper, kept, ties, timing=prob.timing, **problem_kw)
     final.prior_weight = math.sqrt(s2 * c)
     if dropped:
         # the optimiser's Jacobian is the problem's with the dropped limits in place (where a
@@ -904,7 +913,36 @@ def map_fit(
         evaluations=prob.n_evals,
         steps=prob.n_steps,
         coupled=exc.coupled,
+        jitter=jitter,
     )
+
+
+def _timing_pass(
+    prob: Problem,
+    res: Any,
+    solve: Callable[[Problem, FloatArray, int], Any],
+    nfev: int,
+    message: str,
+    scale: tuple[float, float],
+) -> tuple[JitterEstimate, Any, str, tuple[float, float]]:
+    """The commands' arrival-time jitter the residuals at ``res`` show
+    (:func:`sysid._timing.arrival_whitener`) and, when they show it, the fit redone from
+    ``res`` with the residuals whitened for it (``prob`` keeps the whitening; its prior
+    weight is re-balanced on the whitened residuals). Returns the estimate, the fit, its
+    message and the residuals' (s^2, c)."""
+    x = np.asarray(res.x)
+    est, timing = arrival_whitener(prob, prob.params(x), prob.data_residuals(x))
+    if timing is None:
+        return est, res, message, scale
+    prob.set_timing(timing)
+    s2, c = noise_scale(prob, prob.data_residuals(x), len(prob.free))
+    prob.prior_weight = math.sqrt(s2 * c)
+    res = solve(prob, x, nfev)
+    message += (
+        f" (then refitted for the commands' arrival-time jitter, {1e3 * est.sigma_t_s:.3g} ms)"
+    )
+    s2, c = noise_scale(prob, prob.data_residuals(np.asarray(res.x)), len(prob.free))
+    return est, res, message, (s2, c)
 
 
 def _robust_jacobian(

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,6 +22,9 @@ from robots.params import DriveParams
 from robots.reduced import GridCommands, ReducedResponse, pack_params, simulate_grid
 from sysid._coords import COORDS, Mapper
 from sysid._logs import LogArrays
+
+if TYPE_CHECKING:
+    from sysid._timing import Whitener
 
 __all__ = ["QUANTISED_LEVELS_SHARE", "Problem", "initial_state", "quantised"]
 
@@ -154,6 +158,7 @@ class Problem:
         on_eval: Callable[[int], None] | None = None,
         prior_weight: float = 1.0,
         w_source: str = "imu",
+        timing: Whitener | None = None,
     ) -> None:
         yaw_reading_factor(w_source, DriveParams())  # a known source, or one sentence
         self.logs = list(logs)
@@ -176,9 +181,13 @@ class Problem:
         self._starts = [initial_state(g) for g in self.logs]
         self._grid_cache: dict[tuple[int, float, float], GridCommands] = {}
         self.rows, self.n_rows = _residual_rows(self.logs)
-        self.meas = np.concatenate(
+        self._raw_meas = np.concatenate(
             [np.concatenate([g.meas_v * self.gain_v, g.meas_w * self.gain_w]) for g in self.logs]
         )
+        self.meas = self._raw_meas
+        #: the whitening of the commands' arrival-time jitter (:mod:`sysid._timing`), or None
+        self.timing: Whitener | None = None
+        self.set_timing(timing)
         #: rows of a quantised channel (:func:`quantised`), where an exact zero is the grid's
         self.quantised = np.concatenate(
             [np.repeat([quantised(g.meas_v), quantised(g.meas_w)], g.meas_t_s.size) for g in logs]
@@ -204,6 +213,19 @@ class Problem:
             "w_source": w_source,
         }
 
+    def set_timing(self, timing: Whitener | None) -> None:
+        """Whiten the data residuals for the commands' arrival-time jitter (``timing``, made
+        for these logs by :func:`sysid._timing.arrival_whitener`), or not (None): the model
+        outputs and the measurements are both mapped, so every residual, Jacobian and cost
+        of the problem is the whitened one."""
+        if timing is not None and timing.key != tuple(
+            (float(g.meas_t_s[0]), float(g.meas_t_s[-1]), int(g.meas_t_s.size)) for g in self.logs
+        ):
+            timing = None  # made for other logs (a crop, a window)
+        self.timing = timing
+        self.meas = self._raw_meas if timing is None else timing.apply(self._raw_meas)
+        self._cache_x = self._cache_f = None
+
     def subset(self, free: Sequence[str]) -> Problem:
         """The same problem over fewer coordinates (the others at the base values)."""
         ties = {k: v for k, v in self.ties.items() if v in free}
@@ -214,6 +236,7 @@ class Problem:
             ties,
             on_eval=self.on_eval,
             prior_weight=self.prior_weight,
+            timing=self.timing,
             **self._settings,  # type: ignore[arg-type]
         )
         out._grid_cache = self._grid_cache  # same logs, same grid
@@ -375,9 +398,41 @@ class Problem:
     def scaled_sim_many(self, params: Sequence[DriveParams]) -> FloatArray:
         """:meth:`scaled_sim` of each parameter set, one row each (one compiled call per log)."""
         sims = self._simulate_many(params)
-        return np.concatenate(
+        out = np.concatenate(
             [np.concatenate([v * self.gain_v, w * self.gain_w], axis=1) for v, w in sims], axis=1
         )
+        return out if self.timing is None else self.timing.apply(out)
+
+    def grid_commands(self, i: int, params: DriveParams) -> GridCommands:
+        """Log ``i``'s grid commands at ``params``' delay (whole steps) and timeout."""
+        t0, n = self._grid(i)
+        k = math.floor(params.delay_s / self.dt_s + 1e-9)
+        return self._commands(i, t0, n, k * self.dt_s, params.cmd_timeout_s)
+
+    def scaled_sim_commands(
+        self, i: int, params: DriveParams, commands: Sequence[GridCommands]
+    ) -> FloatArray:
+        """Log ``i``'s scaled model outputs (its v rows then its w rows, unwhitened), one row
+        per grid command set (each on :meth:`grid_commands`' grid) at ``params``: one
+        compiled call."""
+        k = math.floor(params.delay_s / self.dt_s + 1e-9)
+        shift = params.delay_s - k * self.dt_s
+        gain = yaw_reading_factor(self.w_source, params)
+        v0, w0 = self._starts[i]
+        reads = self._queries[i]
+        packed = np.repeat(pack_params(params, self.mapper.geometry)[None, :], len(commands), 0)
+        v, w = simulate_grid(
+            list(commands),
+            packed,
+            reads.t_query,
+            np.full(len(commands), shift),
+            v0=v0,
+            w0=w0 / gain,
+            python=self.python,
+        )
+        v, w = reads.apply(v, w * gain)
+        out: FloatArray = np.concatenate([v * self.gain_v, w * self.gain_w], axis=1)
+        return out
 
     def data_residuals(self, x: FloatArray) -> FloatArray:
         """Scaled output errors at ``x`` (cached for the Jacobian)."""

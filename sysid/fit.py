@@ -994,6 +994,19 @@ def _replicate(
     )
 
 
+def _jitter_settings(post: Posterior) -> dict[str, Any]:
+    """A session's arrival-time jitter (:class:`sysid._timing.JitterEstimate`) as settings."""
+    est = post.jitter
+    if est is None:
+        return {}
+    return {
+        "jitter_s": est.sigma_t_s,
+        "commands": est.commands,
+        "spread": est.spread,
+        "whitened": post.problem.timing is not None,
+    }
+
+
 def _run_settings(s: FitSummary, posts: Sequence[Posterior], started: float) -> dict[str, Any]:
     """The result's settings that the run found (free fields, optimiser, cost, time)."""
     return {
@@ -1005,6 +1018,8 @@ def _run_settings(s: FitSummary, posts: Sequence[Posterior], started: float) -> 
         "converged": all(p.converged for p in posts),
         "cost": sum(p.cost for p in posts),
         "std_inflation_autocorr": max(p.inflation for p in posts),
+        # per session: the commands' arrival-time jitter its residuals show (sysid._timing)
+        "command_jitter": [_jitter_settings(p) for p in posts],
         "prior_weight": [p.problem.prior_weight for p in posts],
         "sessions": len(posts),
         "seconds": time.perf_counter() - started,

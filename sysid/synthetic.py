@@ -116,6 +116,7 @@ def synthetic_log(
     spike_mps: float | None = 1.35,
     dt_s: float = 0.001,
     name: str = "synthetic",
+    arrival_jitter_s: float = 0.0,
 ) -> LogArrays:
     """Odometry of the reduced model driven by the commands, with realistic defects.
 
@@ -141,15 +142,26 @@ def synthetic_log(
         Value of one impossible v sample in the middle of the log (None: no spike).
     dt_s : float
         Integration step of the truth simulation, s.
+    name : str
+        The log's name.
+    arrival_jitter_s : float
+        Standard deviation of each command's arrival time about its logged time, s: the truth
+        acts on every command after its own normal draw (order kept, from a generator of its
+        own, ``numpy.random.default_rng([seed, 1])``), the log keeps the logged times (a
+        transport whose latency varies from message to message; 0: none).
     """
     rng = np.random.default_rng(seed)
+    arrive_s = np.asarray(cmd_t_s, dtype=np.float64)
+    if arrival_jitter_s > 0:
+        late = arrival_jitter_s * np.random.default_rng([seed, 1]).standard_normal(arrive_s.size)
+        arrive_s = np.maximum.accumulate(arrive_s + late)
     duration = float(cmd_t_s[-1]) + 1.0
     t_true = np.arange(0.0, duration, 1.0 / odom_rate_hz)
     t_true = t_true + rng.uniform(0.0, 0.5 / odom_rate_hz, t_true.size)  # sample instants
     t_true.sort()
     fine = np.arange(0.0, duration + 0.1, dt_s)
     truth = simulate(
-        params, geometry, cmd_t_s=cmd_t_s, cmd_v=cmd_v, cmd_w=cmd_w, t_out_s=fine, dt_s=dt_s
+        params, geometry, cmd_t_s=arrive_s, cmd_v=cmd_v, cmd_w=cmd_w, t_out_s=fine, dt_s=dt_s
     )
     r, half = geometry.wheel_radius_m, 0.5 * geometry.wheel_separation_m
     ang_r = np.concatenate(([0.0], np.cumsum((truth.v[:-1] + truth.w[:-1] * half) / r * dt_s)))
