@@ -927,8 +927,9 @@ def _timing_pass(
 ) -> tuple[JitterEstimate, Any, str, tuple[float, float]]:
     """The commands' arrival-time jitter the residuals at ``res`` show
     (:func:`sysid._timing.arrival_whitener`) and, when they show it, the fit redone from
-    ``res`` with the residuals whitened for it (``prob`` keeps the whitening; its prior
-    weight is re-balanced on the whitened residuals). Returns the estimate, the fit, its
+    ``res`` with the residuals whitened for it and the model's response averaged over it
+    (``prob`` keeps the whitening; its prior weight is re-balanced on the whitened
+    residuals). Returns the estimate, the fit, its
     message and the residuals' (s^2, c)."""
     x = np.asarray(res.x)
     est, timing = arrival_whitener(prob, prob.params(x), prob.data_residuals(x))

@@ -26,7 +26,7 @@ from sysid._logs import LogArrays
 if TYPE_CHECKING:
     from sysid._timing import Whitener
 
-__all__ = ["QUANTISED_LEVELS_SHARE", "Problem", "initial_state", "quantised"]
+__all__ = ["ARRIVAL_NODES", "QUANTISED_LEVELS_SHARE", "Problem", "initial_state", "quantised"]
 
 
 #: Grid commands (:class:`robots.reduced.GridCommands`) kept per log, most recent first.
@@ -396,11 +396,29 @@ class Problem:
         return out
 
     def scaled_sim_many(self, params: Sequence[DriveParams]) -> FloatArray:
-        """:meth:`scaled_sim` of each parameter set, one row each (one compiled call per log)."""
-        sims = self._simulate_many(params)
+        r""":meth:`scaled_sim` of each parameter set, one row each (one compiled call per log).
+
+        With a whitening of the commands' arrival-time jitter (:meth:`set_timing`) each row is
+        the expected response over that jitter, then whitened: the commands reach the base
+        ``delay_s`` late on average and :math:`\sigma_t` about it, so the data's mean is the
+        response averaged over the arrival time, not the response at the mean arrival
+        (errors in the input are not only a variance: a transient averaged over its timing is
+        slower and starts earlier, which a model without the average reads as a shorter delay
+        and more damping). Each transient moves with its own command's arrival, so the average
+        over a shift of all of them is the expected response where transients do not overlap
+        within the jitter: three-point Gauss-Hermite over the delay,
+        :math:`\tfrac23 y(d) + \tfrac16 y(d \pm \sqrt3 \sigma_t)` (exact for a response
+        polynomial up to fifth degree in the arrival time; no arrival before the send).
+        """
+        nodes = _arrival_nodes(0.0 if self.timing is None else self.timing.sigma_t_s)
+        expanded = [p.replace(delay_s=max(p.delay_s + d, 0.0)) for p in params for d, _ in nodes]
+        sims = self._simulate_many(expanded if len(nodes) > 1 else params)
         out = np.concatenate(
             [np.concatenate([v * self.gain_v, w * self.gain_w], axis=1) for v, w in sims], axis=1
         )
+        if len(nodes) > 1:
+            weights = np.array([w for _, w in nodes])
+            out = np.einsum("pkn,k->pn", out.reshape(len(params), len(nodes), -1), weights)
         return out if self.timing is None else self.timing.apply(out)
 
     def grid_commands(self, i: int, params: DriveParams) -> GridCommands:
@@ -508,6 +526,19 @@ class Problem:
                 rows = self.rows[COORDS[self.free[j]].axis]
                 jac[rows, j] = (fp[rows] - f0[rows]) / h
         return jac
+
+
+#: Gauss-Hermite nodes of the expected response over the commands' arrival-time jitter.
+ARRIVAL_NODES = 3
+
+
+def _arrival_nodes(sigma_t_s: float) -> list[tuple[float, float]]:
+    """(delay shift s, weight) of the Gauss-Hermite rule of :data:`ARRIVAL_NODES` nodes for a
+    normal arrival time of sd ``sigma_t_s`` (one node of weight 1 at no jitter)."""
+    if not sigma_t_s > 0.0:
+        return [(0.0, 1.0)]
+    x, w = np.polynomial.hermite_e.hermegauss(ARRIVAL_NODES)
+    return [(sigma_t_s * float(a), float(b)) for a, b in zip(x, w / w.sum(), strict=True)]
 
 
 def _residual_rows(logs: Sequence[LogArrays]) -> tuple[dict[str, NDArray[np.int64]], int]:

@@ -31,6 +31,13 @@ peak), the residuals become :math:`D^{1/2} L^{-1} D^{-1/2} f`: the innovations o
 covariance, in the fit's own channel scales, so that with :math:`\sigma_t = 0` the fit is
 exactly the unwhitened one.
 
+The jitter moves the data's mean too: a transient averaged over its arrival time starts
+earlier and rises slower than the response at the mean arrival, which a fit without it
+reads as a shorter delay and more damping (on the Burger's model with a 10 ms jitter, a
+delay 6-8 ms short and viscous friction at 3x the truth). The whitened problem therefore
+models the expected response over the jitter (:meth:`sysid._problem.Problem.scaled_sim_many`,
+Gauss-Hermite over the delay): the delay is the mean arrival, the jitter its spread.
+
 Examples
 --------
 >>> import numpy as np
