@@ -23,11 +23,11 @@ import time
 import numpy as np
 
 from robots.params import DriveParams
-from robots.reduced import simulate
 from robots.spec import load_spec
 from sysid import fit_drive
 from sysid._logs import LogArrays
 from sysid.plan import plan_excitation
+from sysid.synthetic import jittered_model_log
 
 ROBOT = "turtlebot3_burger"
 #: The parameters whose intervals are judged.
@@ -48,25 +48,8 @@ def jittered_log(jitter_s: float, seed: int, duration_s: float = 90.0) -> LogArr
     """One draw: the plan on :func:`truth`, each command ``jitter_s`` late or early."""
     spec = load_spec(ROBOT)
     plan = plan_excitation(spec, duration_s)
-    rng = np.random.default_rng(seed)
-    arrive = np.maximum.accumulate(plan.t_s + jitter_s * rng.standard_normal(plan.t_s.size))
-    t = np.arange(0.0, plan.duration_s, 1.0 / 30.0)
-    out = simulate(
-        truth(),
-        spec.geometry,
-        cmd_t_s=arrive,
-        cmd_v=plan.v_mps,
-        cmd_w=plan.w_radps,
-        t_out_s=t,
-        dt_s=0.0005,
-    )
-    return LogArrays(
-        cmd_t_s=plan.t_s,
-        cmd_v=plan.v_mps,
-        cmd_w=plan.w_radps,
-        meas_t_s=t,
-        meas_v=out.v + 0.004 * rng.standard_normal(t.size),
-        meas_w=out.w + 0.02 * rng.standard_normal(t.size),
+    return jittered_model_log(
+        truth(), spec.geometry, plan, seed=seed, arrival_jitter_s=jitter_s, dt_s=0.0005
     )
 
 

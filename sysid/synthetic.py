@@ -26,14 +26,16 @@ import numpy as np
 
 from robots.arrays import FloatArray
 from robots.params import BaseGeometry, DriveParams
-from robots.reduced import simulate
+from robots.reduced import DEFAULT_DT_S, simulate
 from sysid._logs import LogArrays
+from sysid.plan import ExcitationPlan
 
 __all__ = [
     "WAFFLE_LIKE_BASE",
     "WAFFLE_LIKE_GEOMETRY",
     "WAFFLE_LIKE_TRUTH",
     "degrade_odometry",
+    "jittered_model_log",
     "step_commands",
     "synthetic_log",
 ]
@@ -240,3 +242,53 @@ def degrade_odometry(
         keep[n // 2] = True
     order = np.argsort(stamps[keep], kind="stable")
     return stamps[keep][order], v[keep][order], w[keep][order]
+
+
+def jittered_model_log(
+    params: DriveParams,
+    geometry: BaseGeometry,
+    plan: ExcitationPlan,
+    *,
+    seed: int,
+    arrival_jitter_s: float,
+    noise: tuple[float, float] = (0.004, 0.02),
+    dt_s: float = DEFAULT_DT_S,
+) -> LogArrays:
+    """The reduced model's own response to ``plan`` with no defect but white noise and late
+    commands.
+
+    Each command reaches the model ``arrival_jitter_s`` times a normal draw late (order kept);
+    the log keeps the published times. v and w are read at 30 Hz over the plan's duration with
+    white noise of sd ``noise`` (m/s, rad/s). The draws come from
+    ``numpy.random.default_rng(seed)``: the arrivals, then the v noise, then the w noise. A
+    known truth for the fit's arrival-time treatment (:mod:`sysid._timing`); ``dt_s`` is the
+    truth's integration step, s.
+
+    Examples
+    --------
+    >>> from robots.spec import load_spec
+    >>> from sysid.plan import plan_excitation
+    >>> spec = load_spec("turtlebot3_burger")
+    >>> plan = plan_excitation(spec, 30.0)
+    >>> log = jittered_model_log(spec.drive, spec.geometry, plan, seed=0, arrival_jitter_s=0.01)
+    >>> log.meas_t_s.size, bool(log.cmd_t_s is plan.t_s)
+    (900, True)
+    """
+    rng = np.random.default_rng(seed)
+    late = arrival_jitter_s * rng.standard_normal(plan.t_s.size)
+    t = np.arange(0.0, plan.duration_s, 1.0 / 30.0)
+    out = simulate(
+        params,
+        geometry,
+        cmd_t_s=np.maximum.accumulate(plan.t_s + late),
+        cmd_v=plan.v_mps,
+        cmd_w=plan.w_radps,
+        t_out_s=t,
+        dt_s=dt_s,
+    )
+    meas_v = out.v + noise[0] * rng.standard_normal(t.size)
+    meas_w = out.w + noise[1] * rng.standard_normal(t.size)
+    return LogArrays(
+        cmd_t_s=plan.t_s, cmd_v=plan.v_mps, cmd_w=plan.w_radps, meas_t_s=t, meas_v=meas_v,
+        meas_w=meas_w,
+    )  # fmt: skip

@@ -27,7 +27,7 @@ from sysid._timing import (
     logs_key,
 )
 from sysid.plan import plan_excitation
-from sysid.synthetic import step_commands, synthetic_log
+from sysid.synthetic import jittered_model_log, step_commands, synthetic_log
 
 SPEC = load_spec("turtlebot3_burger")
 #: The Burger's spec drive with the PI loops the prior centres on (no smoother: every command
@@ -39,20 +39,7 @@ def _log(jitter_s: float, seed: int, duration_s: float = 90.0) -> LogArrays:
     """The planned script on the model, its commands ``jitter_s`` late or early each (order
     kept), v and w sampled at 30 Hz with 4 mm/s and 0.02 rad/s white noise."""
     plan = plan_excitation(SPEC, duration_s)
-    rng = np.random.default_rng(seed)
-    arrive = np.maximum.accumulate(plan.t_s + jitter_s * rng.standard_normal(plan.t_s.size))
-    t = np.arange(0.0, plan.duration_s, 1.0 / 30.0)
-    out = simulate(
-        TRUTH, SPEC.geometry, cmd_t_s=arrive, cmd_v=plan.v_mps, cmd_w=plan.w_radps, t_out_s=t
-    )
-    return LogArrays(
-        cmd_t_s=plan.t_s,
-        cmd_v=plan.v_mps,
-        cmd_w=plan.w_radps,
-        meas_t_s=t,
-        meas_v=out.v + 0.004 * rng.standard_normal(t.size),
-        meas_w=out.w + 0.02 * rng.standard_normal(t.size),
-    )
+    return jittered_model_log(TRUTH, SPEC.geometry, plan, seed=seed, arrival_jitter_s=jitter_s)
 
 
 def _problem(log: LogArrays) -> Problem:
