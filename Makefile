@@ -75,9 +75,14 @@ lint: $(STAMP_DEV)
 ## `make test PYTEST_WORKERS=0` runs it in one process), then the `serial` tests alone (numba's
 ## on-disk cache, CPU-time budgets), which other workers' load or cache use could disturb
 PYTEST_WORKERS ?= auto
+# Bytecode, and pytest's assertion-rewritten test modules, are cached under .venv/pycache even
+# where the environment sets PYTHONDONTWRITEBYTECODE: without the cache every pytest process
+# (each xdist worker, the serial pass, the train tests) compiles and rewrites every test module
+# again, about half of its collection time.
+PYCACHE := PYTHONDONTWRITEBYTECODE= PYTHONPYCACHEPREFIX=$(CURDIR)/$(VENV)/pycache
 test: lint
-	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "not serial"
-	$(BIN)/python -m pytest -q -m serial
+	$(PYCACHE) $(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "not serial"
+	$(PYCACHE) $(BIN)/python -m pytest -q -m serial
 
 ## make docs: the documentation site into site/ (MkDocs + Material + mkdocstrings, the [docs]
 ## extra): the user guide in docs/, the CLI reference from the argument parsers and the API
@@ -88,8 +93,8 @@ docs: $(STAMP_DOCS)
 ## make test-train: install the [train]/[cluster] extras (and .venv-rllib), then run the tests
 ## that need them, one worker per core up to four; the RLlib tests run in .venv-rllib (gymnasium 1.2.2)
 test-train: $(STAMP_TRAIN) $(STAMP_RLLIB)
-	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "train or cluster"
-	$(VENV_RLLIB)/bin/python -m pytest -q tests/sim2real/training/test_train_rllib.py
+	$(PYCACHE) $(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "train or cluster"
+	$(PYCACHE) $(VENV_RLLIB)/bin/python -m pytest -q tests/sim2real/training/test_train_rllib.py
 
 ## make bench: the performance targets (prints ratios measured in the same run) and writes
 ## docs/benchmarks.md from this run's headline figures (benchmarks/results_page.py); every bench
