@@ -8,12 +8,11 @@ import re
 import runpy
 import shlex
 from pathlib import Path
-from typing import Any
 
 import pytest
 import yaml
 
-from tests.processes import map_in_processes
+from sim2real.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -61,28 +60,9 @@ def _sh_commands(text: str) -> list[list[str]]:
     return out
 
 
-def _tour_or_demo(job: tuple[str, Path, list[list[str]]]) -> dict[str, Any] | None:
-    """Run the tour's commands in ``folder`` (None), or the demo into ``folder/demo`` (its
-    summary); a worker process each."""
-    from sim2real.cli import main
-    from sim2real.cli._demo import run_demo
-
-    kind, folder, commands = job
-    if kind == "demo":
-        return run_demo(folder / "demo", engine="reduced")
-    cwd = os.getcwd()
-    try:
-        os.chdir(folder)
-        for argv in commands:
-            assert main(argv) == 0, argv
-    finally:
-        os.chdir(cwd)
-    return None
-
-
 @pytest.mark.slow
 def test_readme_cli_tour_gives_the_demos_figures(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    demo_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The tour's fit and agree commands, run as written, give the demo's numbers."""
     from sim2real.cli._demo import tour_commands
@@ -97,12 +77,17 @@ def test_readme_cli_tour_gives_the_demos_figures(
         norm(c) for c in tour_commands(".", "data")
     ]
     (tmp_path / "data").symlink_to(ROOT / "data")
-    # the tour and the demo are independent runs: a worker process each
-    tour_argv = [fit, calibrate, [*agree, "--engine", "reduced"]]  # reduced keeps it quick
-    _, summary = map_in_processes(
-        _tour_or_demo, [("tour", tmp_path, tour_argv), ("demo", tmp_path, [])]
-    )
-    assert summary is not None
+    # the tour, run here as typed, and the demo (`sim2real demo --engine reduced`, shared with
+    # the tests that check its other outputs) are independent runs
+    cwd = os.getcwd()
+    try:
+        os.chdir(tmp_path)
+        for argv in (fit, calibrate, [*agree, "--engine", "reduced"]):  # reduced keeps it quick
+            assert main(argv) == 0, argv
+    finally:
+        os.chdir(cwd)
+    out = demo_run / "out"
+    summary = json.loads((out / "summary.json").read_text())
     tour = json.loads((tmp_path / "agreement.json").read_text())
     capsys.readouterr()
     for key in ("agreement", "agreement_v", "fit_percent_v", "fit_percent_w", "lag_s_w"):
@@ -110,7 +95,7 @@ def test_readme_cli_tour_gives_the_demos_figures(
     assert summary["coverage"] == tour["coverage"]
     for name in ("params.yaml", "calibrated.yaml"):
         a = yaml.safe_load((tmp_path / name).read_text())
-        b = yaml.safe_load((tmp_path / "demo" / name).read_text())
+        b = yaml.safe_load((out / name).read_text())
         assert a["randomization"] == b["randomization"], name
         values = [{k: v["value"] for k, v in d["parameters"].items()} for d in (a, b)]
         assert values[0] == values[1], name
@@ -134,7 +119,6 @@ def test_readme_cli_tour_gives_the_demos_figures(
         assert abs(float(x) - 100 * figure) <= 3.0, (x, figure)
     # the robot-dependent default: v of an encoder base is averaged over one odometry period
     assert summary["odom_v_window_s"] == pytest.approx(1.0 / 30.0)
-    out = tmp_path / "demo"
     for name in ("report.html", "summary.json", "calibrated.yaml", "report_timeseries.png"):
         assert (out / name).is_file()
     assert summary["improvement_points"] >= 10.0 and summary["ensemble_n"] == 10
