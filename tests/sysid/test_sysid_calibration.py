@@ -21,23 +21,51 @@ from tests.processes import map_in_processes
 
 #: (seed, plants) of the plants' truths and logs. 29 and 47 were looked at while the fit's
 #: starts were designed (sysid._map.restarts, released_start); 61 and 73 were first run after
-#: it, as a check: pooled, every field's coverage is estimated on 120 plants (binomial sd ~3
-#: points at 90 %), where one seed's 24 plants move a field by +-6 points.
-PLANT_SEEDS = ((29, 24), (47, 48), (61, 24), (73, 24))
-#: Every fitted field's 95 % interval must hold the truth at least this often. Measured
-#: (2026-11-26, pooled over the 120 plants): integral gain 105/120 (0.875; per seed 19/24,
-#: 45/48, 21/24, 20/24: its misses are near misses, |t| 2-2.3, a truth at its bound 0, and two
-#: plants whose log prefers an integral gain near 0 by a likelihood ratio of ~e^9), every
-#: other field >= 0.90 (lowest: added yaw inertia 107/119, Coulomb w 108/119).
-COVERAGE = 0.85
+#: it, as a check. ``benchmarks/bench_sysid_coverage.py`` fits all 120 and prints every field's
+#: coverage per seed and pooled (binomial sd ~3 points at 90 %), against
+#: :data:`COVERAGE_FIELD`. Measured: lowest Coulomb w 104/120 (0.866), wheel speed cap 105/120,
+#: integral gain 106/120 (its misses are near misses, |t| 2-2.3, a truth at its bound 0, and
+#: plants whose log prefers an integral gain near 0 by a likelihood ratio of ~e^9), every other
+#: field >= 0.89; pooled over every field 0.928 (Wilson 95 % 0.914-0.939).
+ALL_PLANT_SEEDS = ((29, 24), (47, 48), (61, 24), (73, 24))
+#: The pooled coverage each field must reach in the benchmark's 120 plants.
+COVERAGE_FIELD = 0.85
+#: The test's plants: seed 61's 24, none of them looked at while the starts were designed.
+TEST_PLANT_SEEDS = ((61, 24),)
+#: Each fitted field's 95 % interval must hold the truth on at least this many of the test's 24
+#: plants (0.75; measured on seed 61: lowest 20, the wheel speed cap). Binomial, per field: a
+#: false alarm 3.4 % at the lowest field's 0.866 of the 120 plants, 1.7 % at the integral
+#: gain's 0.883, 0.01 % at the nominal 0.95; a field whose intervals are half as wide as they
+#: should be (coverage ~2/3 for a normal error) fails with probability 0.74, one covering half
+#: the time 0.99. The 0.85 of :data:`COVERAGE_FIELD` needs the benchmark's 120 plants: on 24
+#: it would be a false alarm 40 % of the time at the lowest field's coverage.
+MIN_COVERED_FIELD = 18
+#: Pooled over every fitted field of the test's plants (14 per plant, 336 intervals; measured
+#: 315, 0.9375) the intervals must hold the truth at least this often: intervals narrowed by
+#: 0.7 in every direction (coverage ~0.83 for a normal error) fail it with probability 0.99, a
+#: false alarm at the 120 plants' 0.928 is 0.07 % (binomial; the fields of one plant are
+#: correlated, which widens both). A single field is :data:`MIN_COVERED_FIELD`'s to catch.
+COVERAGE_POOLED = 0.88
 #: Limits without a prior (the spec says "no limit") may still be fitted when a log seems to
 #: show one; on these plants (truth: no limit) at most this share of the two acceleration
-#: limits x plants is claimed (measured 7 of 40 on seed 29 before the released start): an
-#: open problem, reported.
+#: limits x plants is claimed (measured 8 of 48 on seed 61, 46 of 240 on the benchmark's 120):
+#: an open problem, reported.
 SPURIOUS_LIMITS = 0.25
 
 
-def _fit_plant(
+def plant_cases(seeds: tuple[tuple[int, int], ...]) -> list[tuple[DriveParams, int]]:
+    """(truth, log seed) of the plants of ``seeds`` ((plant seed, plants) pairs), each truth
+    drawn from the ``turtlebot3_burger`` spec's priors."""
+    spec = load_spec("turtlebot3_burger")
+    prior = DriveDistribution.from_priors(spec.name, spec.geometry, spec.priors, session=False)
+    cases = []
+    for plant_seed, n_plants in seeds:
+        truths = prior.sample(np.random.default_rng(plant_seed), n_plants)
+        cases += [(truth, 100 * plant_seed + i) for i, truth in enumerate(truths)]
+    return cases
+
+
+def fit_plant(
     case: tuple[DriveParams, int],
 ) -> tuple[float, list[tuple[str, float, float | None, float | None]]]:
     """One plant's fit (a worker process): its total mass and, per fitted field, (name, truth,
@@ -64,18 +92,11 @@ def _fit_plant(
 
 @pytest.mark.slow
 def test_95_percent_intervals_cover_plants_drawn_from_the_priors() -> None:
-    spec = load_spec("turtlebot3_burger")
-    geo = spec.geometry
-    prior = DriveDistribution.from_priors(spec.name, geo, spec.priors, session=False)
-    cases = []
-    for plant_seed, n_plants in PLANT_SEEDS:
-        truths = prior.sample(np.random.default_rng(plant_seed), n_plants)
-        cases += [(truth, 100 * plant_seed + i) for i, truth in enumerate(truths)]
     hits: collections.Counter[str] = collections.Counter()
     fits: collections.Counter[str] = collections.Counter()
     spurious = 0
-    # the 120 fits are independent: one worker process per core (~1.2 s each)
-    for total_mass_kg, fitted in map_in_processes(_fit_plant, cases):
+    # the fits are independent: one worker process per core (~3.5 s of CPU each)
+    for total_mass_kg, fitted in map_in_processes(fit_plant, plant_cases(TEST_PLANT_SEEDS)):
         assert total_mass_kg > 0
         for name, truth_value, low, high in fitted:
             if math.isinf(truth_value):
@@ -84,12 +105,13 @@ def test_95_percent_intervals_cover_plants_drawn_from_the_priors() -> None:
             assert low is not None and high is not None
             fits[name] += 1
             hits[name] += low <= truth_value <= high
-    coverage = {name: hits[name] / fits[name] for name in fits}
+    n_plants = sum(n for _, n in TEST_PLANT_SEEDS)
     assert {"delay_s", "added_mass_kg", "motor_gain_nms_per_rad", "coulomb_v_fwd_n"} <= set(fits)
-    assert sum(fits.values()) >= 12 * 120  # every plant fits most fields
-    for name, share in coverage.items():
-        assert share >= COVERAGE, (name, share, coverage)
-    n_plants = sum(n for _, n in PLANT_SEEDS)
+    assert sum(fits.values()) >= 12 * n_plants  # every plant fits most fields
+    for name, n_fits in fits.items():
+        # a field fitted on few plants (the rest at a bound) is judged on the plants it has
+        assert hits[name] >= MIN_COVERED_FIELD * n_fits / n_plants, (name, hits, fits)
+    assert sum(hits.values()) >= COVERAGE_POOLED * sum(fits.values()), (hits, fits)
     assert spurious <= SPURIOUS_LIMITS * 2 * n_plants, spurious
 
 
