@@ -43,14 +43,27 @@ def test_one_recording_meets_the_targets() -> None:
     assert all(ok for ok, _ in errors.values()), errors
 
 
+#: Seeds of the coverage draws (``benchmarks/bench_sensors.py`` runs 20 others, 1000-1019).
+DRAW_SEEDS = tuple(range(100, 110))
+#: Each quantity's 95 % interval must hold the truth on at least this many of the draws. With
+#: 10 independent draws (binomial): a false alarm at the nominal 95 % coverage 1.2 % (7 % at
+#: 90 %); a quantity whose intervals are half as wide as they should be (coverage ~2/3 for a
+#: normal error) fails with probability 0.69, one covering half the time 0.95. Measured: the
+#: still noise std at the middle range 8 of 10, every other quantity 9 or 10; with every
+#: interval halved about its centre the still test's five quantities other than the yaw fail
+#: (3-7 of 10), the moving test's near range (4 of 10); the moving middle and far intervals
+#: still hold all ten then (they are wide: half the time would be enough).
+MIN_COVERED = 8
+
+
 @pytest.mark.slow
-def test_intervals_cover_the_truth_over_20_draws() -> None:
-    draws = [_errors(draw_truth(np.random.default_rng(100 + i)), 100 + i) for i in range(20)]
+def test_intervals_cover_the_truth_over_10_draws() -> None:
+    draws = [_errors(draw_truth(np.random.default_rng(seed)), seed) for seed in DRAW_SEEDS]
     for name in draws[0]:
         within = sum(d[name][0] for d in draws)
         covered = sum(d[name][1] for d in draws)
-        assert within == 20, (name, within)
-        assert covered >= 17, (name, covered)  # >= 85 % of 20
+        assert within == len(DRAW_SEEDS), (name, within)
+        assert covered >= MIN_COVERED, (name, covered)
 
 
 def _moving_only(seed: int) -> dict[str, tuple[float, bool]]:
@@ -78,11 +91,11 @@ def test_moving_scans_give_the_noise_without_a_still_stretch() -> None:
 
 
 @pytest.mark.slow
-def test_moving_scans_intervals_cover_the_truth_over_20_draws() -> None:
-    draws = [_moving_only(100 + i) for i in range(20)]
+def test_moving_scans_intervals_cover_the_truth_over_10_draws() -> None:
+    draws = [_moving_only(seed) for seed in DRAW_SEEDS]
     for name in draws[0]:
         assert all(abs(d[name][0]) <= 0.15 for d in draws), name
-        assert sum(d[name][1] for d in draws) >= 17, name  # >= 85 % of 20
+        assert sum(d[name][1] for d in draws) >= MIN_COVERED, name
 
 
 def test_moving_scans_check_the_still_stretches() -> None:
