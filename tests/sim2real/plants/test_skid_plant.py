@@ -114,8 +114,13 @@ def test_sessions_are_seeded_and_bad_input_is_refused() -> None:
 
 
 #: Seeds of :func:`skid_robot` and its sessions that no design choice was tuned on (the plant's
-#: ranges and the fit's track-factor restarts were chosen on seeds 1-13 and 21-30).
-TARGET_SEEDS = (101, 103, 105)  # of the ten bench_skid.py measures (docstring below)
+#: ranges and the fit's track-factor restarts were chosen on seeds 1-13 and 21-30): ten are
+#: measured by ``benchmarks/bench_skid.py``.
+TARGET_SEEDS = tuple(range(101, 111))
+#: Of those, the seed with the smallest margin of the skid fit over the differential fit.
+MARGIN_SEED = 105
+#: Of those, a seed that meets the issue's target in full.
+TARGET_SEED = 108
 
 
 def test_skid_robots_span_the_published_slip() -> None:
@@ -159,14 +164,16 @@ def _fit_and_score(case: FitCase) -> tuple[list[float], DriveParams, float]:
 
 @pytest.mark.slow
 def test_skid_fit_beats_the_differential_fit(husky: RobotSpec, husky_diff: RobotSpec) -> None:
-    """Every seed: one robot on one ground (:func:`skid_robot`); fit one 90 s teleop session
-    (the driver's top speed and yaw rate), measure on another day's session.
+    """Seed 105 (:data:`MARGIN_SEED`): one robot on one ground (:func:`skid_robot`); fit one
+    90 s teleop session (the driver's top speed and yaw rate), measure on another day's session.
 
     The issue's target in full (skid >= 0.9 where the plain differential fit < 0.7) holds on
-    2 of 10 seeds (101, 108) and on 1 of 5 sessions of the canonical :func:`husky_like`: the
-    skid half holds on all ten seeds, but the plain differential fit (module docstring) stays
-    at 0.70-0.81 on the other eight. So this asserts the skid half on each seed, the fitted
-    slip within 0.06 of the plant's, and a margin of 0.1 over the differential fit on each.
+    2 of 10 seeds (101, 108; :func:`test_the_issue_target_in_full_on_one_plant`) and on 1 of 5
+    sessions of the canonical :func:`husky_like`: the skid half holds on all ten seeds, but the
+    plain differential fit (module docstring) stays at 0.70-0.81 on the other eight. So this
+    asserts the skid half, the fitted slip within 0.06 of the plant's, and a margin of 0.1 over
+    the differential fit, on the seed whose margin is the smallest of the ten (each seed is
+    one plant and one pair of sessions; ``benchmarks/bench_skid.py`` runs all ten).
     Measured (skid, diff) with the PI wheel loops of :func:`husky_like`: 101 (0.928, 0.604),
     102 (0.919, 0.783), 103 (0.955, 0.794), 104 (0.931, 0.719), 105 (0.933, 0.814); on seeds
     106-110 skid 0.904-0.952, diff 0.499-0.783; the margin is 0.119-0.411 on all ten, the
@@ -184,34 +191,25 @@ def test_skid_fit_beats_the_differential_fit(husky: RobotSpec, husky_diff: Robot
     of seed 101's lateral tyre stiffness move its skid fit 0.925-0.929 (before 0.885-0.924).
     The differential fit's own re-balance is a five-step polish: run to convergence it gives
     101 0.738, 108 0.644 (the target's contrast holds on 108 alone then)."""
-    # the ten fits are independent: one worker process per core
-    specs = (husky, husky_diff)
-    cases = [
-        (skid_robot(seed), seed, 90.0, spec, ("reduced",))
-        for seed in TARGET_SEEDS
-        for spec in specs
-    ]
-    fitted = map_in_processes(_fit_and_score, cases)
-    results = {}
-    for k, seed in enumerate(TARGET_SEEDS):
-        ([skid_score], skid_params, _), ([diff_score], diff_params, _) = fitted[2 * k : 2 * k + 2]
-        chi = effective_track_factor(skid_robot(seed), 0.0, 1.0)
-        assert skid_params.track_factor == pytest.approx(chi, abs=0.06)
-        assert diff_params.track_factor == 1.0
-        results[seed] = (round(skid_score, 3), round(diff_score, 3))
-    seed = TARGET_SEEDS[-1]
+    seed = MARGIN_SEED
+    # the two fits are independent: one worker process per core
+    cases = [(skid_robot(seed), seed, 90.0, spec, ("reduced",)) for spec in (husky, husky_diff)]
+    ([skid_score], skid_params, _), ([diff_score], diff_params, _) = map_in_processes(
+        _fit_and_score, cases
+    )
+    chi = effective_track_factor(skid_robot(seed), 0.0, 1.0)
+    assert skid_params.track_factor == pytest.approx(chi, abs=0.06)
+    assert diff_params.track_factor == 1.0
+    assert skid_score >= 0.9 and skid_score >= diff_score + 0.1, (skid_score, diff_score)
     held_out = make_skid_sessions(
         skid_robot(seed), 2, seed=seed, duration_s=90.0, profile="teleop"
     )[1]
-    scores = [skid_score, diff_score]
-    assert all(skid >= 0.9 for skid, _ in results.values()), results
-    assert all(skid >= diff + 0.1 for skid, diff in results.values()), results
-    # the pybullet engine with the same (last) fit agrees with the reduced one on the log
+    # the pybullet engine with the same fit agrees with the reduced one on the log
     sim_pb = replay(held_out, robot=husky, params=skid_params, engine="pybullet")
     sim_red = replay(held_out, robot=husky, params=skid_params, engine="reduced")
     assert np.sqrt(np.mean((sim_pb.v - sim_red.v) ** 2)) < 0.005
     assert np.sqrt(np.mean((sim_pb.w - sim_red.w) ** 2)) < 0.02
-    assert measure_agreement(held_out, sim_pb).agreement > scores[1] + 0.1
+    assert measure_agreement(held_out, sim_pb).agreement > diff_score + 0.1
 
 
 @pytest.mark.slow
@@ -219,19 +217,21 @@ def test_the_issue_target_in_full_on_one_plant(husky: RobotSpec, husky_diff: Rob
     """Issue 12's target as worded: a synthetic skid-steer plant with slip on which the skid
     fit agrees >= 0.9 on a held-out session where the plain differential fit stays below 0.7.
 
-    Seed 108 (slip 1.55, mu 0.76; one of the ten bench seeds, none tuned on): measured skid
-    0.910, diff 0.499 in both engines (0.644 with the differential fit's re-balance run to
-    convergence, so the contrast does not hang on that polish). On 8 of the 10 seeds the
-    differential fit reaches 0.70-0.81 while the skid fit stays >= 0.9
+    Seed 108 (:data:`TARGET_SEED`: slip 1.55, mu 0.76; one of the ten bench seeds, none tuned
+    on): measured skid 0.910, diff 0.499 in both engines (0.644 with the differential fit's
+    re-balance run to convergence, so the contrast does not hang on that polish). On 8 of the
+    10 seeds the differential fit reaches 0.70-0.81 while the skid fit stays >= 0.9
     (:func:`test_skid_fit_beats_the_differential_fit`, ``benchmarks/bench_skid.py``)."""
+    seed = TARGET_SEED
     engines = ("reduced", "pybullet")
-    cases = [(skid_robot(108), 108, 90.0, spec, engines) for spec in (husky, husky_diff)]
-    scores = [
-        x for spec_scores, _, _ in map_in_processes(_fit_and_score, cases) for x in spec_scores
-    ]
-    skid_reduced, skid_pybullet, diff_reduced, diff_pybullet = scores
-    assert skid_reduced >= 0.9 and skid_pybullet >= 0.9, scores
-    assert diff_reduced < 0.7 and diff_pybullet < 0.7, scores
+    cases = [(skid_robot(seed), seed, 90.0, spec, engines) for spec in (husky, husky_diff)]
+    (skid_scores, skid_params, _), (diff_scores, diff_params, _) = map_in_processes(
+        _fit_and_score, cases
+    )
+    chi = effective_track_factor(skid_robot(seed), 0.0, 1.0)
+    assert skid_params.track_factor == pytest.approx(chi, abs=0.06)
+    assert diff_params.track_factor == 1.0
+    assert min(skid_scores) >= 0.9 and max(diff_scores) < 0.7, (skid_scores, diff_scores)
 
 
 def test_the_track_factor_restarts_escape_a_worse_local_minimum(
