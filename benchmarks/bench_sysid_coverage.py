@@ -18,23 +18,23 @@ from __future__ import annotations
 
 import argparse
 import collections
+import importlib
 import math
 import resource
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from _timing import QUICK, record
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-from tests.processes import map_in_processes  # noqa: E402
-from tests.sysid.test_sysid_calibration import (  # noqa: E402
-    ALL_PLANT_SEEDS,
-    COVERAGE_FIELD,
-    fit_plant,
-    plant_cases,
-)
+
+def _tests(name: str) -> Any:
+    """A module of the repository's ``tests`` package (not installed: the checkout's)."""
+    root = str(Path(__file__).resolve().parents[1])
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    return importlib.import_module(name)
 
 
 def wilson(hits: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -55,17 +55,21 @@ def main() -> None:
         help="plant seeds and counts, SEED:N,... (default: 29:24,47:48,61:24,73:24)",
     )
     args = parser.parse_args()
+    diagnostic = _tests("tests.sysid.test_sysid_calibration")
+    map_in_processes = _tests("tests.processes").map_in_processes
     if args.seeds:
         seeds = tuple(
             (int(s), int(n)) for s, n in (item.split(":") for item in args.seeds.split(","))
         )
     else:
-        seeds = ((61, 24),) if QUICK else ALL_PLANT_SEEDS
+        seeds = ((61, 24),) if QUICK else diagnostic.ALL_PLANT_SEEDS
     start = time.process_time()
     t0 = time.perf_counter()
     per_seed = []
     for seed, n in seeds:
-        per_seed.append((seed, map_in_processes(fit_plant, plant_cases(((seed, n),)))))
+        per_seed.append(
+            (seed, map_in_processes(diagnostic.fit_plant, diagnostic.plant_cases(((seed, n),))))
+        )
     hits: dict[int, collections.Counter[str]] = {}
     fits: dict[int, collections.Counter[str]] = {}
     spurious = collections.Counter[int]()
@@ -115,8 +119,8 @@ def main() -> None:
         "sysid coverage",
         f"lowest field's 95 % interval coverage ({n_plants} plants)",
         f"{lowest[1]} {lowest[0]:.3f}",
-        f">= {COVERAGE_FIELD}",
-        lowest[0] >= COVERAGE_FIELD,
+        f">= {diagnostic.COVERAGE_FIELD}",
+        lowest[0] >= diagnostic.COVERAGE_FIELD,
     )
 
 
