@@ -21,6 +21,7 @@ Examples
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import shlex
@@ -237,7 +238,14 @@ class DriveParams:
             raise RobotsValueError(
                 f"unknown drive parameter(s) {unknown}; known ones are {list(self.names())}"
             )
-        return dataclasses.replace(self, **changes)
+        # the constructor's rules are per field: the unchanged fields passed them already (a
+        # fit builds thousands of candidates, each changing a few fields)
+        for name, value in changes.items():
+            _check_value(name, value)
+        new = copy.copy(self)
+        for name, value in changes.items():
+            object.__setattr__(new, name, value)
+        return new
 
     def to_dict(self) -> dict[str, float]:
         """Plain ``{name: value}`` mapping (floats), suitable for YAML."""
