@@ -15,6 +15,9 @@ from tests.randomization_block import distribution_around
 
 ROBOT = "turtlebot3_burger"
 T0_NS = 1_700_000_000_000_000_000
+#: A Neato fitted on its ksoltan test drive and calibrated on its obstacle avoidance (real logs).
+NEATO_FIT = "neato_ksoltan_testdrive_2018-09-18-20-17-54.mcap"
+NEATO_CALIBRATE = "neato_ksoltan_obstacle_avoid_demo_2018-09-18-20-30-36.mcap"
 HIDDEN = {"delay_s": 0.15, "added_mass_kg": 0.4, "accel_lim_v_mps2": 0.6, "coulomb_v_fwd_n": 0.4}
 
 

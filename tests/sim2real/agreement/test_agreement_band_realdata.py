@@ -14,22 +14,14 @@ from sim2real.cli import main
 
 pytestmark = [pytest.mark.realdata, pytest.mark.slow]
 
-FIT = "neato_ksoltan_testdrive_2018-09-18-20-17-54.mcap"
-CALIBRATE = "neato_ksoltan_obstacle_avoid_demo_2018-09-18-20-30-36.mcap"
 TOP_V, TOP_W = 0.3, 2 * 0.3 / 0.248  # the spec's top speed and yaw rate
 
 
 @pytest.fixture(scope="module")
-def calibrated(realdata_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    tmp = tmp_path_factory.mktemp("neato_band")
-    robot, params, out = tmp / "neato.yaml", tmp / "params.yaml", tmp / "calibrated.yaml"
-    assert main(["robots", "new", "neato", "--wheel-separation", "0.248", "--max-speed", "0.3",
-                 "-o", str(robot)]) == 0  # fmt: skip
-    assert main(["sysid", "fit", str(realdata_dir / FIT), "--robot", str(robot),
-                 "-o", str(params)]) == 0  # fmt: skip
-    assert main(["sysid", "calibrate", str(params), str(realdata_dir / CALIBRATE),
-                 "--robot", str(robot), "-o", str(out)]) == 0  # fmt: skip
-    return robot, out
+def calibrated(neato_calibrated: Path) -> tuple[Path, Path]:
+    """The Neato's spec file and its fit of the test drive calibrated on the obstacle avoidance
+    (the run the calibration-noise tests check too)."""
+    return neato_calibrated / "neato.yaml", neato_calibrated / "calibrated.yaml"
 
 
 def test_the_calibration_keeps_the_noise_and_narrows_the_v_spread(

@@ -5,12 +5,11 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 import yaml
-from _agreement_fixtures import ROBOT, hidden_params, write_log
+from _agreement_fixtures import NEATO_CALIBRATE, NEATO_FIT, ROBOT, hidden_params, write_log
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -93,46 +92,35 @@ def test_stretch_noise_std_needs_samples_in_stretches_of_two() -> None:
     )
 
 
-def neato_calibration(
-    realdata_dir: Path, tmp_path: Path, *fit_args: str
-) -> tuple[dict[str, Any], dict[str, Any]]:
-    """A Neato fit on its test drive (with ``fit_args``), calibrated on its obstacle
-    avoidance: (the fitted params document, the calibration block)."""
-    spec, params, out = tmp_path / "neato.yaml", tmp_path / "p.yaml", tmp_path / "c.yaml"
-    argv = ["robots", "new", "neato", "--wheel-separation", "0.248", "--max-speed", "0.3"]
-    assert main([*argv, "-o", str(spec)]) == 0
-    fit = realdata_dir / "neato_ksoltan_testdrive_2018-09-18-20-17-54.mcap"
-    cal = realdata_dir / "neato_ksoltan_obstacle_avoid_demo_2018-09-18-20-30-36.mcap"
-    argv = ["sysid", "fit", str(fit), "--robot", str(spec), "-o", str(params)]
-    assert main([*argv, *(a.replace("CAL", str(cal)) for a in fit_args)]) == 0
-    argv = ["sysid", "calibrate", str(params), str(cal), "--robot", str(spec), "-o", str(out)]
-    assert main(argv) == 0
-    return yaml.safe_load(params.read_text()), yaml.safe_load(out.read_text())["calibration"]
-
-
 @pytest.mark.realdata
 @pytest.mark.slow
 def test_p_loops_steady_state_error_is_not_read_as_w_noise(
-    realdata_dir: Path, tmp_path: Path
+    neato_calibrated: Path, realdata_dir: Path, tmp_path: Path
 ) -> None:
     # the Neato test drive fitted with P wheel loops (validated on its obstacle avoidance):
     # they turn at about half the real yaw rate on its slow turns, a miss held for seconds; the
     # residuals' raw robust scale reads it as 0.047 rad/s of noise (w noise x1.56 the file's),
     # their scatter within the steady stretches is 0.011
-    fitted, block = neato_calibration(realdata_dir, tmp_path, "--validate", "CAL")
+    spec, params, out = neato_calibrated / "neato.yaml", tmp_path / "p.yaml", tmp_path / "c.yaml"
+    cal = str(realdata_dir / NEATO_CALIBRATE)
+    fit = ["sysid", "fit", str(realdata_dir / NEATO_FIT), "--robot", str(spec), "-o", str(params)]
+    assert main([*fit, "--validate", cal]) == 0
+    argv = ["sysid", "calibrate", str(params), cal, "--robot", str(spec), "-o", str(out)]
+    assert main(argv) == 0
+    fitted, block = yaml.safe_load(params.read_text()), yaml.safe_load(out.read_text())
     assert fitted["parameters"]["speed_loop_ki_per_s"]["value"] == 0.0
-    assert block["noise_factor_w"] <= 1.1
-    assert 0.9 <= block["validation_coverage_w"] <= 0.96
+    assert block["calibration"]["noise_factor_w"] <= 1.1
+    assert 0.9 <= block["calibration"]["validation_coverage_w"] <= 0.96
 
 
 @pytest.mark.realdata
 @pytest.mark.slow
 def test_a_log_the_spread_explains_does_not_drive_the_noise_to_zero(
-    realdata_dir: Path, tmp_path: Path
+    neato_calibrated: Path,
 ) -> None:
     # a Neato fit on its test drive, calibrated on its obstacle avoidance: the members' spread
     # explains the w residuals and the likelihood's w noise ends at the search floor
-    _, block = neato_calibration(realdata_dir, tmp_path)
+    block = yaml.safe_load((neato_calibrated / "calibrated.yaml").read_text())["calibration"]
     # w: the file's 0.0164 rad/s narrowed x0.23 to bring the coverage to 95 % (the likelihood
     # alone gives 1e-5 rad/s, the search floor)
     assert 0.15 <= block["noise_factor_w"] <= 2.0
