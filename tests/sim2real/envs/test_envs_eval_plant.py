@@ -23,12 +23,16 @@ def _eval_json(tmp_path: Path, name: str, *extra: str) -> dict[str, object]:
     return doc
 
 
+@pytest.fixture(scope="module")
+def plant_eval(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
+    """`envs eval` of the TEST1 preset on 4 plant sessions (seed 7), its JSON."""
+    return _eval_json(tmp_path_factory.mktemp("plant_eval"), "a.json")
+
+
 def test_eval_on_plant_sessions_prints_and_writes_the_intervals(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    plant_eval: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    doc = _eval_json(tmp_path, "a.json")
-    out = capsys.readouterr().out
-    assert "dynamics plant" in out and "95 % CI" in out
+    doc = plant_eval
     episodes = doc["episodes"]
     assert isinstance(episodes, list) and len(episodes) == 4
     wins = sum(e["outcome"] == "success" for e in episodes)
@@ -40,17 +44,21 @@ def test_eval_on_plant_sessions_prints_and_writes_the_intervals(
     lo, hi = doc["time_to_goal_ci95"]  # type: ignore[misc]
     if len(times) > 1:
         assert lo <= sum(times) / len(times) <= hi
-    # same seeds, same plant sessions, same numbers
+    # same seeds, same plant sessions, same numbers; and it says so on the terminal
+    capsys.readouterr()
     assert _eval_json(tmp_path, "b.json") == {**doc, "episodes": doc["episodes"]}
+    out = capsys.readouterr().out
+    assert "dynamics plant" in out and "95 % CI" in out
 
 
-def test_plant_sessions_differ_from_the_drive_model(tmp_path: Path) -> None:
-    plant = _eval_json(tmp_path, "p.json")
+def test_plant_sessions_differ_from_the_drive_model(
+    plant_eval: dict[str, object], tmp_path: Path
+) -> None:
     model = tmp_path / "m.json"
     argv = ["envs", "eval", "RandomMap-v0", "--preset", "TEST1", "--episodes", "4"]
     assert main([*argv, "--seed", "7", "--json", str(model)]) == 0
     reduced = json.loads(model.read_text())
-    assert [e["path_length_m"] for e in plant["episodes"]] != [  # type: ignore[union-attr]
+    assert [e["path_length_m"] for e in plant_eval["episodes"]] != [  # type: ignore[union-attr]
         e["path_length_m"] for e in reduced["episodes"]
     ]
 
