@@ -187,7 +187,7 @@ class PeerModel:
         u_w = delayed_step_average(cmd[0], cmd[2], grid, dt, **kw)
         targets = _wheel_targets(u_v, u_w, start[0], start[1], dt, self._packed)
         ctrl = np.zeros((n + 1, self.model.nu))
-        ctrl[:, :2] = targets
+        ctrl[:, :2] = targets[:, :2]  # (left, right); column 2 flags a new move
         v0, w0 = start
         r, half = spec.wheels.radius_m, 0.5 * spec.wheels.separation_m
         qpos = np.zeros(self.model.nq)

@@ -15,8 +15,9 @@ packed parameter vector (:func:`pack_params`), compiled with numba and callable 
    rule (a step's start and end errors; backward Euler would damp the loop's overshoot by
    O(dt k_i) and bias a fitted integral gain), except while that wheel's torque is clipped and
    the error pushes further into the limit (conditional-integration anti-windup); a zero wheel
-   target clears it (a stop). With ``speed_loop_ki_per_s = 0`` the loops are P loops and the
-   arithmetic is exactly theirs.
+   target clears it (a stop), and so does a change of the wheel targets when the firmware runs
+   each command as a new move (``command_starts_new_move``: :func:`starts_new_move`). With
+   ``speed_loop_ki_per_s = 0`` the loops are P loops and the arithmetic is exactly theirs.
 
 :func:`drive_step` chains the two (what :mod:`robots.reduced` integrates) and
 :func:`pybullet_substep` adds what the rigid-body robot needs around it (the yaw of its
@@ -56,6 +57,7 @@ __all__ = [
     "pack_params",
     "pybullet_substep",
     "shape_command",
+    "starts_new_move",
     "wheel_loops",
 ]
 
@@ -69,9 +71,12 @@ KI = 18  # the wheel loops' integral gain over the P gain, 1/s (0 = P loops)
 TS = 19  # the motors' stall torque at the wheel, N m (the torque-speed line)
 W0 = 20  # the motors' no-load wheel speed, rad/s (inf: no line, a flat torque cap)
 CAP_SIDE = 21  # 1: each wheel target clipped at the cap on its own; 0: both scaled together
+NEW_MOVE = 22  # 1: the firmware runs each new command as a new move (integrators cleared)
 #: Length of the packed parameter vector.
-N_PACKED = 22
-#: A wheel target below this (rad/s) is a stop: it clears that wheel's integrator.
+N_PACKED = 23
+#: A wheel target below this (rad/s) is a stop: it clears that wheel's integrator; a target
+#: that moves by more than this starts a new move (:func:`starts_new_move`): the held command
+#: average leaves rounding-level changes where none was sent.
 ZERO_TARGET_RADPS = 1e-9
 
 
@@ -93,6 +98,7 @@ _AS_IS = {
     CMD_TRACK: "driver_track_factor",
     KI: "speed_loop_ki_per_s",
     CAP_SIDE: "wheel_cap_per_side",
+    NEW_MOVE: "command_starts_new_move",
 }
 
 
@@ -210,6 +216,22 @@ def _coupled_prox(
 
 
 @njit(cache=True, inline="always")
+def _targets(ref_v: float, ref_w: float, p: FloatArray) -> tuple[float, float]:  # pragma: no cover
+    """(wr_ref, wl_ref): the capped wheel targets of the reference (ref_v, ref_w), rad/s."""
+    r, half_l = p[R], 0.5 * (p[L] * p[CMD_TRACK])
+    wr_ref = (ref_v + ref_w * half_l) / r
+    wl_ref = (ref_v - ref_w * half_l) / r
+    if p[CAP_SIDE] > 0.0:
+        return clip(wr_ref, p[WMAX]), clip(wl_ref, p[WMAX])
+    peak = max(abs(wr_ref), abs(wl_ref))
+    if peak > p[WMAX]:
+        s = p[WMAX] / peak
+        wr_ref *= s
+        wl_ref *= s
+    return wr_ref, wl_ref
+
+
+@njit(cache=True, inline="always")
 def shape_command(
     u_v: float, u_w: float, ref_v: float, ref_w: float, dt: float, p: FloatArray
 ) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
@@ -219,21 +241,31 @@ def shape_command(
     a target beyond the cap ``wheel_speed_max_radps`` scales both by one factor (the turn's
     curvature kept) or, with ``wheel_cap_per_side``, is clipped on its own.
     """
-    r, half_l = p[R], 0.5 * (p[L] * p[CMD_TRACK])
     u_v = clip(u_v, p[SPEED_V])
     u_w = clip(u_w, p[SPEED_W])
     ref_v += clip(u_v - ref_v, p[ACC_V] * dt)
     ref_w += clip(u_w - ref_w, p[ACC_W] * dt)
-    wr_ref = (ref_v + ref_w * half_l) / r
-    wl_ref = (ref_v - ref_w * half_l) / r
-    if p[CAP_SIDE] > 0.0:
-        return ref_v, ref_w, clip(wr_ref, p[WMAX]), clip(wl_ref, p[WMAX])
-    peak = max(abs(wr_ref), abs(wl_ref))
-    if peak > p[WMAX]:
-        s = p[WMAX] / peak
-        wr_ref *= s
-        wl_ref *= s
+    wr_ref, wl_ref = _targets(ref_v, ref_w, p)
     return ref_v, ref_w, wr_ref, wl_ref
+
+
+@njit(cache=True, inline="always")
+def starts_new_move(
+    ref_v0: float, ref_w0: float, wr_ref: float, wl_ref: float, p: FloatArray
+) -> bool:  # pragma: no cover - compiled
+    """True when a step's wheel targets start a new move: both wheel integrators clear.
+
+    With ``command_starts_new_move`` the firmware runs each command it receives as a new move
+    (the Neato's ``SetMotor(left_mm, right_mm, speed)``: the wheels travel the given distances
+    from where they stand), so its loops keep no memory of the speed error of the move before:
+    a step whose wheel targets (``wr_ref``, ``wl_ref``, rad/s) differ (beyond rounding:
+    :data:`ZERO_TARGET_RADPS`) from those of the previous reference (``ref_v0``, ``ref_w0``: the driver's previous command, in the state as
+    the smoother's reference) starts a new one. Off (0): never.
+    """
+    if p[NEW_MOVE] > 0.0:
+        wr0, wl0 = _targets(ref_v0, ref_w0, p)
+        return abs(wr_ref - wr0) > ZERO_TARGET_RADPS or abs(wl_ref - wl0) > ZERO_TARGET_RADPS
+    return False
 
 
 @njit(cache=True, inline="always")
@@ -424,7 +456,10 @@ def drive_step(
     p: FloatArray,
 ) -> tuple[float, float, float, float, float, float, float, float]:  # pragma: no cover - compiled
     """One step of the chain; returns (v1, w1, ref_v, ref_w, ir, il, torque_r, torque_l)."""
+    ref_v0, ref_w0 = ref_v, ref_w
     ref_v, ref_w, wr_ref, wl_ref = shape_command(u_v, u_w, ref_v, ref_w, dt, p)
+    if starts_new_move(ref_v0, ref_w0, wr_ref, wl_ref, p):
+        ir, il = 0.0, 0.0
     v1, w1, ir, il, tr, tl = wheel_loops(v, w, wr_ref, wl_ref, ir, il, dt, p)
     return v1, w1, ref_v, ref_w, ir, il, tr, tl
 
@@ -471,9 +506,10 @@ def pybullet_substep(
     v = vx * math.cos(yaw) + vy * math.sin(yaw)
     w = wz
     ref_v, ref_w, wr_ref, wl_ref = shape_command(u_v, u_w, state[0], state[1], dt, p)
-    v1, w1, ir, il, tr_model, tl_model = wheel_loops(
-        v, w, wr_ref, wl_ref, state[3], state[4], dt, p
-    )
+    ir, il = state[3], state[4]
+    if starts_new_move(state[0], state[1], wr_ref, wl_ref, p):
+        ir, il = 0.0, 0.0
+    v1, w1, ir, il, tr_model, tl_model = wheel_loops(v, w, wr_ref, wl_ref, ir, il, dt, p)
     state[0] = ref_v
     state[1] = ref_w
     state[3] = ir

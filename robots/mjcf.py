@@ -250,6 +250,7 @@ _DRIVE_ONLY = (
     ("accel_lim_w_radps2", "rate-limits the reference w"),
     ("driver_track_factor", "the wheel targets of a (v, w) command"),
     ("wheel_cap_per_side", "the wheel targets beyond the speed cap: both scaled, or each clipped"),
+    ("command_starts_new_move", "clears the loops' integrators when the wheel targets change"),
     ("speed_loop_ki_per_s", "K ki (integrated speed error) on the wheel_*_loop actuators"),
     ("track_factor", "the loops' wheel speeds on the effective track (wheel_*_loop)"),
     ("wheel_stall_torque_nm", "the wheel joints' actfrcrange on the torque-speed line"),

@@ -197,6 +197,13 @@ class DriveParams:
         the cap, keeping the turn's curvature (Clearpath's ``husky_base``
         ``limitDifferentialSpeed``; the Neato driver); 1, it clips each side's target at the
         cap on its own, so a turn beyond the cap loses yaw rate to the outer side alone.
+    command_starts_new_move : float
+        How the firmware takes a new command (a driver setting, not fitted): 0, its wheel
+        loops run on and keep their integrators (TurtleBot3's OpenCR, Kobuki, Husky); 1, it
+        runs each command as a new move, so both wheel integrators clear whenever the wheel
+        targets change (the Neato's ``SetMotor(left_mm, right_mm, speed)``, which moves each
+        wheel a distance from where it stands: Neato Robotics, *XV Series Programmer's
+        Manual*; ``neato_node`` sends every ``cmd_vel`` as one).
     """
 
     delay_s: float = 0.0
@@ -221,6 +228,7 @@ class DriveParams:
     track_factor: float = 1.0
     driver_track_factor: float = 1.0
     wheel_cap_per_side: float = 0.0
+    command_starts_new_move: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -625,6 +633,9 @@ SCHEMA: dict[str, FieldSchema] = {f.name: f for f in (
     _mode("wheel_cap_per_side",
           "the driver clips each wheel's target at the speed cap on its own (1) or scales "
           "both together (0; a driver setting)"),
+    _mode("command_starts_new_move",
+          "the firmware runs each new command as a new move, its wheel loops' integrators "
+          "cleared (1), or its loops run on (0; a driver setting)"),
 )}
 # fmt: on
 

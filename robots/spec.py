@@ -611,8 +611,8 @@ def _point(s: Section) -> PointMass:
 
 
 #: Drive keys a spec may leave out: their default is what most drivers do (both wheel
-#: targets scaled together at the speed cap).
-_OPTIONAL_DRIVE_KEYS = frozenset({"wheel_cap_per_side"})
+#: targets scaled together at the speed cap; wheel loops that run on across commands).
+_OPTIONAL_DRIVE_KEYS = frozenset({"wheel_cap_per_side", "command_starts_new_move"})
 
 
 def _drive(s: Section) -> DriveParams:

@@ -61,6 +61,7 @@ class NewRobot:
     driver_track_factor: float
     track_factor: float
     wheel_cap: str
+    new_move: bool
     given: frozenset[str]
 
     @classmethod
@@ -78,6 +79,7 @@ class NewRobot:
         driver_track_factor: float | None = None,
         track_factor: float | None = None,
         wheel_cap: str | None = None,
+        new_move: bool = False,
     ) -> NewRobot:
         """Fill the facts not given (see the module docstring for the rules).
 
@@ -88,7 +90,9 @@ class NewRobot:
         its recordings see it (1 when they read the yaw rate from the wheel encoders, which turn
         on the geometric track); when not given, the skid prior (1.6). ``wheel_cap`` (one of
         :data:`WHEEL_CAPS`) is how the driver holds the wheel targets to the speed cap; when not
-        given, ``joint`` (both scaled together).
+        given, ``joint`` (both scaled together). ``new_move``: the firmware runs each command
+        as a new move, its wheel loops' integrators cleared (the Neato's ``SetMotor``); when not
+        given, the loops run on across commands.
         """
         facts = {
             "wheel_separation_m": wheel_separation_m,
@@ -133,6 +137,7 @@ class NewRobot:
             driver_track_factor=driver_track_factor or (_SKID_CHI if drive == "skid" else 1.0),
             track_factor=track_factor or (_SKID_CHI if drive == "skid" else 1.0),
             wheel_cap=wheel_cap or "joint",
+            new_move=bool(new_move),
             given=frozenset(
                 [k for k, val in facts.items() if val is not None]
                 + (["track_factor"] if track_factor is not None else [])
@@ -402,6 +407,7 @@ def _drive_lines(robot: NewRobot, d: _Derived) -> list[str]:
         f"  track_factor: {_g(chi)}  # {chi_rule}",
         f"  driver_track_factor: {_g(robot.driver_track_factor)}  # {driver_rule}",
         *_wheel_cap_lines(robot),
+        *_new_move_lines(robot),
     ]
 
 
@@ -417,6 +423,19 @@ def _wheel_cap_lines(robot: NewRobot) -> list[str]:
     return [
         f"  wheel_cap_per_side: {1 if per_side else 0}  # {source}: {how}; a driver setting "
         "(--wheel-cap)",
+    ]
+
+
+def _new_move_lines(robot: NewRobot) -> list[str]:
+    how = (
+        "given: the firmware runs each command as a new move, so the wheel loops' integrators "
+        "clear when the wheel targets change (the Neato's SetMotor)"
+        if robot.new_move
+        else "prior: the firmware's wheel loops run on across commands"
+    )
+    return [
+        f"  command_starts_new_move: {int(robot.new_move)}  # {how}; a driver setting "
+        "(--command-starts-new-move)"
     ]
 
 
@@ -455,6 +474,7 @@ def _prior_lines(robot: NewRobot, d: _Derived) -> list[str]:
         f"# {_track_note(robot)}",
         "  driver_track_factor: {sd: 0.0, session_sd: 0.0}  # a driver setting: edit it above",
         "  wheel_cap_per_side: {sd: 0.0, session_sd: 0.0}  # a driver setting: edit it above",
+        "  command_starts_new_move: {sd: 0.0, session_sd: 0.0}  # a driver setting: edit it above",
     ]
 
 

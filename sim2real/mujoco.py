@@ -53,7 +53,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robots._jit import njit
-from robots._kernel import ZERO_TARGET_RADPS, pack_params, shape_command, torque_limits
+from robots._kernel import (
+    ZERO_TARGET_RADPS,
+    pack_params,
+    shape_command,
+    starts_new_move,
+    torque_limits,
+)
 from robots.mjcf import WHEELS, check_drive_kind, mjcf_mapping, mjcf_text, wheel_torque_cap_nm
 from robots.params import DriveParams
 from robots.reduced import delayed_step_average, simulate
@@ -117,12 +123,15 @@ def _set_field(
 def _wheel_targets(
     u_v: FloatArray, u_w: FloatArray, ref_v: float, ref_w: float, dt: float, p: FloatArray
 ) -> FloatArray:  # pragma: no cover - compiled
-    """(left, right) wheel targets of each delayed command, one row a step, rad/s."""
-    out = np.empty((u_v.shape[0], 2))
+    """(left, right) wheel targets of each delayed command, rad/s, and 1 where they start a new
+    move (:func:`robots._kernel.starts_new_move`), else 0: one row a step."""
+    out = np.empty((u_v.shape[0], 3))
     for k in range(u_v.shape[0]):
+        ref_v0, ref_w0 = ref_v, ref_w
         ref_v, ref_w, wr, wl = shape_command(u_v[k], u_w[k], ref_v, ref_w, dt, p)
         out[k, 0] = wl
         out[k, 1] = wr
+        out[k, 2] = 1.0 if starts_new_move(ref_v0, ref_w0, wr, wl, p) else 0.0
     return out
 
 
@@ -209,11 +218,16 @@ class MujocoDrive:
     def targets(self, u_v: float, u_w: float) -> tuple[float, float]:
         """(left, right) wheel speed targets of the delayed command (u_v, u_w), rad/s.
 
-        Advances the smoother's reference by one step (clamp, rate limits, wheel cap).
+        Advances the smoother's reference by one step (clamp, rate limits, wheel cap); a new
+        move (``command_starts_new_move``, :func:`robots._kernel.starts_new_move`) clears the
+        integrators.
         """
+        ref_v0, ref_w0 = self.ref_v, self.ref_w
         self.ref_v, self.ref_w, wr, wl = shape_command(
-            u_v, u_w, self.ref_v, self.ref_w, self.dt_s, self._packed
+            u_v, u_w, ref_v0, ref_w0, self.dt_s, self._packed
         )
+        if starts_new_move(ref_v0, ref_w0, wr, wl, self._packed):
+            self.integ = [0.0, 0.0]
         return wl, wr
 
     def _delayed(self, t0_s: float, n: int) -> tuple[FloatArray, FloatArray]:
@@ -440,12 +454,14 @@ class MujocoRobot:
         # a run of steps starts where the targets change (beyond rounding) or a sample is due
         begins = np.ones(n + 1, dtype=bool)
         if not drive.feedback:
-            begins[1:n] = np.any(np.abs(np.diff(targets, axis=0)) > 1e-12, axis=1)
+            begins[1:n] = np.any(np.abs(np.diff(targets[:, :2], axis=0)) > 1e-12, axis=1)
         begins |= record
         bounds = np.flatnonzero(begins).tolist()
         tl = targets.tolist()
         rows: list[tuple[float, float]] = [self.velocity()]
         for a, b in itertools.pairwise(bounds):
+            if tl[a][2]:  # a new move: the loops start again (a feedback drive: one step a run)
+                drive.integ = [0.0, 0.0]
             drive.control(m, d, tl[a][0], tl[a][1])
             mj.mj_step(m, d, b - a)
             if record[b]:

@@ -66,6 +66,7 @@ def handle_new(args: argparse.Namespace) -> int:
         driver_track_factor=args.driver_track_factor,
         track_factor=args.track_factor,
         wheel_cap=args.wheel_cap,
+        new_move=args.command_starts_new_move,
     )
     out = Path(args.out or f"{args.name}.yaml")
     if out.suffix not in (".yaml", ".yml"):

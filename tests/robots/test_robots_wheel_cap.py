@@ -10,7 +10,6 @@ MuJoCo drive, tests/sim2real/test_mujoco_robot.py) follow it.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -18,12 +17,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robots import PybulletRobot
-from robots.errors import RobotsValueError, SpecError
-from robots.params import BaseGeometry, DriveParams, read_params_file
-from robots.reduced import ReducedDrive, simulate
+from robots.errors import RobotsValueError
+from robots.params import BaseGeometry, DriveParams
+from robots.reduced import simulate
 from robots.spec import list_robots, load_spec
 from robots.template import spec_text
+from tests.robots._modes import engines_and_modes
 
 GEO = BaseGeometry(
     mass_kg=150.0, yaw_inertia_kgm2=30.0, wheel_radius_m=0.3, wheel_separation_m=1.08
@@ -95,27 +94,8 @@ def test_default_and_shipped_specs_cap_as_their_firmware_does(tmp_path: Path) ->
     assert load_spec(path).drive.wheel_cap_per_side == 0.0
 
 
-@pytest.mark.parametrize("value", [0.5, 2.0, -1.0])
-def test_a_value_other_than_0_or_1_is_refused(value: float) -> None:
-    with pytest.raises(RobotsValueError, match=r"wheel_cap_per_side' must be one of \[0, 1\]"):
-        DriveParams(wheel_cap_per_side=value)
-
-
-def test_spec_and_params_file_carry_the_mode(tmp_path: Path) -> None:
-    text = spec_text("w", wheel_separation_m=1.08, wheel_radius_m=0.3, drive="skid",
-                     wheel_cap="per-side")  # fmt: skip
-    spec_path = tmp_path / "w.yaml"
-    spec_path.write_text(text)
-    assert load_spec(spec_path).drive.wheel_cap_per_side == 1.0
-    bad = tmp_path / "bad.yaml"
-    bad.write_text(text.replace("wheel_cap_per_side: 1", "wheel_cap_per_side: 3"))
-    with pytest.raises(SpecError, match=r"wheel_cap_per_side.*must be one of"):
-        load_spec(bad)
-    params = tmp_path / "params.yaml"
-    params.write_text(
-        "format: sim2real.sysid/1\nrobot: w\nparameters:\n  wheel_cap_per_side: {value: 1.0}\n"
-    )
-    assert read_params_file(params).values == {"wheel_cap_per_side": 1.0}
+def test_robots_new_refuses_an_unknown_cap_mode() -> None:
+    """(The mode's round trip and bad values: tests/robots/test_robots_new_move.py.)"""
     with pytest.raises(RobotsValueError, match="wheel_cap must be one of"):
         spec_text("w", wheel_separation_m=1.08, wheel_cap="each")
 
@@ -137,18 +117,8 @@ def test_reduced_and_pybullet_agree_with_per_side_clipping(tmp_path: Path) -> No
     )
     spec = load_spec(path)
     params = spec.drive.replace(delay_s=0.0, accel_lim_v_mps2=2.0, accel_lim_w_radps2=6.0)
-    red = ReducedDrive(params, spec.geometry)
-    scaled = ReducedDrive(params.replace(wheel_cap_per_side=0.0), spec.geometry)
     commands = [(0.9, 0.0)] * 10 + [(0.9, 2.5)] * 16 + [(-0.8, -2.5)] * 16
-    err_v, err_w, parted = [], [], 0.0
-    with PybulletRobot(spec, params=params) as robot:
-        for cmd in commands + [(0.0, 0.0)] * 6:
-            a = robot.step(*cmd, 0.05)
-            b = red.step(*cmd, 0.05)
-            c = scaled.step(*cmd, 0.05)
-            err_v.append(a[0] - b[0])
-            err_w.append(a[1] - b[1])
-            parted = max(parted, abs(b[1] - c[1]))
+    rms_v, rms_w, _, parted = engines_and_modes(spec, params, "wheel_cap_per_side", commands)
     assert parted > 0.1  # the modes part by 20x more than the engines may
-    assert math.sqrt(np.mean(np.square(err_v))) < 2e-3
-    assert math.sqrt(np.mean(np.square(err_w))) < 5e-3
+    assert rms_v < 2e-3
+    assert rms_w < 5e-3

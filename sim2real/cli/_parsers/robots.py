@@ -156,6 +156,12 @@ def _register_new(group_sub: argparse._SubParsersAction) -> None:  # type: ignor
         help="how the driver holds wheel targets to the speed cap: 'joint' scales both together "
         "(default; most drivers), 'per-side' clips each wheel's target on its own",
     )
+    new.add_argument(
+        "--command-starts-new-move",
+        action="store_true",
+        help="the firmware runs each command as a new move, so its wheel loops keep no integral "
+        "of the speed error across commands (the Neato's SetMotor); default: the loops run on",
+    )
     new.add_argument("--force", action="store_true", help="overwrite an existing output file")
     new.set_defaults(handler="robots:handle_new")
 
