@@ -17,6 +17,7 @@ import yaml
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from robots._kernel import N_PACKED
 from sim2real.envs.geometry import Scene2D, cast_rays
 from sim2real.training.config import load_config
 from sim2real.training.evaluation import check_spaces, load_policy
@@ -290,7 +291,7 @@ def test_model_names_are_checked_and_old_models_keep_theirs() -> None:
         replace(model, lidar_model="raycast")
     with pytest.raises(ValueError, match=r"motion_model is 'exact'.*use 'drive'"):
         replace(model, motion_model="exact")
-    with pytest.raises(ValueError, match=r"needs the 22 packed drive parameters.*got 0"):
+    with pytest.raises(ValueError, match=rf"needs the {N_PACKED} packed drive parameters.*got 0"):
         replace(old, motion_model="drive")
     chosen = race_lookahead(_race(0), **GRID, models={"motion_model": "command"})
     assert (chosen.lidar_model, chosen.motion_model) == ("recast", "command")
