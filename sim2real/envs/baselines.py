@@ -185,6 +185,14 @@ class DWAController:
         x = np.where(small[:, None], vv[:, None] * t, vv[:, None] / safe_w[:, None] * np.sin(th))
         y = np.where(small[:, None], 0.0, vv[:, None] / safe_w[:, None] * (1.0 - np.cos(th)))
         pts = self._points(ranges)
+        # a scan point farther from the robot than every trajectory reaches (an arc's chord is
+        # at most |v| t) plus the clearance that scores or blocks is farther than that
+        # clearance from every trajectory: min(clear, cap) and clear > margin are the same
+        # without it, so it is left out of the distances (the nearest point of a trajectory
+        # within that clearance is kept)
+        reach_m = float(np.max(np.abs(vs))) * float(t[-1]) + self.robot_radius_m
+        reach_m += max(cfg.clearance_cap_m, cfg.margin_m) + 1e-6
+        pts = pts[pts[:, 0] ** 2 + pts[:, 1] ** 2 <= reach_m**2]
         if pts.shape[0]:
             d = np.hypot(x[..., None] - pts[:, 0], y[..., None] - pts[:, 1])
             clear = d.min(axis=(1, 2)) - self.robot_radius_m
