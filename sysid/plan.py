@@ -8,14 +8,21 @@ blocks that each excite named parameters of :class:`robots.params.DriveParams`:
   (the firmware clamps: the limits are reached), each followed by a stop: delay, response
   time constants, speed-loop integral action, torque and acceleration limits, speed limits;
 - **ramps**: slow ramps forward and backward: Coulomb friction each way, apart from viscous;
+- **speed levels**: steps of half a level up and down around held speeds and turn rates
+  (half and 0.7 of the limits), no stop between: the wheel loops' integrators stay loaded,
+  so the transients carry the friction apart from the loops' gains;
 - **turns while driving**: arcs and weaves at several speeds and turn rates, the fastest with
-  the outer wheel's target above the wheel-speed cap: the cap and the coupling of the axes.
+  the outer wheel's target above the wheel-speed cap, reversed at once (the outer wheel from
+  its cap to minus its cap: the largest torque any command within the limits asks): the cap,
+  the coupling of the axes and the torque cap.
 
 Every moving block is driven out and back (the same commands reversed in order and sign), so
 the ideal path returns to its start and stays within a square of side ``area_m``. The script is
 deterministic: the same spec and duration give the same commands. Velocity data fix each axis's
 response, not the split between motor gain and mass (:mod:`sysid.fit`): no plan identifies
-``motor_gain_nms_per_rad``, ``added_mass_kg`` and ``added_yaw_inertia_kgm2`` apart.
+``motor_gain_nms_per_rad``, ``added_mass_kg`` and ``added_yaw_inertia_kgm2`` apart. Nor does
+any plan identify a wheel torque cap that no command within the limits makes a wheel reach
+(:func:`unreachable`: behind a velocity smoother, the largest ask may stay far below it).
 
 Examples
 --------
@@ -37,17 +44,39 @@ import numpy as np
 
 from robots.arrays import FloatArray
 from robots.params import SCHEMA
+from robots.reduced import simulate
+from sysid._needs import limit_needs
 from sysid.errors import SysidValueError
 
-__all__ = ["ExcitationPlan", "PlanBlock", "plan_excitation", "weakly_identified"]
+__all__ = [
+    "REACH_SD",
+    "ExcitationPlan",
+    "PlanBlock",
+    "TorqueReach",
+    "plan_excitation",
+    "torque_cap_reach",
+    "unreachable",
+    "weakly_identified",
+]
 
 
 #: Commands go this far beyond the speed limits, so that the clamps act.
 OVERDRIVE = 1.1
 #: The fastest arcs ask the outer wheel for this multiple of the wheel-speed cap.
 WHEEL_OVERDRIVE = 1.2
+#: Speed levels (share of the speed limit, by cycle), the steps around them (share of the
+#: level) and how long each is held, s.
+LEVELS = (0.5, 0.7)
+LEVEL_STEPS = (0.0, 0.5, 0.0, -0.5, 0.0)
+LEVEL_HOLD_S = 0.6
 #: The mass-gain direction: velocity data identify ``T = m / k``, not ``m`` and ``k`` apart.
 MASS_GAIN = ("motor_gain_nms_per_rad", "added_mass_kg", "added_yaw_inertia_kgm2")
+
+#: A torque cap whose prior centre lies more than this many combined prior sd (cap and total
+#: mass or inertia, in log) above the largest torque any command within the limits asks is
+#: out of reach (:func:`torque_cap_reach`): the priors give it less than a 5 % chance
+#: (one-sided) of lying below the ask.
+REACH_SD = 1.645
 
 #: Behind PI wheel loops, a friction term whose prior sd is below this share of the loop's
 #: proportional gain changes the transients' damping too little to be told, in one session,
@@ -76,8 +105,21 @@ _EXCITES: dict[str, tuple[str, ...]] = {
         "motor_gain_nms_per_rad",
         "added_yaw_inertia_kgm2",
     ),
+    "speed levels": (
+        "speed_loop_ki_per_s",
+        "coulomb_v_fwd_n",
+        "coulomb_v_bwd_n",
+        "coulomb_w_nm",
+        "viscous_v_ns_per_m",
+        "viscous_w_nms_per_rad",
+    ),
     "ramps": ("coulomb_v_fwd_n", "coulomb_v_bwd_n", "viscous_v_ns_per_m"),
-    "turns while driving": ("wheel_speed_max_radps", "track_factor", "driver_track_factor"),
+    "turns while driving": (
+        "wheel_speed_max_radps",
+        "wheel_torque_max_nm",
+        "track_factor",
+        "driver_track_factor",
+    ),
 }
 
 
@@ -125,6 +167,9 @@ class ExcitationPlan:
         DriveParams field -> why one session of the plan may leave it near its prior, from the
         spec (:func:`weakly_identified`); fields known exactly (prior sd 0) are left out of
         :meth:`identifies`.
+    unreachable : dict
+        DriveParams field -> why no command within the base's limits can identify it, from
+        the spec (:func:`unreachable`); left out of :meth:`identifies`.
     """
 
     robot: str
@@ -137,18 +182,50 @@ class ExcitationPlan:
     limits: dict[str, float]
     extent_m: float
     weak: dict[str, str]
+    unreachable: dict[str, str]
 
     def identifies(self) -> dict[str, tuple[str, ...]]:
         """DriveParams field -> the kinds of block that excite it (in plan order), for the
-        fields with a prior to inform; :attr:`weak` says which of them one session may leave
-        near their priors, and why."""
+        fields with a prior to inform and within reach of the commands (not in
+        :attr:`unreachable`); :attr:`weak` says which of them one session may leave near their
+        priors, and why."""
         out: dict[str, list[str]] = {}
         for block in self.blocks:
             for name in block.identifies:
+                if name in self.unreachable:
+                    continue
                 kinds = out.setdefault(name, [])
                 if block.kind not in kinds:
                     kinds.append(block.kind)
         return {name: tuple(kinds) for name, kinds in out.items()}
+
+
+@dataclass(frozen=True, kw_only=True)
+class TorqueReach:
+    """The largest wheel torque commands within a base's limits ask, against its torque cap.
+
+    Attributes
+    ----------
+    ask_nm : float
+        Largest torque of one wheel, N m, over the command of :attr:`by`, at the prior centre.
+    cap_nm : float
+        The cap's prior centre, N m.
+    margin_sd : float
+        ``ln(cap_nm / ask_nm)`` over the combined prior sd of the cap and the total mass or
+        yaw inertia (the ask scales with them; the cap does not).
+    by : str
+        The command that asks the most.
+    """
+
+    ask_nm: float
+    cap_nm: float
+    margin_sd: float
+    by: str
+
+    @property
+    def reachable(self) -> bool:
+        """False when the cap lies more than :data:`REACH_SD` combined sd above the ask."""
+        return self.margin_sd <= REACH_SD
 
 
 class _Script:
@@ -165,10 +242,14 @@ class _Script:
         n = max(2, round(seconds * self.hz))
         return [(float(v), 0.0) for v in np.linspace(v0, v1, n)]
 
-    def out_and_back(self, leg: list[tuple[float, float]], rest_s: float) -> None:
-        """``leg``, a rest, the same commands reversed in order and sign, a rest."""
+    def out_and_back(
+        self, leg: list[tuple[float, float]], rest_s: float, *, at_once: bool = False
+    ) -> None:
+        """``leg``, a rest (none when ``at_once``: a reversal), the same commands reversed in
+        order and sign, a rest."""
         back = [(-v, -w) for v, w in reversed(leg)]
-        self.rows += leg + self.hold(0.0, 0.0, rest_s) + back + self.hold(0.0, 0.0, rest_s)
+        mid = [] if at_once else self.hold(0.0, 0.0, rest_s)
+        self.rows += leg + mid + back + self.hold(0.0, 0.0, rest_s)
 
 
 def _check(spec: Any, duration_s: Any, rate_hz: Any, area_m: Any) -> None:
@@ -189,6 +270,24 @@ def _check(spec: Any, duration_s: Any, rate_hz: Any, area_m: Any) -> None:
             f"spec must be a robots.spec.RobotSpec, got {type(spec).__name__}; load one with "
             "robots.spec.load_spec(name)"
         )
+
+
+def _levels(script: _Script, k: int, lim: dict[str, float]) -> None:
+    """Steps of half a level up and down around a held level, each axis out and back."""
+    share = LEVELS[k % len(LEVELS)]
+    for axis in ("v", "w"):
+        level = share * lim[f"{axis}_mps" if axis == "v" else "w_radps"]
+        if axis == "v":  # the leg's path stays within a quarter of the floor's side
+            level = min(level, 0.25 * lim["area_m"] / (len(LEVEL_STEPS) * LEVEL_HOLD_S))
+        leg = []
+        for a in LEVEL_STEPS:
+            x = level * (1.0 + a)
+            leg += (
+                script.hold(x, 0.0, LEVEL_HOLD_S)
+                if axis == "v"
+                else script.hold(0.0, x, LEVEL_HOLD_S)
+            )
+        script.out_and_back(leg, 0.6)
 
 
 def _cycle(script: _Script, k: int, lim: dict[str, float], hold_s: float) -> list[PlanBlock]:
@@ -228,6 +327,9 @@ def _cycle(script: _Script, k: int, lim: dict[str, float], hold_s: float) -> lis
     script.rows += script.hold(0.0, 0.0, 0.6)
     block("w steps", start)
     start = len(script.rows)
+    _levels(script, k, lim)
+    block("speed levels", start)
+    start = len(script.rows)
     ramp_s = min(3.0, 2.0 * hold_s)
     script.out_and_back(script.ramp(0.0, v, ramp_s) + script.ramp(v, 0.0, ramp_s), 0.6)
     block("ramps", start)
@@ -236,20 +338,109 @@ def _cycle(script: _Script, k: int, lim: dict[str, float], hold_s: float) -> lis
     w_cap = (WHEEL_OVERDRIVE * lim["wheel_mps"] - v) / half_track
     w_arc = min(max(w_cap, 0.3 * w), OVERDRIVE * w)
     sign = 1.0 if k % 2 == 0 else -1.0
-    script.out_and_back(script.hold(v, sign * w_arc, 0.6 * hold_s + 0.6), 0.6)
+    # reversed at once: the outer wheel from its cap to minus its cap, the largest torque ask
+    script.out_and_back(script.hold(v, sign * w_arc, 0.6 * hold_s + 0.6), 0.6, at_once=True)
     weave = script.hold(0.6 * v, 0.5 * w, 1.0) + script.hold(0.6 * v, -0.5 * w, 1.0)
     script.out_and_back(weave, 0.6)
     block("turns while driving", start)
     return blocks
 
 
+def _centre(spec: Any) -> Any:
+    """The drive parameters at the priors' centres, with no torque cap and no torque-speed
+    line: the wheel loops get whatever torque they ask."""
+    centre = {name: p.nominal for name, p in spec.priors.items() if name in SCHEMA}
+    free = dict.fromkeys(
+        ("wheel_torque_max_nm", "wheel_stall_torque_nm", "wheel_no_load_speed_radps"), math.inf
+    )
+    return spec.drive.replace(**(centre | free))
+
+
+def torque_cap_reach(spec: Any) -> TorqueReach | None:
+    """How close commands within ``spec``'s limits bring a wheel's torque to its cap.
+
+    The drive model at the priors' centres, with the cap and the torque-speed line removed,
+    runs the reversals that ask the wheels the most: forward speed from +110 % to -110 % of
+    its limit, yaw rate likewise, and an arc whose outer wheel is at the wheel-speed cap
+    reversed in v and w at once. The wheel torque is the base dynamics' at the responses
+    (:func:`sysid._needs.limit_needs`: mass and inertia times the accelerations plus the
+    friction). A velocity smoother bounds the accelerations; without one each reversal is a
+    step into the loops. ``None`` when the cap is known exactly or infinite.
+
+    Examples
+    --------
+    >>> from robots.spec import load_spec
+    >>> reach = torque_cap_reach(load_spec("turtlebot2"))
+    >>> reach.reachable, reach.by
+    (False, 'an arc at the wheel-speed cap reversed')
+    """
+    prior = spec.priors["wheel_torque_max_nm"]
+    if prior.sd == 0 or not math.isfinite(prior.nominal):
+        return None
+    drive, geo = spec.drive, spec.geometry
+    params = _centre(spec)
+    v = OVERDRIVE * min(drive.speed_lim_v_mps, spec.max_v_mps)
+    w = OVERDRIVE * min(drive.speed_lim_w_radps, spec.max_w_radps)
+    wheel = params.wheel_speed_max_radps
+    half = 0.5 * geo.wheel_separation_m
+    w_arc = max(wheel * geo.wheel_radius_m - v / OVERDRIVE, 0.0) / half
+    settle = 1.5 + max(2.0 * v / drive.accel_lim_v_mps2, 2.0 * w / drive.accel_lim_w_radps2)
+    t_out = np.arange(0.0, 2.0 * settle, 1e-3)
+    t_cmd = np.arange(0.0, 2.0 * settle, 0.1)
+    best = (0.0, "")
+    for by, cv, cw in (
+        ("a reversal of v at its limit", v, 0.0),
+        ("a reversal of w at its limit", 0.0, w),
+        ("an arc at the wheel-speed cap reversed", v / OVERDRIVE, w_arc),
+    ):
+        sign = np.where(t_cmd < settle, 1.0, -1.0)  # republished at 10 Hz (the timeout)
+        out = simulate(
+            params, geo, cmd_t_s=t_cmd, cmd_v=cv * sign, cmd_w=cw * sign, t_out_s=t_out,
+            python=None,
+        )  # fmt: skip
+        late = t_out > 0.5 * settle  # the reversal, from a settled start
+        ask = limit_needs([t_out[late]], [out.v[late]], [out.w[late]], params, geo)
+        best = max(best, (ask["wheel_torque_max_nm"], by))
+    load = max(spec.priors[n].sd for n in MASS_GAIN[1:])
+    margin = math.log(prior.nominal / best[0]) / math.hypot(prior.sd, load)
+    return TorqueReach(ask_nm=best[0], cap_nm=float(prior.nominal), margin_sd=margin, by=best[1])
+
+
+def unreachable(spec: Any) -> dict[str, str]:
+    """What no command within ``spec``'s limits can identify, and why (from the spec alone).
+
+    A wheel torque cap the commands' largest ask (:func:`torque_cap_reach`) stays more than
+    :data:`REACH_SD` combined prior sd below: no script within the limits makes a wheel
+    saturate there, so velocity data say nothing of the cap.
+
+    Examples
+    --------
+    >>> from robots.spec import load_spec
+    >>> sorted(unreachable(load_spec("turtlebot2")))
+    ['wheel_torque_max_nm']
+    >>> unreachable(load_spec("turtlebot3_burger"))
+    {}
+    """
+    reach = torque_cap_reach(spec)
+    if reach is None or reach.reachable:
+        return {}
+    return {
+        "wheel_torque_max_nm": (
+            f"no command within the limits reaches the cap: {reach.by} asks at most "
+            f"{reach.ask_nm:.3g} N m per wheel, {reach.margin_sd:.1f} prior sd below the cap "
+            f"({reach.cap_nm:.3g} N m)"
+        )
+    }
+
+
 def weakly_identified(spec: Any) -> dict[str, str]:
     """What one session of a plan may leave near its prior on ``spec``'s base, and why.
 
     From the spec alone: the mass-gain direction (velocity data fix each axis's response
-    time, not the mass and the gain apart); a wheel torque cap the acceleration limits keep
-    the wheels below, or that the wheel loops' largest demand (a reversal from the wheel-speed
-    cap) may not reach on a base whose motors give more; and, behind PI wheel loops (a prior
+    time, not the mass and the gain apart); a wheel torque cap within reach of the commands
+    (:func:`torque_cap_reach`; one out of reach is :func:`unreachable`), which a base whose
+    wheels do not saturate at the plan's largest ask bounds only from below; and, behind PI
+    wheel loops (a prior
     on ``speed_loop_ki_per_s`` centred above 0), viscous friction whose prior sd is below
     :data:`WEAK_FRICTION_SHARE` of the loop's proportional gain: the loops cancel friction at
     any steady speed, so it shows only in the transients' damping (on a base with no velocity
@@ -261,8 +452,9 @@ def weakly_identified(spec: Any) -> dict[str, str]:
     >>> from robots.spec import load_spec
     >>> weak = weakly_identified(load_spec("turtlebot2"))
     >>> sorted(weak)
-    ['added_mass_kg', 'added_yaw_inertia_kgm2', 'viscous_v_ns_per_m', 'wheel_torque_max_nm']
-    >>> "acceleration limits" in weak["wheel_torque_max_nm"]
+    ['added_mass_kg', 'added_yaw_inertia_kgm2', 'viscous_v_ns_per_m']
+    >>> "bounds the cap only from below" in weakly_identified(load_spec("turtlebot3_burger"))[
+    ...     "wheel_torque_max_nm"]
     True
     """
     drive, geo, priors = spec.drive, spec.geometry, spec.priors
@@ -271,24 +463,13 @@ def weakly_identified(spec: Any) -> dict[str, str]:
         name: f"the mass-gain direction: velocity data fix m/K, not {name} and the gain apart"
         for name in MASS_GAIN[1:]
     }
-    cap = priors["wheel_torque_max_nm"]
-    if cap.sd > 0 and math.isfinite(cap.nominal):
-        # per wheel: half the base's force at the wheel radius, half its yaw torque over h
-        accel = max(
-            0.5 * r * geo.mass_kg * drive.accel_lim_v_mps2,
-            0.5 * r / h * geo.yaw_inertia_kgm2 * drive.accel_lim_w_radps2,
+    reach = torque_cap_reach(spec)
+    if reach is not None and reach.reachable:
+        out["wheel_torque_max_nm"] = (
+            f"{reach.by} asks up to {reach.ask_nm:.3g} N m per wheel, the cap's centre is "
+            f"{reach.cap_nm:.3g} N m: a base whose wheels do not saturate there bounds the cap "
+            "only from below"
         )
-        if accel < cap.nominal:
-            out["wheel_torque_max_nm"] = (
-                f"the acceleration limits ask at most {accel:.3g} N m per wheel, below the cap "
-                f"({cap.nominal:.3g} N m)"
-            )
-        else:
-            ask = 2.0 * k * drive.wheel_speed_max_radps
-            out["wheel_torque_max_nm"] = (
-                f"the wheel loops ask at most {ask:.3g} N m per wheel (a reversal from the "
-                "wheel-speed cap): a base whose motors give more shows no cap"
-            )
     if priors["speed_loop_ki_per_s"].nominal > 0:
         # a friction prior whose sd is this small a share of the loop's proportional gain hides
         # behind it (docs/transfer.md: the Burger's 2.3-2.4 % stay near their priors on the
@@ -351,6 +532,7 @@ def plan_excitation(
         "wheel_radps": float(wheel),
         "wheel_mps": float(wheel * geo.wheel_radius_m),
         "half_track_m": 0.5 * geo.wheel_separation_m,
+        "area_m": float(area_m),
         # in-place turns held until the smoother has reached 110 % of the limit, and 0.8 s on
         "hold_w_s": float(np.clip(OVERDRIVE * w / drive.accel_lim_w_radps2 + 0.8, 1.2, 4.0)),
     }
@@ -389,4 +571,5 @@ def plan_excitation(
         limits={k: lim[k] for k in ("v_mps", "w_radps", "wheel_radps")},
         extent_m=_extent(cmd[:, 0], cmd[:, 1], 1.0 / rate_hz),
         weak=weakly_identified(spec),
+        unreachable=unreachable(spec),
     )

@@ -106,6 +106,10 @@ def handle_plan(args: argparse.Namespace) -> int:
     for name, kinds in plan.identifies().items():
         if name not in plan.weak:
             console.print(f"  {name:<28} by {', '.join(kinds)}", highlight=False)
+    if plan.unreachable:
+        console.print("no command within the limits can identify:", highlight=False)
+        for name, why in plan.unreachable.items():
+            console.print(f"  {name:<28} {escape(why)}", highlight=False)
     console.print("excited, but one session may leave near its prior:", highlight=False)
     for name, why in plan.weak.items():
         console.print(f"  {name:<28} {escape(why)}", highlight=False)

@@ -11,9 +11,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from robots.params import DriveParams
-from robots.spec import load_spec
+from robots.spec import RobotSpec, load_spec
 from sysid.errors import SysidValueError
-from sysid.plan import MASS_GAIN, OVERDRIVE, plan_excitation, weakly_identified
+from sysid.plan import (
+    MASS_GAIN,
+    OVERDRIVE,
+    REACH_SD,
+    plan_excitation,
+    torque_cap_reach,
+    unreachable,
+    weakly_identified,
+)
 
 ROBOTS = ("turtlebot3_burger", "turtlebot2", "turtlebot3_waffle_pi")
 
@@ -54,9 +62,10 @@ def test_a_90_s_plan_reaches_every_limit_and_excites_every_prior(robot: str) -> 
     outer = (np.abs(plan.v_mps) + half * np.abs(plan.w_radps)) / spec.geometry.wheel_radius_m
     assert outer.max() >= spec.drive.wheel_speed_max_radps  # the wheel cap acts
     kinds = {b.kind for b in plan.blocks}
-    assert kinds == {"v steps", "w steps", "ramps", "turns while driving"}
+    assert kinds == {"v steps", "w steps", "speed levels", "ramps", "turns while driving"}
     fitted = {n for n in DriveParams.names() if spec.priors[n].sd > 0}
-    assert fitted <= set(plan.identifies())
+    assert fitted <= set(plan.identifies()) | set(plan.unreachable)
+    assert not set(plan.identifies()) & set(plan.unreachable)
     assert set(MASS_GAIN) <= fitted
 
 
@@ -99,10 +108,11 @@ def test_what_a_plan_may_leave_near_its_prior_is_excited_and_argued_from_the_spe
 def test_the_weak_list_follows_the_physics_of_each_base() -> None:
     burger = weakly_identified(load_spec("turtlebot3_burger"))
     kobuki = weakly_identified(load_spec("turtlebot2"))
-    # the Burger's PI loops ask 2 K x wheel cap = 2 x 0.011323 x 8.0815 N m at a full reversal
-    assert "0.183 N m" in burger["wheel_torque_max_nm"]
-    # the Kobuki's 1 m/s^2 smoother asks m a r / 2 = 2.52 x 1 x 0.035 / 2 N m
-    assert "0.0441 N m" in kobuki["wheel_torque_max_nm"]
+    # the Burger's PI loops, with no smoother, ask twice its cap's centre at an arc reversed
+    # from the wheel-speed cap: within reach, but a base that gives it shows only a lower bound
+    assert "0.167 N m" in burger["wheel_torque_max_nm"]
+    # the Kobuki's smoother keeps the cap out of reach: not weak, unreachable (below)
+    assert "wheel_torque_max_nm" not in kobuki
     # viscous priors of 2.4 % and 2.3 % of the Burger's loop gain hide behind it; the Kobuki's
     # yaw term (12 %) does not
     assert {"viscous_v_ns_per_m", "viscous_w_nms_per_rad"} <= set(burger)
@@ -126,3 +136,60 @@ def test_the_weak_list_follows_the_physics_of_each_base() -> None:
         },
     )
     assert not {"viscous_v_ns_per_m", "viscous_w_nms_per_rad"} & set(weakly_identified(p_loop))
+
+
+def _with_drive(robot: str, **drive: float) -> RobotSpec:
+    """``robot``'s spec with ``drive`` values, their priors centred on them."""
+    spec = load_spec(robot)
+    priors = {
+        **spec.priors,
+        **{n: dataclasses.replace(spec.priors[n], nominal=x) for n, x in drive.items()},
+    }
+    return dataclasses.replace(spec, drive=spec.drive.replace(**drive), priors=priors)
+
+
+def test_the_torque_cap_is_out_of_reach_only_where_no_command_asks_for_it() -> None:
+    # the Kobuki's 1 m/s^2, 2 rad/s^2 smoother: an arc reversed from the wheel cap asks
+    # 0.063 N m per wheel (2.52 kg x 1 m/s^2 x 0.035 m / 2 = 0.044 N m of it the forward
+    # axis), ln(0.208 / 0.0633) / hypot(0.3, 0.5) = 2.0 prior sd below the 0.208 N m cap
+    kobuki = torque_cap_reach(load_spec("turtlebot2"))
+    assert kobuki is not None and not kobuki.reachable
+    assert kobuki.ask_nm == pytest.approx(0.0633, abs=5e-4)
+    assert kobuki.margin_sd == pytest.approx(math.log(0.208 / kobuki.ask_nm) / math.hypot(0.3, 0.5))
+    why = unreachable(load_spec("turtlebot2"))["wheel_torque_max_nm"]
+    assert "0.0633 N m per wheel" in why and "0.208 N m" in why
+    plan = plan_excitation(load_spec("turtlebot2"), 90.0)
+    assert set(plan.unreachable) == {"wheel_torque_max_nm"}
+    assert "wheel_torque_max_nm" not in plan.identifies()
+    # the same base without its smoother: every reversal is a step into the PI loops, which
+    # ask more than the cap, so a plan can reach it
+    bare = torque_cap_reach(_with_drive("turtlebot2", accel_lim_v_mps2=math.inf,
+                                        accel_lim_w_radps2=math.inf))  # fmt: skip
+    assert bare is not None and bare.reachable and bare.ask_nm > 0.208
+    # the Burger has no smoother: reachable; behind a gentle one (0.3 m/s^2, 3 rad/s^2) not
+    burger = torque_cap_reach(load_spec("turtlebot3_burger"))
+    assert burger is not None and burger.reachable and burger.ask_nm > 2 * 0.081
+    assert unreachable(load_spec("turtlebot3_burger")) == {}
+    smoothed = _with_drive("turtlebot3_burger", accel_lim_v_mps2=0.3, accel_lim_w_radps2=3.0)
+    reach = torque_cap_reach(smoothed)
+    assert reach is not None and reach.margin_sd > REACH_SD
+    assert set(unreachable(smoothed)) == {"wheel_torque_max_nm"}
+    # a cap known exactly is no question
+    known = load_spec("turtlebot2")
+    known = dataclasses.replace(
+        known,
+        priors={**known.priors, "wheel_torque_max_nm": dataclasses.replace(
+            known.priors["wheel_torque_max_nm"], sd=0.0)},
+    )  # fmt: skip
+    assert torque_cap_reach(known) is None and unreachable(known) == {}
+
+
+@settings(max_examples=8, deadline=None)
+@given(accel=st.floats(0.2, 20.0))
+def test_a_harder_smoother_asks_more_torque(accel: float) -> None:
+    soft = torque_cap_reach(_with_drive("turtlebot2", accel_lim_v_mps2=accel,
+                                        accel_lim_w_radps2=2.0 * accel))  # fmt: skip
+    hard = torque_cap_reach(_with_drive("turtlebot2", accel_lim_v_mps2=1.5 * accel,
+                                        accel_lim_w_radps2=3.0 * accel))  # fmt: skip
+    assert soft is not None and hard is not None
+    assert hard.ask_nm > soft.ask_nm and hard.margin_sd < soft.margin_sd

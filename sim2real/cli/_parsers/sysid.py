@@ -138,16 +138,19 @@ def _register_plan(group_sub: argparse._SubParsersAction) -> None:  # type: igno
         help="write the command script to record for a fit (ros2 bag play)",
         description=(
             "Design a command script for a base from its spec: held v and w steps up to 110 % "
-            "of the speed limits with stops and reversals, slow ramps both ways, and turns "
-            "while driving up to the wheel-speed cap, each driven out and back so the base "
-            "stays within --area. Writes /cmd_vel (geometry_msgs/msg/Twist) in a ROS 2 MCAP "
-            "file that 'ros2 bag play' sends to the base; record /cmd_vel and /odom meanwhile "
-            "and fit the recording with 'sim2real sysid fit'. Prints what each block is "
-            "designed to identify, and what one session may leave near its prior on this base "
-            "and why: the mass-gain direction (velocity data fix mass over gain), a torque cap "
-            "the acceleration limits or the wheel loops' demand never reach, and viscous "
-            "friction that PI wheel loops hide (shown only in transients, where its prior "
-            "spread is a few percent of the loop's gain)."
+            "of the speed limits with stops and reversals, steps around held speed levels, "
+            "slow ramps both ways, and turns while driving up to the wheel-speed cap reversed "
+            "at once, each driven out and back so the base stays within --area. Writes "
+            "/cmd_vel (geometry_msgs/msg/Twist) in a ROS 2 MCAP file that 'ros2 bag play' "
+            "sends to the base; record /cmd_vel and /odom meanwhile and fit the recording with "
+            "'sim2real sysid fit'. Prints what each block is designed to identify; what no "
+            "command within the limits can identify, computed from the spec (a wheel torque "
+            "cap far above the largest torque the commands ask, e.g. behind a velocity "
+            "smoother); and what one session may leave near its prior on this base and why: "
+            "the mass-gain direction (velocity data fix mass over gain), a torque cap a base "
+            "whose wheels do not saturate bounds only from below, and viscous friction that "
+            "PI wheel loops hide (shown only in transients, where its prior spread is a few "
+            "percent of the loop's gain)."
         ),
         examples=_PLAN_EXAMPLES,
     )
