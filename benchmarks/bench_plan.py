@@ -49,8 +49,8 @@ def _apart(
     cap = "wheel_torque_max_nm"
     if profile == "planned" and cap in lower and ratios.get(cap, 0.0) > POOR and cap not in out:
         out[cap] = (
-            f"never reached: the planned reversals asked at most {lower[cap]:.3g} N m per wheel "
-            "and the base followed, so the log bounds the cap only from below"
+            f"never reached: the fitted response needs {lower[cap]:.3g} N m per wheel at most "
+            "and never saturates, so the log bounds the cap only from below"
         )
     return out
 

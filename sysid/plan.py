@@ -8,9 +8,10 @@ blocks that each excite named parameters of :class:`robots.params.DriveParams`:
   (the firmware clamps: the limits are reached), each followed by a stop: delay, response
   time constants, speed-loop integral action, torque and acceleration limits, speed limits;
 - **ramps**: slow ramps forward and backward: Coulomb friction each way, apart from viscous;
-- **speed levels**: steps of half a level up and down around held speeds and turn rates
-  (half and 0.7 of the limits), no stop between: the wheel loops' integrators stay loaded,
-  so the transients carry the friction apart from the loops' gains;
+- **speed levels** (in a cycle the script holds whole): steps of half a level up and down
+  around held speeds and turn rates (half and 0.7 of the limits), no stop between: the wheel
+  loops' integrators stay loaded, so the transients carry the friction apart from the loops'
+  gains;
 - **turns while driving**: arcs and weaves at several speeds and turn rates, the fastest with
   the outer wheel's target above the wheel-speed cap, reversed at once (the outer wheel from
   its cap to minus its cap: the largest torque any command within the limits asks): the cap,
@@ -290,8 +291,11 @@ def _levels(script: _Script, k: int, lim: dict[str, float]) -> None:
         script.out_and_back(leg, 0.6)
 
 
-def _cycle(script: _Script, k: int, lim: dict[str, float], hold_s: float) -> list[PlanBlock]:
-    """Cycle ``k`` of the four blocks (sizes vary from cycle to cycle)."""
+def _cycle(
+    script: _Script, k: int, lim: dict[str, float], hold_s: float, *, levels: bool
+) -> list[PlanBlock]:
+    """Cycle ``k`` of the blocks (sizes vary from cycle to cycle); the speed levels only when
+    ``levels``."""
     v, w, half_track = lim["v_mps"], lim["w_radps"], lim["half_track_m"]
     sizes_v = [(0.35, OVERDRIVE, 0.7, 0.15), (0.55, 0.9, OVERDRIVE, 0.25)][k % 2]
     sizes_w = [(0.3, OVERDRIVE, 0.6, 0.06), (0.45, 0.8, OVERDRIVE, 0.1)][k % 2]
@@ -326,9 +330,10 @@ def _cycle(script: _Script, k: int, lim: dict[str, float], hold_s: float) -> lis
     script.rows += script.hold(0.0, OVERDRIVE * w, turn) + script.hold(0.0, -OVERDRIVE * w, turn)
     script.rows += script.hold(0.0, 0.0, 0.6)
     block("w steps", start)
-    start = len(script.rows)
-    _levels(script, k, lim)
-    block("speed levels", start)
+    if levels:
+        start = len(script.rows)
+        _levels(script, k, lim)
+        block("speed levels", start)
     start = len(script.rows)
     ramp_s = min(3.0, 2.0 * hold_s)
     script.out_and_back(script.ramp(0.0, v, ramp_s) + script.ramp(v, 0.0, ramp_s), 0.6)
@@ -544,7 +549,12 @@ def plan_excitation(
     blocks: list[PlanBlock] = []
     k = 0
     while len(script.rows) < n:
-        blocks += _cycle(script, k, lim, hold_s)
+        # the speed levels only in a cycle the script holds whole: a shorter script keeps the
+        # blocks that reach the limits
+        trial = _Script(script.hz)
+        trial.rows = list(script.rows)
+        _cycle(trial, k, lim, hold_s, levels=True)
+        blocks += _cycle(script, k, lim, hold_s, levels=len(trial.rows) <= n)
         k += 1
     cmd = np.asarray(script.rows[:n], dtype=np.float64)
     cmd[-round(1.0 * rate_hz) :] = 0.0  # the script ends at rest
