@@ -11,7 +11,7 @@ import pytest
 
 from sim2real.cli import main
 from sim2real.sensor_id import identify_sensor, read_sensor_logs
-from sysid.sensors import still_stretches
+from sysid.sensors import PoseArrays, ScanArrays, SensorEstimate, still_stretches
 
 pytestmark = [pytest.mark.realdata]
 
@@ -33,8 +33,24 @@ def spec(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def test_two_recordings_of_one_unit_agree(realdata_dir: Path, spec: Path) -> None:
-    a, b = (identify_sensor([realdata_dir / name], robot=spec) for name in LOGS)
+Logs = tuple[list[ScanArrays], list[PoseArrays]]
+
+
+@pytest.fixture(scope="module")
+def identified(realdata_dir: Path, spec: Path) -> dict[str, tuple[Logs, SensorEstimate]]:
+    """Per recording of :data:`LOGS`: its scans and odometry, and its identification (both
+    tests judge the same one)."""
+    out = {}
+    for name in LOGS:
+        logs = read_sensor_logs([realdata_dir / name])
+        out[name] = (logs, identify_sensor([realdata_dir / name], robot=spec, logs=logs))
+    return out
+
+
+def test_two_recordings_of_one_unit_agree(
+    identified: dict[str, tuple[Logs, SensorEstimate]],
+) -> None:
+    a, b = (identified[name][1] for name in LOGS)
     for est in (a, b):
         assert est.beams == 361 and est.range_max_m == pytest.approx(5.0)
         assert est.still_scans >= 10
@@ -65,10 +81,11 @@ def test_two_recordings_of_one_unit_agree(realdata_dir: Path, spec: Path) -> Non
     assert abs(gap) <= half  # the two intervals overlap
 
 
-def test_moving_scans_check_the_still_noise(realdata_dir: Path, spec: Path) -> None:
+def test_moving_scans_check_the_still_noise(
+    realdata_dir: Path, spec: Path, identified: dict[str, tuple[Logs, SensorEstimate]]
+) -> None:
     for name in LOGS:
-        scans, odoms = read_sensor_logs([realdata_dir / name])
-        full = identify_sensor([realdata_dir / name], robot=spec, logs=(scans, odoms), n_boot=100)
+        (scans, odoms), full = identified[name]
         assert full.noise_source == "still" and full.moving_residuals > 4000
         # motion only adds to the spread (the XV-11 turns at 5 Hz and its scans are not
         # deskewed): the moving scans' noise is 1-1.5 times the still noise from 1 m out
