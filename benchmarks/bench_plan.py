@@ -14,8 +14,11 @@ with their reason: those :func:`sysid.plan.unreachable` proves so from the spec 
 far above the largest torque the commands ask), and, in a planned session (which asks the
 most torque any command within the limits asks, :func:`sysid.plan.torque_cap_reach`), a torque
 cap the fit proves the base never reached (``randomization.lower``: the log bounds it only
-from below). The rest is counted: the mass-gain direction (:data:`sysid.plan.MASS_GAIN`) and
-anything else.
+from below); and those no session of this length can identify
+(:func:`sysid.plan.beyond_session`: even the best case, the Fisher information of the plan or
+one of its block kinds alone on the drive model, leaves them above half their prior sd),
+outside the mass-gain direction. The rest is counted: the mass-gain direction
+(:data:`sysid.plan.MASS_GAIN`) and anything else. Each base's best case is printed first.
 
 Run: ``.venv/bin/python benchmarks/bench_plan.py [--robots turtlebot2 turtlebot3_burger]
 [--seeds 1 2 3 4 5 6] [--profiles planned goals]`` (about 90 s per fit on one core).
@@ -32,19 +35,29 @@ from robots.spec import load_spec
 from sim2real.plants.diff_drive import draw_session, make_fleet, plant_from_spec
 from sim2real.plants.recording import record_plan
 from sysid import fit_drive
-from sysid.plan import MASS_GAIN, plan_excitation, unreachable
+from sysid.plan import MASS_GAIN, beyond_session, information_bound, plan_excitation, unreachable
 
 #: A parameter whose posterior sd is above this fraction of its prior sd is poorly informed.
 POOR = 0.5
 
 
 def _apart(
-    robot: str, profile: str, ratios: dict[str, float], lower: dict[str, float]
+    robot: str,
+    profile: str,
+    ratios: dict[str, float],
+    lower: dict[str, float],
+    beyond: dict[str, str],
 ) -> dict[str, str]:
-    """Poorly informed parameters no command within the limits can identify, and why."""
+    """Poorly informed parameters no command within the limits, or no session of this length
+    (``beyond``, outside the mass-gain direction), can identify, and why."""
     spec = load_spec(robot)
     out = {
         n: f"by the spec: {why}" for n, why in unreachable(spec).items() if ratios.get(n, 0) > POOR
+    }
+    out |= {
+        n: f"beyond one session of this length: {why}"
+        for n, why in beyond.items()
+        if n not in MASS_GAIN and ratios.get(n, 0) > POOR and n not in out
     }
     cap = "wheel_torque_max_nm"
     if profile == "planned" and cap in lower and ratios.get(cap, 0.0) > POOR and cap not in out:
@@ -88,12 +101,20 @@ def main() -> None:
     args = ap.parse_args()
     counts: dict[tuple[str, str], list[tuple[int, int, int]]] = {}
     for robot in args.robots:
+        bound = information_bound(load_spec(robot), args.duration)
+        beyond = beyond_session(bound)
+        print(
+            f"{robot}: best case of one {args.duration:g} s session: "
+            + ", ".join(f"{k} {r:.2f}" for k, r in bound.sd_ratio.items())
+            + f"; beyond it: {', '.join(beyond) or 'none'}",
+            flush=True,
+        )
         for profile in args.profiles:
             for seed in args.seeds:
                 t0 = time.perf_counter()
                 ratios, lower = _ratios(robot, seed, profile, args.duration)
                 poor = {k: r for k, r in ratios.items() if r > POOR}
-                apart = _apart(robot, profile, ratios, lower)
+                apart = _apart(robot, profile, ratios, lower, beyond)
                 counted = {k: r for k, r in poor.items() if k not in apart}
                 mass_gain = sum(k in MASS_GAIN for k in counted)
                 counts.setdefault((robot, profile), []).append(

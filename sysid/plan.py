@@ -24,6 +24,10 @@ response, not the split between motor gain and mass (:mod:`sysid.fit`): no plan 
 ``motor_gain_nms_per_rad``, ``added_mass_kg`` and ``added_yaw_inertia_kgm2`` apart. Nor does
 any plan identify a wheel torque cap that no command within the limits makes a wheel reach
 (:func:`unreachable`: behind a velocity smoother, the largest ask may stay far below it).
+:func:`information_bound` computes the best case one session of a length could reach for
+each smooth parameter (the Fisher information of the plan and of each of its block kinds
+alone, at a stated noise and command jitter); :func:`beyond_session` names what even that
+leaves above half its prior sd.
 
 Examples
 --------
@@ -44,16 +48,27 @@ from typing import Any
 import numpy as np
 
 from robots.arrays import FloatArray
-from robots.params import SCHEMA
-from robots.reduced import simulate
+from robots.params import SCHEMA, coords_to_values
+from robots.reduced import DEFAULT_DT_S, simulate
+from sysid._coords import Mapper
+from sysid._logs import LogArrays
 from sysid._needs import limit_needs
+from sysid._problem import Problem
+from sysid._timing import Whitener, arrival_sensitivities, logs_key
 from sysid.errors import SysidValueError
 
 __all__ = [
+    "BEYOND_SD_RATIO",
+    "LIMITS",
     "REACH_SD",
+    "REFERENCE_JITTER_S",
+    "REFERENCE_NOISE",
     "ExcitationPlan",
+    "InformationBound",
     "PlanBlock",
     "TorqueReach",
+    "beyond_session",
+    "information_bound",
     "plan_excitation",
     "torque_cap_reach",
     "unreachable",
@@ -84,6 +99,30 @@ REACH_SD = 1.645
 #: from the commands' timing jitter at unsmoothed steps and the per-wheel friction the drive
 #: model sums per axis (:func:`weakly_identified`; docs/transfer.md).
 WEAK_FRICTION_SHARE = 0.05
+#: The information bound's odometry: white noise of v and w (m/s, rad/s, per 30 Hz sample)
+#: and the sd of each command's arrival time about its logged time, s (a ROS transport).
+REFERENCE_NOISE = (0.004, 0.02)
+REFERENCE_JITTER_S = 0.01
+#: A parameter whose best-case posterior sd over prior sd (:func:`information_bound`) is
+#: above this is beyond one session of the length (:func:`beyond_session`).
+BEYOND_SD_RATIO = 0.5
+#: Limits: a limit binds (and the data bound it sharply) or it does not (and they bound it from
+#: one side only), so the information at one point says nothing of it (the torque cap's
+#: reach is :func:`torque_cap_reach`'s).
+LIMITS = (
+    "speed_lim_v_mps",
+    "speed_lim_w_radps",
+    "accel_lim_v_mps2",
+    "accel_lim_w_radps2",
+    "wheel_speed_max_radps",
+    "wheel_torque_max_nm",
+    "wheel_stall_torque_nm",
+    "wheel_no_load_speed_radps",
+)
+#: Forward-and-back step of each parameter in the bound's Jacobian, share of its prior sd.
+_BOUND_STEP = 0.1
+#: Odometry rate of the bound's log, Hz.
+_BOUND_ODOM_HZ = 30.0
 #: Block kind -> the DriveParams fields it is designed to identify.
 _EXCITES: dict[str, tuple[str, ...]] = {
     "v steps": (
@@ -227,6 +266,32 @@ class TorqueReach:
     def reachable(self) -> bool:
         """False when the cap lies more than :data:`REACH_SD` combined sd above the ask."""
         return self.margin_sd <= REACH_SD
+
+
+@dataclass(frozen=True, kw_only=True)
+class InformationBound:
+    """The best a session of one length can inform each smooth drive parameter.
+
+    Attributes
+    ----------
+    duration_s : float
+        The session's length, s.
+    noise : tuple of float
+        White noise of the odometry's v and w, m/s and rad/s per 30 Hz sample.
+    jitter_s : float
+        Sd of each command's arrival time about its logged time, s.
+    sd_ratio : dict
+        DriveParams field -> the least posterior sd over prior sd of the scripts tried (the
+        plan and each of its block kinds alone for the whole length).
+    by : dict
+        DriveParams field -> the script that informs it best.
+    """
+
+    duration_s: float
+    noise: tuple[float, float]
+    jitter_s: float
+    sd_ratio: dict[str, float]
+    by: dict[str, str]
 
 
 class _Script:
@@ -492,6 +557,150 @@ def weakly_identified(spec: Any) -> dict[str, str]:
                     f"sd is {100.0 * sd / gain:.2g} % of the loop's gain" + jitter
                 )
     return out
+
+
+def _kind_scripts(plan: ExcitationPlan) -> dict[str, tuple[FloatArray, FloatArray]]:
+    """The plan's commands, and each of its block kinds alone, repeated for the plan's
+    length (each block starts and ends at rest and returns to its start: still within the
+    floor), from the same 1.5 s rest to the same 1 s stop."""
+    hz, n = plan.rate_hz, plan.t_s.size
+    lead, tail = round(1.5 * hz), round(1.0 * hz)
+    out = {"the plan": (plan.v_mps, plan.w_radps)}
+    for kind in dict.fromkeys(b.kind for b in plan.blocks):
+        spans = [
+            (round(b.start_s * hz), round(b.end_s * hz))
+            for b in plan.blocks
+            if b.kind == kind and b.end_s <= plan.duration_s - 1.0
+        ]
+        if not spans:
+            continue
+        rows = np.concatenate([np.arange(a, b) for a, b in spans])
+        reps = math.ceil(max(n - lead - tail, 1) / rows.size)
+        idx = np.tile(rows, reps)[: max(n - lead - tail, 0)]
+        cmd = np.zeros((n, 2))
+        cmd[lead : lead + idx.size, 0] = plan.v_mps[idx]
+        cmd[lead : lead + idx.size, 1] = plan.w_radps[idx]
+        out[f"{kind} alone"] = (cmd[:, 0].copy(), cmd[:, 1].copy())
+    return out
+
+
+def _script_ratios(
+    spec: Any,
+    t_s: FloatArray,
+    cmd: tuple[FloatArray, FloatArray],
+    names: list[str],
+    noise: tuple[float, float],
+    jitter_s: float,
+) -> FloatArray:
+    """Posterior over prior sd of ``names`` from one noise-free script on the drive model at
+    the priors' centres (no torque cap, no torque-speed line): the Fisher information of the
+    30 Hz v and w under white ``noise``, each changing command's arrival a nuisance of sd
+    ``jitter_s`` (marginalised: :mod:`sysid._timing`), plus the priors."""
+    centre, geo = _centre(spec), spec.geometry
+    t_meas = np.arange(0.0, t_s[-1] + 1.0 / _BOUND_ODOM_HZ, 1.0 / _BOUND_ODOM_HZ)
+    zeros = np.zeros(t_meas.size)
+    log = LogArrays(
+        cmd_t_s=t_s, cmd_v=cmd[0], cmd_w=cmd[1], meas_t_s=t_meas, meas_v=zeros, meas_w=zeros
+    )
+    mapper = Mapper(geo, centre, spec.priors)
+    prob = Problem(
+        [log], mapper, (), {}, scale_v=noise[0], scale_w=noise[1], dt_s=DEFAULT_DT_S,
+        v_window_s=spec.odometry.v_window_s, w_source=spec.odometry.w_source,
+    )  # fmt: skip
+    z0 = np.array([mapper.z(centre, n) for n in names])
+    sd = np.array([spec.priors[n].sd for n in names])
+    others = {n: float(getattr(centre, n)) for n in SCHEMA}
+    moved = []
+    for j in range(len(names)):
+        for sign in (1.0, -1.0):
+            z = z0.copy()
+            z[j] += sign * _BOUND_STEP * sd[j]
+            moved.append(centre.replace(**coords_to_values(names, z, geo, others)))
+    y = prob.scaled_sim_many(moved)
+    jac = (y[0::2] - y[1::2]).T / (2.0 * _BOUND_STEP)  # rows: noise units; columns: per prior sd
+    if jitter_s > 0:
+        sens = arrival_sensitivities(prob, centre)
+        whiten = Whitener.of(
+            sens, sigma_t_s=jitter_s, scale_v=1.0, scale_w=1.0, key=logs_key(prob.logs)
+        )
+        jac = whiten.apply(jac.T).T
+    cov = np.linalg.inv(jac.T @ jac + np.eye(len(names)))
+    return np.sqrt(np.clip(np.diag(cov), 0.0, 1.0))
+
+
+def information_bound(
+    spec: Any,
+    duration_s: float,
+    *,
+    rate_hz: float = 10.0,
+    area_m: float = 3.0,
+    noise: tuple[float, float] = REFERENCE_NOISE,
+    jitter_s: float = REFERENCE_JITTER_S,
+) -> InformationBound:
+    """The best one session of ``duration_s`` can inform each of ``spec``'s smooth drive
+    parameters (the ones with a prior that are not :data:`LIMITS`), as post/prior sd.
+
+    The Fisher information (Cramér-Rao: no unbiased fit does better) of noise-free scripts on
+    the drive model at the priors' centres, with no torque cap and no torque-speed line (no
+    limit of the mass enters), read as the spec's odometry reads the base (30 Hz, v over the
+    encoder window) with white ``noise`` (m/s, rad/s), each changing command's arrival time a
+    nuisance of sd ``jitter_s`` (s), combined with the priors. The scripts are the plan of
+    that length (``rate_hz``, ``area_m``: :func:`plan_excitation`) and each of its block kinds
+    alone for the whole length; the least ratio of each parameter is kept. A longer session,
+    less noise or less jitter lowers it. A bound, not a forecast: a fit of a base whose
+    physics the drive model lumps differently (per-wheel friction, a discrete loop) reports
+    more.
+
+    Examples
+    --------
+    >>> from robots.spec import load_spec
+    >>> bound = information_bound(load_spec("turtlebot3_burger"), 20.0)
+    >>> round(bound.sd_ratio["viscous_v_ns_per_m"], 2), bound.by["viscous_v_ns_per_m"]
+    (0.79, 'the plan')
+    """
+    plan = plan_excitation(spec, duration_s, rate_hz=rate_hz, area_m=area_m)
+    if not (jitter_s >= 0 and min(noise) > 0):
+        raise SysidValueError(
+            f"the information bound needs noise > 0 and jitter_s >= 0, got noise {noise!r} "
+            f"and jitter_s {jitter_s!r}"
+        )
+    names = [n for n, p in spec.priors.items() if n in SCHEMA and p.informative and n not in LIMITS]
+    best = dict.fromkeys(names, math.inf)
+    by = dict.fromkeys(names, "")
+    for label, cmd in _kind_scripts(plan).items():
+        ratios = _script_ratios(spec, plan.t_s, cmd, names, noise, jitter_s)
+        for name, r in zip(names, ratios.tolist(), strict=True):
+            if r < best[name]:
+                best[name], by[name] = r, label
+    return InformationBound(
+        duration_s=float(duration_s),
+        noise=(float(noise[0]), float(noise[1])),
+        jitter_s=float(jitter_s),
+        sd_ratio=best,
+        by=by,
+    )
+
+
+def beyond_session(bound: InformationBound) -> dict[str, str]:
+    """What no session of the bound's length identifies, and why: the smooth parameters whose
+    best case (:func:`information_bound`) stays above :data:`BEYOND_SD_RATIO` of the prior sd.
+
+    Examples
+    --------
+    >>> from robots.spec import load_spec
+    >>> sorted(beyond_session(information_bound(load_spec("turtlebot3_burger"), 20.0)))[-2:]
+    ['viscous_v_ns_per_m', 'viscous_w_nms_per_rad']
+    """
+    return {
+        name: (
+            f"informed to {r:.2f} of its prior sd at best, by {bound.by[name]} (Fisher "
+            f"information of {bound.duration_s:g} s of the plan or of one of its block kinds "
+            f"alone, at the priors' centres, noise {1e3 * bound.noise[0]:.3g} mm/s and "
+            f"{bound.noise[1]:.3g} rad/s, {1e3 * bound.jitter_s:.3g} ms command jitter)"
+        )
+        for name, r in bound.sd_ratio.items()
+        if r > BEYOND_SD_RATIO
+    }
 
 
 def _extent(v: FloatArray, w: FloatArray, dt: float) -> float:

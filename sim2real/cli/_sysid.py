@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import Any
 
 from rich.markup import escape
 
+from robots.spec import load_spec
 from sim2real._io import atomic_write, check_not_an_input, check_output_path
 from sim2real.agreement.study import odom_v_window_seconds
 from sim2real.cli._common import read_options
@@ -16,6 +18,7 @@ from sim2real.cluster import expand_logs, map_tasks
 from sim2real.errors import Sim2RealValueError
 from sim2real.fitting import fit_logs
 from sim2real.planning import write_plan
+from sysid.plan import beyond_session, information_bound
 
 __all__ = ["handle_fit", "handle_plan"]
 
@@ -84,6 +87,26 @@ def handle_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_bound(console: Any, args: argparse.Namespace) -> None:
+    """The best case of one session of the plan's length for each smooth parameter, and what
+    no session of that length identifies (:func:`sysid.plan.information_bound`)."""
+    bound = information_bound(
+        load_spec(args.robot), args.duration, rate_hz=args.rate, area_m=args.area
+    )
+    shown = ", ".join(f"{n} {r:.2f}" for n, r in bound.sd_ratio.items())
+    console.print(
+        f"best case of one {bound.duration_s:g} s session, post/prior sd: {shown}",
+        highlight=False,
+    )
+    beyond = beyond_session(bound)
+    console.print(
+        f"no session of {bound.duration_s:g} s can identify:" + ("" if beyond else " none"),
+        highlight=False,
+    )
+    for name, why in beyond.items():
+        console.print(f"  {name:<28} {escape(why)}", highlight=False)
+
+
 def handle_plan(args: argparse.Namespace) -> int:
     """``sysid plan --robot R -o excite.mcap``: write the script, print what it identifies."""
     out = check_output_path(args.output, what="command script")
@@ -113,5 +136,7 @@ def handle_plan(args: argparse.Namespace) -> int:
     console.print("excited, but one session may leave near its prior:", highlight=False)
     for name, why in plan.weak.items():
         console.print(f"  {name:<28} {escape(why)}", highlight=False)
+    if args.bound:
+        _print_bound(console, args)
     console.print(f"wrote [bold]{escape(str(out))}[/]")
     return 0

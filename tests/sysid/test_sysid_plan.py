@@ -14,9 +14,12 @@ from robots.params import DriveParams
 from robots.spec import RobotSpec, load_spec
 from sysid.errors import SysidValueError
 from sysid.plan import (
+    LIMITS,
     MASS_GAIN,
     OVERDRIVE,
     REACH_SD,
+    beyond_session,
+    information_bound,
     plan_excitation,
     torque_cap_reach,
     unreachable,
@@ -193,3 +196,31 @@ def test_a_harder_smoother_asks_more_torque(accel: float) -> None:
                                         accel_lim_w_radps2=3.0 * accel))  # fmt: skip
     assert soft is not None and hard is not None
     assert hard.ask_nm > soft.ask_nm and hard.margin_sd < soft.margin_sd
+
+
+@pytest.mark.slow
+def test_the_information_bound_says_what_no_session_of_a_length_identifies() -> None:
+    spec = load_spec("turtlebot3_burger")
+    viscous = {"viscous_v_ns_per_m", "viscous_w_nms_per_rad"}
+    # 20 s of the plan hold its v steps and part of its w steps: the viscous terms, the yaw
+    # Coulomb term and the mass-gain direction stay above half their prior sd at best
+    short = information_bound(spec, 20.0)
+    assert viscous | {"coulomb_w_nm", "added_mass_kg"} <= set(beyond_session(short))
+    assert short.sd_ratio["viscous_v_ns_per_m"] == pytest.approx(0.79, abs=0.02)
+    # 90 s (the speed levels, the turns while driving): within reach in principle, the
+    # commands' 10 ms arrival jitter marginalised; left beyond it only the mass-gain direction
+    full = information_bound(spec, 90.0)
+    assert max(full.sd_ratio[n] for n in viscous) < 0.4
+    assert set(beyond_session(full)) == {"added_mass_kg"} and set(MASS_GAIN) >= {"added_mass_kg"}
+    assert "informed to 0.8" in beyond_session(full)["added_mass_kg"]
+    # a longer session informs every parameter at least as well; limits are not its question
+    assert all(full.sd_ratio[n] <= short.sd_ratio[n] + 1e-9 for n in full.sd_ratio)
+    assert not set(full.sd_ratio) & set(LIMITS)
+    assert set(full.sd_ratio) == {
+        n for n, p in spec.priors.items() if p.informative and n not in LIMITS
+    }
+
+
+def test_the_information_bound_refuses_noise_it_cannot_weigh() -> None:
+    with pytest.raises(SysidValueError, match="needs noise > 0 and jitter_s >= 0"):
+        information_bound(load_spec("turtlebot2"), 20.0, noise=(0.0, 0.02))

@@ -37,6 +37,9 @@ def test_the_cli_writes_twist_commands_that_ros2_tools_decode(tmp_path: Path) ->
     cannot = proc.stdout.split("no command within the limits can identify:")[1]
     assert cannot.split("excited, but")[0].split()[0] == "wheel_torque_max_nm"
     assert "0.0633 N m per wheel" in " ".join(cannot.split())
+    # then the best case of one 60 s session for each smooth parameter, from the spec
+    bound = proc.stdout.split("best case of one 60 s session, post/prior sd:")[1]
+    assert "viscous_v_ns_per_m" in bound and "no session of 60 s can identify:" in bound
     plan = plan_excitation(load_spec("turtlebot2"), 60.0)
     with out.open("rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory()])
@@ -107,43 +110,32 @@ def _poorly_informed(trace: Trace, robot: str) -> set[str]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    ("robot", "seeds"), [("turtlebot2", (2, 4)), ("turtlebot3_burger", (1, 2))]
-)
+@pytest.mark.parametrize(("robot", "seed"), [("turtlebot2", 4), ("turtlebot3_burger", 3)])
 def test_a_planned_session_informs_what_a_go_to_goal_session_does_not(
-    robot: str, seeds: tuple[int, ...]
+    robot: str, seed: int
 ) -> None:
-    # one 90 s session of a drawn plant (not the spec's model) per seed: the mass-gain
-    # direction and a torque cap the wheels never reach (out of reach of any command behind
-    # the Kobuki's 1 m/s^2 smoother; the Burger plant's motors give more than its PI loops
-    # ask); on the Burger also the viscous terms, one prior sd of which is 2.3-2.4 % of its
-    # loops' proportional gain
+    # one 90 s session of a drawn plant (not the spec's model): the mass-gain direction and a
+    # torque cap the wheels never reach (out of reach of any command behind the Kobuki's
+    # 1 m/s^2 smoother; the Burger plant's motors give more than its PI loops ask); on the
+    # Burger also the viscous terms, one prior sd of which is 2.3-2.4 % of its loops'
+    # proportional gain. One seed per base: the seed-to-seed figures are bench_plan's (seeds
+    # 1-12). The Burger's seed 3 has the largest ratio of seeds 1-6 on a parameter sysid plan
+    # does not list (yaw Coulomb 0.50); the Kobuki's 5 and 6 leave the stall torque at 0.75
+    # and 0.63, which the claim below does not hold for on seed 5 (bench_plan counts it)
     plan = plan_excitation(load_spec(robot), 90.0)
-    for seed in seeds:
-        params = draw_session(plant_from_spec(robot), np.random.default_rng([seed, 0]))
-        ratios = _sd_ratios(record_plan(plan, params, seed=seed), robot)
-        planned = {name for name, ratio in ratios.items() if ratio > 0.5}
-        # what sysid plan does not print as left near the prior, the session informs: its
-        # posterior sd is at most 2/3 of the prior's on these seeds. One session's ratio moves
-        # from seed to seed (bench_plan, seeds 1-6: the Burger's yaw Coulomb 0.19-0.50, the
-        # Kobuki's stall torque 0.38-0.39 and 0.63, 0.75 on seeds 6 and 5), so the 0.5 of the
-        # target is the benchmark's to count, not one seed's to cross
-        listed = plan.weak | plan.unreachable
-        informed = {name: r for name, r in ratios.items() if name not in listed}
-        assert max(informed.values()) <= 2.0 / 3.0, (seed, informed)
-    # go-to-goal leaves the speed limits and more besides
-    goals = _poorly_informed(make_fleet(robot, 1, seed=seeds[-1], profile="goals")[0], robot)
-    assert len(goals) >= len(planned) + 3 and {"speed_lim_v_mps", "speed_lim_w_radps"} <= goals
-
-
-@pytest.mark.slow
-def test_the_time_step_bias_never_widens_a_posterior_past_its_prior() -> None:
-    # the Burger's planned session of seed 3: its time-step bias, added whole, took the torque
-    # cap to 3.96 and the added mass to 1.97 of their prior sd
-    robot, seed = "turtlebot3_burger", 3
     params = draw_session(plant_from_spec(robot), np.random.default_rng([seed, 0]))
-    ratios = _sd_ratios(
-        record_plan(plan_excitation(load_spec(robot), 90.0), params, seed=seed), robot
-    )
+    ratios = _sd_ratios(record_plan(plan, params, seed=seed), robot)
+    planned = {name for name, ratio in ratios.items() if ratio > 0.5}
+    # what sysid plan does not print as left near the prior, the session informs: its
+    # posterior sd is at most 2/3 of the prior's
+    listed = plan.weak | plan.unreachable
+    informed = {name: r for name, r in ratios.items() if name not in listed}
+    assert max(informed.values()) <= 2.0 / 3.0, informed
+    # the fit's time-step bias never widens a posterior past its prior (on the Burger's seed 3
+    # it took, added whole, the torque cap to 3.96 and the added mass to 1.97 of their prior
+    # sd), and a cap the wheels never reach stays a prior
     assert max(ratios.values()) <= 1.0 + 1e-9, ratios
-    assert ratios["wheel_torque_max_nm"] > 0.9  # the cap the loops never reach stays a prior
+    assert ratios["wheel_torque_max_nm"] > 0.9
+    # go-to-goal leaves the speed limits and more besides
+    goals = _poorly_informed(make_fleet(robot, 1, seed=seed, profile="goals")[0], robot)
+    assert len(goals) >= len(planned) + 3 and {"speed_lim_v_mps", "speed_lim_w_radps"} <= goals
