@@ -116,38 +116,36 @@ def test_planner_paths_avoid_walls_and_astar_matches_dijkstra_length() -> None:
     assert grid.clearance_m.shape[0] > 100
 
 
-def test_baseline_finishes_open_track_races() -> None:
-    env = gym.make("sim2real/Race-v0", track="open", num_opponents=4)
-    ctrl = RaceBaseline.for_env(env)
-    wins = 0
-    for s in range(3):
-        obs, _ = env.reset(seed=s)
-        ctrl.reset()
-        while True:
-            obs, _, term, trunc, info = env.step(ctrl.act(obs))
-            if term or trunc:
-                break
-        wins += info["outcome"] == "success"
-        if info["outcome"] == "success":
-            assert 36.0 < info["metrics"]["completion_time_s"] < 60.0  # 8 m at <= 0.22 m/s
-    assert wins == 3
+#: Races a track and how many the baseline must finish: 8 of 10 fails a racer that finishes half
+#: its races with probability 1 - P(Bin(10, 0.5) >= 8) = 0.945 (0.83 at a rate of 0.6) and passes
+#: one that finishes 95 % of them with probability 0.989 (seeds 0-9 finish 39 of the 40 races).
+RACES, MUST_FINISH = 10, 8
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("track", TRACKS)
 def test_baseline_finishes_80_percent(track: str) -> None:
+    """Seeds 0-9 in order; the races stop as soon as the verdict on all ten is certain (8 won, or
+    3 lost): the same verdict as racing all ten."""
     env = gym.make("sim2real/Race-v0", track=track, num_opponents=4)
     ctrl = RaceBaseline.for_env(env)
-    wins = 0
-    for s in range(10):
+    wins = losses = 0
+    for s in range(RACES):
+        if wins >= MUST_FINISH or losses > RACES - MUST_FINISH:
+            break
         obs, _ = env.reset(seed=s)
         ctrl.reset()
         while True:
             obs, _, term, trunc, info = env.step(ctrl.act(obs))
             if term or trunc:
                 break
-        wins += info["outcome"] == "success"
-    assert wins >= 8
+        if info["outcome"] == "success":
+            wins += 1
+            if track == "open":  # 8 m at <= 0.22 m/s, with room to accelerate and steer
+                assert 36.0 < info["metrics"]["completion_time_s"] < 60.0
+        else:
+            losses += 1
+    assert wins >= MUST_FINISH, f"{wins} of {wins + losses} races finished on {track}"
 
 
 def test_pettingzoo_parallel_api() -> None:
