@@ -5,6 +5,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -17,14 +18,34 @@ pytestmark = pytest.mark.train
 ROOT = Path(__file__).resolve().parents[3]
 
 
+#: What the loop is asked for: the table's rows, not what a policy learns, are what this checks;
+#: 512 env steps are two PPO updates of the smoke hyper-parameters (4 envs x 64 steps each), and
+#: two evaluation episodes per model and world fill every cell.
+SMALL = ("--timesteps", "512", "--episodes", "2")
+#: The conditions the --jobs 2 run trains again: one nominal, one with a randomizer stack (what a
+#: worker process must rebuild from the config it is handed).
+AGAIN = ("spec", "calibrated DR")
+
+
 def _smoke(out: Path, *extra: str) -> str:
-    cmd = [sys.executable, str(ROOT / "benchmarks" / "bench_transfer.py"), "--smoke", *extra]
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "bench_transfer.py"), "--smoke", *SMALL]
     run = subprocess.run(
-        [*cmd, "--out", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=900
+        [*cmd, *extra, "--out", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=900
     )
     assert run.returncode == 0, run.stderr[-3000:]
     assert "wall time" in run.stdout
     return (out / "results.md").read_text(encoding="utf-8")
+
+
+def _weights(model_zip: Path) -> bytes:
+    """The policy's saved parameters in an SB3 ``model.zip``."""
+    with zipfile.ZipFile(model_zip) as archive:
+        return archive.read("policy.pth")
+
+
+def _rows(table: str, names: tuple[str, ...]) -> list[str]:
+    """The table's rows of the conditions ``names``."""
+    return [line for line in table.splitlines() if line.split(" | ")[0][2:] in names]
 
 
 @pytest.mark.slow
@@ -33,20 +54,35 @@ def test_smoke_runs_the_loop_and_repeats_its_table(tmp_path: Path) -> None:
     for name in ("spec", "fitted", "calibrated DR", "blind DR"):
         for world in ("sim", "plant"):
             assert f"| {name} | {world} |" in first
+    assert "512 env steps per run" in first and "2 evaluation episodes" in first
     # what each condition trains with, against the sessions' true latency
     delays = first.split("delay_s trained with (5/50/95 %): ")[1]
     assert "fitted point 0." in delays and "calibrated DR 0." in delays
     assert "evaluation sessions 0.06-0.16 s" in delays
     assert (tmp_path / "a" / "excite.mcap").is_file()
     assert (tmp_path / "a" / "calibrated.yaml").is_file()
-    # the same table when the runs train and evaluate in two worker processes; the fit and the
+    # the same rows when two runs train and evaluate in two worker processes; the fit and the
     # calibration are not what --jobs changes: the second run resumes from the first's files
     # (the script skips a fit or a calibration whose file exists; it records the sessions,
     # trains and evaluates again)
     (tmp_path / "b").mkdir()
     for name in ("fitted.yaml", "calibrated.yaml"):
         shutil.copy(tmp_path / "a" / name, tmp_path / "b" / name)
-    assert _smoke(tmp_path / "b", "--jobs", "2") == first
+    second = _smoke(tmp_path / "b", "--jobs", "2", "--conditions", *AGAIN)
+    assert len(_rows(second, AGAIN)) == 4
+    assert _rows(second, AGAIN) == _rows(first, AGAIN)
+    assert second.splitlines()[0] == first.splitlines()[0]  # the budget and the task
+    assert second.split("\n\n")[-1] == first.split("\n\n")[-1]  # the delays line
+    # at this budget every episode times out, so the rows alone could hide a different policy:
+    # the trained weights are the same bytes (and differ between the two conditions)
+    weights = {
+        (run, name): _weights(tmp_path / run / f"{name.replace(' ', '_')}_seed0" / "model.zip")
+        for run in ("a", "b")
+        for name in AGAIN
+    }
+    for name in AGAIN:
+        assert weights["a", name] == weights["b", name], name
+    assert weights["a", AGAIN[0]] != weights["a", AGAIN[1]]
 
 
 @pytest.mark.slow
