@@ -15,11 +15,15 @@ per repeat (min / median / max), wall time and CPU time both printed:
   ``"point"`` lidar, the ``"command"`` motion), the compiled kernel with the same models (the
   same numbers: the tests check them to float precision), with the ``"recast"`` lidar and
   with the ``"recast"`` lidar and the ``"drive"`` motion (the model trained: the env's drive
-  model run over each command's step);
+  model run over each command's step), the last once with its store of driven motions emptied
+  before every call (``drive, cold``: every observed velocity new) and once kept (a repeated
+  batch: every velocity known);
 - ``train``: DQN steps per second of ``examples/race_sarl_lookahead.yaml`` (its network, batch
   and update rate; ``learning_starts`` 500, so that most of the steps update) with the old path
   (``predict_reference`` and SB3's ``set_training_mode``) and the new one (kernel with the
-  ``"recast"`` lidar and the ``"drive"`` motion, the mode switch skipped when unchanged).
+  ``"recast"`` lidar and the ``"drive"`` motion, the mode switch skipped when unchanged), and
+  the new one with its store of driven motions emptied before every prediction (``cold``): what
+  keeping the motions of each observed velocity saves in training.
 
 Target: the look-ahead's training run (120,000 steps) within the experiment's 60 minutes on 2
 shared cores, i.e. >= 40 steps/s with the evaluation's time to spare.
@@ -99,12 +103,13 @@ def bench_predict(repeats: int, calls: int) -> None:
                 "kernel (point)": lambda: loop(point.predict),
                 "kernel (recast)": lambda: loop(recast.predict),
                 "kernel (drive)": lambda: loop(drive.predict),
+                "kernel (drive, cold)": lambda: loop(_cold(drive)),
             },
             repeats,
         )
         for name, s in stats.items():
             print(
-                f"  batch {batch:2d} {name:16s} {s.median / calls * 1e6:8.1f} us a call "
+                f"  batch {batch:2d} {name:20s} {s.median / calls * 1e6:8.1f} us a call "
                 f"(CPU {statistics.median(s.cpu_s) / calls * 1e6:8.1f} us)"
             )
         print(
@@ -128,9 +133,26 @@ def bench_predict(repeats: int, calls: int) -> None:
                 stats["kernel (drive)"],
             )
         )
+        print(
+            _ratio_line(
+                f"batch {batch} drive motion cold / kept",
+                stats["kernel (drive, cold)"],
+                stats["kernel (drive)"],
+            )
+        )
 
 
-def _train_once(steps: int, old: bool) -> None:
+def _cold(model: RaceLookahead) -> Callable[[torch.Tensor], torch.Tensor]:
+    """``model.predict`` with its store of driven motions emptied before each call."""
+
+    def predict(x: torch.Tensor) -> torch.Tensor:
+        model._motion_store.clear()
+        return model.predict(x)
+
+    return predict
+
+
+def _train_once(steps: int, old: bool, cold: bool = False) -> None:
     doc = yaml.safe_load(CONFIG.read_text("utf-8"))
     doc["hyperparameters"]["learning_starts"] = 500
     doc["checkpoint_every"] = 0
@@ -153,9 +175,16 @@ def _train_once(steps: int, old: bool) -> None:
         _sb3.race_lookahead = lambda *a, **k: replace(  # type: ignore[assignment]
             real(*a, **k), lidar_model="point", motion_model="command"
         )
+    kept = RaceLookahead.motions
+    if cold:
+        RaceLookahead.motions = lambda self, flat: (  # type: ignore[method-assign]
+            self._motion_store.clear(),
+            kept(self, flat),
+        )[1]
     try:
         _sb3.learn(cfg, probe)
     finally:
+        RaceLookahead.motions = kept  # type: ignore[method-assign]
         if old:
             RaceLookahead.predict = saved["predict"]  # type: ignore[method-assign]
             LookaheadDQNPolicy.set_training_mode = saved["set_training_mode"]  # type: ignore[method-assign]
@@ -168,7 +197,11 @@ def bench_train(repeats: int, steps: int) -> None:
     for old in (True, False):  # compile and load caches outside the timed repeats
         _train_once(100, old)
     stats = alternate(
-        {"old": lambda: _train_once(steps, True), "new": lambda: _train_once(steps, False)},
+        {
+            "old": lambda: _train_once(steps, True),
+            "cold": lambda: _train_once(steps, False, cold=True),
+            "new": lambda: _train_once(steps, False),
+        },
         repeats,
         warmup=False,
     )
@@ -180,6 +213,7 @@ def bench_train(repeats: int, steps: int) -> None:
             f"{steps / cpu.median:6.1f} steps per CPU second"
         )
     print(_ratio_line("old / new time a step", stats["old"], stats["new"]))
+    print(_ratio_line("cold / kept driven motions, time a step", stats["cold"], stats["new"]))
 
 
 def main() -> None:

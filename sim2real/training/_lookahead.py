@@ -100,6 +100,9 @@ _OWN = 7
 LIDAR_MODELS = ("point", "recast")
 #: The motion models of :class:`RaceLookahead` (see the module docstring).
 MOTION_MODELS = ("command", "drive")
+#: Observed velocities whose driven motions :meth:`RaceLookahead.motions` keeps (21 commands:
+#: 840 bytes each).
+_MOTION_CACHE = 100_000
 
 __all__ = [
     "LIDAR_MODELS",
@@ -248,7 +251,7 @@ class RaceLookahead:
     def _kernel_args(
         self,
     ) -> tuple[tuple[float, float, float, int, int], FloatArray, FloatArray, FloatArray]:
-        """:func:`predict_kernel`'s sizes, commands, beams and drive."""
+        """:func:`predict_kernel`'s sizes, commands and beams, and :func:`driven_arcs`' drive."""
         angles = np.asarray(self.beam_angles_rad, dtype=np.float64)
         commands = np.column_stack([self.arcs().numpy(), self.v_mps, self.w_radps])
         window = self.recast_window() if self.lidar_model == "recast" else -1
@@ -284,18 +287,110 @@ class RaceLookahead:
             chord = max(chord, self.drive_packed[SPEED_V] * self.control_dt_s)
         return min(n // 2, _turned_beams(chord, self.range_min_m * math.cos(step / 2), step))
 
+    def held_velocity(self, v_mps: float, w_radps: float, steps: int = 40) -> tuple[float, float]:
+        """The (v m/s, w rad/s) the ``"drive"`` motion settles at when command (``v_mps``,
+        ``w_radps``) is held for ``steps`` control steps from rest (each step as the
+        look-ahead predicts it, :func:`driven_arc`).
+
+        Examples
+        --------
+        >>> import gymnasium as gym
+        >>> import sim2real.envs
+        >>> look = race_lookahead(gym.make("sim2real/Race-v0"), v_mps=[0.22], w_radps=[0.0])
+        >>> [round(x, 3) for x in look.held_velocity(0.22, 0.2)]  # the Burger turns less
+        [0.214, 0.123]
+        """
+        if self.motion_model != "drive":
+            return float(v_mps), float(w_radps)  # the command is taken as reached
+        _jit.compile_all()  # robots' drive kernel, bound before numba types ours
+        drive = self._kernel_args[3]
+        v, w = 0.0, 0.0
+        for _ in range(steps):
+            *_, v, w = driven_arc(v, w, float(v_mps), float(w_radps), self.control_dt_s, drive)
+        return float(v), float(w)
+
+    def holding_turn_radps(self, v_mps: float, radius_m: float) -> float:
+        """The commanded turn (rad/s, >= 0) whose held motion at command speed ``v_mps``
+        drives a circle of ``radius_m`` m: held w = held v / radius.
+
+        The held turn grows with the command (the wheel loops hold a fixed share of it above
+        the friction's dead band), so bisection on the command finds it to 1e-6 rad/s; the
+        ``"command"`` motion returns ``v_mps / radius_m``.
+
+        Examples
+        --------
+        >>> import gymnasium as gym
+        >>> import sim2real.envs
+        >>> look = race_lookahead(gym.make("sim2real/Race-v0"), v_mps=[0.22], w_radps=[0.0])
+        >>> round(look.holding_turn_radps(0.22, 1.5), 3)  # the curve track's 1.5 m bend
+        0.22
+        """
+        if not radius_m > 0.0:
+            raise Sim2RealValueError(
+                f"holding_turn_radps: radius_m is {radius_m!r}, but a circle needs a radius "
+                "above 0 m; pass the curve's radius"
+            )
+
+        def short(w_cmd: float) -> float:  # held turn minus the circle's, rad/s
+            v, w = self.held_velocity(v_mps, w_cmd)
+            return w - v / radius_m
+
+        lo, hi = 0.0, max(1.0, 2.0 * v_mps / radius_m)
+        while short(hi) < 0.0:
+            if hi > 1e3:
+                raise Sim2RealValueError(
+                    f"holding_turn_radps: no command up to {hi:.0f} rad/s holds a circle of "
+                    f"{radius_m} m at {v_mps} m/s with this drive; pass a larger radius_m"
+                )
+            lo, hi = hi, 2.0 * hi
+        while hi - lo > 1e-6:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if short(mid) < 0.0 else (lo, mid)
+        return 0.5 * (lo + hi)
+
     def predict(self, obs: torch.Tensor) -> torch.Tensor:
         """Observations (batch, 63) -> their predicted successors (batch, actions, 63).
 
         One compiled pass (:func:`predict_kernel`), in the observations' dtype; no gradient
         (the prediction is a fixed model of the world, not learned).
         """
-        if self.motion_model == "drive":
-            _jit.compile_all()  # robots' drive kernel, bound before numba types ours
         flat = np.ascontiguousarray(obs.detach().cpu().numpy(), dtype=np.float64)
         out = np.empty((flat.shape[0], len(self.v_mps), flat.shape[1]))
-        predict_kernel(flat, *self._kernel_args, out)
+        sizes, _, beams, _ = self._kernel_args
+        predict_kernel(flat, sizes, beams, self.motions(flat), out)
         return torch.from_numpy(out).to(obs.dtype)
+
+    def motions(self, flat: FloatArray) -> FloatArray:
+        """Each observation's motion under each command: (batch, actions, 5), the
+        displacement dx, dy (m, start frame), turn (rad) and end (v m/s, w rad/s).
+
+        The ``"drive"`` motion depends on the observed (v, w) and the command alone, so the
+        grid's motions from each observed velocity are computed once (:func:`driven_arcs`) and
+        kept, keyed by its exact (v, w): a replayed or repeated velocity (a command held for a
+        step ends at the same measured velocity) reuses them, bit for bit the same numbers.
+        At most ``_MOTION_CACHE`` velocities are kept; past that the store starts afresh.
+        """
+        n_beams = len(self.beam_angles_rad)
+        _, commands, _, drive = self._kernel_args
+        if self.motion_model != "drive":
+            table = commands  # the arc of each command taken as reached, then v and w
+            return np.ascontiguousarray(np.broadcast_to(table, (flat.shape[0], *table.shape)))
+        store = self._motion_store
+        keys = [(float(v), float(w)) for v, w in flat[:, n_beams + 3 : n_beams + 5]]
+        new = list(dict.fromkeys(k for k in keys if k not in store))
+        if new:
+            if len(store) + len(new) > _MOTION_CACHE:
+                store.clear()
+            _jit.compile_all()  # robots' drive kernel, bound before numba types ours
+            fresh = np.empty((len(new), len(commands), 5))
+            driven_arcs(np.array(new), commands, self.control_dt_s, drive, fresh)
+            store.update(zip(new, fresh, strict=True))
+        return np.stack([store[k] for k in keys]) if keys else np.empty((0, len(commands), 5))
+
+    @cached_property
+    def _motion_store(self) -> dict[tuple[float, float], FloatArray]:
+        """:meth:`motions`' store: observed (v, w) -> (actions, 5)."""
+        return {}
 
     def arcs(self) -> torch.Tensor:
         """(actions, 3): each command's displacement dx, dy (m, robot frame) and turn (rad),
@@ -458,24 +553,40 @@ def driven_arc(
 
 
 @numba.njit(cache=True)
+def driven_arcs(
+    vw: FloatArray, commands: FloatArray, dt_s: float, drive: FloatArray, out: FloatArray
+) -> None:  # pragma: no cover - compiled
+    """:func:`driven_arc` from each velocity ``vw`` (U, 2: v m/s, w rad/s) under each command
+    (``commands``' columns 3 and 4: v, w) into ``out`` (U, A, 5)."""
+    for u in range(vw.shape[0]):
+        for a in range(commands.shape[0]):
+            dx, dy, turn, v, w = driven_arc(
+                vw[u, 0], vw[u, 1], commands[a, 3], commands[a, 4], dt_s, drive
+            )
+            out[u, a, 0] = dx
+            out[u, a, 1] = dy
+            out[u, a, 2] = turn
+            out[u, a, 3] = v
+            out[u, a, 4] = w
+
+
+@numba.njit(cache=True)
 def predict_kernel(
     obs: FloatArray,
     sizes: tuple[float, float, float, int, int],
-    commands: FloatArray,
     beams: FloatArray,
-    drive: FloatArray,
+    motions: FloatArray,
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled
     """:meth:`RaceLookahead.predict` into ``out`` (B, A, D): observations ``obs`` (B, D);
     ``sizes``: the control step, the lidar's range limits, the values per neighbour slot and
     the re-cast ``window`` (segments on either side of a beam,
-    :meth:`RaceLookahead.recast_window`; negative: the ``"point"`` lidar); ``commands`` (A,
-    5: the arc's dx, dy and turn, then v and w), ``beams`` (N, 2: each angle's cos, sin) and
-    ``drive`` (:func:`driven_arc`'s; empty: the ``"command"`` motion, the arcs of
-    ``commands``)."""
+    :meth:`RaceLookahead.recast_window`; negative: the ``"point"`` lidar); ``beams`` (N, 2: each
+    angle's cos, sin) and
+    ``motions`` (B, A, 5: each observation's motion under each command, dx, dy, turn, end v
+    and w; :meth:`RaceLookahead.motions`)."""
     dt_s, range_min_m, range_max_m, features, window = sizes
     cos_b, sin_b = beams[:, 0], beams[:, 1]
-    arcs, v_cmd, w_cmd = commands[:, :3], commands[:, 3], commands[:, 4]
     n = cos_b.shape[0]
     beam_step = 2.0 * math.pi / n
     recast = window >= 0
@@ -489,20 +600,12 @@ def predict_kernel(
         for i in range(n):
             nearest = min(nearest, obs[b, i])
         nearest *= math.cos(beam_step / 2)  # the nearest point of the scan's polygon
-        x, y, yaw, v, w = obs[b, n], obs[b, n + 1], obs[b, n + 2], obs[b, n + 3], obs[b, n + 4]
+        x, y, yaw, v = obs[b, n], obs[b, n + 1], obs[b, n + 2], obs[b, n + 3]
         goal_d, bearing = obs[b, n + 5], obs[b, n + 6]
         cy, sy = math.cos(yaw), math.sin(yaw)
-        for a in range(arcs.shape[0]):
-            if drive.shape[0] > 0:
-                dx, dy, turn, v_next, w_next = driven_arc(v, w, v_cmd[a], w_cmd[a], dt_s, drive)
-            else:
-                dx, dy, turn, v_next, w_next = (
-                    arcs[a, 0],
-                    arcs[a, 1],
-                    arcs[a, 2],
-                    v_cmd[a],
-                    w_cmd[a],
-                )
+        for a in range(motions.shape[1]):
+            dx, dy, turn = motions[b, a, 0], motions[b, a, 1], motions[b, a, 2]
+            v_next, w_next = motions[b, a, 3], motions[b, a, 4]
             c, s = math.cos(turn), math.sin(turn)
             # lidar: every return as a point seen from the new pose, then resampled
             for i in range(n):
@@ -563,9 +666,10 @@ def predict_kernel(
 
 # numba keys this module's cache on this file alone; the kernels call robots' drive step and
 # the pose's arc step too
-_jit.key_cache(
-    predict_kernel, {Path(__file__), *(Path(str(m.__file__)) for m in (robots._kernel, _robot))}
-)
+for _kernel in (driven_arcs, predict_kernel):
+    _jit.key_cache(
+        _kernel, {Path(__file__), *(Path(str(m.__file__)) for m in (robots._kernel, _robot))}
+    )
 
 
 class LookaheadQNetwork(QNetwork):  # type: ignore[misc]

@@ -26,9 +26,11 @@ from sim2real.training.train import train
 pytestmark = pytest.mark.train
 torch = pytest.importorskip("torch")
 
+from sim2real.errors import Sim2RealValueError  # noqa: E402
 from sim2real.training._lookahead import (  # noqa: E402
     LookaheadQNetwork,
     RaceLookahead,
+    driven_arc,
     lookahead_kwargs,
     race_lookahead,
 )
@@ -356,6 +358,72 @@ def test_a_gentle_turn_at_full_speed_is_the_drives() -> None:
     assert nxt[BEAMS + 2] - obs[BEAMS + 2] == pytest.approx(0.0308, abs=2e-4)
     old = replace(model, motion_model="command").predict(torch.as_tensor(obs)[None])[0, k].numpy()
     assert old[BEAMS + 2] - obs[BEAMS + 2] == pytest.approx(0.05, abs=1e-6)
+
+
+@settings(max_examples=5, deadline=None)
+@given(seed=st.integers(0, 2**16))
+def test_kept_driven_motions_are_the_drives_bit_for_bit(seed: int) -> None:
+    """The motions kept per observed (v, w) are :func:`driven_arc`'s numbers exactly, and a
+    prediction from a full store, from an empty one and one observation at a time are the same
+    bits; a repeated velocity is driven once."""
+    model = race_lookahead(_race(0), **GRID)
+    model.predict(torch.zeros(1, BEAMS + OWN + 20, dtype=torch.float64))  # compiles the drive
+    states = _random_race_states(seed, 4)
+    obs = np.array([env.core.observation(0) for env in states], np.float64)
+    obs = np.concatenate([obs, obs[:2]])  # two velocities seen twice
+    model._motion_store.clear()
+    motions = model.motions(obs)
+    drive = model._kernel_args[3]
+    for b, row in enumerate(obs):
+        for a, (v, w) in enumerate(zip(model.v_mps, model.w_radps, strict=True)):
+            arc = driven_arc(row[BEAMS + 3], row[BEAMS + 4], v, w, model.control_dt_s, drive)
+            assert tuple(motions[b, a]) == arc
+    assert len(model._motion_store) == len({tuple(r) for r in obs[:, BEAMS + 3 : BEAMS + 5]})
+    x = torch.as_tensor(obs)
+    warm = model.predict(x).numpy()
+    model._motion_store.clear()
+    cold = model.predict(x).numpy()
+    single = np.concatenate([model.predict(x[i : i + 1]).numpy() for i in range(len(obs))])
+    assert np.array_equal(warm, cold) and np.array_equal(warm, single)
+
+
+def test_the_holding_turn_drives_the_curve_tracks_bend() -> None:
+    """Golden numbers: at full speed the Burger holds the curve track's 1.5 m bend (0.143
+    rad/s at 0.214 m/s) under a command of 0.220 rad/s; the grid's 0.2 holds 0.123 rad/s, a
+    1.74 m circle. The command model needs v / R. A radius of 0 is refused in one sentence."""
+    model = race_lookahead(_race(0), **GRID)
+    turn = model.holding_turn_radps(0.22, 1.5)
+    assert turn == pytest.approx(0.2201, abs=1e-4)
+    v, w = model.held_velocity(0.22, turn)
+    assert v / w == pytest.approx(1.5, abs=1e-4) and w == pytest.approx(0.1427, abs=1e-4)
+    v, w = model.held_velocity(0.22, 0.2)
+    assert v / w == pytest.approx(1.741, abs=1e-3)
+    assert model.holding_turn_radps(0.22, 1.0) > turn  # a tighter bend needs more
+    command = replace(model, motion_model="command")
+    assert command.holding_turn_radps(0.22, 1.5) == pytest.approx(0.22 / 1.5, abs=1e-5)
+    with pytest.raises(Sim2RealValueError, match=r"radius_m is 0\.0"):
+        model.holding_turn_radps(0.22, 0.0)
+
+
+def test_curve_config_is_the_turn_config_with_the_holding_turn() -> None:
+    """``race_sarl_lookahead_curve.yaml`` is the turning-cost config with its gentle turn the
+    command that holds the curve track's 1.5 m bend at the grid's full speed (to 0.01
+    rad/s), nothing else changed."""
+    turn, curve = (
+        yaml.safe_load((ROOT / "examples" / name).read_text("utf-8"))
+        for name in ("race_sarl_lookahead_turn.yaml", "race_sarl_lookahead_curve.yaml")
+    )
+    grid = curve.pop("discrete_actions")
+    assert {**curve, "discrete_actions": grid, "out": None} == {
+        **turn,
+        "discrete_actions": grid,
+        "out": None,
+    }
+    model = race_lookahead(_race(0), **grid)
+    gentle = round(model.holding_turn_radps(max(grid["v_mps"]), 1.5), 2)
+    assert gentle == 0.22
+    assert grid["v_mps"] == GRID["v_mps"]
+    assert grid["w_radps"] == [-1.5, -0.6, -gentle, 0.0, gentle, 0.6, 1.5]
 
 
 def _smoke_doc(tmp_path: Path, **change: object) -> Path:
