@@ -39,6 +39,7 @@ True
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -213,7 +214,8 @@ class MeasurementModel:
             )
         if self.kind == "hold":
             return _hold_operator(t, self.fresh)
-        return _pose_operator(t, self.fresh, self.window_s)
+        fresh = np.asarray(self.fresh, dtype=bool)
+        return _shared_pose_operator(t.tobytes(), fresh.tobytes(), float(self.window_s))
 
 
 def pose_model(t_s: FloatArray, changed: BoolArray, window_s: float) -> MeasurementModel:
@@ -307,6 +309,22 @@ _SIMPSON = _simpson_weights()
 def _hold_operator(t: FloatArray, fresh: BoolArray) -> ReadOperator:
     """Each sample reads the model at its last fresh reading."""
     return ReadOperator(t_query=t[fresh], _hold=np.cumsum(fresh) - 1)
+
+
+@functools.lru_cache(maxsize=16)
+def _shared_pose_operator(t_bytes: bytes, fresh_bytes: bytes, window_s: float) -> ReadOperator:
+    """:func:`_pose_operator` of the times and fresh flags in these bytes, built once per log:
+    an ensemble or a calibration replays one log thousands of times through the same operator
+    (its slope weights are a loop over the pose updates). Its arrays are read only."""
+    t = np.frombuffer(t_bytes, dtype=np.float64)
+    op = _pose_operator(t, np.frombuffer(fresh_bytes, dtype=bool), window_s)
+    arrays = [op.t_query, op._hold]
+    if op._pose is not None:
+        arrays += [getattr(op._pose, name) for name in ("inv", "h", "cols", "weights", "j", "f")]
+    for array in arrays:
+        if array is not None:
+            array.flags.writeable = False
+    return op
 
 
 def _pose_operator(t: FloatArray, fresh: BoolArray, window_s: float) -> ReadOperator:
