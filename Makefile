@@ -9,6 +9,16 @@ STAMP_DOCS := $(VENV)/.installed-docs
 # RLlib (ray[rllib] 2.60) pins gymnasium==1.2.2, the main venv has gymnasium 1.4: its own venv
 VENV_RLLIB := .venv-rllib
 STAMP_RLLIB := $(VENV_RLLIB)/.installed-rllib
+# One bytecode cache for every Python that make runs (installs, warm-up, lint, tests, docs,
+# demo): .venv/pycache, also where the environment sets PYTHONDONTWRITEBYTECODE. Without it every
+# pytest process (each xdist worker, the serial pass, the train tests) compiles and rewrites
+# every test module again, about half of its collection time.
+export PYTHONDONTWRITEBYTECODE :=
+export PYTHONPYCACHEPREFIX := $(CURDIR)/$(VENV)/pycache
+# Python then reads bytecode from that cache only, so pip's byte-compilation of every installed
+# file into site-packages would never be read: the dev, train, docs and RLlib installs skip it
+# (`--no-compile`: CPU torch alone is thousands of files) and a run compiles what it imports, once, into
+# the cache.
 # CPU torch first: this exact release is a ~190 MB CPU wheel; a bare `torch` requirement would
 # pull a multi-GB CUDA build. Override e.g. TORCH='torch==2.9.1' on another platform.
 TORCH ?= torch==2.13.0
@@ -33,24 +43,24 @@ $(STAMP_RUN): pyproject.toml | $(BIN)/python
 
 # the [mujoco] extra with [dev]: its tests (`-m mujoco`) run in `make test`
 $(STAMP_DEV): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install -q -e '.[dev,mujoco]'
+	$(BIN)/python -m pip install -q --no-compile -e '.[dev,mujoco]'
 	$(call warm,$(BIN))
 	touch $@ $(STAMP_RUN)
 
 $(STAMP_TRAIN): pyproject.toml $(STAMP_DEV)
-	$(BIN)/python -m pip install -q '$(TORCH)'
-	$(BIN)/python -m pip install -q -e '.[dev,mujoco,train,cluster]'
+	$(BIN)/python -m pip install -q --no-compile '$(TORCH)'
+	$(BIN)/python -m pip install -q --no-compile -e '.[dev,mujoco,train,cluster]'
 	touch $@
 
 $(STAMP_DOCS): pyproject.toml $(STAMP_RUN)
-	$(BIN)/python -m pip install -q -e '.[docs]'
+	$(BIN)/python -m pip install -q --no-compile -e '.[docs]'
 	touch $@
 
 $(STAMP_RLLIB): pyproject.toml
 	$(PYTHON) -m venv $(VENV_RLLIB)
 	$(VENV_RLLIB)/bin/python -m pip install -q --upgrade pip
-	$(VENV_RLLIB)/bin/python -m pip install -q '$(TORCH)'
-	$(VENV_RLLIB)/bin/python -m pip install -q -e '.[dev,train,rllib]'
+	$(VENV_RLLIB)/bin/python -m pip install -q --no-compile '$(TORCH)'
+	$(VENV_RLLIB)/bin/python -m pip install -q --no-compile -e '.[dev,train,rllib]'
 	$(call warm,$(VENV_RLLIB)/bin)
 	touch $@
 
@@ -75,14 +85,9 @@ lint: $(STAMP_DEV)
 ## `make test PYTEST_WORKERS=0` runs it in one process), then the `serial` tests alone (numba's
 ## on-disk cache, CPU-time budgets), which other workers' load or cache use could disturb
 PYTEST_WORKERS ?= auto
-# Bytecode, and pytest's assertion-rewritten test modules, are cached under .venv/pycache even
-# where the environment sets PYTHONDONTWRITEBYTECODE: without the cache every pytest process
-# (each xdist worker, the serial pass, the train tests) compiles and rewrites every test module
-# again, about half of its collection time.
-PYCACHE := PYTHONDONTWRITEBYTECODE= PYTHONPYCACHEPREFIX=$(CURDIR)/$(VENV)/pycache
 test: lint
-	$(PYCACHE) $(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "not serial"
-	$(PYCACHE) $(BIN)/python -m pytest -q -m serial
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "not serial"
+	$(BIN)/python -m pytest -q -m serial
 
 ## make docs: the documentation site into site/ (MkDocs + Material + mkdocstrings, the [docs]
 ## extra): the user guide in docs/, the CLI reference from the argument parsers and the API
@@ -93,8 +98,8 @@ docs: $(STAMP_DOCS)
 ## make test-train: install the [train]/[cluster] extras (and .venv-rllib), then run the tests
 ## that need them, one worker per core up to four; the RLlib tests run in .venv-rllib (gymnasium 1.2.2)
 test-train: $(STAMP_TRAIN) $(STAMP_RLLIB)
-	$(PYCACHE) $(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "train or cluster"
-	$(PYCACHE) $(VENV_RLLIB)/bin/python -m pytest -q tests/sim2real/training/test_train_rllib.py
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --maxprocesses 4 -m "train or cluster"
+	$(VENV_RLLIB)/bin/python -m pytest -q tests/sim2real/training/test_train_rllib.py
 
 ## make bench: the performance targets (prints ratios measured in the same run) and writes
 ## docs/benchmarks.md from this run's headline figures (benchmarks/results_page.py); every bench
