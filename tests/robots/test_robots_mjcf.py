@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import re
 import xml.etree.ElementTree as ET
@@ -20,7 +21,7 @@ from robots.mjcf import (
     wheel_torque_cap_nm,
 )
 from robots.params import DriveParams
-from robots.spec import list_robots, load_spec
+from robots.spec import RobotSpec, list_robots, load_spec
 
 
 @pytest.mark.parametrize("name", list_robots())
@@ -116,13 +117,19 @@ def test_docs_table_is_the_mapping() -> None:
         assert note == entry.note
 
 
+@functools.cache
+def _spec(name: str) -> RobotSpec:
+    """``load_spec(name)``, parsed once: reading the YAML is most of an example's time."""
+    return load_spec(name)
+
+
 @pytest.mark.parametrize("name", list_robots())
 @settings(max_examples=200, deadline=None)
 @given(added=st.floats(min_value=0.0, max_value=0.2))
 def test_written_inertia_keeps_the_triangle_inequality(name: str, added: float) -> None:
     # MuJoCo refuses a body whose diaginertia breaks A + B >= C; roll and pitch are raised to
     # half the yaw inertia, and the 9-digit text must not round that below C
-    spec = load_spec(name)
+    spec = _spec(name)
     params = dataclasses.replace(spec.drive, added_yaw_inertia_kgm2=added)
     base = ET.fromstring(mjcf_text(spec, params)).find(".//body[@name='base_link']/inertial")
     assert base is not None
