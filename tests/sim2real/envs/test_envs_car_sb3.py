@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -11,6 +12,19 @@ pytest.importorskip("stable_baselines3")
 pytest.importorskip("torch")
 
 pytestmark = pytest.mark.train
+
+
+@pytest.fixture(autouse=True)
+def one_torch_thread() -> Iterator[None]:
+    """The script sets OMP_NUM_THREADS=1 before torch loads (small networks: one thread is
+    fastest); here torch is loaded before the script, so its thread count is set as the
+    script's run has it, and restored."""
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
 
 
 def _script():  # type: ignore[no-untyped-def]
