@@ -3,7 +3,11 @@ project's depth camera (`sim2real.envs.depth.render_depth`) with known noise."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
+import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
@@ -13,10 +17,11 @@ import yaml
 
 from randomizers import DepthNoise, from_config
 from randomizers.errors import RandomizerConfigError
+from sim2real.cli import main
 from sim2real.envs.depth import DepthScene, render_depth, rpy_matrix
 from sim2real.logs import read_depth
 from sysid.sensors import PoseArrays, ScanArrays, load_sensor
-from tests.sim2real.test_cli_bad_input import assert_bad_input, cli
+from tests.sim2real.test_cli_bad_input import Run, assert_bad_input, cli
 from tests.sim2real.test_sysid_sensors_cli import T0_NS, _messages, mounted_spec, write_mcap
 from tests.sim2real.test_sysid_sensors_cli import _write as write_scans
 from tests.sysid.sensor_truth import draw_truth, synthetic_recording
@@ -103,25 +108,55 @@ def spec_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return mounted_spec(tmp_path_factory.mktemp("spec") / "base.yaml")
 
 
+#: One ``sysid sensors`` run of the recording with its depth topic in an encoding: the log, the
+#: sensor file, the report and the run.
+Identified = tuple[Path, Path, Path, Run]
+
+
+@pytest.fixture(scope="module")
+def identified(
+    tmp_path_factory: pytest.TempPathFactory,
+    recording: tuple[ScanArrays, PoseArrays, np.ndarray],
+    spec_file: Path,
+) -> Callable[[str], Identified]:
+    """``sysid sensors --report`` on the recording written in an encoding, run once per
+    encoding for the tests that read it (read only: a test that writes copies first)."""
+    runs: dict[str, Identified] = {}
+
+    def run(encoding: str) -> Identified:
+        if encoding not in runs:
+            folder = tmp_path_factory.mktemp(f"depth_{encoding}")
+            log = _write(folder / "r2", *recording, encoding)
+            out, report = folder / "sensors.yaml", folder / "sensors.html"
+            printed, errors = io.StringIO(), io.StringIO()
+            argv = ["sysid", "sensors", log, "--robot", spec_file, "-o", out, "--report", report]
+            with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(errors):
+                code = main([str(a) for a in argv])
+            runs[encoding] = (
+                log,
+                out,
+                report,
+                Run(code=code, out=printed.getvalue(), err=errors.getvalue()),
+            )
+        return runs[encoding]
+
+    return run
+
+
 def _truth(d: float) -> float:
     return STD0_M + STD2_PER_M2 * d * d
 
 
 @pytest.mark.parametrize("encoding", ["16UC1", "32FC1"])
 def test_depth_noise_identified_from_a_depth_topic(
-    tmp_path: Path,
     recording: tuple[ScanArrays, PoseArrays, np.ndarray],
-    spec_file: Path,
+    identified: Callable[[str], Identified],
     encoding: str,
-    capsys: pytest.CaptureFixture[str],
 ) -> None:
-    log = _write(tmp_path / "r2", *recording, encoding)
+    log, out, report, run = identified(encoding)
     images = read_depth(log)
     assert images is not None and images.encoding == encoding
     assert images.depth_m.shape == (recording[0].t_s.size, WIDTH * HEIGHT)
-    out = tmp_path / "sensors.yaml"
-    report = tmp_path / "sensors.html"
-    run = cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out, "--report", report)
     assert run.code == 0, run.err
     assert "depth camera /camera/depth/image_raw (64 x 48" in run.out
     assert "depth camera: invalid pixels, %" in report.read_text()
@@ -150,14 +185,12 @@ class _Cam(gym.Env[np.ndarray, np.int64]):
 
 
 def test_depth_noise_from_sysid_and_from_config(
-    tmp_path: Path,
-    recording: tuple[ScanArrays, PoseArrays, np.ndarray],
-    spec_file: Path,
-    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path, identified: Callable[[str], Identified]
 ) -> None:
-    log = _write(tmp_path / "r2", *recording, "32FC1")
+    _log, shared, _report, run = identified("32FC1")  # the 32FC1 identification test's run
+    assert run.code == 0, run.err
     out = tmp_path / "sensors.yaml"
-    assert cli(capsys, "sysid", "sensors", log, "--robot", spec_file, "-o", out).code == 0
+    shutil.copyfile(shared, out)
     depth = load_sensor(out).depth
     assert depth is not None
     env = DepthNoise.from_sysid(out, env=_Cam(), near_m=0.05, far_m=8.0)
