@@ -80,6 +80,8 @@ __all__ = [
 
 
 _NORMAL = NormalDist()
+#: the smallest upper-tail probability a truncated draw maps to (a bound ~37 sd out)
+_TINY = 1e-300
 
 #: ``format:`` key of the ``randomization`` block.
 RANDOMIZATION_FORMAT = "sim2real.randomization/2"
@@ -722,10 +724,16 @@ def _truncated_below(z: FloatArray, mu: float, sd: float, bound: float) -> Float
     """``z`` drawn from N(mu, sd^2) mapped onto that normal truncated below ``bound``."""
     if sd <= 0.0:
         return np.maximum(z, bound)
-    a = _NORMAL.cdf((bound - mu) / sd)
+    beta = (bound - mu) / sd
     u = [min(max(_NORMAL.cdf((x - mu) / sd), 1e-15), 1.0 - 1e-15) for x in z.tolist()]
-    out = np.array([mu + sd * _NORMAL.inv_cdf(a + (1.0 - a) * x) for x in u], dtype=np.float64)
-    return np.maximum(out, bound)
+    if beta <= 0.0:  # the bound below the mean: Phi^-1(a + (1 - a) u), a = Phi(beta)
+        a = _NORMAL.cdf(beta)
+        std = [_NORMAL.inv_cdf(a + (1.0 - a) * x) for x in u]
+    else:  # above it, from the upper tail, where a rounds to 1: -Phi^-1((1 - u) Phi(-beta))
+        # Phi(-beta) from erfc: NormalDist.cdf's 1 + erf(...) cancels to 0 beyond ~8 sd
+        tail = 0.5 * math.erfc(beta / math.sqrt(2.0))
+        std = [-_NORMAL.inv_cdf(max((1.0 - x) * tail, _TINY)) for x in u]
+    return np.maximum(mu + sd * np.array(std, dtype=np.float64), bound)
 
 
 def _from_format_1(parts: _Parts, coords: Sequence[str]) -> _Parts:

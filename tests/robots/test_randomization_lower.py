@@ -8,7 +8,7 @@ from statistics import NormalDist
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from robots.errors import ParamsFileError, RobotsError
@@ -26,6 +26,7 @@ def _dist(**lower: float) -> DriveDistribution:
 
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), shift_sd=st.floats(-3.0, 2.0), spread=st.floats(0.2, 2.0))
+@example(seed=0, shift_sd=2.0, spread=0.25)  # the bound 8 sd of the narrowed spread out
 def test_truncated_marginal_same_draws_for_same_seed(
     seed: int, shift_sd: float, spread: float
 ) -> None:
@@ -45,6 +46,21 @@ def test_truncated_marginal_same_draws_for_same_seed(
     assert np.all(np.diff(a[order, j]) >= -1e-12)  # monotone: ranks (and pairings) kept
     draws = dist.sample(np.random.default_rng(seed), 3, spread=spread)
     assert all(getattr(p, FIELD) >= bound * (1 - 1e-9) for p in draws)
+
+
+@pytest.mark.parametrize("beta", [6.0, 9.0, 20.0])
+def test_a_bound_deep_in_the_upper_tail_draws_just_above_it(beta: float) -> None:
+    # far out, a normal truncated at mu + beta sd has its mass within ~1/beta sd of the bound:
+    # mean mu + sd (beta + 1/beta - 2/beta^3 + ...), the Mills-ratio expansion
+    free = _dist()
+    j = free.names.index(FIELD)
+    mu, sd = free.mean[j], free.std()[FIELD]
+    dist = dataclasses.replace(free, lower={FIELD: math.exp(mu + beta * sd)})
+    z = (dist.sample_coords(np.random.default_rng(3), 4000)[:, j] - mu) / sd
+    assert np.all(np.isfinite(z)) and z.min() >= beta - 1e-9
+    mills = NormalDist().pdf(beta) / (0.5 * math.erfc(beta / math.sqrt(2)))  # E[Z | Z > beta]
+    assert z.mean() == pytest.approx(mills, abs=0.05 / beta)
+    assert len(np.unique(z)) > 3900  # spread over the tail, not piled on the bound
 
 
 def test_truncated_marginal_has_the_truncated_normal_mean() -> None:
