@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import doctest
 import importlib
-import time
 import warnings
 from pathlib import Path
 
@@ -20,6 +19,7 @@ from sim2real.cli import main
 from sim2real.training.config import load_config
 from sim2real.training.evaluation import check_spaces, load_policy
 from sim2real.training.train import train
+from tests.sim2real.training.budget import within_budget
 
 pytestmark = pytest.mark.train
 torch = pytest.importorskip("torch")
@@ -89,10 +89,8 @@ def _smoke_doc(tmp_path: Path, name: str) -> Path:
 
 
 def test_race_smoke_trains_and_evaluates_under_60_s(tmp_path: Path) -> None:
-    start = time.perf_counter()
-    result = train(load_config(_smoke_doc(tmp_path, "race_sarl_smoke.yaml")))
-    elapsed_s = time.perf_counter() - start
-    assert elapsed_s < 60.0, f"{elapsed_s:.1f} s"
+    with within_budget(60.0):
+        result = train(load_config(_smoke_doc(tmp_path, "race_sarl_smoke.yaml")))
     assert result.timesteps >= 1000 and result.evaluation["episodes"] == 4
     rates = [result.evaluation[k] for k in ("success_rate", "collision_rate", "timeout_rate")]
     assert all(0.0 <= r <= 1.0 for r in rates)

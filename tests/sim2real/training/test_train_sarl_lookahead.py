@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import copy
 import math
-import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -22,6 +21,7 @@ from sim2real.envs.geometry import Scene2D, cast_rays
 from sim2real.training.config import load_config
 from sim2real.training.evaluation import check_spaces, load_policy
 from sim2real.training.train import train
+from tests.sim2real.training.budget import within_budget
 
 pytestmark = pytest.mark.train
 torch = pytest.importorskip("torch")
@@ -435,10 +435,8 @@ def _smoke_doc(tmp_path: Path, **change: object) -> Path:
 
 
 def test_race_smoke_trains_and_evaluates_under_60_s(tmp_path: Path) -> None:
-    start = time.perf_counter()
-    result = train(load_config(_smoke_doc(tmp_path)))
-    elapsed_s = time.perf_counter() - start
-    assert elapsed_s < 60.0, f"{elapsed_s:.1f} s"
+    with within_budget(60.0):
+        result = train(load_config(_smoke_doc(tmp_path)))
     assert result.timesteps >= 400 and result.evaluation["episodes"] == 2
     policy = load_policy(result.model_path)
     q_net = policy.model.policy.q_net
