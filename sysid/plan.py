@@ -54,7 +54,6 @@ from sysid._coords import Mapper
 from sysid._logs import LogArrays
 from sysid._needs import limit_needs
 from sysid._problem import Problem
-from sysid._timing import Whitener, arrival_sensitivities, logs_key
 from sysid.errors import SysidValueError
 
 __all__ = [
@@ -596,6 +595,10 @@ def _script_ratios(
     the priors' centres (no torque cap, no torque-speed line): the Fisher information of the
     30 Hz v and w under white ``noise``, each changing command's arrival a nuisance of sd
     ``jitter_s`` (marginalised: :mod:`sysid._timing`), plus the priors."""
+    # scipy-backed: loaded when a bound is computed, not by every importer of sysid.plan
+    # (sysid.synthetic, and through it the light `agree` path)
+    from sysid._timing import Whitener, arrival_sensitivities, logs_key
+
     centre, geo = _centre(spec), spec.geometry
     t_meas = np.arange(0.0, t_s[-1] + 1.0 / _BOUND_ODOM_HZ, 1.0 / _BOUND_ODOM_HZ)
     zeros = np.zeros(t_meas.size)
