@@ -21,6 +21,7 @@ DEFERRED = {
     ("robots.check", "robots._pybullet_robot"),  # `robots check --no-drive` needs no pybullet
     ("robots.mjcf", "robots._pybullet_robot"),  # its tyre rule; `agree` imports robots.mjcf
     ("sysid._fleet", "scipy.special"),  # sysid.spread_degrees_of_freedom without scipy
+    ("sysid.plan", "sysid._timing"),  # scipy for the bound only; sysid.synthetic imports sysid.plan
 }
 
 
