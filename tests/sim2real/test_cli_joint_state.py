@@ -70,7 +70,7 @@ def test_sysid_fit_and_agree_on_a_joint_state_bag(
         assert main([str(a) for a in [*argv, "--engine", "reduced", "--json", out]]) == 0
         delay = yaml.safe_load(params.read_text())["parameters"]["delay_s"]["value"]
         figures[kind] = (delay, json.loads(out.read_text()))
-        # 4 robots a likelihood evaluation (the default 32 took 44 of the test's 61 CPU-s): the
+        # 4 robots a likelihood evaluation (the default 32 is most of the test's cost): the
         # reading of the bag is what is compared, the same draws on both.
         cal = ["sysid", "calibrate", params, logs[f"validate{kind}"], "--robot", ROBOT]
         out = tmp_path / f"c{kind}.yaml"

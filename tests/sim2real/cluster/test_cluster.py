@@ -38,7 +38,7 @@ def fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def fit_fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Two 10 s sessions for the fit-equality tests: the same result by two routes is what
-    they check, and a fit's cost grows with the log (7.4 CPU-s for 2 x 20 s, 5.4 for 2 x 10 s)."""
+    they check, and a fit's cost grows with the log."""
     folder = tmp_path_factory.mktemp("fit_fleet")
     write_synthetic_fleet(folder, 2, duration_s=10.0, seed=5)
     return folder
